@@ -1,0 +1,68 @@
+// Structs shared by every GPU stage. Each one mirrors a #[repr(C)] struct in
+// src/gpu/types.rs (named on the line above it); tests/shaders.rs checks that the sizes agree.
+
+const NO_FACE: u32 = 0xffffffffu;
+const PI: f32 = 3.14159265358979;
+const FACE_EMITTER: u32 = 1u;
+
+// mirrors gpu::types::GpuDirection
+struct Direction {
+    w: vec3<f32>,
+    solid_angle: f32,
+    u: vec3<f32>,
+    _pad0: f32,
+    v: vec3<f32>,
+    _pad1: f32,
+}
+
+// mirrors gpu::types::GpuFace
+struct Face {
+    normal: vec3<f32>,
+    plane_offset: f32,
+    // corner of the chart's texel rectangle (padding included), on the face plane
+    origin: vec3<f32>,
+    texel_density: f32,
+    axis_a: vec3<f32>,
+    // pi / sum_i |n.w_i| dw_i: makes the discrete cosine quadrature exact for uniform light
+    kappa: f32,
+    axis_b: vec3<f32>,
+    flags: u32,
+    albedo: vec3<f32>,
+    atlas_x: u32,
+    emission: vec3<f32>,
+    atlas_y: u32,
+    atlas_w: u32,
+    atlas_h: u32,
+    // the other side of a two-sided surface, or NO_FACE
+    twin: u32,
+    _pad: u32,
+}
+
+// mirrors gpu::types::GpuGrid
+struct GridParams {
+    resolution: u32,
+    direction_count: u32,
+    triangle_count: u32,
+    triangle_base: u32,
+    texel_count: u32,
+    atlas_width: u32,
+    iteration: u32,
+    // bit 0: the sky shoots in this iteration
+    flags: u32,
+    sky: vec3<f32>,
+    cell_size: f32,
+    depth_epsilon: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// mirrors gpu::types::GpuView
+struct View {
+    view_proj: mat4x4<f32>,
+    sky: vec4<f32>,
+    atlas_width: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}

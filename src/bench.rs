@@ -1,0 +1,166 @@
+//! `vlf bench`: setup, visibility, propagation per iteration and in total, transport samples
+//! per second, render time at a fixed size over many frames (GPU timestamps: median, p99),
+//! memory. Printed as a table; JSON and Markdown for BENCHMARKS.md.
+
+use crate::error::Result;
+use crate::gpu::{human_bytes, GpuContext, MemoryLedger};
+use crate::propagate::PropagationParams;
+use crate::render::Renderer;
+use crate::report::PropagationReport;
+use crate::scene::Scene;
+use serde::Serialize;
+use std::sync::Arc;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Distribution {
+    pub samples: usize,
+    pub median: f64,
+    pub p99: f64,
+    pub min: f64,
+    pub max: f64,
+    pub mean: f64,
+}
+
+impl Distribution {
+    pub fn of(values: &[f64]) -> Distribution {
+        let mut v = values.to_vec();
+        v.sort_by(|a, b| a.total_cmp(b));
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        Distribution {
+            samples: v.len(),
+            median: at(0.5),
+            p99: at(0.99),
+            min: v[0],
+            max: v[v.len() - 1],
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+        }
+    }
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub vlf_version: String,
+    pub commit: Option<String>,
+    pub date_utc: String,
+    pub propagation: PropagationReport,
+    /// texel x direction gathers per second, over all iterations
+    pub transport_samples_per_second: f64,
+    pub iteration_gpu_ms: Option<Distribution>,
+    pub render_size: [u32; 2],
+    pub render_frame_ms: Distribution,
+    pub render_timing_source: String,
+}
+
+pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size: [u32; 2], frames: u32) -> Result<BenchReport> {
+    let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, false)?;
+    let ledger = MemoryLedger::default();
+    let mut renderer = Renderer::new(&resident, &lf, &ledger)?;
+    let camera = lf.camera(None)?.clone();
+    // warm up, then measure
+    renderer.time_frames(&camera, size[0], size[1], 10)?;
+    let (frame_ms, gpu) = renderer.time_frames(&camera, size[0], size[1], frames.max(1))?;
+    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
+    let samples = report.diffuse_elements as f64 * report.directions as f64 * report.iterations as f64;
+    Ok(BenchReport {
+        vlf_version: env!("CARGO_PKG_VERSION").into(),
+        commit: option_env!("VLF_COMMIT").map(String::from).or_else(git_commit),
+        date_utc: utc_date(),
+        transport_samples_per_second: samples / report.propagation_seconds.max(1e-12),
+        iteration_gpu_ms: (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms)),
+        render_size: size,
+        render_frame_ms: Distribution::of(&frame_ms),
+        render_timing_source: if gpu { "GPU timestamp queries".into() } else { "wall clock (no timestamp queries)".into() },
+        propagation: report,
+    })
+}
+
+fn git_commit() -> Option<String> {
+    let out = std::process::Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()?;
+    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+}
+
+fn utc_date() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    // civil date from days since 1970-01-01 (Howard Hinnant's algorithm)
+    let z = (secs / 86400) as i64 + 719468;
+    let era = z.div_euclid(146097);
+    let doe = z - era * 146097;
+    let yoe = (doe - doe / 1460 + doe / 36524 - doe / 146096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + if m <= 2 { 1 } else { 0 };
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+impl BenchReport {
+    pub fn table(&self) -> String {
+        let p = &self.propagation;
+        let mut s = p.table();
+        s.push_str(&format!("  transport samples/s       {:.3e}\n", self.transport_samples_per_second));
+        if let Some(d) = &self.iteration_gpu_ms {
+            s.push_str(&format!("  iteration (GPU)           median {:.3} ms, p99 {:.3} ms, over {}\n", d.median, d.p99, d.samples));
+        }
+        let r = &self.render_frame_ms;
+        s.push_str(&format!(
+            "  render {}x{}            median {:.4} ms, p99 {:.4} ms, max {:.4} ms over {} frames ({})\n",
+            self.render_size[0], self.render_size[1], r.median, r.p99, r.max, r.samples, self.render_timing_source
+        ));
+        s
+    }
+
+    /// A Markdown section for BENCHMARKS.md, beside the paper's Cornell row.
+    pub fn markdown(&self) -> String {
+        let p = &self.propagation;
+        let a = &p.adapter;
+        let r = &self.render_frame_ms;
+        let fps = 1000.0 / r.median;
+        let mut s = String::new();
+        s.push_str(&format!(
+            "## {} — {}\n\nMeasured by `vlf bench` (vlf {}, commit {}, {}) on **{}** ({} backend, driver {} {}).\n\n",
+            p.scene,
+            self.date_utc,
+            self.vlf_version,
+            self.commit.as_deref().unwrap_or("unknown"),
+            self.date_utc,
+            a.name,
+            a.backend,
+            a.driver,
+            a.driver_info
+        ));
+        s.push_str("| | paper (GeForce 8800 GTX) | vlf |\n|---|---|---|\n");
+        let rows = [
+            ("directions", "512".to_string(), format!("{} (geodesic n={})", p.directions, p.params.geodesic_frequency)),
+            ("grid / tile", "—".into(), format!("{0}x{0}, {1}x{1} tiles", p.params.grid_resolution, p.params.tile_size)),
+            ("faces", "19".into(), p.faces.to_string()),
+            ("diffuse elements", "34,816".into(), p.diffuse_elements.to_string()),
+            ("non-diffuse elements", "931,136".into(), p.non_diffuse_elements.to_string()),
+            ("setup", "—".into(), format!("{:.3} s", p.setup_seconds)),
+            (
+                "visibility",
+                "—".into(),
+                format!("{:.1} ms ({} layers{})", p.visibility_seconds * 1e3, p.layers, p.visibility_gpu_ms.map(|g| format!(", {g:.2} ms GPU")).unwrap_or_default()),
+            ),
+            ("iterations", "3".into(), format!("{} (residual {:.2e})", p.iterations, p.final_residual)),
+            (
+                "propagation per iteration (GPU)",
+                "—".into(),
+                self.iteration_gpu_ms.as_ref().map(|d| format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99)).unwrap_or("—".into()),
+            ),
+            ("propagation total", "4.07 s".into(), format!("{:.1} ms", p.propagation_seconds * 1e3)),
+            ("transport samples/s", "—".into(), format!("{:.3e}", self.transport_samples_per_second)),
+            ("memory while propagating", "23.2 MB".into(), human_bytes(p.propagation_memory_bytes)),
+            ("memory for rendering", "2.9 MB".into(), human_bytes(p.render_memory_bytes)),
+            (
+                "frame time (1024x768 in the paper)",
+                "8.3 ms (122 fps)".into(),
+                format!("{}x{}: median {:.4} ms, p99 {:.4} ms ({fps:.0} fps)", self.render_size[0], self.render_size[1], r.median, r.p99),
+            ),
+        ];
+        for (k, a, b) in rows {
+            s.push_str(&format!("| {k} | {a} | {b} |\n"));
+        }
+        s
+    }
+}

@@ -1,0 +1,58 @@
+//! The library's one error type. Every message names the file or field at fault and says what
+//! to do about it; `anyhow` is used only in `main.rs`.
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum VlfError {
+    #[error("{path}: cannot read: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+
+    #[error("{path}: {message}")]
+    SceneToml { path: PathBuf, message: String },
+
+    #[error("{path}: {message}")]
+    Mesh { path: PathBuf, message: String },
+
+    #[error("{path}: material {material:?}: {message}")]
+    Material { path: PathBuf, material: String, message: String },
+
+    #[error("{path}: {message}")]
+    Config { path: PathBuf, message: String },
+
+    #[error("invalid parameter {name}: {message}")]
+    Parameter { name: &'static str, message: String },
+
+    #[error("{path}: not a usable .vlf light field: {message}")]
+    LightFieldFile { path: PathBuf, message: String },
+
+    #[error(
+        "no GPU adapter found ({detail}). Install a Vulkan driver (on Debian/Ubuntu: \
+         `sudo apt-get install mesa-vulkan-drivers` gives the software adapter lavapipe), \
+         or run on a machine with a GPU; WGPU_BACKEND=gl tries Mesa's OpenGL instead"
+    )]
+    NoAdapter { detail: String },
+
+    #[error("GPU device request failed: {0}")]
+    Device(String),
+
+    #[error("GPU resources: {0}")]
+    GpuBudget(String),
+
+    #[error("GPU error: {0}")]
+    Gpu(String),
+
+    #[error("{path}: cannot write image: {message}")]
+    Image { path: PathBuf, message: String },
+
+    #[error("camera {name:?} not found; the scene has: {available}")]
+    UnknownCamera { name: String, available: String },
+}
+
+pub type Result<T> = std::result::Result<T, VlfError>;
+
+impl VlfError {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        VlfError::Io { path: path.into(), source }
+    }
+}

@@ -1,0 +1,340 @@
+//! The GPU device and the small helpers every stage uses: buffers with a memory ledger,
+//! bind group layouts, compute pipelines, read-back and timestamp queries.
+
+pub mod shaders;
+pub mod types;
+
+use crate::error::{Result, VlfError};
+use std::sync::{Arc, Mutex};
+use wgpu::util::DeviceExt;
+
+/// What the report says about the adapter.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    pub backend: String,
+    pub driver: String,
+    pub driver_info: String,
+    pub device_type: String,
+    pub software: bool,
+}
+
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: wgpu::Adapter,
+    pub summary: AdapterSummary,
+    pub timestamps: bool,
+    pub timestamp_period_ns: f32,
+}
+
+impl GpuContext {
+    /// Open the best adapter (a real GPU before a software one). `WGPU_BACKEND` and
+    /// `WGPU_ADAPTER_NAME` choose otherwise.
+    pub fn new() -> Result<Arc<GpuContext>> {
+        pollster::block_on(Self::new_async())
+    }
+
+    async fn new_async() -> Result<Arc<GpuContext>> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        if std::env::var_os("WGPU_BACKEND").is_none() {
+            desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::GL;
+        }
+        let instance = wgpu::Instance::new(desc);
+        let adapter = match wgpu::util::initialize_adapter_from_env(&instance, None).await {
+            Ok(adapter) => adapter,
+            Err(_) => instance
+                .request_adapter(&wgpu::RequestAdapterOptions {
+                    power_preference: wgpu::PowerPreference::HighPerformance,
+                    force_fallback_adapter: false,
+                    compatible_surface: None,
+                    ..Default::default()
+                })
+                .await
+                .map_err(|e| VlfError::NoAdapter { detail: e.to_string() })?,
+        };
+        let info = adapter.get_info();
+        let software = info.device_type == wgpu::DeviceType::Cpu
+            || info.name.to_lowercase().contains("llvmpipe")
+            || info.name.to_lowercase().contains("lavapipe");
+        let supported = adapter.features();
+        let timestamps = supported.contains(wgpu::Features::TIMESTAMP_QUERY);
+        let mut required_features = wgpu::Features::empty();
+        if timestamps {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        // Ask for everything the adapter offers: big scenes need big storage bindings.
+        let required_limits = adapter.limits();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("vlf"),
+                required_features,
+                required_limits,
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| VlfError::Device(e.to_string()))?;
+        let timestamp_period_ns = queue.get_timestamp_period();
+        let summary = AdapterSummary {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            driver: info.driver.clone(),
+            driver_info: info.driver_info.clone(),
+            device_type: format!("{:?}", info.device_type),
+            software,
+        };
+        Ok(Arc::new(GpuContext { device, queue, adapter, summary, timestamps, timestamp_period_ns }))
+    }
+
+    pub fn limits(&self) -> wgpu::Limits {
+        self.device.limits()
+    }
+
+    /// Refuse a buffer that would not fit one binding, before allocating anything.
+    pub fn check_binding(&self, what: &str, bytes: u64, advice: &str) -> Result<()> {
+        let limits = self.limits();
+        let max = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        if bytes > max {
+            return Err(VlfError::GpuBudget(format!(
+                "{what} needs {} but this adapter binds at most {}; {advice}",
+                human_bytes(bytes),
+                human_bytes(max)
+            )));
+        }
+        Ok(())
+    }
+
+    pub fn wait(&self) -> Result<()> {
+        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| VlfError::Gpu(e.to_string()))?;
+        Ok(())
+    }
+
+    /// Copy a buffer back to the CPU.
+    pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>> {
+        if bytes == 0 {
+            return Ok(Vec::new());
+        }
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size: bytes,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self.device.create_command_encoder(&Default::default());
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, bytes);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait()?;
+        rx.recv()
+            .map_err(|e| VlfError::Gpu(e.to_string()))?
+            .map_err(|e| VlfError::Gpu(format!("read-back failed: {e}")))?;
+        let data = {
+            let view = staging.get_mapped_range(..).map_err(|e| VlfError::Gpu(e.to_string()))?;
+            bytemuck::cast_slice::<u8, T>(&view).to_vec()
+        };
+        staging.unmap();
+        Ok(data)
+    }
+
+    pub fn compute_pipeline(
+        &self,
+        module: &wgpu::ShaderModule,
+        entry: &str,
+        layouts: &[&wgpu::BindGroupLayout],
+    ) -> wgpu::ComputePipeline {
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
+        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(entry),
+            bind_group_layouts: &layouts,
+            immediate_size: 0,
+        });
+        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&layout),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    }
+
+    pub fn bind_group(&self, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .collect();
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
+    }
+}
+
+/// How a shader binds a buffer.
+#[derive(Clone, Copy, Debug)]
+pub enum Binding {
+    Uniform,
+    Storage,
+    StorageReadWrite,
+}
+
+/// A bind group layout with one entry per binding, numbered from 0.
+pub fn bind_group_layout(device: &wgpu::Device, visibility: wgpu::ShaderStages, bindings: &[Binding]) -> wgpu::BindGroupLayout {
+    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
+        .iter()
+        .enumerate()
+        .map(|(i, b)| wgpu::BindGroupLayoutEntry {
+            binding: i as u32,
+            visibility,
+            ty: wgpu::BindingType::Buffer {
+                ty: match b {
+                    Binding::Uniform => wgpu::BufferBindingType::Uniform,
+                    Binding::Storage => wgpu::BufferBindingType::Storage { read_only: true },
+                    Binding::StorageReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                },
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        })
+        .collect();
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries })
+}
+
+/// Named GPU allocations, so that reports can say what memory each stage used.
+#[derive(Clone, Default)]
+pub struct MemoryLedger {
+    inner: Arc<Mutex<Vec<(String, u64)>>>,
+}
+
+impl MemoryLedger {
+    pub fn record(&self, name: &str, bytes: u64) {
+        self.inner.lock().unwrap().push((name.to_string(), bytes));
+    }
+    pub fn total(&self) -> u64 {
+        self.inner.lock().unwrap().iter().map(|(_, b)| b).sum()
+    }
+    pub fn entries(&self) -> Vec<(String, u64)> {
+        self.inner.lock().unwrap().clone()
+    }
+}
+
+pub const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
+    .union(wgpu::BufferUsages::COPY_SRC)
+    .union(wgpu::BufferUsages::COPY_DST);
+
+impl GpuContext {
+    /// A storage buffer holding `data`, recorded in `ledger`. Empty data still gets 16 bytes,
+    /// since bindings cannot be empty.
+    pub fn buffer_init(&self, ledger: &MemoryLedger, name: &str, data: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let padded;
+        let contents = if data.len() < 16 {
+            padded = {
+                let mut v = data.to_vec();
+                v.resize(16, 0);
+                v
+            };
+            &padded[..]
+        } else {
+            data
+        };
+        ledger.record(name, contents.len() as u64);
+        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(name), contents, usage })
+    }
+
+    /// A zeroed buffer of `bytes`, recorded in `ledger`.
+    pub fn buffer_zeroed(&self, ledger: &MemoryLedger, name: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+        let size = bytes.max(16).next_multiple_of(4);
+        ledger.record(name, size);
+        self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(name), size, usage, mapped_at_creation: false })
+    }
+}
+
+/// Pairs of GPU timestamps around passes, resolved to milliseconds.
+pub struct Timestamps {
+    pub query_set: wgpu::QuerySet,
+    resolve: wgpu::Buffer,
+    capacity: u32,
+    used: u32,
+}
+
+impl Timestamps {
+    pub fn new(ctx: &GpuContext, pairs: u32) -> Option<Timestamps> {
+        if !ctx.timestamps {
+            return None;
+        }
+        let capacity = pairs * 2;
+        let query_set = ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: capacity,
+        });
+        let resolve = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("timestamp resolve"),
+            size: capacity as u64 * 8,
+            usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        Some(Timestamps { query_set, resolve, capacity, used: 0 })
+    }
+
+    /// The next pair of query indices, or None when full.
+    pub fn next_pair(&mut self) -> Option<(u32, u32)> {
+        if self.used + 2 > self.capacity {
+            return None;
+        }
+        let pair = (self.used, self.used + 1);
+        self.used += 2;
+        Some(pair)
+    }
+
+    pub fn compute_writes(&mut self) -> Option<wgpu::ComputePassTimestampWrites<'_>> {
+        let (a, b) = self.next_pair()?;
+        Some(wgpu::ComputePassTimestampWrites {
+            query_set: &self.query_set,
+            beginning_of_pass_write_index: Some(a),
+            end_of_pass_write_index: Some(b),
+        })
+    }
+
+    pub fn render_writes(&mut self) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
+        let (a, b) = self.next_pair()?;
+        Some(wgpu::RenderPassTimestampWrites {
+            query_set: &self.query_set,
+            beginning_of_pass_write_index: Some(a),
+            end_of_pass_write_index: Some(b),
+        })
+    }
+
+    /// Resolve every pair written so far into milliseconds and start over.
+    pub fn read_ms(&mut self, ctx: &GpuContext) -> Result<Vec<f64>> {
+        if self.used == 0 {
+            return Ok(Vec::new());
+        }
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        encoder.resolve_query_set(&self.query_set, 0..self.used, &self.resolve, 0);
+        ctx.queue.submit([encoder.finish()]);
+        let ticks: Vec<u64> = ctx.read_buffer(&self.resolve, self.used as u64 * 8)?;
+        self.used = 0;
+        Ok(ticks
+            .chunks(2)
+            .map(|p| p[1].wrapping_sub(p[0]) as f64 * ctx.timestamp_period_ns as f64 * 1e-6)
+            .collect())
+    }
+}
+
+pub fn human_bytes(bytes: u64) -> String {
+    let b = bytes as f64;
+    if b >= 1024.0 * 1024.0 * 1024.0 {
+        format!("{:.2} GiB", b / (1024.0 * 1024.0 * 1024.0))
+    } else if b >= 1024.0 * 1024.0 {
+        format!("{:.1} MiB", b / (1024.0 * 1024.0))
+    } else if b >= 1024.0 {
+        format!("{:.1} KiB", b / 1024.0)
+    } else {
+        format!("{bytes} B")
+    }
+}

@@ -1,0 +1,92 @@
+//! WGSL sources, embedded in the binary, with a tiny `#include "file"` preprocessor that keeps a
+//! line map so that naga's errors point at the original file and line.
+
+use crate::error::{Result, VlfError};
+
+/// Every shader file under `shaders/`, by its path relative to that folder.
+pub const SOURCES: &[(&str, &str)] = &[
+    ("common/types.wgsl", include_str!("../../shaders/common/types.wgsl")),
+    ("common/atlas.wgsl", include_str!("../../shaders/common/atlas.wgsl")),
+    ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),
+    ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
+    ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
+    ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+];
+
+/// The stages compiled into pipelines (the `common/` files are only included).
+pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "accumulate.wgsl", "render.wgsl"];
+
+/// A stage's source with its includes expanded, and for each output line its origin.
+pub struct ExpandedShader {
+    pub name: String,
+    pub source: String,
+    pub line_origin: Vec<(String, usize)>,
+}
+
+fn raw_source(name: &str) -> Result<&'static str> {
+    SOURCES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|(_, s)| *s)
+        .ok_or_else(|| VlfError::Gpu(format!("shader {name} is not embedded")))
+}
+
+pub fn expand(name: &str) -> Result<ExpandedShader> {
+    let mut out = ExpandedShader { name: name.to_string(), source: String::new(), line_origin: Vec::new() };
+    expand_into(name, &mut out, 0)?;
+    Ok(out)
+}
+
+fn expand_into(name: &str, out: &mut ExpandedShader, depth: usize) -> Result<()> {
+    if depth > 8 {
+        return Err(VlfError::Gpu(format!("shaders/{name}: #include nested too deeply")));
+    }
+    for (index, line) in raw_source(name)?.lines().enumerate() {
+        if let Some(rest) = line.trim().strip_prefix("#include") {
+            let included = rest.trim().trim_matches('"');
+            expand_into(included, out, depth + 1)?;
+        } else {
+            out.source.push_str(line);
+            out.source.push('\n');
+            out.line_origin.push((name.to_string(), index + 1));
+        }
+    }
+    Ok(())
+}
+
+impl ExpandedShader {
+    /// Parse and validate with naga; errors name the original file and line.
+    pub fn validate(&self) -> std::result::Result<naga::Module, String> {
+        let module = naga::front::wgsl::parse_str(&self.source).map_err(|e| {
+            let location = e.location(&self.source).map(|l| self.origin(l.line_number as usize));
+            format!("{}: {}", location.unwrap_or_else(|| format!("shaders/{}", self.name)), e.emit_to_string(&self.source))
+        })?;
+        let mut validator =
+            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+        validator.validate(&module).map_err(|e| {
+            let location = e.location(&self.source).map(|l| self.origin(l.line_number as usize));
+            format!(
+                "{}: {}",
+                location.unwrap_or_else(|| format!("shaders/{}", self.name)),
+                e.emit_to_string(&self.source)
+            )
+        })?;
+        Ok(module)
+    }
+
+    fn origin(&self, line: usize) -> String {
+        match self.line_origin.get(line.saturating_sub(1)) {
+            Some((file, l)) => format!("shaders/{file}:{l}"),
+            None => format!("shaders/{}:{line}", self.name),
+        }
+    }
+}
+
+/// Compile a stage into a wgpu shader module.
+pub fn module(device: &wgpu::Device, name: &str) -> Result<wgpu::ShaderModule> {
+    let expanded = expand(name)?;
+    Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(name),
+        source: wgpu::ShaderSource::Wgsl(expanded.source.into()),
+    }))
+}

@@ -1,0 +1,18 @@
+//! vlf: virtual light field global illumination (Mortensen, Khanna & Slater 2007) on wgpu.
+//!
+//! The modules follow the pipeline: [`scene`] (TOML + OBJ/MTL) -> [`prepare`] (normalise,
+//! planar faces, texel atlas) -> [`propagate`] (GPU visibility and shooting) -> [`lightfield`]
+//! (the resident result and `.vlf` files) -> [`render`] (views). [`gpu`] holds the device and
+//! shared GPU helpers; [`bench`] and [`report`] measure and tell.
+
+pub mod bench;
+pub mod error;
+pub mod gpu;
+pub mod lightfield;
+pub mod prepare;
+pub mod propagate;
+pub mod render;
+pub mod report;
+pub mod scene;
+
+pub use error::{Result, VlfError};

@@ -1,0 +1,186 @@
+//! The `.vlf` file: a versioned header, then checksummed sections (metadata as JSON, faces,
+//! render mesh, radiance). Written atomically and durably (temporary file, fsync, rename), so
+//! a crash or a full disk never leaves a half file or loses the previous one.
+
+use super::{LightField, LightFieldMeta};
+use crate::error::{Result, VlfError};
+use crate::gpu::types::{GpuFace, RenderVertex};
+use std::io::Write;
+use std::path::Path;
+
+pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
+pub const FORMAT_VERSION: u32 = 1;
+const SECTIONS: [&[u8; 4]; 4] = [b"META", b"FACE", b"RVTX", b"TOTL"];
+
+pub fn encode(lf: &LightField) -> Vec<u8> {
+    let meta = serde_json::to_vec_pretty(&lf.meta).expect("metadata serialises");
+    let payloads: [&[u8]; 4] = [
+        &meta,
+        bytemuck::cast_slice(&lf.faces),
+        bytemuck::cast_slice(&lf.render_vertices),
+        bytemuck::cast_slice(&lf.total),
+    ];
+    let mut out = Vec::new();
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(SECTIONS.len() as u32).to_le_bytes());
+    for (tag, payload) in SECTIONS.iter().zip(payloads) {
+        out.extend_from_slice(*tag);
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        out.extend_from_slice(payload);
+    }
+    out
+}
+
+/// Write atomically: a temporary file beside the target, fsync, rename, fsync the folder.
+pub fn save(lf: &LightField, path: &Path) -> Result<()> {
+    let bytes = encode(lf);
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "lightfield.vlf".into());
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&bytes)?;
+        f.sync_all()?;
+        drop(f);
+        std::fs::rename(&tmp, path)?;
+        if let Ok(d) = std::fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        VlfError::io(path, e)
+    })
+}
+
+pub fn load(path: &Path) -> Result<LightField> {
+    let bytes = std::fs::read(path).map_err(|e| VlfError::io(path, e))?;
+    decode(&bytes).map_err(|message| VlfError::LightFieldFile { path: path.to_path_buf(), message })
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    at: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take(&mut self, n: usize, what: &str) -> std::result::Result<&'a [u8], String> {
+        if self.bytes.len() - self.at < n {
+            return Err(format!("truncated: {what} needs {n} bytes at offset {}, the file ends at {}", self.at, self.bytes.len()));
+        }
+        let s = &self.bytes[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+    fn u32(&mut self, what: &str) -> std::result::Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take(4, what)?.try_into().unwrap()))
+    }
+    fn u64(&mut self, what: &str) -> std::result::Result<u64, String> {
+        Ok(u64::from_le_bytes(self.take(8, what)?.try_into().unwrap()))
+    }
+}
+
+fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<Vec<T>, String> {
+    let size = std::mem::size_of::<T>();
+    if payload.len() % size != 0 {
+        return Err(format!("section {what} holds {} bytes, not a whole number of {size}-byte records", payload.len()));
+    }
+    Ok(payload.chunks_exact(size).map(bytemuck::pod_read_unaligned).collect())
+}
+
+pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
+    let mut r = Reader { bytes, at: 0 };
+    let magic = r.take(8, "the header")?;
+    if magic != MAGIC {
+        return Err(format!("wrong magic {:?}: this is not a vlf light field file", String::from_utf8_lossy(magic)));
+    }
+    let version = r.u32("the format version")?;
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "format version {version}, but this vlf ({}) reads version {FORMAT_VERSION}; re-run `vlf propagate` to make a new file",
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    let count = r.u32("the section count")?;
+    if count as usize != SECTIONS.len() {
+        return Err(format!("{count} sections, expected {}", SECTIONS.len()));
+    }
+    let mut payloads = Vec::new();
+    for expected in SECTIONS {
+        let tag = r.take(4, "a section tag")?;
+        let name = String::from_utf8_lossy(expected).to_string();
+        if tag != expected {
+            return Err(format!("expected section {name}, found {:?}", String::from_utf8_lossy(tag)));
+        }
+        let len = r.u64(&format!("section {name}'s length"))?;
+        let crc = r.u32(&format!("section {name}'s checksum"))?;
+        let len = usize::try_from(len).map_err(|_| format!("section {name} claims {len} bytes"))?;
+        let payload = r.take(len, &format!("section {name}"))?;
+        let actual = crc32fast::hash(payload);
+        if actual != crc {
+            return Err(format!("section {name} is corrupt (checksum {actual:08x}, recorded {crc:08x})"));
+        }
+        payloads.push(payload);
+    }
+    if r.at != bytes.len() {
+        return Err(format!("{} unexpected bytes after the last section", bytes.len() - r.at));
+    }
+    let meta: LightFieldMeta =
+        serde_json::from_slice(payloads[0]).map_err(|e| format!("section META is not valid metadata: {e}"))?;
+    let faces: Vec<GpuFace> = pod_vec(payloads[1], "FACE")?;
+    let render_vertices: Vec<RenderVertex> = pod_vec(payloads[2], "RVTX")?;
+    let total: Vec<[f32; 4]> = pod_vec(payloads[3], "TOTL")?;
+    let lf = LightField { meta, faces, render_vertices, total };
+    check_consistency(&lf)?;
+    Ok(lf)
+}
+
+/// Everything a GPU lookup could index must be in range.
+fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
+    let (w, h) = (lf.meta.atlas_width as u64, lf.meta.atlas_height as u64);
+    if lf.total.len() as u64 != w * h {
+        return Err(format!("radiance holds {} texels, the atlas is {w} x {h}", lf.total.len()));
+    }
+    for (i, f) in lf.faces.iter().enumerate() {
+        if f.atlas_w == 0 || f.atlas_h == 0 || (f.atlas_x + f.atlas_w) as u64 > w || (f.atlas_y + f.atlas_h) as u64 > h {
+            return Err(format!("face {i}'s texel rectangle lies outside the atlas"));
+        }
+        if f.twin != crate::gpu::types::NO_FACE && f.twin as usize >= lf.faces.len() {
+            return Err(format!("face {i}'s twin {} does not exist", f.twin));
+        }
+    }
+    if lf.render_vertices.len() % 3 != 0 {
+        return Err("the render mesh is not made of whole triangles".into());
+    }
+    if let Some(v) = lf.render_vertices.iter().find(|v| v.face as usize >= lf.faces.len()) {
+        return Err(format!("a render vertex names face {}, but there are {}", v.face, lf.faces.len()));
+    }
+    if lf.total.iter().flatten().any(|x| !x.is_finite()) {
+        return Err("radiance holds NaN or infinite values".into());
+    }
+    Ok(())
+}
+
+impl LightField {
+    /// Refuse a light field made for another scene (or another version of it).
+    pub fn check_scene(&self, scene: &crate::scene::Scene, file: &Path) -> Result<()> {
+        if self.meta.scene_hash != scene.hash {
+            return Err(VlfError::LightFieldFile {
+                path: file.to_path_buf(),
+                message: format!(
+                    "it was made for scene {:?} (hash {}), but {} is {:?} with hash {}; re-run `vlf propagate {}`",
+                    self.meta.scene_name,
+                    &self.meta.scene_hash[..12.min(self.meta.scene_hash.len())],
+                    scene.source.display(),
+                    scene.name,
+                    &scene.hash[..12],
+                    scene.source.display()
+                ),
+            });
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,273 @@
+//! The `vlf` command line. Library errors are reported through anyhow here, and only here.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use vlf::gpu::GpuContext;
+use vlf::lightfield::{file, LightField, ResidentLightField};
+use vlf::propagate::PropagationParams;
+use vlf::render::{image_io, Renderer};
+use vlf::scene::Scene;
+
+#[derive(Parser)]
+#[command(name = "vlf", version, about = "Virtual light field: propagate global illumination on the GPU, render any view from it")]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Propagate a scene into a light field file (.vlf)
+    Propagate {
+        scene: PathBuf,
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write the summary as JSON
+        #[arg(long)]
+        report: Option<PathBuf>,
+        #[command(flatten)]
+        params: ParamArgs,
+    },
+    /// Render a view from a scene (propagating first) or from a .vlf file
+    Render {
+        /// scene.toml or file.vlf
+        input: PathBuf,
+        #[arg(long)]
+        camera: Option<String>,
+        /// Image size WxH (default: the camera's)
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// With a scene.toml: load this light field instead of propagating (must match the scene)
+        #[arg(long)]
+        lightfield: Option<PathBuf>,
+        /// Exposure multiplier for PNG output
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f32,
+        /// out.exr (linear radiance) or out.png (tonemapped)
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        params: ParamArgs,
+    },
+    /// Propagate the built-in Cornell box and write PNG + EXR into out/
+    Demo {
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Measure setup, visibility, propagation and rendering
+    Bench {
+        #[arg(long, default_value = "scenes/cornell/scene.toml")]
+        scene: PathBuf,
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Write a Markdown section (for BENCHMARKS.md)
+        #[arg(long)]
+        markdown: Option<PathBuf>,
+        #[arg(long, default_value_t = 200)]
+        frames: u32,
+        #[arg(long, value_parser = parse_size, default_value = "1024x768")]
+        size: [u32; 2],
+        #[command(flatten)]
+        params: ParamArgs,
+    },
+}
+
+#[derive(Args, Clone, Default)]
+struct ParamArgs {
+    /// Number of directions over the hemisphere (rounded up to a geodesic set, 5n^2+1)
+    #[arg(long)]
+    directions: Option<u32>,
+    /// Grid cells per side for each direction
+    #[arg(long)]
+    grid: Option<u32>,
+    /// Tile size in cells (must divide the grid)
+    #[arg(long)]
+    tile: Option<u32>,
+    /// Diffuse texels per unit length of the normalised scene
+    #[arg(long)]
+    texel_density: Option<f64>,
+    /// Stop when unshot power / emitted power falls below this
+    #[arg(long)]
+    tolerance: Option<f64>,
+    #[arg(long)]
+    max_iterations: Option<u32>,
+}
+
+impl ParamArgs {
+    fn apply(&self, mut p: PropagationParams) -> PropagationParams {
+        if let Some(d) = self.directions {
+            p.geodesic_frequency = PropagationParams::frequency_for_directions(d);
+        }
+        if let Some(g) = self.grid {
+            p.grid_resolution = g;
+        }
+        if let Some(t) = self.tile {
+            p.tile_size = t;
+        }
+        if let Some(t) = self.texel_density {
+            p.texel_density = t;
+        }
+        if let Some(t) = self.tolerance {
+            p.tolerance = t;
+        }
+        if let Some(m) = self.max_iterations {
+            p.max_iterations = m;
+        }
+        p
+    }
+}
+
+fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?}: expected WxH, e.g. 1024x768"))?;
+    let w: u32 = w.trim().parse().map_err(|_| format!("{s:?}: width is not a number"))?;
+    let h: u32 = h.trim().parse().map_err(|_| format!("{s:?}: height is not a number"))?;
+    if w == 0 || h == 0 || w > 16384 || h > 16384 {
+        return Err(format!("{s:?}: width and height must be 1..16384"));
+    }
+    Ok([w, h])
+}
+
+fn main() {
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command.unwrap_or(Command::Demo { out: PathBuf::from("out") }) {
+        Command::Propagate { scene, output, report, params } => {
+            let scene = Scene::load(&scene)?;
+            print_warnings(&scene.warnings);
+            let ctx = GpuContext::new()?;
+            let params = params.apply(PropagationParams::default());
+            let (lf, _resident, rep) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
+            print_warnings(&rep.warnings[scene.warnings.len()..]);
+            file::save(&lf, &output)?;
+            println!("{}", rep.table());
+            if let Some(path) = report {
+                write_json(&path, &rep)?;
+                println!("report: {}", path.display());
+            }
+            println!("light field: {}", output.display());
+        }
+        Command::Render { input, camera, size, lightfield, exposure, output, params } => {
+            let ctx = GpuContext::new()?;
+            let (lf, resident) = light_field_for(&ctx, &input, lightfield.as_deref(), &params)?;
+            let cam = lf.camera(camera.as_deref())?.clone();
+            let [w, h] = size.unwrap_or(cam.size);
+            let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+            let frame = renderer.render(&cam, w, h)?;
+            image_io::write_image(&frame, &output, exposure)?;
+            println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);
+        }
+        Command::Demo { out } => demo(&out)?,
+        Command::Bench { scene, json, markdown, frames, size, params } => {
+            let scene = Scene::load(&scene)?;
+            let ctx = GpuContext::new()?;
+            if ctx.summary.software {
+                eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
+            }
+            let params = params.apply(PropagationParams::default());
+            let report = vlf::bench::run(ctx, &scene, &params, size, frames)?;
+            print!("{}", report.table());
+            if let Some(path) = json {
+                write_json(&path, &report)?;
+                println!("json: {}", path.display());
+            }
+            if let Some(path) = markdown {
+                std::fs::write(&path, report.markdown()).with_context(|| format!("writing {}", path.display()))?;
+                println!("markdown: {}", path.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// A light field from a .vlf file, or propagated from a scene (optionally loaded from a .vlf
+/// made for that scene).
+fn light_field_for(
+    ctx: &std::sync::Arc<GpuContext>,
+    input: &Path,
+    lightfield: Option<&Path>,
+    params: &ParamArgs,
+) -> Result<(LightField, ResidentLightField)> {
+    let is_vlf = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
+    if is_vlf {
+        let lf = file::load(input)?;
+        let resident = lf.upload(ctx.clone());
+        return Ok((lf, resident));
+    }
+    let scene = Scene::load(input)?;
+    print_warnings(&scene.warnings);
+    if let Some(path) = lightfield {
+        let lf = file::load(path)?;
+        lf.check_scene(&scene, path)?;
+        let resident = lf.upload(ctx.clone());
+        return Ok((lf, resident));
+    }
+    let params = params.apply(PropagationParams::default());
+    let (lf, resident, report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, true)?;
+    eprintln!(
+        "propagated in {:.2} s: {} iterations, residual {:.2e}",
+        report.propagation_seconds + report.visibility_seconds + report.setup_seconds,
+        report.iterations,
+        report.final_residual
+    );
+    Ok((lf, resident))
+}
+
+fn demo(out: &Path) -> Result<()> {
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
+    let scene_path = if Path::new("scenes/cornell/scene.toml").exists() { PathBuf::from("scenes/cornell/scene.toml") } else { scene_path };
+    let scene = Scene::load(&scene_path)?;
+    print_warnings(&scene.warnings);
+    let ctx = GpuContext::new()?;
+    let params = if ctx.summary.software {
+        println!(
+            "{} is a software adapter (no GPU found): using lighter settings ({} directions, {}^2 grid, {} texels/unit) so the demo finishes in a few minutes",
+            ctx.summary.name,
+            PropagationParams::software().direction_count(),
+            PropagationParams::software().grid_resolution,
+            PropagationParams::software().texel_density
+        );
+        PropagationParams::software()
+    } else {
+        println!("adapter: {} ({})", ctx.summary.name, ctx.summary.backend);
+        PropagationParams::default()
+    };
+    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
+    println!("{}", report.table());
+    if report.final_residual >= params.tolerance && report.iterations >= params.max_iterations {
+        bail!("the demo did not converge");
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+    let cam = lf.camera(Some("front"))?.clone();
+    let frame = renderer.render(&cam, cam.size[0], cam.size[1])?;
+    let png = out.join("cornell.png");
+    let exr = out.join("cornell.exr");
+    let vlf_path = out.join("cornell.vlf");
+    image_io::write_image(&frame, &png, 1.0)?;
+    image_io::write_image(&frame, &exr, 1.0)?;
+    file::save(&lf, &vlf_path)?;
+    println!("wrote {}\nwrote {}\nwrote {}", png.display(), exr.display(), vlf_path.display());
+    Ok(())
+}
+
+fn print_warnings(warnings: &[String]) {
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
+    let text = serde_json::to_string_pretty(value)?;
+    let tmp = path.with_extension("json.tmp");
+    std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}

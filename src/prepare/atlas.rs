@@ -1,0 +1,173 @@
+//! The diffuse texel atlas: each planar face gets a rectangle of texels at a fixed texel
+//! density, with one texel of padding on every side so that bilinear lookups never reach a
+//! neighbour's texels. Rectangles are packed on shelves into one linear array. Every texel of a
+//! rectangle gets a sample point on its face: its centre when that lies on the face, else the
+//! nearest point of the face (so the padding carries the rim's light), and a coverage weight
+//! (the share of the texel the face covers) for power sums.
+
+use super::{PlanarFace, PreparedTriangle};
+use crate::error::{Result, VlfError};
+use crate::gpu::types::NO_FACE;
+use glam::{DVec2, DVec3};
+
+pub const PADDING: u32 = 1;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ChartRect {
+    pub x: u32,
+    pub y: u32,
+    pub w: u32,
+    pub h: u32,
+}
+
+pub struct Atlas {
+    pub width: u32,
+    pub height: u32,
+    /// per texel: sample point (normalised space) and face id bits (NO_FACE for unused texels)
+    pub points: Vec<[f32; 4]>,
+    /// per texel: share of the texel covered by its face, in [0, 1]
+    pub coverage: Vec<f32>,
+    /// texels that belong to a chart (padding included)
+    pub charted_texels: u64,
+}
+
+impl Atlas {
+    pub fn texel_count(&self) -> usize {
+        self.points.len()
+    }
+
+    pub fn build(faces: &mut [PlanarFace], positions: &[DVec3], triangles: &[PreparedTriangle], density: f64) -> Result<Atlas> {
+        let mut by_face: Vec<Vec<[DVec3; 3]>> = vec![Vec::new(); faces.len()];
+        for t in triangles {
+            by_face[t.face as usize].push(t.vertices.map(|i| positions[i as usize]));
+        }
+        // chart rectangles in face coordinates
+        let mut local_min = Vec::with_capacity(faces.len());
+        for (f, tris) in faces.iter_mut().zip(&by_face) {
+            let mut lo = DVec2::splat(f64::INFINITY);
+            let mut hi = DVec2::splat(f64::NEG_INFINITY);
+            for p in tris.iter().flatten() {
+                let q = DVec2::new(f.axis_a.dot(*p), f.axis_b.dot(*p));
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+            let size = ((hi - lo) * density).ceil().max(DVec2::ONE);
+            let w = size.x as u64 + 2 * PADDING as u64;
+            let h = size.y as u64 + 2 * PADDING as u64;
+            if w > 1 << 15 || h > 1 << 15 {
+                return Err(VlfError::Parameter {
+                    name: "texel-density",
+                    message: format!("a face would need {w} x {h} texels; lower the texel density"),
+                });
+            }
+            f.atlas.w = w as u32;
+            f.atlas.h = h as u32;
+            local_min.push(lo - DVec2::splat(PADDING as f64 / density));
+        }
+        let (width, height) = pack_shelves(faces);
+        let texels = width as u64 * height as u64;
+        if texels > u32::MAX as u64 / 2 {
+            return Err(VlfError::Parameter {
+                name: "texel-density",
+                message: format!("the atlas would hold {texels} texels; lower the texel density"),
+            });
+        }
+        let mut points = vec![[0.0, 0.0, 0.0, f32::from_bits(NO_FACE)]; texels as usize];
+        let mut coverage = vec![0.0f32; texels as usize];
+        let mut charted_texels = 0u64;
+        for (fi, f) in faces.iter_mut().enumerate() {
+            let lo = local_min[fi];
+            // origin: the plane point whose face coordinates are `lo`
+            f.origin = f.normal * f.plane_offset + f.axis_a * lo.x + f.axis_b * lo.y;
+            let tris2: Vec<[DVec2; 3]> = by_face[fi]
+                .iter()
+                .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
+                .collect();
+            let r = f.atlas;
+            charted_texels += r.w as u64 * r.h as u64;
+            for j in 0..r.h {
+                for i in 0..r.w {
+                    let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
+                    let (sample, cover) = sample_texel(&tris2, centre, 0.5 / density);
+                    let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
+                    let idx = ((r.y + j) * width + r.x + i) as usize;
+                    points[idx] = [p.x as f32, p.y as f32, p.z as f32, f32::from_bits(fi as u32)];
+                    coverage[idx] = cover as f32;
+                }
+            }
+        }
+        Ok(Atlas { width, height, points, coverage, charted_texels })
+    }
+}
+
+/// Shelf packing, tallest first. Returns the atlas size and sets each face's rectangle.
+fn pack_shelves(faces: &mut [PlanarFace]) -> (u32, u32) {
+    let area: u64 = faces.iter().map(|f| f.atlas.w as u64 * f.atlas.h as u64).sum();
+    let widest = faces.iter().map(|f| f.atlas.w).max().unwrap_or(1);
+    let width = ((area as f64 * 1.1).sqrt().ceil() as u32).max(widest);
+    let mut order: Vec<usize> = (0..faces.len()).collect();
+    order.sort_by_key(|&i| (std::cmp::Reverse(faces[i].atlas.h), i));
+    let (mut x, mut y, mut shelf_h) = (0u32, 0u32, 0u32);
+    for i in order {
+        let r = &mut faces[i].atlas;
+        if x + r.w > width {
+            y += shelf_h;
+            x = 0;
+            shelf_h = 0;
+        }
+        r.x = x;
+        r.y = y;
+        x += r.w;
+        shelf_h = shelf_h.max(r.h);
+    }
+    (width, (y + shelf_h).max(1))
+}
+
+fn inside(t: &[DVec2; 3], p: DVec2) -> bool {
+    let cross = |a: DVec2, b: DVec2| a.x * b.y - a.y * b.x;
+    let d0 = cross(t[1] - t[0], p - t[0]);
+    let d1 = cross(t[2] - t[1], p - t[1]);
+    let d2 = cross(t[0] - t[2], p - t[2]);
+    (d0 >= 0.0 && d1 >= 0.0 && d2 >= 0.0) || (d0 <= 0.0 && d1 <= 0.0 && d2 <= 0.0)
+}
+
+fn closest_on_segment(a: DVec2, b: DVec2, p: DVec2) -> DVec2 {
+    let ab = b - a;
+    let t = ((p - a).dot(ab) / ab.length_squared().max(1e-300)).clamp(0.0, 1.0);
+    a + ab * t
+}
+
+/// Sample point and coverage of the texel centred at `centre` with half-size `half`.
+fn sample_texel(tris: &[[DVec2; 3]], centre: DVec2, half: f64) -> (DVec2, f64) {
+    const SUB: usize = 4;
+    let mut covered = 0;
+    for sj in 0..SUB {
+        for si in 0..SUB {
+            let off = DVec2::new((si as f64 + 0.5) / SUB as f64 * 2.0 - 1.0, (sj as f64 + 0.5) / SUB as f64 * 2.0 - 1.0);
+            let p = centre + off * half;
+            if tris.iter().any(|t| inside(t, p)) {
+                covered += 1;
+            }
+        }
+    }
+    let cover = covered as f64 / (SUB * SUB) as f64;
+    if tris.iter().any(|t| inside(t, centre)) {
+        return (centre, cover);
+    }
+    // nearest point of the face, nudged inside so that visibility finds the face there
+    let mut best = (f64::INFINITY, centre, centre);
+    for t in tris {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        for k in 0..3 {
+            let q = closest_on_segment(t[k], t[(k + 1) % 3], centre);
+            let d = q.distance_squared(centre);
+            if d < best.0 {
+                best = (d, q, c);
+            }
+        }
+    }
+    let (_, q, c) = best;
+    let to_c = c - q;
+    let nudge = (half * 0.02).min(to_c.length() * 0.5);
+    (q + to_c.normalize_or_zero() * nudge, cover)
+}

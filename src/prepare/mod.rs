@@ -1,0 +1,237 @@
+//! Prepare: from a loaded [`Scene`] to what the GPU stages consume. Normalises the scene into
+//! the unit sphere, groups coplanar connected triangles into planar faces (charts), adds the
+//! back side of two-sided surfaces as faces of their own, and lays out the diffuse texel atlas
+//! (`atlas.rs`).
+
+pub mod atlas;
+
+use crate::error::{Result, VlfError};
+use crate::scene::{Material, Scene};
+use glam::DVec3;
+use std::collections::HashMap;
+
+/// Triangles whose normals differ by less than this from a chart's first triangle join it.
+pub const PLANAR_ANGLE_DEG: f64 = 2.0;
+/// The scene is scaled so that it fits in a sphere of this radius (grids cover [-1, 1]^2).
+pub const NORMALISED_RADIUS: f64 = 0.99;
+
+/// A planar face: a chart of the atlas, one material, one normal.
+#[derive(Clone, Debug)]
+pub struct PlanarFace {
+    pub normal: DVec3,
+    /// n . p for points p on the plane
+    pub plane_offset: f64,
+    pub axis_a: DVec3,
+    pub axis_b: DVec3,
+    /// corner of the texel rectangle (padding included)
+    pub origin: DVec3,
+    pub material: u32,
+    pub triangles: Vec<u32>,
+    pub area: f64,
+    pub atlas: atlas::ChartRect,
+    /// the other side of a two-sided surface
+    pub twin: Option<u32>,
+    /// true for the generated back side of a two-sided surface
+    pub is_back: bool,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct PreparedTriangle {
+    pub vertices: [u32; 3],
+    pub face: u32,
+}
+
+/// Maps world (metres) to the normalised space the light field lives in.
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
+pub struct Normalisation {
+    pub center: [f64; 3],
+    pub scale: f64,
+}
+
+impl Normalisation {
+    pub fn to_unit(&self, p: [f32; 3]) -> DVec3 {
+        (DVec3::from(p.map(|x| x as f64)) - DVec3::from(self.center)) * self.scale
+    }
+}
+
+pub struct PreparedScene {
+    pub normalisation: Normalisation,
+    /// vertex positions in normalised space
+    pub positions: Vec<DVec3>,
+    pub triangles: Vec<PreparedTriangle>,
+    pub faces: Vec<PlanarFace>,
+    pub materials: Vec<Material>,
+    pub atlas: atlas::Atlas,
+    pub texel_density: f64,
+    pub warnings: Vec<String>,
+}
+
+impl PreparedScene {
+    /// `texel_density` is in texels per unit length of the normalised scene.
+    pub fn new(scene: &Scene, texel_density: f64) -> Result<PreparedScene> {
+        if !(texel_density.is_finite() && texel_density > 0.0) {
+            return Err(VlfError::Parameter { name: "texel-density", message: format!("{texel_density} must be > 0") });
+        }
+        let normalisation = normalise(&scene.positions);
+        let positions: Vec<DVec3> = scene.positions.iter().map(|&p| normalisation.to_unit(p)).collect();
+        let mut warnings = scene.warnings.clone();
+        let mut faces = group_charts(scene, &positions);
+        let mut triangles: Vec<PreparedTriangle> = Vec::new();
+        for (fi, f) in faces.iter().enumerate() {
+            for &t in &f.triangles {
+                triangles.push(PreparedTriangle { vertices: scene.triangles[t as usize].vertices, face: fi as u32 });
+            }
+        }
+        // The back of a two-sided surface is a face of its own, wound the other way.
+        let front_count = faces.len();
+        for fi in 0..front_count {
+            if !scene.materials[faces[fi].material as usize].two_sided {
+                continue;
+            }
+            let back_id = faces.len() as u32;
+            let mut back = faces[fi].clone();
+            back.normal = -back.normal;
+            back.plane_offset = -back.plane_offset;
+            back.axis_b = back.normal.cross(back.axis_a);
+            back.is_back = true;
+            back.twin = Some(fi as u32);
+            faces[fi].twin = Some(back_id);
+            for &t in &faces[fi].triangles {
+                let [a, b, c] = scene.triangles[t as usize].vertices;
+                triangles.push(PreparedTriangle { vertices: [a, c, b], face: back_id });
+            }
+            faces.push(back);
+        }
+        let atlas = atlas::Atlas::build(&mut faces, &positions, &triangles, texel_density)?;
+        let small = faces.iter().filter(|f| f.atlas.w <= 3 && f.atlas.h <= 3).count();
+        if small > 0 {
+            warnings.push(format!(
+                "{small} face(s) are smaller than one texel at texel density {texel_density}: their light is held by the padding texels only"
+            ));
+        }
+        Ok(PreparedScene {
+            normalisation,
+            positions,
+            triangles,
+            faces,
+            materials: scene.materials.clone(),
+            atlas,
+            texel_density,
+            warnings,
+        })
+    }
+
+    pub fn material_of(&self, face: usize) -> &Material {
+        &self.materials[self.faces[face].material as usize]
+    }
+
+    pub fn has_sky(&self, scene: &Scene) -> bool {
+        scene.sky.is_some()
+    }
+}
+
+fn normalise(positions: &[[f32; 3]]) -> Normalisation {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for p in positions {
+        let p = DVec3::from(p.map(|x| x as f64));
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let center = (lo + hi) * 0.5;
+    let radius = positions
+        .iter()
+        .map(|p| (DVec3::from(p.map(|x| x as f64)) - center).length())
+        .fold(0.0, f64::max)
+        .max(1e-12);
+    Normalisation { center: center.into(), scale: NORMALISED_RADIUS / radius }
+}
+
+fn triangle_geometry(positions: &[DVec3], v: [u32; 3]) -> (DVec3, f64) {
+    let [a, b, c] = v.map(|i| positions[i as usize]);
+    let cross = (b - a).cross(c - a);
+    (cross.normalize_or_zero(), cross.length() * 0.5)
+}
+
+/// Flood-fill triangles across shared edges into planar charts of one material.
+fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
+    let cos_tol = PLANAR_ANGLE_DEG.to_radians().cos();
+    let mut edge_map: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    for (ti, t) in scene.triangles.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t.vertices[k], t.vertices[(k + 1) % 3]);
+            edge_map.entry((a.min(b), a.max(b))).or_default().push(ti as u32);
+        }
+    }
+    let mut chart_of = vec![u32::MAX; scene.triangles.len()];
+    let mut faces = Vec::new();
+    for seed in 0..scene.triangles.len() {
+        if chart_of[seed] != u32::MAX {
+            continue;
+        }
+        let chart = faces.len() as u32;
+        let material = scene.triangles[seed].material;
+        let (seed_normal, _) = triangle_geometry(positions, scene.triangles[seed].vertices);
+        let mut members = vec![seed as u32];
+        chart_of[seed] = chart;
+        let mut k = 0;
+        while k < members.len() {
+            let t = scene.triangles[members[k] as usize];
+            k += 1;
+            for e in 0..3 {
+                let (a, b) = (t.vertices[e], t.vertices[(e + 1) % 3]);
+                for &other in &edge_map[&(a.min(b), a.max(b))] {
+                    let o = other as usize;
+                    if chart_of[o] != u32::MAX || scene.triangles[o].material != material {
+                        continue;
+                    }
+                    let (n, _) = triangle_geometry(positions, scene.triangles[o].vertices);
+                    if n.dot(seed_normal) >= cos_tol {
+                        chart_of[o] = chart;
+                        members.push(other);
+                    }
+                }
+            }
+        }
+        faces.push(make_face(scene, positions, material, members));
+    }
+    faces
+}
+
+fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u32>) -> PlanarFace {
+    let mut weighted = DVec3::ZERO;
+    let mut centroid = DVec3::ZERO;
+    let mut area = 0.0;
+    let mut longest = (0.0, DVec3::X);
+    for &t in &triangles {
+        let v = scene.triangles[t as usize].vertices;
+        let (n, a) = triangle_geometry(positions, v);
+        weighted += n * a;
+        area += a;
+        let [p0, p1, p2] = v.map(|i| positions[i as usize]);
+        centroid += (p0 + p1 + p2) / 3.0 * a;
+        for (x, y) in [(p0, p1), (p1, p2), (p2, p0)] {
+            let l = (y - x).length();
+            if l > longest.0 {
+                longest = (l, (y - x) / l);
+            }
+        }
+    }
+    let normal = weighted.normalize();
+    let centroid = centroid / area;
+    let axis_a = (longest.1 - normal * normal.dot(longest.1)).normalize();
+    let axis_b = normal.cross(axis_a);
+    PlanarFace {
+        normal,
+        plane_offset: normal.dot(centroid),
+        axis_a,
+        axis_b,
+        origin: centroid,
+        material,
+        triangles,
+        area,
+        atlas: atlas::ChartRect::default(),
+        twin: None,
+        is_back: false,
+    }
+}

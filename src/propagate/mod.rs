@@ -1,0 +1,279 @@
+//! Propagate: fills the light field with converged radiance on the GPU. Visibility per
+//! direction (`visibility.rs`) is built once and kept for all iterations (the paper's
+//! "pre-sort"); shooting iterations (`transport.rs`) gather until the unshot power falls below
+//! the tolerance. `cpu.rs` is the small CPU twin of both kernels, used to check the GPU.
+
+pub mod cpu;
+pub mod transport;
+pub mod visibility;
+
+use crate::error::{Result, VlfError};
+use crate::gpu::types::{GpuDirection, GpuFace, FACE_EMITTER, NO_FACE};
+use crate::lightfield::directions::DirectionSet;
+use crate::prepare::PreparedScene;
+use serde::{Deserialize, Serialize};
+
+/// Everything that decides the light field's accuracy and cost.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PropagationParams {
+    /// Geodesic frequency n: 5n^2+1 directions over the hemisphere.
+    pub geodesic_frequency: u32,
+    /// Cells per side of each direction's grid (N).
+    pub grid_resolution: u32,
+    /// Cells per side of a tile (m); N/m must be integral. Tiles hold non-diffuse elements,
+    /// which a diffuse-only scene does not allocate.
+    pub tile_size: u32,
+    /// Diffuse texels per unit length of the normalised scene.
+    pub texel_density: f64,
+    /// Stop when unshot power / emitted power falls below this.
+    pub tolerance: f64,
+    pub max_iterations: u32,
+}
+
+impl Default for PropagationParams {
+    fn default() -> Self {
+        PropagationParams {
+            geodesic_frequency: 10,
+            grid_resolution: 128,
+            tile_size: 8,
+            texel_density: 64.0,
+            tolerance: 1e-3,
+            max_iterations: 200,
+        }
+    }
+}
+
+impl PropagationParams {
+    /// Lighter settings that finish in about a minute on a software adapter with 2 cores.
+    pub fn software() -> Self {
+        PropagationParams { geodesic_frequency: 6, grid_resolution: 64, tile_size: 8, texel_density: 32.0, ..Self::default() }
+    }
+
+    /// Smallest geodesic frequency giving at least `count` directions.
+    pub fn frequency_for_directions(count: u32) -> u32 {
+        let mut n = 1;
+        while 5 * n * n + 1 < count {
+            n += 1;
+        }
+        n
+    }
+
+    pub fn direction_count(&self) -> u32 {
+        5 * self.geodesic_frequency * self.geodesic_frequency + 1
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name: &'static str, message: String| Err(VlfError::Parameter { name, message });
+        if self.geodesic_frequency == 0 || self.geodesic_frequency > 100 {
+            return bad("directions", format!("geodesic frequency {} must be 1..=100", self.geodesic_frequency));
+        }
+        if !(4..=2048).contains(&self.grid_resolution) {
+            return bad("grid", format!("{} cells per side must be 4..=2048", self.grid_resolution));
+        }
+        if self.tile_size == 0 || self.grid_resolution % self.tile_size != 0 {
+            return bad(
+                "tile",
+                format!("tile size {} must divide the grid resolution {}", self.tile_size, self.grid_resolution),
+            );
+        }
+        if !(self.texel_density.is_finite() && self.texel_density > 0.0) {
+            return bad("texel-density", format!("{} must be a positive number", self.texel_density));
+        }
+        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
+            return bad("tolerance", format!("{} must be in (0, 1)", self.tolerance));
+        }
+        if self.max_iterations == 0 {
+            return bad("max-iterations", "must be at least 1".into());
+        }
+        Ok(())
+    }
+}
+
+/// GPU face records for a prepared scene and direction set.
+pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet) -> Vec<GpuFace> {
+    let density = prepared.texel_density as f32;
+    prepared
+        .faces
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            let m = prepared.material_of(fi);
+            let emissive = m.emission.iter().any(|&e| e > 0.0) && !f.is_back;
+            let v3 = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
+            GpuFace {
+                normal: v3(f.normal),
+                plane_offset: f.plane_offset as f32,
+                origin: v3(f.origin),
+                texel_density: density,
+                axis_a: v3(f.axis_a),
+                kappa: (std::f64::consts::PI / directions.cosine_sum(f.normal)) as f32,
+                axis_b: v3(f.axis_b),
+                flags: if emissive { FACE_EMITTER } else { 0 },
+                albedo: m.diffuse,
+                atlas_x: f.atlas.x,
+                emission: if f.is_back { [0.0; 3] } else { m.emission },
+                atlas_y: f.atlas.y,
+                atlas_w: f.atlas.w,
+                atlas_h: f.atlas.h,
+                twin: f.twin.unwrap_or(NO_FACE),
+                _pad: 0,
+            }
+        })
+        .collect()
+}
+
+pub fn gpu_directions(directions: &DirectionSet) -> Vec<GpuDirection> {
+    directions
+        .directions
+        .iter()
+        .map(|d| {
+            let (u, v) = d.frame();
+            GpuDirection {
+                w: [d.w.x as f32, d.w.y as f32, d.w.z as f32],
+                solid_angle: d.solid_angle as f32,
+                u: [u.x as f32, u.y as f32, u.z as f32],
+                _pad0: 0.0,
+                v: [v.x as f32, v.y as f32, v.z as f32],
+                _pad1: 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Initial state: emitters hold unshot radiosity pi*Le and show Le.
+pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+    let n = prepared.atlas.texel_count();
+    let mut unshot = vec![[0.0f32; 4]; n];
+    let mut total = vec![[0.0f32; 4]; n];
+    for (i, p) in prepared.atlas.points.iter().enumerate() {
+        let face = p[3].to_bits();
+        if face == NO_FACE {
+            continue;
+        }
+        let e = faces[face as usize].emission;
+        unshot[i] = [e[0] * std::f32::consts::PI, e[1] * std::f32::consts::PI, e[2] * std::f32::consts::PI, 0.0];
+        total[i] = [e[0], e[1], e[2], 0.0];
+    }
+    (unshot, total)
+}
+
+/// Depth tolerance (normalised units) within which layers count as coplanar.
+pub const DEPTH_EPSILON: f32 = 2e-5;
+
+/// Propagate a scene to convergence. `progress` shows a bar on the terminal.
+pub fn propagate(
+    ctx: std::sync::Arc<crate::gpu::GpuContext>,
+    scene: &crate::scene::Scene,
+    params: &PropagationParams,
+    progress: bool,
+) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField, crate::report::PropagationReport)> {
+    use std::time::Instant;
+    params.validate()?;
+    let t0 = Instant::now();
+    let prepared = PreparedScene::new(scene, params.texel_density)?;
+    let directions = DirectionSet::geodesic(params.geodesic_frequency);
+    let mut prop = transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky)?;
+    ctx.wait()?;
+    let setup_seconds = t0.elapsed().as_secs_f64();
+
+    let bar = if progress { indicatif::ProgressBar::new(1000) } else { indicatif::ProgressBar::hidden() };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {msg}")
+            .unwrap()
+            .progress_chars("=> "),
+    );
+    bar.set_message(format!("visibility: {} directions x {}^2 cells", directions.len(), params.grid_resolution));
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let t1 = Instant::now();
+    let (layers, visibility_gpu_ms) = {
+        let vis = prop.build_visibility()?;
+        (vis.layer_count, vis.gpu_ms)
+    };
+    let visibility_seconds = t1.elapsed().as_secs_f64();
+
+    let mut warnings = prepared.warnings.clone();
+    let t2 = Instant::now();
+    let mut per_iteration = Vec::new();
+    let mut residual = 1.0;
+    if prop.emitted_power <= 0.0 && scene.sky.is_none() {
+        warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
+        residual = 0.0;
+    } else {
+        while prop.iteration < params.max_iterations {
+            let stats = prop.iterate()?;
+            residual = stats.residual;
+            let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
+            bar.set_position((done * 1000.0) as u64);
+            bar.set_message(format!("iteration {} residual {:.2e} (target {:.0e})", stats.iteration, residual, params.tolerance));
+            per_iteration.push(stats);
+            if residual < params.tolerance {
+                break;
+            }
+        }
+    }
+    ctx.wait()?;
+    let propagation_seconds = t2.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    if residual >= params.tolerance {
+        warnings.push(format!(
+            "stopped at the iteration cap ({}) with residual {residual:.2e} above the tolerance {:.0e}; raise --max-iterations",
+            params.max_iterations, params.tolerance
+        ));
+    }
+    let total = prop.read_total()?;
+    let faces = gpu_faces(&prepared, &directions);
+    let propagation_memory_bytes = prop.memory_bytes();
+    let propagation_memory = crate::report::memory_items(prop.ledger.entries());
+    let iterations = prop.iteration;
+    let resident = prop.into_resident();
+    let render_vertices = crate::lightfield::render_vertices(&prepared);
+    resident.ledger.record("render mesh", (render_vertices.len() * 16) as u64);
+    let lf = crate::lightfield::LightField {
+        meta: crate::lightfield::LightFieldMeta {
+            vlf_version: env!("CARGO_PKG_VERSION").into(),
+            scene_name: scene.name.clone(),
+            scene_hash: scene.hash.clone(),
+            params: params.clone(),
+            direction_count: directions.len() as u32,
+            normalisation: prepared.normalisation,
+            sky: scene.sky,
+            cameras: scene.cameras.clone(),
+            atlas_width: prepared.atlas.width,
+            atlas_height: prepared.atlas.height,
+            iterations,
+            residual,
+        },
+        faces,
+        render_vertices,
+        total,
+    };
+    let report = crate::report::PropagationReport {
+        scene: scene.name.clone(),
+        adapter: ctx.summary.clone(),
+        params: params.clone(),
+        directions: directions.len() as u32,
+        faces: prepared.faces.len() as u32,
+        triangles: prepared.triangles.len() as u32,
+        diffuse_elements: prepared.atlas.charted_texels,
+        non_diffuse_elements: 0,
+        tile_bytes: 0,
+        layers,
+        visibility_kept_resident: true,
+        setup_seconds,
+        visibility_seconds,
+        visibility_gpu_ms,
+        propagation_seconds,
+        iterations,
+        final_residual: residual,
+        converged: residual < params.tolerance,
+        per_iteration,
+        propagation_memory_bytes,
+        propagation_memory,
+        render_memory_bytes: resident.ledger.total(),
+        render_memory: crate::report::memory_items(resident.ledger.entries()),
+        sky: scene.sky.is_some(),
+        warnings,
+    };
+    Ok((lf, resident, report))
+}

@@ -1,0 +1,168 @@
+//! Drives `shaders/visibility.wgsl`: per direction, each cell's layer list sorted by depth,
+//! built as an A-buffer (count, prefix-sum, fill, sort). Built once and kept for all
+//! iterations.
+
+use crate::error::Result;
+use crate::gpu::types::GpuGrid;
+use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
+use wgpu::util::DeviceExt;
+
+/// Buffers describing the scene, shared by visibility and transport.
+pub struct SceneBuffers {
+    pub grid: wgpu::Buffer,
+    pub directions: wgpu::Buffer,
+    pub faces: wgpu::Buffer,
+    pub vertices: wgpu::Buffer,
+    pub triangles: wgpu::Buffer,
+    pub texel_points: wgpu::Buffer,
+    pub coverage: wgpu::Buffer,
+}
+
+/// The resident layer lists.
+pub struct Visibility {
+    pub cell_offset: wgpu::Buffer,
+    pub cell_count: wgpu::Buffer,
+    pub layers: wgpu::Buffer,
+    pub direction_base: wgpu::Buffer,
+    pub layer_count: u64,
+    /// GPU milliseconds of count, scans, fill and sort (when timestamps are available)
+    pub gpu_ms: Option<f64>,
+}
+
+/// Triangles per dispatch (the y dimension of count/fill).
+const TRIANGLES_PER_DISPATCH: u32 = 65535;
+
+fn groups(count: u32, size: u32) -> u32 {
+    count.div_ceil(size)
+}
+
+impl Visibility {
+    pub fn build(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        scene: &SceneBuffers,
+        grid: &GpuGrid,
+        timestamps: &mut Option<Timestamps>,
+    ) -> Result<Visibility> {
+        let device = &ctx.device;
+        let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
+        ctx.check_binding("the per-cell tables (directions x grid^2 x 4 bytes)", cells * 4, "use fewer directions or a coarser grid")?;
+        let module = shaders::module(device, "visibility.wgsl")?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        use Binding::*;
+        let layout0 = bind_group_layout(
+            device,
+            cs,
+            &[Uniform, Storage, Storage, Storage, StorageReadWrite, StorageReadWrite, StorageReadWrite],
+        );
+        let layout1 = bind_group_layout(device, cs, &[StorageReadWrite]);
+        let count_pipe = ctx.compute_pipeline(&module, "count_layers", &[&layout0]);
+        let scan_cells = ctx.compute_pipeline(&module, "scan_cells", &[&layout0]);
+        let scan_dirs = ctx.compute_pipeline(&module, "scan_directions", &[&layout0]);
+        let fill_pipe = ctx.compute_pipeline(&module, "fill_layers", &[&layout0, &layout1]);
+        let sort_pipe = ctx.compute_pipeline(&module, "sort_layers", &[&layout0, &layout1]);
+
+        let cell_count = ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE);
+        let cell_offset = ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE);
+        let direction_base =
+            ctx.buffer_zeroed(ledger, "visibility: direction bases", (grid.direction_count as u64 + 1) * 4, STORAGE);
+
+        // One uniform per triangle chunk, differing only in triangle_base.
+        let chunks: Vec<(wgpu::BindGroup, u32)> = (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
+            .map(|c| {
+                let base = c * TRIANGLES_PER_DISPATCH;
+                let g = GpuGrid { triangle_base: base, ..*grid };
+                let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("grid chunk"),
+                    contents: bytemuck::bytes_of(&g),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                });
+                let bg = ctx.bind_group(
+                    &layout0,
+                    &[&buf, &scene.directions, &scene.vertices, &scene.triangles, &cell_count, &cell_offset, &direction_base],
+                );
+                (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
+            })
+            .collect();
+        let main_bg = &chunks[0].0;
+        let row_groups = groups(grid.resolution, 64);
+        let cell_groups = groups(grid.resolution * grid.resolution, 64);
+
+        // count, then scan
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("count layers + scan"),
+                timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
+            });
+            pass.set_pipeline(&count_pipe);
+            for (bg, n) in &chunks {
+                pass.set_bind_group(0, bg, &[]);
+                pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
+            }
+            pass.set_bind_group(0, main_bg, &[]);
+            pass.set_pipeline(&scan_cells);
+            pass.dispatch_workgroups(grid.direction_count, 1, 1);
+            pass.set_pipeline(&scan_dirs);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let total: Vec<u32> =
+            read_tail(ctx, &direction_base, grid.direction_count as u64 * 4)?;
+        let layer_count = total[0] as u64;
+        ctx.check_binding(
+            &format!("the layer lists ({layer_count} layers x 8 bytes)"),
+            layer_count * 8,
+            "use fewer directions or a coarser grid",
+        )?;
+        let layers = ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE);
+        let layers_bg = ctx.bind_group(&layout1, &[&layers]);
+
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("fill + sort layers"),
+                timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
+            });
+            pass.set_pipeline(&fill_pipe);
+            pass.set_bind_group(1, &layers_bg, &[]);
+            for (bg, n) in &chunks {
+                pass.set_bind_group(0, bg, &[]);
+                pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
+            }
+            pass.set_bind_group(0, main_bg, &[]);
+            pass.set_pipeline(&sort_pipe);
+            pass.dispatch_workgroups(cell_groups, grid.direction_count, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait()?;
+        let gpu_ms = match timestamps.as_mut() {
+            Some(t) => Some(t.read_ms(ctx)?.iter().sum()),
+            None => None,
+        };
+        Ok(Visibility { cell_offset, cell_count, layers, direction_base, layer_count, gpu_ms })
+    }
+
+    /// Cell offsets, counts and layers, for comparison with the CPU twin.
+    pub fn read(&self, ctx: &GpuContext, cells: u64) -> Result<(Vec<u32>, Vec<u32>, Vec<[u32; 2]>)> {
+        Ok((
+            ctx.read_buffer(&self.cell_offset, cells * 4)?,
+            ctx.read_buffer(&self.cell_count, cells * 4)?,
+            ctx.read_buffer(&self.layers, self.layer_count * 8)?,
+        ))
+    }
+}
+
+/// Read one u32 at byte `offset` of a storage buffer.
+fn read_tail(ctx: &GpuContext, buffer: &wgpu::Buffer, offset: u64) -> Result<Vec<u32>> {
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("tail"),
+        size: 4,
+        usage: STORAGE,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, 4);
+    ctx.queue.submit([encoder.finish()]);
+    ctx.read_buffer(&staging, 4)
+}

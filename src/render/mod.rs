@@ -1,0 +1,294 @@
+//! Render: draws views from the resident light field (`shaders/render.wgsl`). A view is a
+//! camera plus a projection; many views share one light field. Output is linear radiance,
+//! written as EXR or tonemapped PNG by `image_io.rs`.
+
+pub mod image_io;
+
+use crate::error::{Result, VlfError};
+use crate::gpu::types::{GpuView, RenderVertex};
+use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps};
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::prepare::Normalisation;
+use crate::scene::Camera;
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+use wgpu::util::DeviceExt;
+
+pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Linear radiance, row-major from the top-left pixel.
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+/// View-projection of a scene camera in the light field's normalised space.
+pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height: u32) -> Mat4 {
+    let to_unit = |p: [f32; 3]| norm.to_unit(p).as_vec3();
+    let eye = to_unit(camera.eye);
+    let target = to_unit(camera.target);
+    let view = Mat4::look_at_rh(eye, target, Vec3::from(camera.up).normalize());
+    // the scene lies in the unit sphere: depth range from the eye's distance to it
+    let far = eye.length() + 2.0;
+    let near = (far * 1e-4).max(1e-4);
+    let proj = Mat4::perspective_rh(camera.fov_y_deg.to_radians(), width as f32 / height as f32, near, far);
+    proj * view
+}
+
+struct Target {
+    width: u32,
+    height: u32,
+    color: wgpu::Texture,
+    color_view: wgpu::TextureView,
+    depth_view: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    padded_row: u32,
+}
+
+pub struct Renderer {
+    ctx: Arc<GpuContext>,
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    view_buffer: wgpu::Buffer,
+    vertex_buffer: wgpu::Buffer,
+    vertex_count: u32,
+    bind_group: wgpu::BindGroup,
+    normalisation: Normalisation,
+    sky: [f32; 3],
+    atlas_width: u32,
+    target: Option<Target>,
+}
+
+impl Renderer {
+    pub fn new(resident: &ResidentLightField, lf: &LightField, ledger: &MemoryLedger) -> Result<Renderer> {
+        let ctx = resident.ctx.clone();
+        let device = &ctx.device;
+        let module = shaders::module(device, "render.wgsl")?;
+        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
+        let layout = bind_group_layout(device, stages, &[Binding::Uniform, Binding::Storage, Binding::Storage]);
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("render"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let vertex_layout = wgpu::VertexBufferLayout {
+            array_stride: std::mem::size_of::<RenderVertex>() as u64,
+            step_mode: wgpu::VertexStepMode::Vertex,
+            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
+        };
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("render"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[Some(vertex_layout)],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                front_face: wgpu::FrontFace::Ccw,
+                cull_mode: None,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Less),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: COLOR_FORMAT,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("view"),
+            size: std::mem::size_of::<GpuView>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let vertex_bytes: &[u8] = bytemuck::cast_slice(&lf.render_vertices);
+        ledger.record("render mesh", vertex_bytes.len() as u64);
+        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("render mesh"),
+            contents: if vertex_bytes.is_empty() { &[0u8; 16] } else { vertex_bytes },
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let bind_group = ctx.bind_group(&layout, &[&view_buffer, &resident.faces, &resident.total]);
+        Ok(Renderer {
+            ctx: ctx.clone(),
+            pipeline,
+            layout,
+            view_buffer,
+            vertex_buffer,
+            vertex_count: lf.render_vertices.len() as u32,
+            bind_group,
+            normalisation: lf.meta.normalisation,
+            sky: lf.meta.sky.unwrap_or([0.0; 3]),
+            atlas_width: lf.meta.atlas_width,
+            target: None,
+        })
+    }
+
+    fn target(&mut self, width: u32, height: u32) -> &Target {
+        if self.target.as_ref().is_none_or(|t| t.width != width || t.height != height) {
+            let device = &self.ctx.device;
+            let extent = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
+            let make = |format, usage| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("render target"),
+                    size: extent,
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+            };
+            let color = make(COLOR_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
+            let depth = make(DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+            let padded_row = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("frame readback"),
+                size: padded_row as u64 * height as u64,
+                usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            });
+            self.target = Some(Target {
+                width,
+                height,
+                color_view: color.create_view(&Default::default()),
+                depth_view: depth.create_view(&Default::default()),
+                color,
+                readback,
+                padded_row,
+            });
+        }
+        self.target.as_ref().unwrap()
+    }
+
+    fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<&mut Timestamps>) {
+        let target = self.target.as_ref().expect("target sized");
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("view"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target.color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color {
+                        r: self.sky[0] as f64,
+                        g: self.sky[1] as f64,
+                        b: self.sky[2] as f64,
+                        a: 1.0,
+                    }),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &target.depth_view,
+                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                stencil_ops: None,
+            }),
+            timestamp_writes: timestamps.and_then(|t| t.render_writes()),
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
+        pass.draw(0..self.vertex_count, 0..1);
+    }
+
+    fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
+        let view = GpuView {
+            view_proj: view_projection(camera, &self.normalisation, width, height).to_cols_array_2d(),
+            sky: [self.sky[0], self.sky[1], self.sky[2], 1.0],
+            atlas_width: self.atlas_width,
+            ..Default::default()
+        };
+        self.ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+    }
+
+    /// Render one view and read it back.
+    pub fn render(&mut self, camera: &Camera, width: u32, height: u32) -> Result<Frame> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(VlfError::Parameter { name: "size", message: format!("{width}x{height} must be 1..16384 each way") });
+        }
+        self.set_view(camera, width, height);
+        self.target(width, height);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_frame(&mut encoder, None);
+        let t = self.target.as_ref().unwrap();
+        encoder.copy_texture_to_buffer(
+            t.color.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &t.readback,
+                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(t.padded_row), rows_per_image: Some(height) },
+            },
+            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        );
+        self.ctx.queue.submit([encoder.finish()]);
+        let raw: Vec<[f32; 4]> = self.ctx.read_buffer(&t.readback, t.padded_row as u64 * height as u64)?;
+        let stride = (t.padded_row / 16) as usize;
+        let mut pixels = Vec::with_capacity((width * height) as usize);
+        for row in 0..height as usize {
+            pixels.extend_from_slice(&raw[row * stride..row * stride + width as usize]);
+        }
+        Ok(Frame { width, height, pixels })
+    }
+
+    /// Render `frames` frames of one view; per-frame GPU milliseconds from timestamp queries
+    /// (or wall-clock milliseconds per submitted frame when the adapter has none).
+    pub fn time_frames(&mut self, camera: &Camera, width: u32, height: u32, frames: u32) -> Result<(Vec<f64>, bool)> {
+        self.set_view(camera, width, height);
+        self.target(width, height);
+        const BATCH: u32 = 64;
+        let mut out = Vec::with_capacity(frames as usize);
+        match Timestamps::new(&self.ctx, BATCH) {
+            Some(mut ts) => {
+                let mut left = frames;
+                while left > 0 {
+                    let n = left.min(BATCH);
+                    let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                    for _ in 0..n {
+                        self.encode_frame(&mut encoder, Some(&mut ts));
+                    }
+                    self.ctx.queue.submit([encoder.finish()]);
+                    out.extend(ts.read_ms(&self.ctx)?);
+                    left -= n;
+                }
+                Ok((out, true))
+            }
+            None => {
+                for _ in 0..frames {
+                    let start = std::time::Instant::now();
+                    let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                    self.encode_frame(&mut encoder, None);
+                    self.ctx.queue.submit([encoder.finish()]);
+                    self.ctx.wait()?;
+                    out.push(start.elapsed().as_secs_f64() * 1e3);
+                }
+                Ok((out, false))
+            }
+        }
+    }
+
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+}

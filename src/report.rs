@@ -1,0 +1,88 @@
+//! The propagation summary, after the paper's Table 1: what was propagated, what it cost in
+//! time and GPU memory. Printed as a table and written as JSON.
+
+use crate::gpu::{human_bytes, AdapterSummary};
+use crate::propagate::transport::IterationStats;
+use crate::propagate::PropagationParams;
+use serde::Serialize;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct MemoryItem {
+    pub name: String,
+    pub bytes: u64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct PropagationReport {
+    pub scene: String,
+    pub adapter: AdapterSummary,
+    pub params: PropagationParams,
+    pub directions: u32,
+    pub faces: u32,
+    pub triangles: u32,
+    /// texels of all charts, padding included
+    pub diffuse_elements: u64,
+    /// tile cells of non-diffuse faces (none in a diffuse-only scene)
+    pub non_diffuse_elements: u64,
+    pub tile_bytes: u64,
+    pub layers: u64,
+    pub visibility_kept_resident: bool,
+    pub setup_seconds: f64,
+    pub visibility_seconds: f64,
+    pub visibility_gpu_ms: Option<f64>,
+    pub propagation_seconds: f64,
+    pub iterations: u32,
+    pub final_residual: f64,
+    pub converged: bool,
+    pub per_iteration: Vec<IterationStats>,
+    pub propagation_memory_bytes: u64,
+    pub propagation_memory: Vec<MemoryItem>,
+    pub render_memory_bytes: u64,
+    pub render_memory: Vec<MemoryItem>,
+    pub sky: bool,
+    pub warnings: Vec<String>,
+}
+
+impl PropagationReport {
+    pub fn table(&self) -> String {
+        let mut rows: Vec<(String, String)> = vec![
+            ("scene".into(), self.scene.clone()),
+            ("adapter".into(), format!("{} ({}, {})", self.adapter.name, self.adapter.backend, self.adapter.driver_info)),
+            ("directions".into(), format!("{} (geodesic n={})", self.directions, self.params.geodesic_frequency)),
+            ("grid / tile".into(), format!("{0}x{0} cells, {1}x{1}-cell tiles", self.params.grid_resolution, self.params.tile_size)),
+            ("faces (triangles)".into(), format!("{} ({})", self.faces, self.triangles)),
+            ("diffuse elements".into(), format!("{} texels at {} / unit", self.diffuse_elements, self.params.texel_density)),
+            ("non-diffuse elements".into(), format!("{} ({} of tiles)", self.non_diffuse_elements, human_bytes(self.tile_bytes))),
+            ("visibility layers".into(), format!("{} (kept resident for all iterations)", self.layers)),
+            ("setup".into(), format!("{:.3} s", self.setup_seconds)),
+            (
+                "visibility".into(),
+                match self.visibility_gpu_ms {
+                    Some(g) => format!("{:.3} s ({:.2} ms GPU)", self.visibility_seconds, g),
+                    None => format!("{:.3} s", self.visibility_seconds),
+                },
+            ),
+            ("propagation".into(), format!("{:.3} s", self.propagation_seconds)),
+            ("iterations".into(), format!("{}", self.iterations)),
+            (
+                "final residual".into(),
+                format!(
+                    "{:.3e} ({})",
+                    self.final_residual,
+                    if self.converged { format!("converged below {:.0e}", self.params.tolerance) } else { "iteration cap reached".into() }
+                ),
+            ),
+            ("GPU memory, propagating".into(), human_bytes(self.propagation_memory_bytes)),
+            ("GPU memory, rendering".into(), human_bytes(self.render_memory_bytes)),
+        ];
+        if !self.sky {
+            rows.push(("sky".into(), "none (black): nothing allocated".into()));
+        }
+        let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+        rows.iter().map(|(k, v)| format!("  {k:<width$}  {v}\n")).collect()
+    }
+}
+
+pub fn memory_items(entries: Vec<(String, u64)>) -> Vec<MemoryItem> {
+    entries.into_iter().map(|(name, bytes)| MemoryItem { name, bytes }).collect()
+}

@@ -1,0 +1,203 @@
+//! The scene contract of DESIGN.md section 6: `scene.toml` (this module) plus an OBJ/MTL mesh
+//! (`obj.rs`). Loading validates everything and yields a [`Scene`] in world units (metres).
+
+pub mod obj;
+
+use crate::error::{Result, VlfError};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// `scene.toml` as written by users and other tools.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    pub name: String,
+    pub mesh: PathBuf,
+    #[serde(default)]
+    pub sky: Option<SkyFile>,
+    #[serde(default)]
+    pub camera: Vec<Camera>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialOverride>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyFile {
+    pub radiance: [f32; 3],
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    pub name: String,
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    pub up: [f32; 3],
+    pub fov_y_deg: f32,
+    pub size: [u32; 2],
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialOverride {
+    pub mirror: Option<[f32; 3]>,
+    pub diffuse: Option<[f32; 3]>,
+    pub emission: Option<[f32; 3]>,
+    pub two_sided: Option<bool>,
+}
+
+/// A material after MTL and overrides are combined.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    pub name: String,
+    pub diffuse: [f32; 3],
+    pub mirror: [f32; 3],
+    pub emission: [f32; 3],
+    pub two_sided: bool,
+}
+
+/// One triangle of the imported mesh, counter-clockwise seen from its front.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub vertices: [u32; 3],
+    pub material: u32,
+}
+
+/// A loaded, validated scene in world units.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub name: String,
+    pub source: PathBuf,
+    pub positions: Vec<[f32; 3]>,
+    pub triangles: Vec<Triangle>,
+    pub materials: Vec<Material>,
+    pub sky: Option<[f32; 3]>,
+    pub cameras: Vec<Camera>,
+    /// Things the importer could not represent or had to repair, for the user and the report.
+    pub warnings: Vec<String>,
+    /// SHA-256 over scene.toml, the mesh and its material library.
+    pub hash: String,
+}
+
+impl Scene {
+    pub fn load(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+        let file: SceneFile = toml::from_str(&text)
+            .map_err(|e| VlfError::SceneToml { path: path.to_path_buf(), message: toml_message(&e) })?;
+        file.validate(path)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let mesh_path = dir.join(&file.mesh);
+        let mesh = obj::import(&mesh_path, &file.materials)?;
+        for name in file.materials.keys() {
+            if !mesh.materials.iter().any(|m| &m.name == name) {
+                return Err(VlfError::SceneToml {
+                    path: path.to_path_buf(),
+                    message: format!(
+                        "[materials.{name}] overrides a material that {} does not use; it has: {}",
+                        mesh_path.display(),
+                        mesh.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+                    ),
+                });
+            }
+        }
+        use sha2::Digest;
+        let mut hasher = sha2::Sha256::new();
+        hasher.update(text.as_bytes());
+        for f in &mesh.source_files {
+            hasher.update(std::fs::read(f).map_err(|e| VlfError::io(f, e))?);
+        }
+        let hash = format!("{:x}", hasher.finalize());
+        Ok(Scene {
+            name: file.name,
+            source: path.to_path_buf(),
+            positions: mesh.positions,
+            triangles: mesh.triangles,
+            materials: mesh.materials,
+            sky: file.sky.map(|s| s.radiance).filter(|r| r.iter().any(|&c| c > 0.0)),
+            cameras: file.camera,
+            warnings: mesh.warnings,
+            hash,
+        })
+    }
+
+    pub fn camera(&self, name: Option<&str>) -> Result<&Camera> {
+        match name {
+            None => self.cameras.first().ok_or_else(|| VlfError::UnknownCamera {
+                name: "(default)".into(),
+                available: "no [[camera]] entries; add one to scene.toml".into(),
+            }),
+            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| VlfError::UnknownCamera {
+                name: n.into(),
+                available: self.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+            }),
+        }
+    }
+}
+
+/// toml's message already names line and column; keep it on one readable block.
+fn toml_message(e: &toml::de::Error) -> String {
+    e.to_string().trim_end().to_string()
+}
+
+impl SceneFile {
+    fn validate(&self, path: &Path) -> Result<()> {
+        let err = |message: String| VlfError::SceneToml { path: path.to_path_buf(), message };
+        if let Some(sky) = &self.sky {
+            check_color(&sky.radiance, false).map_err(|m| err(format!("sky.radiance: {m}")))?;
+        }
+        let mut names = std::collections::HashSet::new();
+        for (i, c) in self.camera.iter().enumerate() {
+            let at = format!("camera[{i}] ({:?})", c.name);
+            if !names.insert(c.name.clone()) {
+                return Err(err(format!("{at}: duplicate camera name")));
+            }
+            for (field, v) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
+                if v.iter().any(|x| !x.is_finite()) {
+                    return Err(err(format!("{at}.{field}: must be finite numbers")));
+                }
+            }
+            if c.eye == c.target {
+                return Err(err(format!("{at}: eye and target are the same point")));
+            }
+            let forward = glam::Vec3::from(c.target) - glam::Vec3::from(c.eye);
+            if forward.cross(glam::Vec3::from(c.up)).length_squared() < 1e-12 {
+                return Err(err(format!("{at}.up: parallel to the viewing direction")));
+            }
+            if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
+                return Err(err(format!("{at}.fov_y_deg: {} is not between 0 and 180", c.fov_y_deg)));
+            }
+            if c.size[0] == 0 || c.size[1] == 0 || c.size[0] > 16384 || c.size[1] > 16384 {
+                return Err(err(format!("{at}.size: {:?} must be 1..16384 pixels each way", c.size)));
+            }
+        }
+        for (name, m) in &self.materials {
+            let at = format!("materials.{name}");
+            if let Some(c) = m.diffuse {
+                check_color(&c, true).map_err(|e| err(format!("{at}.diffuse: {e}")))?;
+            }
+            if let Some(c) = m.mirror {
+                check_color(&c, true).map_err(|e| err(format!("{at}.mirror: {e}")))?;
+            }
+            if let Some(c) = m.emission {
+                check_color(&c, false).map_err(|e| err(format!("{at}.emission: {e}")))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Reflectances lie in [0, 1]; radiances are finite and >= 0.
+pub fn check_color(c: &[f32; 3], reflectance: bool) -> std::result::Result<(), String> {
+    if c.iter().any(|x| !x.is_finite()) {
+        return Err(format!("{c:?} is not finite"));
+    }
+    if c.iter().any(|&x| x < 0.0) {
+        return Err(format!("{c:?} has a negative component"));
+    }
+    if reflectance && c.iter().any(|&x| x > 1.0) {
+        return Err(format!("{c:?} exceeds 1: a surface cannot reflect more light than it receives"));
+    }
+    Ok(())
+}

@@ -1,0 +1,237 @@
+//! OBJ/MTL import through tobj. Before tobj parses the file, a line scan finds the faults tobj
+//! would report without a line number (non-finite vertices, face indices out of range). After
+//! it, degenerate and duplicated triangles are dropped with a count in a warning.
+
+use super::{check_color, Material, MaterialOverride, Triangle};
+use crate::error::{Result, VlfError};
+use std::collections::{BTreeMap, HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+pub struct ImportedMesh {
+    pub positions: Vec<[f32; 3]>,
+    pub triangles: Vec<Triangle>,
+    pub materials: Vec<Material>,
+    pub warnings: Vec<String>,
+    /// The OBJ and every material library it loaded, for the scene hash.
+    pub source_files: Vec<PathBuf>,
+}
+
+/// Triangles whose area is below this fraction of the scene's squared extent are dropped.
+const DEGENERATE_AREA: f64 = 1e-14;
+
+pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
+    let mesh_err = |message: String| VlfError::Mesh { path: path.to_path_buf(), message };
+    let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+    prescan(&text).map_err(mesh_err)?;
+
+    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let source_files = std::cell::RefCell::new(vec![path.to_path_buf()]);
+    let mtl_missing: std::cell::RefCell<Option<String>> = Default::default();
+    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let mut reader = std::io::BufReader::new(text.as_bytes());
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
+        let full = dir.join(mtl);
+        match std::fs::read_to_string(&full) {
+            Ok(t) => {
+                source_files.borrow_mut().push(full);
+                tobj::load_mtl_buf(&mut std::io::BufReader::new(t.as_bytes()))
+            }
+            Err(e) => {
+                *mtl_missing.borrow_mut() = Some(format!("material library {} (named by mtllib): {e}", full.display()));
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    })
+    .map_err(|e| mesh_err(format!("cannot parse OBJ: {e}")))?;
+    let source_files = source_files.into_inner();
+    if let Some(m) = mtl_missing.into_inner() {
+        return Err(mesh_err(format!("cannot read {m}")));
+    }
+    let materials = materials.map_err(|e| mesh_err(format!("cannot parse its material library: {e}")))?;
+    let mtl_path = source_files.get(1).cloned().unwrap_or_else(|| path.to_path_buf());
+
+    let mut warnings = Vec::new();
+    let mut out_materials: Vec<Material> = Vec::new();
+    for m in &materials {
+        out_materials.push(convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?);
+    }
+    let default_material = out_materials.len() as u32;
+    let mut uses_default = false;
+
+    // Weld equal positions across models so that connectivity is seen across groups.
+    let mut positions: Vec<[f32; 3]> = Vec::new();
+    let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
+    let mut triangles = Vec::new();
+    let mut dropped_degenerate = 0usize;
+    let mut dropped_duplicate = 0usize;
+    let mut seen: HashSet<[u32; 3]> = HashSet::new();
+    let mut extent = 0.0f64;
+    for model in &models {
+        for p in model.mesh.positions.chunks(3) {
+            extent = extent.max(p.iter().map(|x| x.abs() as f64).fold(0.0, f64::max));
+        }
+    }
+    let min_area = DEGENERATE_AREA * (extent * extent).max(1e-30);
+    for model in &models {
+        let mesh = &model.mesh;
+        let material = match mesh.material_id {
+            Some(id) => id as u32,
+            None => {
+                uses_default = true;
+                default_material
+            }
+        };
+        let mut local = Vec::with_capacity(mesh.positions.len() / 3);
+        for p in mesh.positions.chunks(3) {
+            let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
+            let id = *welded.entry(key).or_insert_with(|| {
+                positions.push([p[0], p[1], p[2]]);
+                positions.len() as u32 - 1
+            });
+            local.push(id);
+        }
+        for tri in mesh.indices.chunks(3) {
+            let v = [local[tri[0] as usize], local[tri[1] as usize], local[tri[2] as usize]];
+            let [a, b, c] = v.map(|i| glam::DVec3::from(positions[i as usize].map(|x| x as f64)));
+            if (b - a).cross(c - a).length() * 0.5 <= min_area {
+                dropped_degenerate += 1;
+                continue;
+            }
+            // the same three corners in the same winding, whichever corner comes first
+            let rot = (0..3).min_by_key(|&k| v[k]).unwrap();
+            let key = [v[rot], v[(rot + 1) % 3], v[(rot + 2) % 3]];
+            if !seen.insert(key) {
+                dropped_duplicate += 1;
+                continue;
+            }
+            triangles.push(Triangle { vertices: v, material });
+        }
+    }
+    if uses_default {
+        warnings.push(format!(
+            "{}: faces without `usemtl` get a grey diffuse default (Kd 0.5)",
+            path.display()
+        ));
+        out_materials.push(Material {
+            name: "(default)".into(),
+            diffuse: [0.5; 3],
+            mirror: [0.0; 3],
+            emission: [0.0; 3],
+            two_sided: false,
+        });
+    }
+    if dropped_degenerate > 0 {
+        warnings.push(format!("{}: dropped {dropped_degenerate} zero-area triangle(s)", path.display()));
+    }
+    if dropped_duplicate > 0 {
+        warnings.push(format!(
+            "{}: dropped {dropped_duplicate} duplicated triangle(s) (same corners and winding as another)",
+            path.display()
+        ));
+    }
+    if triangles.is_empty() {
+        return Err(mesh_err("the mesh has no triangles with area: nothing to light".into()));
+    }
+    Ok(ImportedMesh { positions, triangles, materials: out_materials, warnings, source_files })
+}
+
+fn convert_material(
+    m: &tobj::Material,
+    o: Option<&MaterialOverride>,
+    mtl_path: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<Material> {
+    let err = |message: String| VlfError::Material { path: mtl_path.to_path_buf(), material: m.name.clone(), message };
+    let kd = m.diffuse.unwrap_or([0.0; 3]);
+    let ks = m.specular.unwrap_or([0.0; 3]);
+    let ke = m.emissive.unwrap_or([0.0; 3]);
+    check_color(&kd, true).map_err(|e| err(format!("Kd {e}")))?;
+    check_color(&ks, true).map_err(|e| err(format!("Ks {e}")))?;
+    check_color(&ke, false).map_err(|e| err(format!("Ke {e}")))?;
+    let o = o.cloned().unwrap_or_default();
+    let material = Material {
+        name: m.name.clone(),
+        diffuse: o.diffuse.unwrap_or(kd),
+        mirror: o.mirror.unwrap_or(ks),
+        emission: o.emission.unwrap_or(ke),
+        two_sided: o.two_sided.unwrap_or(false),
+    };
+    for c in 0..3 {
+        if material.diffuse[c] + material.mirror[c] > 1.0 + 1e-6 {
+            return Err(err(format!(
+                "diffuse {:?} + mirror {:?} exceeds 1 in channel {c}: the surface would create energy",
+                material.diffuse, material.mirror
+            )));
+        }
+    }
+    if material.mirror.iter().any(|&x| x > 0.0) {
+        warnings.push(format!(
+            "material {:?}: mirror reflectance {:?} is not propagated yet (diffuse-only light field); \
+             it is treated as absorbed",
+            m.name, material.mirror
+        ));
+    }
+    for (what, tex) in [("map_Kd", &m.diffuse_texture), ("map_Ks", &m.specular_texture), ("map_bump", &m.normal_texture)] {
+        if let Some(t) = tex {
+            warnings.push(format!("material {:?}: {what} {t} is ignored (textures are not supported yet)", m.name));
+        }
+    }
+    for key in m.unknown_param.keys() {
+        if key == "map_Ke" {
+            warnings.push(format!("material {:?}: map_Ke is ignored (textures are not supported yet)", m.name));
+        }
+    }
+    if m.dissolve.is_some_and(|d| d < 1.0) {
+        warnings.push(format!("material {:?}: transparency (d < 1) cannot be represented; treated as opaque", m.name));
+    }
+    Ok(material)
+}
+
+/// Line-numbered checks tobj cannot report well: vertex coordinates that are not finite,
+/// face indices that point outside the vertices defined so far.
+fn prescan(text: &str) -> std::result::Result<(), String> {
+    let mut vertex_count: i64 = 0;
+    for (index, raw) in text.lines().enumerate() {
+        let line_no = index + 1;
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                vertex_count += 1;
+                for (axis, w) in words.take(3).enumerate() {
+                    match w.parse::<f32>() {
+                        Ok(x) if x.is_finite() => {}
+                        Ok(_) => {
+                            return Err(format!(
+                                "line {line_no}: vertex {vertex_count} has a non-finite coordinate {:?} ({})",
+                                w,
+                                ["x", "y", "z"][axis]
+                            ))
+                        }
+                        Err(_) => return Err(format!("line {line_no}: vertex coordinate {w:?} is not a number")),
+                    }
+                }
+            }
+            Some("f") => {
+                let corners: Vec<&str> = words.collect();
+                if corners.len() < 3 {
+                    return Err(format!("line {line_no}: a face needs at least 3 corners, found {}", corners.len()));
+                }
+                for corner in corners {
+                    let first = corner.split('/').next().unwrap_or("");
+                    let i: i64 = first
+                        .parse()
+                        .map_err(|_| format!("line {line_no}: face corner {corner:?} is not a vertex index"))?;
+                    let resolved = if i < 0 { vertex_count + 1 + i } else { i };
+                    if i == 0 || resolved < 1 || resolved > vertex_count {
+                        return Err(format!(
+                            "line {line_no}: face index {i} is out of range (only {vertex_count} vertices are defined before it)"
+                        ));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
