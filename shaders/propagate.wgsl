@@ -93,17 +93,16 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
     let inv_h = 1.0 / grid.cell_size;
     let q = vec2<f32>((dot(x, d.u) + 1.0) * inv_h - 0.5, (dot(x, d.v) + 1.0) * inv_h - 0.5);
     let base = dir_index * grid.resolution * grid.resolution;
-    let corner = vec2<i32>(floor(q));
     let nearest = vec2<i32>(round(q));
-    // the nearest cell centre first, then the rest of the 2x2 block around x
+    // the nearest cell centre first, then its 3x3 neighbourhood
     let c0 = clamp_cell(nearest);
     let cell0 = base + c0.y * grid.resolution + c0.x;
     let k0 = find_in_cell(cell0, face);
     if k0 >= 0 {
         return upstream_of_entry(cell0, u32(k0), forward);
     }
-    for (var i = 0; i < 4; i++) {
-        let c = clamp_cell(corner + vec2<i32>(i & 1, i >> 1u));
+    for (var i = 0; i < 9; i++) {
+        let c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
         if all(c == c0) {
             continue;
         }
@@ -113,7 +112,20 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
             return upstream_of_entry(cell, u32(k), forward);
         }
     }
-    return upstream_of_depth(cell0, dot(x, d.w), forward);
+    // The face has no cell centre nearby (a grazing direction at a rim or corner): take the
+    // first layer upstream of x's depth in the nearest cell whose line meets one.
+    let depth = dot(x, d.w);
+    for (var i = -1; i < 9; i++) {
+        var c = c0;
+        if i >= 0 {
+            c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
+        }
+        let sender = upstream_of_depth(base + c.y * grid.resolution + c.x, depth, forward);
+        if sender != NO_FACE {
+            return sender;
+        }
+    }
+    return NO_FACE;
 }
 
 // Unshot radiance arriving at x along travel direction `travel` from `sender`.

@@ -26,6 +26,19 @@ pub struct GpuContext {
     pub summary: AdapterSummary,
     pub timestamps: bool,
     pub timestamp_period_ns: f32,
+    /// errors wgpu reported outside any call's return value (validation, out of memory)
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+/// An error and every cause under it, on one line each.
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut source = e.source();
+    while let Some(cause) = source {
+        s.push_str(&format!("\n  caused by: {cause}"));
+        source = cause.source();
+    }
+    s
 }
 
 impl GpuContext {
@@ -77,6 +90,16 @@ impl GpuContext {
             .await
             .map_err(|e| VlfError::Device(e.to_string()))?;
         let timestamp_period_ns = queue.get_timestamp_period();
+        let errors: Arc<Mutex<Vec<String>>> = Default::default();
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            let text = match &e {
+                wgpu::Error::Validation { description, .. } => description.clone(),
+                wgpu::Error::OutOfMemory { .. } => "the GPU ran out of memory".into(),
+                other => error_chain(other),
+            };
+            sink.lock().unwrap().push(text);
+        }));
         let summary = AdapterSummary {
             name: info.name.clone(),
             backend: format!("{:?}", info.backend),
@@ -85,7 +108,7 @@ impl GpuContext {
             device_type: format!("{:?}", info.device_type),
             software,
         };
-        Ok(Arc::new(GpuContext { device, queue, adapter, summary, timestamps, timestamp_period_ns }))
+        Ok(Arc::new(GpuContext { device, queue, adapter, summary, timestamps, timestamp_period_ns, errors }))
     }
 
     pub fn limits(&self) -> wgpu::Limits {
@@ -108,7 +131,17 @@ impl GpuContext {
 
     pub fn wait(&self) -> Result<()> {
         self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| VlfError::Gpu(e.to_string()))?;
-        Ok(())
+        self.check_errors()
+    }
+
+    /// Turn errors wgpu reported asynchronously into an error of ours.
+    pub fn check_errors(&self) -> Result<()> {
+        let mut errors = self.errors.lock().unwrap();
+        if errors.is_empty() {
+            return Ok(());
+        }
+        let all = errors.drain(..).collect::<Vec<_>>().join("\n");
+        Err(VlfError::Gpu(all))
     }
 
     /// Copy a buffer back to the CPU.

@@ -202,6 +202,16 @@ fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u
     let mut weighted = DVec3::ZERO;
     let mut centroid = DVec3::ZERO;
     let mut area = 0.0;
+    // boundary edges (used by one triangle of the chart) orient the chart: the longest one
+    // gives the first axis, so rectangles map to axis-aligned texel rectangles
+    let mut edge_use: HashMap<(u32, u32), u32> = HashMap::new();
+    for &t in &triangles {
+        let v = scene.triangles[t as usize].vertices;
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            *edge_use.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
     let mut longest = (0.0, DVec3::X);
     for &t in &triangles {
         let v = scene.triangles[t as usize].vertices;
@@ -210,7 +220,12 @@ fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u
         area += a;
         let [p0, p1, p2] = v.map(|i| positions[i as usize]);
         centroid += (p0 + p1 + p2) / 3.0 * a;
-        for (x, y) in [(p0, p1), (p1, p2), (p2, p0)] {
+        for k in 0..3 {
+            let (i, j) = (v[k], v[(k + 1) % 3]);
+            if edge_use[&(i.min(j), i.max(j))] != 1 {
+                continue;
+            }
+            let (x, y) = (positions[i as usize], positions[j as usize]);
             let l = (y - x).length();
             if l > longest.0 {
                 longest = (l, (y - x) / l);

@@ -195,7 +195,6 @@ impl GatherInputs<'_> {
         let inv_h = 1.0 / self.grid.cell_size;
         let q = Vec2::new((x.dot(v3(d.u)) + 1.0) * inv_h - 0.5, (x.dot(v3(d.v)) + 1.0) * inv_h - 0.5);
         let base = dir_index * self.grid.resolution * self.grid.resolution;
-        let corner = [q.x.floor() as i32, q.y.floor() as i32];
         let nearest = [q.x.round_ties_even() as i32, q.y.round_ties_even() as i32];
         let c0 = self.clamp_cell(nearest);
         let cell0 = base + c0[1] * self.grid.resolution + c0[0];
@@ -203,8 +202,8 @@ impl GatherInputs<'_> {
         if k0 >= 0 {
             return self.upstream_of_entry(cell0, k0 as u32, forward);
         }
-        for i in 0..4 {
-            let c = self.clamp_cell([corner[0] + (i & 1), corner[1] + (i >> 1)]);
+        for i in 0..9 {
+            let c = self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1]);
             if c == c0 {
                 continue;
             }
@@ -214,7 +213,15 @@ impl GatherInputs<'_> {
                 return self.upstream_of_entry(cell, k as u32, forward);
             }
         }
-        self.upstream_of_depth(cell0, x.dot(v3(d.w)), forward)
+        let depth = x.dot(v3(d.w));
+        for i in -1..9 {
+            let c = if i >= 0 { self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1]) } else { c0 };
+            let sender = self.upstream_of_depth(base + c[1] * self.grid.resolution + c[0], depth, forward);
+            if sender != NO_FACE {
+                return sender;
+            }
+        }
+        NO_FACE
     }
 
     fn sender_radiance(&self, sender: u32, x: Vec3, travel: Vec3) -> Vec3 {

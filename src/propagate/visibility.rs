@@ -56,7 +56,11 @@ impl Visibility {
             &[Uniform, Storage, Storage, Storage, StorageReadWrite, StorageReadWrite, StorageReadWrite],
         );
         let layout1 = bind_group_layout(device, cs, &[StorageReadWrite]);
-        let count_pipe = ctx.compute_pipeline(&module, "count_layers", &[&layout0]);
+        // count_layers shares its traversal with fill_layers, so its layout names the layers
+        // binding too; a placeholder stands in until the real size is known.
+        let count_pipe = ctx.compute_pipeline(&module, "count_layers", &[&layout0, &layout1]);
+        let placeholder = ctx.buffer_zeroed(&MemoryLedger::default(), "layers placeholder", 16, STORAGE);
+        let placeholder_bg = ctx.bind_group(&layout1, &[&placeholder]);
         let scan_cells = ctx.compute_pipeline(&module, "scan_cells", &[&layout0]);
         let scan_dirs = ctx.compute_pipeline(&module, "scan_directions", &[&layout0]);
         let fill_pipe = ctx.compute_pipeline(&module, "fill_layers", &[&layout0, &layout1]);
@@ -96,6 +100,7 @@ impl Visibility {
                 timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
             pass.set_pipeline(&count_pipe);
+            pass.set_bind_group(1, &placeholder_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
                 pass.dispatch_workgroups(row_groups, *n, grid.direction_count);

@@ -1,0 +1,115 @@
+//! Physics on the GPU (the software adapter is enough): the furnace and form factors, each with
+//! its stated tolerance.
+
+mod common;
+use common::*;
+use glam::DVec3;
+use vlf::lightfield::directions::DirectionSet;
+use vlf::prepare::PreparedScene;
+use vlf::propagate::transport::Propagator;
+use vlf::propagate::PropagationParams;
+use vlf::scene::Scene;
+
+fn small_params() -> PropagationParams {
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200 }
+}
+
+fn furnace(rho: f32, le: f32) -> (tempfile::TempDir, Scene) {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", DVec3::ZERO, 0.5, true);
+    let path = write_scene(dir.path(), &obj, &[Mat { name: "wall", kd: [rho; 3], ke: [le; 3] }], "");
+    let scene = Scene::load(&path).unwrap();
+    (dir, scene)
+}
+
+/// Largest relative deviation of any covered texel's radiance (all channels) from `expected`.
+fn worst_deviation(prepared: &PreparedScene, total: &[[f32; 4]], expected: f64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (i, p) in prepared.atlas.points.iter().enumerate() {
+        if p[3].to_bits() == u32::MAX {
+            continue;
+        }
+        for c in 0..3 {
+            worst = worst.max((total[i][c] as f64 - expected).abs() / expected);
+        }
+    }
+    worst
+}
+
+#[test]
+fn furnace_matches_le_over_one_minus_rho_per_bounce_and_converged() {
+    let ctx = gpu();
+    let le = 1.5f64;
+    for rho in [0.3f64, 0.5, 0.8] {
+        let (_dir, scene) = furnace(rho as f32, le as f32);
+        let params = small_params();
+        let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
+        let directions = DirectionSet::geodesic(params.geodesic_frequency);
+        let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None).unwrap();
+        prop.build_visibility().unwrap();
+        for k in 1..=4u32 {
+            prop.iterate().unwrap();
+            let expected = le * (1.0 - rho.powi(k as i32 + 1)) / (1.0 - rho);
+            let worst = worst_deviation(&prepared, &prop.read_total().unwrap(), expected);
+            assert!(worst < 0.01, "rho {rho}, after {k} iterations: worst texel off by {:.3}% from {expected}", worst * 100.0);
+        }
+        let (_, _, report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
+        assert!(report.converged, "rho {rho}: residual {}", report.final_residual);
+        let (lf, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
+        let expected = le / (1.0 - rho);
+        let worst = worst_deviation(&prepared, &lf.total, expected);
+        assert!(worst < 0.01, "rho {rho} converged: worst texel off by {:.3}% from {expected}", worst * 100.0);
+        // the residual after k iterations is rho^k in a furnace
+        let k = report.iterations as i32;
+        assert!((report.final_residual - rho.powi(k)).abs() < 0.02 * rho.powi(k), "residual {} vs rho^k {}", report.final_residual, rho.powi(k));
+    }
+}
+
+/// Mean irradiance on the receiver, in units of pi * Le (i.e. the form factor).
+fn received_form_factor(obj: &ObjBuilder, params: &PropagationParams) -> f64 {
+    let ctx = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let rho = 0.5f32;
+    let path = write_scene(
+        dir.path(),
+        obj,
+        &[Mat { name: "emitter", kd: [0.0; 3], ke: [1.0; 3] }, Mat { name: "receiver", kd: [rho; 3], ke: [0.0; 3] }],
+        "",
+    );
+    let scene = Scene::load(&path).unwrap();
+    let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
+    let directions = DirectionSet::geodesic(params.geodesic_frequency);
+    let mut prop = Propagator::new(ctx, &prepared, params, &directions, None).unwrap();
+    prop.build_visibility().unwrap();
+    prop.iterate().unwrap();
+    // after one bounce the receiver's radiance is rho * E / pi, and E = pi * Le * F
+    let receiver = scene.materials.iter().position(|m| m.name == "receiver").unwrap() as u32;
+    let total = prop.read_total().unwrap();
+    face_mean(&prepared, &total, |f| prepared.faces[f].material == receiver, 1) / rho as f64
+}
+
+fn form_factor_params() -> PropagationParams {
+    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1 }
+}
+
+#[test]
+fn parallel_unit_squares_at_distance_one() {
+    let mut obj = ObjBuilder::default();
+    obj.quad("emitter", DVec3::new(0.0, 0.5, 0.0), -DVec3::Y, [1.0, 1.0], 0.0);
+    obj.quad("receiver", DVec3::new(0.0, -0.5, 0.0), DVec3::Y, [1.0, 1.0], 0.0);
+    let f = received_form_factor(&obj, &form_factor_params());
+    let exact = 0.1998;
+    assert!((f - exact).abs() / exact < 0.02, "F = {f:.4}, exact {exact}");
+}
+
+#[test]
+fn perpendicular_unit_squares_sharing_an_edge() {
+    let mut obj = ObjBuilder::default();
+    // receiver in the plane y = 0 (x, z in [0, 1]); emitter in the plane x = 0 (y, z in [0, 1])
+    obj.quad("receiver", DVec3::new(0.5, 0.0, 0.5), DVec3::Y, [1.0, 1.0], 0.0);
+    obj.quad("emitter", DVec3::new(0.0, 0.5, 0.5), DVec3::X, [1.0, 1.0], 0.0);
+    let f = received_form_factor(&obj, &form_factor_params());
+    let exact = 0.2000;
+    assert!((f - exact).abs() / exact < 0.02, "F = {f:.4}, exact {exact}");
+}
