@@ -1,0 +1,74 @@
+//! The command line end to end on the software adapter: propagate to a file with a report,
+//! render PNG and EXR from it, and clear errors for bad use.
+
+mod common;
+use common::*;
+use std::process::Command;
+
+fn vlf() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vlf"))
+}
+
+const SMALL: &[&str] = &["--directions", "21", "--grid", "32", "--texel-density", "8"];
+
+#[test]
+fn propagate_then_render_from_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let vlf_path = dir.path().join("cornell.vlf");
+    let report = dir.path().join("report.json");
+    let out = vlf()
+        .arg("propagate")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .arg("-o")
+        .arg(&vlf_path)
+        .arg("--report")
+        .arg(&report)
+        .args(SMALL)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    for row in ["faces", "diffuse elements", "non-diffuse elements", "visibility", "propagation", "iterations", "final residual", "GPU memory, propagating", "GPU memory, rendering"] {
+        assert!(stdout.contains(row), "summary lacks {row:?}:\n{stdout}");
+    }
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    assert_eq!(json["faces"], 16);
+    assert_eq!(json["non_diffuse_elements"], 0);
+    assert_eq!(json["tile_bytes"], 0);
+    assert!(json["render_memory_bytes"].as_u64().unwrap() < json["propagation_memory_bytes"].as_u64().unwrap());
+
+    for ext in ["png", "exr"] {
+        let image = dir.path().join(format!("front.{ext}"));
+        let out = vlf().arg("render").arg(&vlf_path).args(["--camera", "front", "--size", "96x64", "-o"]).arg(&image).output().unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(image.exists());
+    }
+    let frame = vlf::render::image_io::read_exr(&dir.path().join("front.exr")).unwrap();
+    assert_eq!((frame.width, frame.height), (96, 64));
+    assert!(frame.pixels.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+    // the light is the brightest thing in view, the open front shows black sky at the corners
+    let max = frame.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
+    assert!(max > 10.0, "the emitter (Ke 17) is not visible: max {max}");
+    let mean = frame.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / frame.pixels.len() as f64;
+    assert!(mean > 0.05, "image is nearly black: mean green {mean}");
+}
+
+#[test]
+fn bad_use_gives_a_clear_error_and_nonzero_exit() {
+    let dir = tempfile::tempdir().unwrap();
+    let junk = dir.path().join("junk.vlf");
+    std::fs::write(&junk, b"not a light field").unwrap();
+    let out = vlf().arg("render").arg(&junk).arg("-o").arg(dir.path().join("x.png")).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(err.contains("junk.vlf") && err.contains("not a vlf light field file"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--camera", "nope", "-o"]).arg(dir.path().join("x.png")).args(SMALL).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("camera \"nope\" not found") && err.contains("front"), "{err}");
+
+    let out = vlf().arg("propagate").arg(repo_path("scenes/cornell/scene.toml")).args(["--grid", "30", "--tile", "8", "-o"]).arg(dir.path().join("x.vlf")).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"), "{err}");
+}

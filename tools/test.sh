@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# The test command (README and CI): make sure an adapter exists, then run every test.
+# GPU tests run on whatever adapter wgpu finds; on a machine without a GPU that is lavapipe.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash tools/setup.sh
+cargo test --release "$@"
