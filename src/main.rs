@@ -75,6 +75,9 @@ enum Command {
 
 #[derive(Args, Clone, Default)]
 struct ParamArgs {
+    /// Start from the settings in this TOML file (see config/propagation/); flags override it
+    #[arg(long)]
+    config: Option<PathBuf>,
     /// Number of directions over the hemisphere (rounded up to a geodesic set, 5n^2+1)
     #[arg(long)]
     directions: Option<u32>,
@@ -95,7 +98,11 @@ struct ParamArgs {
 }
 
 impl ParamArgs {
-    fn apply(&self, mut p: PropagationParams) -> PropagationParams {
+    fn apply(&self, base: PropagationParams) -> Result<PropagationParams> {
+        let mut p = match &self.config {
+            Some(path) => PropagationParams::from_toml_file(path)?,
+            None => base,
+        };
         if let Some(d) = self.directions {
             p.geodesic_frequency = PropagationParams::frequency_for_directions(d);
         }
@@ -114,7 +121,7 @@ impl ParamArgs {
         if let Some(m) = self.max_iterations {
             p.max_iterations = m;
         }
-        p
+        Ok(p)
     }
 }
 
@@ -143,7 +150,7 @@ fn run(cli: Cli) -> Result<()> {
             let scene = Scene::load(&scene)?;
             print_warnings(&scene.warnings);
             let ctx = GpuContext::new()?;
-            let params = params.apply(PropagationParams::default());
+            let params = params.apply(PropagationParams::default())?;
             let (lf, _resident, rep) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
             print_warnings(&rep.warnings[scene.warnings.len()..]);
             file::save(&lf, &output)?;
@@ -171,7 +178,7 @@ fn run(cli: Cli) -> Result<()> {
             if ctx.summary.software {
                 eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
             }
-            let params = params.apply(PropagationParams::default());
+            let params = params.apply(PropagationParams::default())?;
             let report = vlf::bench::run(ctx, &scene, &params, size, frames)?;
             print!("{}", report.table());
             if let Some(path) = json {
@@ -209,7 +216,7 @@ fn light_field_for(
         let resident = lf.upload(ctx.clone());
         return Ok((lf, resident));
     }
-    let params = params.apply(PropagationParams::default());
+    let params = params.apply(PropagationParams::default())?;
     let (lf, resident, report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, true)?;
     eprintln!(
         "propagated in {:.2} s: {} iterations, residual {:.2e}",

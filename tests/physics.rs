@@ -113,3 +113,30 @@ fn perpendicular_unit_squares_sharing_an_edge() {
     let exact = 0.2000;
     assert!((f - exact).abs() / exact < 0.02, "F = {f:.4}, exact {exact}");
 }
+
+#[test]
+fn a_floor_under_a_uniform_sky_reflects_rho_times_the_sky() {
+    // an upward floor sees only sky: E = pi * Ls, so L = rho * Ls after the one bounce there is
+    let ctx = gpu();
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    obj.quad("floor", DVec3::ZERO, DVec3::Y, [1.0, 1.0], 0.3);
+    let rho = 0.6f32;
+    let sky = [0.5f32, 1.0, 2.0];
+    let path = write_scene(
+        dir.path(),
+        &obj,
+        &[Mat { name: "floor", kd: [rho; 3], ke: [0.0; 3] }],
+        &format!("[sky]\nradiance = [{}, {}, {}]\n", sky[0], sky[1], sky[2]),
+    );
+    let scene = Scene::load(&path).unwrap();
+    let params = small_params();
+    let (lf, _, report) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
+    assert!(report.sky && report.converged);
+    let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
+    for c in 0..3 {
+        let l = face_mean(&prepared, &lf.total, |_| true, c);
+        let expected = (rho * sky[c]) as f64;
+        assert!((l - expected).abs() / expected < 0.01, "channel {c}: {l} vs {expected}");
+    }
+}

@@ -34,10 +34,10 @@ pub struct PropagationParams {
 impl Default for PropagationParams {
     fn default() -> Self {
         PropagationParams {
-            geodesic_frequency: 10,
-            grid_resolution: 128,
+            geodesic_frequency: 20,
+            grid_resolution: 256,
             tile_size: 8,
-            texel_density: 64.0,
+            texel_density: 96.0,
             tolerance: 1e-3,
             max_iterations: 200,
         }
@@ -47,7 +47,7 @@ impl Default for PropagationParams {
 impl PropagationParams {
     /// Lighter settings that finish in about a minute on a software adapter with 2 cores.
     pub fn software() -> Self {
-        PropagationParams { geodesic_frequency: 6, grid_resolution: 64, tile_size: 8, texel_density: 32.0, ..Self::default() }
+        PropagationParams { geodesic_frequency: 14, grid_resolution: 96, tile_size: 8, texel_density: 40.0, ..Self::default() }
     }
 
     /// Smallest geodesic frequency giving at least `count` directions.
@@ -57,6 +57,15 @@ impl PropagationParams {
             n += 1;
         }
         n
+    }
+
+    /// Settings from a TOML file (see `config/propagation/`); unknown keys are refused.
+    pub fn from_toml_file(path: &std::path::Path) -> Result<PropagationParams> {
+        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+        let params: PropagationParams = toml::from_str(&text)
+            .map_err(|e| VlfError::Config { path: path.to_path_buf(), message: e.to_string().trim_end().to_string() })?;
+        params.validate().map_err(|e| VlfError::Config { path: path.to_path_buf(), message: e.to_string() })?;
+        Ok(params)
     }
 
     pub fn direction_count(&self) -> u32 {
