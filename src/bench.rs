@@ -63,7 +63,7 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
     let samples = report.diffuse_elements as f64 * report.directions as f64 * report.iterations as f64;
     Ok(BenchReport {
         vlf_version: env!("CARGO_PKG_VERSION").into(),
-        commit: option_env!("VLF_COMMIT").map(String::from).or_else(git_commit),
+        commit: std::env::var("VLF_COMMIT").ok().filter(|c| !c.is_empty()).or_else(git_commit),
         date_utc: utc_date(),
         transport_samples_per_second: samples / report.propagation_seconds.max(1e-12),
         iteration_gpu_ms: (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms)),
