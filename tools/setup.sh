@@ -3,8 +3,14 @@
 # Vulkan (lavapipe). Installs mesa-vulkan-drivers with apt-get when no Vulkan driver is present.
 set -euo pipefail
 have_icd() {
-  ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json /usr/local/share/vulkan/icd.d/*.json 2>/dev/null | grep -q . &&
-    ldconfig -p 2>/dev/null | grep -q 'libvulkan.so.1'
+  local icd found=""
+  for icd in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json /usr/local/share/vulkan/icd.d/*.json; do
+    [ -e "$icd" ] && found=yes
+  done
+  [ -n "$found" ] || return 1
+  local libs
+  libs=$(ldconfig -p 2>/dev/null || true)
+  [[ "$libs" == *libvulkan.so.1* ]]
 }
 if have_icd; then
   exit 0
