@@ -118,7 +118,7 @@ impl GpuContext {
     /// Refuse a buffer that would not fit one binding, before allocating anything.
     pub fn check_binding(&self, what: &str, bytes: u64, advice: &str) -> Result<()> {
         let limits = self.limits();
-        let max = (limits.max_storage_buffer_binding_size as u64).min(limits.max_buffer_size);
+        let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
         if bytes > max {
             return Err(VlfError::GpuBudget(format!(
                 "{what} needs {} but this adapter binds at most {}; {advice}",

@@ -85,7 +85,7 @@ impl<'a> Reader<'a> {
 
 fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<Vec<T>, String> {
     let size = std::mem::size_of::<T>();
-    if payload.len() % size != 0 {
+    if !payload.len().is_multiple_of(size) {
         return Err(format!("section {what} holds {} bytes, not a whole number of {size}-byte records", payload.len()));
     }
     Ok(payload.chunks_exact(size).map(bytemuck::pod_read_unaligned).collect())
@@ -152,7 +152,7 @@ fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
             return Err(format!("face {i}'s twin {} does not exist", f.twin));
         }
     }
-    if lf.render_vertices.len() % 3 != 0 {
+    if !lf.render_vertices.len().is_multiple_of(3) {
         return Err("the render mesh is not made of whole triangles".into());
     }
     if let Some(v) = lf.render_vertices.iter().find(|v| v.face as usize >= lf.faces.len()) {

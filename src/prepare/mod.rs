@@ -124,10 +124,6 @@ impl PreparedScene {
     pub fn material_of(&self, face: usize) -> &Material {
         &self.materials[self.faces[face].material as usize]
     }
-
-    pub fn has_sky(&self, scene: &Scene) -> bool {
-        scene.sky.is_some()
-    }
 }
 
 fn normalise(positions: &[[f32; 3]]) -> Normalisation {

@@ -80,7 +80,7 @@ impl PropagationParams {
         if !(4..=2048).contains(&self.grid_resolution) {
             return bad("grid", format!("{} cells per side must be 4..=2048", self.grid_resolution));
         }
-        if self.tile_size == 0 || self.grid_resolution % self.tile_size != 0 {
+        if self.tile_size == 0 || !self.grid_resolution.is_multiple_of(self.tile_size) {
             return bad(
                 "tile",
                 format!("tile size {} must divide the grid resolution {}", self.tile_size, self.grid_resolution),

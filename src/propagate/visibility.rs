@@ -29,6 +29,9 @@ pub struct Visibility {
     pub gpu_ms: Option<f64>,
 }
 
+/// Cell offsets, cell counts and layers (face, depth bits), as read back from the GPU.
+pub type LayerLists = (Vec<u32>, Vec<u32>, Vec<[u32; 2]>);
+
 /// Triangles per dispatch (the y dimension of count/fill).
 const TRIANGLES_PER_DISPATCH: u32 = 65535;
 
@@ -149,7 +152,7 @@ impl Visibility {
     }
 
     /// Cell offsets, counts and layers, for comparison with the CPU twin.
-    pub fn read(&self, ctx: &GpuContext, cells: u64) -> Result<(Vec<u32>, Vec<u32>, Vec<[u32; 2]>)> {
+    pub fn read(&self, ctx: &GpuContext, cells: u64) -> Result<LayerLists> {
         Ok((
             ctx.read_buffer(&self.cell_offset, cells * 4)?,
             ctx.read_buffer(&self.cell_count, cells * 4)?,

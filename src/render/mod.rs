@@ -50,7 +50,6 @@ struct Target {
 pub struct Renderer {
     ctx: Arc<GpuContext>,
     pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
     view_buffer: wgpu::Buffer,
     vertex_buffer: wgpu::Buffer,
     vertex_count: u32,
@@ -131,7 +130,6 @@ impl Renderer {
         Ok(Renderer {
             ctx: ctx.clone(),
             pipeline,
-            layout,
             view_buffer,
             vertex_buffer,
             vertex_count: lf.render_vertices.len() as u32,
@@ -286,9 +284,5 @@ impl Renderer {
                 Ok((out, false))
             }
         }
-    }
-
-    pub fn layout(&self) -> &wgpu::BindGroupLayout {
-        &self.layout
     }
 }
