@@ -20,10 +20,15 @@ leave about 10% of the light unshot). Memory while propagating is dominated by t
 lists, built once and kept for all iterations (8 bytes per cell and per layer); rendering keeps
 only the face table, the converged radiance atlas and the render mesh.
 
-Frame time grows with the pixel count (same run, paper settings: 0.035 ms at 256x192, 0.54 ms
-at 1024x768, 2.15 ms at 2048x1536): the H200's fixed-function graphics path is the limit, not
-the light field lookup.
+Frame time grows with the pixel count, so the H200's fixed-function graphics path (weak on this
+data-centre chip) is the limit, not the light field lookup:
 
 HEAD
+if [ -f "$dir/render-scaling.txt" ]; then
+  echo '```'; cat "$dir/render-scaling.txt"; echo '```'
+else
+  echo "(no scaling run in this batch)"
+fi
+echo
 echo "### Default settings"; echo; sed 1d "$dir/bench-default.md"; echo
 echo "### The paper's settings (config/propagation/paper.toml)"; echo; sed 1d "$dir/bench-paper.md"

@@ -12,6 +12,7 @@ nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader > 
 "$vlf" render scenes/cornell/scene.toml --camera front -o "$out/cornell.png" 2>&1 | grep -v XDG
 "$vlf" render scenes/cornell/scene.toml --camera front -o "$out/cornell.exr" 2>&1 | grep -v XDG
 # frame time against pixel count (is there a fixed floor?)
-"$vlf" bench --scene scenes/cornell/scene.toml --frames 300 --config config/propagation/paper.toml --size 256x192 2>&1 | grep "render "
-"$vlf" bench --scene scenes/cornell/scene.toml --frames 300 --config config/propagation/paper.toml --size 2048x1536 2>&1 | grep "render "
+for size in 256x192 1024x768 2048x1536; do
+  "$vlf" bench --scene scenes/cornell/scene.toml --frames 300 --config config/propagation/paper.toml --size $size 2>&1 | grep "render "
+done | sed 's/^ *//' > "$out/render-scaling.txt"
 bash "$(dirname "$0")/benchmarks-md.sh" "$out" > "$out/BENCHMARKS.md"
