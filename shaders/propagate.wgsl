@@ -1,147 +1,16 @@
 // Shooting iterations of diffuse transport by gathering, driven by src/propagate/transport.rs.
+// This stage serves diffuse-only scenes: it binds no tiles (specular.wgsl serves the rest).
 // For every texel and every direction pair (+w_i, -w_i), the texel looks itself up in the
 // cell lists built by visibility.wgsl and takes the layer just upstream as its sender: no
 // atomics, a fixed weight per texel, bit-for-bit repeatable. The CPU twin is
 // src/propagate/cpu.rs, written to read like this file.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
+#include "common/upstream.wgsl"
 
-@group(0) @binding(0) var<uniform> grid: GridParams;
-@group(0) @binding(1) var<storage, read> directions: array<Direction>;
-@group(0) @binding(2) var<storage, read> faces: array<Face>;
-@group(0) @binding(3) var<storage, read> cell_offset: array<u32>;
-@group(0) @binding(4) var<storage, read> cell_count: array<u32>;
-@group(0) @binding(5) var<storage, read> layers: array<vec2<u32>>;
-// (sample point on the face, bitcast face id or NO_FACE)
-@group(0) @binding(6) var<storage, read> texel_points: array<vec4<f32>>;
-// unshot radiosity (rgb)
-@group(1) @binding(0) var<storage, read> unshot: array<vec4<f32>>;
-// next unshot radiosity (rgb) and, in w, the sky's share of the irradiance (r+g+b)
-@group(1) @binding(1) var<storage, read_write> next: array<vec4<f32>>;
-
-fn layer_depth(l: vec2<u32>) -> f32 {
-    return bitcast<f32>(l.y);
-}
-
-// Index of `face` in the list of `cell`, or -1.
-fn find_in_cell(cell: u32, face: u32) -> i32 {
-    let start = cell_offset[cell];
-    let n = cell_count[cell];
-    for (var k = 0u; k < n; k++) {
-        if layers[start + k].x == face {
-            return i32(k);
-        }
-    }
-    return -1;
-}
-
-// The sender just upstream of entry k in the list of `cell`, skipping layers coplanar with the
-// receiver (duplicated faces, the other side of a two-sided surface).
-fn upstream_of_entry(cell: u32, k: u32, forward: bool) -> u32 {
-    let start = cell_offset[cell];
-    let n = cell_count[cell];
-    let own_depth = layer_depth(layers[start + k]);
-    if forward {
-        var j = i32(k) - 1;
-        while j >= 0 {
-            let l = layers[start + u32(j)];
-            if abs(layer_depth(l) - own_depth) > grid.depth_epsilon {
-                return l.x;
-            }
-            j -= 1;
-        }
-    } else {
-        var j = k + 1u;
-        while j < n {
-            let l = layers[start + j];
-            if abs(layer_depth(l) - own_depth) > grid.depth_epsilon {
-                return l.x;
-            }
-            j += 1u;
-        }
-    }
-    return NO_FACE;
-}
-
-// The sender upstream of depth `depth` in the list of `cell`, for a receiver that the cell's
-// centre line misses (texels at a face's rim, faces smaller than a cell).
-fn upstream_of_depth(cell: u32, depth: f32, forward: bool) -> u32 {
-    let start = cell_offset[cell];
-    let n = cell_count[cell];
-    var found = NO_FACE;
-    for (var k = 0u; k < n; k++) {
-        let l = layers[start + k];
-        let ld = layer_depth(l);
-        if forward {
-            if ld < depth - grid.depth_epsilon {
-                found = l.x;
-            }
-        } else if ld > depth + grid.depth_epsilon {
-            return l.x;
-        }
-    }
-    return found;
-}
-
-fn clamp_cell(c: vec2<i32>) -> vec2<u32> {
-    let n = i32(grid.resolution) - 1;
-    return vec2<u32>(clamp(c, vec2<i32>(0), vec2<i32>(n)));
-}
-
-// Which face sends light along direction d (travelling +w when `forward`) to point x on `face`.
-fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward: bool) -> u32 {
-    let inv_h = 1.0 / grid.cell_size;
-    let q = vec2<f32>((dot(x, d.u) + 1.0) * inv_h - 0.5, (dot(x, d.v) + 1.0) * inv_h - 0.5);
-    let base = dir_index * grid.resolution * grid.resolution;
-    let nearest = vec2<i32>(round(q));
-    // the nearest cell centre first, then its 3x3 neighbourhood
-    let c0 = clamp_cell(nearest);
-    let cell0 = base + c0.y * grid.resolution + c0.x;
-    let k0 = find_in_cell(cell0, face);
-    if k0 >= 0 {
-        return upstream_of_entry(cell0, u32(k0), forward);
-    }
-    for (var i = 0; i < 9; i++) {
-        let c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
-        if all(c == c0) {
-            continue;
-        }
-        let cell = base + c.y * grid.resolution + c.x;
-        let k = find_in_cell(cell, face);
-        if k >= 0 {
-            return upstream_of_entry(cell, u32(k), forward);
-        }
-    }
-    // The face has no cell centre nearby (a grazing direction at a rim or corner): take the
-    // first layer upstream of x's depth in the nearest cell whose line meets one.
-    let depth = dot(x, d.w);
-    for (var i = -1; i < 9; i++) {
-        var c = c0;
-        if i >= 0 {
-            c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
-        }
-        let sender = upstream_of_depth(base + c.y * grid.resolution + c.x, depth, forward);
-        if sender != NO_FACE {
-            return sender;
-        }
-    }
-    return NO_FACE;
-}
-
-// Unshot radiance arriving at x along travel direction `travel` from `sender`.
-fn sender_radiance(sender: u32, x: vec3<f32>, travel: vec3<f32>) -> vec3<f32> {
-    let s = faces[sender];
-    let facing = dot(s.normal, travel);
-    // the back of a one-sided face absorbs and sends nothing
-    if facing <= 1e-6 {
-        return vec3<f32>(0.0);
-    }
-    // where this texel's own line meets the sender's plane
-    let t = (dot(s.normal, x) - s.plane_offset) / facing;
-    let taps = atlas_taps(s, x - travel * t, grid.atlas_width);
-    let b = unshot[taps.index.x].xyz * taps.weight.x + unshot[taps.index.y].xyz * taps.weight.y
-        + unshot[taps.index.z].xyz * taps.weight.z + unshot[taps.index.w].xyz * taps.weight.w;
-    return b / PI;
+// A diffuse-only scene: senders have no mirror part.
+fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(0.0);
 }
 
 @compute @workgroup_size(64)
@@ -150,36 +19,10 @@ fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     if texel >= grid.texel_count {
         return;
     }
-    let point = texel_points[texel];
-    let face_id = bitcast<u32>(point.w);
-    if face_id == NO_FACE {
-        return;
+    let value = gather_texel(texel);
+    if (grid.flags & GRID_FLAG_ACCUMULATE) != 0u {
+        next[texel] += value;
+    } else {
+        next[texel] = value;
     }
-    let f = faces[face_id];
-    let x = point.xyz;
-    let sky_on = (grid.flags & 1u) != 0u;
-    var irradiance = vec3<f32>(0.0);
-    var sky_irradiance = vec3<f32>(0.0);
-    for (var i = 0u; i < grid.direction_count; i++) {
-        let d = directions[i];
-        let cos_w = dot(f.normal, d.w);
-        if abs(cos_w) < 1e-6 {
-            continue;
-        }
-        // light reaches the front when it travels against the normal
-        let forward = cos_w < 0.0;
-        let travel = select(-d.w, d.w, forward);
-        let weight = abs(cos_w) * d.solid_angle;
-        let sender = find_upstream(i, d, x, face_id, forward);
-        if sender == NO_FACE {
-            if sky_on {
-                sky_irradiance += grid.sky * weight;
-            }
-        } else {
-            irradiance += sender_radiance(sender, x, travel) * weight;
-        }
-    }
-    let e = (irradiance + sky_irradiance) * f.kappa;
-    let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * f.kappa;
-    next[texel] = vec4<f32>(f.albedo * e, sky_share);
 }

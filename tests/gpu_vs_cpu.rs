@@ -7,7 +7,7 @@ use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
 use vlf::propagate::transport::Propagator;
-use vlf::propagate::{cpu, gpu_directions, gpu_faces, initial_radiance, PropagationParams};
+use vlf::propagate::{cpu, gpu_directions, initial_radiance, PropagationParams};
 use vlf::scene::Scene;
 
 fn tiny_scene(dir: &std::path::Path) -> Scene {
@@ -32,7 +32,7 @@ fn tiny_scene(dir: &std::path::Path) -> Scene {
 }
 
 fn tiny_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50 }
+    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1 }
 }
 
 #[test]
@@ -52,7 +52,7 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
 
     let vertices: Vec<[f32; 4]> = prepared.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]).collect();
     let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
-    let gdirs = gpu_directions(&directions);
+    let gdirs = gpu_directions(&directions.directions);
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
     assert_eq!(vis.cell_count, gpu_count, "per-cell layer counts differ");
     assert_eq!(vis.cell_offset, gpu_offset, "per-cell offsets differ");
@@ -66,7 +66,7 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
     assert_eq!(mismatched, 0, "{mismatched} of {} layers differ", vis.layers.len());
 
     // three iterations; each GPU result against the CPU gather of the same unshot input
-    let faces = gpu_faces(&prepared, &directions);
+    let faces = prop.faces.clone();
     let (mut unshot, _) = initial_radiance(&prepared, &faces);
     for iteration in 0..3 {
         let mut grid = prop.grid;
@@ -100,7 +100,7 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
 fn propagation_is_bit_for_bit_repeatable() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100 };
+    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1 };
     let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     assert_eq!(ra.iterations, rb.iterations);

@@ -11,7 +11,7 @@ use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
 fn small_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1 }
 }
 
 fn furnace(rho: f32, le: f32) -> (tempfile::TempDir, Scene) {
@@ -90,7 +90,7 @@ fn received_form_factor(obj: &ObjBuilder, params: &PropagationParams) -> f64 {
 }
 
 fn form_factor_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1 }
+    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1, perturb: 1 }
 }
 
 #[test]

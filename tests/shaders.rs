@@ -55,10 +55,10 @@ fn an_error_names_the_original_file_and_line() {
 
 #[test]
 fn rust_and_wgsl_struct_sizes_agree() {
-    let module = shaders::expand("render.wgsl").unwrap().validate().unwrap();
-    let mut layouter = naga::proc::Layouter::default();
-    layouter.update(module.to_ctx()).unwrap();
-    for (rust, wgsl, size) in mirrored_structs() {
+    for (rust, wgsl, size, stage) in mirrored_structs() {
+        let module = shaders::expand(stage).unwrap().validate().unwrap();
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
         let (handle, _) = module
             .types
             .iter()

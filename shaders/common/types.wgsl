@@ -4,6 +4,9 @@
 const NO_FACE: u32 = 0xffffffffu;
 const PI: f32 = 3.14159265358979;
 const FACE_EMITTER: u32 = 1u;
+const GRID_FLAG_SKY: u32 = 1u;
+// add to `next` instead of overwriting it (perturbed direction sets after the first)
+const GRID_FLAG_ACCUMULATE: u32 = 2u;
 
 // mirrors gpu::types::GpuDirection
 struct Direction {
@@ -35,7 +38,10 @@ struct Face {
     atlas_h: u32,
     // the other side of a two-sided surface, or NO_FACE
     twin: u32,
-    _pad: u32,
+    // index among the non-diffuse faces (its tiles), or NO_FACE for a diffuse-only face
+    tile_slot: u32,
+    mirror: vec3<f32>,
+    _pad: f32,
 }
 
 // mirrors gpu::types::GpuGrid
@@ -52,16 +58,28 @@ struct GridParams {
     sky: vec3<f32>,
     cell_size: f32,
     depth_epsilon: f32,
+    geodesic_frequency: u32,
+    tile_size: u32,
+    tile_face_count: u32,
+    // 1 / K for K perturbed direction sets, else 1
+    direction_weight: f32,
+    tile_cell_count: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuView
 struct View {
     view_proj: mat4x4<f32>,
     sky: vec4<f32>,
+    // eye position in normalised space
+    eye: vec3<f32>,
+    cell_size: f32,
     atlas_width: u32,
+    geodesic_frequency: u32,
+    tile_size: u32,
+    tile_face_count: u32,
+    grid_resolution: u32,
     _pad0: u32,
     _pad1: u32,
     _pad2: u32,

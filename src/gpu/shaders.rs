@@ -7,14 +7,18 @@ use crate::error::{Result, VlfError};
 pub const SOURCES: &[(&str, &str)] = &[
     ("common/types.wgsl", include_str!("../../shaders/common/types.wgsl")),
     ("common/atlas.wgsl", include_str!("../../shaders/common/atlas.wgsl")),
+    ("common/directions.wgsl", include_str!("../../shaders/common/directions.wgsl")),
+    ("common/tiles.wgsl", include_str!("../../shaders/common/tiles.wgsl")),
+    ("common/upstream.wgsl", include_str!("../../shaders/common/upstream.wgsl")),
     ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),
     ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
+    ("specular.wgsl", include_str!("../../shaders/specular.wgsl")),
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
 ];
 
 /// The stages compiled into pipelines (the `common/` files are only included).
-pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "accumulate.wgsl", "render.wgsl"];
+pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "specular.wgsl", "accumulate.wgsl", "render.wgsl"];
 
 /// A stage's source with its includes expanded, and for each output line its origin.
 pub struct ExpandedShader {

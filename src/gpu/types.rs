@@ -37,7 +37,9 @@ pub struct GpuFace {
     pub atlas_w: u32,
     pub atlas_h: u32,
     pub twin: u32,
-    pub _pad: u32,
+    pub tile_slot: u32,
+    pub mirror: [f32; 3],
+    pub _pad: f32,
 }
 
 /// Mirrors WGSL `GridParams`.
@@ -55,12 +57,27 @@ pub struct GpuGrid {
     pub sky: [f32; 3],
     pub cell_size: f32,
     pub depth_epsilon: f32,
+    pub geodesic_frequency: u32,
+    pub tile_size: u32,
+    pub tile_face_count: u32,
+    pub direction_weight: f32,
+    pub tile_cell_count: u32,
     pub _pad0: u32,
     pub _pad1: u32,
-    pub _pad2: u32,
 }
 
 pub const GRID_FLAG_SKY: u32 = 1;
+pub const GRID_FLAG_ACCUMULATE: u32 = 2;
+
+/// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuAccumulate {
+    pub count: u32,
+    pub scale: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
 
 /// Mirrors WGSL `View`.
 #[repr(C)]
@@ -68,7 +85,13 @@ pub const GRID_FLAG_SKY: u32 = 1;
 pub struct GpuView {
     pub view_proj: [[f32; 4]; 4],
     pub sky: [f32; 4],
+    pub eye: [f32; 3],
+    pub cell_size: f32,
     pub atlas_width: u32,
+    pub geodesic_frequency: u32,
+    pub tile_size: u32,
+    pub tile_face_count: u32,
+    pub grid_resolution: u32,
     pub _pad0: u32,
     pub _pad1: u32,
     pub _pad2: u32,
@@ -83,12 +106,13 @@ pub struct RenderVertex {
     pub face: u32,
 }
 
-/// Every mirrored pair: (Rust name, WGSL name, Rust size).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize); 4] {
+/// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 5] {
     [
-        ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>()),
-        ("GpuFace", "Face", std::mem::size_of::<GpuFace>()),
-        ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>()),
-        ("GpuView", "View", std::mem::size_of::<GpuView>()),
+        ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
+        ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
+        ("GpuFace", "Face", std::mem::size_of::<GpuFace>(), "render.wgsl"),
+        ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>(), "render.wgsl"),
+        ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
     ]
 }

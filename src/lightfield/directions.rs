@@ -207,6 +207,49 @@ impl DirectionSet {
         out
     }
 
+    /// The lookup tables of `shaders/common/directions.wgsl`: points (the 12 corners, then every
+    /// sphere point) and indices (20 x 3 corner ids, each face's grid of point ids, then per
+    /// point its direction index with bit 31 set for -w).
+    pub fn gpu_tables(&self) -> (Vec<[f32; 4]>, Vec<u32>) {
+        let f = |p: DVec3| [p.x as f32, p.y as f32, p.z as f32, 0.0];
+        let points: Vec<[f32; 4]> = self.corners.iter().map(|&c| f(c)).chain(self.points.iter().map(|&p| f(p))).collect();
+        let mut index: Vec<u32> = ICOSAHEDRON_FACES.iter().flat_map(|t| t.map(|c| c as u32)).collect();
+        for grid in &self.face_points {
+            index.extend_from_slice(grid);
+        }
+        index.extend(self.point_direction.iter().map(|&(d, sign)| d | if sign < 0.0 { 1 << 31 } else { 0 }));
+        (points, index)
+    }
+
+    /// Perturbed ("virtual") direction set `k` >= 1: each direction moved to a point of its own
+    /// cell (a cap of the same solid angle), the same for every run. Set 0 is the fixed set.
+    pub fn perturbed(&self, k: u32) -> Vec<Direction> {
+        if k == 0 {
+            return self.directions.clone();
+        }
+        self.directions
+            .iter()
+            .enumerate()
+            .map(|(i, d)| {
+                let mut state = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (k as u64).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x2545_F491_4F6C_DD1D;
+                let mut next = || {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    (state >> 11) as f64 / (1u64 << 53) as f64
+                };
+                let (u, v) = d.frame();
+                // uniform in a cap of the cell's solid angle: 1 - cos(theta) = dw / (2 pi)
+                let cos_max = 1.0 - d.solid_angle / (2.0 * std::f64::consts::PI);
+                let cos_t = 1.0 - next() * (1.0 - cos_max);
+                let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
+                let phi = 2.0 * std::f64::consts::PI * next();
+                let w = (d.w * cos_t + (u * phi.cos() + v * phi.sin()) * sin_t).normalize();
+                Direction { w, solid_angle: d.solid_angle }
+            })
+            .collect()
+    }
+
     /// Sum over directions of |n.w_i| dw_i: pi for an exact quadrature.
     pub fn cosine_sum(&self, normal: DVec3) -> f64 {
         self.directions.iter().map(|d| normal.dot(d.w).abs() * d.solid_angle).sum()
@@ -295,6 +338,21 @@ mod tests {
                 let own = taps.iter().find(|t| t.index == i as u32 && t.sign == sign).expect("finds itself");
                 assert!((own.weight - 1.0).abs() < 1e-6, "direction {i}: weight {}", own.weight);
             }
+        }
+    }
+
+    #[test]
+    fn perturbed_sets_stay_in_their_cells_and_differ() {
+        let set = DirectionSet::geodesic(8);
+        let a = set.perturbed(1);
+        let b = set.perturbed(2);
+        assert_eq!(set.perturbed(0), set.directions);
+        assert_eq!(a, set.perturbed(1), "perturbation is repeatable");
+        for ((d, p), q) in set.directions.iter().zip(&a).zip(&b) {
+            assert!((p.w.length() - 1.0).abs() < 1e-12);
+            let cap = (1.0 - d.solid_angle / (2.0 * std::f64::consts::PI)).acos();
+            assert!(d.w.dot(p.w).clamp(-1.0, 1.0).acos() <= cap + 1e-9);
+            assert!(p.w != q.w);
         }
     }
 

@@ -9,16 +9,25 @@ use std::io::Write;
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
-pub const FORMAT_VERSION: u32 = 1;
-const SECTIONS: [&[u8; 4]; 4] = [b"META", b"FACE", b"RVTX", b"TOTL"];
+pub const FORMAT_VERSION: u32 = 2;
+/// Metadata, faces, render mesh, texel radiance, then the mirror tiles (empty when diffuse-only):
+/// rectangles, index, radiance.
+const SECTIONS: [&[u8; 4]; 7] = [b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT"];
 
 pub fn encode(lf: &LightField) -> Vec<u8> {
     let meta = serde_json::to_vec_pretty(&lf.meta).expect("metadata serialises");
-    let payloads: [&[u8]; 4] = [
+    let (rects, index, tiles): (&[u8], &[u8], &[u8]) = match &lf.tiles {
+        Some(t) => (bytemuck::cast_slice(&t.rects), bytemuck::cast_slice(&t.index), bytemuck::cast_slice(&t.total)),
+        None => (&[], &[], &[]),
+    };
+    let payloads: [&[u8]; 7] = [
         &meta,
         bytemuck::cast_slice(&lf.faces),
         bytemuck::cast_slice(&lf.render_vertices),
         bytemuck::cast_slice(&lf.total),
+        rects,
+        index,
+        tiles,
     ];
     let mut out = Vec::new();
     out.extend_from_slice(MAGIC);
@@ -133,7 +142,19 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     let faces: Vec<GpuFace> = pod_vec(payloads[1], "FACE")?;
     let render_vertices: Vec<RenderVertex> = pod_vec(payloads[2], "RVTX")?;
     let total: Vec<[f32; 4]> = pod_vec(payloads[3], "TOTL")?;
-    let lf = LightField { meta, faces, render_vertices, total };
+    let rects: Vec<[u32; 4]> = pod_vec(payloads[4], "TRCT")?;
+    let index: Vec<u32> = pod_vec(payloads[5], "TIDX")?;
+    let tile_total: Vec<[f32; 4]> = pod_vec(payloads[6], "TTOT")?;
+    let tiles = if rects.is_empty() && index.is_empty() && tile_total.is_empty() {
+        None
+    } else {
+        let directions = meta.direction_count.max(1) as usize;
+        if rects.len() % directions != 0 {
+            return Err(format!("{} tile rectangles do not divide among {directions} directions", rects.len()));
+        }
+        Some(super::TileField { face_count: (rects.len() / directions) as u32, rects, index, total: tile_total })
+    };
+    let lf = LightField { meta, faces, render_vertices, total, tiles };
     check_consistency(&lf)?;
     Ok(lf)
 }
@@ -160,6 +181,36 @@ fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
     }
     if lf.total.iter().flatten().any(|x| !x.is_finite()) {
         return Err("radiance holds NaN or infinite values".into());
+    }
+    let no_face = crate::gpu::types::NO_FACE;
+    match &lf.tiles {
+        None => {
+            if lf.faces.iter().any(|f| f.tile_slot != no_face) {
+                return Err("faces name mirror tiles, but the file holds none".into());
+            }
+        }
+        Some(t) => {
+            let m = lf.meta.params.tile_size as usize;
+            if m == 0 || t.total.len() % (m * m) != 0 {
+                return Err(format!("{} tile cells are not whole {m}x{m} tiles", t.total.len()));
+            }
+            let slots = (t.total.len() / (m * m)) as u32;
+            if let Some(f) = lf.faces.iter().position(|f| f.tile_slot != no_face && f.tile_slot >= t.face_count) {
+                return Err(format!("face {f} names tile slot {}, but there are {}", lf.faces[f].tile_slot, t.face_count));
+            }
+            for (i, r) in t.rects.iter().enumerate() {
+                let cells = (r[1] & 0xffff) as usize * (r[1] >> 16) as usize;
+                if r[2] as usize + cells > t.index.len() {
+                    return Err(format!("tile rectangle {i} reaches past the tile index"));
+                }
+            }
+            if t.index.iter().any(|&s| s != no_face && s >= slots) {
+                return Err("the tile index names tiles that are not stored".into());
+            }
+            if t.total.iter().flatten().any(|x| !x.is_finite()) {
+                return Err("mirror radiance holds NaN or infinite values".into());
+            }
+        }
     }
     Ok(())
 }

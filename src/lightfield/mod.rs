@@ -5,6 +5,7 @@
 
 pub mod atlas_lookup;
 pub mod directions;
+pub mod tiles;
 pub mod file;
 
 use crate::gpu::types::{GpuFace, RenderVertex};
@@ -39,6 +40,24 @@ pub struct LightField {
     pub render_vertices: Vec<RenderVertex>,
     /// outgoing radiance per texel (rgb, w unused)
     pub total: Vec<[f32; 4]>,
+    /// mirror radiance, for scenes with non-diffuse faces
+    pub tiles: Option<TileField>,
+}
+
+/// The view-dependent part: tile tables and converged mirror radiance per tile cell.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TileField {
+    pub rects: Vec<[u32; 4]>,
+    pub index: Vec<u32>,
+    pub total: Vec<[f32; 4]>,
+    /// number of non-diffuse faces (rects hold one entry per direction and such face)
+    pub face_count: u32,
+}
+
+impl TileField {
+    pub fn bytes(&self) -> u64 {
+        (self.rects.len() * 16 + self.index.len() * 4 + self.total.len() * 16) as u64
+    }
 }
 
 /// Front-side triangles, three vertices each; back sides of two-sided faces are drawn through
@@ -74,7 +93,20 @@ impl LightField {
         let ledger = MemoryLedger::default();
         let faces = ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&self.faces), STORAGE);
         let total = ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total), STORAGE);
-        ResidentLightField { ctx, faces, total, ledger }
+        let tiles = self.tiles.as_ref().map(|t| {
+            let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
+            let (points, index) = set.gpu_tables();
+            let dirs = crate::propagate::gpu_directions(&set.directions);
+            ResidentTiles {
+                rects: ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&t.rects), STORAGE),
+                index: ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&t.index), STORAGE),
+                radiance: ctx.buffer_init(&ledger, "mirror tiles: total radiance", bytemuck::cast_slice(&t.total), STORAGE),
+                geodesic_points: ctx.buffer_init(&ledger, "geodesic tables", bytemuck::cast_slice(&points), STORAGE),
+                geodesic_index: ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
+                directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&dirs), STORAGE),
+            }
+        });
+        ResidentLightField { ctx, faces, total, tiles, ledger }
     }
 }
 
@@ -83,5 +115,16 @@ pub struct ResidentLightField {
     pub ctx: Arc<GpuContext>,
     pub faces: wgpu::Buffer,
     pub total: wgpu::Buffer,
+    /// the view-dependent part; None for a diffuse-only scene
+    pub tiles: Option<ResidentTiles>,
     pub ledger: MemoryLedger,
+}
+
+pub struct ResidentTiles {
+    pub rects: wgpu::Buffer,
+    pub index: wgpu::Buffer,
+    pub radiance: wgpu::Buffer,
+    pub geodesic_points: wgpu::Buffer,
+    pub geodesic_index: wgpu::Buffer,
+    pub directions: wgpu::Buffer,
 }

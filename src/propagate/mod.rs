@@ -29,6 +29,14 @@ pub struct PropagationParams {
     /// Stop when unshot power / emitted power falls below this.
     pub tolerance: f64,
     pub max_iterations: u32,
+    /// K perturbed ("virtual") direction sets per fixed direction, used during transport only:
+    /// memory unchanged, time about x K. 1 = the fixed directions alone.
+    #[serde(default = "one")]
+    pub perturb: u32,
+}
+
+fn one() -> u32 {
+    1
 }
 
 impl Default for PropagationParams {
@@ -40,6 +48,7 @@ impl Default for PropagationParams {
             texel_density: 96.0,
             tolerance: 1e-3,
             max_iterations: 200,
+            perturb: 1,
         }
     }
 }
@@ -95,12 +104,21 @@ impl PropagationParams {
         if self.max_iterations == 0 {
             return bad("max-iterations", "must be at least 1".into());
         }
+        if !(1..=64).contains(&self.perturb) {
+            return bad("perturb", format!("{} perturbed sets: use 1 (none) to 64", self.perturb));
+        }
         Ok(())
     }
 }
 
-/// GPU face records for a prepared scene and direction set.
-pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet) -> Vec<GpuFace> {
+/// Does face f have a mirror part (and so tiles)?
+pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
+    (0..prepared.faces.len()).map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0)).collect()
+}
+
+/// GPU face records for a prepared scene and direction set; `tile_slot[f]` is face f's index
+/// among the non-diffuse faces (NO_FACE for diffuse-only faces).
+pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet, tile_slot: &[u32]) -> Vec<GpuFace> {
     let density = prepared.texel_density as f32;
     prepared
         .faces
@@ -126,15 +144,16 @@ pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet) -> Vec<Gpu
                 atlas_w: f.atlas.w,
                 atlas_h: f.atlas.h,
                 twin: f.twin.unwrap_or(NO_FACE),
-                _pad: 0,
+                tile_slot: tile_slot[fi],
+                mirror: m.mirror,
+                _pad: 0.0,
             }
         })
         .collect()
 }
 
-pub fn gpu_directions(directions: &DirectionSet) -> Vec<GpuDirection> {
+pub fn gpu_directions(directions: &[crate::lightfield::directions::Direction]) -> Vec<GpuDirection> {
     directions
-        .directions
         .iter()
         .map(|d| {
             let (u, v) = d.frame();
@@ -231,7 +250,19 @@ pub fn propagate(
         ));
     }
     let total = prop.read_total()?;
-    let faces = gpu_faces(&prepared, &directions);
+    let faces = prop.faces.clone();
+    let tiles = match prop.tile_layout() {
+        Some(layout) => Some(crate::lightfield::TileField {
+            rects: layout.rects.clone(),
+            index: layout.index.clone(),
+            total: prop.read_tile_total()?,
+            face_count: layout.faces.len() as u32,
+        }),
+        None => None,
+    };
+    let non_diffuse_elements = tiles.as_ref().map_or(0, |t| t.total.len() as u64);
+    // everything allocated for tiles while propagating (radiance copies, weights, tables)
+    let tile_bytes: u64 = prop.ledger.entries().iter().filter(|(n, _)| n.contains("tile")).map(|(_, b)| b).sum();
     let propagation_memory_bytes = prop.memory_bytes();
     let propagation_memory = crate::report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
@@ -256,6 +287,7 @@ pub fn propagate(
         faces,
         render_vertices,
         total,
+        tiles,
     };
     let report = crate::report::PropagationReport {
         scene: scene.name.clone(),
@@ -265,8 +297,8 @@ pub fn propagate(
         faces: prepared.faces.len() as u32,
         triangles: prepared.triangles.len() as u32,
         diffuse_elements: prepared.atlas.charted_texels,
-        non_diffuse_elements: 0,
-        tile_bytes: 0,
+        non_diffuse_elements,
+        tile_bytes,
         layers,
         visibility_kept_resident: true,
         setup_seconds,

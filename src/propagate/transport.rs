@@ -1,13 +1,17 @@
-//! Drives `shaders/propagate.wgsl` (gather) and `shaders/accumulate.wgsl`: shooting iterations
-//! with unshot / next / total, ping-ponging unshot and next, until the residual (unshot power
-//! over emitted power) falls below the tolerance.
+//! Drives the transport stages: `shaders/propagate.wgsl` (diffuse-only scenes),
+//! `shaders/specular.wgsl` (scenes with mirrors: texels and tile cells) and
+//! `shaders/accumulate.wgsl`. Shooting iterations with unshot / next / total, ping-ponging
+//! unshot and next, until the residual (unshot power over emitted power) falls below the
+//! tolerance. With K perturbed direction sets, each iteration gathers once per set, rebuilding
+//! the visibility lists for each (memory unchanged, time about x K).
 
 use super::visibility::{SceneBuffers, Visibility};
-use super::{gpu_directions, gpu_faces, initial_radiance, PropagationParams, DEPTH_EPSILON};
+use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
-use crate::gpu::types::{GpuGrid, GRID_FLAG_SKY};
+use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GRID_FLAG_ACCUMULATE, GRID_FLAG_SKY};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
+use crate::lightfield::tiles::TileLayout;
 use crate::lightfield::ResidentLightField;
 use crate::prepare::PreparedScene;
 use std::sync::Arc;
@@ -17,9 +21,49 @@ use std::sync::Arc;
 pub struct IterationStats {
     pub iteration: u32,
     pub residual: f64,
-    /// GPU milliseconds of gather + accumulate, when timestamps are available
+    /// GPU milliseconds of the gathers and accumulations, when timestamps are available
     pub gpu_ms: Option<f64>,
     pub wall_ms: f64,
+}
+
+/// One kind of element (texels, or tile cells): unshot/next ping-pong, total, power weights.
+struct ElementState {
+    radiance: [wgpu::Buffer; 2],
+    total: wgpu::Buffer,
+    partials: wgpu::Buffer,
+    partial_count: u32,
+    params: wgpu::Buffer,
+    count: u32,
+}
+
+impl ElementState {
+    fn new(ctx: &GpuContext, ledger: &MemoryLedger, what: &str, unshot: &[[f32; 4]], total: &[[f32; 4]], scale: f32) -> ElementState {
+        let count = unshot.len() as u32;
+        let (ax, ay) = dispatch_2d(count.div_ceil(256));
+        let params = GpuAccumulate { count, scale, ..Default::default() };
+        ElementState {
+            radiance: [
+                ctx.buffer_init(ledger, &format!("{what}: unshot"), bytemuck::cast_slice(unshot), STORAGE),
+                ctx.buffer_zeroed(ledger, &format!("{what}: next"), count as u64 * 16, STORAGE),
+            ],
+            total: ctx.buffer_init(ledger, &format!("{what}: total"), bytemuck::cast_slice(total), STORAGE),
+            partials: ctx.buffer_zeroed(ledger, &format!("{what}: power sums"), (ax * ay) as u64 * 8, STORAGE),
+            partial_count: ax * ay,
+            params: ctx.buffer_init(ledger, &format!("{what}: accumulate parameters"), bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM),
+            count,
+        }
+    }
+}
+
+/// The mirror tiles of a scene with non-diffuse faces.
+struct Tiles {
+    layout: TileLayout,
+    state: ElementState,
+    power_weight: wgpu::Buffer,
+    tables: [wgpu::Buffer; 5],
+    fixed_directions: wgpu::Buffer,
+    layout2: wgpu::BindGroupLayout,
+    gather_pipe: wgpu::ComputePipeline,
 }
 
 pub struct Propagator {
@@ -28,18 +72,20 @@ pub struct Propagator {
     pub grid: GpuGrid,
     pub scene: SceneBuffers,
     pub visibility: Option<Visibility>,
-    /// radiance[current] holds unshot radiosity, the other receives next
-    radiance: [wgpu::Buffer; 2],
+    pub faces: Vec<GpuFace>,
+    texels: ElementState,
+    texel_power_weight: wgpu::Buffer,
+    tiles: Option<Tiles>,
+    /// the K direction sets (only kept when K > 1)
+    direction_sets: Vec<Vec<GpuDirection>>,
+    /// which of the two radiance buffers holds unshot
     current: usize,
-    pub total: wgpu::Buffer,
-    partials: wgpu::Buffer,
-    partial_count: u32,
     gather_pipe: wgpu::ComputePipeline,
     accumulate_pipe: wgpu::ComputePipeline,
-    gather_layout0: wgpu::BindGroupLayout,
-    gather_layout1: wgpu::BindGroupLayout,
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
     accumulate_layout: wgpu::BindGroupLayout,
-    /// coverage-weighted r+g+b power emitted by surfaces (texel area cancels in the ratio)
+    /// power emitted by surfaces and received from the sky, r+g+b
     pub emitted_power: f64,
     pub iteration: u32,
     pub texel_count: u32,
@@ -52,12 +98,39 @@ fn dispatch_2d(groups: u32) -> (u32, u32) {
 }
 
 impl Propagator {
-    pub fn new(ctx: Arc<GpuContext>, prepared: &PreparedScene, params: &PropagationParams, directions: &DirectionSet, sky: Option<[f32; 3]>) -> Result<Propagator> {
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        prepared: &PreparedScene,
+        params: &PropagationParams,
+        directions: &DirectionSet,
+        sky: Option<[f32; 3]>,
+    ) -> Result<Propagator> {
         let ledger = MemoryLedger::default();
         let device = &ctx.device;
-        let faces = gpu_faces(prepared, directions);
+        let fixed = gpu_directions(&directions.directions);
+        let non_diffuse = non_diffuse_faces(prepared);
+        let layout = if non_diffuse.iter().any(|&n| n) {
+            let mut tris: Vec<Vec<[glam::DVec3; 3]>> = vec![Vec::new(); prepared.faces.len()];
+            for t in &prepared.triangles {
+                tris[t.face as usize].push(t.vertices.map(|v| prepared.positions[v as usize]));
+            }
+            let normals: Vec<glam::DVec3> = prepared.faces.iter().map(|f| f.normal).collect();
+            TileLayout::build(&fixed, &normals, &tris, &non_diffuse, params.grid_resolution, params.tile_size)
+        } else {
+            TileLayout::default()
+        };
+        let tile_slot = if layout.face_slot.is_empty() { vec![crate::gpu::types::NO_FACE; prepared.faces.len()] } else { layout.face_slot.clone() };
+        let faces = gpu_faces(prepared, directions, &tile_slot);
         let texel_count = prepared.atlas.texel_count() as u32;
         ctx.check_binding("the radiance atlas", texel_count as u64 * 16, "lower the texel density")?;
+        let cells_per_tile = params.tile_size * params.tile_size;
+        let tile_cells = layout.headers.len() as u64 * cells_per_tile as u64;
+        ctx.check_binding(
+            &format!("the mirror tiles ({tile_cells} cells x 16 bytes)"),
+            tile_cells * 16,
+            "use fewer directions, a coarser grid or smaller tiles",
+        )?;
+        let k = params.perturb.max(1);
         let grid = GpuGrid {
             resolution: params.grid_resolution,
             direction_count: directions.len() as u32,
@@ -70,6 +143,11 @@ impl Propagator {
             sky: sky.unwrap_or([0.0; 3]),
             cell_size: 2.0 / params.grid_resolution as f32,
             depth_epsilon: DEPTH_EPSILON,
+            geodesic_frequency: params.geodesic_frequency,
+            tile_size: params.tile_size,
+            tile_face_count: layout.faces.len() as u32,
+            direction_weight: 1.0 / k as f32,
+            tile_cell_count: tile_cells as u32,
             ..Default::default()
         };
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
@@ -77,53 +155,83 @@ impl Propagator {
         let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
         let scene = SceneBuffers {
             grid: ctx.buffer_init(&ledger, "grid parameters", bytemuck::bytes_of(&grid), uniform),
-            directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&gpu_directions(directions)), STORAGE),
+            directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&fixed), STORAGE),
             faces: ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
             vertices: ctx.buffer_init(&ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
             triangles: ctx.buffer_init(&ledger, "triangles", bytemuck::cast_slice(&triangles), STORAGE),
             texel_points: ctx.buffer_init(&ledger, "texel sample points", bytemuck::cast_slice(&prepared.atlas.points), STORAGE),
-            coverage: ctx.buffer_init(&ledger, "texel coverage", bytemuck::cast_slice(&prepared.atlas.coverage), STORAGE),
         };
+        // power per unit of radiosity: texel area x coverage
+        let texel_area = 1.0 / (prepared.texel_density * prepared.texel_density);
+        let weights: Vec<f32> = prepared.atlas.coverage.iter().map(|&c| (c as f64 * texel_area) as f32).collect();
+        let texel_power_weight = ctx.buffer_init(&ledger, "texels: power weights", bytemuck::cast_slice(&weights), STORAGE);
         let (unshot, total) = initial_radiance(prepared, &faces);
-        let emitted_power = unshot
-            .iter()
-            .zip(&prepared.atlas.coverage)
-            .map(|(u, &c)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * c as f64)
-            .sum();
-        let radiance = [
-            ctx.buffer_init(&ledger, "unshot radiosity", bytemuck::cast_slice(&unshot), STORAGE),
-            ctx.buffer_zeroed(&ledger, "next radiosity", texel_count as u64 * 16, STORAGE),
-        ];
-        let total = ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&total), STORAGE);
-        let (ax, ay) = dispatch_2d(texel_count.div_ceil(256));
-        let partial_count = ax * ay;
-        let partials = ctx.buffer_zeroed(&ledger, "power partial sums", partial_count as u64 * 8, STORAGE);
+        let emitted_power =
+            unshot.iter().zip(&weights).map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64).sum();
+        let texels = ElementState::new(&ctx, &ledger, "texels", &unshot, &total, std::f32::consts::FRAC_1_PI);
 
         use Binding::*;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let gather_layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage]);
-        let gather_layout1 = bind_group_layout(device, cs, &[Storage, StorageReadWrite]);
+        let layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage]);
+        let layout1 = bind_group_layout(device, cs, &[Storage, StorageReadWrite]);
         let accumulate_layout = bind_group_layout(device, cs, &[Uniform, Storage, StorageReadWrite, Storage, StorageReadWrite]);
-        let gather_module = shaders::module(device, "propagate.wgsl")?;
         let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
-        let gather_pipe = ctx.compute_pipeline(&gather_module, "gather", &[&gather_layout0, &gather_layout1]);
         let accumulate_pipe = ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
-        let timestamps = Timestamps::new(&ctx, 8);
+        let (gather_pipe, tiles) = if layout.is_empty() {
+            let module = shaders::module(device, "propagate.wgsl")?;
+            (ctx.compute_pipeline(&module, "gather", &[&layout0, &layout1]), None)
+        } else {
+            let module = shaders::module(device, "specular.wgsl")?;
+            let layout2 = bind_group_layout(device, cs, &[Storage, Storage, Storage, Storage, Storage, Storage, Storage, StorageReadWrite]);
+            let gather = ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
+            let gather_tiles = ctx.compute_pipeline(&module, "gather_tiles", &[&layout0, &layout1, &layout2]);
+            let (points, index) = directions.gpu_tables();
+            let h = grid.cell_size as f64;
+            let weights: Vec<f32> = layout
+                .headers
+                .iter()
+                .flat_map(|hd| std::iter::repeat_n((h * h * directions.directions[hd[0] as usize].solid_angle) as f32, cells_per_tile as usize))
+                .collect();
+            let zero = vec![[0.0f32; 4]; tile_cells as usize];
+            let tiles = Tiles {
+                state: ElementState::new(&ctx, &ledger, "mirror tiles", &zero, &zero, 1.0),
+                power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights), STORAGE),
+                tables: [
+                    ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&layout.rects), STORAGE),
+                    ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&layout.index), STORAGE),
+                    ctx.buffer_init(&ledger, "tile headers", bytemuck::cast_slice(&layout.headers), STORAGE),
+                    ctx.buffer_init(&ledger, "geodesic points", bytemuck::cast_slice(&points), STORAGE),
+                    ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
+                ],
+                fixed_directions: if k > 1 {
+                    ctx.buffer_init(&ledger, "fixed directions", bytemuck::cast_slice(&fixed), STORAGE)
+                } else {
+                    scene.directions.clone()
+                },
+                layout2,
+                gather_pipe: gather_tiles,
+                layout,
+            };
+            (gather, Some(tiles))
+        };
+        let direction_sets = if k > 1 { (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect() } else { Vec::new() };
+        let timestamps = Timestamps::new(&ctx, 4 + 2 * k);
         Ok(Propagator {
             ctx,
             ledger,
             grid,
             scene,
             visibility: None,
-            radiance,
+            faces,
+            texels,
+            texel_power_weight,
+            tiles,
+            direction_sets,
             current: 0,
-            total,
-            partials,
-            partial_count,
             gather_pipe,
             accumulate_pipe,
-            gather_layout0,
-            gather_layout1,
+            layout0,
+            layout1,
             accumulate_layout,
             emitted_power,
             iteration: 0,
@@ -133,74 +241,146 @@ impl Propagator {
     }
 
     pub fn build_visibility(&mut self) -> Result<&Visibility> {
+        self.visibility = None;
         let vis = Visibility::build(&self.ctx, &self.ledger, &self.scene, &self.grid, &mut self.timestamps)?;
         Ok(self.visibility.insert(vis))
+    }
+
+    pub fn tile_layout(&self) -> Option<&TileLayout> {
+        self.tiles.as_ref().map(|t| &t.layout)
     }
 
     /// One shooting iteration (one more bounce). Returns the residual after it.
     pub fn iterate(&mut self) -> Result<IterationStats> {
         let started = std::time::Instant::now();
-        let vis = self.visibility.as_ref().expect("build_visibility before iterate");
+        let k = self.direction_sets.len().max(1);
+        // perturbed sets first, the fixed set last: it stays resident for rendering and tiles
+        let order: Vec<usize> = (1..k).chain([0]).collect();
+        let mut gpu_ms = 0.0;
+        let mut timed = self.timestamps.is_some();
+        for (n, &set) in order.iter().enumerate() {
+            if k > 1 {
+                self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(&self.direction_sets[set]));
+                self.visibility = None;
+                let vis = Visibility::build(&self.ctx, &MemoryLedger::default(), &self.scene, &self.grid, &mut None)?;
+                self.visibility = Some(vis);
+            }
+            let mut grid = self.grid;
+            grid.iteration = self.iteration;
+            grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
+            if n > 0 {
+                grid.flags |= GRID_FLAG_ACCUMULATE;
+            }
+            self.ctx.queue.write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
+            self.encode_gathers(set == 0)?;
+            if let Some(t) = self.timestamps.as_mut() {
+                gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
+            } else {
+                timed = false;
+            }
+        }
+        let (texel_power, texel_sky) = self.accumulate(false)?;
+        let (tile_power, tile_sky) = if self.tiles.is_some() { self.accumulate(true)? } else { (0.0, 0.0) };
+        if let Some(t) = self.timestamps.as_mut() {
+            gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
+        }
+        if self.iteration == 0 {
+            // the sky shoots once, in the first iteration: what it delivered counts as emitted
+            self.emitted_power += texel_sky + tile_sky;
+        }
+        self.current = 1 - self.current;
+        self.iteration += 1;
+        let unshot_power = texel_power + tile_power;
+        let residual = if self.emitted_power > 0.0 { unshot_power / self.emitted_power } else { 0.0 };
+        Ok(IterationStats {
+            iteration: self.iteration,
+            residual,
+            gpu_ms: timed.then_some(gpu_ms),
+            wall_ms: started.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    fn encode_gathers(&mut self, with_tiles: bool) -> Result<()> {
         let ctx = &self.ctx;
-        let mut grid = self.grid;
-        grid.iteration = self.iteration;
-        grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
-        ctx.queue.write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
+        let vis = self.visibility.as_ref().expect("build_visibility before iterate");
         let s = &self.scene;
         let bg0 = ctx.bind_group(
-            &self.gather_layout0,
+            &self.layout0,
             &[&s.grid, &s.directions, &s.faces, &vis.cell_offset, &vis.cell_count, &vis.layers, &s.texel_points],
         );
-        let unshot = &self.radiance[self.current];
-        let next = &self.radiance[1 - self.current];
-        let bg1 = ctx.bind_group(&self.gather_layout1, &[unshot, next]);
-        let acc_bg = ctx.bind_group(&self.accumulate_layout, &[&s.grid, next, &self.total, &s.coverage, &self.partials]);
+        let (unshot, next) = (&self.texels.radiance[self.current], &self.texels.radiance[1 - self.current]);
+        let bg1 = ctx.bind_group(&self.layout1, &[unshot, next]);
+        let bg2 = self.tiles.as_ref().map(|t| {
+            let [a, b, c, d, e] = &t.tables;
+            let (tu, tn) = (&t.state.radiance[self.current], &t.state.radiance[1 - self.current]);
+            ctx.bind_group(&t.layout2, &[a, b, c, d, e, &t.fixed_directions, tu, tn])
+        });
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("gather"),
                 timestamp_writes: self.timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
-            pass.set_pipeline(&self.gather_pipe);
             pass.set_bind_group(0, &bg0, &[]);
             pass.set_bind_group(1, &bg1, &[]);
+            if let Some(bg2) = &bg2 {
+                pass.set_bind_group(2, bg2, &[]);
+            }
+            pass.set_pipeline(&self.gather_pipe);
             let (x, y) = dispatch_2d(self.texel_count.div_ceil(64));
             pass.dispatch_workgroups(x, y, 1);
+            if let (Some(t), true) = (&self.tiles, with_tiles) {
+                pass.set_pipeline(&t.gather_pipe);
+                let (x, y) = dispatch_2d(t.state.count.div_ceil(64));
+                pass.dispatch_workgroups(x, y, 1);
+            }
         }
+        ctx.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// total += next, and the power sums of next: (unshot power, sky's share).
+    fn accumulate(&mut self, tiles: bool) -> Result<(f64, f64)> {
+        let ctx = &self.ctx;
+        let (state, weights) = match (tiles, &self.tiles) {
+            (true, Some(t)) => (&t.state, &t.power_weight),
+            _ => (&self.texels, &self.texel_power_weight),
+        };
+        let bg = ctx.bind_group(
+            &self.accumulate_layout,
+            &[&state.params, &state.radiance[1 - self.current], &state.total, weights, &state.partials],
+        );
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("accumulate"),
                 timestamp_writes: self.timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
             pass.set_pipeline(&self.accumulate_pipe);
-            pass.set_bind_group(0, &acc_bg, &[]);
-            let (x, y) = dispatch_2d(self.texel_count.div_ceil(256));
+            pass.set_bind_group(0, &bg, &[]);
+            let (x, y) = dispatch_2d(state.count.div_ceil(256));
             pass.dispatch_workgroups(x, y, 1);
         }
         ctx.queue.submit([encoder.finish()]);
-        let partials: Vec<[f32; 2]> = ctx.read_buffer(&self.partials, self.partial_count as u64 * 8)?;
-        let unshot_power: f64 = partials.iter().map(|p| p[0] as f64).sum();
-        if self.iteration == 0 {
-            // the sky shoots once, in the first iteration: its received power counts as emitted
-            self.emitted_power += partials.iter().map(|p| p[1] as f64).sum::<f64>();
-        }
-        let gpu_ms = match self.timestamps.as_mut() {
-            Some(t) => Some(t.read_ms(ctx)?.iter().sum()),
-            None => None,
-        };
-        self.current = 1 - self.current;
-        self.iteration += 1;
-        let residual = if self.emitted_power > 0.0 { unshot_power / self.emitted_power } else { 0.0 };
-        Ok(IterationStats { iteration: self.iteration, residual, gpu_ms, wall_ms: started.elapsed().as_secs_f64() * 1e3 })
+        let partials: Vec<[f32; 2]> = ctx.read_buffer(&state.partials, state.partial_count as u64 * 8)?;
+        Ok((partials.iter().map(|p| p[0] as f64).sum(), partials.iter().map(|p| p[1] as f64).sum()))
     }
 
     pub fn read_total(&self) -> Result<Vec<[f32; 4]>> {
-        self.ctx.read_buffer(&self.total, self.texel_count as u64 * 16)
+        self.ctx.read_buffer(&self.texels.total, self.texel_count as u64 * 16)
+    }
+
+    /// Converged mirror radiance per tile cell (empty without mirrors).
+    pub fn read_tile_total(&self) -> Result<Vec<[f32; 4]>> {
+        match &self.tiles {
+            Some(t) => self.ctx.read_buffer(&t.state.total, t.state.count as u64 * 16),
+            None => Ok(Vec::new()),
+        }
     }
 
     /// The unshot radiosity the next iteration will shoot (the last iteration's "next").
     pub fn read_unshot(&self) -> Result<Vec<[f32; 4]>> {
-        self.ctx.read_buffer(&self.radiance[self.current], self.texel_count as u64 * 16)
+        self.ctx.read_buffer(&self.texels.radiance[self.current], self.texel_count as u64 * 16)
     }
 
     /// GPU memory while propagating.
@@ -208,11 +388,27 @@ impl Propagator {
         self.ledger.total()
     }
 
-    /// Keep only what rendering needs (faces and total); everything else is freed.
+    /// Keep only what rendering needs; everything else is freed.
     pub fn into_resident(self) -> ResidentLightField {
         let ledger = MemoryLedger::default();
         ledger.record("faces", self.scene.faces.size());
-        ledger.record("total radiance", self.total.size());
-        ResidentLightField { ctx: self.ctx, faces: self.scene.faces, total: self.total, ledger }
+        ledger.record("total radiance", self.texels.total.size());
+        let tiles = self.tiles.map(|t| {
+            let [rects, index, _, points, geodesic_index] = t.tables;
+            for (name, b) in [("tile rectangles", &rects), ("tile index", &index), ("geodesic tables", &points), ("geodesic index", &geodesic_index)] {
+                ledger.record(name, b.size());
+            }
+            ledger.record("mirror tiles: total radiance", t.state.total.size());
+            ledger.record("directions", self.scene.directions.size());
+            crate::lightfield::ResidentTiles {
+                rects,
+                index,
+                radiance: t.state.total,
+                geodesic_points: points,
+                geodesic_index,
+                directions: t.fixed_directions,
+            }
+        });
+        ResidentLightField { ctx: self.ctx, faces: self.scene.faces, total: self.texels.total, tiles, ledger }
     }
 }

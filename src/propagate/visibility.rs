@@ -15,7 +15,6 @@ pub struct SceneBuffers {
     pub vertices: wgpu::Buffer,
     pub triangles: wgpu::Buffer,
     pub texel_points: wgpu::Buffer,
-    pub coverage: wgpu::Buffer,
 }
 
 /// The resident layer lists.

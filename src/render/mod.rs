@@ -54,9 +54,10 @@ pub struct Renderer {
     vertex_buffer: wgpu::Buffer,
     vertex_count: u32,
     bind_group: wgpu::BindGroup,
+    /// the view-dependent part's bindings; None for a diffuse-only light field
+    tile_bind_group: Option<wgpu::BindGroup>,
     normalisation: Normalisation,
-    sky: [f32; 3],
-    atlas_width: u32,
+    view_template: GpuView,
     target: Option<Target>,
 }
 
@@ -67,9 +68,15 @@ impl Renderer {
         let module = shaders::module(device, "render.wgsl")?;
         let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
         let layout = bind_group_layout(device, stages, &[Binding::Uniform, Binding::Storage, Binding::Storage]);
+        // a diffuse-only light field binds no view-dependent path at all
+        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, stages, &[Binding::Storage; 6]));
+        let mut layouts = vec![Some(&layout)];
+        if let Some(t) = &tile_layout {
+            layouts.push(Some(t));
+        }
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("render"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &layouts,
             immediate_size: 0,
         });
         let vertex_layout = wgpu::VertexBufferLayout {
@@ -102,7 +109,7 @@ impl Renderer {
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
-                entry_point: Some("fs_main"),
+                entry_point: Some(if tile_layout.is_some() { "fs_mixed" } else { "fs_diffuse" }),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: COLOR_FORMAT,
@@ -127,6 +134,24 @@ impl Renderer {
             usage: wgpu::BufferUsages::VERTEX,
         });
         let bind_group = ctx.bind_group(&layout, &[&view_buffer, &resident.faces, &resident.total]);
+        let tile_bind_group = match (&tile_layout, &resident.tiles) {
+            (Some(l), Some(t)) => {
+                Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, &t.radiance]))
+            }
+            _ => None,
+        };
+        let sky = lf.meta.sky.unwrap_or([0.0; 3]);
+        let p = &lf.meta.params;
+        let view_template = GpuView {
+            sky: [sky[0], sky[1], sky[2], 1.0],
+            cell_size: 2.0 / p.grid_resolution as f32,
+            atlas_width: lf.meta.atlas_width,
+            geodesic_frequency: p.geodesic_frequency,
+            tile_size: p.tile_size,
+            tile_face_count: lf.tiles.as_ref().map_or(0, |t| t.face_count),
+            grid_resolution: p.grid_resolution,
+            ..Default::default()
+        };
         Ok(Renderer {
             ctx: ctx.clone(),
             pipeline,
@@ -134,9 +159,9 @@ impl Renderer {
             vertex_buffer,
             vertex_count: lf.render_vertices.len() as u32,
             bind_group,
+            tile_bind_group,
             normalisation: lf.meta.normalisation,
-            sky: lf.meta.sky.unwrap_or([0.0; 3]),
-            atlas_width: lf.meta.atlas_width,
+            view_template,
             target: None,
         })
     }
@@ -189,9 +214,9 @@ impl Renderer {
                 resolve_target: None,
                 ops: wgpu::Operations {
                     load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: self.sky[0] as f64,
-                        g: self.sky[1] as f64,
-                        b: self.sky[2] as f64,
+                        r: self.view_template.sky[0] as f64,
+                        g: self.view_template.sky[1] as f64,
+                        b: self.view_template.sky[2] as f64,
                         a: 1.0,
                     }),
                     store: wgpu::StoreOp::Store,
@@ -208,16 +233,19 @@ impl Renderer {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
+        if let Some(bg) = &self.tile_bind_group {
+            pass.set_bind_group(1, bg, &[]);
+        }
         pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
         pass.draw(0..self.vertex_count, 0..1);
     }
 
     fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
+        let eye = self.normalisation.to_unit(camera.eye).as_vec3();
         let view = GpuView {
             view_proj: view_projection(camera, &self.normalisation, width, height).to_cols_array_2d(),
-            sky: [self.sky[0], self.sky[1], self.sky[2], 1.0],
-            atlas_width: self.atlas_width,
-            ..Default::default()
+            eye: eye.into(),
+            ..self.view_template
         };
         self.ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
     }
@@ -252,6 +280,11 @@ impl Renderer {
 
     /// Render `frames` frames of one view; per-frame GPU milliseconds from timestamp queries
     /// (or wall-clock milliseconds per submitted frame when the adapter has none).
+    /// Does this renderer draw a view-dependent (mirror) part?
+    pub fn view_dependent(&self) -> bool {
+        self.tile_bind_group.is_some()
+    }
+
     pub fn time_frames(&mut self, camera: &Camera, width: u32, height: u32, frames: u32) -> Result<(Vec<f64>, bool)> {
         self.set_view(camera, width, height);
         self.target(width, height);

@@ -164,13 +164,6 @@ fn convert_material(
             )));
         }
     }
-    if material.mirror.iter().any(|&x| x > 0.0) {
-        warnings.push(format!(
-            "material {:?}: mirror reflectance {:?} is not propagated yet (diffuse-only light field); \
-             it is treated as absorbed",
-            m.name, material.mirror
-        ));
-    }
     for (what, tex) in [("map_Kd", &m.diffuse_texture), ("map_Ks", &m.specular_texture), ("map_bump", &m.normal_texture)] {
         if let Some(t) = tex {
             warnings.push(format!("material {:?}: {what} {t} is ignored (textures are not supported yet)", m.name));

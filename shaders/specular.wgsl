@@ -1,0 +1,104 @@
+// Transport for scenes with mirrors, driven by src/propagate/transport.rs. Two entry points
+// read the same unshot state and write the next one:
+// - gather_mixed: diffuse texels, as propagate.wgsl, plus the mirror part of each sender
+//   (its tile in the sender's direction, bilinear over cells);
+// - gather_tiles: every stored mirror tile cell reflects the radiance arriving along the
+//   mirrored direction, gathered from the three fixed directions around it (barycentric).
+#include "common/types.wgsl"
+#include "common/atlas.wgsl"
+#include "common/directions.wgsl"
+#include "common/tiles.wgsl"
+#include "common/upstream.wgsl"
+
+@group(2) @binding(0) var<storage, read> tile_rects: array<vec4<u32>>;
+@group(2) @binding(1) var<storage, read> tile_index: array<u32>;
+// per tile: (direction, face, tile x, tile y)
+@group(2) @binding(2) var<storage, read> tile_headers: array<vec4<u32>>;
+@group(2) @binding(3) var<storage, read> geodesic_points: array<vec4<f32>>;
+@group(2) @binding(4) var<storage, read> geodesic_index: array<u32>;
+// the fixed directions, whose grids the tiles live in (perturbed sets move `directions`)
+@group(2) @binding(5) var<storage, read> tile_directions: array<Direction>;
+// unshot mirror radiance (rgb)
+@group(2) @binding(6) var<storage, read> tile_radiance: array<vec4<f32>>;
+// next unshot mirror radiance (rgb) and, in w, the share that came from the sky (r+g+b)
+@group(2) @binding(7) var<storage, read_write> tile_next: array<vec4<f32>>;
+
+fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
+    if s.tile_slot == NO_FACE {
+        return vec3<f32>(0.0);
+    }
+    let d = tile_directions[dir_index];
+    return tile_bilinear(dir_index, d, s.tile_slot, xs, grid.cell_size, grid.tile_size, grid.tile_face_count).xyz;
+}
+
+@compute @workgroup_size(64)
+fn gather_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let texel = gid.x + gid.y * groups.x * 64u;
+    if texel >= grid.texel_count {
+        return;
+    }
+    let value = gather_texel(texel);
+    if (grid.flags & GRID_FLAG_ACCUMULATE) != 0u {
+        next[texel] += value;
+    } else {
+        next[texel] = value;
+    }
+}
+
+@compute @workgroup_size(64)
+fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let index = gid.x + gid.y * groups.x * 64u;
+    if index >= grid.tile_cell_count {
+        return;
+    }
+    let m = grid.tile_size;
+    let header = tile_headers[index / (m * m)];
+    let local = index % (m * m);
+    let dir_index = header.x;
+    let face_id = header.y;
+    let col = header.z * m + local % m;
+    let row = header.w * m + local / m;
+    let d = tile_directions[dir_index];
+    let f = faces[face_id];
+    let cos_w = dot(f.normal, d.w);
+    if abs(cos_w) < 1e-6 {
+        tile_next[index] = vec4<f32>(0.0);
+        return;
+    }
+    // where this cell's line meets the face's plane
+    let line = d.u * ((f32(col) + 0.5) * grid.cell_size - 1.0) + d.v * ((f32(row) + 0.5) * grid.cell_size - 1.0);
+    let x = line + d.w * ((f.plane_offset - dot(f.normal, line)) / cos_w);
+    // the light leaving along out_dir arrived travelling along its mirror image
+    let out_dir = d.w * sign(cos_w);
+    let arriving = out_dir - 2.0 * dot(out_dir, f.normal) * f.normal;
+    let taps = lookup_direction(arriving, grid.geodesic_frequency);
+    let sky_on = (grid.flags & GRID_FLAG_SKY) != 0u;
+    var radiance = vec3<f32>(0.0);
+    var sky = vec3<f32>(0.0);
+    var found = 0.0;
+    for (var k = 0u; k < 3u; k++) {
+        let w = taps.weight[k];
+        let j = taps.index[k];
+        let dj = directions[j];
+        let travel = dj.w * taps.sign[k];
+        // a tap beyond the horizon cannot light the front: the others are renormalised
+        if w <= 0.0 || dot(f.normal, travel) > -1e-6 {
+            continue;
+        }
+        found += w;
+        let sender = find_upstream(j, dj, x, face_id, taps.sign[k] > 0.0);
+        if sender == NO_FACE {
+            if sky_on {
+                sky += grid.sky * w;
+            }
+        } else {
+            radiance += sender_radiance(sender, x, j, travel) * w;
+        }
+    }
+    if found > 0.0 {
+        radiance /= found;
+        sky /= found;
+    }
+    // w: the sky radiance this cell received, for the emitted power of the residual
+    tile_next[index] = vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+}
