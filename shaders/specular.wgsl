@@ -67,7 +67,17 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     // where this cell's line meets the face's plane
     let line = d.u * ((f32(col) + 0.5) * grid.cell_size - 1.0) + d.v * ((f32(row) + 0.5) * grid.cell_size - 1.0);
-    let x = line + d.w * ((f.plane_offset - dot(f.normal, line)) / cos_w);
+    let on_plane = line + d.w * ((f.plane_offset - dot(f.normal, line)) / cos_w);
+    // Cells at the rim (kept for bilinear lookups) whose line misses the face take the sample
+    // point of the nearest texel, which prepare put just inside the face: the atlas padding's
+    // rule. Outside the face, "upstream" would mean nothing.
+    let rel = on_plane - f.origin;
+    let st = vec2<f32>(dot(rel, f.axis_a), dot(rel, f.axis_b)) * f.texel_density - 0.5;
+    let texel = vec2<u32>(clamp(round(st), vec2<f32>(0.0), vec2<f32>(f32(f.atlas_w - 1u), f32(f.atlas_h - 1u))));
+    let sample = texel_points[(f.atlas_y + texel.y) * grid.atlas_width + f.atlas_x + texel.x].xyz;
+    let centre = f.origin + (f.axis_a * (f32(texel.x) + 0.5) + f.axis_b * (f32(texel.y) + 0.5)) / f.texel_density;
+    let inside = all(abs(st - vec2<f32>(texel)) <= vec2<f32>(0.5)) && distance(sample, centre) < 1e-5;
+    let x = select(sample, on_plane, inside);
     // the light leaving along out_dir arrived travelling along its mirror image
     let out_dir = d.w * sign(cos_w);
     let arriving = out_dir - 2.0 * dot(out_dir, f.normal) * f.normal;
