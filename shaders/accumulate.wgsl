@@ -5,15 +5,6 @@
 // the residual is repeatable too.
 #include "common/types.wgsl"
 
-// mirrors gpu::types::GpuAccumulate
-struct AccumulateParams {
-    count: u32,
-    // 1/pi for texels (radiosity to radiance), 1 for tile cells (already radiance)
-    scale: f32,
-    _pad0: u32,
-    _pad1: u32,
-}
-
 @group(0) @binding(0) var<uniform> params: AccumulateParams;
 @group(0) @binding(1) var<storage, read> next: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read_write> total: array<vec4<f32>>;

@@ -95,6 +95,9 @@ struct ParamArgs {
     tolerance: Option<f64>,
     #[arg(long)]
     max_iterations: Option<u32>,
+    /// K perturbed ("virtual") direction sets used during transport: memory unchanged, time x K
+    #[arg(long)]
+    perturb: Option<u32>,
 }
 
 impl ParamArgs {
@@ -120,6 +123,9 @@ impl ParamArgs {
         }
         if let Some(m) = self.max_iterations {
             p.max_iterations = m;
+        }
+        if let Some(k) = self.perturb {
+            p.perturb = k;
         }
         Ok(p)
     }

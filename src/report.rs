@@ -25,6 +25,8 @@ pub struct PropagationReport {
     /// tile cells of non-diffuse faces (none in a diffuse-only scene)
     pub non_diffuse_elements: u64,
     pub tile_bytes: u64,
+    /// per-texel texture factors on the GPU (none in an untextured scene)
+    pub texture_bytes: u64,
     pub layers: u64,
     pub visibility_kept_resident: bool,
     pub setup_seconds: f64,
@@ -48,11 +50,22 @@ impl PropagationReport {
         let mut rows: Vec<(String, String)> = vec![
             ("scene".into(), self.scene.clone()),
             ("adapter".into(), format!("{} ({}, {})", self.adapter.name, self.adapter.backend, self.adapter.driver_info)),
-            ("directions".into(), format!("{} (geodesic n={})", self.directions, self.params.geodesic_frequency)),
+            (
+                "directions".into(),
+                if self.params.perturb > 1 {
+                    format!("{} (geodesic n={}), {} perturbed sets in transport", self.directions, self.params.geodesic_frequency, self.params.perturb)
+                } else {
+                    format!("{} (geodesic n={})", self.directions, self.params.geodesic_frequency)
+                },
+            ),
             ("grid / tile".into(), format!("{0}x{0} cells, {1}x{1}-cell tiles", self.params.grid_resolution, self.params.tile_size)),
             ("faces (triangles)".into(), format!("{} ({})", self.faces, self.triangles)),
             ("diffuse elements".into(), format!("{} texels at {} / unit", self.diffuse_elements, self.params.texel_density)),
             ("non-diffuse elements".into(), format!("{} ({} of tiles)", self.non_diffuse_elements, human_bytes(self.tile_bytes))),
+            (
+                "textures".into(),
+                if self.texture_bytes == 0 { "none: nothing allocated".into() } else { human_bytes(self.texture_bytes) },
+            ),
             ("visibility layers".into(), format!("{} (kept resident for all iterations)", self.layers)),
             ("setup".into(), format!("{:.3} s", self.setup_seconds)),
             (

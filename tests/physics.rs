@@ -140,3 +140,31 @@ fn a_floor_under_a_uniform_sky_reflects_rho_times_the_sky() {
         assert!((l - expected).abs() / expected < 0.01, "channel {c}: {l} vs {expected}");
     }
 }
+
+#[test]
+fn perturbed_directions_keep_the_furnace_and_the_memory() {
+    let ctx = gpu();
+    let (_dir, scene) = furnace(0.5, 1.0);
+    let base = small_params();
+    let perturbed = PropagationParams { perturb: 3, ..base.clone() };
+    let (_, _, one) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
+    let (lf, _, three) = vlf::propagate::propagate(ctx.clone(), &scene, &perturbed, false).unwrap();
+    let prepared = PreparedScene::new(&scene, base.texel_density).unwrap();
+    let worst = worst_deviation(&prepared, &lf.total, 2.0);
+    assert!(worst < 0.01, "perturbed furnace off by {:.2}%", worst * 100.0);
+    // one visibility set resident at a time: memory within 10% of the fixed set's
+    let (m1, m3) = (one.propagation_memory_bytes as f64, three.propagation_memory_bytes as f64);
+    assert!((m3 - m1).abs() / m1 < 0.1, "memory {m1} -> {m3}");
+    assert_eq!(one.iterations, three.iterations);
+}
+
+#[test]
+fn perturbed_directions_change_an_open_scene() {
+    let ctx = gpu();
+    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let base = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 30, perturb: 1 };
+    let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
+    let (b, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &PropagationParams { perturb: 4, ..base }, false).unwrap();
+    let differing = a.total.iter().zip(&b.total).filter(|(x, y)| (x[1] - y[1]).abs() > 1e-4 * (1.0 + x[1].abs())).count();
+    assert!(differing > a.total.len() / 10, "perturbation changed only {differing} texels");
+}

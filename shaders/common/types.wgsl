@@ -84,3 +84,12 @@ struct View {
     _pad1: u32,
     _pad2: u32,
 }
+
+// mirrors gpu::types::GpuAccumulate
+struct AccumulateParams {
+    count: u32,
+    // 1/pi for texels (radiosity to radiance), 1 for tile cells (already radiance)
+    scale: f32,
+    _pad0: u32,
+    _pad1: u32,
+}

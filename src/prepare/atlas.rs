@@ -6,6 +6,7 @@
 //! (the share of the texel the face covers) for power sums.
 
 use super::{PlanarFace, PreparedTriangle};
+use crate::scene::{Material, Texture};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
 use glam::{DVec2, DVec3};
@@ -29,6 +30,10 @@ pub struct Atlas {
     pub coverage: Vec<f32>,
     /// texels that belong to a chart (padding included)
     pub charted_texels: u64,
+    /// per texel: the `map_Kd` factor (only when some face has a diffuse texture)
+    pub texture_albedo: Option<Vec<[f32; 4]>>,
+    /// per texel: the `map_Ke` factor (only when some face has an emission texture)
+    pub texture_emission: Option<Vec<[f32; 4]>>,
 }
 
 impl Atlas {
@@ -36,11 +41,23 @@ impl Atlas {
         self.points.len()
     }
 
-    pub fn build(faces: &mut [PlanarFace], positions: &[DVec3], triangles: &[PreparedTriangle], density: f64) -> Result<Atlas> {
+    pub fn build(
+        faces: &mut [PlanarFace],
+        positions: &[DVec3],
+        triangles: &[PreparedTriangle],
+        density: f64,
+        materials: &[Material],
+        textures: &[Texture],
+    ) -> Result<Atlas> {
         let mut by_face: Vec<Vec<[DVec3; 3]>> = vec![Vec::new(); faces.len()];
+        let mut uv_by_face: Vec<Vec<Option<[[f32; 2]; 3]>>> = vec![Vec::new(); faces.len()];
         for t in triangles {
             by_face[t.face as usize].push(t.vertices.map(|i| positions[i as usize]));
+            uv_by_face[t.face as usize].push(t.uv);
         }
+        let has_uv = |f: usize| uv_by_face[f].iter().all(|u| u.is_some());
+        let albedo_textured = (0..faces.len()).any(|f| has_uv(f) && materials[faces[f].material as usize].diffuse_texture.is_some());
+        let emission_textured = (0..faces.len()).any(|f| has_uv(f) && materials[faces[f].material as usize].emission_texture.is_some());
         // chart rectangles in face coordinates
         let mut local_min = Vec::with_capacity(faces.len());
         for (f, tris) in faces.iter_mut().zip(&by_face) {
@@ -73,6 +90,8 @@ impl Atlas {
             });
         }
         let mut points = vec![[0.0, 0.0, 0.0, f32::from_bits(NO_FACE)]; texels as usize];
+        let mut texture_albedo = albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]);
+        let mut texture_emission = emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]);
         let mut coverage = vec![0.0f32; texels as usize];
         let mut charted_texels = 0u64;
         for (fi, f) in faces.iter_mut().enumerate() {
@@ -85,18 +104,33 @@ impl Atlas {
                 .collect();
             let r = f.atlas;
             charted_texels += r.w as u64 * r.h as u64;
+            let material = &materials[f.material as usize];
+            let uvs = &uv_by_face[fi];
+            let texture = |which: Option<u32>| which.filter(|_| has_uv(fi)).map(|t| &textures[t as usize]);
+            let (albedo_map, emission_map) = (texture(material.diffuse_texture), texture(material.emission_texture));
             for j in 0..r.h {
                 for i in 0..r.w {
                     let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
-                    let (sample, cover) = sample_texel(&tris2, centre, 0.5 / density);
+                    let (sample, cover, tri) = sample_texel(&tris2, centre, 0.5 / density);
                     let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
                     let idx = ((r.y + j) * width + r.x + i) as usize;
+                    if albedo_map.is_some() || emission_map.is_some() {
+                        let uv = interpolate_uv(&tris2[tri], uvs[tri].unwrap(), sample);
+                        if let (Some(map), Some(out)) = (albedo_map, texture_albedo.as_mut()) {
+                            let c = map.sample(uv);
+                            out[idx] = [c[0], c[1], c[2], 1.0];
+                        }
+                        if let (Some(map), Some(out)) = (emission_map, texture_emission.as_mut()) {
+                            let c = map.sample(uv);
+                            out[idx] = [c[0], c[1], c[2], 1.0];
+                        }
+                    }
                     points[idx] = [p.x as f32, p.y as f32, p.z as f32, f32::from_bits(fi as u32)];
                     coverage[idx] = cover as f32;
                 }
             }
         }
-        Ok(Atlas { width, height, points, coverage, charted_texels })
+        Ok(Atlas { width, height, points, coverage, charted_texels, texture_albedo, texture_emission })
     }
 }
 
@@ -137,8 +171,22 @@ fn closest_on_segment(a: DVec2, b: DVec2, p: DVec2) -> DVec2 {
     a + ab * t
 }
 
-/// Sample point and coverage of the texel centred at `centre` with half-size `half`.
-fn sample_texel(tris: &[[DVec2; 3]], centre: DVec2, half: f64) -> (DVec2, f64) {
+/// Texture coordinates at point p of triangle t (barycentric interpolation).
+fn interpolate_uv(t: &[DVec2; 3], uv: [[f32; 2]; 3], p: DVec2) -> [f32; 2] {
+    let cross = |a: DVec2, b: DVec2| a.x * b.y - a.y * b.x;
+    let area = cross(t[1] - t[0], t[2] - t[0]);
+    if area.abs() < 1e-300 {
+        return uv[0];
+    }
+    let l1 = cross(p - t[0], t[2] - t[0]) / area;
+    let l2 = cross(t[1] - t[0], p - t[0]) / area;
+    let l0 = 1.0 - l1 - l2;
+    std::array::from_fn(|k| (uv[0][k] as f64 * l0 + uv[1][k] as f64 * l1 + uv[2][k] as f64 * l2) as f32)
+}
+
+/// Sample point, coverage and the triangle holding the sample point, for the texel centred at
+/// `centre` with half-size `half`.
+fn sample_texel(tris: &[[DVec2; 3]], centre: DVec2, half: f64) -> (DVec2, f64, usize) {
     const SUB: usize = 4;
     let mut covered = 0;
     for sj in 0..SUB {
@@ -151,23 +199,23 @@ fn sample_texel(tris: &[[DVec2; 3]], centre: DVec2, half: f64) -> (DVec2, f64) {
         }
     }
     let cover = covered as f64 / (SUB * SUB) as f64;
-    if tris.iter().any(|t| inside(t, centre)) {
-        return (centre, cover);
+    if let Some(t) = tris.iter().position(|t| inside(t, centre)) {
+        return (centre, cover, t);
     }
     // nearest point of the face, nudged inside so that visibility finds the face there
-    let mut best = (f64::INFINITY, centre, centre);
-    for t in tris {
+    let mut best = (f64::INFINITY, centre, centre, 0);
+    for (ti, t) in tris.iter().enumerate() {
         let c = (t[0] + t[1] + t[2]) / 3.0;
         for k in 0..3 {
             let q = closest_on_segment(t[k], t[(k + 1) % 3], centre);
             let d = q.distance_squared(centre);
             if d < best.0 {
-                best = (d, q, c);
+                best = (d, q, c, ti);
             }
         }
     }
-    let (_, q, c) = best;
+    let (_, q, c, tri) = best;
     let to_c = c - q;
     let nudge = (half * 0.02).min(to_c.length() * 0.5);
-    (q + to_c.normalize_or_zero() * nudge, cover)
+    (q + to_c.normalize_or_zero() * nudge, cover, tri)
 }

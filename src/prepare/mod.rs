@@ -39,6 +39,7 @@ pub struct PlanarFace {
 pub struct PreparedTriangle {
     pub vertices: [u32; 3],
     pub face: u32,
+    pub uv: Option<[[f32; 2]; 3]>,
 }
 
 /// Maps world (metres) to the normalised space the light field lives in.
@@ -79,7 +80,8 @@ impl PreparedScene {
         let mut triangles: Vec<PreparedTriangle> = Vec::new();
         for (fi, f) in faces.iter().enumerate() {
             for &t in &f.triangles {
-                triangles.push(PreparedTriangle { vertices: scene.triangles[t as usize].vertices, face: fi as u32 });
+                let tri = &scene.triangles[t as usize];
+                triangles.push(PreparedTriangle { vertices: tri.vertices, face: fi as u32, uv: tri.uv });
             }
         }
         // The back of a two-sided surface is a face of its own, wound the other way.
@@ -97,12 +99,14 @@ impl PreparedScene {
             back.twin = Some(fi as u32);
             faces[fi].twin = Some(back_id);
             for &t in &faces[fi].triangles {
-                let [a, b, c] = scene.triangles[t as usize].vertices;
-                triangles.push(PreparedTriangle { vertices: [a, c, b], face: back_id });
+                let tri = &scene.triangles[t as usize];
+                let [a, b, c] = tri.vertices;
+                let uv = tri.uv.map(|[ua, ub, uc]| [ua, uc, ub]);
+                triangles.push(PreparedTriangle { vertices: [a, c, b], face: back_id, uv });
             }
             faces.push(back);
         }
-        let atlas = atlas::Atlas::build(&mut faces, &positions, &triangles, texel_density)?;
+        let atlas = atlas::Atlas::build(&mut faces, &positions, &triangles, texel_density, &scene.materials, &scene.textures)?;
         let small = faces.iter().filter(|f| f.atlas.w <= 3 && f.atlas.h <= 3).count();
         if small > 0 {
             warnings.push(format!(

@@ -179,7 +179,10 @@ pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f3
         if face == NO_FACE {
             continue;
         }
-        let e = faces[face as usize].emission;
+        let mut e = faces[face as usize].emission;
+        if let Some(t) = &prepared.atlas.texture_emission {
+            e = std::array::from_fn(|k| e[k] * t[i][k]);
+        }
         unshot[i] = [e[0] * std::f32::consts::PI, e[1] * std::f32::consts::PI, e[2] * std::f32::consts::PI, 0.0];
         total[i] = [e[0], e[1], e[2], 0.0];
     }
@@ -263,6 +266,7 @@ pub fn propagate(
     let non_diffuse_elements = tiles.as_ref().map_or(0, |t| t.total.len() as u64);
     // everything allocated for tiles while propagating (radiance copies, weights, tables)
     let tile_bytes: u64 = prop.ledger.entries().iter().filter(|(n, _)| n.contains("tile")).map(|(_, b)| b).sum();
+    let texture_bytes: u64 = prop.ledger.entries().iter().filter(|(n, _)| n.starts_with("texture")).map(|(_, b)| b).sum();
     let propagation_memory_bytes = prop.memory_bytes();
     let propagation_memory = crate::report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
@@ -299,6 +303,7 @@ pub fn propagate(
         diffuse_elements: prepared.atlas.charted_texels,
         non_diffuse_elements,
         tile_bytes,
+        texture_bytes,
         layers,
         visibility_kept_resident: true,
         setup_seconds,

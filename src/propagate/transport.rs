@@ -76,6 +76,8 @@ pub struct Propagator {
     texels: ElementState,
     texel_power_weight: wgpu::Buffer,
     tiles: Option<Tiles>,
+    /// map_Kd factors per texel and their pass; None for an untextured scene
+    texture: Option<(wgpu::Buffer, wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// the K direction sets (only kept when K > 1)
     direction_sets: Vec<Vec<GpuDirection>>,
     /// which of the two radiance buffers holds unshot
@@ -214,6 +216,16 @@ impl Propagator {
             };
             (gather, Some(tiles))
         };
+        let texture = match &prepared.atlas.texture_albedo {
+            Some(albedo) => {
+                let buffer = ctx.buffer_init(&ledger, "texture albedo", bytemuck::cast_slice(albedo), STORAGE);
+                let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
+                let module = shaders::module(device, "texture.wgsl")?;
+                let pipe = ctx.compute_pipeline(&module, "modulate", &[&layout]);
+                Some((buffer, pipe, layout))
+            }
+            None => None,
+        };
         let direction_sets = if k > 1 { (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect() } else { Vec::new() };
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k);
         Ok(Propagator {
@@ -226,6 +238,7 @@ impl Propagator {
             texels,
             texel_power_weight,
             tiles,
+            texture,
             direction_sets,
             current: 0,
             gather_pipe,
@@ -278,6 +291,18 @@ impl Propagator {
             } else {
                 timed = false;
             }
+        }
+        if let Some((albedo, pipe, layout)) = &self.texture {
+            let bg = self.ctx.bind_group(layout, &[&self.texels.params, &self.texels.radiance[1 - self.current], albedo]);
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(pipe);
+                pass.set_bind_group(0, &bg, &[]);
+                let (x, y) = dispatch_2d(self.texel_count.div_ceil(256));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            self.ctx.queue.submit([encoder.finish()]);
         }
         let (texel_power, texel_sky) = self.accumulate(false)?;
         let (tile_power, tile_sky) = if self.tiles.is_some() { self.accumulate(true)? } else { (0.0, 0.0) };

@@ -56,6 +56,41 @@ pub struct Material {
     pub mirror: [f32; 3],
     pub emission: [f32; 3],
     pub two_sided: bool,
+    /// `map_Kd`, multiplying `diffuse` (index into Scene::textures)
+    #[serde(default)]
+    pub diffuse_texture: Option<u32>,
+    /// `map_Ke`, multiplying `emission`
+    #[serde(default)]
+    pub emission_texture: Option<u32>,
+}
+
+/// A texture in linear RGB (decoded from sRGB), row-major from the top-left texel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<[f32; 3]>,
+}
+
+impl Texture {
+    /// Bilinear lookup with wrapping; v = 0 is the image's bottom row (OBJ convention).
+    pub fn sample(&self, uv: [f32; 2]) -> [f32; 3] {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let x = uv[0].rem_euclid(1.0) * w - 0.5;
+        let y = (1.0 - uv[1].rem_euclid(1.0)) * h - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let at = |xi: f32, yi: f32| {
+            let xi = (xi as i64).rem_euclid(self.width as i64) as usize;
+            let yi = (yi as i64).rem_euclid(self.height as i64) as usize;
+            self.texels[yi * self.width as usize + xi]
+        };
+        let (a, b, c, d) = (at(x0, y0), at(x0 + 1.0, y0), at(x0, y0 + 1.0), at(x0 + 1.0, y0 + 1.0));
+        std::array::from_fn(|k| {
+            (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
+        })
+    }
 }
 
 /// One triangle of the imported mesh, counter-clockwise seen from its front.
@@ -63,6 +98,8 @@ pub struct Material {
 pub struct Triangle {
     pub vertices: [u32; 3],
     pub material: u32,
+    /// texture coordinates of the corners, where the OBJ has them
+    pub uv: Option<[[f32; 2]; 3]>,
 }
 
 /// A loaded, validated scene in world units.
@@ -73,6 +110,7 @@ pub struct Scene {
     pub positions: Vec<[f32; 3]>,
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
     pub sky: Option<[f32; 3]>,
     pub cameras: Vec<Camera>,
     /// Things the importer could not represent or had to repair, for the user and the report.
@@ -115,6 +153,7 @@ impl Scene {
             positions: mesh.positions,
             triangles: mesh.triangles,
             materials: mesh.materials,
+            textures: mesh.textures,
             sky: file.sky.map(|s| s.radiance).filter(|r| r.iter().any(|&c| c > 0.0)),
             cameras: file.camera,
             warnings: mesh.warnings,

@@ -2,7 +2,7 @@
 //! would report without a line number (non-finite vertices, face indices out of range). After
 //! it, degenerate and duplicated triangles are dropped with a count in a warning.
 
-use super::{check_color, Material, MaterialOverride, Triangle};
+use super::{check_color, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
 use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -11,6 +11,7 @@ pub struct ImportedMesh {
     pub positions: Vec<[f32; 3]>,
     pub triangles: Vec<Triangle>,
     pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
     pub warnings: Vec<String>,
     /// The OBJ and every material library it loaded, for the scene hash.
     pub source_files: Vec<PathBuf>,
@@ -43,7 +44,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         }
     })
     .map_err(|e| mesh_err(format!("cannot parse OBJ: {e}")))?;
-    let source_files = source_files.into_inner();
+    let mut source_files = source_files.into_inner();
     if let Some(m) = mtl_missing.into_inner() {
         return Err(mesh_err(format!("cannot read {m}")));
     }
@@ -52,8 +53,19 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
 
     let mut warnings = Vec::new();
     let mut out_materials: Vec<Material> = Vec::new();
+    let mut textures: Vec<Texture> = Vec::new();
     for m in &materials {
-        out_materials.push(convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?);
+        let mut material = convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?;
+        let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
+        material.diffuse_texture = match &m.diffuse_texture {
+            Some(t) => Some(load_texture(&mtl_dir.join(t), &m.name, "map_Kd", &mtl_path, &mut textures)?),
+            None => None,
+        };
+        material.emission_texture = match m.unknown_param.get("map_Ke") {
+            Some(t) => Some(load_texture(&mtl_dir.join(t.trim()), &m.name, "map_Ke", &mtl_path, &mut textures)?),
+            None => None,
+        };
+        out_materials.push(material);
     }
     let default_material = out_materials.len() as u32;
     let mut uses_default = false;
@@ -81,6 +93,13 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
                 default_material
             }
         };
+        let textured = mesh.material_id.is_some_and(|id| {
+            let m = &out_materials[id];
+            m.diffuse_texture.is_some() || m.emission_texture.is_some()
+        });
+        if textured && mesh.texcoords.is_empty() {
+            warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
+        }
         let mut local = Vec::with_capacity(mesh.positions.len() / 3);
         for p in mesh.positions.chunks(3) {
             let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
@@ -104,7 +123,13 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
                 dropped_duplicate += 1;
                 continue;
             }
-            triangles.push(Triangle { vertices: v, material });
+            let uv = (!mesh.texcoords.is_empty()).then(|| {
+                std::array::from_fn(|k| {
+                    let i = tri[k] as usize;
+                    [mesh.texcoords[2 * i], mesh.texcoords[2 * i + 1]]
+                })
+            });
+            triangles.push(Triangle { vertices: v, material, uv });
         }
     }
     if uses_default {
@@ -118,6 +143,8 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             mirror: [0.0; 3],
             emission: [0.0; 3],
             two_sided: false,
+            diffuse_texture: None,
+            emission_texture: None,
         });
     }
     if dropped_degenerate > 0 {
@@ -132,7 +159,10 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     if triangles.is_empty() {
         return Err(mesh_err("the mesh has no triangles with area: nothing to light".into()));
     }
-    Ok(ImportedMesh { positions, triangles, materials: out_materials, warnings, source_files })
+    for t in &textures {
+        source_files.push(t.path.clone());
+    }
+    Ok(ImportedMesh { positions, triangles, materials: out_materials, textures, warnings, source_files })
 }
 
 fn convert_material(
@@ -155,6 +185,8 @@ fn convert_material(
         mirror: o.mirror.unwrap_or(ks),
         emission: o.emission.unwrap_or(ke),
         two_sided: o.two_sided.unwrap_or(false),
+        diffuse_texture: None,
+        emission_texture: None,
     };
     for c in 0..3 {
         if material.diffuse[c] + material.mirror[c] > 1.0 + 1e-6 {
@@ -164,14 +196,9 @@ fn convert_material(
             )));
         }
     }
-    for (what, tex) in [("map_Kd", &m.diffuse_texture), ("map_Ks", &m.specular_texture), ("map_bump", &m.normal_texture)] {
+    for (what, tex) in [("map_Ks", &m.specular_texture), ("map_bump", &m.normal_texture), ("map_d", &m.dissolve_texture)] {
         if let Some(t) = tex {
-            warnings.push(format!("material {:?}: {what} {t} is ignored (textures are not supported yet)", m.name));
-        }
-    }
-    for key in m.unknown_param.keys() {
-        if key == "map_Ke" {
-            warnings.push(format!("material {:?}: map_Ke is ignored (textures are not supported yet)", m.name));
+            warnings.push(format!("material {:?}: {what} {t} cannot be represented (only map_Kd and map_Ke are) and is ignored", m.name));
         }
     }
     if m.dissolve.is_some_and(|d| d < 1.0) {
@@ -227,4 +254,26 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Load a texture once (by path), decoding sRGB to linear. Errors name the material and file.
+fn load_texture(path: &Path, material: &str, key: &str, mtl_path: &Path, textures: &mut Vec<Texture>) -> Result<u32> {
+    if let Some(i) = textures.iter().position(|t| t.path == path) {
+        return Ok(i as u32);
+    }
+    let err = |message: String| VlfError::Material { path: mtl_path.to_path_buf(), material: material.to_string(), message };
+    let image = image::ImageReader::open(path)
+        .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
+        .with_guessed_format()
+        .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
+        .decode()
+        .map_err(|e| err(format!("{key} {}: not a readable PNG or JPEG image: {e}", path.display())))?
+        .to_rgb8();
+    let decode = |c: u8| {
+        let x = c as f32 / 255.0;
+        if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+    };
+    let texels = image.pixels().map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect();
+    textures.push(Texture { path: path.to_path_buf(), width: image.width(), height: image.height(), texels });
+    Ok(textures.len() as u32 - 1)
 }
