@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Assembles BENCHMARKS.md from the Markdown sections `vlf bench --markdown` wrote into DIR
-# (bench-default.md, bench-paper.md). Usage: tools/benchmarks-md.sh DIR > BENCHMARKS.md
+# (bench-{default,paper,mirror,mirror-paper,perturb4}.md). Usage: tools/benchmarks-md.sh DIR > BENCHMARKS.md
 set -euo pipefail
 dir=$1
 cat <<'HEAD'
@@ -10,9 +10,9 @@ Every figure below is produced by `vlf bench` (`tools/gpu-bench.sh` runs it on t
 machine; `tools/benchmarks-md.sh` assembles this file from its Markdown output); none is typed
 by hand. Timings on a software adapter (lavapipe) are never reported here. The paper's column
 is Mortensen, Khanna & Slater (2007), Table 1, Cornell box row (GeForce 8800 GTX, 512
-directions, 3 iterations). That row includes 931,136 mirror (non-diffuse) elements; ours is
-the diffuse-only Cornell box, so it does less work per iteration. The Cornell-mirror row comes
-with the non-diffuse light field.
+directions, 3 iterations), which included 931,136 mirror (non-diffuse) elements: compare it
+with our Cornell-mirror rows (the tall box an ideal mirror of reflectance 0.8); the plain
+Cornell rows are diffuse-only.
 
 Two runs: our default settings, converged to a residual of 1e-3 (unshot / emitted power), and
 the paper's settings (about 512 directions, 64x64 cells, 8x8-cell tiles, 3 iterations, which
@@ -30,5 +30,11 @@ else
   echo "(no scaling run in this batch)"
 fi
 echo
-echo "### Default settings"; echo; sed 1d "$dir/bench-default.md"; echo
-echo "### The paper's settings (config/propagation/paper.toml)"; echo; sed 1d "$dir/bench-paper.md"
+section() {  # title file
+  if [ -f "$dir/$2" ]; then echo "### $1"; echo; sed 1d "$dir/$2"; echo; fi
+}
+section "Cornell, default settings" bench-default.md
+section "Cornell, the paper's settings (config/propagation/paper.toml)" bench-paper.md
+section "Cornell-mirror, default settings" bench-mirror.md
+section "Cornell-mirror, the paper's settings" bench-mirror-paper.md
+section "Cornell, default settings with 4 perturbed direction sets (--perturb 4)" bench-perturb4.md
