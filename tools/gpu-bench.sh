@@ -26,3 +26,6 @@ for cam in front side; do "$vlf" render /tmp/mirror.vlf --camera $cam -o "$out/c
 "$vlf" render /tmp/room.vlf --camera front -o "$out/textured-room-front.png" | grep -v XDG
 "$vlf" render /tmp/room.vlf --camera up --exposure 0.15 -o "$out/textured-room-up.png" | grep -v XDG
 bash "$(dirname "$0")/benchmarks-md.sh" "$out" > "$out/BENCHMARKS.md"
+# at most a few files come back from the lent machine: pack them
+(cd "$out" && tar cf results.tar gpu.txt render-scaling.txt bench-*.json bench-*.md && rm -f bench-*.json bench-*.md gpu.txt render-scaling.txt)
+(cd "$out" && tar cf images.tar *.png && rm -f *.png)

@@ -5,7 +5,7 @@
 //! tolerance. With K perturbed direction sets, each iteration gathers once per set, rebuilding
 //! the visibility lists for each (memory unchanged, time about x K).
 
-use super::visibility::{SceneBuffers, Visibility};
+use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
 use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GRID_FLAG_ACCUMULATE, GRID_FLAG_SKY};
@@ -72,6 +72,7 @@ pub struct Propagator {
     pub grid: GpuGrid,
     pub scene: SceneBuffers,
     pub visibility: Option<Visibility>,
+    visibility_pipelines: VisibilityPipelines,
     pub faces: Vec<GpuFace>,
     texels: ElementState,
     texel_power_weight: wgpu::Buffer,
@@ -228,12 +229,14 @@ impl Propagator {
         };
         let direction_sets = if k > 1 { (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect() } else { Vec::new() };
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k);
+        let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
             ctx,
             ledger,
             grid,
             scene,
             visibility: None,
+            visibility_pipelines,
             faces,
             texels,
             texel_power_weight,
@@ -255,7 +258,7 @@ impl Propagator {
 
     pub fn build_visibility(&mut self) -> Result<&Visibility> {
         self.visibility = None;
-        let vis = Visibility::build(&self.ctx, &self.ledger, &self.scene, &self.grid, &mut self.timestamps)?;
+        let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut self.timestamps)?;
         Ok(self.visibility.insert(vis))
     }
 
@@ -275,7 +278,7 @@ impl Propagator {
             if k > 1 {
                 self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(&self.direction_sets[set]));
                 self.visibility = None;
-                let vis = Visibility::build(&self.ctx, &MemoryLedger::default(), &self.scene, &self.grid, &mut None)?;
+                let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &MemoryLedger::default(), &self.scene, &self.grid, &mut None)?;
                 self.visibility = Some(vis);
             }
             let mut grid = self.grid;

@@ -31,24 +31,22 @@ pub struct Visibility {
 /// Cell offsets, cell counts and layers (face, depth bits), as read back from the GPU.
 pub type LayerLists = (Vec<u32>, Vec<u32>, Vec<[u32; 2]>);
 
-/// Triangles per dispatch (the y dimension of count/fill).
-const TRIANGLES_PER_DISPATCH: u32 = 65535;
-
-fn groups(count: u32, size: u32) -> u32 {
-    count.div_ceil(size)
+/// The visibility stage's pipelines, made once per propagation (rebuilding the lists for
+/// perturbed direction sets reuses them).
+pub struct VisibilityPipelines {
+    layout0: wgpu::BindGroupLayout,
+    layout1: wgpu::BindGroupLayout,
+    count_pipe: wgpu::ComputePipeline,
+    scan_cells: wgpu::ComputePipeline,
+    scan_dirs: wgpu::ComputePipeline,
+    fill_pipe: wgpu::ComputePipeline,
+    sort_pipe: wgpu::ComputePipeline,
+    placeholder_bg: wgpu::BindGroup,
 }
 
-impl Visibility {
-    pub fn build(
-        ctx: &GpuContext,
-        ledger: &MemoryLedger,
-        scene: &SceneBuffers,
-        grid: &GpuGrid,
-        timestamps: &mut Option<Timestamps>,
-    ) -> Result<Visibility> {
+impl VisibilityPipelines {
+    pub fn new(ctx: &GpuContext) -> Result<VisibilityPipelines> {
         let device = &ctx.device;
-        let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
-        ctx.check_binding("the per-cell tables (directions x grid^2 x 4 bytes)", cells * 4, "use fewer directions or a coarser grid")?;
         let module = shaders::module(device, "visibility.wgsl")?;
         let cs = wgpu::ShaderStages::COMPUTE;
         use Binding::*;
@@ -60,13 +58,41 @@ impl Visibility {
         let layout1 = bind_group_layout(device, cs, &[StorageReadWrite]);
         // count_layers shares its traversal with fill_layers, so its layout names the layers
         // binding too; a placeholder stands in until the real size is known.
-        let count_pipe = ctx.compute_pipeline(&module, "count_layers", &[&layout0, &layout1]);
         let placeholder = ctx.buffer_zeroed(&MemoryLedger::default(), "layers placeholder", 16, STORAGE);
         let placeholder_bg = ctx.bind_group(&layout1, &[&placeholder]);
-        let scan_cells = ctx.compute_pipeline(&module, "scan_cells", &[&layout0]);
-        let scan_dirs = ctx.compute_pipeline(&module, "scan_directions", &[&layout0]);
-        let fill_pipe = ctx.compute_pipeline(&module, "fill_layers", &[&layout0, &layout1]);
-        let sort_pipe = ctx.compute_pipeline(&module, "sort_layers", &[&layout0, &layout1]);
+        Ok(VisibilityPipelines {
+            count_pipe: ctx.compute_pipeline(&module, "count_layers", &[&layout0, &layout1]),
+            scan_cells: ctx.compute_pipeline(&module, "scan_cells", &[&layout0]),
+            scan_dirs: ctx.compute_pipeline(&module, "scan_directions", &[&layout0]),
+            fill_pipe: ctx.compute_pipeline(&module, "fill_layers", &[&layout0, &layout1]),
+            sort_pipe: ctx.compute_pipeline(&module, "sort_layers", &[&layout0, &layout1]),
+            layout0,
+            layout1,
+            placeholder_bg,
+        })
+    }
+}
+
+/// Triangles per dispatch (the y dimension of count/fill).
+const TRIANGLES_PER_DISPATCH: u32 = 65535;
+
+fn groups(count: u32, size: u32) -> u32 {
+    count.div_ceil(size)
+}
+
+impl Visibility {
+    pub fn build(
+        ctx: &GpuContext,
+        pipelines: &VisibilityPipelines,
+        ledger: &MemoryLedger,
+        scene: &SceneBuffers,
+        grid: &GpuGrid,
+        timestamps: &mut Option<Timestamps>,
+    ) -> Result<Visibility> {
+        let device = &ctx.device;
+        let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
+        ctx.check_binding("the per-cell tables (directions x grid^2 x 4 bytes)", cells * 4, "use fewer directions or a coarser grid")?;
+        let VisibilityPipelines { layout0, layout1, count_pipe, scan_cells, scan_dirs, fill_pipe, sort_pipe, placeholder_bg } = pipelines;
 
         let cell_count = ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE);
         let cell_offset = ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE);
@@ -84,7 +110,7 @@ impl Visibility {
                     usage: wgpu::BufferUsages::UNIFORM,
                 });
                 let bg = ctx.bind_group(
-                    &layout0,
+                    layout0,
                     &[&buf, &scene.directions, &scene.vertices, &scene.triangles, &cell_count, &cell_offset, &direction_base],
                 );
                 (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
@@ -101,16 +127,16 @@ impl Visibility {
                 label: Some("count layers + scan"),
                 timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
-            pass.set_pipeline(&count_pipe);
-            pass.set_bind_group(1, &placeholder_bg, &[]);
+            pass.set_pipeline(count_pipe);
+            pass.set_bind_group(1, placeholder_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
                 pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
             }
             pass.set_bind_group(0, main_bg, &[]);
-            pass.set_pipeline(&scan_cells);
+            pass.set_pipeline(scan_cells);
             pass.dispatch_workgroups(grid.direction_count, 1, 1);
-            pass.set_pipeline(&scan_dirs);
+            pass.set_pipeline(scan_dirs);
             pass.dispatch_workgroups(1, 1, 1);
         }
         ctx.queue.submit([encoder.finish()]);
@@ -123,7 +149,7 @@ impl Visibility {
             "use fewer directions or a coarser grid",
         )?;
         let layers = ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE);
-        let layers_bg = ctx.bind_group(&layout1, &[&layers]);
+        let layers_bg = ctx.bind_group(layout1, &[&layers]);
 
         let mut encoder = device.create_command_encoder(&Default::default());
         {
@@ -131,14 +157,14 @@ impl Visibility {
                 label: Some("fill + sort layers"),
                 timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
-            pass.set_pipeline(&fill_pipe);
+            pass.set_pipeline(fill_pipe);
             pass.set_bind_group(1, &layers_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
                 pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
             }
             pass.set_bind_group(0, main_bg, &[]);
-            pass.set_pipeline(&sort_pipe);
+            pass.set_pipeline(sort_pipe);
             pass.dispatch_workgroups(cell_groups, grid.direction_count, 1);
         }
         ctx.queue.submit([encoder.finish()]);
