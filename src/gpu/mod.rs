@@ -247,6 +247,15 @@ impl MemoryLedger {
     pub fn record(&self, name: &str, bytes: u64) {
         self.inner.lock().unwrap().push((name.to_string(), bytes));
     }
+    /// A buffer that took the place of an earlier one of the same name (which is freed).
+    pub fn replace(&self, name: &str, bytes: u64) {
+        let mut entries = self.inner.lock().unwrap();
+        match entries.iter_mut().find(|(n, _)| n == name) {
+            Some(entry) => entry.1 = bytes,
+            None => entries.push((name.to_string(), bytes)),
+        }
+    }
+
     pub fn total(&self) -> u64 {
         self.inner.lock().unwrap().iter().map(|(_, b)| b).sum()
     }

@@ -258,7 +258,7 @@ impl Propagator {
 
     pub fn build_visibility(&mut self) -> Result<&Visibility> {
         self.visibility = None;
-        let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut self.timestamps)?;
+        let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut self.timestamps, None)?;
         Ok(self.visibility.insert(vis))
     }
 
@@ -277,8 +277,8 @@ impl Propagator {
         for (n, &set) in order.iter().enumerate() {
             if k > 1 {
                 self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(&self.direction_sets[set]));
-                self.visibility = None;
-                let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &MemoryLedger::default(), &self.scene, &self.grid, &mut None)?;
+                let previous = self.visibility.take();
+                let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut None, previous)?;
                 self.visibility = Some(vis);
             }
             let mut grid = self.grid;

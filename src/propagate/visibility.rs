@@ -81,6 +81,8 @@ fn groups(count: u32, size: u32) -> u32 {
 }
 
 impl Visibility {
+    /// Build the lists. `reuse` hands over the buffers of an earlier build with the same grid
+    /// (perturbed direction sets): they are cleared and refilled instead of reallocated.
     pub fn build(
         ctx: &GpuContext,
         pipelines: &VisibilityPipelines,
@@ -88,16 +90,27 @@ impl Visibility {
         scene: &SceneBuffers,
         grid: &GpuGrid,
         timestamps: &mut Option<Timestamps>,
+        reuse: Option<Visibility>,
     ) -> Result<Visibility> {
         let device = &ctx.device;
         let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
         ctx.check_binding("the per-cell tables (directions x grid^2 x 4 bytes)", cells * 4, "use fewer directions or a coarser grid")?;
         let VisibilityPipelines { layout0, layout1, count_pipe, scan_cells, scan_dirs, fill_pipe, sort_pipe, placeholder_bg } = pipelines;
 
-        let cell_count = ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE);
-        let cell_offset = ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE);
-        let direction_base =
-            ctx.buffer_zeroed(ledger, "visibility: direction bases", (grid.direction_count as u64 + 1) * 4, STORAGE);
+        let (cell_count, cell_offset, direction_base, old_layers) = match reuse {
+            Some(v) => {
+                let mut encoder = device.create_command_encoder(&Default::default());
+                encoder.clear_buffer(&v.cell_count, 0, None);
+                ctx.queue.submit([encoder.finish()]);
+                (v.cell_count, v.cell_offset, v.direction_base, Some(v.layers))
+            }
+            None => (
+                ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE),
+                ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE),
+                ctx.buffer_zeroed(ledger, "visibility: direction bases", (grid.direction_count as u64 + 1) * 4, STORAGE),
+                None,
+            ),
+        };
 
         // One uniform per triangle chunk, differing only in triangle_base.
         let chunks: Vec<(wgpu::BindGroup, u32)> = (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
@@ -148,7 +161,18 @@ impl Visibility {
             layer_count * 8,
             "use fewer directions or a coarser grid",
         )?;
-        let layers = ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE);
+        let layers = match old_layers {
+            Some(l) if l.size() >= layer_count * 8 => l,
+            Some(l) => {
+                // another direction set needs more layers: grow with headroom, free the old
+                drop(l);
+                let bytes = (layer_count * 8 + layer_count / 2).min(ctx.limits().max_storage_buffer_binding_size).max(layer_count * 8);
+                let grown = ctx.buffer_zeroed(&MemoryLedger::default(), "visibility: layers", bytes, STORAGE);
+                ledger.replace("visibility: layers", grown.size());
+                grown
+            }
+            None => ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE),
+        };
         let layers_bg = ctx.bind_group(layout1, &[&layers]);
 
         let mut encoder = device.create_command_encoder(&Default::default());
