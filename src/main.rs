@@ -44,11 +44,43 @@ enum Command {
         /// Exposure multiplier for PNG output
         #[arg(long, default_value_t = 1.0)]
         exposure: f32,
+        /// Anti-aliasing: N x N samples per pixel, box-filtered (for comparisons)
+        #[arg(long, default_value_t = 1)]
+        ssaa: u32,
         /// out.exr (linear radiance) or out.png (tonemapped)
         #[arg(short, long)]
         output: PathBuf,
         #[command(flatten)]
         params: ParamArgs,
+    },
+    /// Path-trace a reference image with the same scene semantics (GPU, BVH, NEE + MIS)
+    Reference {
+        scene: PathBuf,
+        #[arg(long)]
+        camera: Option<String>,
+        #[arg(long, value_parser = parse_size)]
+        size: Option<[u32; 2]>,
+        /// Samples per pixel
+        #[arg(long, default_value_t = 1024)]
+        spp: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u32,
+        /// Also write the per-pixel variance of the estimate (EXR)
+        #[arg(long)]
+        variance: Option<PathBuf>,
+        /// ref.exr (linear radiance) or ref.png
+        #[arg(short, long)]
+        output: PathBuf,
+    },
+    /// Compare a linear image with a reference: MSE, RMSE, relMSE, max error, display MSE, FLIP
+    Compare {
+        image: PathBuf,
+        reference: PathBuf,
+        #[arg(long)]
+        json: bool,
+        /// Write a false-colour difference image (FLIP error, magma colour map)
+        #[arg(long)]
+        diff: Option<PathBuf>,
     },
     /// Propagate the built-in Cornell box and write PNG + EXR into out/
     Demo {
@@ -167,17 +199,50 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("light field: {}", output.display());
         }
-        Command::Render { input, camera, size, lightfield, exposure, output, params } => {
+        Command::Render { input, camera, size, lightfield, exposure, ssaa, output, params } => {
+            if !(1..=16).contains(&ssaa) {
+                bail!("--ssaa {ssaa}: use 1 (off) to 16");
+            }
             let ctx = GpuContext::new()?;
             let (lf, resident) = light_field_for(&ctx, &input, lightfield.as_deref(), &params)?;
             let cam = lf.camera(camera.as_deref())?.clone();
             let [w, h] = size.unwrap_or(cam.size);
             let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
-            let frame = renderer.render(&cam, w, h)?;
+            let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
             image_io::write_image(&frame, &output, exposure)?;
             println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);
         }
         Command::Demo { out } => demo(&out)?,
+        Command::Reference { scene, camera, size, spp, seed, variance, output } => {
+            let scene = Scene::load(&scene)?;
+            print_warnings(&scene.warnings);
+            let cam = scene.camera(camera.as_deref())?.clone();
+            let size = size.unwrap_or(cam.size);
+            let ctx = GpuContext::new()?;
+            let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
+            image_io::write_image(&r.mean, &output, 1.0)?;
+            println!("{} ({}x{}, {} spp, seed {seed}, {:.2} s)", output.display(), size[0], size[1], r.spp, r.seconds);
+            if let Some(path) = variance {
+                image_io::write_image(&r.variance, &path, 1.0)?;
+                println!("variance: {}", path.display());
+            }
+        }
+        Command::Compare { image, reference, json, diff } => {
+            let a = image_io::read_image(&image)?;
+            let b = image_io::read_image(&reference)?;
+            let c = vlf::metrics::compare(&a, &b)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&c)?);
+            } else {
+                print!("{}", c.table());
+            }
+            if let Some(path) = diff {
+                vlf::metrics::write_difference_png(&a, &b, &path)?;
+                if !json {
+                    println!("difference: {}", path.display());
+                }
+            }
+        }
         Command::Bench { scene, json, markdown, frames, size, params } => {
             let scene = Scene::load(&scene)?;
             let ctx = GpuContext::new()?;

@@ -80,3 +80,18 @@ pub fn read_exr(path: &Path) -> Result<Frame> {
     let size = image.layer_data.size;
     Ok(Frame { width: size.width() as u32, height: size.height() as u32, pixels: image.layer_data.channel_data.pixels.1 })
 }
+
+/// Read an image for comparison: EXR as linear radiance; PNG is decoded from sRGB to linear.
+pub fn read_image(path: &Path) -> Result<Frame> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+    if ext == "exr" {
+        return read_exr(path);
+    }
+    let img = image::open(path).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: format!("cannot read: {e}") })?.to_rgb8();
+    let decode = |c: u8| {
+        let x = c as f32 / 255.0;
+        if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+    };
+    let pixels = img.pixels().map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), 1.0]).collect();
+    Ok(Frame { width: img.width(), height: img.height(), pixels })
+}

@@ -280,6 +280,16 @@ impl Renderer {
 
     /// Render `frames` frames of one view; per-frame GPU milliseconds from timestamp queries
     /// (or wall-clock milliseconds per submitted frame when the adapter has none).
+    /// Render with `ssaa` x `ssaa` samples per pixel on a regular grid, box-filtered over the
+    /// pixel (for comparisons with the path tracer, whose samples cover the pixel too).
+    pub fn render_antialiased(&mut self, camera: &Camera, width: u32, height: u32, ssaa: u32) -> Result<Frame> {
+        if ssaa <= 1 {
+            return self.render(camera, width, height);
+        }
+        let big = self.render(camera, width * ssaa, height * ssaa)?;
+        Ok(downsample(&big, ssaa))
+    }
+
     /// Does this renderer draw a view-dependent (mirror) part?
     pub fn view_dependent(&self) -> bool {
         self.tile_bind_group.is_some()
@@ -318,4 +328,21 @@ impl Renderer {
             }
         }
     }
+}
+
+/// Box-filter `factor` x `factor` blocks of pixels into one.
+pub fn downsample(frame: &Frame, factor: u32) -> Frame {
+    let (w, h) = (frame.width / factor, frame.height / factor);
+    let mut pixels = vec![[0.0f32; 4]; (w * h) as usize];
+    let scale = 1.0 / (factor * factor) as f32;
+    for y in 0..frame.height {
+        for x in 0..frame.width {
+            let p = frame.pixels[(y * frame.width + x) as usize];
+            let o = &mut pixels[((y / factor) * w + x / factor) as usize];
+            for c in 0..4 {
+                o[c] += p[c] * scale;
+            }
+        }
+    }
+    Frame { width: w, height: h, pixels }
 }

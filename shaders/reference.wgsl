@@ -1,0 +1,340 @@
+// The reference path tracer, driven by src/reference/mod.rs: same scene semantics as the light
+// field (DESIGN.md section 6): one-sided faces unless two-sided (the back of a one-sided face
+// absorbs), diffuse / mirror / mixed, area emitters from the front side, uniform sky,
+// textures. Next-event estimation on the emitters with multiple importance sampling (power
+// heuristic) against cosine sampling, unbounded depth with Russian roulette, seeded per pixel
+// and sample so that a run repeats bit for bit. Each pass adds `samples_per_pass` samples per
+// pixel to running sums of radiance and of its square.
+#include "common/types.wgsl"
+
+// mirrors reference::GpuTraceParams
+struct TraceParams {
+    inv_view_proj: mat4x4<f32>,
+    eye: vec3<f32>,
+    width: u32,
+    sky: vec3<f32>,
+    height: u32,
+    samples_per_pass: u32,
+    pass_index: u32,
+    seed: u32,
+    light_count: u32,
+    light_weight_total: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// mirrors reference::GpuTriangle: corner, edges, face, and the corners' texture coordinates
+struct Triangle {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    _pad0: u32,
+    e2: vec3<f32>,
+    _pad1: u32,
+    uv01: vec4<f32>,
+    uv2: vec4<f32>,
+}
+
+// mirrors reference::GpuBvhNode: leaf when count > 0 (first triangle in `index`), else
+// `index` is the right child and the left child follows the node
+struct BvhNode {
+    lo: vec3<f32>,
+    index: u32,
+    hi: vec3<f32>,
+    count: u32,
+}
+
+@group(0) @binding(0) var<uniform> params: TraceParams;
+@group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(2) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(3) var<storage, read> faces: array<Face>;
+// per face: (diffuse texture, emission texture, -, -), NO_FACE for none
+@group(0) @binding(4) var<storage, read> face_textures: array<vec4<u32>>;
+// per texture: (first texel, width, height, -)
+@group(0) @binding(5) var<storage, read> texture_info: array<vec4<u32>>;
+@group(0) @binding(6) var<storage, read> texels: array<vec4<f32>>;
+// per emitting triangle: (triangle index as bits, cumulative weight)
+@group(0) @binding(7) var<storage, read> lights: array<vec2<f32>>;
+// per pixel: sum of radiance, then sum of its square
+@group(0) @binding(8) var<storage, read_write> sums: array<vec4<f32>>;
+
+var<private> rng_state: u32;
+
+fn pcg(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
+fn random() -> f32 {
+    rng_state = pcg(rng_state);
+    return f32(rng_state >> 8u) / 16777216.0;
+}
+
+struct Hit {
+    t: f32,
+    tri: u32,
+    u: f32,
+    v: f32,
+}
+
+fn intersect(origin: vec3<f32>, dir: vec3<f32>, tri: Triangle, t_max: f32) -> vec3<f32> {
+    let p = cross(dir, tri.e2);
+    let det = dot(tri.e1, p);
+    if abs(det) < 1e-12 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let inv = 1.0 / det;
+    let s = origin - tri.v0;
+    let u = dot(s, p) * inv;
+    if u < 0.0 || u > 1.0 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let q = cross(s, tri.e1);
+    let v = dot(dir, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let t = dot(tri.e2, q) * inv;
+    if t <= 1e-5 || t >= t_max {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    return vec3<f32>(t, u, v);
+}
+
+fn box_entry(lo: vec3<f32>, hi: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -> f32 {
+    let a = (lo - origin) * inv_dir;
+    let b = (hi - origin) * inv_dir;
+    let t0 = max(max(min(a.x, b.x), min(a.y, b.y)), min(a.z, b.z));
+    let t1 = min(min(max(a.x, b.x), max(a.y, b.y)), max(a.z, b.z));
+    if t1 >= max(t0, 0.0) && t0 < t_max {
+        return max(t0, 0.0);
+    }
+    return -1.0;
+}
+
+// Closest hit (any_hit: stop at the first one, for shadow rays).
+fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
+    let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
+    let inv_dir = 1.0 / safe;
+    var stack: array<u32, 64>;
+    var top = 1u;
+    stack[0] = 0u;
+    while top > 0u {
+        top -= 1u;
+        let index = stack[top];
+        let node = nodes[index];
+        if box_entry(node.lo, node.hi, origin, inv_dir, hit.t) < 0.0 {
+            continue;
+        }
+        if node.count > 0u {
+            for (var i = node.index; i < node.index + node.count; i++) {
+                let r = intersect(origin, dir, triangles[i], hit.t);
+                if r.x > 0.0 {
+                    hit = Hit(r.x, i, r.y, r.z);
+                    if any_hit {
+                        return hit;
+                    }
+                }
+            }
+        } else if top + 2u <= 64u {
+            stack[top] = node.index;
+            stack[top + 1u] = index + 1u;
+            top += 2u;
+        }
+    }
+    return hit;
+}
+
+fn texture_at(texture: u32, uv: vec2<f32>) -> vec3<f32> {
+    if texture == NO_FACE {
+        return vec3<f32>(1.0);
+    }
+    let info = texture_info[texture];
+    let size = vec2<f32>(f32(info.y), f32(info.z));
+    // bilinear with wrapping; v = 0 is the image's bottom row (OBJ convention)
+    let p = vec2<f32>(fract(uv.x), 1.0 - fract(uv.y)) * size - 0.5;
+    let p0 = floor(p);
+    let f = p - p0;
+    let w = i32(info.y);
+    let h = i32(info.z);
+    let x0 = (i32(p0.x) % w + w) % w;
+    let y0 = (i32(p0.y) % h + h) % h;
+    let x1 = (x0 + 1) % w;
+    let y1 = (y0 + 1) % h;
+    let a = texels[info.x + u32(y0 * w + x0)].xyz;
+    let b = texels[info.x + u32(y0 * w + x1)].xyz;
+    let c = texels[info.x + u32(y1 * w + x0)].xyz;
+    let d = texels[info.x + u32(y1 * w + x1)].xyz;
+    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+fn triangle_uv(tri: Triangle, u: f32, v: f32) -> vec2<f32> {
+    return tri.uv01.xy * (1.0 - u - v) + tri.uv01.zw * u + tri.uv2.xy * v;
+}
+
+// Emitted radiance of the hit's front side, with the triangle's light-sampling pdf (area).
+fn emission(tri: Triangle, u: f32, v: f32) -> vec3<f32> {
+    let f = faces[tri.face];
+    return f.emission * texture_at(face_textures[tri.face].y, triangle_uv(tri, u, v));
+}
+
+fn light_pdf_area(tri: Triangle) -> f32 {
+    let le = luminance(faces[tri.face].emission);
+    return le / params.light_weight_total;
+}
+
+fn sample_light() -> u32 {
+    let target_weight = random() * params.light_weight_total;
+    var lo = 0u;
+    var hi = params.light_count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if lights[mid].y < target_weight {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return bitcast<u32>(lights[lo].x);
+}
+
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    return a * a / max(a * a + b * b, 1e-30);
+}
+
+fn cosine_direction(n: vec3<f32>) -> vec3<f32> {
+    let r1 = random();
+    let r2 = random();
+    let phi = 2.0 * PI * r1;
+    let s = sqrt(r2);
+    let helper = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.6);
+    let t = normalize(cross(helper, n));
+    let b = cross(n, t);
+    return normalize(t * (cos(phi) * s) + b * (sin(phi) * s) + n * sqrt(max(0.0, 1.0 - r2)));
+}
+
+fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
+    var origin = origin_in;
+    var dir = dir_in;
+    var throughput = vec3<f32>(1.0);
+    var result = vec3<f32>(0.0);
+    var specular = true;
+    var last_pdf = 1.0;
+    for (var depth = 0u; depth < 1024u; depth++) {
+        let hit = trace(origin, dir, 1e30, false);
+        if hit.tri == NO_FACE {
+            result += throughput * params.sky;
+            break;
+        }
+        let tri = triangles[hit.tri];
+        let x = origin + dir * hit.t;
+        let n_tri = normalize(cross(tri.e1, tri.e2));
+        var face_id = tri.face;
+        var n = n_tri;
+        if dot(dir, n_tri) > 0.0 {
+            // the back: black unless the surface is two-sided (then its twin face)
+            face_id = faces[tri.face].twin;
+            n = -n_tri;
+            if face_id == NO_FACE {
+                break;
+            }
+        }
+        let f = faces[face_id];
+        let uv = triangle_uv(tri, hit.u, hit.v);
+        if face_id == tri.face && any(f.emission > vec3<f32>(0.0)) {
+            let le = emission(tri, hit.u, hit.v);
+            if specular {
+                result += throughput * le;
+            } else {
+                let cos_l = max(-dot(dir, n), 1e-8);
+                let light_pdf = light_pdf_area(tri) * hit.t * hit.t / cos_l;
+                result += throughput * le * power_heuristic(last_pdf, light_pdf);
+            }
+        }
+        let albedo = f.albedo * texture_at(face_textures[face_id].x, uv);
+        let p_diffuse = luminance(albedo);
+        let p_mirror = luminance(f.mirror);
+        if p_diffuse + p_mirror <= 0.0 {
+            break;
+        }
+        let origin_next = x + n * 1e-4;
+        if random() * (p_diffuse + p_mirror) < p_mirror {
+            throughput *= f.mirror * ((p_diffuse + p_mirror) / p_mirror);
+            dir = dir - 2.0 * dot(dir, n) * n;
+            specular = true;
+        } else {
+            let lobe = (p_diffuse + p_mirror) / p_diffuse;
+            // next-event estimation
+            if params.light_count > 0u {
+                let lt = triangles[sample_light()];
+                var a = random();
+                var b = random();
+                if a + b > 1.0 {
+                    a = 1.0 - a;
+                    b = 1.0 - b;
+                }
+                let y = lt.v0 + lt.e1 * a + lt.e2 * b;
+                let to_light = y - origin_next;
+                let dist = length(to_light);
+                let l = to_light / dist;
+                let n_l = normalize(cross(lt.e1, lt.e2));
+                let cos_l = -dot(l, n_l);
+                let cos_x = dot(l, n);
+                if cos_l > 0.0 && cos_x > 0.0 {
+                    let shadow = trace(origin_next, l, dist * (1.0 - 1e-4), true);
+                    if shadow.tri == NO_FACE {
+                        let light_pdf = light_pdf_area(lt) * dist * dist / cos_l;
+                        let bsdf_pdf = cos_x / PI;
+                        let le = emission(lt, a, b);
+                        result += throughput * lobe * albedo / PI * cos_x * le / light_pdf * power_heuristic(light_pdf, bsdf_pdf);
+                    }
+                }
+            }
+            dir = cosine_direction(n);
+            last_pdf = max(dot(dir, n), 1e-8) / PI;
+            throughput *= albedo * lobe;
+            specular = false;
+        }
+        origin = origin_next;
+        // Russian roulette after three bounces
+        if depth >= 3u {
+            let q = min(max(throughput.x, max(throughput.y, throughput.z)), 0.95);
+            if random() >= q {
+                break;
+            }
+            throughput /= q;
+        }
+    }
+    return result;
+}
+
+@compute @workgroup_size(8, 8)
+fn trace_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if gid.x >= params.width || gid.y >= params.height {
+        return;
+    }
+    let pixel = gid.y * params.width + gid.x;
+    var sum = vec3<f32>(0.0);
+    var sum_sq = vec3<f32>(0.0);
+    for (var s = 0u; s < params.samples_per_pass; s++) {
+        let sample = params.pass_index * params.samples_per_pass + s;
+        rng_state = pcg(pcg(pcg(pixel) ^ sample * 0x9e3779b9u) ^ params.seed);
+        // box filter over the pixel
+        let px = (f32(gid.x) + random()) / f32(params.width) * 2.0 - 1.0;
+        let py = 1.0 - (f32(gid.y) + random()) / f32(params.height) * 2.0;
+        let far = params.inv_view_proj * vec4<f32>(px, py, 1.0, 1.0);
+        let dir = normalize(far.xyz / far.w - params.eye);
+        let l = radiance(params.eye, dir);
+        sum += l;
+        sum_sq += l * l;
+    }
+    sums[2u * pixel] += vec4<f32>(sum, 0.0);
+    sums[2u * pixel + 1u] += vec4<f32>(sum_sq, 0.0);
+}

@@ -1,0 +1,59 @@
+//! The reference path tracer: its own furnace, repeatability, and the light field measured
+//! against it.
+
+mod common;
+use common::*;
+use glam::DVec3;
+use vlf::gpu::MemoryLedger;
+use vlf::propagate::PropagationParams;
+use vlf::render::Renderer;
+use vlf::scene::{Camera, Scene};
+
+#[test]
+fn path_tracer_furnace_matches_le_over_one_minus_rho() {
+    // 64x64 pixels, 256 samples per pixel: the image mean within 2%, every pixel within 10%
+    let dir = tempfile::tempdir().unwrap();
+    let (le, rho) = (1.0f32, 0.5f32);
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", DVec3::ZERO, 0.5, true);
+    let scene = Scene::load(&write_scene(dir.path(), &obj, &[Mat { name: "wall", kd: [rho; 3], ke: [le; 3] }], "")).unwrap();
+    let cam = Camera { name: "in".into(), eye: [0.1, -0.05, 0.2], target: [-1.0, 0.3, -0.6], up: [0.0, 1.0, 0.0], fov_y_deg: 90.0, size: [64, 64] };
+    let r = vlf::reference::render(gpu(), &scene, &cam, [64, 64], 256, 7, false).unwrap();
+    let expected = (le / (1.0 - rho)) as f64;
+    let mean = r.mean.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / r.mean.pixels.len() as f64;
+    assert!((mean - expected).abs() / expected < 0.02, "mean {mean} vs {expected}");
+    let worst = r.mean.pixels.iter().map(|p| (p[1] as f64 - expected).abs() / expected).fold(0.0, f64::max);
+    assert!(worst < 0.10, "a pixel is {:.1}% off", worst * 100.0);
+    assert!(r.variance.pixels.iter().all(|v| v[1] >= 0.0 && v[1].is_finite()));
+}
+
+#[test]
+fn path_tracer_is_repeatable_and_seeded() {
+    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let cam = scene.camera(Some("front")).unwrap().clone();
+    let a = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, false).unwrap();
+    let b = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, false).unwrap();
+    let c = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 2, false).unwrap();
+    assert_eq!(a.mean.pixels, b.mean.pixels);
+    assert_ne!(a.mean.pixels, c.mean.pixels);
+}
+
+#[test]
+fn light_field_is_within_relmse_0_02_of_the_path_tracer_on_cornell() {
+    // 128x128; the reference has 512 spp; the light field uses the settings a software adapter
+    // gets by default (config/propagation/software.toml) and 4x4 supersampling, so that both
+    // images cover each pixel the same way
+    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let cam = scene.camera(Some("front")).unwrap().clone();
+    let reference = vlf::reference::render(gpu(), &scene, &cam, [128, 128], 512, 1, false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), false).unwrap();
+    let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
+    let image = renderer.render_antialiased(&cam, 128, 128, 4).unwrap();
+    let c = vlf::metrics::compare(&image, &reference.mean).unwrap();
+    println!("light field vs path tracer (512 spp), 128x128:\n{}", c.table());
+    if c.rel_mse >= 0.02 {
+        let dir = std::env::temp_dir();
+        vlf::metrics::write_difference_png(&image, &reference.mean, &dir.join("vlf-vs-reference-diff.png")).unwrap();
+        panic!("relMSE {} >= 0.02; difference image in {}", c.rel_mse, dir.join("vlf-vs-reference-diff.png").display());
+    }
+}
