@@ -16,5 +16,6 @@ pub mod reference;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod sweep;
 
 pub use error::{Result, VlfError};

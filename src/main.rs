@@ -72,6 +72,49 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Error against run time: the light field over a grid of settings and the path tracer over
+    /// samples per pixel -> CSV + log-log chart with the Pareto front
+    Sweep {
+        scene: PathBuf,
+        /// The reference image (vlf reference ... -o ref.exr); its size is the comparison size
+        #[arg(long, required_unless_present = "walkthrough")]
+        reference: Option<PathBuf>,
+        #[arg(long)]
+        camera: Option<String>,
+        #[arg(long, value_delimiter = ',', default_value = "181,501,981,2001")]
+        directions: Vec<u32>,
+        #[arg(long, value_delimiter = ',', default_value = "64,128,256")]
+        grid: Vec<u32>,
+        #[arg(long, value_delimiter = ',', default_value = "32,64,96")]
+        texel_density: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_value = "1e-3")]
+        tolerance: Vec<f64>,
+        #[arg(long, value_delimiter = ',', default_value = "1")]
+        perturb: Vec<u32>,
+        #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
+        spp: Vec<u32>,
+        /// Light field supersampling per pixel side (the path tracer covers each pixel too)
+        #[arg(long, default_value_t = 4)]
+        ssaa: u32,
+        /// Measure the walkthrough case: a fixed per-frame budget along a scripted camera path
+        #[arg(long)]
+        walkthrough: bool,
+        /// Walkthrough: milliseconds per frame (11.1 = 90 Hz)
+        #[arg(long, default_value_t = 11.1)]
+        budget_ms: f64,
+        #[arg(long, default_value_t = 8)]
+        frames: u32,
+        /// Walkthrough: samples per pixel of each frame's reference
+        #[arg(long, default_value_t = 1024)]
+        reference_spp: u32,
+        #[arg(long, value_parser = parse_size, default_value = "256x256")]
+        size: [u32; 2],
+        #[arg(long, default_value = "sweep")]
+        out: PathBuf,
+        /// Walkthrough: the light field's settings (default: config/propagation/default.toml's)
+        #[arg(long)]
+        config: Option<PathBuf>,
+    },
     /// Compare a linear image with a reference: MSE, RMSE, relMSE, max error, display MSE, FLIP
     Compare {
         image: PathBuf,
@@ -227,6 +270,81 @@ fn run(cli: Cli) -> Result<()> {
                 println!("variance: {}", path.display());
             }
         }
+        Command::Sweep {
+            scene,
+            reference,
+            camera,
+            directions,
+            grid,
+            texel_density,
+            tolerance,
+            perturb,
+            spp,
+            ssaa,
+            walkthrough,
+            budget_ms,
+            frames,
+            reference_spp,
+            size,
+            out,
+            config,
+        } => {
+            let scene = Scene::load(&scene)?;
+            print_warnings(&scene.warnings);
+            let cam = scene.camera(camera.as_deref())?.clone();
+            let ctx = GpuContext::new()?;
+            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+            if walkthrough {
+                let params = match &config {
+                    Some(path) => PropagationParams::from_toml_file(path)?,
+                    None => PropagationParams::default(),
+                };
+                let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
+                let (rows, propagation_s, pt_spp) =
+                    vlf::sweep::walkthrough(ctx, &scene, &params, &path, size, budget_ms, reference_spp, true)?;
+                let csv = out.join("walkthrough.csv");
+                let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
+                for r in &rows {
+                    text.push_str(&format!("{},{},{},{:.4},{:.6e},{:.6}\n", r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip));
+                }
+                std::fs::write(&csv, text)?;
+                let series = |m: &'static str, color| vlf::sweep::plot::Series {
+                    name: m,
+                    color,
+                    points: rows.iter().filter(|r| r.method == m).map(|r| (r.frame as f64, r.rel_mse)).collect(),
+                };
+                let png = out.join("walkthrough.png");
+                vlf::sweep::plot::error_per_frame(
+                    &png,
+                    &format!("{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)", scene.name),
+                    "relMSE against the frame's reference",
+                    &[series("light field", plotters::style::RGBColor(200, 60, 40)), series("path tracer", plotters::style::RGBColor(40, 90, 200))],
+                )?;
+                let mean = |m: &str| {
+                    let v: Vec<f64> = rows.iter().filter(|r| r.method == m).map(|r| r.rel_mse).collect();
+                    v.iter().sum::<f64>() / v.len() as f64
+                };
+                println!(
+                    "walkthrough, {} frames at {}x{}, budget {budget_ms} ms: light field (one propagation of {propagation_s:.3} s) mean relMSE {:.3e}; path tracer at {pt_spp} spp mean relMSE {:.3e}",
+                    path.len(), size[0], size[1], mean("light field"), mean("path tracer")
+                );
+                println!("{}\n{}", csv.display(), png.display());
+            } else {
+                let reference = image_io::read_image(reference.as_deref().expect("clap requires it"))?;
+                let grid = vlf::sweep::SweepGrid { directions, grid, texel_density, tolerance, perturb, spp, ssaa: ssaa.max(1) };
+                let rows = vlf::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
+                let csv = out.join("sweep.csv");
+                let mut text = format!("{}\n", vlf::sweep::SweepRow::CSV_HEADER);
+                for r in &rows {
+                    text.push_str(&r.csv());
+                    text.push('\n');
+                }
+                std::fs::write(&csv, text)?;
+                let png = out.join("sweep.png");
+                vlf::sweep::chart(&rows, &scene.name, &png)?;
+                println!("{}\n{}", csv.display(), png.display());
+            }
+        }
         Command::Compare { image, reference, json, diff } => {
             let a = image_io::read_image(&image)?;
             let b = image_io::read_image(&reference)?;
@@ -348,4 +466,13 @@ fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<()> {
     std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_command_line_definition_is_consistent() {
+        use clap::CommandFactory;
+        super::Cli::command().debug_assert();
+    }
 }

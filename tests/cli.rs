@@ -72,3 +72,43 @@ fn bad_use_gives_a_clear_error_and_nonzero_exit() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"), "{err}");
 }
+
+#[test]
+fn reference_compare_and_sweep_write_their_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo_path("scenes/cornell/scene.toml");
+    let reference = dir.path().join("ref.exr");
+    let variance = dir.path().join("var.exr");
+    let out = vlf().arg("reference").arg(&scene).args(["--size", "32x32", "--spp", "16", "-o"]).arg(&reference).arg("--variance").arg(&variance).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(reference.exists() && variance.exists());
+
+    let image = dir.path().join("vlf.exr");
+    let out = vlf().arg("render").arg(&scene).args(["--size", "32x32", "--ssaa", "2", "-o"]).arg(&image).args(SMALL).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let diff = dir.path().join("diff.png");
+    let out = vlf().arg("compare").arg(&image).arg(&reference).arg("--json").arg("--diff").arg(&diff).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for key in ["mse", "rmse", "rel_mse", "max_abs", "display_mse", "flip_mean"] {
+        assert!(json[key].as_f64().is_some_and(|v| v.is_finite() && v >= 0.0), "{key}: {}", json[key]);
+    }
+    assert!(diff.exists());
+
+    let sweep = dir.path().join("sweep");
+    let out = vlf()
+        .arg("sweep")
+        .arg(&scene)
+        .arg("--reference")
+        .arg(&reference)
+        .args(["--directions", "6,21", "--grid", "16", "--texel-density", "6", "--spp", "1,4", "--ssaa", "1", "--out"])
+        .arg(&sweep)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let csv = std::fs::read_to_string(sweep.join("sweep.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 + 2, "{csv}");
+    assert!(csv.lines().skip(1).any(|l| l.starts_with("light field")) && csv.lines().any(|l| l.starts_with("path tracer")));
+    let png = image::open(sweep.join("sweep.png")).unwrap();
+    assert!(png.width() >= 800);
+}
