@@ -95,8 +95,11 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         if w <= 0.0 || dot(f.normal, travel) > -1e-6 {
             continue;
         }
-        found += w;
         let sender = find_upstream(j, dj, x, face_id, taps.sign[k] > 0.0);
+        if sender == UNRESOLVED {
+            continue;
+        }
+        found += w;
         if sender == NO_FACE {
             if sky_on {
                 sky += grid.sky * w;

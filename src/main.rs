@@ -173,6 +173,9 @@ struct ParamArgs {
     /// K perturbed ("virtual") direction sets used during transport: memory unchanged, time x K
     #[arg(long)]
     perturb: Option<u32>,
+    /// Plain shooting to the tolerance: no geometric-tail acceleration
+    #[arg(long)]
+    no_accelerate: bool,
 }
 
 impl ParamArgs {
@@ -201,6 +204,9 @@ impl ParamArgs {
         }
         if let Some(k) = self.perturb {
             p.perturb = k;
+        }
+        if self.no_accelerate {
+            p.accelerate = false;
         }
         Ok(p)
     }

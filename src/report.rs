@@ -36,6 +36,9 @@ pub struct PropagationReport {
     pub iterations: u32,
     pub final_residual: f64,
     pub converged: bool,
+    /// with acceleration: the tail that was added, and what plain shooting would have needed
+    pub tail: Option<crate::propagate::Tail>,
+    pub plain_iterations_estimate: Option<u32>,
     pub per_iteration: Vec<IterationStats>,
     pub propagation_memory_bytes: u64,
     pub propagation_memory: Vec<MemoryItem>,
@@ -76,7 +79,16 @@ impl PropagationReport {
                 },
             ),
             ("propagation".into(), format!("{:.3} s", self.propagation_seconds)),
-            ("iterations".into(), format!("{}", self.iterations)),
+            (
+                "iterations".into(),
+                match &self.tail {
+                    Some(t) => format!(
+                        "{} + geometric tail (ratio {:.4}; plain shooting would need about {})",
+                        self.iterations, t.ratio, t.plain_iterations_estimate
+                    ),
+                    None => format!("{}", self.iterations),
+                },
+            ),
             (
                 "final residual".into(),
                 format!(

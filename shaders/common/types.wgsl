@@ -2,6 +2,8 @@
 // src/gpu/types.rs (named on the line above it); tests/shaders.rs checks that the sizes agree.
 
 const NO_FACE: u32 = 0xffffffffu;
+// find_upstream: the visibility lists cannot place the receiver along this direction
+const UNRESOLVED: u32 = 0xfffffffeu;
 const PI: f32 = 3.14159265358979;
 const FACE_EMITTER: u32 = 1u;
 const GRID_FLAG_SKY: u32 = 1u;

@@ -109,18 +109,28 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
             return upstream_of_entry(cell, u32(k), forward);
         }
     }
-    // The face has no cell centre nearby (a grazing direction at a rim or corner): take the
-    // first layer upstream of x's depth in the nearest cell whose line meets one.
+    // The face has no cell centre nearby (a grazing direction at a rim or corner, or a face
+    // smaller than a cell): take the first layer upstream of x's depth in the nearest cell whose
+    // line meets one. If it does not face the light's way, the lists cannot tell what x sees
+    // along this direction: UNRESOLVED drops the direction from x's quadrature rather than
+    // counting it black (a leak that high albedos would amplify a thousandfold). Only where no
+    // nearby line meets anything is x in the open: the sky.
     let depth = dot(x, d.w);
+    let travel = select(-d.w, d.w, forward);
     for (var i = -1; i < 9; i++) {
         var c = c0;
         if i >= 0 {
             c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
         }
-        let sender = upstream_of_depth(base + c.y * grid.resolution + c.x, depth, forward);
-        if sender != NO_FACE {
+        let cell = base + c.y * grid.resolution + c.x;
+        if cell_count[cell] == 0u {
+            continue;
+        }
+        let sender = upstream_of_depth(cell, depth, forward);
+        if sender != NO_FACE && dot(faces[sender].normal, travel) > 1e-6 {
             return sender;
         }
+        return UNRESOLVED;
     }
     return NO_FACE;
 }
@@ -154,6 +164,9 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     let sky_on = (grid.flags & 1u) != 0u;
     var irradiance = vec3<f32>(0.0);
     var sky_irradiance = vec3<f32>(0.0);
+    // the cosine quadrature's weights over the directions used: normalising by their sum makes
+    // the quadrature exact for uniform light (this is kappa when no direction is dropped)
+    var weight_sum = 0.0;
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];
         let cos_w = dot(f.normal, d.w);
@@ -165,6 +178,10 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         let travel = select(-d.w, d.w, forward);
         let weight = abs(cos_w) * d.solid_angle;
         let sender = find_upstream(i, d, x, face_id, forward);
+        if sender == UNRESOLVED {
+            continue;
+        }
+        weight_sum += weight;
         if sender == NO_FACE {
             if sky_on {
                 sky_irradiance += grid.sky * weight;
@@ -173,7 +190,8 @@ fn gather_texel(texel: u32) -> vec4<f32> {
             irradiance += sender_radiance(sender, x, i, travel) * weight;
         }
     }
-    let e = (irradiance + sky_irradiance) * f.kappa;
-    let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * f.kappa;
+    let norm = select(0.0, PI / weight_sum, weight_sum > 0.0);
+    let e = (irradiance + sky_irradiance) * norm;
+    let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
     return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
 }

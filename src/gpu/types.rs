@@ -4,6 +4,8 @@
 use bytemuck::{Pod, Zeroable};
 
 pub const NO_FACE: u32 = u32::MAX;
+/// Mirrors WGSL UNRESOLVED: the visibility lists cannot place a receiver along a direction.
+pub const UNRESOLVED: u32 = u32::MAX - 1;
 pub const FACE_EMITTER: u32 = 1;
 
 /// Mirrors WGSL `Direction`.

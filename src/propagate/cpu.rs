@@ -2,7 +2,7 @@
 //! them (same names, same f32 arithmetic, same order), for tiny scenes only. Tests compare it
 //! with the GPU: layer lists must be equal and gathered radiosity equal within 1e-5.
 
-use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE};
+use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use glam::{Vec2, Vec3};
 
 pub struct CpuVisibility {
@@ -214,12 +214,18 @@ impl GatherInputs<'_> {
             }
         }
         let depth = x.dot(v3(d.w));
+        let travel = if forward { v3(d.w) } else { -v3(d.w) };
         for i in -1..9 {
             let c = if i >= 0 { self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1]) } else { c0 };
-            let sender = self.upstream_of_depth(base + c[1] * self.grid.resolution + c[0], depth, forward);
-            if sender != NO_FACE {
+            let cell = base + c[1] * self.grid.resolution + c[0];
+            if self.visibility.cell_count[cell as usize] == 0 {
+                continue;
+            }
+            let sender = self.upstream_of_depth(cell, depth, forward);
+            if sender != NO_FACE && v3(self.faces[sender as usize].normal).dot(travel) > 1e-6 {
                 return sender;
             }
+            return UNRESOLVED;
         }
         NO_FACE
     }
@@ -252,6 +258,7 @@ impl GatherInputs<'_> {
         let sky_on = self.grid.flags & GRID_FLAG_SKY != 0;
         let mut irradiance = Vec3::ZERO;
         let mut sky_irradiance = Vec3::ZERO;
+        let mut weight_sum = 0.0f32;
         for (i, d) in self.directions.iter().enumerate() {
             let cos_w = v3(f.normal).dot(v3(d.w));
             if cos_w.abs() < 1e-6 {
@@ -261,6 +268,10 @@ impl GatherInputs<'_> {
             let travel = if forward { v3(d.w) } else { -v3(d.w) };
             let weight = cos_w.abs() * d.solid_angle;
             let sender = self.find_upstream(i as u32, d, x, face_id, forward);
+            if sender == UNRESOLVED {
+                continue;
+            }
+            weight_sum += weight;
             if sender == NO_FACE {
                 if sky_on {
                     sky_irradiance += v3(self.grid.sky) * weight;
@@ -269,8 +280,9 @@ impl GatherInputs<'_> {
                 irradiance += self.sender_radiance(sender, x, travel) * weight;
             }
         }
-        let e = (irradiance + sky_irradiance) * f.kappa;
-        let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * f.kappa;
+        let norm = if weight_sum > 0.0 { std::f32::consts::PI / weight_sum } else { 0.0 };
+        let e = (irradiance + sky_irradiance) * norm;
+        let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
         let next = v3(f.albedo) * e;
         [next.x, next.y, next.z, sky_share]
     }

@@ -33,6 +33,14 @@ pub struct PropagationParams {
     /// memory unchanged, time about x K. 1 = the fixed directions alone.
     #[serde(default = "one")]
     pub perturb: u32,
+    /// Stop early and add the geometric tail once the unshot power decays by a stable ratio
+    /// (the ambient term, per element): stiff scenes converge in a few iterations.
+    #[serde(default = "yes")]
+    pub accelerate: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 fn one() -> u32 {
@@ -49,6 +57,7 @@ impl Default for PropagationParams {
             tolerance: 1e-3,
             max_iterations: 200,
             perturb: 1,
+            accelerate: true,
         }
     }
 }
@@ -225,8 +234,9 @@ pub fn propagate(
 
     let mut warnings = prepared.warnings.clone();
     let t2 = Instant::now();
-    let mut per_iteration = Vec::new();
+    let mut per_iteration: Vec<transport::IterationStats> = Vec::new();
     let mut residual = 1.0;
+    let mut tail: Option<Tail> = None;
     if prop.emitted_power <= 0.0 && scene.sky.is_none() {
         warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
         residual = 0.0;
@@ -237,9 +247,27 @@ pub fn propagate(
             let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
             bar.set_position((done * 1000.0) as u64);
             bar.set_message(format!("iteration {} residual {:.2e} (target {:.0e})", stats.iteration, residual, params.tolerance));
+            let ratio = per_iteration.last().map(|p| residual / p.residual.max(1e-300));
+            let previous_ratio = per_iteration.len().checked_sub(2).map(|i| per_iteration[i + 1].residual / per_iteration[i].residual.max(1e-300));
             per_iteration.push(stats);
             if residual < params.tolerance {
                 break;
+            }
+            // the unshot state decays geometrically once its shape settles: when the decay
+            // ratio is stable enough that the tail it predicts is known to the tolerance, add
+            // that tail and stop. The tail is U r/(1-r); an error dr in r moves it by
+            // U dr/(1-r)^2, which relative to the converged total (about emitted/(1-r)) is
+            // residual * dr / (1-r).
+            if let (true, Some(r), Some(r0)) = (params.accelerate && per_iteration.len() >= 3, ratio, previous_ratio) {
+                if r > 0.0 && r < 0.9999 {
+                    let uncertainty = residual * (r - r0).abs() / (1.0 - r);
+                    if uncertainty < params.tolerance {
+                        prop.add_tail(r / (1.0 - r))?;
+                        tail = Some(Tail { ratio: r, factor: r / (1.0 - r), uncertainty, plain_iterations_estimate: plain_estimate(residual, r, per_iteration.len() as u32, params.tolerance) });
+                        residual = uncertainty;
+                        break;
+                    }
+                }
             }
         }
     }
@@ -313,6 +341,8 @@ pub fn propagate(
         iterations,
         final_residual: residual,
         converged: residual < params.tolerance,
+        plain_iterations_estimate: tail.as_ref().map(|t| t.plain_iterations_estimate),
+        tail,
         per_iteration,
         propagation_memory_bytes,
         propagation_memory,
@@ -322,4 +352,26 @@ pub fn propagate(
         warnings,
     };
     Ok((lf, resident, report))
+}
+
+/// The geometric tail added by acceleration.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Tail {
+    /// decay ratio of the unshot power per iteration
+    pub ratio: f64,
+    /// the unshot state was added to total times this (r / (1 - r))
+    pub factor: f64,
+    /// estimated error of the extrapolation, relative to the emitted power
+    pub uncertainty: f64,
+    /// iterations plain shooting would have needed to reach the tolerance
+    pub plain_iterations_estimate: u32,
+}
+
+/// Iterations plain shooting needs from residual `residual` after `done` iterations, decaying by
+/// `r` per iteration, to fall below `tolerance`.
+fn plain_estimate(residual: f64, r: f64, done: u32, tolerance: f64) -> u32 {
+    if residual <= tolerance {
+        return done;
+    }
+    done + ((tolerance / residual).ln() / r.ln()).ceil().max(0.0) as u32
 }

@@ -394,6 +394,32 @@ impl Propagator {
         Ok((partials.iter().map(|p| p[0] as f64).sum(), partials.iter().map(|p| p[1] as f64).sum()))
     }
 
+    /// Add the geometric tail of the series to `total`: the unshot state times `factor`
+    /// (= r / (1 - r) for a stable decay ratio r), as if the remaining iterations had run.
+    pub fn add_tail(&mut self, factor: f64) -> Result<()> {
+        let ctx = self.ctx.clone();
+        let mut states: Vec<(&ElementState, &wgpu::Buffer, f32)> =
+            vec![(&self.texels, &self.texel_power_weight, (factor / std::f64::consts::PI) as f32)];
+        if let Some(t) = &self.tiles {
+            states.push((&t.state, &t.power_weight, factor as f32));
+        }
+        for (state, weights, scale) in states {
+            let params = GpuAccumulate { count: state.count, scale, ..Default::default() };
+            let uniform = ctx.buffer_init(&MemoryLedger::default(), "tail parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+            let bg = ctx.bind_group(&self.accumulate_layout, &[&uniform, &state.radiance[self.current], &state.total, weights, &state.partials]);
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.accumulate_pipe);
+                pass.set_bind_group(0, &bg, &[]);
+                let (x, y) = dispatch_2d(state.count.div_ceil(256));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            ctx.queue.submit([encoder.finish()]);
+        }
+        ctx.wait()
+    }
+
     pub fn read_total(&self) -> Result<Vec<[f32; 4]>> {
         self.ctx.read_buffer(&self.texels.total, self.texel_count as u64 * 16)
     }
