@@ -26,6 +26,12 @@ enum Command {
         /// Also write the summary as JSON
         #[arg(long)]
         report: Option<PathBuf>,
+        /// Save the state every N iterations to OUTPUT.checkpoint (removed when done)
+        #[arg(long, default_value_t = 0)]
+        checkpoint: u32,
+        /// Continue from OUTPUT.checkpoint if it exists (same scene and settings)
+        #[arg(long)]
+        resume: bool,
         #[command(flatten)]
         params: ParamArgs,
     },
@@ -233,14 +239,22 @@ fn main() {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command.unwrap_or(Command::Demo { out: PathBuf::from("out") }) {
-        Command::Propagate { scene, output, report, params } => {
+        Command::Propagate { scene, output, report, checkpoint, resume, params } => {
             let scene = Scene::load(&scene)?;
             print_warnings(&scene.warnings);
             let ctx = GpuContext::new()?;
             let params = params.apply(PropagationParams::default())?;
-            let (lf, _resident, rep) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
+            let plan = vlf::propagate::checkpoint::CheckpointPlan {
+                path: PathBuf::from(format!("{}.checkpoint", output.display())),
+                every: checkpoint,
+                resume,
+            };
+            let (lf, _resident, rep) = vlf::propagate::propagate_with(ctx, &scene, &params, true, Some(&plan))?;
             print_warnings(&rep.warnings[scene.warnings.len()..]);
             file::save(&lf, &output)?;
+            if plan.path.exists() {
+                std::fs::remove_file(&plan.path).with_context(|| format!("removing {}", plan.path.display()))?;
+            }
             println!("{}", rep.table());
             if let Some(path) = report {
                 write_json(&path, &rep)?;

@@ -14,6 +14,88 @@ pub const FORMAT_VERSION: u32 = 2;
 /// rectangles, index, radiance.
 const SECTIONS: [&[u8; 4]; 7] = [b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT"];
 
+/// The container: magic, version, then (tag, length, CRC32, payload) per section.
+pub fn encode_sections(magic: &[u8; 8], version: u32, sections: &[(&[u8; 4], &[u8])]) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&(sections.len() as u32).to_le_bytes());
+    for (tag, payload) in sections {
+        out.extend_from_slice(*tag);
+        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+        out.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
+        out.extend_from_slice(payload);
+    }
+    out
+}
+
+/// Write bytes atomically and durably: a temporary file beside the target, fsync, rename,
+/// fsync the folder. `VLF_SAVE_DELAY_MS` (a test hook) waits between writing and renaming.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "lightfield.vlf".into());
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(bytes)?;
+        f.sync_all()?;
+        drop(f);
+        if let Some(ms) = std::env::var("VLF_SAVE_DELAY_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+            std::thread::sleep(std::time::Duration::from_millis(ms));
+        }
+        std::fs::rename(&tmp, path)?;
+        if let Ok(d) = std::fs::File::open(dir) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    };
+    write().map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        VlfError::io(path, e)
+    })
+}
+
+/// Read a container written by `encode_sections`, checking magic, version, tags and CRCs.
+pub fn decode_sections<'a>(bytes: &'a [u8], magic: &[u8; 8], version: u32, tags: &[&[u8; 4]], what: &str) -> std::result::Result<Vec<&'a [u8]>, String> {
+    let mut r = Reader { bytes, at: 0 };
+    let found = r.take(8, "the header")?;
+    if found != magic {
+        return Err(format!("wrong magic {:?}: this is not a {what}", String::from_utf8_lossy(found)));
+    }
+    let found_version = r.u32("the format version")?;
+    if found_version != version {
+        return Err(format!(
+            "format version {found_version}, but this vlf ({}) reads version {version}; re-run `vlf propagate` to make a new file",
+            env!("CARGO_PKG_VERSION")
+        ));
+    }
+    let count = r.u32("the section count")?;
+    if count as usize != tags.len() {
+        return Err(format!("{count} sections, expected {}", tags.len()));
+    }
+    let mut payloads = Vec::new();
+    for expected in tags {
+        let tag = r.take(4, "a section tag")?;
+        let name = String::from_utf8_lossy(*expected).to_string();
+        if tag != *expected {
+            return Err(format!("expected section {name}, found {:?}", String::from_utf8_lossy(tag)));
+        }
+        let len = r.u64(&format!("section {name}'s length"))?;
+        let crc = r.u32(&format!("section {name}'s checksum"))?;
+        let len = usize::try_from(len).map_err(|_| format!("section {name} claims {len} bytes"))?;
+        let payload = r.take(len, &format!("section {name}"))?;
+        let actual = crc32fast::hash(payload);
+        if actual != crc {
+            return Err(format!("section {name} is corrupt (checksum {actual:08x}, recorded {crc:08x})"));
+        }
+        payloads.push(payload);
+    }
+    if r.at != bytes.len() {
+        return Err(format!("{} unexpected bytes after the last section", bytes.len() - r.at));
+    }
+    Ok(payloads)
+}
+
 pub fn encode(lf: &LightField) -> Vec<u8> {
     let meta = serde_json::to_vec_pretty(&lf.meta).expect("metadata serialises");
     let (rects, index, tiles): (&[u8], &[u8], &[u8]) = match &lf.tiles {
@@ -29,40 +111,13 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         index,
         tiles,
     ];
-    let mut out = Vec::new();
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(SECTIONS.len() as u32).to_le_bytes());
-    for (tag, payload) in SECTIONS.iter().zip(payloads) {
-        out.extend_from_slice(*tag);
-        out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-        out.extend_from_slice(&crc32fast::hash(payload).to_le_bytes());
-        out.extend_from_slice(payload);
-    }
-    out
+    let sections: Vec<(&[u8; 4], &[u8])> = SECTIONS.iter().copied().zip(payloads).collect();
+    encode_sections(MAGIC, FORMAT_VERSION, &sections)
 }
 
-/// Write atomically: a temporary file beside the target, fsync, rename, fsync the folder.
+/// Save atomically and durably (see `write_atomic`): never a half file, never the old one lost.
 pub fn save(lf: &LightField, path: &Path) -> Result<()> {
-    let bytes = encode(lf);
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "lightfield.vlf".into());
-    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&bytes)?;
-        f.sync_all()?;
-        drop(f);
-        std::fs::rename(&tmp, path)?;
-        if let Ok(d) = std::fs::File::open(dir) {
-            let _ = d.sync_all();
-        }
-        Ok(())
-    };
-    write().map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        VlfError::io(path, e)
-    })
+    write_atomic(path, &encode(lf))
 }
 
 pub fn load(path: &Path) -> Result<LightField> {
@@ -101,42 +156,7 @@ fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<
 }
 
 pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
-    let mut r = Reader { bytes, at: 0 };
-    let magic = r.take(8, "the header")?;
-    if magic != MAGIC {
-        return Err(format!("wrong magic {:?}: this is not a vlf light field file", String::from_utf8_lossy(magic)));
-    }
-    let version = r.u32("the format version")?;
-    if version != FORMAT_VERSION {
-        return Err(format!(
-            "format version {version}, but this vlf ({}) reads version {FORMAT_VERSION}; re-run `vlf propagate` to make a new file",
-            env!("CARGO_PKG_VERSION")
-        ));
-    }
-    let count = r.u32("the section count")?;
-    if count as usize != SECTIONS.len() {
-        return Err(format!("{count} sections, expected {}", SECTIONS.len()));
-    }
-    let mut payloads = Vec::new();
-    for expected in SECTIONS {
-        let tag = r.take(4, "a section tag")?;
-        let name = String::from_utf8_lossy(expected).to_string();
-        if tag != expected {
-            return Err(format!("expected section {name}, found {:?}", String::from_utf8_lossy(tag)));
-        }
-        let len = r.u64(&format!("section {name}'s length"))?;
-        let crc = r.u32(&format!("section {name}'s checksum"))?;
-        let len = usize::try_from(len).map_err(|_| format!("section {name} claims {len} bytes"))?;
-        let payload = r.take(len, &format!("section {name}"))?;
-        let actual = crc32fast::hash(payload);
-        if actual != crc {
-            return Err(format!("section {name} is corrupt (checksum {actual:08x}, recorded {crc:08x})"));
-        }
-        payloads.push(payload);
-    }
-    if r.at != bytes.len() {
-        return Err(format!("{} unexpected bytes after the last section", bytes.len() - r.at));
-    }
+    let payloads = decode_sections(bytes, MAGIC, FORMAT_VERSION, &SECTIONS, "vlf light field file")?;
     let meta: LightFieldMeta =
         serde_json::from_slice(payloads[0]).map_err(|e| format!("section META is not valid metadata: {e}"))?;
     let faces: Vec<GpuFace> = pod_vec(payloads[1], "FACE")?;

@@ -3,6 +3,7 @@
 //! "pre-sort"); shooting iterations (`transport.rs`) gather until the unshot power falls below
 //! the tolerance. `cpu.rs` is the small CPU twin of both kernels, used to check the GPU.
 
+pub mod checkpoint;
 pub mod cpu;
 pub mod transport;
 pub mod visibility;
@@ -201,13 +202,21 @@ pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f3
 /// Depth tolerance (normalised units) within which layers count as coplanar.
 pub const DEPTH_EPSILON: f32 = 2e-5;
 
+type Propagated = (crate::lightfield::LightField, crate::lightfield::ResidentLightField, crate::report::PropagationReport);
+
 /// Propagate a scene to convergence. `progress` shows a bar on the terminal.
-pub fn propagate(
+pub fn propagate(ctx: std::sync::Arc<crate::gpu::GpuContext>, scene: &crate::scene::Scene, params: &PropagationParams, progress: bool) -> Result<Propagated> {
+    propagate_with(ctx, scene, params, progress, None)
+}
+
+/// `propagate`, with checkpoints saved (and resumed from) as `plan` says.
+pub fn propagate_with(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
     progress: bool,
-) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField, crate::report::PropagationReport)> {
+    plan: Option<&checkpoint::CheckpointPlan>,
+) -> Result<Propagated> {
     use std::time::Instant;
     params.validate()?;
     let t0 = Instant::now();
@@ -237,11 +246,25 @@ pub fn propagate(
     let mut per_iteration: Vec<transport::IterationStats> = Vec::new();
     let mut residual = 1.0;
     let mut tail: Option<Tail> = None;
+    if let Some(plan) = plan.filter(|p| p.resume && p.path.exists()) {
+        let cp = checkpoint::Checkpoint::load(&plan.path)?;
+        cp.check(&scene.hash, params, &plan.path)?;
+        prop.restore(&cp)?;
+        per_iteration = cp
+            .meta
+            .residuals
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| transport::IterationStats { iteration: i as u32 + 1, residual: r, gpu_ms: None, wall_ms: 0.0 })
+            .collect();
+        residual = per_iteration.last().map_or(1.0, |s| s.residual);
+        warnings.push(format!("resumed from {} at iteration {}", plan.path.display(), cp.meta.iteration));
+    }
     if prop.emitted_power <= 0.0 && scene.sky.is_none() {
         warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
         residual = 0.0;
     } else {
-        while prop.iteration < params.max_iterations {
+        while prop.iteration < params.max_iterations && !(residual < params.tolerance) {
             let stats = prop.iterate()?;
             residual = stats.residual;
             let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
@@ -250,6 +273,23 @@ pub fn propagate(
             let ratio = per_iteration.last().map(|p| residual / p.residual.max(1e-300));
             let previous_ratio = per_iteration.len().checked_sub(2).map(|i| per_iteration[i + 1].residual / per_iteration[i].residual.max(1e-300));
             per_iteration.push(stats);
+            if let Some(plan) = plan.filter(|p| p.every > 0 && prop.iteration % p.every == 0) {
+                checkpoint::Checkpoint {
+                    meta: checkpoint::CheckpointMeta {
+                        vlf_version: env!("CARGO_PKG_VERSION").into(),
+                        scene_hash: scene.hash.clone(),
+                        params: params.clone(),
+                        iteration: prop.iteration,
+                        emitted_power: prop.emitted_power,
+                        residuals: per_iteration.iter().map(|s| s.residual).collect(),
+                    },
+                    unshot: prop.read_unshot()?,
+                    total: prop.read_total()?,
+                    tile_unshot: prop.read_tile_unshot()?,
+                    tile_total: prop.read_tile_total()?,
+                }
+                .save(&plan.path)?;
+            }
             if residual < params.tolerance {
                 break;
             }

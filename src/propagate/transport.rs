@@ -432,6 +432,35 @@ impl Propagator {
         }
     }
 
+    /// The unshot mirror radiance (empty without mirrors).
+    pub fn read_tile_unshot(&self) -> Result<Vec<[f32; 4]>> {
+        match &self.tiles {
+            Some(t) => self.ctx.read_buffer(&t.state.radiance[self.current], t.state.count as u64 * 16),
+            None => Ok(Vec::new()),
+        }
+    }
+
+    /// Continue from a checkpoint: unshot and total state, iteration count, emitted power.
+    pub fn restore(&mut self, cp: &super::checkpoint::Checkpoint) -> Result<()> {
+        let sizes_match = cp.unshot.len() == self.texel_count as usize
+            && cp.total.len() == self.texel_count as usize
+            && cp.tile_unshot.len() == self.tiles.as_ref().map_or(0, |t| t.state.count as usize)
+            && cp.tile_total.len() == cp.tile_unshot.len();
+        if !sizes_match {
+            return Err(crate::error::VlfError::Parameter { name: "resume", message: "the checkpoint's state does not fit this scene's light field".into() });
+        }
+        let q = &self.ctx.queue;
+        q.write_buffer(&self.texels.radiance[self.current], 0, bytemuck::cast_slice(&cp.unshot));
+        q.write_buffer(&self.texels.total, 0, bytemuck::cast_slice(&cp.total));
+        if let Some(t) = &self.tiles {
+            q.write_buffer(&t.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.tile_unshot));
+            q.write_buffer(&t.state.total, 0, bytemuck::cast_slice(&cp.tile_total));
+        }
+        self.iteration = cp.meta.iteration;
+        self.emitted_power = cp.meta.emitted_power;
+        self.ctx.wait()
+    }
+
     /// The unshot radiosity the next iteration will shoot (the last iteration's "next").
     pub fn read_unshot(&self) -> Result<Vec<[f32; 4]>> {
         self.ctx.read_buffer(&self.texels.radiance[self.current], self.texel_count as u64 * 16)
