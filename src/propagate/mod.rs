@@ -242,6 +242,19 @@ pub fn propagate_with(
     let visibility_seconds = t1.elapsed().as_secs_f64();
 
     let mut warnings = prepared.warnings.clone();
+    // faces smaller than a grid cell: no cell line may cross them, so their texels rely on the
+    // depth fallback; say how many and how much of the scene they are
+    let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
+    let total_area: f64 = prepared.faces.iter().filter(|f| !f.is_back).map(|f| f.area).sum();
+    let small: Vec<f64> = prepared.faces.iter().filter(|f| !f.is_back && f.area < cell_area).map(|f| f.area).collect();
+    if !small.is_empty() {
+        warnings.push(format!(
+            "{} face(s), {:.3}% of the surface area, are smaller than one grid cell ({} cells per side): their light arrives through the depth fallback; raise --grid to resolve them",
+            small.len(),
+            100.0 * small.iter().sum::<f64>() / total_area.max(1e-300),
+            params.grid_resolution
+        ));
+    }
     let t2 = Instant::now();
     let mut per_iteration: Vec<transport::IterationStats> = Vec::new();
     let mut residual = 1.0;
