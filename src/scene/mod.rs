@@ -119,12 +119,20 @@ pub struct Scene {
     pub hash: String,
 }
 
+impl SceneFile {
+    /// Parse and validate `scene.toml` text; `path` names the file in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<SceneFile> {
+        let file: SceneFile =
+            toml::from_str(text).map_err(|e| VlfError::SceneToml { path: path.to_path_buf(), message: toml_message(&e) })?;
+        file.validate(path)?;
+        Ok(file)
+    }
+}
+
 impl Scene {
     pub fn load(path: &Path) -> Result<Scene> {
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        let file: SceneFile = toml::from_str(&text)
-            .map_err(|e| VlfError::SceneToml { path: path.to_path_buf(), message: toml_message(&e) })?;
-        file.validate(path)?;
+        let file = SceneFile::parse(&text, path)?;
         let dir = path.parent().unwrap_or(Path::new("."));
         let mesh_path = dir.join(&file.mesh);
         let mesh = obj::import(&mesh_path, &file.materials)?;
