@@ -16,6 +16,7 @@ pub mod reference;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod stress;
 pub mod sweep;
 
 pub use error::{Result, VlfError};

@@ -121,6 +121,11 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
+    /// Run the stability cases and write their table (STABILITY.md)
+    Stress {
+        #[arg(long, default_value = "STABILITY.md")]
+        out: PathBuf,
+    },
     /// Compare a linear image with a reference: MSE, RMSE, relMSE, max error, display MSE, FLIP
     Compare {
         image: PathBuf,
@@ -363,6 +368,20 @@ fn run(cli: Cli) -> Result<()> {
                 let png = out.join("sweep.png");
                 vlf::sweep::chart(&rows, &scene.name, &png)?;
                 println!("{}\n{}", csv.display(), png.display());
+            }
+        }
+        Command::Stress { out } => {
+            let ctx = GpuContext::new()?;
+            let adapter = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
+            let cases = vlf::stress::run(ctx)?;
+            for c in &cases {
+                println!("{} {}: {}", if c.pass { "pass" } else { "FAIL" }, c.name, c.measured);
+            }
+            std::fs::write(&out, vlf::stress::markdown(&cases, &adapter)).with_context(|| format!("writing {}", out.display()))?;
+            println!("{}", out.display());
+            let failed = cases.iter().filter(|c| !c.pass).count();
+            if failed > 0 {
+                bail!("{failed} stability case(s) failed");
             }
         }
         Command::Compare { image, reference, json, diff } => {

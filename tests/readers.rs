@@ -75,3 +75,19 @@ fn every_damage_to_a_light_field_file_is_caught() {
         })
         .unwrap();
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    #[test]
+    fn random_mtl_text_is_ok_or_a_named_error(lines in proptest::collection::vec("(newmtl a|Kd|Ke|Ks|Ka|Ns|d|illum|map_Kd)[ 0-9.eE-]{0,16}", 0..12)) {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.mtl"), lines.join("\n")).unwrap();
+        std::fs::write(dir.path().join("m.obj"), "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n").unwrap();
+        std::fs::write(dir.path().join("scene.toml"), "name = \"p\"\nmesh = \"m.obj\"\n").unwrap();
+        if let Err(e) = Scene::load(&dir.path().join("scene.toml")) {
+            let e = e.to_string();
+            prop_assert!(e.contains("m.obj") || e.contains("m.mtl"), "{}", e);
+        }
+    }
+}

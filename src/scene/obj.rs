@@ -34,6 +34,11 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         let full = dir.join(mtl);
         match std::fs::read_to_string(&full) {
             Ok(t) => {
+                // tobj panics on a colour line with fewer than three numbers: catch it first
+                if let Err(e) = prescan_mtl(&t) {
+                    *mtl_missing.borrow_mut() = Some(format!("material library {}: {e}", full.display()));
+                    return Err(tobj::LoadError::MaterialParseError);
+                }
                 source_files.borrow_mut().push(full);
                 tobj::load_mtl_buf(&mut std::io::BufReader::new(t.as_bytes()))
             }
@@ -46,7 +51,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     .map_err(|e| mesh_err(format!("cannot parse OBJ: {e}")))?;
     let mut source_files = source_files.into_inner();
     if let Some(m) = mtl_missing.into_inner() {
-        return Err(mesh_err(format!("cannot read {m}")));
+        return Err(mesh_err(format!("cannot use {m}")));
     }
     let materials = materials.map_err(|e| mesh_err(format!("cannot parse its material library: {e}")))?;
     let mtl_path = source_files.get(1).cloned().unwrap_or_else(|| path.to_path_buf());
@@ -205,6 +210,21 @@ fn convert_material(
         warnings.push(format!("material {:?}: transparency (d < 1) cannot be represented; treated as opaque", m.name));
     }
     Ok(material)
+}
+
+/// Colour lines (Ka, Kd, Ks, Ke, Tf) need three numbers; tobj would panic on fewer.
+fn prescan_mtl(text: &str) -> std::result::Result<(), String> {
+    for (index, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        let mut words = line.split_whitespace();
+        if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) = words.next() {
+            let numbers: Vec<&str> = words.collect();
+            if numbers.len() < 3 || numbers[..3].iter().any(|w| w.parse::<f32>().is_err()) {
+                return Err(format!("line {}: {key} needs three numbers (r g b), found {:?}", index + 1, numbers.join(" ")));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Line-numbered checks tobj cannot report well: vertex coordinates that are not finite,
