@@ -130,3 +130,16 @@ fn faces_smaller_than_a_cell_are_reported_and_still_lit() {
     // furnace-like room: the chip receives about pi * L, and reflects half of it
     assert!(l > 0.5 && l.is_finite(), "the chip got {l}");
 }
+
+#[test]
+fn the_layer_estimate_matches_what_visibility_builds() {
+    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let params = PropagationParams { geodesic_frequency: 5, grid_resolution: 64, ..small() };
+    let prepared = vlf::prepare::PreparedScene::new(&scene, params.texel_density).unwrap();
+    let directions = vlf::lightfield::directions::DirectionSet::geodesic(params.geodesic_frequency);
+    let estimate = vlf::propagate::estimate_memory(&prepared, &directions, &params);
+    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let ratio = estimate.layer_bytes as f64 / (report.layers * 8) as f64;
+    println!("estimated {} layers, built {}", estimate.layer_bytes / 8, report.layers);
+    assert!((0.8..1.25).contains(&ratio), "layer estimate off by {ratio:.2}x");
+}

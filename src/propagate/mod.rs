@@ -199,6 +199,42 @@ pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f3
     (unshot, total)
 }
 
+/// The big GPU buffers a propagation will need, estimated before anything is allocated.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MemoryEstimate {
+    pub cell_table_bytes: u64,
+    /// visibility layers: every face's projected area over a cell's area, per direction
+    pub layer_bytes: u64,
+    pub texel_bytes: u64,
+    pub total_bytes: u64,
+}
+
+pub fn estimate_memory(prepared: &PreparedScene, directions: &DirectionSet, params: &PropagationParams) -> MemoryEstimate {
+    let n = params.grid_resolution as u64;
+    let cells = n * n * directions.len() as u64;
+    let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
+    let layers: f64 = prepared.faces.iter().map(|f| f.area * directions.cosine_sum(f.normal) / directions.directions.iter().map(|d| d.solid_angle).sum::<f64>() * directions.len() as f64).sum::<f64>() / cell_area;
+    let texels = prepared.atlas.texel_count() as u64;
+    let cell_table_bytes = cells * 8;
+    let layer_bytes = (layers * 8.0) as u64;
+    // unshot, next, total, points, power weights (+ texture factors)
+    let texel_bytes = texels * (16 * 4 + 4);
+    MemoryEstimate { cell_table_bytes, layer_bytes, texel_bytes, total_bytes: cell_table_bytes + layer_bytes + texel_bytes }
+}
+
+/// Refuse, before allocating anything, parameters whose buffers cannot be bound.
+pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate, params: &PropagationParams) -> Result<()> {
+    let advice = format!(
+        "use fewer directions (now {}) or a coarser grid (now {})",
+        params.direction_count(),
+        params.grid_resolution
+    );
+    ctx.check_binding("the per-cell tables (estimated before allocating)", estimate.cell_table_bytes / 2, &advice)?;
+    ctx.check_binding("the visibility layers (estimated before allocating)", estimate.layer_bytes, &advice)?;
+    ctx.check_binding("the radiance atlas (estimated before allocating)", estimate.texel_bytes / 4, "lower the texel density")?;
+    Ok(())
+}
+
 /// Depth tolerance (normalised units) within which layers count as coplanar.
 pub const DEPTH_EPSILON: f32 = 2e-5;
 
@@ -222,6 +258,8 @@ pub fn propagate_with(
     let t0 = Instant::now();
     let prepared = PreparedScene::new(scene, params.texel_density)?;
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
+    let estimate = estimate_memory(&prepared, &directions, params);
+    check_memory(&ctx, &estimate, params)?;
     let mut prop = transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky)?;
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
