@@ -87,9 +87,12 @@ fn fs_mixed(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) v
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let f = faces[face_id];
-    var l = diffuse_part(f, in.world);
-    if f.tile_slot != NO_FACE {
-        l += view_dependent_part(f, in.world);
-    }
+    // every pixel does the view-dependent lookups, mirror or not, so that the frame time does
+    // not depend on how much mirror is in view (a face without tiles looks up slot 0 and
+    // weighs the result by zero)
+    let has_tiles = f.tile_slot != NO_FACE;
+    var g = f;
+    g.tile_slot = select(0u, f.tile_slot, has_tiles);
+    let l = diffuse_part(f, in.world) + view_dependent_part(g, in.world) * select(0.0, 1.0, has_tiles);
     return vec4<f32>(l, 1.0);
 }

@@ -15,6 +15,7 @@ use std::sync::Arc;
 pub struct Distribution {
     pub samples: usize,
     pub median: f64,
+    pub p95: f64,
     pub p99: f64,
     pub min: f64,
     pub max: f64,
@@ -29,6 +30,7 @@ impl Distribution {
         Distribution {
             samples: v.len(),
             median: at(0.5),
+            p95: at(0.95),
             p99: at(0.99),
             min: v[0],
             max: v[v.len() - 1],

@@ -6,6 +6,7 @@
 //! shared GPU helpers; [`bench`] and [`report`] measure and tell.
 
 pub mod bench;
+pub mod display;
 pub mod error;
 pub mod gpu;
 pub mod lightfield;

@@ -121,6 +121,28 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
+    /// Draw every wall and eye of a display configuration (CAVE, power wall, window)
+    Cave {
+        config: PathBuf,
+        /// scene.toml (propagated first) or file.vlf
+        #[arg(long)]
+        scene: PathBuf,
+        /// Render offscreen to files (the windowed CAVE is not built yet)
+        #[arg(long)]
+        headless: bool,
+        #[arg(long, default_value_t = 60)]
+        frames: u32,
+        #[arg(long, default_value = "cave-out")]
+        out: PathBuf,
+        /// Also write EXR (linear radiance) per wall and eye
+        #[arg(long)]
+        exr: bool,
+        /// Write the frame-time report as JSON
+        #[arg(long)]
+        json: Option<PathBuf>,
+        #[command(flatten)]
+        params: ParamArgs,
+    },
     /// Run the stability cases and write their table (STABILITY.md)
     Stress {
         #[arg(long, default_value = "STABILITY.md")]
@@ -369,6 +391,23 @@ fn run(cli: Cli) -> Result<()> {
                 vlf::sweep::chart(&rows, &scene.name, &png)?;
                 println!("{}\n{}", csv.display(), png.display());
             }
+        }
+        Command::Cave { config, scene, headless, frames, out, exr, json, params } => {
+            let display = vlf::display::DisplayConfig::load(&config)?;
+            if !headless {
+                bail!(
+                    "the windowed CAVE (one window per wall on its output) is not built yet; run with --headless to render every wall and eye to {}",
+                    out.display()
+                );
+            }
+            let ctx = GpuContext::new()?;
+            let (lf, resident) = light_field_for(&ctx, &scene, None, &params)?;
+            let report = vlf::display::headless::run(&lf, &resident, &display, &config, frames, &out, exr)?;
+            print!("{}", report.table());
+            if let Some(path) = json {
+                write_json(&path, &report)?;
+            }
+            println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
         }
         Command::Stress { out } => {
             let ctx = GpuContext::new()?;

@@ -242,23 +242,33 @@ impl Renderer {
 
     fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
         let eye = self.normalisation.to_unit(camera.eye).as_vec3();
-        let view = GpuView {
-            view_proj: view_projection(camera, &self.normalisation, width, height).to_cols_array_2d(),
-            eye: eye.into(),
-            ..self.view_template
-        };
+        self.set_view_matrix(view_projection(camera, &self.normalisation, width, height), eye);
+    }
+
+    /// Any view: a view-projection and the eye, both in the light field's normalised space
+    /// (off-axis CAVE walls, headset eyes).
+    pub fn set_view_matrix(&mut self, view_proj: Mat4, eye: Vec3) {
+        let view = GpuView { view_proj: view_proj.to_cols_array_2d(), eye: eye.into(), ..self.view_template };
         self.ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
     }
 
-    /// Render one view and read it back.
-    pub fn render(&mut self, camera: &Camera, width: u32, height: u32) -> Result<Frame> {
-        if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            return Err(VlfError::Parameter { name: "size", message: format!("{width}x{height} must be 1..16384 each way") });
-        }
-        self.set_view(camera, width, height);
+    /// Render the view last set with `set_view_matrix`, timed with GPU timestamps where the
+    /// adapter has them (milliseconds).
+    pub fn render_matrix(&mut self, view_proj: Mat4, eye: Vec3, width: u32, height: u32) -> Result<(Frame, Option<f64>)> {
+        self.set_view_matrix(view_proj, eye);
         self.target(width, height);
+        let mut ts = Timestamps::new(&self.ctx, 1);
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        self.encode_frame(&mut encoder, None);
+        self.encode_frame(&mut encoder, ts.as_mut());
+        let frame = self.read_target(encoder, width, height)?;
+        let gpu_ms = match ts.as_mut() {
+            Some(t) => t.read_ms(&self.ctx)?.first().copied(),
+            None => None,
+        };
+        Ok((frame, gpu_ms))
+    }
+
+    fn read_target(&mut self, mut encoder: wgpu::CommandEncoder, width: u32, height: u32) -> Result<Frame> {
         let t = self.target.as_ref().unwrap();
         encoder.copy_texture_to_buffer(
             t.color.as_image_copy(),
@@ -276,6 +286,18 @@ impl Renderer {
             pixels.extend_from_slice(&raw[row * stride..row * stride + width as usize]);
         }
         Ok(Frame { width, height, pixels })
+    }
+
+    /// Render one view and read it back.
+    pub fn render(&mut self, camera: &Camera, width: u32, height: u32) -> Result<Frame> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(VlfError::Parameter { name: "size", message: format!("{width}x{height} must be 1..16384 each way") });
+        }
+        self.set_view(camera, width, height);
+        self.target(width, height);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_frame(&mut encoder, None);
+        self.read_target(encoder, width, height)
     }
 
     /// Render `frames` frames of one view; per-frame GPU milliseconds from timestamp queries

@@ -1,0 +1,197 @@
+//! `vlf cave --headless`: every wall and eye of a display configuration rendered offscreen
+//! from one light field, frame after frame along the configured tracking; the last frame's
+//! images, an overview with the walls unfolded as a cross, and a frame-time report (GPU time
+//! per wall and eye from timestamp queries, CPU time per frame).
+
+use super::projection::off_axis;
+use super::tracking::PoseSource;
+use super::DisplayConfig;
+use crate::bench::Distribution;
+use crate::error::{Result, VlfError};
+use crate::gpu::MemoryLedger;
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::render::image_io::{srgb_encode, write_image};
+use crate::render::{Frame, Renderer};
+use glam::Vec3;
+use serde::Serialize;
+use std::path::Path;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ViewTiming {
+    pub wall: String,
+    pub eye: String,
+    pub pixels: [u32; 2],
+    /// GPU milliseconds per frame (timestamp queries); None without them
+    pub gpu_ms: Option<Distribution>,
+    /// p99 / p50 of the GPU time: 1.0 is a perfectly constant frame time
+    pub p99_over_p50: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct CaveReport {
+    pub display: String,
+    pub adapter: String,
+    pub frames: u32,
+    pub views_per_frame: usize,
+    pub views: Vec<ViewTiming>,
+    /// GPU milliseconds for all views of one frame
+    pub all_views_gpu_ms: Option<Distribution>,
+    /// wall-clock milliseconds per frame on the CPU (submit to read-back)
+    pub cpu_frame_ms: Distribution,
+    pub images: Vec<String>,
+}
+
+/// Render `frames` frames. Images of the last frame go to `out`.
+pub fn run(
+    lf: &LightField,
+    resident: &ResidentLightField,
+    config: &DisplayConfig,
+    config_path: &Path,
+    frames: u32,
+    out: &Path,
+    exr: bool,
+) -> Result<CaveReport> {
+    std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
+    let poses = PoseSource::from_config(config, config_path)?;
+    let duration = match &poses {
+        PoseSource::Scripted(s) => s.duration(),
+        PoseSource::Static(_) => 0.0,
+    };
+    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+    let norm = lf.meta.normalisation;
+    let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
+    let views: Vec<(usize, &'static str, f32)> =
+        config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
+    let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
+    let mut all_gpu = Vec::new();
+    let mut cpu = Vec::new();
+    let mut last: Vec<Frame> = Vec::new();
+    for f in 0..frames.max(1) {
+        let t = if frames > 1 { duration * f as f32 / (frames - 1) as f32 } else { 0.0 };
+        let pose = poses.at(t);
+        let started = std::time::Instant::now();
+        let mut frame_gpu = Some(0.0);
+        last.clear();
+        for (v, &(wall_index, _, side)) in views.iter().enumerate() {
+            let wall = &config.walls[wall_index];
+            let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
+            let eye = to_unit(pose.room_to_world(head));
+            let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
+            let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
+            let near = (plane_distance * 0.5).clamp(1e-4, 0.01);
+            let projection = off_axis(ll, lr, ul, eye, near, eye.length() + 4.0);
+            let [w, h] = wall.eye_pixels();
+            let (image, ms) = renderer.render_matrix(projection.view_proj, eye, w, h)?;
+            match ms {
+                Some(ms) => {
+                    gpu[v].push(ms);
+                    frame_gpu = frame_gpu.map(|s| s + ms);
+                }
+                None => frame_gpu = None,
+            }
+            last.push(image);
+        }
+        cpu.push(started.elapsed().as_secs_f64() * 1e3);
+        if let Some(ms) = frame_gpu {
+            all_gpu.push(ms);
+        }
+    }
+    let mut images = Vec::new();
+    for (image, &(wall_index, eye, _)) in last.iter().zip(&views) {
+        let base = out.join(format!("{}-{eye}", config.walls[wall_index].name));
+        write_image(image, &base.with_extension("png"), 1.0)?;
+        images.push(base.with_extension("png").display().to_string());
+        if exr {
+            write_image(image, &base.with_extension("exr"), 1.0)?;
+            images.push(base.with_extension("exr").display().to_string());
+        }
+    }
+    let overview = out.join("overview.png");
+    write_overview(config, &views, &last, &overview)?;
+    images.push(overview.display().to_string());
+    let timings = views
+        .iter()
+        .enumerate()
+        .map(|(v, &(wall_index, eye, _))| {
+            let d = (!gpu[v].is_empty()).then(|| Distribution::of(&gpu[v]));
+            ViewTiming {
+                wall: config.walls[wall_index].name.clone(),
+                eye: eye.into(),
+                pixels: config.walls[wall_index].eye_pixels(),
+                p99_over_p50: d.as_ref().map(|d| d.p99 / d.median.max(1e-12)),
+                gpu_ms: d,
+            }
+        })
+        .collect();
+    Ok(CaveReport {
+        display: config.name.clone(),
+        adapter: resident.ctx.summary.name.clone(),
+        frames: frames.max(1),
+        views_per_frame: views.len(),
+        views: timings,
+        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
+        cpu_frame_ms: Distribution::of(&cpu),
+        images,
+    })
+}
+
+/// The walls unfolded as a cross: front in the middle, left and right beside it, floor below,
+/// ceiling above; any other wall follows in a row. Left (or mono) eye.
+fn write_overview(config: &DisplayConfig, views: &[(usize, &'static str, f32)], images: &[Frame], path: &Path) -> Result<()> {
+    const CELL: u32 = 256;
+    let slot = |name: &str| match name {
+        "left" => Some((0, 1)),
+        "front" => Some((1, 1)),
+        "right" => Some((2, 1)),
+        "floor" => Some((1, 2)),
+        "ceiling" => Some((1, 0)),
+        _ => None,
+    };
+    let mut placed = Vec::new();
+    let mut extra = 0;
+    for (i, &(wall_index, eye, _)) in views.iter().enumerate() {
+        if eye == "right" {
+            continue;
+        }
+        let name = &config.walls[wall_index].name;
+        let (cx, cy) = slot(name).unwrap_or_else(|| {
+            extra += 1;
+            (2 + extra, 1)
+        });
+        placed.push((cx, cy, &images[i]));
+    }
+    let width = placed.iter().map(|p| p.0 + 1).max().unwrap_or(1) * CELL;
+    let mut canvas = image::RgbImage::new(width, 3 * CELL);
+    for (cx, cy, frame) in placed {
+        let mut img = image::RgbImage::new(frame.width, frame.height);
+        for (i, p) in frame.pixels.iter().enumerate() {
+            let c = |v: f32| (srgb_encode(v) * 255.0 + 0.5) as u8;
+            img.put_pixel(i as u32 % frame.width, i as u32 / frame.width, image::Rgb([c(p[0]), c(p[1]), c(p[2])]));
+        }
+        let scale = (CELL as f32 / frame.width as f32).min(CELL as f32 / frame.height as f32);
+        let (w, h) = (((frame.width as f32 * scale) as u32).max(1), ((frame.height as f32 * scale) as u32).max(1));
+        let small = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
+        image::imageops::overlay(&mut canvas, &small, (cx * CELL + (CELL - w) / 2) as i64, (cy * CELL + (CELL - h) / 2) as i64);
+    }
+    canvas.save_with_format(path, image::ImageFormat::Png).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })
+}
+
+impl CaveReport {
+    pub fn table(&self) -> String {
+        let mut s = format!("  display {} on {}: {} frames, {} views per frame\n", self.display, self.adapter, self.frames, self.views_per_frame);
+        for v in &self.views {
+            match &v.gpu_ms {
+                Some(d) => s.push_str(&format!(
+                    "  {:<10} {:<6} {}x{}  GPU p50 {:.3} ms  p95 {:.3}  p99 {:.3}  max {:.3}  (p99/p50 {:.3})\n",
+                    v.wall, v.eye, v.pixels[0], v.pixels[1], d.median, d.p95, d.p99, d.max, v.p99_over_p50.unwrap_or(0.0)
+                )),
+                None => s.push_str(&format!("  {:<10} {:<6} {}x{}  (no GPU timestamps on this adapter)\n", v.wall, v.eye, v.pixels[0], v.pixels[1])),
+            }
+        }
+        if let Some(d) = &self.all_views_gpu_ms {
+            s.push_str(&format!("  all views, GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+        }
+        s.push_str(&format!("  CPU frame time: median {:.3} ms, p99 {:.3} ms\n", self.cpu_frame_ms.median, self.cpu_frame_ms.p99));
+        s
+    }
+}

@@ -1,0 +1,220 @@
+//! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
+//! `config/displays/` (this module), with off-axis projection per wall and eye
+//! (`projection.rs`), head tracking (`tracking.rs`) and headless rendering of every view
+//! (`headless.rs`). Every wall and eye is drawn from one device and one light field.
+
+pub mod headless;
+pub mod projection;
+pub mod tracking;
+
+use crate::error::{Result, VlfError};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct DisplayConfig {
+    pub name: String,
+    /// interpupillary distance, metres
+    #[serde(default = "default_ipd")]
+    pub eye_separation: f32,
+    #[serde(default)]
+    pub start_pose: StartPose,
+    #[serde(default)]
+    pub tracking: TrackingConfig,
+    #[serde(default)]
+    pub navigation: Navigation,
+    #[serde(rename = "wall")]
+    pub walls: Vec<Wall>,
+}
+
+fn default_ipd() -> f32 {
+    0.064
+}
+
+/// Where the room stands in the scene: world = position + rotate_y(yaw) * room.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct StartPose {
+    #[serde(default)]
+    pub position: [f32; 3],
+    #[serde(default)]
+    pub yaw_deg: f32,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, tag = "source", rename_all = "lowercase")]
+pub enum TrackingConfig {
+    /// a fixed head position in room metres
+    Static { head: [f32; 3] },
+    /// keyframed head and navigation poses (a TOML file, path relative to the config)
+    Scripted { path: PathBuf },
+    /// live poses over UDP/OSC
+    Osc { port: u16 },
+}
+
+impl Default for TrackingConfig {
+    fn default() -> Self {
+        TrackingConfig::Static { head: [0.0, 1.7, 0.0] }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Navigation {
+    /// metres per second
+    pub walk_speed: f32,
+    /// degrees per second
+    pub turn_speed_deg: f32,
+    /// fly (move along the view direction) rather than walk on the ground plane
+    pub fly: bool,
+}
+
+impl Default for Navigation {
+    fn default() -> Self {
+        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Stereo {
+    Mono,
+    /// left and right eye on separate outputs
+    Separate,
+    SideBySide,
+    TopBottom,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Output {
+    /// monitor by index or by name
+    pub monitor: Option<MonitorRef>,
+    #[serde(default)]
+    pub fullscreen: bool,
+    /// window position in pixels (windowed)
+    pub window: Option<[i32; 2]>,
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum MonitorRef {
+    Index(u32),
+    Name(String),
+}
+
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Wall {
+    pub name: String,
+    /// corners in room metres (y up)
+    pub lower_left: [f32; 3],
+    pub lower_right: [f32; 3],
+    pub upper_left: [f32; 3],
+    /// pixels (per eye for side-by-side / top-bottom halves: the whole output)
+    pub pixels: [u32; 2],
+    #[serde(default = "mono")]
+    pub stereo: Stereo,
+    pub output: Output,
+}
+
+fn mono() -> Stereo {
+    Stereo::Mono
+}
+
+impl Wall {
+    pub fn corners(&self) -> [Vec3; 3] {
+        [Vec3::from(self.lower_left), Vec3::from(self.lower_right), Vec3::from(self.upper_left)]
+    }
+    /// The eyes drawn on this wall: ("mono", 0) or ("left", -1) and ("right", +1).
+    pub fn eyes(&self) -> Vec<(&'static str, f32)> {
+        match self.stereo {
+            Stereo::Mono => vec![("mono", 0.0)],
+            _ => vec![("left", -1.0), ("right", 1.0)],
+        }
+    }
+    /// Pixel size of one eye's image.
+    pub fn eye_pixels(&self) -> [u32; 2] {
+        match self.stereo {
+            Stereo::SideBySide => [self.pixels[0] / 2, self.pixels[1]],
+            Stereo::TopBottom => [self.pixels[0], self.pixels[1] / 2],
+            _ => self.pixels,
+        }
+    }
+}
+
+impl DisplayConfig {
+    pub fn load(path: &Path) -> Result<DisplayConfig> {
+        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+        Self::parse(&text, path)
+    }
+
+    pub fn parse(text: &str, path: &Path) -> Result<DisplayConfig> {
+        let err = |message: String| VlfError::Config { path: path.to_path_buf(), message };
+        let config: DisplayConfig = toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+        config.validate().map_err(err)?;
+        Ok(config)
+    }
+
+    /// Checks that name the offending key.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.walls.is_empty() {
+            return Err("[[wall]]: at least one wall is needed".into());
+        }
+        if !(self.eye_separation.is_finite() && (0.0..0.2).contains(&self.eye_separation)) {
+            return Err(format!("eye_separation: {} m is not a plausible interpupillary distance (0 to 0.2)", self.eye_separation));
+        }
+        let mut names = std::collections::HashSet::new();
+        for (i, w) in self.walls.iter().enumerate() {
+            let at = format!("wall[{i}] ({:?})", w.name);
+            if !names.insert(w.name.as_str()) {
+                return Err(format!("{at}.name: duplicate wall name"));
+            }
+            let [ll, lr, ul] = w.corners();
+            if [ll, lr, ul].iter().any(|c| !c.is_finite()) {
+                return Err(format!("{at}: corners must be finite numbers"));
+            }
+            let (right, up) = (lr - ll, ul - ll);
+            if right.length() < 1e-4 || up.length() < 1e-4 {
+                return Err(format!("{at}.lower_right/upper_left: the wall has zero size"));
+            }
+            let cos = right.normalize().dot(up.normalize());
+            if cos.abs() > 1e-3 {
+                return Err(format!(
+                    "{at}.upper_left: lower_left->lower_right and lower_left->upper_left must meet at a right angle (they are {:.2} degrees apart)",
+                    cos.clamp(-1.0, 1.0).acos().to_degrees()
+                ));
+            }
+            if w.pixels[0] == 0 || w.pixels[1] == 0 || w.pixels[0] > 16384 || w.pixels[1] > 16384 {
+                return Err(format!("{at}.pixels: {:?} must be 1..16384 each way", w.pixels));
+            }
+            if w.output.monitor.is_none() && w.output.window.is_none() {
+                return Err(format!("{at}.output: name a monitor (index or name) or a window position"));
+            }
+        }
+        if let TrackingConfig::Static { head } = &self.tracking {
+            if head.iter().any(|x| !x.is_finite()) {
+                return Err("tracking.head: must be finite".into());
+            }
+        }
+        Ok(())
+    }
+
+    /// Check outputs against the monitors that exist (names as the windowing system gives them).
+    pub fn check_outputs(&self, monitors: &[String]) -> std::result::Result<(), String> {
+        for (i, w) in self.walls.iter().enumerate() {
+            match &w.output.monitor {
+                Some(MonitorRef::Index(n)) if *n as usize >= monitors.len() => {
+                    return Err(format!("wall[{i}] ({:?}).output.monitor: {n} is not a monitor here; there are {} ({})", w.name, monitors.len(), monitors.join(", ")));
+                }
+                Some(MonitorRef::Name(name)) if !monitors.iter().any(|m| m == name) => {
+                    return Err(format!("wall[{i}] ({:?}).output.monitor: no monitor named {name:?}; there are: {}", w.name, monitors.join(", ")));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+}
