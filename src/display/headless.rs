@@ -36,12 +36,13 @@ pub struct CaveReport {
     pub views: Vec<ViewTiming>,
     /// GPU milliseconds for all views of one frame
     pub all_views_gpu_ms: Option<Distribution>,
-    /// wall-clock milliseconds per frame on the CPU (submit to read-back)
+    /// wall-clock milliseconds per frame on the CPU (all views submitted, GPU finished)
     pub cpu_frame_ms: Distribution,
     pub images: Vec<String>,
 }
 
-/// Render `frames` frames. Images of the last frame go to `out`.
+/// Render `frames` frames: all views of a frame are submitted back to back and timed; the
+/// last frame is drawn again view by view and read back, its images going to `out`.
 pub fn run(
     lf: &LightField,
     resident: &ResidentLightField,
@@ -66,13 +67,15 @@ pub fn run(
     let mut all_gpu = Vec::new();
     let mut cpu = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
-    for f in 0..frames.max(1) {
-        let t = if frames > 1 { duration * f as f32 / (frames - 1) as f32 } else { 0.0 };
+    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, views.len() as u32);
+    let total_frames = frames.max(1);
+    for f in 0..total_frames {
+        let t = if total_frames > 1 { duration * f as f32 / (total_frames - 1) as f32 } else { 0.0 };
         let pose = poses.at(t);
+        let last_frame = f + 1 == total_frames;
         let started = std::time::Instant::now();
-        let mut frame_gpu = Some(0.0);
         last.clear();
-        for (v, &(wall_index, _, side)) in views.iter().enumerate() {
+        for &(wall_index, _, side) in &views {
             let wall = &config.walls[wall_index];
             let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
             let eye = to_unit(pose.room_to_world(head));
@@ -81,20 +84,28 @@ pub fn run(
             let near = (plane_distance * 0.5).clamp(1e-4, 0.01);
             let projection = off_axis(ll, lr, ul, eye, near, eye.length() + 4.0);
             let [w, h] = wall.eye_pixels();
-            let (image, ms) = renderer.render_matrix(projection.view_proj, eye, w, h)?;
-            match ms {
-                Some(ms) => {
-                    gpu[v].push(ms);
-                    frame_gpu = frame_gpu.map(|s| s + ms);
-                }
-                None => frame_gpu = None,
+            if last_frame {
+                // the images to keep: drawn and read back one by one (not timed)
+                last.push(renderer.render_matrix(projection.view_proj, eye, w, h)?.0);
+            } else {
+                renderer.submit_matrix(projection.view_proj, eye, w, h, timestamps.as_mut());
             }
-            last.push(image);
         }
+        if last_frame {
+            break;
+        }
+        resident.ctx.wait()?;
         cpu.push(started.elapsed().as_secs_f64() * 1e3);
-        if let Some(ms) = frame_gpu {
-            all_gpu.push(ms);
+        if let Some(ts) = timestamps.as_mut() {
+            let ms = ts.read_ms(&resident.ctx)?;
+            for (v, m) in ms.iter().enumerate() {
+                gpu[v].push(*m);
+            }
+            all_gpu.push(ms.iter().sum());
         }
+    }
+    if cpu.is_empty() {
+        cpu.push(0.0);
     }
     let mut images = Vec::new();
     for (image, &(wall_index, eye, _)) in last.iter().zip(&views) {

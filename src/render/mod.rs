@@ -268,6 +268,16 @@ impl Renderer {
         Ok((frame, gpu_ms))
     }
 
+    /// Encode and submit one view without waiting (views of one frame queue up back to back,
+    /// as in a CAVE); its GPU time lands in `timestamps`.
+    pub fn submit_matrix(&mut self, view_proj: Mat4, eye: Vec3, width: u32, height: u32, timestamps: Option<&mut Timestamps>) {
+        self.set_view_matrix(view_proj, eye);
+        self.target(width, height);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_frame(&mut encoder, timestamps);
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
     fn read_target(&mut self, mut encoder: wgpu::CommandEncoder, width: u32, height: u32) -> Result<Frame> {
         let t = self.target.as_ref().unwrap();
         encoder.copy_texture_to_buffer(
