@@ -15,14 +15,5 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
 
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let texel = gid.x + gid.y * groups.x * 64u;
-    if texel >= grid.texel_count {
-        return;
-    }
-    let value = gather_texel(texel);
-    if (grid.flags & GRID_FLAG_ACCUMULATE) != 0u {
-        next[texel] += value;
-    } else {
-        next[texel] = value;
-    }
+    gather_and_store(gid.x + gid.y * groups.x * 64u);
 }

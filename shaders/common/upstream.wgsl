@@ -195,3 +195,16 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
     return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
 }
+
+// One texel's gather, written to `next` (added to it for perturbed sets after the first).
+fn gather_and_store(texel: u32) {
+    if texel >= grid.texel_count {
+        return;
+    }
+    let value = gather_texel(texel);
+    if (grid.flags & GRID_FLAG_ACCUMULATE) != 0u {
+        next[texel] += value;
+    } else {
+        next[texel] = value;
+    }
+}
