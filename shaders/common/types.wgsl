@@ -28,8 +28,7 @@ struct Face {
     origin: vec3<f32>,
     texel_density: f32,
     axis_a: vec3<f32>,
-    // pi / sum_i |n.w_i| dw_i: makes the discrete cosine quadrature exact for uniform light
-    kappa: f32,
+    _pad0: f32,
     axis_b: vec3<f32>,
     flags: u32,
     albedo: vec3<f32>,

@@ -165,7 +165,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     var irradiance = vec3<f32>(0.0);
     var sky_irradiance = vec3<f32>(0.0);
     // the cosine quadrature's weights over the directions used: normalising by their sum makes
-    // the quadrature exact for uniform light (this is kappa when no direction is dropped)
+    // the quadrature exact for uniform light (pi / sum over all directions when none is dropped)
     var weight_sum = 0.0;
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];

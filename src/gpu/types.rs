@@ -29,7 +29,7 @@ pub struct GpuFace {
     pub origin: [f32; 3],
     pub texel_density: f32,
     pub axis_a: [f32; 3],
-    pub kappa: f32,
+    pub _pad0: f32,
     pub axis_b: [f32; 3],
     pub flags: u32,
     pub albedo: [f32; 3],

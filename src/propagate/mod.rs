@@ -126,9 +126,9 @@ pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
     (0..prepared.faces.len()).map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0)).collect()
 }
 
-/// GPU face records for a prepared scene and direction set; `tile_slot[f]` is face f's index
+/// GPU face records for a prepared scene; `tile_slot[f]` is face f's index
 /// among the non-diffuse faces (NO_FACE for diffuse-only faces).
-pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet, tile_slot: &[u32]) -> Vec<GpuFace> {
+pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
     let density = prepared.texel_density as f32;
     prepared
         .faces
@@ -144,7 +144,7 @@ pub fn gpu_faces(prepared: &PreparedScene, directions: &DirectionSet, tile_slot:
                 origin: v3(f.origin),
                 texel_density: density,
                 axis_a: v3(f.axis_a),
-                kappa: (std::f64::consts::PI / directions.cosine_sum(f.normal)) as f32,
+                _pad0: 0.0,
                 axis_b: v3(f.axis_b),
                 flags: if emissive { FACE_EMITTER } else { 0 },
                 albedo: m.diffuse,

@@ -123,7 +123,7 @@ impl Propagator {
             TileLayout::default()
         };
         let tile_slot = if layout.face_slot.is_empty() { vec![crate::gpu::types::NO_FACE; prepared.faces.len()] } else { layout.face_slot.clone() };
-        let faces = gpu_faces(prepared, directions, &tile_slot);
+        let faces = gpu_faces(prepared, &tile_slot);
         let texel_count = prepared.atlas.texel_count() as u32;
         ctx.check_binding("the radiance atlas", texel_count as u64 * 16, "lower the texel density")?;
         let cells_per_tile = params.tile_size * params.tile_size;

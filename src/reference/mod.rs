@@ -117,8 +117,7 @@ pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 
     let started = std::time::Instant::now();
     // the light field's own preparation: same normalisation, faces, twins and materials
     let prepared = PreparedScene::new(scene, 1.0)?;
-    let set = crate::lightfield::directions::DirectionSet::geodesic(1);
-    let faces = crate::propagate::gpu_faces(&prepared, &set, &vec![NO_FACE; prepared.faces.len()]);
+    let faces = crate::propagate::gpu_faces(&prepared, &vec![NO_FACE; prepared.faces.len()]);
     let front: Vec<&crate::prepare::PreparedTriangle> = prepared.triangles.iter().filter(|t| !prepared.faces[t.face as usize].is_back).collect();
     let corners: Vec<[Vec3; 3]> = front.iter().map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3())).collect();
     let (nodes, order) = build_bvh(&corners);
