@@ -112,3 +112,39 @@ fn headless_cave_renders_every_wall_and_eye() {
     assert!(front.pixels.iter().map(|p| p[1]).sum::<f32>() > 1.0, "the front wall shows the box");
     assert!(out.join("overview.png").exists());
 }
+
+#[test]
+fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
+    use vlf::display::osc::{OscTracker, TrackingStatus, QUIET_AFTER};
+    use vlf::display::tracking::Pose;
+    let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), room_position: Vec3::ZERO, room_yaw_deg: 0.0 };
+    let mut tracker = OscTracker::listen("127.0.0.1:0", start).unwrap();
+    assert_eq!(tracker.latest(), (start, TrackingStatus::Waiting));
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let send = |addr: &str, args: Vec<f32>| {
+        let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: addr.into(), args: args.into_iter().map(rosc::OscType::Float).collect() });
+        socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    };
+    for i in 0..5 {
+        send("/vlf/head", vec![0.1 * i as f32, 1.6, 0.2]);
+    }
+    send("/vlf/room", vec![1.0, 0.0, 2.0, 30.0]);
+    socket.send_to(b"not osc at all", ("127.0.0.1", tracker.port)).unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+    let pose = loop {
+        let (p, status) = tracker.latest();
+        if p.room_yaw_deg == 30.0 {
+            assert_eq!(status, TrackingStatus::Live);
+            break p;
+        }
+        assert!(std::time::Instant::now() < deadline, "no pose arrived");
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    };
+    // the latest of the five head poses won
+    assert!((pose.head - Vec3::new(0.4, 1.6, 0.2)).length() < 1e-6, "{pose:?}");
+    assert_eq!(pose.room_position, Vec3::new(1.0, 0.0, 2.0));
+    std::thread::sleep(QUIET_AFTER + std::time::Duration::from_millis(100));
+    let (held, status) = tracker.latest();
+    assert_eq!(held, pose, "a quiet source keeps the last pose");
+    assert!(matches!(status, TrackingStatus::Quiet(_)), "{status:?}");
+}

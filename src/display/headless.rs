@@ -56,7 +56,7 @@ pub fn run(
     let poses = PoseSource::from_config(config, config_path)?;
     let duration = match &poses {
         PoseSource::Scripted(s) => s.duration(),
-        PoseSource::Static(_) => 0.0,
+        PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
     };
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     let norm = lf.meta.normalisation;

@@ -4,6 +4,7 @@
 //! (`headless.rs`). Every wall and eye is drawn from one device and one light field.
 
 pub mod headless;
+pub mod osc;
 pub mod projection;
 pub mod tracking;
 

@@ -1,6 +1,5 @@
-//! Head tracking: a static head, or a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements). The live UDP/OSC source comes with
-//! the windowed CAVE.
+//! Head tracking: a static head, a scripted path of keyframed head and navigation poses
+//! (TOML, for repeatable walkthroughs and measurements), or live poses over UDP/OSC (`osc.rs`).
 
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
@@ -82,6 +81,7 @@ impl ScriptedPath {
 pub enum PoseSource {
     Static(Pose),
     Scripted(ScriptedPath),
+    Live(std::sync::Mutex<super::osc::OscTracker>),
 }
 
 impl PoseSource {
@@ -92,10 +92,10 @@ impl PoseSource {
             TrackingConfig::Scripted { path } => {
                 Ok(PoseSource::Scripted(ScriptedPath::load(&config_path.parent().unwrap_or(Path::new(".")).join(path))?))
             }
-            TrackingConfig::Osc { port } => Err(VlfError::Config {
-                path: config_path.to_path_buf(),
-                message: format!("tracking.source = \"osc\" (port {port}) needs the live CAVE; headless runs take static or scripted tracking"),
-            }),
+            TrackingConfig::Osc { port } => {
+                let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), ..start };
+                Ok(PoseSource::Live(std::sync::Mutex::new(super::osc::OscTracker::listen(&format!("0.0.0.0:{port}"), start)?)))
+            }
         }
     }
 
@@ -103,6 +103,7 @@ impl PoseSource {
         match self {
             PoseSource::Static(p) => *p,
             PoseSource::Scripted(s) => s.at(t),
+            PoseSource::Live(tracker) => tracker.lock().unwrap().latest().0,
         }
     }
 }
