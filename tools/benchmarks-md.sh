@@ -38,3 +38,22 @@ section "Cornell, the paper's settings (config/propagation/paper.toml)" bench-pa
 section "Cornell-mirror, default settings" bench-mirror.md
 section "Cornell-mirror, the paper's settings" bench-mirror-paper.md
 section "Cornell, default settings with 4 perturbed direction sets (--perturb 4)" bench-perturb4.md
+# the CAVE (tools/gpu-cave.sh): vlf cave --headless --json reports, if present
+for run in static walk; do
+  f="$dir/cave-$run.json"
+  [ -f "$f" ] || continue
+  python3 - "$f" "$run" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+title = {"static": "static head", "walk": "scripted walk into the mirror (config/paths/cornell-walk.toml)"}[sys.argv[2]]
+print(f"### CAVE: {r['display']}, {title}\n")
+print(f"`vlf cave --headless` on **{r['adapter']}**, Cornell-mirror at default settings, {r['frames']} frames of {r['views_per_frame']} views submitted back to back (GPU timestamp queries). Target for 8 views of 1920x1200: under 8.3 ms (120 Hz).\n")
+a = r["all_views_gpu_ms"]
+print(f"All views of one frame: median {a['median']:.3f} ms, p99 {a['p99']:.3f} ms, max {a['max']:.3f} ms.\n")
+print("| wall | eye | pixels | GPU p50 (ms) | p95 | p99 | max | p99/p50 |\n|---|---|---|---|---|---|---|---|")
+for v in r["views"]:
+    d = v["gpu_ms"]
+    print(f"| {v['wall']} | {v['eye']} | {v['pixels'][0]}x{v['pixels'][1]} | {d['median']:.3f} | {d['p95']:.3f} | {d['p99']:.3f} | {d['max']:.3f} | {v['p99_over_p50']:.3f} |")
+print()
+PY
+done
