@@ -22,7 +22,7 @@ pub struct Comparison {
 }
 
 fn display_bytes(frame: &Frame) -> Vec<u8> {
-    frame.pixels.iter().flat_map(|p| (0..3).map(move |c| (srgb_encode(p[c]) * 255.0 + 0.5) as u8)).collect()
+    crate::render::image_io::display_image(frame, 1.0).into_raw()
 }
 
 /// Compare `test` with `reference` (same size).

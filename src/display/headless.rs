@@ -10,7 +10,7 @@ use crate::bench::Distribution;
 use crate::error::{Result, VlfError};
 use crate::gpu::MemoryLedger;
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::image_io::{srgb_encode, write_image};
+use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
 use glam::Vec3;
 use serde::Serialize;
@@ -174,11 +174,7 @@ fn write_overview(config: &DisplayConfig, views: &[(usize, &'static str, f32)], 
     let width = placed.iter().map(|p| p.0 + 1).max().unwrap_or(1) * CELL;
     let mut canvas = image::RgbImage::new(width, 3 * CELL);
     for (cx, cy, frame) in placed {
-        let mut img = image::RgbImage::new(frame.width, frame.height);
-        for (i, p) in frame.pixels.iter().enumerate() {
-            let c = |v: f32| (srgb_encode(v) * 255.0 + 0.5) as u8;
-            img.put_pixel(i as u32 % frame.width, i as u32 / frame.width, image::Rgb([c(p[0]), c(p[1]), c(p[2])]));
-        }
+        let img = display_image(frame, 1.0);
         let scale = (CELL as f32 / frame.width as f32).min(CELL as f32 / frame.height as f32);
         let (w, h) = (((frame.width as f32 * scale) as u32).max(1), ((frame.height as f32 * scale) as u32).max(1));
         let small = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);

@@ -15,6 +15,19 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
+/// Linear value of an 8-bit sRGB-encoded component.
+pub fn srgb_decode(c: u8) -> f32 {
+    let x = c as f32 / 255.0;
+    if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+}
+
+/// The display image of a frame: exposure, clamp, sRGB encoding, 8 bits per channel.
+pub fn display_image(frame: &Frame, exposure: f32) -> image::RgbImage {
+    let c = |v: f32| (srgb_encode(v * exposure) * 255.0 + 0.5) as u8;
+    let bytes = frame.pixels.iter().flat_map(|p| [c(p[0]), c(p[1]), c(p[2])]).collect();
+    image::RgbImage::from_raw(frame.width, frame.height, bytes).expect("one pixel per texel of the frame")
+}
+
 fn temporary_beside(path: &Path) -> std::path::PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
     let ext = path.extension().map(|e| e.to_string_lossy().to_string()).unwrap_or_default();
@@ -49,12 +62,7 @@ pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
             .map_err(|e| image_err(e.to_string()))?;
         }
         "png" => {
-            let mut img = image::RgbImage::new(frame.width, frame.height);
-            for (i, p) in frame.pixels.iter().enumerate() {
-                let c = |v: f32| (srgb_encode(v * exposure) * 255.0 + 0.5) as u8;
-                img.put_pixel(i as u32 % frame.width, i as u32 / frame.width, image::Rgb([c(p[0]), c(p[1]), c(p[2])]));
-            }
-            img.save_with_format(&tmp, image::ImageFormat::Png).map_err(|e| image_err(e.to_string()))?;
+            display_image(frame, exposure).save_with_format(&tmp, image::ImageFormat::Png).map_err(|e| image_err(e.to_string()))?;
         }
         other => {
             return Err(VlfError::Image {
@@ -88,10 +96,6 @@ pub fn read_image(path: &Path) -> Result<Frame> {
         return read_exr(path);
     }
     let img = image::open(path).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: format!("cannot read: {e}") })?.to_rgb8();
-    let decode = |c: u8| {
-        let x = c as f32 / 255.0;
-        if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
-    };
-    let pixels = img.pixels().map(|p| [decode(p[0]), decode(p[1]), decode(p[2]), 1.0]).collect();
+    let pixels = img.pixels().map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]).collect();
     Ok(Frame { width: img.width(), height: img.height(), pixels })
 }

@@ -289,10 +289,7 @@ fn load_texture(path: &Path, material: &str, key: &str, mtl_path: &Path, texture
         .decode()
         .map_err(|e| err(format!("{key} {}: not a readable PNG or JPEG image: {e}", path.display())))?
         .to_rgb8();
-    let decode = |c: u8| {
-        let x = c as f32 / 255.0;
-        if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
-    };
+    let decode = crate::render::image_io::srgb_decode;
     let texels = image.pixels().map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect();
     textures.push(Texture { path: path.to_path_buf(), width: image.width(), height: image.height(), texels });
     Ok(textures.len() as u32 - 1)
