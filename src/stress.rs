@@ -66,30 +66,8 @@ fn small() -> PropagationParams {
     PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 200, perturb: 1, accelerate: true }
 }
 
-fn temp() -> Result<tempfile_dir::TempDir> {
-    tempfile_dir::TempDir::new()
-}
-
-/// A temporary folder removed on drop (no extra dependency for one use).
-mod tempfile_dir {
-    pub struct TempDir(pub std::path::PathBuf);
-    impl TempDir {
-        pub fn new() -> crate::error::Result<TempDir> {
-            static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-            let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-            let p = std::env::temp_dir().join(format!("vlf-stress-{}-{n}", std::process::id()));
-            std::fs::create_dir_all(&p).map_err(|e| crate::error::VlfError::io(&p, e))?;
-            Ok(TempDir(p))
-        }
-        pub fn path(&self) -> &std::path::Path {
-            &self.0
-        }
-    }
-    impl Drop for TempDir {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
-    }
+fn temp() -> Result<tempfile::TempDir> {
+    tempfile::Builder::new().prefix("vlf-stress-").tempdir().map_err(|e| VlfError::io(std::env::temp_dir(), e))
 }
 
 fn finite(t: &[[f32; 4]]) -> bool {
