@@ -80,13 +80,17 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     for (var k = 0u; k < 3u; k++) {
         let w = taps.weight[k];
         let j = taps.index[k];
-        let dj = directions[j];
+        // batched directions: this batch serves only its own taps
+        if j < grid.first_direction || j >= grid.first_direction + grid.direction_count {
+            continue;
+        }
+        let dj = directions[j - grid.first_direction];
         let travel = dj.w * taps.sign[k];
         // a tap beyond the horizon cannot light the front: the others are renormalised
         if w <= 0.0 || dot(f.normal, travel) > -1e-6 {
             continue;
         }
-        let sender = find_upstream(j, dj, x, face_id, taps.sign[k] > 0.0);
+        let sender = find_upstream(j - grid.first_direction, dj, x, face_id, taps.sign[k] > 0.0);
         if sender == UNRESOLVED {
             continue;
         }
@@ -98,6 +102,11 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         } else {
             radiance += sender_radiance(sender, x, j, travel) * w;
         }
+    }
+    if (grid.flags & GRID_FLAG_BATCHED) != 0u {
+        weight_sums[grid.texel_count + index] += found;
+        tile_next[index] += vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+        return;
     }
     if found > 0.0 {
         radiance /= found;

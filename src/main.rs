@@ -209,6 +209,10 @@ struct ParamArgs {
     /// Plain shooting to the tolerance: no geometric-tail acceleration
     #[arg(long)]
     no_accelerate: bool,
+    /// GPU memory the propagation may use (e.g. 512MiB, 2GiB; a bare number is MiB). Directions
+    /// whose visibility does not fit are processed in batches, rebuilt every iteration
+    #[arg(long, value_parser = parse_mebibytes)]
+    memory_budget: Option<u64>,
 }
 
 impl ParamArgs {
@@ -241,8 +245,29 @@ impl ParamArgs {
         if self.no_accelerate {
             p.accelerate = false;
         }
+        if let Some(m) = self.memory_budget {
+            p.memory_budget_mib = Some(m);
+        }
         Ok(p)
     }
+}
+
+/// "512MiB", "2GiB", "1.5G", "800M" or a bare number of MiB, as MiB.
+fn parse_mebibytes(s: &str) -> std::result::Result<u64, String> {
+    let t = s.trim();
+    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
+    let (number, unit) = t.split_at(split);
+    let value: f64 = number.parse().map_err(|_| format!("{s:?}: expected a size such as 512MiB or 2GiB"))?;
+    let mib = match unit.trim().to_ascii_lowercase().as_str() {
+        "" | "m" | "mb" | "mib" => value,
+        "g" | "gb" | "gib" => value * 1024.0,
+        "t" | "tb" | "tib" => value * 1024.0 * 1024.0,
+        other => return Err(format!("{s:?}: unknown unit {other:?}; use MiB or GiB")),
+    };
+    if !(mib >= 1.0) {
+        return Err(format!("{s:?}: a memory budget must be at least 1 MiB"));
+    }
+    Ok(mib.round() as u64)
 }
 
 fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {

@@ -29,6 +29,9 @@ pub struct PropagationReport {
     pub texture_bytes: u64,
     pub layers: u64,
     pub visibility_kept_resident: bool,
+    /// directions are gathered in this many batches (1: all lists resident)
+    pub direction_batches: u32,
+    pub directions_per_batch: u32,
     pub setup_seconds: f64,
     pub visibility_seconds: f64,
     pub visibility_gpu_ms: Option<f64>,
@@ -69,7 +72,17 @@ impl PropagationReport {
                 "textures".into(),
                 if self.texture_bytes == 0 { "none: nothing allocated".into() } else { human_bytes(self.texture_bytes) },
             ),
-            ("visibility layers".into(), format!("{} (kept resident for all iterations)", self.layers)),
+            (
+                "visibility layers".into(),
+                if self.visibility_kept_resident {
+                    format!("{} (kept resident for all iterations)", self.layers)
+                } else {
+                    format!(
+                        "{} in the largest batch: {} batches of {} directions, rebuilt every iteration",
+                        self.layers, self.direction_batches, self.directions_per_batch
+                    )
+                },
+            ),
             ("setup".into(), format!("{:.3} s", self.setup_seconds)),
             (
                 "visibility".into(),

@@ -63,7 +63,7 @@ impl Builder {
 }
 
 fn small() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 200, perturb: 1, accelerate: true }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None }
 }
 
 fn temp() -> Result<tempfile::TempDir> {
@@ -283,6 +283,27 @@ pub fn run(ctx: Arc<GpuContext>) -> Result<Vec<Case>> {
         add(what, mutate.1.trim(), "an error naming the file and what is wrong", outcome);
     }
 
+    for (what, text) in [
+        ("malformed display TOML", "[[wall]]\nname = \"front\"\nlower_left = [0, 0\n"),
+        ("truncated display TOML", "[[wall]]\nname = \"front\"\nlower_left = [-1.5, 0.0, -1.5]\nlower_right = [1.5, 0.0, -1.5]\n"),
+        ("display TOML: unknown key", "eye_separaton = 0.064\n"),
+    ] {
+        let outcome = (|| {
+            let dir = temp()?;
+            let path = dir.path().join("display.toml");
+            std::fs::write(&path, text).map_err(|e| VlfError::io(&path, e))?;
+            Ok(match crate::display::DisplayConfig::load(&path) {
+                Err(e) => {
+                    let text = e.to_string();
+                    let named = text.contains("display.toml");
+                    (text, named)
+                }
+                Ok(_) => ("loaded without complaint".into(), false),
+            })
+        })();
+        add(what, text.trim(), "an error naming the file and what is wrong", outcome);
+    }
+
     let outcome = (|| {
         let dir = temp()?;
         let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
@@ -309,14 +330,63 @@ pub fn run(ctx: Arc<GpuContext>) -> Result<Vec<Case>> {
     let outcome = (|| {
         let dir = temp()?;
         let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
-        let huge = PropagationParams { geodesic_frequency: 100, grid_resolution: 2048, ..small() };
+        let huge = PropagationParams { geodesic_frequency: 100, grid_resolution: 1024, texel_density: 200.0, memory_budget_mib: Some(16), ..small() };
         Ok(match crate::propagate::propagate(ctx.clone(), &scene, &huge, false) {
             Err(e @ VlfError::GpuBudget(_)) => (e.to_string(), true),
             Err(e) => (e.to_string(), false),
             Ok(_) => ("ran".into(), false),
         })
     })();
-    add("parameters beyond the GPU", "50001 directions, 2048^2 cells", "refused with the estimate and a suggestion", outcome);
+    add(
+        "parameters beyond the memory budget",
+        "50001 directions, 1024^2 cells, 200 texels/unit, --memory-budget 16MiB",
+        "refused before allocating, with the estimate and a suggestion",
+        outcome,
+    );
+
+    let outcome = (|| {
+        let dir = temp()?;
+        let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
+        // 501 directions x 512^2 cells: 501 MiB per cell table, beyond a 128 MiB binding
+        let big = PropagationParams { geodesic_frequency: 10, grid_resolution: 512, texel_density: 4.0, ..small() };
+        let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, false)?;
+        let expected = 1.0 / (1.0 - 0.5);
+        let worst = lf.total.iter().filter(|t| t[0] > 0.0).map(|t| (t[0] as f64 - expected).abs() / expected).fold(0.0, f64::max);
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        let needs_split = 501u64 * 512 * 512 * 4 > limit;
+        Ok((
+            format!(
+                "{} batch(es) of {} directions (binding limit {}); furnace worst texel {:.2}% off",
+                report.direction_batches,
+                report.directions_per_batch,
+                crate::gpu::human_bytes(limit),
+                worst * 100.0
+            ),
+            worst < 0.01 && (report.direction_batches > 1 || !needs_split),
+        ))
+    })();
+    add("visibility beyond one binding", "501 directions x 512^2 cells (cell tables 501 MiB)", "split into direction batches; runs, furnace within 1%", outcome);
+
+    let outcome = (|| {
+        let dir = temp()?;
+        let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
+        let free = PropagationParams { grid_resolution: 256, ..small() };
+        let (a, _, ra) = crate::propagate::propagate(ctx.clone(), &scene, &free, false)?;
+        let budget = PropagationParams { memory_budget_mib: Some(8), ..free };
+        let (b, _, rb) = crate::propagate::propagate(ctx.clone(), &scene, &budget, false)?;
+        let worst = a.total.iter().zip(&b.total).map(|(x, y)| (x[0] - y[0]).abs() as f64 / x[0].max(1e-30) as f64).fold(0.0, f64::max);
+        Ok((
+            format!(
+                "without: {} ({} batch); 8 MiB budget: {} ({} batches); worst texel difference {worst:.1e}",
+                crate::gpu::human_bytes(ra.propagation_memory_bytes),
+                ra.direction_batches,
+                crate::gpu::human_bytes(rb.propagation_memory_bytes),
+                rb.direction_batches
+            ),
+            rb.propagation_memory_bytes <= 8 << 20 && rb.direction_batches > 1 && worst < 1e-5,
+        ))
+    })();
+    add("--memory-budget", "81 directions x 256^2 cells under 8 MiB", "directions in batches, memory within the budget, same result", outcome);
 
     Ok(cases)
 }

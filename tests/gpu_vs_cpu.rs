@@ -32,7 +32,7 @@ fn tiny_scene(dir: &std::path::Path) -> Scene {
 }
 
 fn tiny_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true }
+    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None }
 }
 
 #[test]
@@ -45,7 +45,7 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
     assert!(prepared.faces.len() <= 20);
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
     assert_eq!(directions.len(), 21);
-    let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None).unwrap();
+    let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
     prop.build_visibility().unwrap();
     let cells = (params.grid_resolution * params.grid_resolution) as u64 * directions.len() as u64;
     let (gpu_offset, gpu_count, gpu_layers) = prop.visibility.as_ref().unwrap().read(&ctx, cells).unwrap();
@@ -100,7 +100,7 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
 fn propagation_is_bit_for_bit_repeatable() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true };
+    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None };
     let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     assert_eq!(ra.iterations, rb.iterations);

@@ -11,7 +11,7 @@ use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
 fn small_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None }
 }
 
 fn furnace(rho: f32, le: f32) -> (tempfile::TempDir, Scene) {
@@ -46,7 +46,7 @@ fn furnace_matches_le_over_one_minus_rho_per_bounce_and_converged() {
         let params = small_params();
         let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
         let directions = DirectionSet::geodesic(params.geodesic_frequency);
-        let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None).unwrap();
+        let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
         prop.build_visibility().unwrap();
         for k in 1..=4u32 {
             prop.iterate().unwrap();
@@ -82,7 +82,7 @@ fn received_form_factor(obj: &ObjBuilder, params: &PropagationParams) -> f64 {
     let scene = Scene::load(&path).unwrap();
     let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
-    let mut prop = Propagator::new(ctx, &prepared, params, &directions, None).unwrap();
+    let mut prop = Propagator::new(ctx, &prepared, params, &directions, None, None).unwrap();
     prop.build_visibility().unwrap();
     prop.iterate().unwrap();
     // after one bounce the receiver's radiance is rho * E / pi, and E = pi * Le * F
@@ -92,7 +92,7 @@ fn received_form_factor(obj: &ObjBuilder, params: &PropagationParams) -> f64 {
 }
 
 fn form_factor_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1, perturb: 1, accelerate: true }
+    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1, perturb: 1, accelerate: true, memory_budget_mib: None }
 }
 
 #[test]
@@ -164,7 +164,7 @@ fn perturbed_directions_keep_the_furnace_and_the_memory() {
 fn perturbed_directions_change_an_open_scene() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let base = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 30, perturb: 1, accelerate: true };
+    let base = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 30, perturb: 1, accelerate: true, memory_budget_mib: None };
     let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
     let (b, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &PropagationParams { perturb: 4, ..base }, false).unwrap();
     let differing = a.total.iter().zip(&b.total).filter(|(x, y)| (x[1] - y[1]).abs() > 1e-4 * (1.0 + x[1].abs())).count();

@@ -37,6 +37,26 @@ proptest! {
     }
 
     #[test]
+    fn a_mutated_display_toml_is_ok_or_a_named_error(cut in 0usize..4000, at in 0usize..4000, byte in any::<u8>()) {
+        let mut bytes = std::fs::read(repo_path("config/displays/cave-4wall.toml")).unwrap();
+        let at = at % bytes.len();
+        bytes[at] = byte;
+        bytes.truncate(cut.max(1).min(bytes.len()));
+        if let Ok(text) = String::from_utf8(bytes) {
+            if let Err(e) = vlf::display::DisplayConfig::parse(&text, Path::new("p/display.toml")) {
+                prop_assert!(e.to_string().contains("p/display.toml"), "{}", e);
+            }
+        }
+    }
+
+    #[test]
+    fn any_text_as_display_toml_is_ok_or_a_named_error(text in "\\PC{0,300}") {
+        if let Err(e) = vlf::display::DisplayConfig::parse(&text, Path::new("p/display.toml")) {
+            prop_assert!(e.to_string().contains("p/display.toml"));
+        }
+    }
+
+    #[test]
     fn random_bytes_are_not_a_light_field(bytes in proptest::collection::vec(any::<u8>(), 0..512)) {
         prop_assert!(file::decode(&bytes).is_err());
     }
@@ -61,7 +81,7 @@ proptest! {
 #[test]
 fn every_damage_to_a_light_field_file_is_caught() {
     let scene = Scene::load(&repo_path("scenes/cornell-mirror/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 10, perturb: 1, accelerate: true };
+    let params = vlf::propagate::PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 10, perturb: 1, accelerate: true, memory_budget_mib: None };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let bytes = file::encode(&lf);
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: 512, ..ProptestConfig::default() });

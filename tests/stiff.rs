@@ -17,7 +17,7 @@ fn furnace(dir: &std::path::Path, rho: f32) -> Scene {
 }
 
 fn params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None }
 }
 
 #[test]
@@ -52,7 +52,7 @@ fn no_value_goes_negative_or_non_finite_on_the_way() {
     let scene = furnace(dir.path(), 0.999);
     let p = params();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
-    let mut prop = Propagator::new(gpu(), &prepared, &p, &DirectionSet::geodesic(p.geodesic_frequency), None).unwrap();
+    let mut prop = Propagator::new(gpu(), &prepared, &p, &DirectionSet::geodesic(p.geodesic_frequency), None, None).unwrap();
     prop.build_visibility().unwrap();
     for _ in 0..6 {
         let stats = prop.iterate().unwrap();

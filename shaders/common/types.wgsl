@@ -9,6 +9,9 @@ const FACE_EMITTER: u32 = 1u;
 const GRID_FLAG_SKY: u32 = 1u;
 // add to `next` instead of overwriting it (perturbed direction sets after the first)
 const GRID_FLAG_ACCUMULATE: u32 = 2u;
+// directions come in batches: add raw sums to `next` and the quadrature weights used to
+// `weight_sums`; normalize.wgsl divides once every batch has been gathered
+const GRID_FLAG_BATCHED: u32 = 4u;
 
 // mirrors gpu::types::GpuDirection
 struct Direction {
@@ -65,7 +68,8 @@ struct GridParams {
     // 1 / K for K perturbed direction sets, else 1
     direction_weight: f32,
     tile_cell_count: u32,
-    _pad0: u32,
+    // global index of `directions[0]`: 0 unless directions come in batches
+    first_direction: u32,
     _pad1: u32,
 }
 
@@ -91,6 +95,7 @@ struct AccumulateParams {
     count: u32,
     // 1/pi for texels (radiosity to radiance), 1 for tile cells (already radiance)
     scale: f32,
-    _pad0: u32,
+    // normalize.wgsl: where these elements' quadrature weights start in `weight_sums`
+    weight_offset: u32,
     _pad1: u32,
 }

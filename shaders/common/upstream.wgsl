@@ -15,6 +15,8 @@
 @group(1) @binding(0) var<storage, read> unshot: array<vec4<f32>>;
 // next unshot radiosity (rgb) and, in w, the sky's share of the irradiance (r+g+b)
 @group(1) @binding(1) var<storage, read_write> next: array<vec4<f32>>;
+// with GRID_FLAG_BATCHED: the quadrature weights used so far, per texel then per tile cell
+@group(1) @binding(2) var<storage, read_write> weight_sums: array<f32>;
 
 fn layer_depth(l: vec2<u32>) -> f32 {
     return bitcast<f32>(l.y);
@@ -187,8 +189,14 @@ fn gather_texel(texel: u32) -> vec4<f32> {
                 sky_irradiance += grid.sky * weight;
             }
         } else {
-            irradiance += sender_radiance(sender, x, i, travel) * weight;
+            irradiance += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
         }
+    }
+    if (grid.flags & GRID_FLAG_BATCHED) != 0u {
+        // raw sums: normalize.wgsl divides by the weights of every batch together
+        weight_sums[texel] += weight_sum * grid.direction_weight;
+        let sky_raw = sky_irradiance.x + sky_irradiance.y + sky_irradiance.z;
+        return vec4<f32>(f.albedo * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
     }
     let norm = select(0.0, PI / weight_sum, weight_sum > 0.0);
     let e = (irradiance + sky_irradiance) * norm;
@@ -202,7 +210,7 @@ fn gather_and_store(texel: u32) {
         return;
     }
     let value = gather_texel(texel);
-    if (grid.flags & GRID_FLAG_ACCUMULATE) != 0u {
+    if (grid.flags & (GRID_FLAG_ACCUMULATE | GRID_FLAG_BATCHED)) != 0u {
         next[texel] += value;
     } else {
         next[texel] = value;

@@ -14,13 +14,14 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
     ("specular.wgsl", include_str!("../../shaders/specular.wgsl")),
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
+    ("normalize.wgsl", include_str!("../../shaders/normalize.wgsl")),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
     ("reference.wgsl", include_str!("../../shaders/reference.wgsl")),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
 ];
 
 /// The stages compiled into pipelines (the `common/` files are only included).
-pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "specular.wgsl", "accumulate.wgsl", "texture.wgsl", "render.wgsl", "reference.wgsl"];
+pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "reference.wgsl"];
 
 /// A stage's source with its includes expanded, and for each output line its origin.
 pub struct ExpandedShader {

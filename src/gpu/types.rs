@@ -64,12 +64,13 @@ pub struct GpuGrid {
     pub tile_face_count: u32,
     pub direction_weight: f32,
     pub tile_cell_count: u32,
-    pub _pad0: u32,
+    pub first_direction: u32,
     pub _pad1: u32,
 }
 
 pub const GRID_FLAG_SKY: u32 = 1;
 pub const GRID_FLAG_ACCUMULATE: u32 = 2;
+pub const GRID_FLAG_BATCHED: u32 = 4;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
 #[repr(C)]
@@ -77,7 +78,7 @@ pub const GRID_FLAG_ACCUMULATE: u32 = 2;
 pub struct GpuAccumulate {
     pub count: u32,
     pub scale: f32,
-    pub _pad0: u32,
+    pub weight_offset: u32,
     pub _pad1: u32,
 }
 

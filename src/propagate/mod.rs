@@ -38,6 +38,11 @@ pub struct PropagationParams {
     /// (the ambient term, per element): stiff scenes converge in a few iterations.
     #[serde(default = "yes")]
     pub accelerate: bool,
+    /// GPU memory the propagation may use, in MiB. When the visibility lists of every
+    /// direction do not fit (in it, or in one binding), directions are processed in batches
+    /// whose lists are rebuilt every iteration. None: the adapter's binding limits alone decide.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub memory_budget_mib: Option<u64>,
 }
 
 fn yes() -> bool {
@@ -59,6 +64,7 @@ impl Default for PropagationParams {
             max_iterations: 200,
             perturb: 1,
             accelerate: true,
+            memory_budget_mib: None,
         }
     }
 }
@@ -96,8 +102,8 @@ impl PropagationParams {
         if self.geodesic_frequency == 0 || self.geodesic_frequency > 100 {
             return bad("directions", format!("geodesic frequency {} must be 1..=100", self.geodesic_frequency));
         }
-        if !(4..=2048).contains(&self.grid_resolution) {
-            return bad("grid", format!("{} cells per side must be 4..=2048", self.grid_resolution));
+        if !(4..=1024).contains(&self.grid_resolution) {
+            return bad("grid", format!("{} cells per side must be 4..=1024", self.grid_resolution));
         }
         if self.tile_size == 0 || !self.grid_resolution.is_multiple_of(self.tile_size) {
             return bad(
@@ -113,6 +119,9 @@ impl PropagationParams {
         }
         if self.max_iterations == 0 {
             return bad("max-iterations", "must be at least 1".into());
+        }
+        if self.memory_budget_mib == Some(0) {
+            return bad("memory-budget", "must be more than 0 MiB".into());
         }
         if !(1..=64).contains(&self.perturb) {
             return bad("perturb", format!("{} perturbed sets: use 1 (none) to 64", self.perturb));
@@ -222,17 +231,85 @@ pub fn estimate_memory(prepared: &PreparedScene, directions: &DirectionSet, para
     MemoryEstimate { cell_table_bytes, layer_bytes, texel_bytes, total_bytes: cell_table_bytes + layer_bytes + texel_bytes }
 }
 
-/// Refuse, before allocating anything, parameters whose buffers cannot be bound.
-pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate, params: &PropagationParams) -> Result<()> {
-    let advice = format!(
-        "use fewer directions (now {}) or a coarser grid (now {})",
-        params.direction_count(),
-        params.grid_resolution
-    );
-    ctx.check_binding("the per-cell tables (estimated before allocating)", estimate.cell_table_bytes / 2, &advice)?;
-    ctx.check_binding("the visibility layers (estimated before allocating)", estimate.layer_bytes, &advice)?;
-    ctx.check_binding("the radiance atlas (estimated before allocating)", estimate.texel_bytes / 4, "lower the texel density")?;
-    Ok(())
+/// Refuse, before allocating anything, parameters whose buffers cannot be bound, and decide
+/// how the directions are batched.
+pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate) -> Result<()> {
+    ctx.check_binding("the radiance atlas (estimated before allocating)", estimate.texel_bytes / 4, "lower the texel density")
+}
+
+/// How the directions' visibility lists are built: all at once and kept for every iteration
+/// (one batch), or in batches rebuilt every iteration when they would not fit.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct BatchPlan {
+    pub batch_size: u32,
+    pub batches: u32,
+    /// why batches were needed (None when the lists stay resident)
+    pub reason: Option<String>,
+}
+
+impl BatchPlan {
+    /// Every direction in one batch: the lists stay resident.
+    pub fn single(directions: u32) -> BatchPlan {
+        BatchPlan { batch_size: directions, batches: 1, reason: None }
+    }
+
+    pub fn resident(&self) -> bool {
+        self.batches == 1
+    }
+
+    /// (first direction, count) of every batch
+    pub fn ranges(&self, direction_count: u32) -> Vec<(u32, u32)> {
+        (0..self.batches)
+            .map(|b| {
+                let first = b * self.batch_size;
+                (first, self.batch_size.min(direction_count - first))
+            })
+            .collect()
+    }
+}
+
+/// Headroom on the estimated layer count when sizing a batch (the estimate is an average).
+const LAYER_HEADROOM: f64 = 1.5;
+
+/// Largest batch of directions whose visibility fits one binding and what the memory budget
+/// leaves beside `fixed_bytes` (radiance, tiles); every direction in one batch when it all fits.
+pub fn plan_batches(estimate: &MemoryEstimate, params: &PropagationParams, directions: u32, max_binding: u64, fixed_bytes: u64) -> Result<BatchPlan> {
+    let cells = params.grid_resolution as u64 * params.grid_resolution as u64;
+    let layers_per_direction = estimate.layer_bytes as f64 / directions as f64 * LAYER_HEADROOM;
+    let by_cells = max_binding / (cells * 4);
+    let by_layers = (max_binding as f64 / layers_per_direction.max(1.0)) as u64;
+    let mut limit = by_cells.min(by_layers);
+    let mut reason = format!("one binding holds {} directions' lists (the adapter binds at most {})", limit, crate::gpu::human_bytes(max_binding));
+    if let Some(mib) = params.memory_budget_mib {
+        let budget = mib << 20;
+        let fixed = fixed_bytes;
+        let per_direction = cells as f64 * 8.0 + layers_per_direction;
+        let by_budget = (budget.saturating_sub(fixed) as f64 / per_direction) as u64;
+        if by_budget < limit {
+            limit = by_budget;
+            reason = format!("--memory-budget {mib} MiB leaves room for {by_budget} directions' lists");
+        }
+        if by_budget == 0 {
+            return Err(VlfError::GpuBudget(format!(
+                "a memory budget of {mib} MiB cannot hold the radiance ({}) and one direction's visibility ({}); raise --memory-budget, lower the texel density or use a coarser grid",
+                crate::gpu::human_bytes(fixed),
+                crate::gpu::human_bytes(per_direction as u64)
+            )));
+        }
+    }
+    if limit == 0 {
+        return Err(VlfError::GpuBudget(format!(
+            "one direction's visibility ({} cells, about {} of layers) does not fit one binding of {}; use a coarser grid",
+            cells,
+            crate::gpu::human_bytes(layers_per_direction as u64),
+            crate::gpu::human_bytes(max_binding)
+        )));
+    }
+    if limit >= directions as u64 {
+        return Ok(BatchPlan { batch_size: directions, batches: 1, reason: None });
+    }
+    let batches = (directions as u64).div_ceil(limit) as u32;
+    Ok(BatchPlan { batch_size: directions.div_ceil(batches), batches, reason: Some(reason) })
 }
 
 /// Depth tolerance (normalised units) within which layers count as coplanar.
@@ -259,8 +336,9 @@ pub fn propagate_with(
     let prepared = PreparedScene::new(scene, params.texel_density)?;
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
     let estimate = estimate_memory(&prepared, &directions, params);
-    check_memory(&ctx, &estimate, params)?;
-    let mut prop = transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky)?;
+    check_memory(&ctx, &estimate)?;
+    let mut prop = transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky, None)?;
+    let batch_plan = prop.plan.clone();
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
 
@@ -270,16 +348,29 @@ pub fn propagate_with(
             .unwrap()
             .progress_chars("=> "),
     );
-    bar.set_message(format!("visibility: {} directions x {}^2 cells", directions.len(), params.grid_resolution));
+    bar.set_message(match batch_plan.resident() {
+        true => format!("visibility: {} directions x {}^2 cells", directions.len(), params.grid_resolution),
+        false => format!("{} batches of {} directions (rebuilt every iteration)", batch_plan.batches, batch_plan.batch_size),
+    });
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     let t1 = Instant::now();
-    let (layers, visibility_gpu_ms) = {
-        let vis = prop.build_visibility()?;
-        (vis.layer_count, vis.gpu_ms)
+    // batched directions build their lists inside every iteration instead
+    let (layers, visibility_gpu_ms) = match batch_plan.resident() {
+        true => {
+            let vis = prop.build_visibility()?;
+            (vis.layer_count, vis.gpu_ms)
+        }
+        false => (0, None),
     };
     let visibility_seconds = t1.elapsed().as_secs_f64();
 
     let mut warnings = prepared.warnings.clone();
+    if let Some(reason) = &batch_plan.reason {
+        warnings.push(format!(
+            "visibility in {} batches of {} directions, rebuilt every iteration: {reason}",
+            batch_plan.batches, batch_plan.batch_size
+        ));
+    }
     // faces smaller than a grid cell: no cell line may cross them, so their texels rely on the
     // depth fallback; say how many and how much of the scene they are
     let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
@@ -389,6 +480,7 @@ pub fn propagate_with(
     let propagation_memory_bytes = prop.memory_bytes();
     let propagation_memory = crate::report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
+    let layers = layers.max(prop.largest_batch_layers);
     let resident = prop.into_resident();
     let render_vertices = crate::lightfield::render_vertices(&prepared);
     resident.ledger.record("render mesh", (render_vertices.len() * 16) as u64);
@@ -424,7 +516,9 @@ pub fn propagate_with(
         tile_bytes,
         texture_bytes,
         layers,
-        visibility_kept_resident: true,
+        visibility_kept_resident: batch_plan.resident(),
+        direction_batches: batch_plan.batches,
+        directions_per_batch: batch_plan.batch_size,
         setup_seconds,
         visibility_seconds,
         visibility_gpu_ms,

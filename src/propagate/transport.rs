@@ -3,12 +3,14 @@
 //! `shaders/accumulate.wgsl`. Shooting iterations with unshot / next / total, ping-ponging
 //! unshot and next, until the residual (unshot power over emitted power) falls below the
 //! tolerance. With K perturbed direction sets, each iteration gathers once per set, rebuilding
-//! the visibility lists for each (memory unchanged, time about x K).
+//! the visibility lists for each (memory unchanged, time about x K). When the lists of every
+//! direction do not fit (a memory budget, or one binding), directions come in batches: each
+//! batch builds its lists and adds raw sums, and `shaders/normalize.wgsl` closes the iteration.
 
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
-use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, PropagationParams, DEPTH_EPSILON};
+use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
-use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GRID_FLAG_ACCUMULATE, GRID_FLAG_SKY};
+use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
 use crate::lightfield::tiles::TileLayout;
@@ -79,8 +81,17 @@ pub struct Propagator {
     tiles: Option<Tiles>,
     /// map_Kd factors per texel and their pass; None for an untextured scene
     texture: Option<(wgpu::Buffer, wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
-    /// the K direction sets (only kept when K > 1)
+    /// the K direction sets (only kept when K > 1, or with batches)
     direction_sets: Vec<Vec<GpuDirection>>,
+    /// (first direction, count) per batch; one batch keeps the lists resident
+    batches: Vec<(u32, u32)>,
+    /// per texel then per tile cell, the quadrature weights gathered so far (batches only;
+    /// a placeholder otherwise) and the pass that divides by them
+    weight_sums: wgpu::Buffer,
+    normalize: Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    /// the largest layer count of any batch (batches only)
+    pub largest_batch_layers: u64,
+    pub plan: BatchPlan,
     /// which of the two radiance buffers holds unshot
     current: usize,
     gather_pipe: wgpu::ComputePipeline,
@@ -107,6 +118,7 @@ impl Propagator {
         params: &PropagationParams,
         directions: &DirectionSet,
         sky: Option<[f32; 3]>,
+        plan: Option<&BatchPlan>,
     ) -> Result<Propagator> {
         let ledger = MemoryLedger::default();
         let device = &ctx.device;
@@ -133,7 +145,21 @@ impl Propagator {
             tile_cells * 16,
             "use fewer directions, a coarser grid or smaller tiles",
         )?;
+        // decided before anything is allocated, now that the tiles' size is known
+        let plan = match plan {
+            Some(p) => p.clone(),
+            None => {
+                let estimate = super::estimate_memory(prepared, directions, params);
+                // tile radiance x3 and power weights, tables; with batches, a weight sum per element
+                let tile_bytes = tile_cells * (16 * 3 + 4) + layout.headers.len() as u64 * 16 + layout.index.len() as u64 * 4 + layout.rects.len() as u64 * 16;
+                let batch_sums = (texel_count as u64 + tile_cells) * 4;
+                let limits = ctx.limits();
+                let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+                super::plan_batches(&estimate, params, directions.len() as u32, max_binding, estimate.texel_bytes + tile_bytes + batch_sums)?
+            }
+        };
         let k = params.perturb.max(1);
+        let batched = !plan.resident();
         let grid = GpuGrid {
             resolution: params.grid_resolution,
             direction_count: directions.len() as u32,
@@ -158,7 +184,8 @@ impl Propagator {
         let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
         let scene = SceneBuffers {
             grid: ctx.buffer_init(&ledger, "grid parameters", bytemuck::bytes_of(&grid), uniform),
-            directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&fixed), STORAGE),
+            // with batches this holds one batch at a time
+            directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&fixed[..plan.batch_size as usize]), STORAGE),
             faces: ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
             vertices: ctx.buffer_init(&ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
             triangles: ctx.buffer_init(&ledger, "triangles", bytemuck::cast_slice(&triangles), STORAGE),
@@ -176,7 +203,7 @@ impl Propagator {
         use Binding::*;
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage]);
-        let layout1 = bind_group_layout(device, cs, &[Storage, StorageReadWrite]);
+        let layout1 = bind_group_layout(device, cs, &[Storage, StorageReadWrite, StorageReadWrite]);
         let accumulate_layout = bind_group_layout(device, cs, &[Uniform, Storage, StorageReadWrite, Storage, StorageReadWrite]);
         let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
         let accumulate_pipe = ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
@@ -206,7 +233,7 @@ impl Propagator {
                     ctx.buffer_init(&ledger, "geodesic points", bytemuck::cast_slice(&points), STORAGE),
                     ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
                 ],
-                fixed_directions: if k > 1 {
+                fixed_directions: if k > 1 || batched {
                     ctx.buffer_init(&ledger, "fixed directions", bytemuck::cast_slice(&fixed), STORAGE)
                 } else {
                     scene.directions.clone()
@@ -227,7 +254,20 @@ impl Propagator {
             }
             None => None,
         };
-        let direction_sets = if k > 1 { (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect() } else { Vec::new() };
+        let direction_sets = match (k > 1, batched) {
+            (true, _) => (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect(),
+            (false, true) => vec![fixed.clone()],
+            (false, false) => Vec::new(),
+        };
+        let (weight_sums, normalize) = if batched {
+            let elements = texel_count as u64 + tile_cells;
+            let buffer = ctx.buffer_zeroed(&ledger, "batches: quadrature weight sums", elements * 4, STORAGE);
+            let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
+            let module = shaders::module(device, "normalize.wgsl")?;
+            (buffer, Some((ctx.compute_pipeline(&module, "normalize", &[&layout]), layout)))
+        } else {
+            (ctx.buffer_zeroed(&MemoryLedger::default(), "weight sums placeholder", 16, STORAGE), None)
+        };
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k);
         let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
@@ -243,6 +283,11 @@ impl Propagator {
             tiles,
             texture,
             direction_sets,
+            batches: plan.ranges(directions.len() as u32),
+            weight_sums,
+            normalize,
+            largest_batch_layers: 0,
+            plan,
             current: 0,
             gather_pipe,
             accumulate_pipe,
@@ -270,30 +315,57 @@ impl Propagator {
     pub fn iterate(&mut self) -> Result<IterationStats> {
         let started = std::time::Instant::now();
         let k = self.direction_sets.len().max(1);
+        let batched = self.normalize.is_some();
         // perturbed sets first, the fixed set last: it stays resident for rendering and tiles
         let order: Vec<usize> = (1..k).chain([0]).collect();
         let mut gpu_ms = 0.0;
         let mut timed = self.timestamps.is_some();
+        if batched {
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            encoder.clear_buffer(&self.texels.radiance[1 - self.current], 0, None);
+            encoder.clear_buffer(&self.weight_sums, 0, None);
+            if let Some(t) = &self.tiles {
+                encoder.clear_buffer(&t.state.radiance[1 - self.current], 0, None);
+            }
+            self.ctx.queue.submit([encoder.finish()]);
+        }
+        let batches = self.batches.clone();
         for (n, &set) in order.iter().enumerate() {
-            if k > 1 {
-                self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(&self.direction_sets[set]));
-                let previous = self.visibility.take();
-                let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut None, previous)?;
-                self.visibility = Some(vis);
+            for &(first, count) in &batches {
+                let mut grid = self.grid;
+                grid.direction_count = count;
+                grid.first_direction = first;
+                if k > 1 || batched {
+                    let slice = &self.direction_sets[set][first as usize..(first + count) as usize];
+                    self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(slice));
+                    let previous = self.visibility.take();
+                    let mut visibility_timer = if batched { self.timestamps.take() } else { None };
+                    let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &grid, &mut visibility_timer, previous)?;
+                    if batched {
+                        self.timestamps = visibility_timer;
+                        gpu_ms += vis.gpu_ms.unwrap_or(0.0);
+                        self.largest_batch_layers = self.largest_batch_layers.max(vis.layer_count);
+                    }
+                    self.visibility = Some(vis);
+                }
+                grid.iteration = self.iteration;
+                grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
+                if batched {
+                    grid.flags |= GRID_FLAG_BATCHED;
+                } else if n > 0 {
+                    grid.flags |= GRID_FLAG_ACCUMULATE;
+                }
+                self.ctx.queue.write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
+                self.encode_gathers(set == 0)?;
+                if let Some(t) = self.timestamps.as_mut() {
+                    gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
+                } else {
+                    timed = false;
+                }
             }
-            let mut grid = self.grid;
-            grid.iteration = self.iteration;
-            grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
-            if n > 0 {
-                grid.flags |= GRID_FLAG_ACCUMULATE;
-            }
-            self.ctx.queue.write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
-            self.encode_gathers(set == 0)?;
-            if let Some(t) = self.timestamps.as_mut() {
-                gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
-            } else {
-                timed = false;
-            }
+        }
+        if batched {
+            self.normalize_batches();
         }
         if let Some((albedo, pipe, layout)) = &self.texture {
             let bg = self.ctx.bind_group(layout, &[&self.texels.params, &self.texels.radiance[1 - self.current], albedo]);
@@ -337,7 +409,7 @@ impl Propagator {
             &[&s.grid, &s.directions, &s.faces, &vis.cell_offset, &vis.cell_count, &vis.layers, &s.texel_points],
         );
         let (unshot, next) = (&self.texels.radiance[self.current], &self.texels.radiance[1 - self.current]);
-        let bg1 = ctx.bind_group(&self.layout1, &[unshot, next]);
+        let bg1 = ctx.bind_group(&self.layout1, &[unshot, next, &self.weight_sums]);
         let bg2 = self.tiles.as_ref().map(|t| {
             let [a, b, c, d, e] = &t.tables;
             let (tu, tn) = (&t.state.radiance[self.current], &t.state.radiance[1 - self.current]);
@@ -365,6 +437,35 @@ impl Propagator {
         }
         ctx.queue.submit([encoder.finish()]);
         Ok(())
+    }
+
+    /// Divide the raw sums of every batch by the quadrature weights they used.
+    fn normalize_batches(&self) {
+        let Some((pipe, layout)) = &self.normalize else { return };
+        let ctx = &self.ctx;
+        let mut passes = vec![(&self.texels.radiance[1 - self.current], self.texel_count, std::f32::consts::PI, 0)];
+        if let Some(t) = &self.tiles {
+            passes.push((&t.state.radiance[1 - self.current], t.state.count, 1.0, self.texel_count));
+        }
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        let uniforms: Vec<wgpu::Buffer> = passes
+            .iter()
+            .map(|&(_, count, scale, weight_offset)| {
+                let params = GpuAccumulate { count, scale, weight_offset, ..Default::default() };
+                ctx.buffer_init(&MemoryLedger::default(), "normalize parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)
+            })
+            .collect();
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipe);
+            for ((next, count, _, _), uniform) in passes.iter().zip(&uniforms) {
+                let bg = ctx.bind_group(layout, &[uniform, next, &self.weight_sums]);
+                pass.set_bind_group(0, &bg, &[]);
+                let (x, y) = dispatch_2d(count.div_ceil(256));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+        ctx.queue.submit([encoder.finish()]);
     }
 
     /// total += next, and the power sums of next: (unshot power, sky's share).
