@@ -45,6 +45,9 @@ pub enum VlfError {
     #[error("{path}: cannot write image: {message}")]
     Image { path: PathBuf, message: String },
 
+    #[error("display: {0}")]
+    Display(String),
+
     #[error("camera {name:?} not found; the scene has: {available}")]
     UnknownCamera { name: String, available: String },
 }

@@ -121,17 +121,26 @@ enum Command {
         #[arg(long)]
         config: Option<PathBuf>,
     },
-    /// Draw every wall and eye of a display configuration (CAVE, power wall, window)
+    /// Draw every wall and eye of a display configuration (CAVE, power wall, window): one window
+    /// per wall (W/A/S/D or arrows walk, Q/E turn, R/F rise/sink in fly mode, G toggles fly,
+    /// left-drag turns, Home resets, gamepad sticks; Esc quits), or offscreen with --headless
     Cave {
         config: PathBuf,
         /// scene.toml (propagated first) or file.vlf
         #[arg(long)]
         scene: PathBuf,
-        /// Render offscreen to files (the windowed CAVE is not built yet)
+        /// Render offscreen to files instead of windows
         #[arg(long)]
         headless: bool,
-        #[arg(long, default_value_t = 60)]
-        frames: u32,
+        /// Frames to draw (headless: default 60; windowed: until Esc unless given)
+        #[arg(long)]
+        frames: Option<u32>,
+        /// Windowed with --frames: keep the windows up this many seconds afterwards
+        #[arg(long, default_value_t = 0.0)]
+        hold_seconds: f64,
+        /// Windowed: exposure applied before display
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f32,
         #[arg(long, default_value = "cave-out")]
         out: PathBuf,
         /// Also write EXR (linear radiance) per wall and eye
@@ -417,17 +426,23 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{}\n{}", csv.display(), png.display());
             }
         }
-        Command::Cave { config, scene, headless, frames, out, exr, json, params } => {
+        Command::Cave { config, scene, headless, frames, hold_seconds, exposure, out, exr, json, params } => {
             let display = vlf::display::DisplayConfig::load(&config)?;
-            if !headless {
-                bail!(
-                    "the windowed CAVE (one window per wall on its output) is not built yet; run with --headless to render every wall and eye to {}",
-                    out.display()
-                );
-            }
             let ctx = GpuContext::new()?;
             let (lf, resident) = light_field_for(&ctx, &scene, None, &params)?;
-            let report = vlf::display::headless::run(&lf, &resident, &display, &config, frames, &out, exr)?;
+            if !headless {
+                if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
+                    bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
+                }
+                let options = vlf::display::window::WindowOptions { frames, hold: std::time::Duration::from_secs_f64(hold_seconds), exposure };
+                let report = vlf::display::window::run(&lf, &resident, &display, &config, options)?;
+                print!("{}", report.table());
+                if let Some(path) = json {
+                    write_json(&path, &report)?;
+                }
+                return Ok(());
+            }
+            let report = vlf::display::headless::run(&lf, &resident, &display, &config, frames.unwrap_or(60), &out, exr)?;
             print!("{}", report.table());
             if let Some(path) = json {
                 write_json(&path, &report)?;

@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# Makes sure a wgpu adapter can be found: a real GPU's Vulkan driver, or else Mesa's software
-# Vulkan (lavapipe). Installs mesa-vulkan-drivers with apt-get when no Vulkan driver is present.
+# Makes sure the tests can run: a wgpu adapter (a real GPU's Vulkan driver, or else Mesa's
+# software Vulkan, lavapipe), a virtual display and a screenshot tool for the windowed CAVE
+# test (Xvfb, ImageMagick's import), and libudev for gamepads (gilrs). Installs what is
+# missing with apt-get.
 set -euo pipefail
 have_icd() {
   local icd found=""
@@ -12,16 +14,21 @@ have_icd() {
   libs=$(ldconfig -p 2>/dev/null || true)
   [[ "$libs" == *libvulkan.so.1* ]]
 }
-if have_icd; then
+missing=()
+have_icd || missing+=(mesa-vulkan-drivers libvulkan1)
+command -v Xvfb >/dev/null || missing+=(xvfb)
+command -v import >/dev/null || missing+=(imagemagick)
+{ command -v pkg-config >/dev/null && pkg-config --exists libudev; } || missing+=(pkg-config libudev-dev)
+if [ ${#missing[@]} = 0 ]; then
   exit 0
 fi
 if ! command -v apt-get >/dev/null; then
-  echo "tools/setup.sh: no Vulkan driver found and no apt-get; install your distribution's Mesa Vulkan drivers (lavapipe) or a GPU driver" >&2
+  echo "tools/setup.sh: missing ${missing[*]} and no apt-get; install them (a Vulkan driver or Mesa's lavapipe, Xvfb, ImageMagick, libudev) with your distribution's tools" >&2
   exit 1
 fi
 SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
-echo "tools/setup.sh: no Vulkan driver found; installing mesa-vulkan-drivers (software Vulkan, lavapipe)" >&2
+echo "tools/setup.sh: installing ${missing[*]}" >&2
 $SUDO apt-get update -qq
-DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq mesa-vulkan-drivers libvulkan1 >/dev/null
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
 have_icd || { echo "tools/setup.sh: still no Vulkan driver after installing mesa-vulkan-drivers" >&2; exit 1; }

@@ -99,3 +99,14 @@ struct AccumulateParams {
     weight_offset: u32,
     _pad1: u32,
 }
+
+// mirrors gpu::types::GpuPresent (shaders/present.wgsl)
+struct PresentParams {
+    viewport_origin: vec2<f32>,
+    viewport_size: vec2<f32>,
+    exposure: f32,
+    // 1: the surface format is linear, so the shader encodes sRGB
+    encode_srgb: u32,
+    show_overlay: u32,
+    _pad0: u32,
+}

@@ -3,7 +3,6 @@
 //! images, an overview with the walls unfolded as a cross, and a frame-time report (GPU time
 //! per wall and eye from timestamp queries, CPU time per frame).
 
-use super::projection::off_axis;
 use super::tracking::PoseSource;
 use super::DisplayConfig;
 use crate::bench::Distribution;
@@ -12,7 +11,6 @@ use crate::gpu::MemoryLedger;
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
-use glam::Vec3;
 use serde::Serialize;
 use std::path::Path;
 
@@ -59,8 +57,6 @@ pub fn run(
         PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
     };
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
-    let norm = lf.meta.normalisation;
-    let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
     let views: Vec<(usize, &'static str, f32)> =
         config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
@@ -77,18 +73,13 @@ pub fn run(
         last.clear();
         for &(wall_index, _, side) in &views {
             let wall = &config.walls[wall_index];
-            let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
-            let eye = to_unit(pose.room_to_world(head));
-            let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
-            let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
-            let near = (plane_distance * 0.5).clamp(1e-4, 0.01);
-            let projection = off_axis(ll, lr, ul, eye, near, eye.length() + 4.0);
+            let (view_proj, eye) = super::wall_view(config, wall, side, &pose, &lf.meta.normalisation);
             let [w, h] = wall.eye_pixels();
             if last_frame {
                 // the images to keep: drawn and read back one by one (not timed)
-                last.push(renderer.render_matrix(projection.view_proj, eye, w, h)?.0);
+                last.push(renderer.render_matrix(view_proj, eye, w, h)?.0);
             } else {
-                renderer.submit_matrix(projection.view_proj, eye, w, h, timestamps.as_mut());
+                renderer.submit_matrix(view_proj, eye, w, h, timestamps.as_mut());
             }
         }
         if last_frame {

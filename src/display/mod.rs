@@ -7,9 +7,10 @@ pub mod headless;
 pub mod osc;
 pub mod projection;
 pub mod tracking;
+pub mod window;
 
 use crate::error::{Result, VlfError};
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -218,4 +219,16 @@ impl DisplayConfig {
         }
         Ok(())
     }
+}
+
+/// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection
+/// and the eye, in the light field's normalised space. Eyes sit along the room's x axis.
+pub fn wall_view(config: &DisplayConfig, wall: &Wall, side: f32, pose: &tracking::Pose, norm: &crate::prepare::Normalisation) -> (Mat4, Vec3) {
+    let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
+    let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
+    let eye = to_unit(pose.room_to_world(head));
+    let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
+    let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
+    let near = (plane_distance * 0.5).clamp(1e-4, 0.01);
+    (projection::off_axis(ll, lr, ul, eye, near, eye.length() + 4.0).view_proj, eye)
 }

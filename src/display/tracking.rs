@@ -99,6 +99,17 @@ impl PoseSource {
         }
     }
 
+    /// The pose at `t` and, for live tracking, how the source is doing.
+    pub fn at_with_status(&self, t: f32) -> (Pose, Option<super::osc::TrackingStatus>) {
+        match self {
+            PoseSource::Live(tracker) => {
+                let (pose, status) = tracker.lock().unwrap().latest();
+                (pose, Some(status))
+            }
+            other => (other.at(t), None),
+        }
+    }
+
     pub fn at(&self, t: f32) -> Pose {
         match self {
             PoseSource::Static(p) => *p,

@@ -20,6 +20,8 @@ pub struct AdapterSummary {
 }
 
 pub struct GpuContext {
+    /// kept for windows' surfaces
+    pub instance: wgpu::Instance,
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub adapter: wgpu::Adapter,
@@ -108,7 +110,7 @@ impl GpuContext {
             device_type: format!("{:?}", info.device_type),
             software,
         };
-        Ok(Arc::new(GpuContext { device, queue, adapter, summary, timestamps, timestamp_period_ns, errors }))
+        Ok(Arc::new(GpuContext { instance, device, queue, adapter, summary, timestamps, timestamp_period_ns, errors }))
     }
 
     pub fn limits(&self) -> wgpu::Limits {

@@ -110,12 +110,25 @@ pub struct RenderVertex {
 }
 
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 5] {
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 6] {
     [
         ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
         ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
         ("GpuFace", "Face", std::mem::size_of::<GpuFace>(), "render.wgsl"),
         ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>(), "render.wgsl"),
         ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
+        ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
     ]
+}
+
+/// Mirrors WGSL `PresentParams` (shaders/present.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuPresent {
+    pub viewport_origin: [f32; 2],
+    pub viewport_size: [f32; 2],
+    pub exposure: f32,
+    pub encode_srgb: u32,
+    pub show_overlay: u32,
+    pub _pad0: u32,
 }

@@ -24,6 +24,20 @@ pub struct Frame {
     pub pixels: Vec<[f32; 4]>,
 }
 
+/// A plain 2D texture (render targets, per-eye images, overlays).
+pub fn texture_2d(device: &wgpu::Device, label: &str, [width, height]: [u32; 2], format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some(label),
+        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage,
+        view_formats: &[],
+    })
+}
+
 /// View-projection of a scene camera in the light field's normalised space.
 pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height: u32) -> Mat4 {
     let to_unit = |p: [f32; 3]| norm.to_unit(p).as_vec3();
@@ -169,19 +183,7 @@ impl Renderer {
     fn target(&mut self, width: u32, height: u32) -> &Target {
         if self.target.as_ref().is_none_or(|t| t.width != width || t.height != height) {
             let device = &self.ctx.device;
-            let extent = wgpu::Extent3d { width, height, depth_or_array_layers: 1 };
-            let make = |format, usage| {
-                device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("render target"),
-                    size: extent,
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-            };
+            let make = |format, usage| texture_2d(device, "render target", [width, height], format, usage);
             let color = make(COLOR_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
             let depth = make(DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
             let padded_row = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
@@ -206,10 +208,16 @@ impl Renderer {
 
     fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<&mut Timestamps>) {
         let target = self.target.as_ref().expect("target sized");
+        self.encode_into(encoder, &target.color_view, &target.depth_view, timestamps);
+    }
+
+    /// Draw the view last set with `set_view_matrix` into the caller's targets (COLOR_FORMAT
+    /// and DEPTH_FORMAT, same size): a window's per-eye images.
+    pub fn encode_into(&self, encoder: &mut wgpu::CommandEncoder, color: &wgpu::TextureView, depth: &wgpu::TextureView, timestamps: Option<&mut Timestamps>) {
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("view"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &target.color_view,
+                view: color,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
@@ -223,7 +231,7 @@ impl Renderer {
                 },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &target.depth_view,
+                view: depth,
                 depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
                 stencil_ops: None,
             }),

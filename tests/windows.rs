@@ -1,0 +1,185 @@
+//! The windowed CAVE for real, under a virtual display: Xvfb, `vlf cave` opening two windows
+//! (one mono wall, one side-by-side stereo wall) on the software adapter, live OSC tracking that
+//! goes quiet, and a screenshot of the whole virtual screen that must show the scene in both
+//! windows. Needs Xvfb and ImageMagick's `import` (tools/setup.sh installs them); without them
+//! the test fails saying so, it never skips.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct KillOnDrop(Child);
+
+impl Drop for KillOnDrop {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn require(tool: &str, package: &str) {
+    let found = Command::new("sh").arg("-c").arg(format!("command -v {tool}")).output().map(|o| o.status.success()).unwrap_or(false);
+    assert!(found, "the windowed CAVE test needs `{tool}`: run `bash tools/setup.sh` or `sudo apt-get install {package}`");
+}
+
+fn start_xvfb() -> (KillOnDrop, String) {
+    require("Xvfb", "xvfb");
+    require("import", "imagemagick");
+    for n in 0..20 {
+        let number = 90 + (std::process::id() + n) % 400;
+        if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
+            continue;
+        }
+        let display = format!(":{number}");
+        let child = Command::new("Xvfb")
+            .args([display.as_str(), "-screen", "0", "800x400x24", "-nolisten", "tcp"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("Xvfb starts");
+        let guard = KillOnDrop(child);
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while Instant::now() < deadline {
+            if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
+                return (guard, display);
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+    panic!("Xvfb did not start on any display :90..:490");
+}
+
+fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+fn send_head(socket: &std::net::UdpSocket, port: u16, head: [f32; 3]) {
+    let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: "/vlf/head".into(), args: head.into_iter().map(rosc::OscType::Float).collect() });
+    let _ = socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", port));
+}
+
+/// Mean display value and share of lit pixels in a rectangle of the screenshot.
+fn region_stats(img: &image::RgbImage, x: u32, y: u32, w: u32, h: u32) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut lit = 0usize;
+    for py in y..y + h {
+        for px in x..x + w {
+            let p = img.get_pixel(px, py).0;
+            let v = (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0;
+            sum += v;
+            if v > 20.0 {
+                lit += 1;
+            }
+        }
+    }
+    let n = (w * h) as f64;
+    (sum / n, lit as f64 / n)
+}
+
+#[test]
+fn windowed_cave_draws_two_windows_under_xvfb_and_says_when_tracking_goes_quiet() {
+    let (_xvfb, display) = start_xvfb();
+    let dir = tempfile::tempdir().unwrap();
+    let port = free_udp_port();
+    // the Cornell box stands in x -1..1, y 0..2, z -1..1: both walls look at it from z = 3
+    let config = format!(
+        r#"name = "two windows"
+[start_pose]
+position = [0.0, 0.0, 0.0]
+[tracking]
+source = "osc"
+port = {port}
+[[wall]]
+name = "front"
+lower_left = [-1.1, 0.0, 1.1]
+lower_right = [1.1, 0.0, 1.1]
+upper_left = [-1.1, 2.2, 1.1]
+pixels = [300, 300]
+output = {{ window = [0, 0] }}
+[[wall]]
+name = "stereo"
+lower_left = [-1.1, 0.0, 1.1]
+lower_right = [1.1, 0.0, 1.1]
+upper_left = [-1.1, 2.2, 1.1]
+pixels = [400, 300]
+stereo = "side-by-side"
+output = {{ window = [340, 0] }}
+"#
+    );
+    let config_path = dir.path().join("two.toml");
+    std::fs::write(&config_path, config).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["cave", config_path.to_str().unwrap(), "--scene", scene.to_str().unwrap()])
+        .args(["--directions", "126", "--grid", "48", "--texel-density", "16", "--frames", "12", "--hold-seconds", "6"])
+        .env("DISPLAY", &display)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("vlf starts");
+    let stdout = child.stdout.take().unwrap();
+    let stderr = child.stderr.take().unwrap();
+    let child = KillOnDrop(child);
+    let err_thread = std::thread::spawn(move || std::io::read_to_string(stderr).unwrap_or_default());
+    // the tracker streams head poses until the frames are drawn, then goes quiet
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop_sender = stop.clone();
+    let sender = std::thread::spawn(move || {
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        while !stop_sender.load(std::sync::atomic::Ordering::Relaxed) {
+            send_head(&socket, port, [0.0, 1.0, 3.0]);
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    });
+    let mut lines = BufReader::new(stdout).lines();
+    let mut out = String::new();
+    let deadline = Instant::now() + Duration::from_secs(300);
+    loop {
+        let Some(line) = lines.next() else {
+            panic!("vlf cave ended before presenting its frames:\n{out}\n{}", err_thread.join().unwrap_or_default())
+        };
+        let line = line.unwrap();
+        out.push_str(&line);
+        out.push('\n');
+        if line.starts_with("presented 12 frames on 2 window(s)") {
+            break;
+        }
+        assert!(Instant::now() < deadline, "no frames after 300 s:\n{out}");
+    }
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    sender.join().unwrap();
+    // quiet after 0.5 s; the status line is on screen from then on
+    std::thread::sleep(Duration::from_millis(2500));
+    let shot: PathBuf = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-xvfb.png");
+    let status = Command::new("import").args(["-display", &display, "-window", "root", shot.to_str().unwrap()]).status().unwrap();
+    assert!(status.success(), "import could not take a screenshot of {display}");
+    for line in lines {
+        let line = line.unwrap();
+        out.push_str(&line);
+        out.push('\n');
+    }
+    let mut child = child;
+    let exit = child.0.wait().unwrap();
+    let err = err_thread.join().unwrap();
+    println!("{out}{err}\nscreenshot: {}", shot.display());
+    assert!(exit.success(), "vlf cave failed: {out}\n{err}");
+    assert!(out.contains("front      mono") && out.contains("stereo     left") && out.contains("stereo     right"), "{out}");
+    assert!(out.contains("shown on screen: tracking quiet 0 s: holding the last pose"), "the quiet tracker was not reported:\n{out}");
+    assert!(err.contains("quiet"), "the quiet tracker was not logged:\n{err}");
+
+    let img = image::open(&shot).unwrap().to_rgb8();
+    // below the status line: the front window, and each half of the stereo window
+    for (name, x, y, w, h) in [("front", 0, 40, 300, 250), ("stereo left eye", 340, 40, 200, 250), ("stereo right eye", 540, 40, 200, 250)] {
+        let (mean, lit) = region_stats(&img, x, y, w, h);
+        println!("{name}: mean display value {mean:.1}, {:.0}% of pixels lit", lit * 100.0);
+        assert!(mean > 15.0 && lit > 0.3, "{name} looks black in {}: mean {mean:.1}, lit {:.0}%", shot.display(), lit * 100.0);
+    }
+    let (_, background_lit) = region_stats(&img, 760, 320, 40, 80);
+    assert!(background_lit < 0.01, "the screen outside the windows should stay black");
+    // the status band: a dark translucent strip with light text across the window's top-left
+    let (band_mean, band_lit) = region_stats(&img, 0, 0, 300, 30);
+    println!("status band: mean {band_mean:.1}, {:.0}% lit", band_lit * 100.0);
+    assert!(band_lit > 0.02, "no status line on screen");
+}
