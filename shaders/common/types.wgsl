@@ -76,6 +76,7 @@ struct GridParams {
 // mirrors gpu::types::GpuView
 struct View {
     view_proj: mat4x4<f32>,
+    inv_view_proj: mat4x4<f32>,
     sky: vec4<f32>,
     // eye position in normalised space
     eye: vec3<f32>,

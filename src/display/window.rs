@@ -13,7 +13,7 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
 use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::{Renderer, COLOR_FORMAT, DEPTH_FORMAT};
+use crate::render::Renderer;
 use glam::{Quat, Vec3};
 use std::collections::HashSet;
 use std::path::Path;
@@ -53,8 +53,7 @@ struct EyeImage {
     side: f32,
     /// which part of the window: 0 whole, 1 left/top half, 2 right/bottom half
     part: u8,
-    color_view: wgpu::TextureView,
-    depth_view: wgpu::TextureView,
+    targets: crate::render::ViewTargets,
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -275,9 +274,7 @@ impl App<'_> {
     fn eye_image(&mut self, wall: usize, eye: &'static str, side: f32, part: u8) -> Result<EyeImage> {
         let [w, h] = self.config.walls[wall].eye_pixels();
         let ctx = self.ctx().clone();
-        let make = |format, usage| crate::render::texture_2d(&ctx.device, "eye image", [w, h], format, usage).create_view(&Default::default());
-        let color_view = make(COLOR_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING);
-        let depth_view = make(DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        let targets = self.renderer.view_targets(w, h);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("present parameters"),
             size: std::mem::size_of::<GpuPresent>() as u64,
@@ -291,11 +288,11 @@ impl App<'_> {
             layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&color_view) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&targets.image_view) },
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&overlay) },
             ],
         });
-        Ok(EyeImage { wall, eye, side, part, color_view, depth_view, params, bind_group })
+        Ok(EyeImage { wall, eye, side, part, targets, params, bind_group })
     }
 
     fn poll_gamepads(&mut self) -> [f32; 4] {
@@ -398,7 +395,7 @@ impl App<'_> {
                 let (view_proj, eye_position) = super::wall_view(self.config, wall, eye.side, &pose, &self.lf.meta.normalisation);
                 self.renderer.set_view_matrix(view_proj, eye_position);
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                self.renderer.encode_into(&mut encoder, &eye.color_view, &eye.depth_view, timestamps.as_mut());
+                self.renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
                 ctx.queue.submit([encoder.finish()]);
                 let (origin, size) = viewport(w.stereo, eye.part, width, height);
                 let params = GpuPresent {

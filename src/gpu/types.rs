@@ -87,6 +87,7 @@ pub struct GpuAccumulate {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuView {
     pub view_proj: [[f32; 4]; 4],
+    pub inv_view_proj: [[f32; 4]; 4],
     pub sky: [f32; 4],
     pub eye: [f32; 3],
     pub cell_size: f32,

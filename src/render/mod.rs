@@ -16,6 +16,8 @@ use wgpu::util::DeviceExt;
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+/// The visibility buffer: the face each pixel sees.
+pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 
 /// Linear radiance, row-major from the top-left pixel.
 pub struct Frame {
@@ -51,19 +53,32 @@ pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height
     proj * view
 }
 
-struct Target {
-    width: u32,
-    height: u32,
-    color: wgpu::Texture,
-    color_view: wgpu::TextureView,
+/// The visibility buffer of one view (face per pixel) and its resolved image (linear radiance),
+/// with the bindings of the resolve pass. A window keeps one per eye.
+pub struct ViewTargets {
+    pub width: u32,
+    pub height: u32,
+    visibility_view: wgpu::TextureView,
     depth_view: wgpu::TextureView,
+    pub image: wgpu::Texture,
+    pub image_view: wgpu::TextureView,
+    resolve_bind_group: wgpu::BindGroup,
+}
+
+struct Target {
+    targets: ViewTargets,
     readback: wgpu::Buffer,
     padded_row: u32,
 }
 
+/// The visibility buffer's clear value (WGSL `SKY` in render.wgsl): no geometry, only sky.
+const SKY: u32 = 0xffff_fffd;
+
 pub struct Renderer {
     ctx: Arc<GpuContext>,
     pipeline: wgpu::RenderPipeline,
+    resolve_pipeline: wgpu::ComputePipeline,
+    resolve_layout: wgpu::BindGroupLayout,
     view_buffer: wgpu::Buffer,
     vertex_buffer: wgpu::Buffer,
     vertex_count: u32,
@@ -73,6 +88,8 @@ pub struct Renderer {
     normalisation: Normalisation,
     view_template: GpuView,
     target: Option<Target>,
+    faces: wgpu::Buffer,
+    radiance: wgpu::Buffer,
 }
 
 impl Renderer {
@@ -80,19 +97,23 @@ impl Renderer {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let module = shaders::module(device, "render.wgsl")?;
-        let stages = wgpu::ShaderStages::VERTEX_FRAGMENT;
-        let layout = bind_group_layout(device, stages, &[Binding::Uniform, Binding::Storage, Binding::Storage]);
+        let layout = bind_group_layout(device, wgpu::ShaderStages::VERTEX_FRAGMENT, &[Binding::Uniform, Binding::Storage]);
+        let cs = wgpu::ShaderStages::COMPUTE;
+        use Binding::*;
+        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, TextureUint, ImageWrite]);
         // a diffuse-only light field binds no view-dependent path at all
-        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, stages, &[Binding::Storage; 6]));
-        let mut layouts = vec![Some(&layout)];
-        if let Some(t) = &tile_layout {
-            layouts.push(Some(t));
-        }
+        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 6]));
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("render"),
-            bind_group_layouts: &layouts,
+            label: Some("visibility buffer"),
+            bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
+        let mut resolve_layouts = vec![&resolve_layout];
+        if let Some(t) = &tile_layout {
+            resolve_layouts.push(t);
+        }
+        let entry = if tile_layout.is_some() { "resolve_mixed" } else { "resolve_diffuse" };
+        let resolve_pipeline = ctx.compute_pipeline(&module, entry, &resolve_layouts);
         let vertex_layout = wgpu::VertexBufferLayout {
             array_stride: std::mem::size_of::<RenderVertex>() as u64,
             step_mode: wgpu::VertexStepMode::Vertex,
@@ -123,10 +144,10 @@ impl Renderer {
             multisample: Default::default(),
             fragment: Some(wgpu::FragmentState {
                 module: &module,
-                entry_point: Some(if tile_layout.is_some() { "fs_mixed" } else { "fs_diffuse" }),
+                entry_point: Some("fs_visibility"),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
-                    format: COLOR_FORMAT,
+                    format: VISIBILITY_FORMAT,
                     blend: None,
                     write_mask: wgpu::ColorWrites::ALL,
                 })],
@@ -147,7 +168,7 @@ impl Renderer {
             contents: if vertex_bytes.is_empty() { &[0u8; 16] } else { vertex_bytes },
             usage: wgpu::BufferUsages::VERTEX,
         });
-        let bind_group = ctx.bind_group(&layout, &[&view_buffer, &resident.faces, &resident.total]);
+        let bind_group = ctx.bind_group(&layout, &[&view_buffer, &resident.faces]);
         let tile_bind_group = match (&tile_layout, &resident.tiles) {
             (Some(l), Some(t)) => {
                 Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, &t.radiance]))
@@ -169,6 +190,10 @@ impl Renderer {
         Ok(Renderer {
             ctx: ctx.clone(),
             pipeline,
+            resolve_pipeline,
+            resolve_layout,
+            faces: resident.faces.clone(),
+            radiance: resident.total.clone(),
             view_buffer,
             vertex_buffer,
             vertex_count: lf.render_vertices.len() as u32,
@@ -180,72 +205,97 @@ impl Renderer {
         })
     }
 
+    /// A view's visibility buffer, image and resolve bindings, `width` x `height`.
+    pub fn view_targets(&self, width: u32, height: u32) -> ViewTargets {
+        let device = &self.ctx.device;
+        let make = |label, format, usage| texture_2d(device, label, [width, height], format, usage);
+        use wgpu::TextureUsages as U;
+        let visibility = make("visibility buffer", VISIBILITY_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
+        let depth = make("depth", DEPTH_FORMAT, U::RENDER_ATTACHMENT);
+        let image = make("image", COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
+        let visibility_view = visibility.create_view(&Default::default());
+        let image_view = image.create_view(&Default::default());
+        let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("resolve"),
+            layout: &self.resolve_layout,
+            entries: &[
+                wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 1, resource: self.faces.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 2, resource: self.radiance.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&visibility_view) },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&image_view) },
+            ],
+        });
+        ViewTargets { width, height, visibility_view, depth_view: depth.create_view(&Default::default()), image, image_view, resolve_bind_group }
+    }
+
     fn target(&mut self, width: u32, height: u32) -> &Target {
-        if self.target.as_ref().is_none_or(|t| t.width != width || t.height != height) {
-            let device = &self.ctx.device;
-            let make = |format, usage| texture_2d(device, "render target", [width, height], format, usage);
-            let color = make(COLOR_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC);
-            let depth = make(DEPTH_FORMAT, wgpu::TextureUsages::RENDER_ATTACHMENT);
+        if self.target.as_ref().is_none_or(|t| t.targets.width != width || t.targets.height != height) {
             let padded_row = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
-            let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            let readback = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("frame readback"),
                 size: padded_row as u64 * height as u64,
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            self.target = Some(Target {
-                width,
-                height,
-                color_view: color.create_view(&Default::default()),
-                depth_view: depth.create_view(&Default::default()),
-                color,
-                readback,
-                padded_row,
-            });
+            self.target = Some(Target { targets: self.view_targets(width, height), readback, padded_row });
         }
         self.target.as_ref().unwrap()
     }
 
     fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<&mut Timestamps>) {
         let target = self.target.as_ref().expect("target sized");
-        self.encode_into(encoder, &target.color_view, &target.depth_view, timestamps);
+        self.encode_view(encoder, &target.targets, timestamps);
     }
 
-    /// Draw the view last set with `set_view_matrix` into the caller's targets (COLOR_FORMAT
-    /// and DEPTH_FORMAT, same size): a window's per-eye images.
-    pub fn encode_into(&self, encoder: &mut wgpu::CommandEncoder, color: &wgpu::TextureView, depth: &wgpu::TextureView, timestamps: Option<&mut Timestamps>) {
-        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("view"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: color,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color {
-                        r: self.view_template.sky[0] as f64,
-                        g: self.view_template.sky[1] as f64,
-                        b: self.view_template.sky[2] as f64,
-                        a: 1.0,
-                    }),
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth,
-                depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                stencil_ops: None,
+    /// Draw the view last set with `set_view_matrix` into `targets`: the visibility buffer,
+    /// then the resolve. One timestamp pair spans both passes.
+    pub fn encode_view(&self, encoder: &mut wgpu::CommandEncoder, targets: &ViewTargets, timestamps: Option<&mut Timestamps>) {
+        let pair = timestamps.and_then(|t| t.next_pair().map(|p| (t.query_set.clone(), p)));
+        {
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("visibility buffer"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &targets.visibility_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color { r: SKY as f64, g: 0.0, b: 0.0, a: 0.0 }),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: &targets.depth_view,
+                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
+                    stencil_ops: None,
+                }),
+                timestamp_writes: pair.as_ref().map(|(q, (a, _))| wgpu::RenderPassTimestampWrites {
+                    query_set: q,
+                    beginning_of_pass_write_index: Some(*a),
+                    end_of_pass_write_index: None,
+                }),
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
+            pass.draw(0..self.vertex_count, 0..1);
+        }
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("resolve"),
+            timestamp_writes: pair.as_ref().map(|(q, (_, b))| wgpu::ComputePassTimestampWrites {
+                query_set: q,
+                beginning_of_pass_write_index: None,
+                end_of_pass_write_index: Some(*b),
             }),
-            timestamp_writes: timestamps.and_then(|t| t.render_writes()),
-            occlusion_query_set: None,
-            multiview_mask: None,
         });
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&self.resolve_pipeline);
+        pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
         if let Some(bg) = &self.tile_bind_group {
             pass.set_bind_group(1, bg, &[]);
         }
-        pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
-        pass.draw(0..self.vertex_count, 0..1);
+        pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
     }
 
     fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
@@ -256,7 +306,12 @@ impl Renderer {
     /// Any view: a view-projection and the eye, both in the light field's normalised space
     /// (off-axis CAVE walls, headset eyes).
     pub fn set_view_matrix(&mut self, view_proj: Mat4, eye: Vec3) {
-        let view = GpuView { view_proj: view_proj.to_cols_array_2d(), eye: eye.into(), ..self.view_template };
+        let view = GpuView {
+            view_proj: view_proj.to_cols_array_2d(),
+            inv_view_proj: view_proj.inverse().to_cols_array_2d(),
+            eye: eye.into(),
+            ..self.view_template
+        };
         self.ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
     }
 
@@ -289,7 +344,7 @@ impl Renderer {
     fn read_target(&mut self, mut encoder: wgpu::CommandEncoder, width: u32, height: u32) -> Result<Frame> {
         let t = self.target.as_ref().unwrap();
         encoder.copy_texture_to_buffer(
-            t.color.as_image_copy(),
+            t.targets.image.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
                 buffer: &t.readback,
                 layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(t.padded_row), rows_per_image: Some(height) },
