@@ -1,24 +1,28 @@
-// View rendering from the resident light field, driven by src/render/mod.rs, in two passes:
-// 1. `vs_main` + `fs_visibility` rasterise the scene into a visibility buffer: per pixel, the
-//    face it sees (the twin for the back of a two-sided surface, NO_FACE for the sky or an
-//    absorbing back). Four bytes a pixel: cheap even where raster throughput is scarce.
-// 2. `resolve_diffuse` / `resolve_mixed` (compute) turn it into radiance. Every pixel does the
-//    same fixed work, whatever it sees: the eye ray meets the face's plane, one bilinear lookup
-//    in the diffuse atlas, and in scenes with mirrors the three directions around the view
-//    direction looked up in the face's tiles. Pixels that see the sky or a diffuse face do the
-//    same lookups on a stand-in and multiply them by zero, so a view full of mirrors costs what
-//    a view without one does: a constant per-eye frame time.
+// View rendering from the resident light field, driven by src/render/mod.rs: one compute
+// pass, one thread per pixel, and every pixel does the same fixed work whatever it sees:
+// - its eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
+//   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
+//   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
+//   child first: logarithmic, though no longer exactly equal per pixel). No rasteriser: its
+//   cost grows with how many surfaces overlap a pixel, and it is scarce on compute GPUs such
+//   as the H100/H200;
+// - one bilinear lookup in the diffuse atlas, and in scenes with mirrors the three directions
+//   around the view direction looked up in the face's tiles. Pixels that see the sky or a
+//   diffuse face do the same lookups on a stand-in and multiply them by zero, so a view full of
+//   mirrors costs what a view without one does: a constant per-eye frame time.
 // Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/tiles.wgsl"
+#include "common/bvh.wgsl"
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
 @group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
-@group(0) @binding(3) var visibility: texture_2d<u32>;
-@group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(4) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(5) var image: texture_storage_2d<rgba32float, write>;
 // view-dependent part, bound only for scenes with mirrors (resolve_mixed)
 @group(1) @binding(0) var<storage, read> directions: array<Direction>;
 @group(1) @binding(1) var<storage, read> geodesic_points: array<vec4<f32>>;
@@ -26,28 +30,6 @@
 @group(1) @binding(3) var<storage, read> tile_rects: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read> tile_index: array<u32>;
 @group(1) @binding(5) var<storage, read> tile_radiance: array<vec4<f32>>;
-
-struct VertexOut {
-    @builtin(position) clip: vec4<f32>,
-    @location(0) @interpolate(flat) face: u32,
-}
-
-@vertex
-fn vs_main(@location(0) position: vec3<f32>, @location(1) face: u32) -> VertexOut {
-    var out: VertexOut;
-    out.clip = view.view_proj * vec4<f32>(position, 1.0);
-    out.face = face;
-    return out;
-}
-
-@fragment
-fn fs_visibility(in: VertexOut, @builtin(front_facing) front: bool) -> @location(0) u32 {
-    if front {
-        return in.face;
-    }
-    // the back of a one-sided face absorbs: it looks black (its twin is NO_FACE)
-    return faces[in.face].twin;
-}
 
 fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
     let taps = atlas_taps(f, p, view.atlas_width);
@@ -65,16 +47,13 @@ fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>) -> vec3<f32> {
         let d = directions[taps.index[k]];
         // tiles hold the radiance leaving the front; a tap behind the face drops out
         let front = select(0.0, 1.0, dot(d.w * taps.sign[k], f.normal) > 0.0);
-        let v = tile_bilinear(taps.index[k], d, slot, p, view.cell_size, view.tile_size, view.tile_face_count);
+        let v = tile_bilinear(taps.index[k], d, slot, p, view.cell_size, view.tile_size, view.tile_face_count, true);
         let w = taps.weight[k] * min(v.w, 1.0) * front;
         sum += v.xyz * w;
         found += w;
     }
     return select(vec3<f32>(0.0), sum / found, found > 0.0);
 }
-
-// The visibility buffer's clear value: the pixel sees no geometry, only the sky.
-const SKY: u32 = 0xfffffffdu;
 
 struct Pixel {
     // the face to look up (a stand-in, face 0, where the pixel sees none)
@@ -86,23 +65,41 @@ struct Pixel {
     point: vec3<f32>,
 }
 
-// Where the pixel's eye ray meets its face's plane: exact, whatever the depth precision.
+// What the pixel's eye ray meets first, and where.
+// The eye ray meets nothing: the sky.
+const SKY: u32 = 0xfffffffdu;
+
 fn pixel_point(pixel: vec2<u32>, size: vec2<u32>) -> Pixel {
-    let id = textureLoad(visibility, pixel, 0).x;
-    var out: Pixel;
-    let none = id == NO_FACE || id == SKY;
-    out.seen = select(1.0, 0.0, none);
-    out.face = select(id, 0u, none);
-    out.background = select(vec3<f32>(0.0), view.sky.xyz, id == SKY);
     let ndc = vec2<f32>((f32(pixel.x) + 0.5) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(pixel.y) + 0.5) / f32(size.y) * 2.0);
     let near = view.inv_view_proj * vec4<f32>(ndc, 0.0, 1.0);
     let far = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
     let origin = near.xyz / near.w;
-    let ray = far.xyz / far.w - origin;
-    let f = faces[out.face];
-    let denom = dot(f.normal, ray);
-    let t = select(0.0, (f.plane_offset - dot(f.normal, origin)) / denom, abs(denom) > 1e-12);
-    out.point = origin + ray * t;
+    let ray = normalize(far.xyz / far.w - origin);
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    if view.exhaustive_triangles > 0u {
+        // a small mesh: every ray tests every triangle, the same work for every pixel
+        for (var i = 0u; i < view.exhaustive_triangles; i++) {
+            let r = intersect(origin, ray, triangles[i], hit.t);
+            let found = r.x > 0.0;
+            hit.t = select(hit.t, r.x, found);
+            hit.tri = select(hit.tri, i, found);
+        }
+    } else {
+        hit = trace(origin, ray, 1e30, false);
+    }
+    var out: Pixel;
+    var id = SKY;
+    if hit.tri != NO_FACE {
+        let face = triangles[hit.tri].face;
+        // the back of a one-sided face absorbs: its twin is NO_FACE, black
+        id = select(faces[face].twin, face, dot(faces[face].normal, ray) < 0.0);
+    }
+    let none = id == NO_FACE || id == SKY;
+    out.seen = select(1.0, 0.0, none);
+    out.face = select(id, 0u, none);
+    out.background = select(vec3<f32>(0.0), view.sky.xyz, id == SKY);
+    // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
+    out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
     return out;
 }
 
@@ -112,7 +109,7 @@ fn store_pixel(pixel: vec2<u32>, px: Pixel, l: vec3<f32>) {
 
 @compute @workgroup_size(8, 8)
 fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let size = textureDimensions(visibility);
+    let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
@@ -122,7 +119,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 @compute @workgroup_size(8, 8)
 fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let size = textureDimensions(visibility);
+    let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }

@@ -28,7 +28,7 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
         return vec3<f32>(0.0);
     }
     let d = tile_directions[dir_index];
-    return tile_bilinear(dir_index, d, s.tile_slot, xs, grid.cell_size, grid.tile_size, grid.tile_face_count).xyz;
+    return tile_bilinear(dir_index, d, s.tile_slot, xs, grid.cell_size, grid.tile_size, grid.tile_face_count, false).xyz;
 }
 
 @compute @workgroup_size(64)

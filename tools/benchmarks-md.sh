@@ -50,6 +50,9 @@ print(f"### CAVE: {r['display']}, {title}\n")
 print(f"`vlf cave --headless` on **{r['adapter']}**, Cornell-mirror at default settings, {r['frames']} frames of {r['views_per_frame']} views submitted back to back (GPU timestamp queries). Target for 8 views of 1920x1200: under 8.3 ms (120 Hz).\n")
 a = r["all_views_gpu_ms"]
 print(f"All views of one frame: median {a['median']:.3f} ms, p99 {a['p99']:.3f} ms, max {a['max']:.3f} ms.\n")
+if r.get("worst_p99_over_p50") is not None:
+    verdict = "yes" if r["constant_frame_time"] else "**no**"
+    print(f"Constant per-eye frame time (every view's GPU time p99/p50 <= 1.10): {verdict}, worst p99/p50 {r['worst_p99_over_p50']:.3f}.\n")
 print("| wall | eye | pixels | GPU p50 (ms) | p95 | p99 | max | p99/p50 |\n|---|---|---|---|---|---|---|---|")
 for v in r["views"]:
     d = v["gpu_ms"]

@@ -86,7 +86,8 @@ struct View {
     tile_size: u32,
     tile_face_count: u32,
     grid_resolution: u32,
-    _pad0: u32,
+    // > 0: the mesh is this small, and every eye ray tests every triangle
+    exhaustive_triangles: u32,
     _pad1: u32,
     _pad2: u32,
 }

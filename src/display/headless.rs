@@ -36,8 +36,14 @@ pub struct CaveReport {
     pub all_views_gpu_ms: Option<Distribution>,
     /// wall-clock milliseconds per frame on the CPU (all views submitted, GPU finished)
     pub cpu_frame_ms: Distribution,
+    /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
+    pub worst_p99_over_p50: Option<f64>,
+    pub constant_frame_time: Option<bool>,
     pub images: Vec<String>,
 }
+
+/// Per-eye GPU time p99/p50 at or under this counts as a constant frame time.
+pub const CONSTANT_FRAME_TIME: f64 = 1.10;
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
 /// last frame is drawn again view by view and read back, its images going to `out`.
@@ -60,6 +66,7 @@ pub fn run(
     let views: Vec<(usize, &'static str, f32)> =
         config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
+
     let mut all_gpu = Vec::new();
     let mut cpu = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
@@ -111,7 +118,7 @@ pub fn run(
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
-    let timings = views
+    let timings: Vec<ViewTiming> = views
         .iter()
         .enumerate()
         .map(|(v, &(wall_index, eye, _))| {
@@ -125,7 +132,10 @@ pub fn run(
             }
         })
         .collect();
+    let worst = timings.iter().filter_map(|v: &ViewTiming| v.p99_over_p50).fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
     Ok(CaveReport {
+        worst_p99_over_p50: worst,
+        constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
         display: config.name.clone(),
         adapter: resident.ctx.summary.name.clone(),
         frames: frames.max(1),
@@ -190,6 +200,12 @@ impl CaveReport {
             s.push_str(&format!("  all views, GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
         }
         s.push_str(&format!("  CPU frame time: median {:.3} ms, p99 {:.3} ms\n", self.cpu_frame_ms.median, self.cpu_frame_ms.p99));
+        if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
+            s.push_str(&format!(
+                "  constant per-eye frame time: {} (worst p99/p50 {w:.3}; limit {CONSTANT_FRAME_TIME:.2})\n",
+                if ok { "yes" } else { "NO" }
+            ));
+        }
         s
     }
 }

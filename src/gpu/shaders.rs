@@ -10,6 +10,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/directions.wgsl", include_str!("../../shaders/common/directions.wgsl")),
     ("common/tiles.wgsl", include_str!("../../shaders/common/tiles.wgsl")),
     ("common/upstream.wgsl", include_str!("../../shaders/common/upstream.wgsl")),
+    ("common/bvh.wgsl", include_str!("../../shaders/common/bvh.wgsl")),
     ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),
     ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
     ("specular.wgsl", include_str!("../../shaders/specular.wgsl")),

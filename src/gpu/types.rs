@@ -96,7 +96,7 @@ pub struct GpuView {
     pub tile_size: u32,
     pub tile_face_count: u32,
     pub grid_resolution: u32,
-    pub _pad0: u32,
+    pub exhaustive_triangles: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

@@ -15,9 +15,6 @@ use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
-/// The visibility buffer: the face each pixel sees.
-pub const VISIBILITY_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Uint;
 
 /// Linear radiance, row-major from the top-left pixel.
 pub struct Frame {
@@ -53,13 +50,11 @@ pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height
     proj * view
 }
 
-/// The visibility buffer of one view (face per pixel) and its resolved image (linear radiance),
-/// with the bindings of the resolve pass. A window keeps one per eye.
+/// One view's image (linear radiance) with the bindings of the pass that draws it. A window
+/// keeps one per eye.
 pub struct ViewTargets {
     pub width: u32,
     pub height: u32,
-    visibility_view: wgpu::TextureView,
-    depth_view: wgpu::TextureView,
     pub image: wgpu::Texture,
     pub image_view: wgpu::TextureView,
     resolve_bind_group: wgpu::BindGroup,
@@ -71,18 +66,14 @@ struct Target {
     padded_row: u32,
 }
 
-/// The visibility buffer's clear value (WGSL `SKY` in render.wgsl): no geometry, only sky.
-const SKY: u32 = 0xffff_fffd;
-
 pub struct Renderer {
     ctx: Arc<GpuContext>,
-    pipeline: wgpu::RenderPipeline,
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
     view_buffer: wgpu::Buffer,
-    vertex_buffer: wgpu::Buffer,
-    vertex_count: u32,
-    bind_group: wgpu::BindGroup,
+    /// the render mesh as ray-casting triangles, and their BVH
+    triangles: wgpu::Buffer,
+    nodes: wgpu::Buffer,
     /// the view-dependent part's bindings; None for a diffuse-only light field
     tile_bind_group: Option<wgpu::BindGroup>,
     normalisation: Normalisation,
@@ -97,78 +88,35 @@ impl Renderer {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let module = shaders::module(device, "render.wgsl")?;
-        let layout = bind_group_layout(device, wgpu::ShaderStages::VERTEX_FRAGMENT, &[Binding::Uniform, Binding::Storage]);
         let cs = wgpu::ShaderStages::COMPUTE;
         use Binding::*;
-        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, TextureUint, ImageWrite]);
+        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, ImageWrite]);
         // a diffuse-only light field binds no view-dependent path at all
         let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 6]));
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("visibility buffer"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
         let mut resolve_layouts = vec![&resolve_layout];
         if let Some(t) = &tile_layout {
             resolve_layouts.push(t);
         }
         let entry = if tile_layout.is_some() { "resolve_mixed" } else { "resolve_diffuse" };
         let resolve_pipeline = ctx.compute_pipeline(&module, entry, &resolve_layouts);
-        let vertex_layout = wgpu::VertexBufferLayout {
-            array_stride: std::mem::size_of::<RenderVertex>() as u64,
-            step_mode: wgpu::VertexStepMode::Vertex,
-            attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
-        };
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("render"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[Some(vertex_layout)],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleList,
-                front_face: wgpu::FrontFace::Ccw,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_visibility"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: VISIBILITY_FORMAT,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: std::mem::size_of::<GpuView>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let vertex_bytes: &[u8] = bytemuck::cast_slice(&lf.render_vertices);
-        ledger.record("render mesh", vertex_bytes.len() as u64);
-        let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("render mesh"),
-            contents: if vertex_bytes.is_empty() { &[0u8; 16] } else { vertex_bytes },
-            usage: wgpu::BufferUsages::VERTEX,
-        });
-        let bind_group = ctx.bind_group(&layout, &[&view_buffer, &resident.faces]);
+        let (triangles, nodes) = ray_casting_mesh(&lf.render_vertices);
+        let exhaustive_triangles = if triangles.len() <= EXHAUSTIVE_TRIANGLES { triangles.len() as u32 } else { 0 };
+        let storage = |label, bytes: &[u8]| {
+            ledger.record(label, bytes.len() as u64);
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: if bytes.is_empty() { &[0u8; 64] } else { bytes },
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
+        let triangles = storage("render mesh: triangles", bytemuck::cast_slice(&triangles));
+        let nodes = storage("render mesh: BVH", bytemuck::cast_slice(&nodes));
         let tile_bind_group = match (&tile_layout, &resident.tiles) {
             (Some(l), Some(t)) => {
                 Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, &t.radiance]))
@@ -185,19 +133,18 @@ impl Renderer {
             tile_size: p.tile_size,
             tile_face_count: lf.tiles.as_ref().map_or(0, |t| t.face_count),
             grid_resolution: p.grid_resolution,
+            exhaustive_triangles,
             ..Default::default()
         };
         Ok(Renderer {
             ctx: ctx.clone(),
-            pipeline,
             resolve_pipeline,
             resolve_layout,
             faces: resident.faces.clone(),
             radiance: resident.total.clone(),
             view_buffer,
-            vertex_buffer,
-            vertex_count: lf.render_vertices.len() as u32,
-            bind_group,
+            triangles,
+            nodes,
             tile_bind_group,
             normalisation: lf.meta.normalisation,
             view_template,
@@ -208,25 +155,22 @@ impl Renderer {
     /// A view's visibility buffer, image and resolve bindings, `width` x `height`.
     pub fn view_targets(&self, width: u32, height: u32) -> ViewTargets {
         let device = &self.ctx.device;
-        let make = |label, format, usage| texture_2d(device, label, [width, height], format, usage);
         use wgpu::TextureUsages as U;
-        let visibility = make("visibility buffer", VISIBILITY_FORMAT, U::RENDER_ATTACHMENT | U::TEXTURE_BINDING);
-        let depth = make("depth", DEPTH_FORMAT, U::RENDER_ATTACHMENT);
-        let image = make("image", COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
-        let visibility_view = visibility.create_view(&Default::default());
+        let image = texture_2d(device, "image", [width, height], COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
         let image_view = image.create_view(&Default::default());
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("resolve"),
+            label: Some("view"),
             layout: &self.resolve_layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: self.faces.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 2, resource: self.radiance.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: wgpu::BindingResource::TextureView(&visibility_view) },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&image_view) },
+                wgpu::BindGroupEntry { binding: 3, resource: self.triangles.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: self.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&image_view) },
             ],
         });
-        ViewTargets { width, height, visibility_view, depth_view: depth.create_view(&Default::default()), image, image_view, resolve_bind_group }
+        ViewTargets { width, height, image, image_view, resolve_bind_group }
     }
 
     fn target(&mut self, width: u32, height: u32) -> &Target {
@@ -248,47 +192,11 @@ impl Renderer {
         self.encode_view(encoder, &target.targets, timestamps);
     }
 
-    /// Draw the view last set with `set_view_matrix` into `targets`: the visibility buffer,
-    /// then the resolve. One timestamp pair spans both passes.
+    /// Draw the view last set with `set_view_matrix` into `targets`: one compute pass.
     pub fn encode_view(&self, encoder: &mut wgpu::CommandEncoder, targets: &ViewTargets, timestamps: Option<&mut Timestamps>) {
-        let pair = timestamps.and_then(|t| t.next_pair().map(|p| (t.query_set.clone(), p)));
-        {
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("visibility buffer"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &targets.visibility_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color { r: SKY as f64, g: 0.0, b: 0.0, a: 0.0 }),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &targets.depth_view,
-                    depth_ops: Some(wgpu::Operations { load: wgpu::LoadOp::Clear(1.0), store: wgpu::StoreOp::Discard }),
-                    stencil_ops: None,
-                }),
-                timestamp_writes: pair.as_ref().map(|(q, (a, _))| wgpu::RenderPassTimestampWrites {
-                    query_set: q,
-                    beginning_of_pass_write_index: Some(*a),
-                    end_of_pass_write_index: None,
-                }),
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
-            pass.set_vertex_buffer(0, self.vertex_buffer.slice(..));
-            pass.draw(0..self.vertex_count, 0..1);
-        }
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("resolve"),
-            timestamp_writes: pair.as_ref().map(|(q, (_, b))| wgpu::ComputePassTimestampWrites {
-                query_set: q,
-                beginning_of_pass_write_index: None,
-                end_of_pass_write_index: Some(*b),
-            }),
+            label: Some("view"),
+            timestamp_writes: timestamps.and_then(|t| t.compute_writes()),
         });
         pass.set_pipeline(&self.resolve_pipeline);
         pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
@@ -423,6 +331,31 @@ impl Renderer {
             }
         }
     }
+}
+
+/// The render mesh (triangles in the light field's normalised space, each with its face) as
+/// ray-casting triangles in BVH order, and the BVH.
+/// Meshes up to this size are ray cast exhaustively (every ray tests every triangle): the same
+/// work for every pixel, and on an H200 cheaper than the BVH for meshes this small.
+pub const EXHAUSTIVE_TRIANGLES: usize = 256;
+
+fn ray_casting_mesh(vertices: &[RenderVertex]) -> (Vec<crate::reference::GpuTriangle>, Vec<crate::reference::GpuBvhNode>) {
+    let corners: Vec<[Vec3; 3]> = vertices.chunks_exact(3).map(|t| [0, 1, 2].map(|k| Vec3::from(t[k].position))).collect();
+    let (nodes, order) = crate::reference::build_bvh(&corners);
+    let triangles = order
+        .iter()
+        .map(|&i| {
+            let [a, b, c] = corners[i as usize];
+            crate::reference::GpuTriangle {
+                v0: a.into(),
+                face: vertices[i as usize * 3].face,
+                e1: (b - a).into(),
+                e2: (c - a).into(),
+                ..Default::default()
+            }
+        })
+        .collect();
+    (triangles, nodes)
 }
 
 /// Box-filter `factor` x `factor` blocks of pixels into one.

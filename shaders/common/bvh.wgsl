@@ -1,0 +1,107 @@
+// Ray casting through a bounding volume hierarchy (src/reference/mod.rs::build_bvh), shared
+// by the reference path tracer (reference.wgsl) and the renderer's primary rays (render.wgsl).
+// The including file binds `triangles: array<Triangle>` and `nodes: array<BvhNode>`.
+
+// mirrors reference::GpuTriangle: corner, edges, face, and the corners' texture coordinates
+struct Triangle {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    _pad0: u32,
+    e2: vec3<f32>,
+    _pad1: u32,
+    uv01: vec4<f32>,
+    uv2: vec4<f32>,
+}
+
+// mirrors reference::GpuBvhNode: leaf when count > 0 (first triangle in `index`), else
+// `index` is the right child and the left child follows the node
+struct BvhNode {
+    lo: vec3<f32>,
+    index: u32,
+    hi: vec3<f32>,
+    count: u32,
+}
+
+struct Hit {
+    t: f32,
+    tri: u32,
+    u: f32,
+    v: f32,
+}
+
+fn intersect(origin: vec3<f32>, dir: vec3<f32>, tri: Triangle, t_max: f32) -> vec3<f32> {
+    let p = cross(dir, tri.e2);
+    let det = dot(tri.e1, p);
+    if abs(det) < 1e-12 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let inv = 1.0 / det;
+    let s = origin - tri.v0;
+    let u = dot(s, p) * inv;
+    if u < 0.0 || u > 1.0 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let q = cross(s, tri.e1);
+    let v = dot(dir, q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    let t = dot(tri.e2, q) * inv;
+    if t <= 1e-5 || t >= t_max {
+        return vec3<f32>(-1.0, 0.0, 0.0);
+    }
+    return vec3<f32>(t, u, v);
+}
+
+fn box_entry(lo: vec3<f32>, hi: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>, t_max: f32) -> f32 {
+    let a = (lo - origin) * inv_dir;
+    let b = (hi - origin) * inv_dir;
+    let t0 = max(max(min(a.x, b.x), min(a.y, b.y)), min(a.z, b.z));
+    let t1 = min(min(max(a.x, b.x), max(a.y, b.y)), max(a.z, b.z));
+    if t1 >= max(t0, 0.0) && t0 < t_max {
+        return max(t0, 0.0);
+    }
+    return -1.0;
+}
+
+// Closest hit (any_hit: stop at the first one, for shadow rays).
+fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
+    let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
+    let inv_dir = 1.0 / safe;
+    var stack: array<u32, 64>;
+    var top = 1u;
+    stack[0] = 0u;
+    while top > 0u {
+        top -= 1u;
+        let index = stack[top];
+        let node = nodes[index];
+        if box_entry(node.lo, node.hi, origin, inv_dir, hit.t) < 0.0 {
+            continue;
+        }
+        if node.count > 0u {
+            for (var i = node.index; i < node.index + node.count; i++) {
+                let r = intersect(origin, dir, triangles[i], hit.t);
+                if r.x > 0.0 {
+                    hit = Hit(r.x, i, r.y, r.z);
+                    if any_hit {
+                        return hit;
+                    }
+                }
+            }
+        } else if top + 2u <= 64u {
+            // the nearer child is searched first: its hits shorten the far child's search
+            let left = nodes[index + 1u];
+            let right = nodes[node.index];
+            let t_left = box_entry(left.lo, left.hi, origin, inv_dir, hit.t);
+            let t_right = box_entry(right.lo, right.hi, origin, inv_dir, hit.t);
+            let right_first = t_right >= 0.0 && (t_left < 0.0 || t_right < t_left);
+            stack[top] = select(node.index, index + 1u, right_first);
+            stack[top + 1u] = select(index + 1u, node.index, right_first);
+            top += 2u;
+        }
+    }
+    return hit;
+}
+
