@@ -1,7 +1,8 @@
 //! The windowed CAVE for real, under a virtual display: Xvfb, `vlf cave` opening two windows
 //! (one mono wall, one side-by-side stereo wall) on the software adapter, live OSC tracking that
 //! goes quiet, and a screenshot of the whole virtual screen that must show the scene in both
-//! windows. Needs Xvfb and ImageMagick's `import` (tools/setup.sh installs them); without them
+//! windows; keyboard navigation moves the view and Esc quits cleanly. Needs Xvfb, ImageMagick's
+//! `import` and xdotool (tools/setup.sh installs them); without them
 //! the test fails saying so, it never skips.
 
 use std::io::{BufRead, BufReader};
@@ -26,6 +27,7 @@ fn require(tool: &str, package: &str) {
 fn start_xvfb() -> (KillOnDrop, String) {
     require("Xvfb", "xvfb");
     require("import", "imagemagick");
+    require("xdotool", "xdotool");
     for n in 0..20 {
         let number = 90 + (std::process::id() + n) % 400;
         if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
@@ -182,4 +184,75 @@ output = {{ window = [340, 0] }}
     let (band_mean, band_lit) = region_stats(&img, 0, 0, 300, 30);
     println!("status band: mean {band_mean:.1}, {:.0}% lit", band_lit * 100.0);
     assert!(band_lit > 0.02, "no status line on screen");
+}
+
+fn screenshot(display: &str, path: &Path) -> image::RgbImage {
+    let status = Command::new("import").args(["-display", display, "-window", "root", path.to_str().unwrap()]).status().unwrap();
+    assert!(status.success(), "import could not take a screenshot of {display}");
+    image::open(path).unwrap().to_rgb8()
+}
+
+fn xdotool(display: &str, args: &[&str]) {
+    let status = Command::new("xdotool").args(args).env("DISPLAY", display).status().unwrap();
+    assert!(status.success(), "xdotool {args:?} failed");
+}
+
+#[test]
+fn keyboard_walks_the_viewer_and_escape_quits_cleanly() {
+    let (_xvfb, display) = start_xvfb();
+    let dir = tempfile::tempdir().unwrap();
+    let config = r#"name = "desk"
+[tracking]
+source = "static"
+head = [0.0, 1.0, 3.0]
+[navigation]
+walk_speed = 1.0
+turn_speed_deg = 60.0
+fly = false
+[[wall]]
+name = "front"
+lower_left = [-1.1, 0.0, 1.1]
+lower_right = [1.1, 0.0, 1.1]
+upper_left = [-1.1, 2.2, 1.1]
+pixels = [300, 300]
+output = { window = [0, 0] }
+"#;
+    let config_path = dir.path().join("desk.toml");
+    std::fs::write(&config_path, config).unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
+    let child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["cave", config_path.to_str().unwrap(), "--scene", scene.to_str().unwrap()])
+        .args(["--directions", "126", "--grid", "48", "--texel-density", "16"])
+        .env("DISPLAY", &display)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("vlf starts");
+    let mut child = KillOnDrop(child);
+    // the window exists once propagation is done; then give it a few frames
+    xdotool(&display, &["search", "--sync", "--name", "vlf: front"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    let before = screenshot(&display, &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-before-walk.png"));
+    // focus and keys in one xdotool run: without a window manager focus does not outlive it
+    xdotool(&display, &["search", "--name", "vlf: front", "windowfocus", "--sync", "keydown", "w", "sleep", "1.2", "keyup", "w"]);
+    std::thread::sleep(Duration::from_millis(800));
+    let after = screenshot(&display, &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-after-walk.png"));
+    let changed = before.pixels().zip(after.pixels()).filter(|(a, b)| a.0.iter().zip(b.0.iter()).any(|(x, y)| x.abs_diff(*y) > 24)).count();
+    println!("{changed} pixels changed after walking forward");
+    assert!(changed > 2000, "holding W did not move the view ({changed} pixels changed)");
+    xdotool(&display, &["search", "--name", "vlf: front", "windowfocus", "--sync", "key", "Escape"]);
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        if let Some(status) = child.0.try_wait().unwrap() {
+            break status;
+        }
+        assert!(Instant::now() < deadline, "Esc did not end vlf cave within 30 s");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let mut out = String::new();
+    std::io::Read::read_to_string(child.0.stdout.as_mut().unwrap(), &mut out).unwrap();
+    println!("{out}");
+    assert!(status.success(), "vlf cave did not exit cleanly after Esc: {status}\n{out}");
+    assert!(out.contains("frames timed") && out.contains("front      mono"), "no frame-time report at exit:\n{out}");
 }

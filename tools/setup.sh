@@ -18,6 +18,7 @@ missing=()
 have_icd || missing+=(mesa-vulkan-drivers libvulkan1)
 command -v Xvfb >/dev/null || missing+=(xvfb)
 command -v import >/dev/null || missing+=(imagemagick)
+command -v xdotool >/dev/null || missing+=(xdotool)
 { command -v pkg-config >/dev/null && pkg-config --exists libudev; } || missing+=(pkg-config libudev-dev)
 if [ ${#missing[@]} = 0 ]; then
   exit 0
