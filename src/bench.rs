@@ -8,10 +8,10 @@ use crate::propagate::PropagationParams;
 use crate::render::Renderer;
 use crate::report::PropagationReport;
 use crate::scene::Scene;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Distribution {
     pub samples: usize,
     pub median: f64,
@@ -65,7 +65,7 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
     let samples = report.diffuse_elements as f64 * report.directions as f64 * report.iterations as f64;
     Ok(BenchReport {
         vlf_version: env!("CARGO_PKG_VERSION").into(),
-        commit: std::env::var("VLF_COMMIT").ok().filter(|c| !c.is_empty()).or_else(git_commit),
+        commit: commit(),
         date_utc: utc_date(),
         transport_samples_per_second: samples / report.propagation_seconds.max(1e-12),
         iteration_gpu_ms: (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms)),
@@ -76,12 +76,17 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
     })
 }
 
+/// The commit measured: VLF_COMMIT (set where the tree has no .git), else git's.
+pub fn commit() -> Option<String> {
+    std::env::var("VLF_COMMIT").ok().filter(|c| !c.is_empty()).or_else(git_commit)
+}
+
 fn git_commit() -> Option<String> {
     let out = std::process::Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()?;
     out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
-fn utc_date() -> String {
+pub fn utc_date() -> String {
     let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
     // civil date from days since 1970-01-01 (Howard Hinnant's algorithm)
     let z = (secs / 86400) as i64 + 719468;

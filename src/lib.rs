@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod display;
 pub mod error;
+pub mod generate;
 pub mod gpu;
 pub mod lightfield;
 pub mod metrics;
@@ -18,6 +19,7 @@ pub mod render;
 pub mod report;
 pub mod scene;
 pub mod stress;
+pub mod suite;
 pub mod sweep;
 
 pub use error::{Result, VlfError};

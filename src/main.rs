@@ -152,6 +152,18 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
+    /// Write a procedural scene (scene.toml + OBJ + MTL) that scales to a million triangles
+    Generate {
+        kind: vlf::generate::SceneKind,
+        /// About this many triangles (classroom) or faces (gallery)
+        #[arg(long, default_value_t = 10_000)]
+        size: u64,
+        /// The mirror variant (a mirror wall in the classroom, mirrors along the gallery)
+        #[arg(long)]
+        mirrors: bool,
+        #[arg(short, long)]
+        out: PathBuf,
+    },
     /// Run the stability cases and write their table (STABILITY.md)
     Stress {
         #[arg(long, default_value = "STABILITY.md")]
@@ -176,6 +188,22 @@ enum Command {
     Bench {
         #[arg(long, default_value = "scenes/cornell/scene.toml")]
         scene: PathBuf,
+        /// The whole suite (Cornell, Cornell-mirror, classrooms of 1K..1M triangles, the mirror
+        /// gallery, a memory-budget run) instead of one scene
+        #[arg(long)]
+        suite: bool,
+        /// Suite: small scenes only (software adapters, quick checks)
+        #[arg(long)]
+        quick: bool,
+        /// Suite: where generated scenes go
+        #[arg(long, default_value = "target/suite-scenes")]
+        work: PathBuf,
+        /// Suite: the log-log scaling chart (PNG)
+        #[arg(long)]
+        plot: Option<PathBuf>,
+        /// Suite: do not measure; write --markdown / --plot from this earlier --json report
+        #[arg(long)]
+        from_json: Option<PathBuf>,
         #[arg(long)]
         json: Option<PathBuf>,
         /// Write a Markdown section (for BENCHMARKS.md)
@@ -449,6 +477,10 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
         }
+        Command::Generate { kind, size, mirrors, out } => {
+            let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;
+            println!("{}: {} triangles, {} faces ({})", g.scene.display(), g.triangles, g.faces, g.description);
+        }
         Command::Stress { out } => {
             let ctx = GpuContext::new()?;
             let adapter = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
@@ -479,12 +511,43 @@ fn run(cli: Cli) -> Result<()> {
                 }
             }
         }
-        Command::Bench { scene, json, markdown, frames, size, params } => {
-            let scene = Scene::load(&scene)?;
+        Command::Bench { scene, suite, quick, work, plot, from_json, json, markdown, frames, size, params } => {
+            if let Some(input) = from_json {
+                let report = vlf::suite::SuiteReport::load(&input)?;
+                let md = report.markdown();
+                match markdown {
+                    Some(path) => std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?,
+                    None => print!("{md}"),
+                }
+                if let Some(path) = plot {
+                    report.plot(&path)?;
+                }
+                return Ok(());
+            }
             let ctx = GpuContext::new()?;
             if ctx.summary.software {
                 eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
             }
+            if suite {
+                let root = std::env::current_dir().context("the current folder")?;
+                let report = vlf::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
+                let md = report.markdown();
+                print!("{md}");
+                if let Some(path) = json {
+                    write_json(&path, &report)?;
+                    println!("json: {}", path.display());
+                }
+                if let Some(path) = markdown {
+                    std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
+                    println!("markdown: {}", path.display());
+                }
+                if let Some(path) = plot {
+                    report.plot(&path)?;
+                    println!("chart: {}", path.display());
+                }
+                return Ok(());
+            }
+            let scene = Scene::load(&scene)?;
             let params = params.apply(PropagationParams::default())?;
             let report = vlf::bench::run(ctx, &scene, &params, size, frames)?;
             print!("{}", report.table());

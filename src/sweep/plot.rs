@@ -148,3 +148,65 @@ pub fn error_per_frame(path: &Path, title: &str, y_label: &str, series: &[Series
     root.present().map_err(|e| plot_err(path, e))?;
     Ok(())
 }
+
+/// One log-log panel: axis descriptions, series, and optionally a fitted slope drawn as a line
+/// through the series' centre.
+pub type Panel<'a> = (&'a str, &'a str, Vec<Series<'a>>, Option<f64>);
+
+/// Two log-log panels side by side (the benchmark suite's scaling chart).
+pub fn log_log(path: &Path, title: &str, panels: [Panel; 2]) -> Result<()> {
+    register_font();
+    let root = BitMapBackend::new(path, (1400, 620)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+    let root = root.titled(title, ("sans-serif", 24)).map_err(|e| plot_err(path, e))?;
+    let areas = root.split_evenly((1, 2));
+    for (area, (x_desc, y_desc, series, slope)) in areas.iter().zip(panels) {
+        let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+        let (x0, x1) = range(all.iter().map(|p| p.0));
+        let (y0, y1) = range(all.iter().map(|p| p.1));
+        let mut chart = ChartBuilder::on(area)
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|e| plot_err(path, e))?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .x_label_formatter(&|v| tick(*v))
+            .y_label_formatter(&|v| tick(*v))
+            .max_light_lines(1)
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| plot_err(path, e))?;
+        for s in &series {
+            let color = s.color;
+            chart
+                .draw_series(s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(|p| Circle::new(*p, 6, color.filled())))
+                .map_err(|e| plot_err(path, e))?
+                .label(s.name)
+                .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
+        }
+        if let (Some(k), false) = (slope, all.is_empty()) {
+            let n = all.len() as f64;
+            let (mx, my) = (all.iter().map(|p| p.0.ln()).sum::<f64>() / n, all.iter().map(|p| p.1.ln()).sum::<f64>() / n);
+            let line: Vec<(f64, f64)> = [x0, x1].iter().map(|&x| (x, (my + k * (x.ln() - mx)).exp())).collect();
+            chart
+                .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
+                .map_err(|e| plot_err(path, e))?
+                .label(format!("fitted slope {k:.2}"))
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperLeft)
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 16))
+            .draw()
+            .map_err(|e| plot_err(path, e))?;
+    }
+    root.present().map_err(|e| plot_err(path, e))?;
+    Ok(())
+}

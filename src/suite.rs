@@ -1,0 +1,370 @@
+//! `vlf bench --suite`: the benchmark suite. Cornell at the paper's settings and at ours,
+//! Cornell-mirror, generated classrooms of about 1K, 10K, 100K and 1M triangles, the 10K-face
+//! mirror gallery, and one scene under a memory budget (directions in batches). Per scene:
+//! setup, visibility, propagation per iteration and in total, transport samples per second,
+//! modelled memory traffic against the device's peak, render time per view at 1024x768 and
+//! 1920x1080, one 8-view CAVE frame, memory; then the targets, checked, and a log-log chart.
+
+use crate::bench::Distribution;
+use crate::error::Result;
+use crate::generate::{GenerateOptions, SceneKind};
+use crate::gpu::{human_bytes, GpuContext, MemoryLedger, Timestamps};
+use crate::propagate::PropagationParams;
+use crate::render::Renderer;
+use crate::scene::{Camera, Scene};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Bytes a gather reads per (texel, direction) sample in the traffic model: the cell's offset
+/// and count (8), two layer entries (16), four unshot taps (64). Caches make the real DRAM
+/// traffic lower; the model gives an order of magnitude against the peak.
+pub const MODEL_BYTES_PER_SAMPLE: f64 = 88.0;
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SuiteEntry {
+    pub name: String,
+    pub settings: String,
+    pub triangles: u32,
+    pub faces: u32,
+    pub directions: u32,
+    pub diffuse_elements: u64,
+    pub non_diffuse_elements: u64,
+    pub direction_batches: u32,
+    pub setup_seconds: f64,
+    pub visibility_seconds: f64,
+    pub visibility_gpu_ms: Option<f64>,
+    pub iterations: u32,
+    pub iteration_gpu_ms: Option<Distribution>,
+    pub propagation_seconds: f64,
+    /// setup + visibility + propagation
+    pub total_seconds: f64,
+    pub final_residual: f64,
+    pub transport_samples_per_second: f64,
+    /// modelled traffic of one iteration over its GPU time, GB/s
+    pub modelled_bandwidth_gb_s: Option<f64>,
+    pub render_1024x768_ms: Distribution,
+    pub render_1920x1080_ms: Distribution,
+    /// 8 views of 1920x1200 submitted back to back (a stereo 4-wall CAVE frame's work)
+    pub cave_frame_ms: Distribution,
+    pub propagation_memory_bytes: u64,
+    pub render_memory_bytes: u64,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SuiteReport {
+    pub adapter: crate::gpu::AdapterSummary,
+    pub vlf_version: String,
+    pub commit: Option<String>,
+    pub date_utc: String,
+    /// datasheet memory bandwidth of the device, GB/s, where known
+    pub peak_bandwidth_gb_s: Option<f64>,
+    pub entries: Vec<SuiteEntry>,
+    /// least-squares slope of log(iteration GPU time) against log(elements x directions)
+    pub cost_slope: Option<f64>,
+    pub targets: Vec<Target>,
+}
+
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Target {
+    pub what: String,
+    pub goal: String,
+    pub measured: String,
+    pub met: Option<bool>,
+}
+
+/// Datasheet bandwidth by adapter name (GB/s).
+fn peak_bandwidth(name: &str) -> Option<f64> {
+    let n = name.to_lowercase();
+    [("h200", 4800.0), ("h100 pcie", 2000.0), ("h100", 3350.0), ("a100", 2039.0), ("l40s", 864.0), ("rtx 4090", 1008.0)]
+        .iter()
+        .find(|(k, _)| n.contains(k))
+        .map(|(_, v)| *v)
+}
+
+struct Case {
+    name: String,
+    scene: PathBuf,
+    params: PropagationParams,
+    settings: &'static str,
+}
+
+fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
+    let paper = PropagationParams::from_toml_file(&root.join("config/propagation/paper.toml"))?;
+    let ours = PropagationParams::default();
+    let mut out = vec![
+        Case { name: "cornell (paper settings)".into(), scene: root.join("scenes/cornell/scene.toml"), params: paper.clone(), settings: "paper: 501 dirs, 64^2, 3 iterations" },
+        Case { name: "cornell".into(), scene: root.join("scenes/cornell/scene.toml"), params: ours.clone(), settings: "defaults, to 1e-3" },
+        Case { name: "cornell-mirror (paper settings)".into(), scene: root.join("scenes/cornell-mirror/scene.toml"), params: paper, settings: "paper: 501 dirs, 64^2, 3 iterations" },
+        Case { name: "cornell-mirror".into(), scene: root.join("scenes/cornell-mirror/scene.toml"), params: ours.clone(), settings: "defaults, to 1e-3" },
+    ];
+    let sizes: &[u64] = if quick { &[1_000, 10_000] } else { &[1_000, 10_000, 100_000, 1_000_000] };
+    for &size in sizes {
+        let dir = work.join(format!("classroom-{size}"));
+        let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Classroom, size, mirrors: false }, &dir)?;
+        out.push(Case { name: format!("classroom ~{}K triangles", size / 1000), scene: g.scene, params: ours.clone(), settings: "defaults, to 1e-3" });
+    }
+    let gallery = work.join("gallery-mirror");
+    let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Gallery, size: if quick { 1_000 } else { 10_000 }, mirrors: true }, &gallery)?;
+    out.push(Case { name: "gallery with mirrors".into(), scene: g.scene, params: ours.clone(), settings: "defaults, to 1e-3" });
+    let budget_scene = work.join(format!("classroom-{}", sizes[sizes.len().min(3) - 1]));
+    out.push(Case {
+        name: "same classroom, --memory-budget 512MiB".into(),
+        scene: budget_scene.join("scene.toml"),
+        params: PropagationParams { memory_budget_mib: Some(512), ..ours },
+        settings: "defaults, directions in batches",
+    });
+    Ok(out)
+}
+
+/// Eight views of 1920x1200 around the scene camera: four headings, two eyes each.
+fn cave_views(camera: &Camera) -> Vec<Camera> {
+    let eye = glam::Vec3::from(camera.eye);
+    let ahead = (glam::Vec3::from(camera.target) - eye).normalize();
+    let mut views = Vec::new();
+    for k in 0..4 {
+        let dir = glam::Quat::from_rotation_y(k as f32 * std::f32::consts::FRAC_PI_2) * ahead;
+        let right = dir.cross(glam::Vec3::Y).normalize_or_zero();
+        for side in [-1.0f32, 1.0] {
+            let e = eye + right * side * 0.032;
+            views.push(Camera { name: format!("cave {k}"), eye: e.into(), target: (e + dir).into(), up: [0.0, 1.0, 0.0], fov_y_deg: 90.0, size: [1920, 1200] });
+        }
+    }
+    views
+}
+
+fn run_case(ctx: &Arc<GpuContext>, case: &Case, peak: Option<f64>, frames: u32) -> Result<SuiteEntry> {
+    let scene = Scene::load(&case.scene)?;
+    let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
+    let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
+    let camera = lf.camera(None)?.clone();
+    let mut time = |w: u32, h: u32| -> Result<Distribution> {
+        renderer.time_frames(&camera, w, h, 5)?;
+        Ok(Distribution::of(&renderer.time_frames(&camera, w, h, frames)?.0))
+    };
+    let render_1024x768_ms = time(1024, 768)?;
+    let render_1920x1080_ms = time(1920, 1080)?;
+    let views = cave_views(&camera);
+    let mut cave = Vec::new();
+    for _ in 0..frames.min(60) {
+        let mut ts = Timestamps::new(ctx, views.len() as u32);
+        let started = std::time::Instant::now();
+        for v in &views {
+            let vp = crate::render::view_projection(v, &lf.meta.normalisation, 1920, 1200);
+            let eye = lf.meta.normalisation.to_unit(v.eye).as_vec3();
+            renderer.submit_matrix(vp, eye, 1920, 1200, ts.as_mut());
+        }
+        ctx.wait()?;
+        cave.push(match ts.as_mut() {
+            Some(t) => t.read_ms(ctx)?.iter().sum(),
+            None => started.elapsed().as_secs_f64() * 1e3,
+        });
+    }
+    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
+    let iteration_gpu_ms = (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms));
+    let samples_per_iteration = report.diffuse_elements as f64 * report.directions as f64;
+    let _ = peak;
+    Ok(SuiteEntry {
+        name: case.name.clone(),
+        settings: case.settings.into(),
+        triangles: report.triangles,
+        faces: report.faces,
+        directions: report.directions,
+        diffuse_elements: report.diffuse_elements,
+        non_diffuse_elements: report.non_diffuse_elements,
+        direction_batches: report.direction_batches,
+        setup_seconds: report.setup_seconds,
+        visibility_seconds: report.visibility_seconds,
+        visibility_gpu_ms: report.visibility_gpu_ms,
+        iterations: report.iterations,
+        modelled_bandwidth_gb_s: iteration_gpu_ms.as_ref().map(|d| samples_per_iteration * MODEL_BYTES_PER_SAMPLE / (d.median * 1e-3) / 1e9),
+        iteration_gpu_ms,
+        propagation_seconds: report.propagation_seconds,
+        total_seconds: report.setup_seconds + report.visibility_seconds + report.propagation_seconds,
+        final_residual: report.final_residual,
+        transport_samples_per_second: samples_per_iteration * report.iterations as f64 / report.propagation_seconds.max(1e-12),
+        render_1024x768_ms,
+        render_1920x1080_ms,
+        cave_frame_ms: Distribution::of(&cave),
+        propagation_memory_bytes: report.propagation_memory_bytes,
+        render_memory_bytes: report.render_memory_bytes,
+    })
+}
+
+/// Least-squares slope of log y against log x.
+pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let p: Vec<(f64, f64)> = points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    if p.len() < 2 {
+        return None;
+    }
+    let n = p.len() as f64;
+    let (mx, my) = (p.iter().map(|q| q.0).sum::<f64>() / n, p.iter().map(|q| q.1).sum::<f64>() / n);
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx).powi(2)).sum();
+    (sxx > 0.0).then(|| p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum::<f64>() / sxx)
+}
+
+/// Run the suite. `quick` (software adapters, tests) keeps the scenes small.
+pub fn run(ctx: Arc<GpuContext>, root: &Path, work: &Path, quick: bool, frames: u32, progress: bool) -> Result<SuiteReport> {
+    let peak = peak_bandwidth(&ctx.summary.name);
+    let cases = cases(root, work, quick)?;
+    let bar = if progress { indicatif::ProgressBar::new(cases.len() as u64) } else { indicatif::ProgressBar::hidden() };
+    bar.set_style(indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}").unwrap().progress_chars("=> "));
+    let mut entries = Vec::new();
+    for case in &cases {
+        bar.set_message(case.name.clone());
+        entries.push(run_case(&ctx, case, peak, frames)?);
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    // cost per iteration against elements x directions, over the scenes at our defaults
+    let points: Vec<(f64, f64)> = entries
+        .iter()
+        .filter(|e| e.settings.starts_with("defaults, to"))
+        .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median)))
+        .collect();
+    let cost_slope = log_log_slope(&points);
+    let targets = targets(&entries, cost_slope, quick);
+    Ok(SuiteReport {
+        adapter: ctx.summary.clone(),
+        vlf_version: env!("CARGO_PKG_VERSION").into(),
+        commit: crate::bench::commit(),
+        date_utc: crate::bench::utc_date(),
+        peak_bandwidth_gb_s: peak,
+        entries,
+        cost_slope,
+        targets,
+    })
+}
+
+fn targets(entries: &[SuiteEntry], slope: Option<f64>, quick: bool) -> Vec<Target> {
+    let find = |prefix: &str| entries.iter().find(|e| e.name.starts_with(prefix));
+    let mut t = Vec::new();
+    let mut add = |what: &str, goal: &str, measured: Option<(String, bool)>| {
+        t.push(Target {
+            what: what.into(),
+            goal: goal.into(),
+            measured: measured.as_ref().map_or("not measured".into(), |m| m.0.clone()),
+            met: measured.map(|m| m.1),
+        })
+    };
+    add(
+        "Cornell, paper settings, 3 iterations",
+        "propagation under 20 ms (paper 4.07 s)",
+        find("cornell (paper").map(|e| (format!("{:.1} ms", e.propagation_seconds * 1e3), e.propagation_seconds < 0.020)),
+    );
+    add(
+        "10K-face gallery with mirrors to 1e-3",
+        "under 2 s (paper's Atenea: 153 s for 3 iterations)",
+        find("gallery").filter(|_| !quick).map(|e| (format!("{:.2} s ({} faces, {} elements)", e.total_seconds, e.faces, e.diffuse_elements + e.non_diffuse_elements), e.total_seconds < 2.0)),
+    );
+    add(
+        "1M diffuse triangles to 1e-3",
+        "under 30 s",
+        find("classroom ~1000K").map(|e| (format!("{:.2} s ({} triangles)", e.total_seconds, e.triangles), e.total_seconds < 30.0)),
+    );
+    add(
+        "a 1024x768 view (Cornell)",
+        "under 0.5 ms",
+        find("cornell").map(|e| (format!("median {:.3} ms, p99 {:.3} ms", e.render_1024x768_ms.median, e.render_1024x768_ms.p99), e.render_1024x768_ms.p99 < 0.5)),
+    );
+    add(
+        "propagation cost against elements x directions",
+        "no faster than linear (log-log slope <= 1.1)",
+        slope.map(|s| (format!("fitted slope {s:.2}"), s <= 1.1)),
+    );
+    t
+}
+
+impl SuiteReport {
+    /// A report written earlier with --json (BENCHMARKS.md is regenerated from it).
+    pub fn load(path: &Path) -> Result<SuiteReport> {
+        let text = std::fs::read_to_string(path).map_err(|e| crate::error::VlfError::io(path, e))?;
+        serde_json::from_str(&text).map_err(|e| crate::error::VlfError::Config { path: path.to_path_buf(), message: format!("not a suite report: {e}") })
+    }
+
+    pub fn markdown(&self) -> String {
+        let a = &self.adapter;
+        let mut s = format!(
+            "## Benchmark suite — {}\n\nMeasured by `vlf bench --suite` (vlf {}, commit {}, {}) on **{}** ({} backend, driver {} {}). Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
+            self.date_utc,
+            self.vlf_version,
+            self.commit.as_deref().unwrap_or("unknown"),
+            self.date_utc,
+            a.name,
+            a.backend,
+            a.driver,
+            a.driver_info
+        );
+        s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
+        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+        for e in &self.entries {
+            let bw = match (e.modelled_bandwidth_gb_s, self.peak_bandwidth_gb_s) {
+                (Some(b), Some(p)) => format!("{b:.0} GB/s ({:.0}% of {p:.0})", 100.0 * b / p),
+                (Some(b), None) => format!("{b:.0} GB/s"),
+                _ => "—".into(),
+            };
+            s.push_str(&format!(
+                "| {} | {} | {} | {} | {} + {} | {} | {:.3} | {:.3} | {} | {} | {:.3} | {:.2e} | {} | {:.3} | {:.3} | {:.3} | {} / {} |\n",
+                e.name,
+                e.settings,
+                e.triangles,
+                e.faces,
+                e.diffuse_elements,
+                e.non_diffuse_elements,
+                e.direction_batches,
+                e.setup_seconds,
+                e.visibility_seconds,
+                e.iteration_gpu_ms.as_ref().map_or("—".into(), |d| format!("{:.2}", d.median)),
+                e.iterations,
+                e.total_seconds,
+                e.transport_samples_per_second,
+                bw,
+                e.render_1024x768_ms.median,
+                e.render_1920x1080_ms.median,
+                e.cave_frame_ms.median,
+                human_bytes(e.propagation_memory_bytes),
+                human_bytes(e.render_memory_bytes)
+            ));
+        }
+        s.push_str(&format!(
+            "\nTraffic model: {MODEL_BYTES_PER_SAMPLE} bytes per texel-direction sample per iteration (cell offset and count, two layer entries, four radiance taps); caches make the real DRAM traffic lower, so this is an order of magnitude against the datasheet peak, not a measurement.\n\n"
+        ));
+        s.push_str("### Targets\n\n| target | goal | measured | met |\n|---|---|---|---|\n");
+        for t in &self.targets {
+            let met = match t.met {
+                Some(true) => "yes",
+                Some(false) => "**no**",
+                None => "—",
+            };
+            s.push_str(&format!("| {} | {} | {} | {} |\n", t.what, t.goal, t.measured, met));
+        }
+        s.push_str("\n### The paper's Table 1 (GeForce 8800 GTX, 512 directions, 3 iterations)\n\n| scene | faces | elements | propagation |\n|---|---|---|---|\n| Cornell box | 19 | 34,816 diffuse + 931,136 non-diffuse | 4.07 s |\n| Grotto | 318 | — | 17.2 s |\n| Classroom | 3,024 | — | 63.7 s |\n| Atenea | 9,410 | 2.4 M diffuse + 7.6 M non-diffuse | 153 s |\n\nRendering 1024x768 at about 121 fps (8.3 ms).\n");
+        s
+    }
+
+    /// Two log-log panels: time to converge against triangles, GPU time per iteration against
+    /// elements x directions with the fitted line.
+    pub fn plot(&self, path: &Path) -> Result<()> {
+        use crate::sweep::plot::{log_log, Series};
+        use plotters::style::RGBColor;
+        let defaults: Vec<&SuiteEntry> = self.entries.iter().filter(|e| e.settings.starts_with("defaults")).collect();
+        let by_triangles = Series {
+            name: "setup + visibility + propagation to 1e-3",
+            color: RGBColor(31, 119, 180),
+            points: defaults.iter().map(|e| (e.triangles as f64, e.total_seconds)).collect(),
+        };
+        let by_elements = Series {
+            name: "GPU time per iteration",
+            color: RGBColor(214, 39, 40),
+            points: defaults
+                .iter()
+                .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median * 1e-3)))
+                .collect(),
+        };
+        log_log(
+            path,
+            &format!("vlf bench --suite on {}", self.adapter.name),
+            [("triangles", "time (s)", vec![by_triangles], None), ("elements x directions", "time (s)", vec![by_elements], self.cost_slope)],
+        )
+    }
+}
