@@ -43,10 +43,11 @@ pub struct SuiteEntry {
     pub transport_samples_per_second: f64,
     /// modelled traffic of one iteration over its GPU time, GB/s
     pub modelled_bandwidth_gb_s: Option<f64>,
-    pub render_1024x768_ms: Distribution,
-    pub render_1920x1080_ms: Distribution,
+    /// (None for the scaling runs, which measure propagation only)
+    pub render_1024x768_ms: Option<Distribution>,
+    pub render_1920x1080_ms: Option<Distribution>,
     /// 8 views of 1920x1200 submitted back to back (a stereo 4-wall CAVE frame's work)
-    pub cave_frame_ms: Distribution,
+    pub cave_frame_ms: Option<Distribution>,
     pub propagation_memory_bytes: u64,
     pub render_memory_bytes: u64,
 }
@@ -86,34 +87,67 @@ struct Case {
     name: String,
     scene: PathBuf,
     params: PropagationParams,
-    settings: &'static str,
+    settings: String,
+    /// measure rendering too (not for the scaling runs)
+    render: bool,
 }
+
+/// Settings label of the runs that vary elements x directions on one scene.
+const SCALING: &str = "scaling";
 
 fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     let paper = PropagationParams::from_toml_file(&root.join("config/propagation/paper.toml"))?;
-    let ours = PropagationParams::default();
+    // quick (software adapters, the test): light settings everywhere
+    let ours = if quick {
+        PropagationParams { geodesic_frequency: 6, grid_resolution: 48, texel_density: 16.0, ..PropagationParams::default() }
+    } else {
+        PropagationParams::default()
+    };
+    // quick: only Cornell at our settings is rendered (a software adapter draws slowly)
+    let case = |name: &str, scene: PathBuf, params: PropagationParams, settings: &str| Case {
+        render: !quick || name == "cornell",
+        name: name.into(),
+        scene,
+        params,
+        settings: settings.into(),
+    };
+    let cornell = root.join("scenes/cornell/scene.toml");
     let mut out = vec![
-        Case { name: "cornell (paper settings)".into(), scene: root.join("scenes/cornell/scene.toml"), params: paper.clone(), settings: "paper: 501 dirs, 64^2, 3 iterations" },
-        Case { name: "cornell".into(), scene: root.join("scenes/cornell/scene.toml"), params: ours.clone(), settings: "defaults, to 1e-3" },
-        Case { name: "cornell-mirror (paper settings)".into(), scene: root.join("scenes/cornell-mirror/scene.toml"), params: paper, settings: "paper: 501 dirs, 64^2, 3 iterations" },
-        Case { name: "cornell-mirror".into(), scene: root.join("scenes/cornell-mirror/scene.toml"), params: ours.clone(), settings: "defaults, to 1e-3" },
+        case("cornell (paper settings)", cornell.clone(), paper.clone(), "paper: 501 dirs, 64^2, 3 iterations"),
+        case("cornell", cornell.clone(), ours.clone(), "defaults, to 1e-3"),
+        case("cornell-mirror (paper settings)", root.join("scenes/cornell-mirror/scene.toml"), paper, "paper: 501 dirs, 64^2, 3 iterations"),
+        case("cornell-mirror", root.join("scenes/cornell-mirror/scene.toml"), ours.clone(), "defaults, to 1e-3"),
     ];
-    let sizes: &[u64] = if quick { &[1_000, 10_000] } else { &[1_000, 10_000, 100_000, 1_000_000] };
+    // elements x directions varied on one scene, 3 plain iterations each: the cost's slope
+    let grid: &[(u32, f64)] = if quick { &[(3, 12.0), (5, 12.0), (5, 20.0)] } else { &[(10, 96.0), (14, 96.0), (20, 96.0), (28, 96.0), (20, 48.0), (20, 136.0)] };
+    for &(n, density) in grid {
+        let params = PropagationParams { geodesic_frequency: n, texel_density: density, max_iterations: 3, accelerate: false, tolerance: 1e-9, ..ours.clone() };
+        let _ = &params;
+        out.push(Case {
+            name: format!("cornell, {} directions, {density} texels/unit", params.direction_count()),
+            scene: cornell.clone(),
+            params,
+            settings: format!("{SCALING}: 3 iterations"),
+            render: false,
+        });
+    }
+    let sizes: &[u64] = if quick { &[1_000] } else { &[1_000, 10_000, 100_000, 1_000_000] };
     for &size in sizes {
         let dir = work.join(format!("classroom-{size}"));
         let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Classroom, size, mirrors: false }, &dir)?;
-        out.push(Case { name: format!("classroom ~{}K triangles", size / 1000), scene: g.scene, params: ours.clone(), settings: "defaults, to 1e-3" });
+        out.push(case(&format!("classroom ~{}K triangles", size / 1000), g.scene, ours.clone(), "defaults, to 1e-3"));
     }
     let gallery = work.join("gallery-mirror");
     let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Gallery, size: if quick { 1_000 } else { 10_000 }, mirrors: true }, &gallery)?;
-    out.push(Case { name: "gallery with mirrors".into(), scene: g.scene, params: ours.clone(), settings: "defaults, to 1e-3" });
+    out.push(case("gallery with mirrors", g.scene, ours.clone(), "defaults, to 1e-3"));
     let budget_scene = work.join(format!("classroom-{}", sizes[sizes.len().min(3) - 1]));
-    out.push(Case {
-        name: "same classroom, --memory-budget 512MiB".into(),
-        scene: budget_scene.join("scene.toml"),
-        params: PropagationParams { memory_budget_mib: Some(512), ..ours },
-        settings: "defaults, directions in batches",
-    });
+    let budget = if quick { 3 } else { 512 };
+    out.push(case(
+        &format!("same classroom, --memory-budget {budget}MiB"),
+        budget_scene.join("scene.toml"),
+        PropagationParams { memory_budget_mib: Some(budget), ..ours },
+        "defaults, directions in batches",
+    ));
     Ok(out)
 }
 
@@ -136,7 +170,51 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
 fn run_case(ctx: &Arc<GpuContext>, case: &Case, peak: Option<f64>, frames: u32) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
-    let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
+    let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
+        let (a, b, c) = time_rendering(ctx, &lf, &resident, frames)?;
+        (Some(a), Some(b), Some(c))
+    } else {
+        (None, None, None)
+    };
+    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
+    let iteration_gpu_ms = (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms));
+    let samples_per_iteration = report.diffuse_elements as f64 * report.directions as f64;
+    let _ = peak;
+    Ok(SuiteEntry {
+        name: case.name.clone(),
+        settings: case.settings.clone(),
+        triangles: report.triangles,
+        faces: report.faces,
+        directions: report.directions,
+        diffuse_elements: report.diffuse_elements,
+        non_diffuse_elements: report.non_diffuse_elements,
+        direction_batches: report.direction_batches,
+        setup_seconds: report.setup_seconds,
+        visibility_seconds: report.visibility_seconds,
+        visibility_gpu_ms: report.visibility_gpu_ms,
+        iterations: report.iterations,
+        modelled_bandwidth_gb_s: iteration_gpu_ms.as_ref().map(|d| samples_per_iteration * MODEL_BYTES_PER_SAMPLE / (d.median * 1e-3) / 1e9),
+        iteration_gpu_ms,
+        propagation_seconds: report.propagation_seconds,
+        total_seconds: report.setup_seconds + report.visibility_seconds + report.propagation_seconds,
+        final_residual: report.final_residual,
+        transport_samples_per_second: samples_per_iteration * report.iterations as f64 / report.propagation_seconds.max(1e-12),
+        render_1024x768_ms,
+        render_1920x1080_ms,
+        cave_frame_ms,
+        propagation_memory_bytes: report.propagation_memory_bytes,
+        render_memory_bytes: report.render_memory_bytes,
+    })
+}
+
+/// Render time per view at 1024x768 and 1920x1080, and one 8-view CAVE frame.
+fn time_rendering(
+    ctx: &Arc<GpuContext>,
+    lf: &crate::lightfield::LightField,
+    resident: &crate::lightfield::ResidentLightField,
+    frames: u32,
+) -> Result<(Distribution, Distribution, Distribution)> {
+    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     let camera = lf.camera(None)?.clone();
     let mut time = |w: u32, h: u32| -> Result<Distribution> {
         renderer.time_frames(&camera, w, h, 5)?;
@@ -160,35 +238,7 @@ fn run_case(ctx: &Arc<GpuContext>, case: &Case, peak: Option<f64>, frames: u32) 
             None => started.elapsed().as_secs_f64() * 1e3,
         });
     }
-    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
-    let iteration_gpu_ms = (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms));
-    let samples_per_iteration = report.diffuse_elements as f64 * report.directions as f64;
-    let _ = peak;
-    Ok(SuiteEntry {
-        name: case.name.clone(),
-        settings: case.settings.into(),
-        triangles: report.triangles,
-        faces: report.faces,
-        directions: report.directions,
-        diffuse_elements: report.diffuse_elements,
-        non_diffuse_elements: report.non_diffuse_elements,
-        direction_batches: report.direction_batches,
-        setup_seconds: report.setup_seconds,
-        visibility_seconds: report.visibility_seconds,
-        visibility_gpu_ms: report.visibility_gpu_ms,
-        iterations: report.iterations,
-        modelled_bandwidth_gb_s: iteration_gpu_ms.as_ref().map(|d| samples_per_iteration * MODEL_BYTES_PER_SAMPLE / (d.median * 1e-3) / 1e9),
-        iteration_gpu_ms,
-        propagation_seconds: report.propagation_seconds,
-        total_seconds: report.setup_seconds + report.visibility_seconds + report.propagation_seconds,
-        final_residual: report.final_residual,
-        transport_samples_per_second: samples_per_iteration * report.iterations as f64 / report.propagation_seconds.max(1e-12),
-        render_1024x768_ms,
-        render_1920x1080_ms,
-        cave_frame_ms: Distribution::of(&cave),
-        propagation_memory_bytes: report.propagation_memory_bytes,
-        render_memory_bytes: report.render_memory_bytes,
-    })
+    Ok((render_1024x768_ms, render_1920x1080_ms, Distribution::of(&cave)))
 }
 
 /// Least-squares slope of log y against log x.
@@ -216,10 +266,10 @@ pub fn run(ctx: Arc<GpuContext>, root: &Path, work: &Path, quick: bool, frames: 
         bar.inc(1);
     }
     bar.finish_and_clear();
-    // cost per iteration against elements x directions, over the scenes at our defaults
+    // cost per iteration against elements x directions, over the scaling runs
     let points: Vec<(f64, f64)> = entries
         .iter()
-        .filter(|e| e.settings.starts_with("defaults, to"))
+        .filter(|e| e.settings.starts_with(SCALING))
         .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median)))
         .collect();
     let cost_slope = log_log_slope(&points);
@@ -265,11 +315,11 @@ fn targets(entries: &[SuiteEntry], slope: Option<f64>, quick: bool) -> Vec<Targe
     add(
         "a 1024x768 view (Cornell)",
         "under 0.5 ms",
-        find("cornell").map(|e| (format!("median {:.3} ms, p99 {:.3} ms", e.render_1024x768_ms.median, e.render_1024x768_ms.p99), e.render_1024x768_ms.p99 < 0.5)),
+        find("cornell").and_then(|e| e.render_1024x768_ms.as_ref()).map(|d| (format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99), d.p99 < 0.5)),
     );
     add(
         "propagation cost against elements x directions",
-        "no faster than linear (log-log slope <= 1.1)",
+        "no faster than linear (log-log slope <= 1.1; Cornell, 3 iterations at 6 settings)",
         slope.map(|s| (format!("fitted slope {s:.2}"), s <= 1.1)),
     );
     t
@@ -283,6 +333,7 @@ impl SuiteReport {
     }
 
     pub fn markdown(&self) -> String {
+        let ms = |d: &Option<Distribution>| d.as_ref().map_or("—".into(), |d| format!("{:.3}", d.median));
         let a = &self.adapter;
         let mut s = format!(
             "## Benchmark suite — {}\n\nMeasured by `vlf bench --suite` (vlf {}, commit {}, {}) on **{}** ({} backend, driver {} {}). Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
@@ -304,7 +355,7 @@ impl SuiteReport {
                 _ => "—".into(),
             };
             s.push_str(&format!(
-                "| {} | {} | {} | {} | {} + {} | {} | {:.3} | {:.3} | {} | {} | {:.3} | {:.2e} | {} | {:.3} | {:.3} | {:.3} | {} / {} |\n",
+                "| {} | {} | {} | {} | {} + {} | {} | {:.3} | {:.3} | {} | {} | {:.3} | {:.2e} | {} | {} | {} | {} | {} / {} |\n",
                 e.name,
                 e.settings,
                 e.triangles,
@@ -319,9 +370,9 @@ impl SuiteReport {
                 e.total_seconds,
                 e.transport_samples_per_second,
                 bw,
-                e.render_1024x768_ms.median,
-                e.render_1920x1080_ms.median,
-                e.cave_frame_ms.median,
+                ms(&e.render_1024x768_ms),
+                ms(&e.render_1920x1080_ms),
+                ms(&e.cave_frame_ms),
                 human_bytes(e.propagation_memory_bytes),
                 human_bytes(e.render_memory_bytes)
             ));
@@ -347,24 +398,32 @@ impl SuiteReport {
     pub fn plot(&self, path: &Path) -> Result<()> {
         use crate::sweep::plot::{log_log, Series};
         use plotters::style::RGBColor;
-        let defaults: Vec<&SuiteEntry> = self.entries.iter().filter(|e| e.settings.starts_with("defaults")).collect();
-        let by_triangles = Series {
-            name: "setup + visibility + propagation to 1e-3",
-            color: RGBColor(31, 119, 180),
-            points: defaults.iter().map(|e| (e.triangles as f64, e.total_seconds)).collect(),
-        };
-        let by_elements = Series {
-            name: "GPU time per iteration",
-            color: RGBColor(214, 39, 40),
-            points: defaults
+        let converged = |mirror: bool| -> Vec<(f64, f64)> {
+            self.entries
                 .iter()
-                .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median * 1e-3)))
-                .collect(),
+                .filter(|e| e.settings == "defaults, to 1e-3" && (e.non_diffuse_elements > 0) == mirror)
+                .map(|e| (e.triangles as f64, e.total_seconds))
+                .collect()
         };
+        let per_iteration = |pick: &dyn Fn(&SuiteEntry) -> bool| -> Vec<(f64, f64)> {
+            self.entries
+                .iter()
+                .filter(|e| pick(e))
+                .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median * 1e-3)))
+                .collect()
+        };
+        let left = vec![
+            Series { name: "diffuse scenes: setup + visibility + propagation to 1e-3", color: RGBColor(31, 119, 180), points: converged(false) },
+            Series { name: "scenes with mirrors", color: RGBColor(255, 127, 14), points: converged(true) },
+        ];
+        let right = vec![
+            Series { name: "Cornell, 3 iterations at 6 settings (fitted)", color: RGBColor(214, 39, 40), points: per_iteration(&|e| e.settings.starts_with(SCALING)) },
+            Series { name: "suite scenes at defaults", color: RGBColor(44, 160, 44), points: per_iteration(&|e| e.settings == "defaults, to 1e-3") },
+        ];
         log_log(
             path,
             &format!("vlf bench --suite on {}", self.adapter.name),
-            [("triangles", "time (s)", vec![by_triangles], None), ("elements x directions", "time (s)", vec![by_elements], self.cost_slope)],
+            [("triangles", "time to converge (s)", left, None), ("elements x directions", "GPU time per iteration (s)", right, self.cost_slope)],
         )
     }
 }

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
-# Assembles BENCHMARKS.md from the Markdown sections `vlf bench --markdown` wrote into DIR
-# (bench-{default,paper,mirror,mirror-paper,perturb4}.md). Usage: tools/benchmarks-md.sh DIR > BENCHMARKS.md
+# Assembles BENCHMARKS.md from what the lent GPU wrote into DIR: the suite (`vlf bench --suite
+# --json suite.json`: its Markdown is regenerated here from the JSON), the per-scene sections
+# `vlf bench --markdown` wrote (bench-{default,paper,mirror,mirror-paper,perturb4}.md) and the
+# CAVE reports (cave-{static,walk}.json). Usage: tools/benchmarks-md.sh DIR [VLF] > BENCHMARKS.md
 set -euo pipefail
 dir=$1
+vlf=${2:-target/release/vlf}
 cat <<'HEAD'
 # Benchmarks
 
@@ -20,8 +23,16 @@ leave about 10% of the light unshot). Memory while propagating is dominated by t
 lists, built once and kept for all iterations (8 bytes per cell and per layer); rendering keeps
 only the face table, the converged radiance atlas and the render mesh.
 
-Frame time grows with the pixel count, so the H200's fixed-function graphics path (weak on this
-data-centre chip) is the limit, not the light field lookup:
+HEAD
+if [ -f "$dir/suite.json" ]; then
+  "$vlf" bench --suite --from-json "$dir/suite.json" | sed 's/^## /### /'
+  echo
+  echo '![suite scaling](docs/images/suite-scaling.png)'
+  echo
+fi
+cat <<'HEAD'
+Rendering is one compute pass per view (eye rays, then the light field lookups), so frame time
+grows with the pixel count:
 
 HEAD
 if [ -f "$dir/render-scaling.txt" ]; then

@@ -188,9 +188,11 @@ pub fn log_log(path: &Path, title: &str, panels: [Panel; 2]) -> Result<()> {
                 .label(s.name)
                 .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
         }
-        if let (Some(k), false) = (slope, all.is_empty()) {
-            let n = all.len() as f64;
-            let (mx, my) = (all.iter().map(|p| p.0.ln()).sum::<f64>() / n, all.iter().map(|p| p.1.ln()).sum::<f64>() / n);
+        // the fit belongs to the first series
+        let fitted: Vec<(f64, f64)> = series.first().map(|s| s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect()).unwrap_or_default();
+        if let (Some(k), false) = (slope, fitted.is_empty()) {
+            let n = fitted.len() as f64;
+            let (mx, my) = (fitted.iter().map(|p| p.0.ln()).sum::<f64>() / n, fitted.iter().map(|p| p.1.ln()).sum::<f64>() / n);
             let line: Vec<(f64, f64)> = [x0, x1].iter().map(|&x| (x, (my + k * (x.ln() - mx)).exp())).collect();
             chart
                 .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
