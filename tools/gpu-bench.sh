@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs on the lent NVIDIA machine (see DEVELOPERS.md): `vlf bench` on the Cornell box and the
-# Cornell-mirror box at our defaults and at the paper's settings, a perturbation run, the
+# Runs on the lent NVIDIA machine (see DEVELOPERS.md): the suite (`vlf bench --suite`), `vlf
+# bench` on the Cornell box and the Cornell-mirror box at our defaults and at the paper's
+# settings, a perturbation run, the
 # README images, and BENCHMARKS.md assembled from it all, everything into OUT_DIR.
 #   tools/gpu-bench.sh VLF_BINARY OUT_DIR
 set -uo pipefail
@@ -10,6 +11,7 @@ bench() {  # name scene [flags...]
   local name=$1 scene=$2; shift 2
   "$vlf" bench --scene "$scene" --frames 300 --json "$out/bench-$name.json" --markdown "$out/bench-$name.md" "$@" 2>&1 | grep -v XDG
 }
+"$vlf" bench --suite --json "$out/suite.json" --plot "$out/suite-scaling.png" 2>&1 | grep -v XDG | tail -12
 bench default scenes/cornell/scene.toml
 bench paper scenes/cornell/scene.toml --config config/propagation/paper.toml
 bench mirror scenes/cornell-mirror/scene.toml
@@ -25,7 +27,7 @@ for cam in front side; do "$vlf" render /tmp/mirror.vlf --camera $cam -o "$out/c
 "$vlf" propagate scenes/textured-room/scene.toml -o /tmp/room.vlf 2>&1 | grep -v XDG | tail -3
 "$vlf" render /tmp/room.vlf --camera front -o "$out/textured-room-front.png" | grep -v XDG
 "$vlf" render /tmp/room.vlf --camera up --exposure 0.15 -o "$out/textured-room-up.png" | grep -v XDG
-bash "$(dirname "$0")/benchmarks-md.sh" "$out" > "$out/BENCHMARKS.md"
+bash "$(dirname "$0")/benchmarks-md.sh" "$out" "$vlf" > "$out/BENCHMARKS.md"
 # at most a few files come back from the lent machine: pack them
-(cd "$out" && tar cf results.tar gpu.txt render-scaling.txt bench-*.json bench-*.md && rm -f bench-*.json bench-*.md gpu.txt render-scaling.txt)
+(cd "$out" && tar cf results.tar gpu.txt render-scaling.txt suite.json bench-*.json bench-*.md && rm -f bench-*.json bench-*.md gpu.txt render-scaling.txt suite.json)
 (cd "$out" && tar cf images.tar *.png && rm -f *.png)
