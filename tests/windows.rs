@@ -10,6 +10,10 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// The two tests take turns: each drives a software-rendered window on 2 cores, and timing
+/// (key held for a second, quiet after half a second) must not depend on the other's load.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 struct KillOnDrop(Child);
 
 impl Drop for KillOnDrop {
@@ -81,6 +85,7 @@ fn region_stats(img: &image::RgbImage, x: u32, y: u32, w: u32, h: u32) -> (f64, 
 
 #[test]
 fn windowed_cave_draws_two_windows_under_xvfb_and_says_when_tracking_goes_quiet() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (_xvfb, display) = start_xvfb();
     let dir = tempfile::tempdir().unwrap();
     let port = free_udp_port();
@@ -168,7 +173,7 @@ output = {{ window = [340, 0] }}
     println!("{out}{err}\nscreenshot: {}", shot.display());
     assert!(exit.success(), "vlf cave failed: {out}\n{err}");
     assert!(out.contains("front      mono") && out.contains("stereo     left") && out.contains("stereo     right"), "{out}");
-    assert!(out.contains("shown on screen: tracking quiet 0 s: holding the last pose"), "the quiet tracker was not reported:\n{out}");
+    assert!(out.contains("shown on screen: tracking quiet") && out.contains("holding the last pose"), "the quiet tracker was not reported:\n{out}");
     assert!(err.contains("quiet"), "the quiet tracker was not logged:\n{err}");
 
     let img = image::open(&shot).unwrap().to_rgb8();
@@ -199,6 +204,7 @@ fn xdotool(display: &str, args: &[&str]) {
 
 #[test]
 fn keyboard_walks_the_viewer_and_escape_quits_cleanly() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let (_xvfb, display) = start_xvfb();
     let dir = tempfile::tempdir().unwrap();
     let config = r#"name = "desk"
