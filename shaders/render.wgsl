@@ -14,6 +14,7 @@
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
+#include "common/tile_pages.wgsl"
 #include "common/tiles.wgsl"
 #include "common/bvh.wgsl"
 
@@ -29,7 +30,18 @@
 @group(1) @binding(2) var<storage, read> geodesic_index: array<u32>;
 @group(1) @binding(3) var<storage, read> tile_rects: array<vec4<u32>>;
 @group(1) @binding(4) var<storage, read> tile_index: array<u32>;
-@group(1) @binding(5) var<storage, read> tile_radiance: array<vec4<f32>>;
+@group(1) @binding(5) var<storage, read> tile_radiance_0: array<vec4<f32>>;
+@group(1) @binding(6) var<storage, read> tile_radiance_1: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read> tile_radiance_2: array<vec4<f32>>;
+@group(1) @binding(8) var<storage, read> tile_radiance_3: array<vec4<f32>>;
+
+fn tile_page_cells() -> u32 {
+    return view.tile_page_cells;
+}
+
+fn tile_cells_total() -> u32 {
+    return view.tile_cell_count;
+}
 
 fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
     let taps = atlas_taps(f, p, view.atlas_width);

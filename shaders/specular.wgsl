@@ -7,6 +7,7 @@
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
+#include "common/tile_pages.wgsl"
 #include "common/tiles.wgsl"
 #include "common/upstream.wgsl"
 
@@ -18,10 +19,23 @@
 @group(2) @binding(4) var<storage, read> geodesic_index: array<u32>;
 // the fixed directions, whose grids the tiles live in (perturbed sets move `directions`)
 @group(2) @binding(5) var<storage, read> tile_directions: array<Direction>;
-// unshot mirror radiance (rgb)
-@group(2) @binding(6) var<storage, read> tile_radiance: array<vec4<f32>>;
-// next unshot mirror radiance (rgb) and, in w, the share that came from the sky (r+g+b)
-@group(2) @binding(7) var<storage, read_write> tile_next: array<vec4<f32>>;
+// unshot mirror radiance (rgb), in pages
+@group(2) @binding(6) var<storage, read> tile_radiance_0: array<vec4<f32>>;
+@group(2) @binding(7) var<storage, read> tile_radiance_1: array<vec4<f32>>;
+@group(2) @binding(8) var<storage, read> tile_radiance_2: array<vec4<f32>>;
+@group(2) @binding(9) var<storage, read> tile_radiance_3: array<vec4<f32>>;
+// next unshot mirror radiance (rgb) and, in w, the share that came from the sky (r+g+b): the
+// page this dispatch writes
+@group(2) @binding(10) var<storage, read_write> tile_next: array<vec4<f32>>;
+@group(2) @binding(11) var<uniform> tile_page: TilePage;
+
+fn tile_page_cells() -> u32 {
+    return grid.tile_page_cells;
+}
+
+fn tile_cells_total() -> u32 {
+    return grid.tile_cell_count;
+}
 
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
     if s.tile_slot == NO_FACE {
@@ -38,8 +52,10 @@ fn gather_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
 
 @compute @workgroup_size(64)
 fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let index = gid.x + gid.y * groups.x * 64u;
-    if index >= grid.tile_cell_count {
+    // one dispatch per page: `in_page` indexes this page's tile_next, `index` all tile cells
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    let index = tile_page.base + in_page;
+    if in_page >= tile_page.cells {
         return;
     }
     let m = grid.tile_size;
@@ -53,7 +69,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let f = faces[face_id];
     let cos_w = dot(f.normal, d.w);
     if abs(cos_w) < 1e-6 {
-        tile_next[index] = vec4<f32>(0.0);
+        tile_next[in_page] = vec4<f32>(0.0);
         return;
     }
     // where this cell's line meets the face's plane
@@ -105,7 +121,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     if (grid.flags & GRID_FLAG_BATCHED) != 0u {
         weight_sums[grid.texel_count + index] += found;
-        tile_next[index] += vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+        tile_next[in_page] += vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
         return;
     }
     if found > 0.0 {
@@ -113,5 +129,5 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         sky /= found;
     }
     // w: the sky radiance this cell received, for the emitted power of the residual
-    tile_next[index] = vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+    tile_next[in_page] = vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
 }

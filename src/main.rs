@@ -575,7 +575,7 @@ fn light_field_for(
     let is_vlf = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
     if is_vlf {
         let lf = file::load(input)?;
-        let resident = lf.upload(ctx.clone());
+        let resident = lf.upload(ctx.clone())?;
         return Ok((lf, resident));
     }
     let scene = Scene::load(input)?;
@@ -583,7 +583,7 @@ fn light_field_for(
     if let Some(path) = lightfield {
         let lf = file::load(path)?;
         lf.check_scene(&scene, path)?;
-        let resident = lf.upload(ctx.clone());
+        let resident = lf.upload(ctx.clone())?;
         return Ok((lf, resident));
     }
     let params = params.apply(PropagationParams::default())?;

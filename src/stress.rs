@@ -369,6 +369,41 @@ pub fn run(ctx: Arc<GpuContext>) -> Result<Vec<Case>> {
 
     let outcome = (|| {
         let dir = temp()?;
+        // a furnace of four diffuse and two mirror walls, all emitting 1 and reflecting 0.5:
+        // every texel 2. At 512^2 cells and 126 directions the mirror tiles outgrow one binding.
+        let mut b = Builder::new();
+        b.material("w", 0.5, 1.0).material("m", 0.0, 1.0);
+        for (axis, sign, m) in [(DVec3::X, 1.0, "m"), (DVec3::Y, -1.0, "m"), (DVec3::X, -1.0, "w"), (DVec3::Y, 1.0, "w"), (DVec3::Z, 1.0, "w"), (DVec3::Z, -1.0, "w")] {
+            let out = axis * sign;
+            b.quad(m, out * 0.5, -out, [1.0, 1.0]);
+        }
+        let scene = b.write(dir.path(), "[materials.m]\nmirror = [0.5, 0.5, 0.5]\n")?;
+        let big = PropagationParams { geodesic_frequency: 5, grid_resolution: 512, texel_density: 4.0, tolerance: 1e-2, ..small() };
+        let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, false)?;
+        // the diffuse walls' texels (a mirror's texels hold only its emission)
+        let prepared = crate::prepare::PreparedScene::new(&scene, big.texel_density)?;
+        let diffuse_face = |p: &[f32; 4]| p[3].to_bits() != crate::gpu::types::NO_FACE && prepared.material_of(p[3].to_bits() as usize).diffuse[0] > 0.0;
+        let worst = lf.total.iter().zip(&prepared.atlas.points).filter(|(_, p)| diffuse_face(p)).map(|(t, _)| (t[0] as f64 - 2.0).abs() / 2.0).fold(0.0, f64::max);
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        let tile_bytes = report.non_diffuse_elements * 16;
+        let pages = tile_bytes.div_ceil(limit);
+        Ok((
+            format!(
+                "{} mirror cells ({}) in {pages} page(s) of at most {}, visibility in {} batch(es); worst texel {:.2}% off",
+                report.non_diffuse_elements,
+                crate::gpu::human_bytes(tile_bytes),
+                crate::gpu::human_bytes(limit),
+                report.direction_batches,
+                worst * 100.0
+            ),
+            worst < 0.02 && (pages > 1 || tile_bytes <= limit),
+        ))
+    })();
+    add("mirror tiles beyond one binding", "2 mirror + 4 diffuse emitting walls, 126 directions x 512^2 cells", "tiles split into pages; runs, every texel within 2% of Le/(1-rho)", outcome);
+
+
+    let outcome = (|| {
+        let dir = temp()?;
         let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
         let free = PropagationParams { grid_resolution: 256, ..small() };
         let (a, _, ra) = crate::propagate::propagate(ctx.clone(), &scene, &free, false)?;

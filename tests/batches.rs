@@ -165,3 +165,13 @@ fn a_budget_too_small_for_the_radiance_is_refused_before_allocating() {
     println!("{err}");
     assert!(err.contains("memory budget of 1 MiB") && err.contains("raise --memory-budget"), "{err}");
 }
+
+#[test]
+fn too_many_pages_are_refused_with_advice() {
+    let e = vlf::lightfield::tiles::TilePages::plan(1 << 26, 64, 64 << 20).unwrap_err().to_string();
+    println!("{e}");
+    assert!(e.contains(&format!("at most {}", vlf::lightfield::tiles::MAX_TILE_PAGES)) && e.contains("fewer directions"), "{e}");
+    let ok = vlf::lightfield::tiles::TilePages::plan(1 << 24, 64, 128 << 20).unwrap();
+    assert_eq!((ok.pages, ok.page_cells), (2, 1 << 23));
+    assert_eq!(ok.ranges(), vec![(0, 1 << 23), (1 << 23, 1 << 23)]);
+}

@@ -43,7 +43,7 @@ fn textured_room_shows_its_textures_in_the_light_field() {
     assert!(light > 8.0 * dark, "checkerboard contrast lost: 10th percentile {dark}, 90th {light}");
     // and it reaches the image
     let ledger = vlf::gpu::MemoryLedger::default();
-    let resident = lf.upload(gpu());
+    let resident = lf.upload(gpu()).unwrap();
     let mut r = vlf::render::Renderer::new(&resident, &lf, &ledger).unwrap();
     let frame = r.render(lf.camera(Some("front")).unwrap(), 64, 64).unwrap();
     assert!(frame.pixels.iter().flatten().all(|x| x.is_finite()));

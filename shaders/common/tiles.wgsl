@@ -1,6 +1,7 @@
 // Lookups in the sparse mirror tiles (src/lightfield/tiles.rs). The including file binds
 // `tile_rects` (per direction and non-diffuse face: [x0 | y0 << 16, w | h << 16, first, 0]),
-// `tile_index` (slot per tile of each rectangle, or NO_FACE) and `tile_radiance` (rgb per cell).
+// `tile_index` (slot per tile of each rectangle, or NO_FACE) and the pages of tile radiance read
+// through `tile_load` (common/tile_pages.wgsl), and defines `tile_cells_total()`.
 
 // Radiance of tile cell (col, row) of non-diffuse face `slot` in direction `dir_index`; w is 1
 // where the cell is stored, 0 where it is not. With `fixed_work` (the renderer) every call
@@ -25,12 +26,12 @@ fn tile_cell(dir_index: u32, slot: u32, col: i32, row: i32, tile_size: u32, tile
     if tile == NO_FACE && !fixed_work {
         return vec4<f32>(0.0);
     }
-    let tiles = arrayLength(&tile_radiance) / (tile_size * tile_size);
+    let tiles = tile_cells_total() / (tile_size * tile_size);
     let read_tile = select(tile, at % max(tiles, 1u), tile == NO_FACE);
     let local = ((row % m) + m) % m * m + ((col % m) + m) % m;
     let cell = read_tile * tile_size * tile_size + u32(local);
     let stored = inside && tile != NO_FACE;
-    return select(vec4<f32>(0.0), vec4<f32>(tile_radiance[cell].xyz, 1.0), stored);
+    return select(vec4<f32>(0.0), vec4<f32>(tile_load(cell).xyz, 1.0), stored);
 }
 
 // Bilinear over the four cells around point p in direction d's grid; cells that are not stored

@@ -70,6 +70,16 @@ struct GridParams {
     tile_cell_count: u32,
     // global index of `directions[0]`: 0 unless directions come in batches
     first_direction: u32,
+    // mirror tiles in pages (common/tile_pages.wgsl): cells per page
+    tile_page_cells: u32,
+}
+
+// mirrors gpu::types::GpuTilePage: the page of mirror tile cells one dispatch writes
+struct TilePage {
+    // its first cell among all tile cells, and its cells
+    base: u32,
+    cells: u32,
+    _pad0: u32,
     _pad1: u32,
 }
 
@@ -88,8 +98,9 @@ struct View {
     grid_resolution: u32,
     // > 0: the mesh is this small, and every eye ray tests every triangle
     exhaustive_triangles: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // mirror tiles: cells per page, and cells in all
+    tile_page_cells: u32,
+    tile_cell_count: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

@@ -9,6 +9,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/atlas.wgsl", include_str!("../../shaders/common/atlas.wgsl")),
     ("common/directions.wgsl", include_str!("../../shaders/common/directions.wgsl")),
     ("common/tiles.wgsl", include_str!("../../shaders/common/tiles.wgsl")),
+    ("common/tile_pages.wgsl", include_str!("../../shaders/common/tile_pages.wgsl")),
     ("common/upstream.wgsl", include_str!("../../shaders/common/upstream.wgsl")),
     ("common/bvh.wgsl", include_str!("../../shaders/common/bvh.wgsl")),
     ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),

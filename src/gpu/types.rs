@@ -65,6 +65,16 @@ pub struct GpuGrid {
     pub direction_weight: f32,
     pub tile_cell_count: u32,
     pub first_direction: u32,
+    pub tile_page_cells: u32,
+}
+
+/// Mirrors WGSL `TilePage` (shaders/specular.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuTilePage {
+    pub base: u32,
+    pub cells: u32,
+    pub _pad0: u32,
     pub _pad1: u32,
 }
 
@@ -97,8 +107,8 @@ pub struct GpuView {
     pub tile_face_count: u32,
     pub grid_resolution: u32,
     pub exhaustive_triangles: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    pub tile_page_cells: u32,
+    pub tile_cell_count: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to.
@@ -111,7 +121,7 @@ pub struct RenderVertex {
 }
 
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 6] {
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 7] {
     [
         ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
         ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
@@ -119,6 +129,7 @@ pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str);
         ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>(), "render.wgsl"),
         ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
         ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
+        ("GpuTilePage", "TilePage", std::mem::size_of::<GpuTilePage>(), "specular.wgsl"),
     ]
 }
 

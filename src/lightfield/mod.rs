@@ -89,24 +89,40 @@ impl LightField {
     }
 
     /// Upload for rendering.
-    pub fn upload(&self, ctx: Arc<GpuContext>) -> ResidentLightField {
+    pub fn upload(&self, ctx: Arc<GpuContext>) -> crate::error::Result<ResidentLightField> {
         let ledger = MemoryLedger::default();
+        ctx.check_binding("the radiance atlas", self.total.len() as u64 * 16, "it was propagated on an adapter with larger bindings; lower the texel density")?;
         let faces = ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&self.faces), STORAGE);
         let total = ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total), STORAGE);
-        let tiles = self.tiles.as_ref().map(|t| {
+        let tiles = match &self.tiles {
+            None => None,
+            Some(t) => {
+            let limits = ctx.limits();
+            let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+            let cells_per_tile = self.meta.params.tile_size * self.meta.params.tile_size;
+            let pages = tiles::TilePages::plan(t.total.len() as u64, cells_per_tile, max_binding)?;
             let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
             let (points, index) = set.gpu_tables();
             let dirs = crate::propagate::gpu_directions(&set.directions);
-            ResidentTiles {
+            Some(ResidentTiles {
                 rects: ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&t.rects), STORAGE),
                 index: ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&t.index), STORAGE),
-                radiance: ctx.buffer_init(&ledger, "mirror tiles: total radiance", bytemuck::cast_slice(&t.total), STORAGE),
+                radiance: pages
+                    .ranges()
+                    .iter()
+                    .map(|&(first, n)| {
+                        let cells = &t.total[first as usize..(first + n) as usize];
+                        ctx.buffer_init(&ledger, "mirror tiles: total radiance", bytemuck::cast_slice(cells), STORAGE)
+                    })
+                    .collect(),
+                pages,
                 geodesic_points: ctx.buffer_init(&ledger, "geodesic tables", bytemuck::cast_slice(&points), STORAGE),
                 geodesic_index: ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
                 directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&dirs), STORAGE),
+            })
             }
-        });
-        ResidentLightField { ctx, faces, total, tiles, ledger }
+        };
+        Ok(ResidentLightField { ctx, faces, total, tiles, ledger })
     }
 }
 
@@ -123,7 +139,9 @@ pub struct ResidentLightField {
 pub struct ResidentTiles {
     pub rects: wgpu::Buffer,
     pub index: wgpu::Buffer,
-    pub radiance: wgpu::Buffer,
+    /// converged mirror radiance per tile cell, in pages of at most one binding
+    pub radiance: Vec<wgpu::Buffer>,
+    pub pages: tiles::TilePages,
     pub geodesic_points: wgpu::Buffer,
     pub geodesic_index: wgpu::Buffer,
     pub directions: wgpu::Buffer,

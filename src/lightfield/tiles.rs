@@ -4,8 +4,51 @@
 //! neighbours). A (direction, face) -> tile rectangle table and a per-rectangle index give each
 //! tile's slot; slot s holds cells [s*m^2, (s+1)*m^2). A diffuse-only scene has no tiles at all.
 
+use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuDirection, NO_FACE};
 use glam::{DVec2, DVec3};
+
+/// The mirror tile cells split into pages, none larger than one storage binding (128 MiB on the
+/// software adapter), bound as up to MAX_TILE_PAGES buffers (shaders/common/tile_pages.wgsl).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TilePages {
+    /// cells per page (whole tiles)
+    pub page_cells: u32,
+    pub pages: u32,
+    pub total_cells: u64,
+}
+
+pub const MAX_TILE_PAGES: u32 = 4;
+
+impl TilePages {
+    /// Pages for `total_cells` cells of 16 bytes in tiles of `cells_per_tile`, each page at most
+    /// `max_binding` bytes. `VLF_TILE_PAGE_BYTES` lowers the page size (tests: several pages on
+    /// a small scene).
+    pub fn plan(total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
+        let limit = std::env::var("VLF_TILE_PAGE_BYTES").ok().and_then(|v| v.parse::<u64>().ok()).map_or(max_binding, |v| v.min(max_binding));
+        let tiles_per_page = (limit / (16 * cells_per_tile as u64)).clamp(1, (u32::MAX / cells_per_tile) as u64);
+        let page_cells = (tiles_per_page * cells_per_tile as u64).min(total_cells.max(cells_per_tile as u64));
+        let pages = total_cells.div_ceil(page_cells).max(1);
+        if pages > MAX_TILE_PAGES as u64 {
+            return Err(VlfError::GpuBudget(format!(
+                "the mirror tiles ({total_cells} cells x 16 bytes = {}) need {pages} buffers of one binding ({}) and at most {MAX_TILE_PAGES} are bound; use fewer directions, a coarser grid or smaller tiles",
+                crate::gpu::human_bytes(total_cells * 16),
+                crate::gpu::human_bytes(limit)
+            )));
+        }
+        Ok(TilePages { page_cells: page_cells as u32, pages: pages as u32, total_cells })
+    }
+
+    /// (first cell, cells) of every page.
+    pub fn ranges(&self) -> Vec<(u32, u32)> {
+        (0..self.pages)
+            .map(|p| {
+                let first = p as u64 * self.page_cells as u64;
+                (first as u32, (self.total_cells - first).min(self.page_cells as u64) as u32)
+            })
+            .collect()
+    }
+}
 
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TileLayout {

@@ -10,10 +10,10 @@
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
-use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
+use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuTilePage, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
-use crate::lightfield::tiles::TileLayout;
+use crate::lightfield::tiles::{TileLayout, TilePages};
 use crate::lightfield::ResidentLightField;
 use crate::prepare::PreparedScene;
 use std::sync::Arc;
@@ -57,11 +57,20 @@ impl ElementState {
     }
 }
 
+/// One page of mirror tile cells (at most one binding): its state, power weights, and the
+/// uniform telling gather_tiles which cells it holds.
+struct TilePage {
+    state: ElementState,
+    power_weight: wgpu::Buffer,
+    first: u32,
+    page_uniform: wgpu::Buffer,
+}
+
 /// The mirror tiles of a scene with non-diffuse faces.
 struct Tiles {
     layout: TileLayout,
-    state: ElementState,
-    power_weight: wgpu::Buffer,
+    pages: Vec<TilePage>,
+    page_plan: TilePages,
     tables: [wgpu::Buffer; 5],
     fixed_directions: wgpu::Buffer,
     layout2: wgpu::BindGroupLayout,
@@ -140,11 +149,8 @@ impl Propagator {
         ctx.check_binding("the radiance atlas", texel_count as u64 * 16, "lower the texel density")?;
         let cells_per_tile = params.tile_size * params.tile_size;
         let tile_cells = layout.headers.len() as u64 * cells_per_tile as u64;
-        ctx.check_binding(
-            &format!("the mirror tiles ({tile_cells} cells x 16 bytes)"),
-            tile_cells * 16,
-            "use fewer directions, a coarser grid or smaller tiles",
-        )?;
+        let limits = ctx.limits();
+        let tile_pages = TilePages::plan(tile_cells, cells_per_tile, limits.max_storage_buffer_binding_size.min(limits.max_buffer_size))?;
         // decided before anything is allocated, now that the tiles' size is known
         let plan = match plan {
             Some(p) => p.clone(),
@@ -177,6 +183,7 @@ impl Propagator {
             tile_face_count: layout.faces.len() as u32,
             direction_weight: 1.0 / k as f32,
             tile_cell_count: tile_cells as u32,
+            tile_page_cells: tile_pages.page_cells,
             ..Default::default()
         };
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
@@ -212,7 +219,12 @@ impl Propagator {
             (ctx.compute_pipeline(&module, "gather", &[&layout0, &layout1]), None)
         } else {
             let module = shaders::module(device, "specular.wgsl")?;
-            let layout2 = bind_group_layout(device, cs, &[Storage, Storage, Storage, Storage, Storage, Storage, Storage, StorageReadWrite]);
+            // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
+            let layout2 = bind_group_layout(
+                device,
+                cs,
+                &[Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, StorageReadWrite, Uniform],
+            );
             let gather = ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
             let gather_tiles = ctx.compute_pipeline(&module, "gather_tiles", &[&layout0, &layout1, &layout2]);
             let (points, index) = directions.gpu_tables();
@@ -222,10 +234,23 @@ impl Propagator {
                 .iter()
                 .flat_map(|hd| std::iter::repeat_n((h * h * directions.directions[hd[0] as usize].solid_angle) as f32, cells_per_tile as usize))
                 .collect();
-            let zero = vec![[0.0f32; 4]; tile_cells as usize];
+            let pages = tile_pages
+                .ranges()
+                .into_iter()
+                .map(|(first, cells)| {
+                    let zero = vec![[0.0f32; 4]; cells as usize];
+                    let range = GpuTilePage { base: first, cells, ..Default::default() };
+                    TilePage {
+                        state: ElementState::new(&ctx, &ledger, "mirror tiles", &zero, &zero, 1.0),
+                        power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights[first as usize..(first + cells) as usize]), STORAGE),
+                        first,
+                        page_uniform: ctx.buffer_init(&ledger, "mirror tiles: page", bytemuck::bytes_of(&range), wgpu::BufferUsages::UNIFORM),
+                    }
+                })
+                .collect();
             let tiles = Tiles {
-                state: ElementState::new(&ctx, &ledger, "mirror tiles", &zero, &zero, 1.0),
-                power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights), STORAGE),
+                pages,
+                page_plan: tile_pages,
                 tables: [
                     ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&layout.rects), STORAGE),
                     ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&layout.index), STORAGE),
@@ -268,7 +293,7 @@ impl Propagator {
         } else {
             (ctx.buffer_zeroed(&MemoryLedger::default(), "weight sums placeholder", 16, STORAGE), None)
         };
-        let timestamps = Timestamps::new(&ctx, 4 + 2 * k);
+        let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
         let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
             ctx,
@@ -324,8 +349,8 @@ impl Propagator {
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             encoder.clear_buffer(&self.texels.radiance[1 - self.current], 0, None);
             encoder.clear_buffer(&self.weight_sums, 0, None);
-            if let Some(t) = &self.tiles {
-                encoder.clear_buffer(&t.state.radiance[1 - self.current], 0, None);
+            for page in self.tiles.iter().flat_map(|t| &t.pages) {
+                encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
             }
             self.ctx.queue.submit([encoder.finish()]);
         }
@@ -410,11 +435,17 @@ impl Propagator {
         );
         let (unshot, next) = (&self.texels.radiance[self.current], &self.texels.radiance[1 - self.current]);
         let bg1 = ctx.bind_group(&self.layout1, &[unshot, next, &self.weight_sums]);
-        let bg2 = self.tiles.as_ref().map(|t| {
+        // per page: every page's unshot radiance to read, and this page's next to write
+        let current = self.current;
+        let mut bg2: Vec<wgpu::BindGroup> = Vec::new();
+        if let Some(t) = &self.tiles {
             let [a, b, c, d, e] = &t.tables;
-            let (tu, tn) = (&t.state.radiance[self.current], &t.state.radiance[1 - self.current]);
-            ctx.bind_group(&t.layout2, &[a, b, c, d, e, &t.fixed_directions, tu, tn])
-        });
+            let unshot = |p: usize| &t.pages.get(p).unwrap_or(&t.pages[0]).state.radiance[current];
+            for page in &t.pages {
+                let next = &page.state.radiance[1 - current];
+                bg2.push(ctx.bind_group(&t.layout2, &[a, b, c, d, e, &t.fixed_directions, unshot(0), unshot(1), unshot(2), unshot(3), next, &page.page_uniform]));
+            }
+        }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -423,7 +454,7 @@ impl Propagator {
             });
             pass.set_bind_group(0, &bg0, &[]);
             pass.set_bind_group(1, &bg1, &[]);
-            if let Some(bg2) = &bg2 {
+            if let Some(bg2) = bg2.first() {
                 pass.set_bind_group(2, bg2, &[]);
             }
             pass.set_pipeline(&self.gather_pipe);
@@ -431,8 +462,11 @@ impl Propagator {
             pass.dispatch_workgroups(x, y, 1);
             if let (Some(t), true) = (&self.tiles, with_tiles) {
                 pass.set_pipeline(&t.gather_pipe);
-                let (x, y) = dispatch_2d(t.state.count.div_ceil(64));
-                pass.dispatch_workgroups(x, y, 1);
+                for (page, bg) in t.pages.iter().zip(&bg2) {
+                    pass.set_bind_group(2, bg, &[]);
+                    let (x, y) = dispatch_2d(page.state.count.div_ceil(64));
+                    pass.dispatch_workgroups(x, y, 1);
+                }
             }
         }
         ctx.queue.submit([encoder.finish()]);
@@ -444,8 +478,8 @@ impl Propagator {
         let Some((pipe, layout)) = &self.normalize else { return };
         let ctx = &self.ctx;
         let mut passes = vec![(&self.texels.radiance[1 - self.current], self.texel_count, std::f32::consts::PI, 0)];
-        if let Some(t) = &self.tiles {
-            passes.push((&t.state.radiance[1 - self.current], t.state.count, 1.0, self.texel_count));
+        for page in self.tiles.iter().flat_map(|t| &t.pages) {
+            passes.push((&page.state.radiance[1 - self.current], page.state.count, 1.0, self.texel_count + page.first));
         }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let uniforms: Vec<wgpu::Buffer> = passes
@@ -470,9 +504,23 @@ impl Propagator {
 
     /// total += next, and the power sums of next: (unshot power, sky's share).
     fn accumulate(&mut self, tiles: bool) -> Result<(f64, f64)> {
+        let parts: Vec<(usize, bool)> = match (tiles, &self.tiles) {
+            (true, Some(t)) => (0..t.pages.len()).map(|p| (p, true)).collect(),
+            _ => vec![(0, false)],
+        };
+        let (mut power, mut sky) = (0.0, 0.0);
+        for (page, is_tile) in parts {
+            let (p, s) = self.accumulate_one(page, is_tile)?;
+            power += p;
+            sky += s;
+        }
+        Ok((power, sky))
+    }
+
+    fn accumulate_one(&mut self, page: usize, tiles: bool) -> Result<(f64, f64)> {
         let ctx = &self.ctx;
         let (state, weights) = match (tiles, &self.tiles) {
-            (true, Some(t)) => (&t.state, &t.power_weight),
+            (true, Some(t)) => (&t.pages[page].state, &t.pages[page].power_weight),
             _ => (&self.texels, &self.texel_power_weight),
         };
         let bg = ctx.bind_group(
@@ -501,8 +549,8 @@ impl Propagator {
         let ctx = self.ctx.clone();
         let mut states: Vec<(&ElementState, &wgpu::Buffer, f32)> =
             vec![(&self.texels, &self.texel_power_weight, (factor / std::f64::consts::PI) as f32)];
-        if let Some(t) = &self.tiles {
-            states.push((&t.state, &t.power_weight, factor as f32));
+        for page in self.tiles.iter().flat_map(|t| &t.pages) {
+            states.push((&page.state, &page.power_weight, factor as f32));
         }
         for (state, weights, scale) in states {
             let params = GpuAccumulate { count: state.count, scale, ..Default::default() };
@@ -528,7 +576,7 @@ impl Propagator {
     /// Converged mirror radiance per tile cell (empty without mirrors).
     pub fn read_tile_total(&self) -> Result<Vec<[f32; 4]>> {
         match &self.tiles {
-            Some(t) => self.ctx.read_buffer(&t.state.total, t.state.count as u64 * 16),
+            Some(t) => self.read_pages(t, |p| &p.state.total),
             None => Ok(Vec::new()),
         }
     }
@@ -536,16 +584,25 @@ impl Propagator {
     /// The unshot mirror radiance (empty without mirrors).
     pub fn read_tile_unshot(&self) -> Result<Vec<[f32; 4]>> {
         match &self.tiles {
-            Some(t) => self.ctx.read_buffer(&t.state.radiance[self.current], t.state.count as u64 * 16),
+            Some(t) => self.read_pages(t, |p| &p.state.radiance[self.current]),
             None => Ok(Vec::new()),
         }
+    }
+
+    /// Every page of one of the tiles' arrays, read back and joined.
+    fn read_pages(&self, t: &Tiles, buffer: impl Fn(&TilePage) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
+        let mut out = Vec::with_capacity(t.page_plan.total_cells as usize);
+        for page in &t.pages {
+            out.extend(self.ctx.read_buffer::<[f32; 4]>(buffer(page), page.state.count as u64 * 16)?);
+        }
+        Ok(out)
     }
 
     /// Continue from a checkpoint: unshot and total state, iteration count, emitted power.
     pub fn restore(&mut self, cp: &super::checkpoint::Checkpoint) -> Result<()> {
         let sizes_match = cp.unshot.len() == self.texel_count as usize
             && cp.total.len() == self.texel_count as usize
-            && cp.tile_unshot.len() == self.tiles.as_ref().map_or(0, |t| t.state.count as usize)
+            && cp.tile_unshot.len() == self.tiles.as_ref().map_or(0, |t| t.page_plan.total_cells as usize)
             && cp.tile_total.len() == cp.tile_unshot.len();
         if !sizes_match {
             return Err(crate::error::VlfError::Parameter { name: "resume", message: "the checkpoint's state does not fit this scene's light field".into() });
@@ -553,9 +610,10 @@ impl Propagator {
         let q = &self.ctx.queue;
         q.write_buffer(&self.texels.radiance[self.current], 0, bytemuck::cast_slice(&cp.unshot));
         q.write_buffer(&self.texels.total, 0, bytemuck::cast_slice(&cp.total));
-        if let Some(t) = &self.tiles {
-            q.write_buffer(&t.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.tile_unshot));
-            q.write_buffer(&t.state.total, 0, bytemuck::cast_slice(&cp.tile_total));
+        for page in self.tiles.iter().flat_map(|t| &t.pages) {
+            let cells = page.first as usize..(page.first + page.state.count) as usize;
+            q.write_buffer(&page.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.tile_unshot[cells.clone()]));
+            q.write_buffer(&page.state.total, 0, bytemuck::cast_slice(&cp.tile_total[cells]));
         }
         self.iteration = cp.meta.iteration;
         self.emitted_power = cp.meta.emitted_power;
@@ -582,12 +640,15 @@ impl Propagator {
             for (name, b) in [("tile rectangles", &rects), ("tile index", &index), ("geodesic tables", &points), ("geodesic index", &geodesic_index)] {
                 ledger.record(name, b.size());
             }
-            ledger.record("mirror tiles: total radiance", t.state.total.size());
+            for page in &t.pages {
+                ledger.record("mirror tiles: total radiance", page.state.total.size());
+            }
             ledger.record("directions", self.scene.directions.size());
             crate::lightfield::ResidentTiles {
                 rects,
                 index,
-                radiance: t.state.total,
+                radiance: t.pages.into_iter().map(|p| p.state.total).collect(),
+                pages: t.page_plan,
                 geodesic_points: points,
                 geodesic_index,
                 directions: t.fixed_directions,

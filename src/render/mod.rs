@@ -92,7 +92,7 @@ impl Renderer {
         use Binding::*;
         let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, ImageWrite]);
         // a diffuse-only light field binds no view-dependent path at all
-        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 6]));
+        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 9]));
         let mut resolve_layouts = vec![&resolve_layout];
         if let Some(t) = &tile_layout {
             resolve_layouts.push(t);
@@ -119,7 +119,9 @@ impl Renderer {
         let nodes = storage("render mesh: BVH", bytemuck::cast_slice(&nodes));
         let tile_bind_group = match (&tile_layout, &resident.tiles) {
             (Some(l), Some(t)) => {
-                Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, &t.radiance]))
+                // four page bindings; pages a light field does not have repeat page 0
+                let page = |p: usize| t.radiance.get(p).unwrap_or(&t.radiance[0]);
+                Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, page(0), page(1), page(2), page(3)]))
             }
             _ => None,
         };
@@ -134,6 +136,8 @@ impl Renderer {
             tile_face_count: lf.tiles.as_ref().map_or(0, |t| t.face_count),
             grid_resolution: p.grid_resolution,
             exhaustive_triangles,
+            tile_page_cells: resident.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
+            tile_cell_count: resident.tiles.as_ref().map_or(0, |t| t.pages.total_cells as u32),
             ..Default::default()
         };
         Ok(Renderer {

@@ -1,0 +1,61 @@
+//! Mirror tiles in pages: when the tile cells outgrow one storage binding (128 MiB on the
+//! software adapter) they are split over up to four buffers. Here `VLF_TILE_PAGE_BYTES` makes
+//! the pages small so that a small scene spans several; propagation and rendering must give the
+//! one-page result. (Its own test binary: the variable is process-wide. The real > 128 MiB case
+//! is in `vlf stress`, STABILITY.md.)
+
+mod common;
+use common::*;
+use glam::DVec3;
+use vlf::propagate::PropagationParams;
+use vlf::scene::Scene;
+
+fn mirror_room(dir: &std::path::Path) -> Scene {
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", DVec3::ZERO, 0.8, true);
+    obj.quad("light", DVec3::new(0.0, 0.79, 0.0), -DVec3::Y, [0.4, 0.4], 0.0);
+    obj.quad("glass", DVec3::new(-0.79, 0.0, 0.0), DVec3::X, [1.2, 1.2], 0.0);
+    obj.quad("glass", DVec3::new(0.0, 0.0, -0.79), DVec3::Z, [1.2, 1.2], 0.0);
+    Scene::load(&write_scene(
+        dir,
+        &obj,
+        &[
+            Mat { name: "wall", kd: [0.6, 0.6, 0.6], ke: [0.0; 3] },
+            Mat { name: "light", kd: [0.0; 3], ke: [10.0; 3] },
+            Mat { name: "glass", kd: [0.0; 3], ke: [0.0; 3] },
+        ],
+        "[materials.glass]\nmirror = [0.8, 0.8, 0.8]\n",
+    ))
+    .unwrap()
+}
+
+#[test]
+fn paged_mirror_tiles_give_the_one_page_result() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = mirror_room(dir.path());
+    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None };
+    let render = |lf: &vlf::lightfield::LightField| {
+        let resident = lf.upload(gpu()).unwrap();
+        let pages = resident.tiles.as_ref().unwrap().radiance.len();
+        let mut renderer = vlf::render::Renderer::new(&resident, lf, &vlf::gpu::MemoryLedger::default()).unwrap();
+        (renderer.render(lf.camera(None).unwrap(), 96, 96).unwrap(), pages)
+    };
+    let (one, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (one_image, one_pages) = render(&one);
+    let cells = one.tiles.as_ref().unwrap().total.len();
+    // pages of a third of the cells, rounded to whole tiles
+    let page_bytes = (cells as u64 * 16 / 3).next_multiple_of(64 * 16);
+    std::env::set_var("VLF_TILE_PAGE_BYTES", page_bytes.to_string());
+    let (paged, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (paged_image, paged_pages) = render(&paged);
+    std::env::remove_var("VLF_TILE_PAGE_BYTES");
+    println!("{cells} tile cells: {one_pages} page unpaged, {paged_pages} pages of {page_bytes} bytes; {} iterations", report.iterations);
+    assert_eq!(one_pages, 1);
+    assert!(paged_pages >= 3, "{paged_pages} pages");
+    let (a, b) = (&one.tiles.as_ref().unwrap().total, &paged.tiles.as_ref().unwrap().total);
+    let scale = a.iter().map(|v| v[0].max(v[1]).max(v[2])).fold(0.0f32, f32::max);
+    let worst = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs())).fold(0.0f32, f32::max) / scale;
+    assert!(worst < 1e-6, "tile radiance differs by {worst:.2e} of the maximum");
+    assert!(one.total.iter().zip(&paged.total).all(|(x, y)| x == y), "texels differ");
+    assert!(one_image.pixels == paged_image.pixels, "the paged light field renders differently");
+}
