@@ -20,10 +20,24 @@
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
-@group(0) @binding(2) var<storage, read> radiance: array<vec4<f32>>;
-@group(0) @binding(3) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(4) var<storage, read> nodes: array<BvhNode>;
-@group(0) @binding(5) var image: texture_storage_2d<rgba32float, write>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(3) var<storage, read> nodes: array<BvhNode>;
+@group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
+// the converged radiance atlas, in pages of view.texel_page_cells texels
+@group(0) @binding(5) var<storage, read> radiance_0: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> radiance_1: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> radiance_2: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> radiance_3: array<vec4<f32>>;
+
+fn radiance(texel: u32) -> vec4<f32> {
+    let i = texel % view.texel_page_cells;
+    switch texel / view.texel_page_cells {
+        case 0u: { return radiance_0[i]; }
+        case 1u: { return radiance_1[i]; }
+        case 2u: { return radiance_2[i]; }
+        default: { return radiance_3[i]; }
+    }
+}
 // view-dependent part, bound only for scenes with mirrors (resolve_mixed)
 @group(1) @binding(0) var<storage, read> directions: array<Direction>;
 @group(1) @binding(1) var<storage, read> geodesic_points: array<vec4<f32>>;
@@ -45,8 +59,8 @@ fn tile_cells_total() -> u32 {
 
 fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
     let taps = atlas_taps(f, p, view.atlas_width);
-    return radiance[taps.index.x].xyz * taps.weight.x + radiance[taps.index.y].xyz * taps.weight.y
-        + radiance[taps.index.z].xyz * taps.weight.z + radiance[taps.index.w].xyz * taps.weight.w;
+    return radiance(taps.index.x).xyz * taps.weight.x + radiance(taps.index.y).xyz * taps.weight.y
+        + radiance(taps.index.z).xyz * taps.weight.z + radiance(taps.index.w).xyz * taps.weight.w;
 }
 
 // The mirror part seen from the eye: three fixed directions around the view direction.

@@ -27,7 +27,7 @@
 // next unshot mirror radiance (rgb) and, in w, the share that came from the sky (r+g+b): the
 // page this dispatch writes
 @group(2) @binding(10) var<storage, read_write> tile_next: array<vec4<f32>>;
-@group(2) @binding(11) var<uniform> tile_page: TilePage;
+@group(2) @binding(11) var<uniform> tile_page: PageRange;
 
 fn tile_page_cells() -> u32 {
     return grid.tile_page_cells;
@@ -81,7 +81,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let rel = on_plane - f.origin;
     let st = vec2<f32>(dot(rel, f.axis_a), dot(rel, f.axis_b)) * f.texel_density - 0.5;
     let texel = vec2<u32>(clamp(round(st), vec2<f32>(0.0), vec2<f32>(f32(f.atlas_w - 1u), f32(f.atlas_h - 1u))));
-    let sample = texel_points[(f.atlas_y + texel.y) * grid.atlas_width + f.atlas_x + texel.x].xyz;
+    let sample = texel_point((f.atlas_y + texel.y) * grid.atlas_width + f.atlas_x + texel.x).xyz;
     let centre = f.origin + (f.axis_a * (f32(texel.x) + 0.5) + f.axis_b * (f32(texel.y) + 0.5)) / f.texel_density;
     let inside = all(abs(st - vec2<f32>(texel)) <= vec2<f32>(0.5)) && distance(sample, centre) < 1e-5;
     let x = select(sample, on_plane, inside);

@@ -401,6 +401,23 @@ pub fn run(ctx: Arc<GpuContext>) -> Result<Vec<Case>> {
     })();
     add("mirror tiles beyond one binding", "2 mirror + 4 diffuse emitting walls, 126 directions x 512^2 cells", "tiles split into pages; runs, every texel within 2% of Le/(1-rho)", outcome);
 
+    let outcome = (|| {
+        let dir = temp()?;
+        let scene = Builder::new().material("w", 0.5, 1.0).cube("w", DVec3::ZERO, 0.5, true).write(dir.path(), "")?;
+        // 1200 texels per unit on a furnace: about 10 M texels, 160 MiB per texel array
+        let dense = PropagationParams { geodesic_frequency: 2, grid_resolution: 32, texel_density: 1200.0, tolerance: 1e-2, ..small() };
+        let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &dense, false)?;
+        let worst = lf.total.iter().filter(|t| t[0] > 0.0).map(|t| (t[0] as f64 - 2.0).abs() / 2.0).fold(0.0, f64::max);
+        let limit = ctx.limits().max_storage_buffer_binding_size;
+        let bytes = lf.total.len() as u64 * 16;
+        let pages = bytes.div_ceil(limit);
+        Ok((
+            format!("{} texels ({} per array) in {pages} page(s) of at most {}; furnace worst texel {:.2}% off", lf.total.len(), crate::gpu::human_bytes(bytes), crate::gpu::human_bytes(limit), worst * 100.0),
+            worst < 0.01 && report.converged && (pages > 1 || bytes <= limit),
+        ))
+    })();
+    add("radiance atlas beyond one binding", "furnace at 1200 texels/unit", "texel arrays split into pages; runs, furnace within 1%", outcome);
+
 
     let outcome = (|| {
         let dir = temp()?;

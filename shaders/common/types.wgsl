@@ -72,11 +72,17 @@ struct GridParams {
     first_direction: u32,
     // mirror tiles in pages (common/tile_pages.wgsl): cells per page
     tile_page_cells: u32,
+    // texel arrays in pages (common/upstream.wgsl): texels per page
+    texel_page_cells: u32,
+    _pad1: u32,
+    _pad2: u32,
+    _pad3: u32,
 }
 
-// mirrors gpu::types::GpuTilePage: the page of mirror tile cells one dispatch writes
-struct TilePage {
-    // its first cell among all tile cells, and its cells
+// mirrors gpu::types::GpuPageRange: the page of elements (texels, or mirror tile cells) one
+// dispatch writes
+struct PageRange {
+    // its first element among all, and its elements
     base: u32,
     cells: u32,
     _pad0: u32,
@@ -101,6 +107,11 @@ struct View {
     // mirror tiles: cells per page, and cells in all
     tile_page_cells: u32,
     tile_cell_count: u32,
+    // the radiance atlas in pages: texels per page
+    texel_page_cells: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

@@ -9,14 +9,44 @@
 @group(0) @binding(3) var<storage, read> cell_offset: array<u32>;
 @group(0) @binding(4) var<storage, read> cell_count: array<u32>;
 @group(0) @binding(5) var<storage, read> layers: array<vec2<u32>>;
-// (sample point on the face, bitcast face id or NO_FACE)
-@group(0) @binding(6) var<storage, read> texel_points: array<vec4<f32>>;
+// Texel arrays come in pages of grid.texel_page_cells texels (one storage binding may hold
+// less than a big atlas: 128 MiB on the software adapter); pages a scene does not have are
+// bound to page 0. (sample point on the face, bitcast face id or NO_FACE)
+@group(0) @binding(6) var<storage, read> texel_points_0: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> texel_points_1: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> texel_points_2: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> texel_points_3: array<vec4<f32>>;
 // unshot radiosity (rgb)
-@group(1) @binding(0) var<storage, read> unshot: array<vec4<f32>>;
-// next unshot radiosity (rgb) and, in w, the sky's share of the irradiance (r+g+b)
-@group(1) @binding(1) var<storage, read_write> next: array<vec4<f32>>;
+@group(1) @binding(0) var<storage, read> unshot_0: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read> unshot_1: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> unshot_2: array<vec4<f32>>;
+@group(1) @binding(3) var<storage, read> unshot_3: array<vec4<f32>>;
+// next unshot radiosity (rgb) and, in w, the sky's share of the irradiance (r+g+b): the page
+// this dispatch writes, and which texels it holds
+@group(1) @binding(4) var<storage, read_write> next: array<vec4<f32>>;
+@group(1) @binding(5) var<uniform> texel_page: PageRange;
 // with GRID_FLAG_BATCHED: the quadrature weights used so far, per texel then per tile cell
-@group(1) @binding(2) var<storage, read_write> weight_sums: array<f32>;
+@group(1) @binding(6) var<storage, read_write> weight_sums: array<f32>;
+
+fn texel_point(texel: u32) -> vec4<f32> {
+    let i = texel % grid.texel_page_cells;
+    switch texel / grid.texel_page_cells {
+        case 0u: { return texel_points_0[i]; }
+        case 1u: { return texel_points_1[i]; }
+        case 2u: { return texel_points_2[i]; }
+        default: { return texel_points_3[i]; }
+    }
+}
+
+fn unshot_load(texel: u32) -> vec4<f32> {
+    let i = texel % grid.texel_page_cells;
+    switch texel / grid.texel_page_cells {
+        case 0u: { return unshot_0[i]; }
+        case 1u: { return unshot_1[i]; }
+        case 2u: { return unshot_2[i]; }
+        default: { return unshot_3[i]; }
+    }
+}
 
 fn layer_depth(l: vec2<u32>) -> f32 {
     return bitcast<f32>(l.y);
@@ -149,14 +179,14 @@ fn sender_radiance(sender: u32, x: vec3<f32>, dir_index: u32, travel: vec3<f32>)
     let t = (dot(s.normal, x) - s.plane_offset) / facing;
     let xs = x - travel * t;
     let taps = atlas_taps(s, xs, grid.atlas_width);
-    let b = unshot[taps.index.x].xyz * taps.weight.x + unshot[taps.index.y].xyz * taps.weight.y
-        + unshot[taps.index.z].xyz * taps.weight.z + unshot[taps.index.w].xyz * taps.weight.w;
+    let b = unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+        + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w;
     return b / PI + sender_specular(s, xs, dir_index, travel);
 }
 
 // Next unshot radiosity of one texel (rgb) and the sky's share of its irradiance (w).
 fn gather_texel(texel: u32) -> vec4<f32> {
-    let point = texel_points[texel];
+    let point = texel_point(texel);
     let face_id = bitcast<u32>(point.w);
     if face_id == NO_FACE {
         return vec4<f32>(0.0);
@@ -204,15 +234,16 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
 }
 
-// One texel's gather, written to `next` (added to it for perturbed sets after the first).
-fn gather_and_store(texel: u32) {
-    if texel >= grid.texel_count {
+// One texel's gather, written to `next` (added to it for perturbed sets after the first);
+// `in_page` counts from the first texel of the page this dispatch writes.
+fn gather_and_store(in_page: u32) {
+    if in_page >= texel_page.cells {
         return;
     }
-    let value = gather_texel(texel);
+    let value = gather_texel(texel_page.base + in_page);
     if (grid.flags & (GRID_FLAG_ACCUMULATE | GRID_FLAG_BATCHED)) != 0u {
-        next[texel] += value;
+        next[in_page] += value;
     } else {
-        next[texel] = value;
+        next[in_page] = value;
     }
 }

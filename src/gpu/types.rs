@@ -66,12 +66,16 @@ pub struct GpuGrid {
     pub tile_cell_count: u32,
     pub first_direction: u32,
     pub tile_page_cells: u32,
+    pub texel_page_cells: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+    pub _pad3: u32,
 }
 
-/// Mirrors WGSL `TilePage` (shaders/specular.wgsl).
+/// Mirrors WGSL `PageRange`: the page of elements one dispatch writes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
-pub struct GpuTilePage {
+pub struct GpuPageRange {
     pub base: u32,
     pub cells: u32,
     pub _pad0: u32,
@@ -109,6 +113,10 @@ pub struct GpuView {
     pub exhaustive_triangles: u32,
     pub tile_page_cells: u32,
     pub tile_cell_count: u32,
+    pub texel_page_cells: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to.
@@ -129,7 +137,7 @@ pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str);
         ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>(), "render.wgsl"),
         ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
         ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
-        ("GpuTilePage", "TilePage", std::mem::size_of::<GpuTilePage>(), "specular.wgsl"),
+        ("GpuPageRange", "PageRange", std::mem::size_of::<GpuPageRange>(), "specular.wgsl"),
     ]
 }
 

@@ -91,14 +91,18 @@ impl LightField {
     /// Upload for rendering.
     pub fn upload(&self, ctx: Arc<GpuContext>) -> crate::error::Result<ResidentLightField> {
         let ledger = MemoryLedger::default();
-        ctx.check_binding("the radiance atlas", self.total.len() as u64 * 16, "it was propagated on an adapter with larger bindings; lower the texel density")?;
+        let limits = ctx.limits();
+        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let texel_pages = tiles::TilePages::plan_texels(self.total.len() as u64, max_binding)?;
         let faces = ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&self.faces), STORAGE);
-        let total = ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total), STORAGE);
+        let total = texel_pages
+            .ranges()
+            .iter()
+            .map(|&(first, n)| ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total[first as usize..(first + n) as usize]), STORAGE))
+            .collect();
         let tiles = match &self.tiles {
             None => None,
             Some(t) => {
-            let limits = ctx.limits();
-            let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
             let cells_per_tile = self.meta.params.tile_size * self.meta.params.tile_size;
             let pages = tiles::TilePages::plan(t.total.len() as u64, cells_per_tile, max_binding)?;
             let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
@@ -122,7 +126,7 @@ impl LightField {
             })
             }
         };
-        Ok(ResidentLightField { ctx, faces, total, tiles, ledger })
+        Ok(ResidentLightField { ctx, faces, total, texel_pages, tiles, ledger })
     }
 }
 
@@ -130,7 +134,9 @@ impl LightField {
 pub struct ResidentLightField {
     pub ctx: Arc<GpuContext>,
     pub faces: wgpu::Buffer,
-    pub total: wgpu::Buffer,
+    /// converged radiance per texel, in pages of at most one binding
+    pub total: Vec<wgpu::Buffer>,
+    pub texel_pages: tiles::TilePages,
     /// the view-dependent part; None for a diffuse-only scene
     pub tiles: Option<ResidentTiles>,
     pub ledger: MemoryLedger,

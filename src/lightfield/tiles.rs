@@ -8,8 +8,9 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuDirection, NO_FACE};
 use glam::{DVec2, DVec3};
 
-/// The mirror tile cells split into pages, none larger than one storage binding (128 MiB on the
-/// software adapter), bound as up to MAX_TILE_PAGES buffers (shaders/common/tile_pages.wgsl).
+/// Elements (mirror tile cells, or texels) split into pages, none larger than one storage binding
+/// (128 MiB on the software adapter), bound as up to MAX_TILE_PAGES buffers
+/// (shaders/common/tile_pages.wgsl, shaders/common/upstream.wgsl, shaders/render.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TilePages {
     /// cells per page (whole tiles)
@@ -21,17 +22,26 @@ pub struct TilePages {
 pub const MAX_TILE_PAGES: u32 = 4;
 
 impl TilePages {
-    /// Pages for `total_cells` cells of 16 bytes in tiles of `cells_per_tile`, each page at most
-    /// `max_binding` bytes. `VLF_TILE_PAGE_BYTES` lowers the page size (tests: several pages on
-    /// a small scene).
+    /// Pages for the mirror tiles: `total_cells` cells of 16 bytes in tiles of `cells_per_tile`,
+    /// each page at most `max_binding` bytes. `VLF_TILE_PAGE_BYTES` lowers the page size
+    /// (tests: several pages on a small scene).
     pub fn plan(total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
-        let limit = std::env::var("VLF_TILE_PAGE_BYTES").ok().and_then(|v| v.parse::<u64>().ok()).map_or(max_binding, |v| v.min(max_binding));
+        Self::plan_for("the mirror tiles", "VLF_TILE_PAGE_BYTES", total_cells, cells_per_tile, max_binding)
+    }
+
+    /// Pages for the texel arrays (16 bytes per texel); `VLF_TEXEL_PAGE_BYTES` lowers the size.
+    pub fn plan_texels(texels: u64, max_binding: u64) -> Result<TilePages> {
+        Self::plan_for("the radiance atlas", "VLF_TEXEL_PAGE_BYTES", texels, 1, max_binding)
+    }
+
+    fn plan_for(what: &str, variable: &str, total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
+        let limit = std::env::var(variable).ok().and_then(|v| v.parse::<u64>().ok()).map_or(max_binding, |v| v.min(max_binding));
         let tiles_per_page = (limit / (16 * cells_per_tile as u64)).clamp(1, (u32::MAX / cells_per_tile) as u64);
         let page_cells = (tiles_per_page * cells_per_tile as u64).min(total_cells.max(cells_per_tile as u64));
         let pages = total_cells.div_ceil(page_cells).max(1);
         if pages > MAX_TILE_PAGES as u64 {
             return Err(VlfError::GpuBudget(format!(
-                "the mirror tiles ({total_cells} cells x 16 bytes = {}) need {pages} buffers of one binding ({}) and at most {MAX_TILE_PAGES} are bound; use fewer directions, a coarser grid or smaller tiles",
+                "{what} ({total_cells} elements x 16 bytes = {}) need {pages} buffers of one binding ({}) and at most {MAX_TILE_PAGES} are bound; use fewer directions, a coarser grid, smaller tiles or a lower texel density",
                 crate::gpu::human_bytes(total_cells * 16),
                 crate::gpu::human_bytes(limit)
             )));

@@ -234,7 +234,10 @@ pub fn estimate_memory(prepared: &PreparedScene, directions: &DirectionSet, para
 /// Refuse, before allocating anything, parameters whose buffers cannot be bound, and decide
 /// how the directions are batched.
 pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate) -> Result<()> {
-    ctx.check_binding("the radiance atlas (estimated before allocating)", estimate.texel_bytes / 4, "lower the texel density")
+    // the texel arrays (16 bytes a texel) go in pages of one binding, at most four
+    let limits = ctx.limits();
+    let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+    crate::lightfield::tiles::TilePages::plan_texels(estimate.texel_bytes / (16 * 4 + 4), max_binding).map(|_| ())
 }
 
 /// How the directions' visibility lists are built: all at once and kept for every iteration

@@ -10,7 +10,7 @@
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
-use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuTilePage, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
+use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
 use crate::lightfield::tiles::{TileLayout, TilePages};
@@ -57,9 +57,9 @@ impl ElementState {
     }
 }
 
-/// One page of mirror tile cells (at most one binding): its state, power weights, and the
-/// uniform telling gather_tiles which cells it holds.
-struct TilePage {
+/// One page of elements (texels, or mirror tile cells; at most one binding): its state, power
+/// weights, and the uniform telling the gather which elements it holds.
+struct Page {
     state: ElementState,
     power_weight: wgpu::Buffer,
     first: u32,
@@ -69,7 +69,7 @@ struct TilePage {
 /// The mirror tiles of a scene with non-diffuse faces.
 struct Tiles {
     layout: TileLayout,
-    pages: Vec<TilePage>,
+    pages: Vec<Page>,
     page_plan: TilePages,
     tables: [wgpu::Buffer; 5],
     fixed_directions: wgpu::Buffer,
@@ -85,11 +85,12 @@ pub struct Propagator {
     pub visibility: Option<Visibility>,
     visibility_pipelines: VisibilityPipelines,
     pub faces: Vec<GpuFace>,
-    texels: ElementState,
-    texel_power_weight: wgpu::Buffer,
+    /// the texel arrays in pages (one for any atlas that fits one binding)
+    texels: Vec<Page>,
+    texel_pages: TilePages,
     tiles: Option<Tiles>,
-    /// map_Kd factors per texel and their pass; None for an untextured scene
-    texture: Option<(wgpu::Buffer, wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    /// map_Kd factors per texel (per page) and their pass; None for an untextured scene
+    texture: Option<(Vec<wgpu::Buffer>, wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
     /// the K direction sets (only kept when K > 1, or with batches)
     direction_sets: Vec<Vec<GpuDirection>>,
     /// (first direction, count) per batch; one batch keeps the lists resident
@@ -146,11 +147,20 @@ impl Propagator {
         let tile_slot = if layout.face_slot.is_empty() { vec![crate::gpu::types::NO_FACE; prepared.faces.len()] } else { layout.face_slot.clone() };
         let faces = gpu_faces(prepared, &tile_slot);
         let texel_count = prepared.atlas.texel_count() as u32;
-        ctx.check_binding("the radiance atlas", texel_count as u64 * 16, "lower the texel density")?;
+        let limits = ctx.limits();
+        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let texel_pages = TilePages::plan_texels(texel_count as u64, max_binding)?;
+        let texel_ranges = texel_pages.ranges();
+        // a per-page copy of a per-texel array
+        let paged = |name: &str, data: &[u8], bytes_per: usize| -> Vec<wgpu::Buffer> {
+            texel_ranges
+                .iter()
+                .map(|&(first, n)| ctx.buffer_init(&ledger, name, &data[first as usize * bytes_per..(first + n) as usize * bytes_per], STORAGE))
+                .collect()
+        };
         let cells_per_tile = params.tile_size * params.tile_size;
         let tile_cells = layout.headers.len() as u64 * cells_per_tile as u64;
-        let limits = ctx.limits();
-        let tile_pages = TilePages::plan(tile_cells, cells_per_tile, limits.max_storage_buffer_binding_size.min(limits.max_buffer_size))?;
+        let tile_pages = TilePages::plan(tile_cells, cells_per_tile, max_binding)?;
         // decided before anything is allocated, now that the tiles' size is known
         let plan = match plan {
             Some(p) => p.clone(),
@@ -184,6 +194,7 @@ impl Propagator {
             direction_weight: 1.0 / k as f32,
             tile_cell_count: tile_cells as u32,
             tile_page_cells: tile_pages.page_cells,
+            texel_page_cells: texel_pages.page_cells,
             ..Default::default()
         };
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
@@ -196,21 +207,34 @@ impl Propagator {
             faces: ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
             vertices: ctx.buffer_init(&ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
             triangles: ctx.buffer_init(&ledger, "triangles", bytemuck::cast_slice(&triangles), STORAGE),
-            texel_points: ctx.buffer_init(&ledger, "texel sample points", bytemuck::cast_slice(&prepared.atlas.points), STORAGE),
+            texel_points: paged("texel sample points", bytemuck::cast_slice(&prepared.atlas.points), 16),
         };
         // power per unit of radiosity: texel area x coverage
         let texel_area = 1.0 / (prepared.texel_density * prepared.texel_density);
         let weights: Vec<f32> = prepared.atlas.coverage.iter().map(|&c| (c as f64 * texel_area) as f32).collect();
-        let texel_power_weight = ctx.buffer_init(&ledger, "texels: power weights", bytemuck::cast_slice(&weights), STORAGE);
         let (unshot, total) = initial_radiance(prepared, &faces);
         let emitted_power =
             unshot.iter().zip(&weights).map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64).sum();
-        let texels = ElementState::new(&ctx, &ledger, "texels", &unshot, &total, std::f32::consts::FRAC_1_PI);
+        let texels: Vec<Page> = texel_ranges
+            .iter()
+            .map(|&(first, n)| {
+                let r = first as usize..(first + n) as usize;
+                let range = GpuPageRange { base: first, cells: n, ..Default::default() };
+                Page {
+                    state: ElementState::new(&ctx, &ledger, "texels", &unshot[r.clone()], &total[r.clone()], std::f32::consts::FRAC_1_PI),
+                    power_weight: ctx.buffer_init(&ledger, "texels: power weights", bytemuck::cast_slice(&weights[r]), STORAGE),
+                    first,
+                    page_uniform: ctx.buffer_init(&ledger, "texels: page", bytemuck::bytes_of(&range), wgpu::BufferUsages::UNIFORM),
+                }
+            })
+            .collect();
 
         use Binding::*;
         let cs = wgpu::ShaderStages::COMPUTE;
-        let layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage]);
-        let layout1 = bind_group_layout(device, cs, &[Storage, StorageReadWrite, StorageReadWrite]);
+        // grid, directions, faces, cell offsets, counts, layers, four pages of texel points
+        let layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage]);
+        // four pages of unshot, the page of next written, its range, the batches' weight sums
+        let layout1 = bind_group_layout(device, cs, &[Storage, Storage, Storage, Storage, StorageReadWrite, Uniform, StorageReadWrite]);
         let accumulate_layout = bind_group_layout(device, cs, &[Uniform, Storage, StorageReadWrite, Storage, StorageReadWrite]);
         let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
         let accumulate_pipe = ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
@@ -239,8 +263,8 @@ impl Propagator {
                 .into_iter()
                 .map(|(first, cells)| {
                     let zero = vec![[0.0f32; 4]; cells as usize];
-                    let range = GpuTilePage { base: first, cells, ..Default::default() };
-                    TilePage {
+                    let range = GpuPageRange { base: first, cells, ..Default::default() };
+                    Page {
                         state: ElementState::new(&ctx, &ledger, "mirror tiles", &zero, &zero, 1.0),
                         power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights[first as usize..(first + cells) as usize]), STORAGE),
                         first,
@@ -271,7 +295,7 @@ impl Propagator {
         };
         let texture = match &prepared.atlas.texture_albedo {
             Some(albedo) => {
-                let buffer = ctx.buffer_init(&ledger, "texture albedo", bytemuck::cast_slice(albedo), STORAGE);
+                let buffer = paged("texture albedo", bytemuck::cast_slice(albedo), std::mem::size_of_val(&albedo[0]));
                 let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
                 let module = shaders::module(device, "texture.wgsl")?;
                 let pipe = ctx.compute_pipeline(&module, "modulate", &[&layout]);
@@ -304,7 +328,7 @@ impl Propagator {
             visibility_pipelines,
             faces,
             texels,
-            texel_power_weight,
+            texel_pages,
             tiles,
             texture,
             direction_sets,
@@ -347,7 +371,9 @@ impl Propagator {
         let mut timed = self.timestamps.is_some();
         if batched {
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            encoder.clear_buffer(&self.texels.radiance[1 - self.current], 0, None);
+            for page in &self.texels {
+                encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
+            }
             encoder.clear_buffer(&self.weight_sums, 0, None);
             for page in self.tiles.iter().flat_map(|t| &t.pages) {
                 encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
@@ -393,14 +419,16 @@ impl Propagator {
             self.normalize_batches();
         }
         if let Some((albedo, pipe, layout)) = &self.texture {
-            let bg = self.ctx.bind_group(layout, &[&self.texels.params, &self.texels.radiance[1 - self.current], albedo]);
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(pipe);
-                pass.set_bind_group(0, &bg, &[]);
-                let (x, y) = dispatch_2d(self.texel_count.div_ceil(256));
-                pass.dispatch_workgroups(x, y, 1);
+                for (page, albedo) in self.texels.iter().zip(albedo) {
+                    let bg = self.ctx.bind_group(layout, &[&page.state.params, &page.state.radiance[1 - self.current], albedo]);
+                    pass.set_bind_group(0, &bg, &[]);
+                    let (x, y) = dispatch_2d(page.state.count.div_ceil(256));
+                    pass.dispatch_workgroups(x, y, 1);
+                }
             }
             self.ctx.queue.submit([encoder.finish()]);
         }
@@ -429,14 +457,22 @@ impl Propagator {
         let ctx = &self.ctx;
         let vis = self.visibility.as_ref().expect("build_visibility before iterate");
         let s = &self.scene;
+        let point = |p: usize| s.texel_points.get(p).unwrap_or(&s.texel_points[0]);
         let bg0 = ctx.bind_group(
             &self.layout0,
-            &[&s.grid, &s.directions, &s.faces, &vis.cell_offset, &vis.cell_count, &vis.layers, &s.texel_points],
+            &[&s.grid, &s.directions, &s.faces, &vis.cell_offset, &vis.cell_count, &vis.layers, point(0), point(1), point(2), point(3)],
         );
-        let (unshot, next) = (&self.texels.radiance[self.current], &self.texels.radiance[1 - self.current]);
-        let bg1 = ctx.bind_group(&self.layout1, &[unshot, next, &self.weight_sums]);
-        // per page: every page's unshot radiance to read, and this page's next to write
         let current = self.current;
+        let unshot = |p: usize| &self.texels.get(p).unwrap_or(&self.texels[0]).state.radiance[current];
+        // one bind group per texel page: all pages' unshot to read, this page's next to write
+        let bg1: Vec<wgpu::BindGroup> = self
+            .texels
+            .iter()
+            .map(|page| {
+                ctx.bind_group(&self.layout1, &[unshot(0), unshot(1), unshot(2), unshot(3), &page.state.radiance[1 - current], &page.page_uniform, &self.weight_sums])
+            })
+            .collect();
+        // per page: every page's unshot radiance to read, and this page's next to write
         let mut bg2: Vec<wgpu::BindGroup> = Vec::new();
         if let Some(t) = &self.tiles {
             let [a, b, c, d, e] = &t.tables;
@@ -453,13 +489,16 @@ impl Propagator {
                 timestamp_writes: self.timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
             pass.set_bind_group(0, &bg0, &[]);
-            pass.set_bind_group(1, &bg1, &[]);
             if let Some(bg2) = bg2.first() {
                 pass.set_bind_group(2, bg2, &[]);
             }
             pass.set_pipeline(&self.gather_pipe);
-            let (x, y) = dispatch_2d(self.texel_count.div_ceil(64));
-            pass.dispatch_workgroups(x, y, 1);
+            for (page, bg) in self.texels.iter().zip(&bg1) {
+                pass.set_bind_group(1, bg, &[]);
+                let (x, y) = dispatch_2d(page.state.count.div_ceil(64));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+            pass.set_bind_group(1, &bg1[0], &[]);
             if let (Some(t), true) = (&self.tiles, with_tiles) {
                 pass.set_pipeline(&t.gather_pipe);
                 for (page, bg) in t.pages.iter().zip(&bg2) {
@@ -477,7 +516,8 @@ impl Propagator {
     fn normalize_batches(&self) {
         let Some((pipe, layout)) = &self.normalize else { return };
         let ctx = &self.ctx;
-        let mut passes = vec![(&self.texels.radiance[1 - self.current], self.texel_count, std::f32::consts::PI, 0)];
+        let mut passes: Vec<(&wgpu::Buffer, u32, f32, u32)> =
+            self.texels.iter().map(|p| (&p.state.radiance[1 - self.current], p.state.count, std::f32::consts::PI, p.first)).collect();
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             passes.push((&page.state.radiance[1 - self.current], page.state.count, 1.0, self.texel_count + page.first));
         }
@@ -506,7 +546,7 @@ impl Propagator {
     fn accumulate(&mut self, tiles: bool) -> Result<(f64, f64)> {
         let parts: Vec<(usize, bool)> = match (tiles, &self.tiles) {
             (true, Some(t)) => (0..t.pages.len()).map(|p| (p, true)).collect(),
-            _ => vec![(0, false)],
+            _ => (0..self.texels.len()).map(|p| (p, false)).collect(),
         };
         let (mut power, mut sky) = (0.0, 0.0);
         for (page, is_tile) in parts {
@@ -521,7 +561,7 @@ impl Propagator {
         let ctx = &self.ctx;
         let (state, weights) = match (tiles, &self.tiles) {
             (true, Some(t)) => (&t.pages[page].state, &t.pages[page].power_weight),
-            _ => (&self.texels, &self.texel_power_weight),
+            _ => (&self.texels[page].state, &self.texels[page].power_weight),
         };
         let bg = ctx.bind_group(
             &self.accumulate_layout,
@@ -548,7 +588,7 @@ impl Propagator {
     pub fn add_tail(&mut self, factor: f64) -> Result<()> {
         let ctx = self.ctx.clone();
         let mut states: Vec<(&ElementState, &wgpu::Buffer, f32)> =
-            vec![(&self.texels, &self.texel_power_weight, (factor / std::f64::consts::PI) as f32)];
+            self.texels.iter().map(|p| (&p.state, &p.power_weight, (factor / std::f64::consts::PI) as f32)).collect();
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             states.push((&page.state, &page.power_weight, factor as f32));
         }
@@ -570,7 +610,7 @@ impl Propagator {
     }
 
     pub fn read_total(&self) -> Result<Vec<[f32; 4]>> {
-        self.ctx.read_buffer(&self.texels.total, self.texel_count as u64 * 16)
+        self.read_page_list(&self.texels, |p| &p.state.total)
     }
 
     /// Converged mirror radiance per tile cell (empty without mirrors).
@@ -590,9 +630,13 @@ impl Propagator {
     }
 
     /// Every page of one of the tiles' arrays, read back and joined.
-    fn read_pages(&self, t: &Tiles, buffer: impl Fn(&TilePage) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
-        let mut out = Vec::with_capacity(t.page_plan.total_cells as usize);
-        for page in &t.pages {
+    fn read_pages(&self, t: &Tiles, buffer: impl Fn(&Page) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
+        self.read_page_list(&t.pages, buffer)
+    }
+
+    fn read_page_list(&self, pages: &[Page], buffer: impl Fn(&Page) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
+        let mut out = Vec::new();
+        for page in pages {
             out.extend(self.ctx.read_buffer::<[f32; 4]>(buffer(page), page.state.count as u64 * 16)?);
         }
         Ok(out)
@@ -608,8 +652,11 @@ impl Propagator {
             return Err(crate::error::VlfError::Parameter { name: "resume", message: "the checkpoint's state does not fit this scene's light field".into() });
         }
         let q = &self.ctx.queue;
-        q.write_buffer(&self.texels.radiance[self.current], 0, bytemuck::cast_slice(&cp.unshot));
-        q.write_buffer(&self.texels.total, 0, bytemuck::cast_slice(&cp.total));
+        for page in &self.texels {
+            let texels = page.first as usize..(page.first + page.state.count) as usize;
+            q.write_buffer(&page.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.unshot[texels.clone()]));
+            q.write_buffer(&page.state.total, 0, bytemuck::cast_slice(&cp.total[texels]));
+        }
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             let cells = page.first as usize..(page.first + page.state.count) as usize;
             q.write_buffer(&page.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.tile_unshot[cells.clone()]));
@@ -622,7 +669,7 @@ impl Propagator {
 
     /// The unshot radiosity the next iteration will shoot (the last iteration's "next").
     pub fn read_unshot(&self) -> Result<Vec<[f32; 4]>> {
-        self.ctx.read_buffer(&self.texels.radiance[self.current], self.texel_count as u64 * 16)
+        self.read_page_list(&self.texels, |p| &p.state.radiance[self.current])
     }
 
     /// GPU memory while propagating.
@@ -634,7 +681,9 @@ impl Propagator {
     pub fn into_resident(self) -> ResidentLightField {
         let ledger = MemoryLedger::default();
         ledger.record("faces", self.scene.faces.size());
-        ledger.record("total radiance", self.texels.total.size());
+        for page in &self.texels {
+            ledger.record("total radiance", page.state.total.size());
+        }
         let tiles = self.tiles.map(|t| {
             let [rects, index, _, points, geodesic_index] = t.tables;
             for (name, b) in [("tile rectangles", &rects), ("tile index", &index), ("geodesic tables", &points), ("geodesic index", &geodesic_index)] {
@@ -654,6 +703,13 @@ impl Propagator {
                 directions: t.fixed_directions,
             }
         });
-        ResidentLightField { ctx: self.ctx, faces: self.scene.faces, total: self.texels.total, tiles, ledger }
+        ResidentLightField {
+            ctx: self.ctx,
+            faces: self.scene.faces,
+            total: self.texels.into_iter().map(|p| p.state.total).collect(),
+            texel_pages: self.texel_pages,
+            tiles,
+            ledger,
+        }
     }
 }

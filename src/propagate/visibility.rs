@@ -14,7 +14,8 @@ pub struct SceneBuffers {
     pub faces: wgpu::Buffer,
     pub vertices: wgpu::Buffer,
     pub triangles: wgpu::Buffer,
-    pub texel_points: wgpu::Buffer,
+    /// sample point per texel, in pages (see TilePages::plan_texels)
+    pub texel_points: Vec<wgpu::Buffer>,
 }
 
 /// The resident layer lists.

@@ -80,7 +80,8 @@ pub struct Renderer {
     view_template: GpuView,
     target: Option<Target>,
     faces: wgpu::Buffer,
-    radiance: wgpu::Buffer,
+    /// the radiance atlas's pages
+    radiance: Vec<wgpu::Buffer>,
 }
 
 impl Renderer {
@@ -90,7 +91,8 @@ impl Renderer {
         let module = shaders::module(device, "render.wgsl")?;
         let cs = wgpu::ShaderStages::COMPUTE;
         use Binding::*;
-        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, ImageWrite]);
+        // view, faces, triangles, BVH, image, four pages of radiance
+        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, ImageWrite, Storage, Storage, Storage, Storage]);
         // a diffuse-only light field binds no view-dependent path at all
         let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 9]));
         let mut resolve_layouts = vec![&resolve_layout];
@@ -138,6 +140,7 @@ impl Renderer {
             exhaustive_triangles,
             tile_page_cells: resident.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
             tile_cell_count: resident.tiles.as_ref().map_or(0, |t| t.pages.total_cells as u32),
+            texel_page_cells: resident.texel_pages.page_cells,
             ..Default::default()
         };
         Ok(Renderer {
@@ -162,16 +165,20 @@ impl Renderer {
         use wgpu::TextureUsages as U;
         let image = texture_2d(device, "image", [width, height], COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
         let image_view = image.create_view(&Default::default());
+        let page = |p: usize| self.radiance.get(p).unwrap_or(&self.radiance[0]);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),
             layout: &self.resolve_layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
                 wgpu::BindGroupEntry { binding: 1, resource: self.faces.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: self.radiance.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: self.triangles.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: self.nodes.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 5, resource: wgpu::BindingResource::TextureView(&image_view) },
+                wgpu::BindGroupEntry { binding: 2, resource: self.triangles.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 3, resource: self.nodes.as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&image_view) },
+                wgpu::BindGroupEntry { binding: 5, resource: page(0).as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 6, resource: page(1).as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 7, resource: page(2).as_entire_binding() },
+                wgpu::BindGroupEntry { binding: 8, resource: page(3).as_entire_binding() },
             ],
         });
         ViewTargets { width, height, image, image_view, resolve_bind_group }
