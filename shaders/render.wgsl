@@ -105,8 +105,8 @@ fn pixel_point(pixel: vec2<u32>, size: vec2<u32>) -> Pixel {
     if view.exhaustive_triangles > 0u {
         // a small mesh: every ray tests every triangle, the same work for every pixel
         for (var i = 0u; i < view.exhaustive_triangles; i++) {
-            let r = intersect(origin, ray, triangles[i], hit.t);
-            let found = r.x > 0.0;
+            let r = intersect(origin, ray, triangles[i], hit.t * TIE);
+            let found = closer(r.x, i, hit);
             hit.t = select(hit.t, r.x, found);
             hit.tri = select(hit.tri, i, found);
         }

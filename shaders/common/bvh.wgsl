@@ -65,6 +65,26 @@ fn box_entry(lo: vec3<f32>, hi: vec3<f32>, origin: vec3<f32>, inv_dir: vec3<f32>
     return -1.0;
 }
 
+// Hits this close (relative) count as a tie: coplanar duplicated faces. The lower face id wins
+// a tie (then the lower triangle), so one whole face shows, the same from every viewpoint and
+// in every run: no patchwork, no flicker.
+const TIE: f32 = 1.000001;
+
+fn closer(t: f32, tri: u32, hit: Hit) -> bool {
+    if t <= 0.0 {
+        return false;
+    }
+    if hit.tri == NO_FACE || t * TIE < hit.t {
+        return true;
+    }
+    if t > hit.t * TIE {
+        return false;
+    }
+    let face = triangles[tri].face;
+    let other = triangles[hit.tri].face;
+    return face < other || (face == other && tri < hit.tri);
+}
+
 // Closest hit (any_hit: stop at the first one, for shadow rays).
 fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
@@ -77,13 +97,13 @@ fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
         top -= 1u;
         let index = stack[top];
         let node = nodes[index];
-        if box_entry(node.lo, node.hi, origin, inv_dir, hit.t) < 0.0 {
+        if box_entry(node.lo, node.hi, origin, inv_dir, hit.t * TIE) < 0.0 {
             continue;
         }
         if node.count > 0u {
             for (var i = node.index; i < node.index + node.count; i++) {
-                let r = intersect(origin, dir, triangles[i], hit.t);
-                if r.x > 0.0 {
+                let r = intersect(origin, dir, triangles[i], hit.t * TIE);
+                if closer(r.x, i, hit) {
                     hit = Hit(r.x, i, r.y, r.z);
                     if any_hit {
                         return hit;
