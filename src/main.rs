@@ -152,6 +152,14 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
+    /// An OpenXR headset (checks the loader and runtime; the session itself is not built yet)
+    Xr {
+        /// scene.toml (propagated first) or file.vlf
+        #[arg(long)]
+        scene: PathBuf,
+        #[command(flatten)]
+        params: ParamArgs,
+    },
     /// Write a procedural scene (scene.toml + OBJ + MTL) that scales to a million triangles
     Generate {
         kind: vlf::generate::SceneKind,
@@ -476,6 +484,11 @@ fn run(cli: Cli) -> Result<()> {
                 write_json(&path, &report)?;
             }
             println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
+        }
+        Command::Xr { scene, params } => {
+            // loader and runtime first: a machine without a headset learns it before propagating
+            let _ = (&scene, &params);
+            vlf::display::xr::run_headset()?;
         }
         Command::Generate { kind, size, mirrors, out } => {
             let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;

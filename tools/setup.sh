@@ -19,6 +19,7 @@ have_icd || missing+=(mesa-vulkan-drivers libvulkan1)
 command -v Xvfb >/dev/null || missing+=(xvfb)
 command -v import >/dev/null || missing+=(imagemagick)
 command -v xdotool >/dev/null || missing+=(xdotool)
+[ -e /usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1 ] || [ -e /usr/lib/libopenxr_loader.so.1 ] || missing+=(libopenxr-loader1)
 { command -v pkg-config >/dev/null && pkg-config --exists libudev; } || missing+=(pkg-config libudev-dev)
 if [ ${#missing[@]} = 0 ]; then
   exit 0

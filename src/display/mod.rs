@@ -8,6 +8,7 @@ pub mod osc;
 pub mod projection;
 pub mod tracking;
 pub mod window;
+pub mod xr;
 
 use crate::error::{Result, VlfError};
 use glam::{Mat4, Vec3};

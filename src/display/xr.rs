@@ -1,0 +1,135 @@
+//! `vlf xr`: an OpenXR headset drawn from the one resident light field. This module holds what
+//! is settled and tested: loading the system's OpenXR loader (the `openxr` crate, at run time),
+//! finding a runtime with XR_KHR_vulkan_enable2 and a head-mounted system, the errors that say
+//! what is missing and how to install and select a runtime, and the view math (OpenXR's
+//! asymmetric field of view to a projection, OpenXR poses to the renderer's views). The Vulkan
+//! session on the runtime's device (wgpu from raw handles) and the frame loop are not built
+//! yet: with a runtime present, `vlf xr` says so and exits non-zero.
+
+use super::tracking::Pose;
+use crate::error::{Result, VlfError};
+use glam::{Mat4, Quat, Vec3, Vec4};
+use std::path::Path;
+
+/// OpenXR's field of view of one eye: four angles in radians from the view direction (left and
+/// down are usually negative).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fov {
+    pub angle_left: f32,
+    pub angle_right: f32,
+    pub angle_up: f32,
+    pub angle_down: f32,
+}
+
+/// The projection of an asymmetric field of view: right-handed view space looking down -z, y up,
+/// clip depth 0 at `near` and 1 at `far` (wgpu and Vulkan).
+pub fn projection_from_fov(fov: Fov, near: f32, far: f32) -> Mat4 {
+    let (left, right) = (fov.angle_left.tan(), fov.angle_right.tan());
+    let (down, up) = (fov.angle_down.tan(), fov.angle_up.tan());
+    let (width, height) = (right - left, up - down);
+    Mat4::from_cols(
+        Vec4::new(2.0 / width, 0.0, 0.0, 0.0),
+        Vec4::new(0.0, 2.0 / height, 0.0, 0.0),
+        Vec4::new((right + left) / width, (up + down) / height, far / (near - far), -1.0),
+        Vec4::new(0.0, 0.0, near * far / (near - far), 0.0),
+    )
+}
+
+/// An OpenXR pose: orientation and position of an eye in the reference space (stage: metres,
+/// y up, -z ahead; the same convention as the CAVE's room space).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct XrPose {
+    /// quaternion (x, y, z, w), as XrQuaternionf
+    pub orientation: [f32; 4],
+    pub position: [f32; 3],
+}
+
+/// The view matrix (reference space to eye space) of a pose.
+pub fn view_from_pose(pose: XrPose) -> Mat4 {
+    let q = Quat::from_array(pose.orientation).normalize();
+    Mat4::from_rotation_translation(q, Vec3::from(pose.position)).inverse()
+}
+
+/// The pose whose view matrix this is (rigid transforms only).
+pub fn pose_from_view(view: Mat4) -> XrPose {
+    let (_, rotation, translation) = view.inverse().to_scale_rotation_translation();
+    XrPose { orientation: rotation.to_array(), position: translation.into() }
+}
+
+/// One eye's view-projection and position in the light field's normalised space: the stage is
+/// placed in the scene by `room` (navigation), then normalised.
+pub fn eye_view(pose: XrPose, fov: Fov, room: &Pose, norm: &crate::prepare::Normalisation, near: f32) -> (Mat4, Vec3) {
+    let world_from_stage = Mat4::from_rotation_translation(Quat::from_rotation_y(room.room_yaw_deg.to_radians()), room.room_position);
+    let origin = norm.to_unit([0.0; 3]).as_vec3();
+    let scale = norm.to_unit([1.0, 0.0, 0.0]).as_vec3().x - origin.x;
+    let unit_from_world = Mat4::from_scale_rotation_translation(Vec3::splat(scale), Quat::IDENTITY, origin);
+    let eye_from_unit = view_from_pose(pose) * (unit_from_world * world_from_stage).inverse();
+    let eye = (unit_from_world * world_from_stage).transform_point3(Vec3::from(pose.position));
+    let near_unit = near * scale;
+    (projection_from_fov(fov, near_unit, near_unit * 1e4) * eye_from_unit, eye)
+}
+
+const INSTALL: &str = "install an OpenXR runtime: Monado (https://monado.freedesktop.org, e.g. the monado-service package) or SteamVR; select it with XR_RUNTIME_JSON=/path/to/its runtime.json (Monado: openxr_monado.json) or make it the active runtime (~/.config/openxr/1/active_runtime.json)";
+
+/// The system's OpenXR loader (`VLF_OPENXR_LOADER` names another file).
+pub fn load_loader() -> Result<openxr::Entry> {
+    let candidates: Vec<std::ffi::OsString> = match std::env::var_os("VLF_OPENXR_LOADER") {
+        Some(path) => vec![path],
+        None => vec!["libopenxr_loader.so.1".into(), "libopenxr_loader.so".into()],
+    };
+    let mut tried = Vec::new();
+    for path in &candidates {
+        // SAFETY: the file is the OpenXR loader the system or the user named; the crate checks
+        // that its entry points exist.
+        match unsafe { openxr::Entry::load_from(Path::new(path)) } {
+            Ok(entry) => return Ok(entry),
+            Err(e) => tried.push(format!("{}: {e}", Path::new(path).display())),
+        }
+    }
+    Err(VlfError::Display(format!(
+        "no OpenXR loader found ({}). Install the loader (Debian/Ubuntu: sudo apt-get install libopenxr-loader1) and {INSTALL}",
+        tried.join("; ")
+    )))
+}
+
+/// What the runtime offers: its name and the headset system.
+#[derive(Debug)]
+pub struct XrRuntime {
+    pub runtime: String,
+    pub system: String,
+}
+
+/// Find a runtime with Vulkan (XR_KHR_vulkan_enable2) and a head-mounted display.
+pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::SystemId, XrRuntime)> {
+    let selected = match std::env::var_os("XR_RUNTIME_JSON") {
+        Some(v) => format!("XR_RUNTIME_JSON={}", Path::new(&v).display()),
+        None => "XR_RUNTIME_JSON is not set and no active runtime was found".into(),
+    };
+    let no_runtime = |what: String| VlfError::Display(format!("the OpenXR loader found no usable runtime ({selected}): {what}. To run `vlf xr`, {INSTALL}"));
+    let available = entry.enumerate_extensions().map_err(|e| no_runtime(e.to_string()))?;
+    if !available.khr_vulkan_enable2 {
+        return Err(no_runtime("it does not offer XR_KHR_vulkan_enable2 (Vulkan), which vlf renders with".into()));
+    }
+    let mut extensions = openxr::ExtensionSet::default();
+    extensions.khr_vulkan_enable2 = true;
+    let app = openxr::ApplicationInfo { application_name: "vlf", application_version: 1, engine_name: "vlf", engine_version: 1, api_version: openxr::Version::new(1, 0, 0) };
+    let instance = entry.create_instance(&app, &extensions, &[]).map_err(|e| no_runtime(e.to_string()))?;
+    let props = instance.properties().map_err(|e| no_runtime(e.to_string()))?;
+    let system = instance
+        .system(openxr::FormFactor::HEAD_MOUNTED_DISPLAY)
+        .map_err(|e| VlfError::Display(format!("the OpenXR runtime {} has no headset ({e}): connect one, or start the runtime's simulated headset", props.runtime_name)))?;
+    let system_props = instance.system_properties(system).map_err(|e| no_runtime(e.to_string()))?;
+    let runtime = XrRuntime { runtime: format!("{} {}", props.runtime_name, props.runtime_version), system: system_props.system_name };
+    Ok((instance, system, runtime))
+}
+
+/// `vlf xr`: everything up to the session. The loader and runtime are checked before the light
+/// field is made, so a machine without a headset learns it at once.
+pub fn run_headset() -> Result<()> {
+    let entry = load_loader()?;
+    let (_instance, _system, runtime) = find_runtime(&entry)?;
+    Err(VlfError::Display(format!(
+        "found the OpenXR runtime {} with headset {:?}, but vlf's Vulkan session on the runtime's device (XR_KHR_vulkan_enable2 with wgpu on raw handles) and its frame loop are not built yet; use `vlf cave` with config/displays/desktop.toml meanwhile",
+        runtime.runtime, runtime.system
+    )))
+}
