@@ -1,6 +1,7 @@
 //! CPU twin of `shaders/visibility.wgsl` and `shaders/propagate.wgsl`, written to read like
 //! them (same names, same f32 arithmetic, same order), for tiny scenes only. Tests compare it
-//! with the GPU: layer lists must be equal and gathered radiosity equal within 1e-5.
+//! with the GPU: layer lists must be equal and gathered radiosity equal within 1e-5. The mirror
+//! parts (`shaders/specular.wgsl`, `common/tiles.wgsl`) have their twin in `cpu_specular.rs`.
 
 use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use glam::{Vec2, Vec3};
@@ -11,7 +12,7 @@ pub struct CpuVisibility {
     pub layers: Vec<[u32; 2]>,
 }
 
-fn v3(a: [f32; 3]) -> Vec3 {
+pub(super) fn v3(a: [f32; 3]) -> Vec3 {
     Vec3::from(a)
 }
 
@@ -141,6 +142,8 @@ pub struct GatherInputs<'a> {
     pub visibility: &'a CpuVisibility,
     pub texel_points: &'a [[f32; 4]],
     pub unshot: &'a [[f32; 4]],
+    /// the mirror tiles, for scenes with mirrors (sender_specular, gather_tile)
+    pub tiles: Option<&'a super::cpu_specular::TileInputs<'a>>,
 }
 
 impl GatherInputs<'_> {
@@ -191,7 +194,7 @@ impl GatherInputs<'_> {
         [c[0].clamp(0, n) as u32, c[1].clamp(0, n) as u32]
     }
 
-    fn find_upstream(&self, dir_index: u32, d: &GpuDirection, x: Vec3, face: u32, forward: bool) -> u32 {
+    pub(super) fn find_upstream(&self, dir_index: u32, d: &GpuDirection, x: Vec3, face: u32, forward: bool) -> u32 {
         let inv_h = 1.0 / self.grid.cell_size;
         let q = Vec2::new((x.dot(v3(d.u)) + 1.0) * inv_h - 0.5, (x.dot(v3(d.v)) + 1.0) * inv_h - 0.5);
         let base = dir_index * self.grid.resolution * self.grid.resolution;
@@ -230,7 +233,7 @@ impl GatherInputs<'_> {
         NO_FACE
     }
 
-    fn sender_radiance(&self, sender: u32, x: Vec3, travel: Vec3) -> Vec3 {
+    pub(super) fn sender_radiance(&self, sender: u32, x: Vec3, dir_index: u32, travel: Vec3) -> Vec3 {
         let s = &self.faces[sender as usize];
         let facing = v3(s.normal).dot(travel);
         if facing <= 1e-6 {
@@ -243,7 +246,7 @@ impl GatherInputs<'_> {
             let u = self.unshot[taps.index[k] as usize];
             b += Vec3::new(u[0], u[1], u[2]) * taps.weight[k];
         }
-        b / std::f32::consts::PI
+        b / std::f32::consts::PI + self.sender_specular(s, x - travel * t, dir_index)
     }
 
     /// The gather kernel for one texel: next radiosity (rgb) and the sky's share (w).
@@ -277,7 +280,7 @@ impl GatherInputs<'_> {
                     sky_irradiance += v3(self.grid.sky) * weight;
                 }
             } else {
-                irradiance += self.sender_radiance(sender, x, travel) * weight;
+                irradiance += self.sender_radiance(sender, x, i as u32, travel) * weight;
             }
         }
         let norm = if weight_sum > 0.0 { std::f32::consts::PI / weight_sum } else { 0.0 };

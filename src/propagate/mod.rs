@@ -5,6 +5,7 @@
 
 pub mod checkpoint;
 pub mod cpu;
+pub mod cpu_specular;
 pub mod transport;
 pub mod visibility;
 
