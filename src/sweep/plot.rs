@@ -62,16 +62,27 @@ fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
     (lo / 1.5, hi * 1.5)
 }
 
-/// Error against time, log-log, with the Pareto front over all series.
-pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series]) -> Result<()> {
-    register_font();
+type LogChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>;
+
+/// Log-log axes fitted to the series' points, described and ticked, with every series drawn as
+/// dots of `dot` pixels and entered in the legend; returns the chart and its x range.
+fn log_log_scatter<'a, DB: DrawingBackend + 'a>(
+    area: &'a DrawingArea<DB, plotters::coord::Shift>,
+    path: &Path,
+    caption: Option<&str>,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[Series],
+    dot: u32,
+) -> Result<(LogChart<'a, DB>, (f64, f64))> {
     let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
     let (x0, x1) = range(all.iter().map(|p| p.0));
     let (y0, y1) = range(all.iter().map(|p| p.1));
-    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
-    root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
-    let mut chart = ChartBuilder::on(&root)
-        .caption(title, ("sans-serif", 24))
+    let mut builder = ChartBuilder::on(area);
+    if let Some(c) = caption {
+        builder.caption(c, ("sans-serif", 24));
+    }
+    let mut chart = builder
         .margin(20)
         .x_label_area_size(50)
         .y_label_area_size(80)
@@ -79,8 +90,8 @@ pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series])
         .map_err(|e| plot_err(path, e))?;
     chart
         .configure_mesh()
-        .x_desc("time (s): propagation + one frame for the light field, the whole image for the path tracer")
-        .y_desc(y_label)
+        .x_desc(x_desc)
+        .y_desc(y_desc)
         .x_label_formatter(&|v| tick(*v))
         .y_label_formatter(&|v| tick(*v))
         .max_light_lines(1)
@@ -90,11 +101,22 @@ pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series])
     for s in series {
         let color = s.color;
         chart
-            .draw_series(s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(|p| Circle::new(*p, 5, color.filled())))
+            .draw_series(s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(move |p| Circle::new(*p, dot, color.filled())))
             .map_err(|e| plot_err(path, e))?
             .label(s.name)
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
     }
+    Ok((chart, (x0, x1)))
+}
+
+/// Error against time, log-log, with the Pareto front over all series.
+pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series]) -> Result<()> {
+    register_font();
+    let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
+    let x_desc = "time (s): propagation + one frame for the light field, the whole image for the path tracer";
+    let (mut chart, _) = log_log_scatter(&root, path, Some(title), x_desc, y_label, series, 5)?;
     let front = pareto_front(&all);
     chart
         .draw_series(LineSeries::new(front.clone(), BLACK.stroke_width(2)))
@@ -161,33 +183,7 @@ pub fn log_log(path: &Path, title: &str, panels: [Panel; 2]) -> Result<()> {
     let root = root.titled(title, ("sans-serif", 24)).map_err(|e| plot_err(path, e))?;
     let areas = root.split_evenly((1, 2));
     for (area, (x_desc, y_desc, series, slope)) in areas.iter().zip(panels) {
-        let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
-        let (x0, x1) = range(all.iter().map(|p| p.0));
-        let (y0, y1) = range(all.iter().map(|p| p.1));
-        let mut chart = ChartBuilder::on(area)
-            .margin(20)
-            .x_label_area_size(50)
-            .y_label_area_size(80)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
-            .map_err(|e| plot_err(path, e))?;
-        chart
-            .configure_mesh()
-            .x_desc(x_desc)
-            .y_desc(y_desc)
-            .x_label_formatter(&|v| tick(*v))
-            .y_label_formatter(&|v| tick(*v))
-            .max_light_lines(1)
-            .label_style(("sans-serif", 14))
-            .draw()
-            .map_err(|e| plot_err(path, e))?;
-        for s in &series {
-            let color = s.color;
-            chart
-                .draw_series(s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(|p| Circle::new(*p, 6, color.filled())))
-                .map_err(|e| plot_err(path, e))?
-                .label(s.name)
-                .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
-        }
+        let (mut chart, (x0, x1)) = log_log_scatter(area, path, None, x_desc, y_desc, &series, 6)?;
         // the fit belongs to the first series
         let fitted: Vec<(f64, f64)> = series.first().map(|s| s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect()).unwrap_or_default();
         if let (Some(k), false) = (slope, fitted.is_empty()) {
