@@ -76,6 +76,19 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
     })
 }
 
+/// "Measured by `command` (vlf version, commit, date) on **GPU** (backend, driver)": the stamp
+/// every generated benchmark section carries.
+pub fn measured_by(command: &str, version: &str, commit: Option<&str>, date: &str, a: &crate::gpu::AdapterSummary) -> String {
+    format!(
+        "Measured by `{command}` (vlf {version}, commit {}, {date}) on **{}** ({} backend, driver {} {})",
+        commit.unwrap_or("unknown"),
+        a.name,
+        a.backend,
+        a.driver,
+        a.driver_info
+    )
+}
+
 /// The commit measured: VLF_COMMIT (set where the tree has no .git), else git's.
 pub fn commit() -> Option<String> {
     std::env::var("VLF_COMMIT").ok().filter(|c| !c.is_empty()).or_else(git_commit)
@@ -125,16 +138,10 @@ impl BenchReport {
         let fps = 1000.0 / r.median;
         let mut s = String::new();
         s.push_str(&format!(
-            "## {} — {}\n\nMeasured by `vlf bench` (vlf {}, commit {}, {}) on **{}** ({} backend, driver {} {}).\n\n",
+            "## {} — {}\n\n{}.\n\n",
             p.scene,
             self.date_utc,
-            self.vlf_version,
-            self.commit.as_deref().unwrap_or("unknown"),
-            self.date_utc,
-            a.name,
-            a.backend,
-            a.driver,
-            a.driver_info
+            measured_by("vlf bench", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
         ));
         s.push_str("| | paper (GeForce 8800 GTX) | vlf |\n|---|---|---|\n");
         let rows = [

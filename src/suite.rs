@@ -336,15 +336,9 @@ impl SuiteReport {
         let ms = |d: &Option<Distribution>| d.as_ref().map_or("—".into(), |d| format!("{:.3}", d.median));
         let a = &self.adapter;
         let mut s = format!(
-            "## Benchmark suite — {}\n\nMeasured by `vlf bench --suite` (vlf {}, commit {}, {}) on **{}** ({} backend, driver {} {}). Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
+            "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
             self.date_utc,
-            self.vlf_version,
-            self.commit.as_deref().unwrap_or("unknown"),
-            self.date_utc,
-            a.name,
-            a.backend,
-            a.driver,
-            a.driver_info
+            crate::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
         );
         s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
