@@ -20,42 +20,28 @@ pub struct Case {
 
 /// A scene written to a folder as scene.toml + OBJ + MTL.
 struct Builder {
-    obj: String,
+    mesh: crate::scene::builder::QuadMesh,
     mtl: String,
 }
 
 impl Builder {
     fn new() -> Builder {
-        Builder { obj: "mtllib s.mtl\n".into(), mtl: String::new() }
+        Builder { mesh: Default::default(), mtl: String::new() }
     }
     fn material(&mut self, name: &str, kd: f32, ke: f32) -> &mut Self {
         self.mtl.push_str(&format!("newmtl {name}\nKd {kd} {kd} {kd}\nKe {ke} {ke} {ke}\n\n"));
         self
     }
     fn quad(&mut self, material: &str, c: DVec3, normal: DVec3, size: [f64; 2]) -> &mut Self {
-        let n = normal.normalize();
-        let helper = if n.x.abs() < 0.6 { DVec3::X } else { DVec3::Y };
-        let t1 = (helper - n * n.dot(helper)).normalize();
-        let t2 = n.cross(t1);
-        let (a, b) = (t1 * size[0] * 0.5, t2 * size[1] * 0.5);
-        self.obj.push_str(&format!("usemtl {material}\n"));
-        for p in [c - a - b, c + a - b, c + a + b, c - a + b] {
-            self.obj.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
-        }
-        self.obj.push_str("f -4 -3 -2 -1\n");
+        self.mesh.quad(material, c, normal, size, 0.0);
         self
     }
     fn cube(&mut self, material: &str, c: DVec3, h: f64, inward: bool) -> &mut Self {
-        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-            for sign in [1.0, -1.0] {
-                let out = axis * sign;
-                self.quad(material, c + out * h, if inward { -out } else { out }, [2.0 * h, 2.0 * h]);
-            }
-        }
+        self.mesh.cube(material, c, h, inward);
         self
     }
     fn write(&self, dir: &Path, extra: &str) -> Result<Scene> {
-        std::fs::write(dir.join("s.obj"), &self.obj).map_err(|e| VlfError::io(dir, e))?;
+        std::fs::write(dir.join("s.obj"), self.mesh.text("s.mtl")).map_err(|e| VlfError::io(dir, e))?;
         std::fs::write(dir.join("s.mtl"), &self.mtl).map_err(|e| VlfError::io(dir, e))?;
         std::fs::write(dir.join("scene.toml"), format!("name = \"stress\"\nmesh = \"s.obj\"\n{extra}\n")).map_err(|e| VlfError::io(dir, e))?;
         Scene::load(&dir.join("scene.toml"))

@@ -1,6 +1,7 @@
 //! The scene contract of DESIGN.md section 6: `scene.toml` (this module) plus an OBJ/MTL mesh
 //! (`obj.rs`). Loading validates everything and yields a [`Scene`] in world units (metres).
 
+pub mod builder;
 pub mod obj;
 
 use crate::error::{Result, VlfError};

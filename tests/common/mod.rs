@@ -2,7 +2,6 @@
 //! to temporary folders as real scene.toml + OBJ + MTL files, loaded through the real importer.
 #![allow(dead_code)]
 
-use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, OnceLock};
 use vlf::gpu::GpuContext;
@@ -28,49 +27,8 @@ pub struct Mat {
     pub ke: [f32; 3],
 }
 
-/// An OBJ built from quads, each with a material.
-#[derive(Default)]
-pub struct ObjBuilder {
-    obj: String,
-    vertices: usize,
-}
-
-impl ObjBuilder {
-    /// A square of side `size` centred at `c`, facing `normal` (counter-clockwise seen from the
-    /// front). `spin` rotates it in its plane.
-    pub fn quad(&mut self, material: &str, c: DVec3, normal: DVec3, size: [f64; 2], spin: f64) -> &mut Self {
-        let n = normal.normalize();
-        let helper = if n.x.abs() < 0.6 { DVec3::X } else { DVec3::Y };
-        let t1 = (helper - n * n.dot(helper)).normalize();
-        let t2 = n.cross(t1);
-        let (s, co) = spin.sin_cos();
-        let (t1, t2) = (t1 * co + t2 * s, -t1 * s + t2 * co);
-        let (a, b) = (t1 * size[0] * 0.5, t2 * size[1] * 0.5);
-        self.obj.push_str(&format!("usemtl {material}\n"));
-        for p in [c - a - b, c + a - b, c + a + b, c - a + b] {
-            self.obj.push_str(&format!("v {} {} {}\n", p.x, p.y, p.z));
-        }
-        self.vertices += 4;
-        self.obj.push_str("f -4 -3 -2 -1\n");
-        self
-    }
-
-    /// A closed axis-aligned box of half-size `h` at `c`; faces inward when `inward`.
-    pub fn cube(&mut self, material: &str, c: DVec3, h: f64, inward: bool) -> &mut Self {
-        for axis in [DVec3::X, DVec3::Y, DVec3::Z] {
-            for sign in [1.0, -1.0] {
-                let outward = axis * sign;
-                let normal = if inward { -outward } else { outward };
-                self.quad(material, c + outward * h, normal, [2.0 * h, 2.0 * h], 0.0);
-            }
-        }
-        self
-    }
-
-    pub fn text(&self) -> String {
-        format!("mtllib scene.mtl\n{}", self.obj)
-    }
-}
+/// An OBJ built from quads, each with a material (the library's, shared with `vlf stress`).
+pub use vlf::scene::builder::QuadMesh as ObjBuilder;
 
 /// Write scene.toml + scene.obj + scene.mtl into `dir` and return the scene.toml path.
 pub fn write_scene(dir: &Path, obj: &ObjBuilder, materials: &[Mat], extra_toml: &str) -> PathBuf {
@@ -82,7 +40,7 @@ pub fn write_scene(dir: &Path, obj: &ObjBuilder, materials: &[Mat], extra_toml: 
         ));
     }
     std::fs::write(dir.join("scene.mtl"), mtl).unwrap();
-    std::fs::write(dir.join("scene.obj"), obj.text()).unwrap();
+    std::fs::write(dir.join("scene.obj"), obj.text("scene.mtl")).unwrap();
     let toml = format!(
         "name = \"test\"\nmesh = \"scene.obj\"\n{extra_toml}\n[[camera]]\nname = \"front\"\neye = [0.0, 0.0, 3.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 40.0\nsize = [64, 64]\n"
     );
