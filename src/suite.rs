@@ -122,7 +122,6 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     let grid: &[(u32, f64)] = if quick { &[(3, 12.0), (5, 12.0), (5, 20.0)] } else { &[(10, 96.0), (14, 96.0), (20, 96.0), (28, 96.0), (20, 48.0), (20, 136.0)] };
     for &(n, density) in grid {
         let params = PropagationParams { geodesic_frequency: n, texel_density: density, max_iterations: 3, accelerate: false, tolerance: 1e-9, ..ours.clone() };
-        let _ = &params;
         out.push(Case {
             name: format!("cornell, {} directions, {density} texels/unit", params.direction_count()),
             scene: cornell.clone(),
@@ -167,7 +166,7 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
     views
 }
 
-fn run_case(ctx: &Arc<GpuContext>, case: &Case, peak: Option<f64>, frames: u32) -> Result<SuiteEntry> {
+fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
@@ -179,7 +178,6 @@ fn run_case(ctx: &Arc<GpuContext>, case: &Case, peak: Option<f64>, frames: u32) 
     let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
     let iteration_gpu_ms = (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms));
     let samples_per_iteration = report.diffuse_elements as f64 * report.directions as f64;
-    let _ = peak;
     Ok(SuiteEntry {
         name: case.name.clone(),
         settings: case.settings.clone(),
@@ -262,7 +260,7 @@ pub fn run(ctx: Arc<GpuContext>, root: &Path, work: &Path, quick: bool, frames: 
     let mut entries = Vec::new();
     for case in &cases {
         bar.set_message(case.name.clone());
-        entries.push(run_case(&ctx, case, peak, frames)?);
+        entries.push(run_case(&ctx, case, frames)?);
         bar.inc(1);
     }
     bar.finish_and_clear();
