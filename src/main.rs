@@ -152,11 +152,28 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
-    /// An OpenXR headset (checks the loader and runtime; the session itself is not built yet)
+    /// An OpenXR headset: the runtime's Vulkan device, a swapchain per eye, thumbstick navigation
     Xr {
         /// scene.toml (propagated first) or file.vlf
         #[arg(long)]
         scene: PathBuf,
+        /// End the session after this many frames (default: when the runtime or the user ends it)
+        #[arg(long)]
+        frames: Option<u32>,
+        /// Write the left eye's image of frame --screenshot-frame as PNG
+        #[arg(long)]
+        screenshot: Option<PathBuf>,
+        /// Which frame --screenshot captures (1 is the first rendered frame)
+        #[arg(long, default_value_t = 30)]
+        screenshot_frame: u32,
+        /// The scene camera the viewer starts at (default: the scene's first)
+        #[arg(long)]
+        camera: Option<String>,
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f32,
+        /// Write the frame-time report as JSON
+        #[arg(long)]
+        json: Option<PathBuf>,
         #[command(flatten)]
         params: ParamArgs,
     },
@@ -485,10 +502,22 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
         }
-        Command::Xr { scene, params } => {
-            // loader and runtime first: a machine without a headset learns it before propagating
-            let _ = (&scene, &params);
-            vlf::display::xr::run_headset()?;
+        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, json, params } => {
+            if screenshot_frame == 0 {
+                bail!("--screenshot-frame 0: frames count from 1");
+            }
+            if let (Some(n), Some(_)) = (frames, &screenshot) {
+                if screenshot_frame > n {
+                    bail!("--screenshot-frame {screenshot_frame} is after the last of --frames {n}");
+                }
+            }
+            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera };
+            let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, &scene, None, &params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
+            let report = vlf::display::xr::run_headset(&mut make, &options)?;
+            print!("{}", report.table());
+            if let Some(path) = json {
+                write_json(&path, &report)?;
+            }
         }
         Command::Generate { kind, size, mirrors, out } => {
             let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;

@@ -68,10 +68,10 @@ struct WallWindow {
 
 /// Navigation added to the tracked pose: the room moved and turned in the world.
 #[derive(Default)]
-struct Navigator {
+pub(crate) struct Navigator {
     offset: Vec3,
     yaw_deg: f32,
-    fly: bool,
+    pub(crate) fly: bool,
     keys: HashSet<KeyCode>,
     dragging: bool,
     last_cursor_x: Option<f64>,
@@ -79,7 +79,8 @@ struct Navigator {
 }
 
 impl Navigator {
-    fn step(&mut self, dt: f32, nav: &super::Navigation, pad: [f32; 4], base_yaw: f32) {
+    /// Move by keys held and by stick axes `pad` = [strafe right, back, turn right, sink].
+    pub(crate) fn step(&mut self, dt: f32, nav: &super::Navigation, pad: [f32; 4], base_yaw: f32) {
         let key = |k: KeyCode| if self.keys.contains(&k) { 1.0f32 } else { 0.0 };
         let forward = key(KeyCode::KeyW) + key(KeyCode::ArrowUp) - key(KeyCode::KeyS) - key(KeyCode::ArrowDown) - pad[1];
         let strafe = key(KeyCode::KeyD) - key(KeyCode::KeyA) + pad[0];
@@ -99,11 +100,11 @@ impl Navigator {
         self.offset += velocity * nav.walk_speed * dt;
     }
 
-    fn apply(&self, base: Pose) -> Pose {
+    pub(crate) fn apply(&self, base: Pose) -> Pose {
         Pose { room_position: base.room_position + self.offset, room_yaw_deg: base.room_yaw_deg + self.yaw_deg, ..base }
     }
 
-    fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         self.offset = Vec3::ZERO;
         self.yaw_deg = 0.0;
     }
@@ -147,10 +148,10 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
     Ok(app.report())
 }
 
-struct PresentPipeline {
-    pipeline: wgpu::RenderPipeline,
-    layout: wgpu::BindGroupLayout,
-    surface_is_srgb: bool,
+pub(crate) struct PresentPipeline {
+    pub(crate) pipeline: wgpu::RenderPipeline,
+    pub(crate) layout: wgpu::BindGroupLayout,
+    pub(crate) surface_is_srgb: bool,
 }
 
 struct App<'a> {
@@ -569,7 +570,7 @@ impl ApplicationHandler for App<'_> {
     }
 }
 
-fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<PresentPipeline> {
+pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<PresentPipeline> {
     let device = &ctx.device;
     let module = crate::gpu::shaders::module(device, "present.wgsl")?;
     let texture = |binding, filterable| wgpu::BindGroupLayoutEntry {

@@ -68,10 +68,6 @@ impl GpuContext {
                 .await
                 .map_err(|e| VlfError::NoAdapter { detail: e.to_string() })?,
         };
-        let info = adapter.get_info();
-        let software = info.device_type == wgpu::DeviceType::Cpu
-            || info.name.to_lowercase().contains("llvmpipe")
-            || info.name.to_lowercase().contains("lavapipe");
         let supported = adapter.features();
         let timestamps = supported.contains(wgpu::Features::TIMESTAMP_QUERY);
         let mut required_features = wgpu::Features::empty();
@@ -91,6 +87,17 @@ impl GpuContext {
             })
             .await
             .map_err(|e| VlfError::Device(e.to_string()))?;
+        Ok(Self::from_device(instance, adapter, device, queue))
+    }
+
+    /// Wrap a device opened elsewhere (an OpenXR runtime's Vulkan device, see
+    /// `display::xr::vulkan`): the same error sink and adapter summary as `new`.
+    pub fn from_device(instance: wgpu::Instance, adapter: wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Arc<GpuContext> {
+        let info = adapter.get_info();
+        let software = info.device_type == wgpu::DeviceType::Cpu
+            || info.name.to_lowercase().contains("llvmpipe")
+            || info.name.to_lowercase().contains("lavapipe");
+        let timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let timestamp_period_ns = queue.get_timestamp_period();
         let errors: Arc<Mutex<Vec<String>>> = Default::default();
         let sink = errors.clone();
@@ -110,7 +117,7 @@ impl GpuContext {
             device_type: format!("{:?}", info.device_type),
             software,
         };
-        Ok(Arc::new(GpuContext { instance, device, queue, adapter, summary, timestamps, timestamp_period_ns, errors }))
+        Arc::new(GpuContext { instance, device, queue, adapter, summary, timestamps, timestamp_period_ns, errors })
     }
 
     pub fn limits(&self) -> wgpu::Limits {

@@ -1,10 +1,14 @@
-//! `vlf xr`: an OpenXR headset drawn from the one resident light field. This module holds what
-//! is settled and tested: loading the system's OpenXR loader (the `openxr` crate, at run time),
-//! finding a runtime with XR_KHR_vulkan_enable2 and a head-mounted system, the errors that say
-//! what is missing and how to install and select a runtime, and the view math (OpenXR's
-//! asymmetric field of view to a projection, OpenXR poses to the renderer's views). The Vulkan
-//! session on the runtime's device (wgpu from raw handles) and the frame loop are not built
-//! yet: with a runtime present, `vlf xr` says so and exits non-zero.
+//! `vlf xr`: an OpenXR headset drawn from the one resident light field. This module loads the
+//! system's OpenXR loader (the `openxr` crate, at run time), finds a runtime with
+//! XR_KHR_vulkan_enable2 and a head-mounted system (or says what is missing and how to install
+//! and select a runtime), and holds the view math: OpenXR's asymmetric field of view to a
+//! projection, OpenXR poses to the renderer's views. `vulkan` builds wgpu on the Vulkan
+//! instance and device the runtime creates; `session` runs the frame loop.
+
+pub mod session;
+pub mod vulkan;
+
+pub use session::{XrOptions, XrReport};
 
 use super::tracking::Pose;
 use crate::error::{Result, VlfError};
@@ -123,13 +127,14 @@ pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::
     Ok((instance, system, runtime))
 }
 
-/// `vlf xr`: everything up to the session. The loader and runtime are checked before the light
-/// field is made, so a machine without a headset learns it at once.
-pub fn run_headset() -> Result<()> {
+/// `vlf xr`: the loader and runtime are checked before the light field is made (so a machine
+/// without a headset learns it at once), then the light field is made on the runtime's device
+/// by `make_light_field` and the session runs until the runtime ends it.
+pub fn run_headset(
+    make_light_field: &mut dyn FnMut(&std::sync::Arc<crate::gpu::GpuContext>) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField)>,
+    options: &XrOptions,
+) -> Result<XrReport> {
     let entry = load_loader()?;
-    let (_instance, _system, runtime) = find_runtime(&entry)?;
-    Err(VlfError::Display(format!(
-        "found the OpenXR runtime {} with headset {:?}, but vlf's Vulkan session on the runtime's device (XR_KHR_vulkan_enable2 with wgpu on raw handles) and its frame loop are not built yet; use `vlf cave` with config/displays/desktop.toml meanwhile",
-        runtime.runtime, runtime.system
-    )))
+    let (instance, system, runtime) = find_runtime(&entry)?;
+    session::run(instance, system, runtime, make_light_field, options)
 }
