@@ -518,6 +518,9 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(path) = json {
                 write_json(&path, &report)?;
             }
+            if report.lost {
+                bail!("{}", report.ended);
+            }
         }
         Command::Generate { kind, size, mirrors, out } => {
             let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;

@@ -1,9 +1,13 @@
 //! OpenXR: the view math against hand-computed values, the errors without a loader or a
-//! runtime, and a headset run when XR_RUNTIME_JSON names a runtime (it says plainly when none
-//! is available and it did not run).
+//! runtime, whole sessions through the system's Khronos loader on vlf's headless test runtime
+//! (tests/xr-runtime: simulated headset, thumbsticks, rule checks), and a headset run on the
+//! runtime XR_RUNTIME_JSON names, such as Monado or SteamVR (it says plainly when none is
+//! available and it did not run).
 
 use glam::{Mat4, Vec3, Vec4};
+use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 use vlf::display::xr::{pose_from_view, projection_from_fov, view_from_pose, Fov, XrPose};
 
 #[test]
@@ -81,13 +85,224 @@ fn without_a_runtime_the_error_names_the_selection_and_how_to_install_one() {
     }
 }
 
+/// Small propagation settings: the session, not the light field, is under test.
+const SMALL: [&str; 6] = ["--directions", "126", "--grid", "48", "--texel-density", "16"];
+
+fn system_loader() -> &'static str {
+    ["/usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1", "/usr/lib/libopenxr_loader.so.1"]
+        .into_iter()
+        .find(|p| Path::new(p).exists())
+        .unwrap_or_else(|| panic!("the session tests need the OpenXR loader (libopenxr_loader.so.1): run `bash tools/setup.sh` or `sudo apt-get install libopenxr-loader1`"))
+}
+
+/// Build the test runtime (its own target folder, so this does not wait on the build that runs
+/// the tests) and write the manifest the loader reads.
+fn test_runtime() -> &'static Path {
+    static MANIFEST: OnceLock<PathBuf> = OnceLock::new();
+    MANIFEST.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let target = root.join("target/xr-test-runtime");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let out = Command::new(cargo)
+            .args(["build", "--release", "--manifest-path"])
+            .arg(root.join("tests/xr-runtime/Cargo.toml"))
+            .env("CARGO_TARGET_DIR", &target)
+            .output()
+            .expect("cargo runs");
+        assert!(out.status.success(), "building tests/xr-runtime failed:\n{}", String::from_utf8_lossy(&out.stderr));
+        let library = target.join("release/libvlf_xr_test_runtime.so");
+        assert!(library.exists(), "{} was not built", library.display());
+        let manifest = Path::new(env!("CARGO_TARGET_TMPDIR")).join("vlf_xr_test_runtime.json");
+        let json = serde_json::json!({"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": library}});
+        std::fs::write(&manifest, json.to_string()).unwrap();
+        manifest
+    })
+}
+
+struct Session {
+    ok: bool,
+    stdout: String,
+    stderr: String,
+    report: serde_json::Value,
+    runtime: std::collections::HashMap<String, String>,
+    screenshot: Option<image::RgbImage>,
+}
+
+fn cornell() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml")
+}
+
+/// `vlf xr` on the test runtime; `name` keeps each test's files apart.
+fn session(name: &str, scene: &Path, args: &[&str], envs: &[(&str, &str)]) -> Session {
+    let manifest = test_runtime();
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("xr-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (shot, json, runtime_report) = (dir.join("left.png"), dir.join("report.json"), dir.join("runtime.txt"));
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vlf"));
+    cmd.arg("xr").arg("--scene").arg(scene).args(SMALL).args(args);
+    cmd.arg("--json").arg(&json).arg("--screenshot").arg(&shot);
+    cmd.env("VLF_OPENXR_LOADER", system_loader()).env("XR_RUNTIME_JSON", manifest).env("VLF_TEST_XR_REPORT", &runtime_report);
+    cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    for (k, v) in envs {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned());
+    println!("{stdout}\n{stderr}");
+    let report = std::fs::read_to_string(&json).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or(serde_json::Value::Null);
+    let runtime = std::fs::read_to_string(&runtime_report)
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.split_once('=').map(|(k, v)| (k.to_string(), v.to_string())))
+        .collect();
+    let screenshot = image::open(&shot).ok().map(|i| i.to_rgb8());
+    Session { ok: out.status.success(), stdout, stderr, report, runtime, screenshot }
+}
+
+/// Mean display value and the share of pixels above a dim threshold.
+fn brightness(img: &image::RgbImage) -> (f64, f64) {
+    let n = (img.width() * img.height()) as f64;
+    let values: Vec<f64> = img.pixels().map(|p| (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0).collect();
+    (values.iter().sum::<f64>() / n, values.iter().filter(|&&v| v > 8.0).count() as f64 / n)
+}
+
+#[test]
+fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
+    let s = session("frames", &cornell(), &["--frames", "24", "--screenshot-frame", "12"], &[]);
+    assert!(s.ok && !s.stderr.contains("panicked"), "vlf xr failed: {}", s.stderr);
+    // the runtime's own account: every frame ended with a valid two-view projection layer,
+    // both images released each frame, no rule broken
+    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+    let count = |k: &str| s.runtime.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    assert!(count("layers_checked") >= 24, "{:?}", s.runtime);
+    assert_eq!(count("images_released"), 2 * count("layers_checked"), "{:?}", s.runtime);
+    // the session went through its states in order, to the end
+    let states = s.report["states"].as_array().expect("states in the report").iter().map(|v| v.as_str().unwrap().to_string()).collect::<Vec<_>>().join(",");
+    assert!(states.starts_with("idle,ready,synchronized,visible,focused"), "{states}");
+    assert!(states.ends_with("stopping,idle,exiting"), "{states}");
+    assert!(s.report["ended"].as_str().unwrap().starts_with("cleanly, after the 24 frames"), "{}", s.report);
+    assert_eq!(s.report["frames"], 24);
+    assert!(s.report["frames_skipped"].as_u64().unwrap() >= 1, "the first frame (synchronized, not yet visible) is not to be rendered");
+    // the per-eye report: GPU time per eye (lavapipe has timestamps), missed frames counted
+    let eyes = s.report["eyes"].as_array().unwrap();
+    assert_eq!(eyes.len(), 2);
+    for (eye, name) in eyes.iter().zip(["left", "right"]) {
+        assert_eq!(eye["eye"], name);
+        assert_eq!(eye["pixels"], serde_json::json!([256, 224]));
+        let gpu = &eye["gpu_ms"];
+        assert!(gpu["samples"].as_u64().unwrap() == 24 && gpu["median"].as_f64().unwrap() > 0.0 && gpu["max"].as_f64().unwrap() >= gpu["p99"].as_f64().unwrap(), "{eye}");
+    }
+    assert!(s.report["missed_frames"].is_u64() && s.report["display_period_ms"].as_f64().unwrap() > 11.0);
+    for needle in ["eye    pixels", "left ", "right ", "missed display refreshes", "session states: idle -> ready"] {
+        assert!(s.stdout.contains(needle), "missing {needle:?} in the printed report:\n{}", s.stdout);
+    }
+    // the left eye's swapchain image, as the runtime received it: the Cornell box, not black
+    let shot = s.screenshot.expect("--screenshot wrote the left eye");
+    assert_eq!(shot.dimensions(), (256, 224));
+    let (mean, lit) = brightness(&shot);
+    println!("left eye: mean {mean:.1}, lit {:.0}%", lit * 100.0);
+    assert!(mean > 3.0 && lit > 0.05, "the left eye is (nearly) black: mean {mean:.1}, lit {lit:.3}");
+}
+
+#[test]
+fn the_left_thumbstick_walks_the_viewer_into_the_room() {
+    // lockstep display: 39 steps of 1/90 s at 1.4 m/s walk 0.61 m on any machine
+    let frames = ["--frames", "40", "--screenshot-frame", "40"];
+    let still = session("stick-still", &cornell(), &frames, &[("VLF_TEST_XR_LEFT_STICK", "0,0"), ("VLF_TEST_XR_LOCKSTEP", "1")]);
+    let walked = session("stick-forward", &cornell(), &frames, &[("VLF_TEST_XR_LEFT_STICK", "0,1"), ("VLF_TEST_XR_LOCKSTEP", "1")]);
+    assert!(still.ok && walked.ok, "{}\n{}", still.stderr, walked.stderr);
+    let (_, lit_still) = brightness(&still.screenshot.unwrap());
+    let (_, lit_walked) = brightness(&walked.screenshot.unwrap());
+    println!("lit share: standing {lit_still:.3}, after walking forward {lit_walked:.3}");
+    // 0.61 m closer to the open box from 3.9 m: it covers about (3.9 / 3.29)^2 = 1.4 times the area
+    assert!(lit_walked > lit_still * 1.25, "pushing the thumbstick forward did not bring the box closer: {lit_still:.3} -> {lit_walked:.3}");
+}
+
+#[test]
+fn a_saved_light_field_goes_onto_the_runtimes_device_and_the_runtime_can_end_the_session() {
+    let vlf_file = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-cornell.vlf");
+    let out = Command::new(env!("CARGO_BIN_EXE_vlf")).arg("propagate").arg(cornell()).args(SMALL).arg("-o").arg(&vlf_file).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let s = session("runtime-ends", &vlf_file, &["--screenshot-frame", "3"], &[("VLF_TEST_XR_END_AFTER", "8")]);
+    assert!(s.ok, "{}", s.stderr);
+    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+    assert!(s.report["ended"].as_str().unwrap().contains("the runtime or the user ended the session"), "{}", s.report);
+    assert!(s.report["frames"].as_u64().unwrap() >= 6, "{}", s.report);
+    assert!(!s.stderr.contains("propagated in"), "the saved light field was propagated again: {}", s.stderr);
+    let (mean, _) = brightness(&s.screenshot.expect("left eye written"));
+    assert!(mean > 3.0, "the left eye from the loaded light field is black");
+}
+
+#[test]
+fn a_screenshot_of_a_frame_the_session_never_reached_is_an_error() {
+    let s = session("late-screenshot", &cornell(), &["--screenshot-frame", "50"], &[("VLF_TEST_XR_END_AFTER", "5")]);
+    assert!(!s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    assert!(s.stderr.contains("before frame 50"), "{}", s.stderr);
+}
+
 #[test]
 fn a_headset_run_when_a_runtime_is_configured() {
     match std::env::var("XR_RUNTIME_JSON") {
-        Ok(path) if std::path::Path::new(&path).exists() => {
-            let (ok, err) = vlf_xr(&[]);
-            assert!(ok, "vlf xr failed with the runtime {path}: {err}");
+        Ok(path) if Path::new(&path).exists() => {
+            let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-configured-runtime-left.png");
+            let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
+                .args(["xr", "--scene", concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell/scene.toml")])
+                .args(SMALL)
+                .args(["--frames", "60", "--screenshot-frame", "30", "--screenshot"])
+                .arg(&shot)
+                .output()
+                .unwrap();
+            let err = String::from_utf8_lossy(&out.stderr);
+            println!("{}\n{err}", String::from_utf8_lossy(&out.stdout));
+            assert!(out.status.success(), "vlf xr failed with the runtime {path}: {err}");
+            let (mean, lit) = brightness(&image::open(&shot).unwrap().to_rgb8());
+            assert!(mean > 3.0 && lit > 0.05, "the left eye is (nearly) black on {path}: mean {mean:.1}, lit {lit:.3}");
         }
-        _ => println!("no OpenXR runtime available (XR_RUNTIME_JSON unset or missing): the headset run did not run"),
+        _ => println!("no OpenXR runtime available (XR_RUNTIME_JSON unset or missing): the run on a configured headset runtime did not run (the sessions on vlf's headless test runtime above did)"),
     }
+}
+
+#[test]
+fn a_lost_session_ends_with_the_report_and_a_failing_exit_code() {
+    let s = session("lost", &cornell(), &["--screenshot-frame", "2"], &[("VLF_TEST_XR_LOSE_AFTER", "5")]);
+    assert!(!s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    assert!(s.stderr.contains("lost the session after"), "{}", s.stderr);
+    assert!(s.stdout.contains("session states: idle -> ready -> synchronized -> visible -> focused -> loss_pending"), "{}", s.stdout);
+    assert_eq!(s.report["lost"], true);
+    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+}
+
+#[test]
+fn ctrl_c_ends_the_session_cleanly_with_the_report() {
+    let manifest = test_runtime();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("xr")
+        .arg("--scene")
+        .arg(cornell())
+        .args(SMALL)
+        .env("VLF_OPENXR_LOADER", system_loader())
+        .env("XR_RUNTIME_JSON", manifest)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // wait for frames to flow, then interrupt as an operator would
+    let stderr = child.stderr.take().unwrap();
+    let mut lines = std::io::BufRead::lines(std::io::BufReader::new(stderr));
+    for line in lines.by_ref() {
+        if line.unwrap().starts_with("propagated in") {
+            break;
+        }
+    }
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(status.success());
+    let rest: Vec<String> = lines.map_while(|l| l.ok()).collect();
+    let out = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}\n{}", rest.join("\n"));
+    assert!(out.status.success(), "{}", rest.join("\n"));
+    assert!(stdout.contains("ended: cleanly, interrupted (Ctrl-C)") && stdout.contains("stopping -> idle -> exiting"), "{stdout}");
 }

@@ -61,6 +61,8 @@ pub struct XrReport {
     /// the session states in the order the runtime reported them
     pub states: Vec<String>,
     pub ended: String,
+    /// the runtime lost the session (headset unplugged, runtime gone) rather than ending it
+    pub lost: bool,
     pub screenshot: Option<String>,
 }
 
@@ -278,6 +280,8 @@ pub fn run(
     let mut exit_requested = false;
     let mut states = Vec::new();
     let ended;
+    let mut lost = false;
+    let interrupted = interrupt_flag();
     let (mut frames, mut skipped, mut missed) = (0u32, 0u32, 0u64);
     let mut gpu: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut cpu = Vec::new();
@@ -303,7 +307,9 @@ pub fn run(
                             running = false;
                         }
                         xr::SessionState::EXITING => {
-                            if exit_requested {
+                            if exit_requested && interrupted.load(std::sync::atomic::Ordering::Relaxed) {
+                                ended = format!("cleanly, interrupted (Ctrl-C) after {frames} frames");
+                            } else if exit_requested {
                                 ended = format!("cleanly, after the {} frames asked for", options.frames.unwrap_or(frames));
                             } else {
                                 ended = "cleanly, the runtime or the user ended the session".into();
@@ -311,14 +317,16 @@ pub fn run(
                             break 'session;
                         }
                         xr::SessionState::LOSS_PENDING => {
-                            ended = "the runtime is losing the session (headset disconnected?); ended".into();
+                            ended = format!("the runtime lost the session after {frames} frames (headset disconnected or runtime stopped)");
+                            lost = true;
                             break 'session;
                         }
                         _ => {}
                     }
                 }
                 xr::Event::InstanceLossPending(_) => {
-                    ended = "the OpenXR runtime is going away (instance loss pending); ended".into();
+                    ended = format!("the OpenXR runtime went away after {frames} frames (instance loss pending)");
+                    lost = true;
                     break 'session;
                 }
                 _ => {}
@@ -425,14 +433,17 @@ pub fn run(
             write_screenshot(&ctx, &buffer, padded_row, eyes[0].size, format, path)?;
             screenshot_written = Some(path.display().to_string());
         }
-        if let Some(n) = options.frames {
-            if frames >= n && !exit_requested {
-                session.request_exit().map_err(xr_error("xrRequestExitSession"))?;
-                exit_requested = true;
+        let enough = options.frames.is_some_and(|n| frames >= n);
+        let stop = interrupted.load(std::sync::atomic::Ordering::Relaxed);
+        if (enough || stop) && !exit_requested {
+            if stop {
+                eprintln!("interrupted: ending the OpenXR session");
             }
+            session.request_exit().map_err(xr_error("xrRequestExitSession"))?;
+            exit_requested = true;
         }
     }
-    if let (Some(path), None) = (&options.screenshot, &screenshot_written) {
+    if let (Some(path), None, false) = (&options.screenshot, &screenshot_written, lost) {
         return Err(VlfError::Display(format!(
             "the session ended after {frames} frames, before frame {} that --screenshot {} asked for",
             options.screenshot_frame,
@@ -467,6 +478,7 @@ pub fn run(
         cpu_frame_ms: (!cpu.is_empty()).then(|| Distribution::of(&cpu)),
         states,
         ended,
+        lost,
         screenshot: screenshot_written,
     };
     // the swapchains and the session go before the device they were made on
@@ -482,6 +494,21 @@ pub fn run(
     drop(vulkan);
     drop(instance);
     Ok(report)
+}
+
+/// Set by Ctrl-C: the session is asked to end (the runtime then stops it), so the report is
+/// still printed. Installed once per process.
+fn interrupt_flag() -> Arc<std::sync::atomic::AtomicBool> {
+    static FLAG: std::sync::OnceLock<Arc<std::sync::atomic::AtomicBool>> = std::sync::OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let setter = flag.clone();
+        if let Err(e) = ctrlc::set_handler(move || setter.store(true, std::sync::atomic::Ordering::Relaxed)) {
+            log::warn!("Ctrl-C will not end the OpenXR session cleanly: {e}");
+        }
+        flag
+    })
+    .clone()
 }
 
 fn draw_to(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, pipeline: &wgpu::RenderPipeline, bind_group: &wgpu::BindGroup, load: wgpu::LoadOp<wgpu::Color>) {

