@@ -20,3 +20,5 @@ for eyes in 1440x1600 2064x2208; do
       --json "$out/$name.json" 2>&1 | grep -v XDG | tee "$out/$name.txt"
   done
 done
+# the device returns a handful of files: everything in one archive
+tar -C "$out" -cf /tmp/xr.tar . && rm -f "$out"/xr-* && mv /tmp/xr.tar "$out/xr.tar"

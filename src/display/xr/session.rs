@@ -53,6 +53,8 @@ pub struct XrReport {
     /// display refreshes between consecutive predicted display times that no frame was
     /// submitted for
     pub missed_frames: u64,
+    /// the frames (1-based) after which refreshes were missed, the first 100
+    pub missed_after_frames: Vec<u32>,
     pub display_period_ms: f64,
     /// per eye: GPU time of the eye's render pass (timestamp queries)
     pub eyes: Vec<ViewTiming>,
@@ -76,6 +78,10 @@ impl XrReport {
             "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms)\n",
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms
         ));
+        if !self.missed_after_frames.is_empty() {
+            let list: Vec<String> = self.missed_after_frames.iter().map(|f| f.to_string()).collect();
+            s.push_str(&format!("missed after frame(s): {}\n", list.join(", ")));
+        }
         s.push_str("eye    pixels      GPU p50 ms  p99 ms   max ms   p99/p50\n");
         for e in &self.eyes {
             match &e.gpu_ms {
@@ -283,11 +289,13 @@ pub fn run(
     let mut lost = false;
     let interrupted = interrupt_flag();
     let (mut frames, mut skipped, mut missed) = (0u32, 0u32, 0u64);
+    let mut missed_after = Vec::new();
     let mut gpu: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut cpu = Vec::new();
     let mut last_display_time: Option<i64> = None;
     let mut period_ms = 0.0;
     let mut screenshot_written = None;
+    let mut screenshot_writer: Option<std::thread::JoinHandle<Result<()>>> = None;
     let mut waiting_since = Instant::now();
     let mut reset_was_down = false;
     let mut fly_was_down = false;
@@ -346,7 +354,12 @@ pub fn run(
         period_ms = period as f64 * 1e-6;
         if let Some(last) = last_display_time {
             let refreshes = ((display_time - last) as f64 / period as f64).round() as i64;
-            missed += (refreshes - 1).max(0) as u64;
+            if refreshes > 1 {
+                missed += (refreshes - 1) as u64;
+                if missed_after.len() < 100 {
+                    missed_after.push(frames);
+                }
+            }
         }
         let dt = last_display_time.map(|l| ((display_time - l) as f64 * 1e-9) as f32).unwrap_or(0.0).clamp(0.0, 0.1);
         last_display_time = Some(display_time);
@@ -430,8 +443,11 @@ pub fn run(
             }
         }
         if let (Some((buffer, padded_row)), Some(path)) = (readback, options.screenshot.as_ref()) {
-            write_screenshot(&ctx, &buffer, padded_row, eyes[0].size, format, path)?;
-            screenshot_written = Some(path.display().to_string());
+            // encoding and writing the PNG would hold up the next frame: a thread does it
+            let bytes: Vec<u8> = ctx.read_buffer(&buffer, padded_row as u64 * eyes[0].size[1] as u64)?;
+            let (size, path) = (eyes[0].size, path.clone());
+            screenshot_writer = Some(std::thread::spawn(move || write_screenshot(&bytes, padded_row, size, format, &path)));
+            screenshot_written = Some(options.screenshot.as_ref().expect("checked").display().to_string());
         }
         let enough = options.frames.is_some_and(|n| frames >= n);
         let stop = interrupted.load(std::sync::atomic::Ordering::Relaxed);
@@ -442,6 +458,9 @@ pub fn run(
             session.request_exit().map_err(xr_error("xrRequestExitSession"))?;
             exit_requested = true;
         }
+    }
+    if let Some(writer) = screenshot_writer {
+        writer.join().map_err(|_| VlfError::Display("the screenshot writer failed".into()))??;
     }
     if let (Some(path), None, false) = (&options.screenshot, &screenshot_written, lost) {
         return Err(VlfError::Display(format!(
@@ -460,6 +479,7 @@ pub fn run(
         frames,
         frames_skipped: skipped,
         missed_frames: missed,
+        missed_after_frames: missed_after,
         display_period_ms: period_ms,
         eyes: eyes
             .iter()
@@ -567,8 +587,7 @@ fn copy_to_buffer(ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, texture:
 }
 
 /// The swapchain image as the runtime got it (8-bit, sRGB-encoded) to PNG, written atomically.
-fn write_screenshot(ctx: &GpuContext, buffer: &wgpu::Buffer, padded_row: u32, [width, height]: [u32; 2], format: wgpu::TextureFormat, path: &std::path::Path) -> Result<()> {
-    let bytes: Vec<u8> = ctx.read_buffer(buffer, padded_row as u64 * height as u64)?;
+fn write_screenshot(bytes: &[u8], padded_row: u32, [width, height]: [u32; 2], format: wgpu::TextureFormat, path: &std::path::Path) -> Result<()> {
     let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
     let mut rgba = Vec::with_capacity((width * height * 4) as usize);
     for row in bytes.chunks_exact(padded_row as usize) {
