@@ -2,7 +2,8 @@
 # Assembles BENCHMARKS.md from what the lent GPU wrote into DIR: the suite (`vlf bench --suite
 # --json suite.json`: its Markdown is regenerated here from the JSON), the per-scene sections
 # `vlf bench --markdown` wrote (bench-{default,paper,mirror,mirror-paper,perturb4}.md) and the
-# CAVE reports (cave-{static,walk}.json). Usage: tools/benchmarks-md.sh DIR [VLF] > BENCHMARKS.md
+# CAVE reports (cave-{static,walk}.json), then the OpenXR section from XR_DIR (tools/gpu-xr.sh's
+# output, default docs/results/xr-h100). Usage: tools/benchmarks-md.sh DIR [VLF] [XR_DIR] > BENCHMARKS.md
 set -euo pipefail
 dir=$1
 vlf=${2:-target/release/vlf}
@@ -71,3 +72,7 @@ for v in r["views"]:
 print()
 PY
 done
+xr_dir=${3:-docs/results/xr-h100}
+if compgen -G "$xr_dir/xr-*.json" > /dev/null; then
+  bash "$(dirname "$0")/xr-md.sh" "$xr_dir"
+fi
