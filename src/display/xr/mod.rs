@@ -101,6 +101,9 @@ pub fn load_loader() -> Result<openxr::Entry> {
 pub struct XrRuntime {
     pub runtime: String,
     pub system: String,
+    /// the runtime converts the system clock to XrTime (XR_KHR_convert_timespec_time), so
+    /// frames submitted after their display time can be counted
+    pub clock: bool,
 }
 
 /// Find a runtime with Vulkan (XR_KHR_vulkan_enable2) and a head-mounted display.
@@ -116,6 +119,7 @@ pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::
     }
     let mut extensions = openxr::ExtensionSet::default();
     extensions.khr_vulkan_enable2 = true;
+    extensions.khr_convert_timespec_time = available.khr_convert_timespec_time;
     let app = openxr::ApplicationInfo { application_name: "vlf", application_version: 1, engine_name: "vlf", engine_version: 1, api_version: openxr::Version::new(1, 0, 0) };
     let instance = entry.create_instance(&app, &extensions, &[]).map_err(|e| no_runtime(e.to_string()))?;
     let props = instance.properties().map_err(|e| no_runtime(e.to_string()))?;
@@ -123,7 +127,11 @@ pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::
         .system(openxr::FormFactor::HEAD_MOUNTED_DISPLAY)
         .map_err(|e| VlfError::Display(format!("the OpenXR runtime {} has no headset ({e}): connect one, or start the runtime's simulated headset", props.runtime_name)))?;
     let system_props = instance.system_properties(system).map_err(|e| no_runtime(e.to_string()))?;
-    let runtime = XrRuntime { runtime: format!("{} {}", props.runtime_name, props.runtime_version), system: system_props.system_name };
+    let runtime = XrRuntime {
+        runtime: format!("{} {}", props.runtime_name, props.runtime_version),
+        system: system_props.system_name,
+        clock: available.khr_convert_timespec_time,
+    };
     Ok((instance, system, runtime))
 }
 

@@ -55,6 +55,9 @@ pub struct XrReport {
     pub missed_frames: u64,
     /// the frames (1-based) after which refreshes were missed, the first 100
     pub missed_after_frames: Vec<u32>,
+    /// frames whose xrEndFrame came after their predicted display time (None: the runtime
+    /// cannot convert the system clock to XrTime)
+    pub late_frames: Option<u64>,
     pub display_period_ms: f64,
     /// per eye: GPU time of the eye's render pass (timestamp queries)
     pub eyes: Vec<ViewTiming>,
@@ -78,6 +81,9 @@ impl XrReport {
             "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms)\n",
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms
         ));
+        if let Some(late) = self.late_frames {
+            s.push_str(&format!("{late} frames submitted after their predicted display time\n"));
+        }
         if !self.missed_after_frames.is_empty() {
             let list: Vec<String> = self.missed_after_frames.iter().map(|f| f.to_string()).collect();
             s.push_str(&format!("missed after frame(s): {}\n", list.join(", ")));
@@ -304,6 +310,7 @@ pub fn run(
     let interrupted = interrupt_flag();
     let (mut frames, mut skipped, mut missed) = (0u32, 0u32, 0u64);
     let mut missed_after = Vec::new();
+    let mut late = 0u64;
     let mut gpu: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     let mut cpu = Vec::new();
     let mut last_display_time: Option<i64> = None;
@@ -445,6 +452,12 @@ pub fn run(
             .collect();
         let layer = xr::CompositionLayerProjection::new().space(&space).views(&projection_views);
         frame_stream.end(frame_state.predicted_display_time, blend, &[&layer]).map_err(xr_error("xrEndFrame"))?;
+        if runtime.clock {
+            let now = instance.now().map_err(xr_error("xrConvertTimespecTimeToTimeKHR"))?;
+            if timed && now.as_nanos() > display_time {
+                late += 1;
+            }
+        }
         ctx.wait()?;
         ctx.check_errors()?;
         frames += 1;
@@ -494,6 +507,7 @@ pub fn run(
         frames_skipped: skipped,
         missed_frames: missed,
         missed_after_frames: missed_after,
+        late_frames: runtime.clock.then_some(late),
         display_period_ms: period_ms,
         eyes: eyes
             .iter()
