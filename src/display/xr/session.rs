@@ -117,8 +117,9 @@ fn xr_error(what: &str) -> impl Fn(xr::sys::Result) -> VlfError + '_ {
 /// renderer draws into.
 struct Eye {
     name: &'static str,
-    swapchain: xr::Swapchain<xr::Vulkan>,
+    /// before `swapchain`: fields drop in order, and the runtime frees the images with it
     images: Vec<wgpu::Texture>,
+    swapchain: xr::Swapchain<xr::Vulkan>,
     size: [u32; 2],
     targets: ViewTargets,
     params: wgpu::Buffer,
@@ -280,7 +281,7 @@ pub fn run(
             _pad0: 0,
         };
         ctx.queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-        eyes.push(Eye { name, swapchain, images, size, targets, params, bind_group });
+        eyes.push(Eye { name, images, swapchain, size, targets, params, bind_group });
     }
     // one untimed frame before the session: the first use of every pipeline and image costs
     // more than a display period, and would otherwise be the first frame the headset shows
