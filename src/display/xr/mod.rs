@@ -10,6 +10,10 @@ pub mod vulkan;
 
 pub use session::{XrOptions, XrReport};
 
+/// Makes the light field on the device the runtime chose: propagates a scene into it or loads a
+/// `.vlf` onto it.
+pub type MakeLightField<'a> = dyn FnMut(&std::sync::Arc<crate::gpu::GpuContext>) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField)> + 'a;
+
 use super::tracking::Pose;
 use crate::error::{Result, VlfError};
 use glam::{Mat4, Quat, Vec3, Vec4};
@@ -139,7 +143,7 @@ pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::
 /// without a headset learns it at once), then the light field is made on the runtime's device
 /// by `make_light_field` and the session runs until the runtime ends it.
 pub fn run_headset(
-    make_light_field: &mut dyn FnMut(&std::sync::Arc<crate::gpu::GpuContext>) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField)>,
+    make_light_field: &mut MakeLightField<'_>,
     options: &XrOptions,
 ) -> Result<XrReport> {
     let entry = load_loader()?;

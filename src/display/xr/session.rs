@@ -13,7 +13,6 @@ use crate::display::window::{present_pipeline, Navigator};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
 use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
-use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::{Renderer, ViewTargets};
 use glam::{Quat, Vec3};
 use openxr as xr;
@@ -197,7 +196,7 @@ pub fn run(
     instance: xr::Instance,
     system: xr::SystemId,
     runtime: XrRuntime,
-    make_light_field: &mut dyn FnMut(&Arc<GpuContext>) -> Result<(LightField, ResidentLightField)>,
+    make_light_field: &mut super::MakeLightField<'_>,
     options: &XrOptions,
 ) -> Result<XrReport> {
     let vulkan = super::vulkan::create(&instance, system)?;
