@@ -85,21 +85,30 @@ fn closer(t: f32, tri: u32, hit: Hit) -> bool {
     return face < other || (face == other && tri < hit.tri);
 }
 
-// Closest hit (any_hit: stop at the first one, for shadow rays).
+// Closest hit (any_hit: stop at the first one, for shadow rays). Children are tested when
+// their parent is opened and only those the ray enters are pushed, nearer on top, each with the
+// distance at which the ray enters it: an entry that a hit found since has made too far is
+// dropped when popped, without reading its node.
 fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
     let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
+    let root = box_entry(nodes[0].lo, nodes[0].hi, origin, inv_dir, hit.t * TIE);
+    if root < 0.0 {
+        return hit;
+    }
     var stack: array<u32, 64>;
+    var entry: array<f32, 64>;
     var top = 1u;
     stack[0] = 0u;
+    entry[0] = root;
     while top > 0u {
         top -= 1u;
-        let index = stack[top];
-        let node = nodes[index];
-        if box_entry(node.lo, node.hi, origin, inv_dir, hit.t * TIE) < 0.0 {
+        if entry[top] >= hit.t * TIE {
             continue;
         }
+        let index = stack[top];
+        let node = nodes[index];
         if node.count > 0u {
             for (var i = node.index; i < node.index + node.count; i++) {
                 let r = intersect(origin, dir, triangles[i], hit.t * TIE);
@@ -110,18 +119,26 @@ fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
                     }
                 }
             }
-        } else if top + 2u <= 64u {
-            // the nearer child is searched first: its hits shorten the far child's search
-            let left = nodes[index + 1u];
-            let right = nodes[node.index];
-            let t_left = box_entry(left.lo, left.hi, origin, inv_dir, hit.t);
-            let t_right = box_entry(right.lo, right.hi, origin, inv_dir, hit.t);
-            let right_first = t_right >= 0.0 && (t_left < 0.0 || t_right < t_left);
-            stack[top] = select(node.index, index + 1u, right_first);
-            stack[top + 1u] = select(index + 1u, node.index, right_first);
-            top += 2u;
+            continue;
+        }
+        let left = nodes[index + 1u];
+        let right = nodes[node.index];
+        let t_left = box_entry(left.lo, left.hi, origin, inv_dir, hit.t * TIE);
+        let t_right = box_entry(right.lo, right.hi, origin, inv_dir, hit.t * TIE);
+        if t_left >= 0.0 && t_right >= 0.0 {
+            if top + 2u <= 64u {
+                let right_first = t_right < t_left;
+                stack[top] = select(node.index, index + 1u, right_first);
+                entry[top] = select(t_right, t_left, right_first);
+                stack[top + 1u] = select(index + 1u, node.index, right_first);
+                entry[top + 1u] = select(t_left, t_right, right_first);
+                top += 2u;
+            }
+        } else if (t_left >= 0.0 || t_right >= 0.0) && top < 64u {
+            stack[top] = select(node.index, index + 1u, t_left >= 0.0);
+            entry[top] = max(t_left, t_right);
+            top += 1u;
         }
     }
     return hit;
 }
-
