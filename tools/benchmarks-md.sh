@@ -3,7 +3,7 @@
 # --json suite.json`: its Markdown is regenerated here from the JSON), the per-scene sections
 # `vlf bench --markdown` wrote (bench-{default,paper,mirror,mirror-paper,perturb4}.md) and the
 # CAVE reports (cave-{static,walk}.json), then the OpenXR section from XR_DIR (tools/gpu-xr.sh's
-# output, default docs/results/xr-h100). Usage: tools/benchmarks-md.sh DIR [VLF] [XR_DIR] > BENCHMARKS.md
+# output, default docs/results/xr-h200). Usage: tools/benchmarks-md.sh DIR [VLF] [XR_DIR] > BENCHMARKS.md
 set -euo pipefail
 dir=$1
 vlf=${2:-target/release/vlf}
@@ -23,6 +23,10 @@ the paper's settings (about 512 directions, 64x64 cells, 8x8-cell tiles, 3 itera
 leave about 10% of the light unshot). Memory while propagating is dominated by the visibility
 lists, built once and kept for all iterations (8 bytes per cell and per layer); rendering keeps
 only the face table, the converged radiance atlas and the render mesh.
+
+`tools/gpu-bench.sh` runs the suite twice and reports the second run: on a fresh machine the
+first also pays the driver's shader compilation in its setup times (up to 0.5 s a scene; kept
+in docs/results/suite-h200-cold.json).
 
 HEAD
 if [ -f "$dir/suite.json" ]; then
@@ -72,7 +76,7 @@ for v in r["views"]:
 print()
 PY
 done
-xr_dir=${3:-docs/results/xr-h100}
+xr_dir=${3:-docs/results/xr-h200}
 if compgen -G "$xr_dir/xr-*.json" > /dev/null; then
   bash "$(dirname "$0")/xr-md.sh" "$xr_dir"
 fi
