@@ -70,29 +70,24 @@ fn row_span(a: vec2<f32>, b: vec2<f32>, c: vec2<f32>, y: f32) -> vec2<f32> {
     return vec2<f32>(lo, hi);
 }
 
-fn visit_row(row: u32, tri_index: u32, dir_index: u32, fill: bool) {
-    let d = directions[dir_index];
-    let tri = triangles[tri_index];
-    let a3 = to_cell_units(vertices[tri.x].xyz, d);
-    let b3 = to_cell_units(vertices[tri.y].xyz, d);
-    let c3 = to_cell_units(vertices[tri.z].xyz, d);
-    let a = a3.xy;
-    let b = b3.xy;
-    let c = c3.xy;
-    let area = cross2(b - a, c - a);
-    // edge-on: the face neither receives nor sends along this direction
-    if abs(area) < 1e-9 {
-        return;
-    }
+// A triangle of one direction in cell units.
+struct Projected {
+    a3: vec3<f32>,
+    b3: vec3<f32>,
+    c3: vec3<f32>,
+    area: f32,
+}
+
+fn visit_row(row: u32, tri: vec4<u32>, t: Projected, dir_index: u32, fill: bool) {
+    let a = t.a3.xy;
+    let b = t.b3.xy;
+    let c = t.c3.xy;
     let y = f32(row);
-    if y < min(a.y, min(b.y, c.y)) || y > max(a.y, max(b.y, c.y)) {
-        return;
-    }
     let span = row_span(a, b, c, y);
     let n = i32(grid.resolution);
     let first = clamp(i32(ceil(span.x)) - 1, 0, n - 1);
     let last = clamp(i32(floor(span.y)) + 1, 0, n - 1);
-    let orient = sign(area);
+    let orient = sign(t.area);
     let row_base = dir_index * grid.resolution * grid.resolution + row * grid.resolution;
     for (var col = first; col <= last; col++) {
         let p = vec2<f32>(f32(col), y);
@@ -106,7 +101,7 @@ fn visit_row(row: u32, tri_index: u32, dir_index: u32, fill: bool) {
         let cell = row_base + u32(col);
         if fill {
             // barycentric depth of the cell centre on the triangle's plane
-            let depth = (e_bc * a3.z + e_ca * b3.z + e_ab * c3.z) / area;
+            let depth = (e_bc * t.a3.z + e_ca * t.b3.z + e_ab * t.c3.z) / t.area;
             let slot = direction_base[dir_index] + cell_offset[cell] + atomicAdd(&cell_count[cell], 1u);
             layers[slot] = vec2<u32>(tri.w, bitcast<u32>(depth));
         } else {
@@ -115,22 +110,51 @@ fn visit_row(row: u32, tri_index: u32, dir_index: u32, fill: bool) {
     }
 }
 
-@compute @workgroup_size(64)
-fn count_layers(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let tri = gid.y + grid.triangle_base;
-    if gid.x >= grid.resolution || tri >= grid.triangle_count {
+// Threads per triangle and direction: thread k visits the rows first + k, first + k + ROW_SLOTS,
+// ... of the rows the triangle covers. A thread per grid row would mostly find a small triangle
+// elsewhere and stop: with a million triangles those idle threads were most of the build.
+const ROW_SLOTS: u32 = 8u;
+
+fn visit_rows(slot: u32, tri_index: u32, dir_index: u32, fill: bool) {
+    let d = directions[dir_index];
+    let tri = triangles[tri_index];
+    var t: Projected;
+    t.a3 = to_cell_units(vertices[tri.x].xyz, d);
+    t.b3 = to_cell_units(vertices[tri.y].xyz, d);
+    t.c3 = to_cell_units(vertices[tri.z].xyz, d);
+    t.area = cross2(t.b3.xy - t.a3.xy, t.c3.xy - t.a3.xy);
+    // edge-on: the face neither receives nor sends along this direction
+    if abs(t.area) < 1e-9 {
         return;
     }
-    visit_row(gid.x, tri, gid.z, false);
+    // the grid rows y with min y <= y <= max y of the triangle (clamped as floats, so far-off
+    // vertices cannot overflow the integer conversion)
+    let last_row = f32(grid.resolution) - 1.0;
+    let first = u32(clamp(ceil(min(t.a3.y, min(t.b3.y, t.c3.y))), 0.0, last_row + 1.0));
+    let last = clamp(floor(max(t.a3.y, max(t.b3.y, t.c3.y))), -1.0, last_row);
+    for (var row = first + slot; f32(row) <= last; row += ROW_SLOTS) {
+        visit_row(row, tri, t, dir_index, fill);
+    }
 }
 
-@compute @workgroup_size(64)
-fn fill_layers(@builtin(global_invocation_id) gid: vec3<u32>) {
+// workgroup: ROW_SLOTS threads for each of 8 triangles (src/propagate/visibility.rs dispatches
+// triangles / 8 workgroups in y, one direction per z)
+@compute @workgroup_size(8, 8)
+fn count_layers(@builtin(global_invocation_id) gid: vec3<u32>) {
     let tri = gid.y + grid.triangle_base;
-    if gid.x >= grid.resolution || tri >= grid.triangle_count {
+    if tri >= grid.triangle_count {
         return;
     }
-    visit_row(gid.x, tri, gid.z, true);
+    visit_rows(gid.x, tri, gid.z, false);
+}
+
+@compute @workgroup_size(8, 8)
+fn fill_layers(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let tri = gid.y + grid.triangle_base;
+    if tri >= grid.triangle_count {
+        return;
+    }
+    visit_rows(gid.x, tri, gid.z, true);
 }
 
 const SCAN_THREADS: u32 = 256u;

@@ -74,8 +74,11 @@ impl VisibilityPipelines {
     }
 }
 
-/// Triangles per dispatch (the y dimension of count/fill).
-const TRIANGLES_PER_DISPATCH: u32 = 65535;
+/// Triangles per workgroup of count/fill (the y size of shaders/visibility.wgsl's
+/// `@workgroup_size(8, 8)`; x is its ROW_SLOTS threads per triangle).
+const TRIANGLES_PER_WORKGROUP: u32 = 8;
+/// Triangles per dispatch: the most workgroups one dispatch dimension (y) takes.
+const TRIANGLES_PER_DISPATCH: u32 = 65535 * TRIANGLES_PER_WORKGROUP;
 
 fn groups(count: u32, size: u32) -> u32 {
     count.div_ceil(size)
@@ -131,7 +134,6 @@ impl Visibility {
             })
             .collect();
         let main_bg = &chunks[0].0;
-        let row_groups = groups(grid.resolution, 64);
         let cell_groups = groups(grid.resolution * grid.resolution, 64);
 
         // count, then scan
@@ -145,7 +147,7 @@ impl Visibility {
             pass.set_bind_group(1, placeholder_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
+                pass.dispatch_workgroups(1, groups(*n, TRIANGLES_PER_WORKGROUP), grid.direction_count);
             }
             pass.set_bind_group(0, main_bg, &[]);
             pass.set_pipeline(scan_cells);
@@ -186,7 +188,7 @@ impl Visibility {
             pass.set_bind_group(1, &layers_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(row_groups, *n, grid.direction_count);
+                pass.dispatch_workgroups(1, groups(*n, TRIANGLES_PER_WORKGROUP), grid.direction_count);
             }
             pass.set_bind_group(0, main_bg, &[]);
             pass.set_pipeline(sort_pipe);
