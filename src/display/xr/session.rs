@@ -284,17 +284,22 @@ pub fn run(
     }
     // one untimed frame before the session: the first use of every pipeline and image costs
     // more than a display period, and would otherwise be the first frame the headset shows
+    // (timestamps included: their first read-back sets up more of the driver)
     let scratch = crate::render::texture_2d(&ctx.device, "warm-up", eyes[0].size, format, wgpu::TextureUsages::RENDER_ATTACHMENT);
     let scratch_view = scratch.create_view(&Default::default());
+    let mut timestamps = Timestamps::new(&ctx, 2);
     for eye in &eyes {
         let view_proj = crate::render::view_projection(&camera, &lf.meta.normalisation, eye.size[0], eye.size[1]);
         renderer.set_view_matrix(view_proj, lf.meta.normalisation.to_unit(camera.eye).as_vec3());
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
-        renderer.encode_view(&mut encoder, &eye.targets, None);
+        renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
         draw_to(&mut encoder, &scratch_view, &present.pipeline, &eye.bind_group, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
         ctx.queue.submit([encoder.finish()]);
     }
     ctx.wait()?;
+    if let Some(t) = timestamps.as_mut() {
+        t.read_ms(&ctx)?;
+    }
     drop((scratch_view, scratch));
     ctx.check_errors()?;
 
