@@ -102,6 +102,7 @@ impl Atlas {
                 .iter()
                 .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
                 .collect();
+            let bounds: Vec<(DVec2, DVec2)> = tris2.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
             let r = f.atlas;
             charted_texels += r.w as u64 * r.h as u64;
             let material = &materials[f.material as usize];
@@ -111,7 +112,7 @@ impl Atlas {
             for j in 0..r.h {
                 for i in 0..r.w {
                     let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
-                    let (sample, cover, tri) = sample_texel(&tris2, centre, 0.5 / density);
+                    let (sample, cover, tri) = sample_texel(&tris2, &bounds, centre, 0.5 / density);
                     let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
                     let idx = ((r.y + j) * width + r.x + i) as usize;
                     if albedo_map.is_some() || emission_map.is_some() {
@@ -186,20 +187,24 @@ fn interpolate_uv(t: &[DVec2; 3], uv: [[f32; 2]; 3], p: DVec2) -> [f32; 2] {
 
 /// Sample point, coverage and the triangle holding the sample point, for the texel centred at
 /// `centre` with half-size `half`.
-fn sample_texel(tris: &[[DVec2; 3]], centre: DVec2, half: f64) -> (DVec2, f64, usize) {
+/// `bounds` holds each triangle's bounding box (min, max): only triangles whose box meets the
+/// texel are tested for coverage, which keeps faces of many triangles cheap.
+fn sample_texel(tris: &[[DVec2; 3]], bounds: &[(DVec2, DVec2)], centre: DVec2, half: f64) -> (DVec2, f64, usize) {
     const SUB: usize = 4;
+    let (texel_lo, texel_hi) = (centre - DVec2::splat(half), centre + DVec2::splat(half));
+    let near: Vec<usize> = (0..tris.len()).filter(|&t| bounds[t].0.cmple(texel_hi).all() && bounds[t].1.cmpge(texel_lo).all()).collect();
     let mut covered = 0;
     for sj in 0..SUB {
         for si in 0..SUB {
             let off = DVec2::new((si as f64 + 0.5) / SUB as f64 * 2.0 - 1.0, (sj as f64 + 0.5) / SUB as f64 * 2.0 - 1.0);
             let p = centre + off * half;
-            if tris.iter().any(|t| inside(t, p)) {
+            if near.iter().any(|&t| inside(&tris[t], p)) {
                 covered += 1;
             }
         }
     }
     let cover = covered as f64 / (SUB * SUB) as f64;
-    if let Some(t) = tris.iter().position(|t| inside(t, centre)) {
+    if let Some(&t) = near.iter().find(|&&t| inside(&tris[t], centre)) {
         return (centre, cover, t);
     }
     // nearest point of the face, nudged inside so that visibility finds the face there

@@ -8,7 +8,6 @@ pub mod atlas;
 use crate::error::{Result, VlfError};
 use crate::scene::{Material, Scene};
 use glam::DVec3;
-use std::collections::HashMap;
 
 /// Triangles whose normals differ by less than this from a chart's first triangle join it.
 pub const PLANAR_ANGLE_DEG: f64 = 2.0;
@@ -153,16 +152,28 @@ fn triangle_geometry(positions: &[DVec3], v: [u32; 3]) -> (DVec3, f64) {
     (cross.normalize_or_zero(), cross.length() * 0.5)
 }
 
+/// An undirected edge as one sortable key.
+fn edge_key(a: u32, b: u32) -> u64 {
+    ((a.min(b) as u64) << 32) | a.max(b) as u64
+}
+
 /// Flood-fill triangles across shared edges into planar charts of one material.
 fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
     let cos_tol = PLANAR_ANGLE_DEG.to_radians().cos();
-    let mut edge_map: HashMap<(u32, u32), Vec<u32>> = HashMap::new();
+    // every (edge, triangle) pair, sorted by edge: the triangles sharing an edge are one run.
+    // (A hash map of vectors spent most of its time hashing and allocating at a million
+    // triangles.)
+    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(scene.triangles.len() * 3);
     for (ti, t) in scene.triangles.iter().enumerate() {
         for k in 0..3 {
-            let (a, b) = (t.vertices[k], t.vertices[(k + 1) % 3]);
-            edge_map.entry((a.min(b), a.max(b))).or_default().push(ti as u32);
+            edges.push((edge_key(t.vertices[k], t.vertices[(k + 1) % 3]), ti as u32));
         }
     }
+    edges.sort_unstable();
+    let sharing = |key: u64| {
+        let first = edges.partition_point(|e| e.0 < key);
+        edges[first..].iter().take_while(move |e| e.0 == key).map(|e| e.1)
+    };
     let mut chart_of = vec![u32::MAX; scene.triangles.len()];
     let mut faces = Vec::new();
     for seed in 0..scene.triangles.len() {
@@ -179,8 +190,7 @@ fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
             let t = scene.triangles[members[k] as usize];
             k += 1;
             for e in 0..3 {
-                let (a, b) = (t.vertices[e], t.vertices[(e + 1) % 3]);
-                for &other in &edge_map[&(a.min(b), a.max(b))] {
+                for other in sharing(edge_key(t.vertices[e], t.vertices[(e + 1) % 3])) {
                     let o = other as usize;
                     if chart_of[o] != u32::MAX || scene.triangles[o].material != material {
                         continue;
@@ -204,14 +214,18 @@ fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u
     let mut area = 0.0;
     // boundary edges (used by one triangle of the chart) orient the chart: the longest one
     // gives the first axis, so rectangles map to axis-aligned texel rectangles
-    let mut edge_use: HashMap<(u32, u32), u32> = HashMap::new();
+    let mut edge_use: Vec<u64> = Vec::with_capacity(triangles.len() * 3);
     for &t in &triangles {
         let v = scene.triangles[t as usize].vertices;
         for k in 0..3 {
-            let (a, b) = (v[k], v[(k + 1) % 3]);
-            *edge_use.entry((a.min(b), a.max(b))).or_default() += 1;
+            edge_use.push(edge_key(v[k], v[(k + 1) % 3]));
         }
     }
+    edge_use.sort_unstable();
+    let boundary = |key: u64| {
+        let first = edge_use.partition_point(|&e| e < key);
+        edge_use.get(first + 1) != Some(&key)
+    };
     let mut longest = (0.0, DVec3::X);
     for &t in &triangles {
         let v = scene.triangles[t as usize].vertices;
@@ -222,7 +236,7 @@ fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u
         centroid += (p0 + p1 + p2) / 3.0 * a;
         for k in 0..3 {
             let (i, j) = (v[k], v[(k + 1) % 3]);
-            if edge_use[&(i.min(j), i.max(j))] != 1 {
+            if !boundary(edge_key(i, j)) {
                 continue;
             }
             let (x, y) = (positions[i as usize], positions[j as usize]);
