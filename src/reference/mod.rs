@@ -30,7 +30,7 @@ pub struct GpuTraceParams {
     pub _pad: [u32; 3],
 }
 
-/// Mirrors WGSL `Triangle` (shaders/reference.wgsl).
+/// Mirrors WGSL `Triangle` (shaders/common/bvh.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuTriangle {
@@ -44,7 +44,7 @@ pub struct GpuTriangle {
     pub uv2: [f32; 4],
 }
 
-/// Mirrors WGSL `BvhNode` (shaders/reference.wgsl).
+/// Mirrors WGSL `BvhNode` (shaders/common/bvh.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct GpuBvhNode {
