@@ -171,6 +171,10 @@ enum Command {
         camera: Option<String>,
         #[arg(long, default_value_t = 1.0)]
         exposure: f32,
+        /// Per-eye resolution relative to the runtime's recommendation (e.g. 1.4 supersamples;
+        /// clamped to the runtime's maximum)
+        #[arg(long, default_value_t = 1.0)]
+        resolution_scale: f32,
         /// Write the frame-time report as JSON
         #[arg(long)]
         json: Option<PathBuf>,
@@ -502,7 +506,10 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
         }
-        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, json, params } => {
+        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, json, params } => {
+            if !(resolution_scale.is_finite() && resolution_scale > 0.0 && resolution_scale <= 4.0) {
+                bail!("--resolution-scale {resolution_scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
+            }
             if screenshot_frame == 0 {
                 bail!("--screenshot-frame 0: frames count from 1");
             }
@@ -511,7 +518,7 @@ fn run(cli: Cli) -> Result<()> {
                     bail!("--screenshot-frame {screenshot_frame} is after the last of --frames {n}");
                 }
             }
-            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera };
+            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera, resolution_scale };
             let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, &scene, None, &params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
             let report = vlf::display::xr::run_headset(&mut make, &options)?;
             print!("{}", report.table());

@@ -308,3 +308,15 @@ fn ctrl_c_ends_the_session_cleanly_with_the_report() {
     assert!(out.status.success(), "{}", rest.join("\n"));
     assert!(stdout.contains("ended: cleanly, interrupted (Ctrl-C)") && stdout.contains("stopping -> idle -> exiting"), "{stdout}");
 }
+
+#[test]
+fn the_resolution_scale_sets_the_swapchain_size() {
+    let s = session("scale", &cornell(), &["--frames", "4", "--screenshot-frame", "4", "--resolution-scale", "1.5"], &[]);
+    assert!(s.ok, "{}", s.stderr);
+    // the test runtime recommends 256x224 per eye
+    assert_eq!(s.report["eyes"][0]["pixels"], serde_json::json!([384, 336]), "{}", s.report);
+    assert_eq!(s.screenshot.expect("left eye written").dimensions(), (384, 336));
+    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+    let bad = session("scale-bad", &cornell(), &["--resolution-scale", "0"], &[]);
+    assert!(!bad.ok && bad.stderr.contains("--resolution-scale 0"), "{}", bad.stderr);
+}

@@ -34,6 +34,9 @@ pub struct XrOptions {
     pub exposure: f32,
     /// the scene camera the viewer starts at (None: the first)
     pub camera: Option<String>,
+    /// per-eye resolution relative to the runtime's recommendation (1.0: as recommended;
+    /// above 1 supersamples), clamped to the runtime's maximum
+    pub resolution_scale: f32,
 }
 
 /// What a headset run measured.
@@ -234,7 +237,8 @@ pub fn run(
     let mut eyes = Vec::new();
     for (i, vc) in view_configs.iter().enumerate() {
         let name = ["left", "right"][i];
-        let size = [vc.recommended_image_rect_width, vc.recommended_image_rect_height];
+        let scaled = |recommended: u32, max: u32| ((recommended as f32 * options.resolution_scale).round() as u32).clamp(1, max.max(1));
+        let size = [scaled(vc.recommended_image_rect_width, vc.max_image_rect_width), scaled(vc.recommended_image_rect_height, vc.max_image_rect_height)];
         let swapchain = session
             .create_swapchain(&xr::SwapchainCreateInfo {
                 create_flags: xr::SwapchainCreateFlags::EMPTY,
