@@ -412,19 +412,7 @@ impl App<'_> {
             let view = texture.texture.create_view(&Default::default());
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
-                let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("present"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                });
+                let mut pass = present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
                 pass.set_pipeline(&present.pipeline);
                 for eye in &w.eyes {
                     let (origin, size) = viewport(w.stereo, eye.part, width, height);
@@ -568,6 +556,24 @@ impl ApplicationHandler for App<'_> {
             self.fail(event_loop, e);
         }
     }
+}
+
+/// A render pass onto one colour target (a window's surface, a headset's swapchain image),
+/// stored at the end.
+pub(crate) fn present_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, view: &wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("present"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
 }
 
 pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<PresentPipeline> {

@@ -9,7 +9,7 @@ use super::{eye_view, Fov, XrPose, XrRuntime};
 use crate::bench::Distribution;
 use crate::display::headless::ViewTiming;
 use crate::display::tracking::Pose;
-use crate::display::window::{present_pipeline, Navigator};
+use crate::display::window::{present_pass, present_pipeline, Navigator};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
 use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
@@ -189,10 +189,6 @@ fn start_room(camera: &crate::scene::Camera, views: &[xr::View]) -> Pose {
     Pose { head, room_position: Vec3::from(camera.eye) - Quat::from_rotation_y(room_yaw) * head, room_yaw_deg: room_yaw.to_degrees() }
 }
 
-fn format_name(format: wgpu::TextureFormat) -> String {
-    format!("{format:?}")
-}
-
 /// Run the session until the runtime ends it (or `options.frames` have been shown). The light
 /// field is made on the runtime's device by `make_light_field`.
 pub fn run(
@@ -297,7 +293,7 @@ pub fn run(
         renderer.set_view_matrix(view_proj, lf.meta.normalisation.to_unit(camera.eye).as_vec3());
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
-        draw_to(&mut encoder, &scratch_view, &present.pipeline, &eye.bind_group, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+        draw_to(&mut encoder, &scratch_view, &present.pipeline, &eye.bind_group);
         ctx.queue.submit([encoder.finish()]);
     }
     ctx.wait()?;
@@ -438,11 +434,12 @@ pub fn run(
             eye.swapchain.wait_image(xr::Duration::INFINITE).map_err(xr_error("xrWaitSwapchainImage"))?;
             let texture = &eye.images[index as usize];
             let view = texture.create_view(&Default::default());
-            draw_to(&mut encoder, &view, &present.pipeline, &eye.bind_group, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+            draw_to(&mut encoder, &view, &present.pipeline, &eye.bind_group);
             if capture && eye.name == "left" {
                 readback = Some(copy_to_buffer(&ctx, &mut encoder, texture, eye.size));
-                // the runtime expects its image back as a colour attachment
-                draw_to_nothing(&mut encoder, &view);
+                // the runtime expects its image back as a colour attachment: an empty pass that
+                // keeps the image leaves it in that layout
+                drop(present_pass(&mut encoder, &view, wgpu::LoadOp::Load));
             }
             ctx.queue.submit([encoder.finish()]);
             eye.swapchain.release_image().map_err(xr_error("xrReleaseSwapchainImage"))?;
@@ -510,7 +507,7 @@ pub fn run(
         system: runtime.system,
         adapter: ctx.summary.name.clone(),
         reference_space: format!("{space_type:?}").to_lowercase(),
-        swapchain_format: format_name(format),
+        swapchain_format: format!("{format:?}"),
         interaction_profiles: controls.profiles.clone(),
         frames,
         frames_skipped: skipped,
@@ -568,40 +565,12 @@ fn interrupt_flag() -> Arc<std::sync::atomic::AtomicBool> {
     .clone()
 }
 
-fn draw_to(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, pipeline: &wgpu::RenderPipeline, bind_group: &wgpu::BindGroup, load: wgpu::LoadOp<wgpu::Color>) {
-    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("present to swapchain"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
+/// The eye's offscreen image onto a swapchain image, cleared first.
+fn draw_to(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, pipeline: &wgpu::RenderPipeline, bind_group: &wgpu::BindGroup) {
+    let mut pass = present_pass(encoder, view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[]);
     pass.draw(0..3, 0..1);
-}
-
-/// An empty pass that keeps the image: it leaves the image in the colour-attachment layout.
-fn draw_to_nothing(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView) {
-    let _pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("back to colour attachment"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations { load: wgpu::LoadOp::Load, store: wgpu::StoreOp::Store },
-        })],
-        depth_stencil_attachment: None,
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: None,
-    });
 }
 
 fn copy_to_buffer(ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture, [width, height]: [u32; 2]) -> (wgpu::Buffer, u32) {
