@@ -1,15 +1,22 @@
 // View rendering from the resident light field, driven by src/render/mod.rs: one compute
 // pass, one thread per pixel, and every pixel does the same fixed work whatever it sees:
-// - its eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
+// - antialiasing: view.samples_per_side^2 eye rays per pixel on a multi-jittered grid (n x n
+//   strata that are also n^2 rooks, so a near-horizontal or near-vertical edge is resolved in
+//   n^2 steps), averaged with a box filter: an edge pixel shows the covered fraction;
+// - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
 //   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
 //   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
 //   child first: logarithmic, though no longer exactly equal per pixel). No rasteriser: its
 //   cost grows with how many surfaces overlap a pixel, and it is scarce on compute GPUs such
 //   as the H100/H200;
-// - one bilinear lookup in the diffuse atlas, and in scenes with mirrors the three directions
-//   around the view direction looked up in the face's tiles. Pixels that see the sky or a
-//   diffuse face do the same lookups on a stand-in and multiply them by zero, so a view full of
-//   mirrors costs what a view without one does: a constant per-eye frame time.
+// - one bilinear lookup in the diffuse atlas for the diffuse part (and emission);
+// - mirrors by ray tracing, the paper's rendering method (ii): the ray reflects off a mirror
+//   (or a mixed surface's mirror part) view.mirror_bounces times and reads the converged
+//   radiance where it lands, with the geometric sharpness of a path tracer. Every sample makes
+//   every bounce: one that sees no mirror traces a stand-in and multiplies it by zero. Where a
+//   chain of mirrors can be longer than that (facing mirrors), resolve_mixed ends it with the
+//   mirror tiles: the three fixed directions around the reflected ray, looked up in the face's
+//   tiles (a diffuse or sky sample does the same lookups on a stand-in, times zero).
 // Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
@@ -63,9 +70,8 @@ fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
         + radiance(taps.index.z).xyz * taps.weight.z + radiance(taps.index.w).xyz * taps.weight.w;
 }
 
-// The mirror part seen from the eye: three fixed directions around the view direction.
-fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>) -> vec3<f32> {
-    let out_dir = normalize(view.eye - p);
+// The mirror part leaving p along out_dir: three fixed directions around it, from the tiles.
+fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>, out_dir: vec3<f32>) -> vec3<f32> {
     let taps = lookup_direction(out_dir, view.geodesic_frequency);
     var sum = vec3<f32>(0.0);
     var found = 0.0;
@@ -81,29 +87,24 @@ fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>) -> vec3<f32> {
     return select(vec3<f32>(0.0), sum / found, found > 0.0);
 }
 
-struct Pixel {
-    // the face to look up (a stand-in, face 0, where the pixel sees none)
+// The ray meets nothing: the sky.
+const SKY: u32 = 0xfffffffdu;
+
+// What a ray meets first.
+struct Surface {
+    // the face to look up (a stand-in, face 0, where the ray meets none)
     face: u32,
-    // 1 where the pixel sees a face, 0 where it sees the sky or an absorbing back
+    // 1 where the ray meets a face, 0 where it meets the sky or an absorbing back
     seen: f32,
-    // what the pixel shows instead when it sees no face: the sky, or black
+    // what the ray shows instead when it meets no face: the sky, or black
     background: vec3<f32>,
     point: vec3<f32>,
 }
 
-// What the pixel's eye ray meets first, and where.
-// The eye ray meets nothing: the sky.
-const SKY: u32 = 0xfffffffdu;
-
-fn pixel_point(pixel: vec2<u32>, size: vec2<u32>) -> Pixel {
-    let ndc = vec2<f32>((f32(pixel.x) + 0.5) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(pixel.y) + 0.5) / f32(size.y) * 2.0);
-    let near = view.inv_view_proj * vec4<f32>(ndc, 0.0, 1.0);
-    let far = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
-    let origin = near.xyz / near.w;
-    let ray = normalize(far.xyz / far.w - origin);
+fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
     if view.exhaustive_triangles > 0u {
-        // a small mesh: every ray tests every triangle, the same work for every pixel
+        // a small mesh: every ray tests every triangle, the same work for every ray
         for (var i = 0u; i < view.exhaustive_triangles; i++) {
             let r = intersect(origin, ray, triangles[i], hit.t * TIE);
             let found = closer(r.x, i, hit);
@@ -113,7 +114,7 @@ fn pixel_point(pixel: vec2<u32>, size: vec2<u32>) -> Pixel {
     } else {
         hit = trace(origin, ray, 1e30, false);
     }
-    var out: Pixel;
+    var out: Surface;
     var id = SKY;
     if hit.tri != NO_FACE {
         let face = triangles[hit.tri].face;
@@ -129,8 +130,54 @@ fn pixel_point(pixel: vec2<u32>, size: vec2<u32>) -> Pixel {
     return out;
 }
 
-fn store_pixel(pixel: vec2<u32>, px: Pixel, l: vec3<f32>) {
-    textureStore(image, pixel, vec4<f32>(l * px.seen + px.background, 1.0));
+// One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
+// chain ends: the last surface, its direction of travel and the weight still carried (for the
+// tiles, in resolve_mixed).
+struct Path {
+    radiance: vec3<f32>,
+    throughput: vec3<f32>,
+    face: u32,
+    point: vec3<f32>,
+    ray: vec3<f32>,
+}
+
+fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
+    var s = cast_ray(origin, ray_in);
+    var ray = ray_in;
+    var f = faces[s.face];
+    var path: Path;
+    path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
+    path.throughput = f.mirror * s.seen;
+    for (var b = 0u; b < view.mirror_bounces; b++) {
+        // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
+        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
+        s = cast_ray(s.point + f.normal * 1e-5, ray);
+        f = faces[s.face];
+        path.radiance += path.throughput * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.throughput *= f.mirror * s.seen;
+    }
+    path.face = s.face;
+    path.point = s.point;
+    path.ray = ray;
+    return path;
+}
+
+// The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
+fn eye_ray(pixel: vec2<u32>, offset: vec2<f32>, size: vec2<u32>) -> array<vec3<f32>, 2> {
+    let ndc = vec2<f32>((f32(pixel.x) + offset.x) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(pixel.y) + offset.y) / f32(size.y) * 2.0);
+    let near = view.inv_view_proj * vec4<f32>(ndc, 0.0, 1.0);
+    let far = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let origin = near.xyz / near.w;
+    return array<vec3<f32>, 2>(origin, normalize(far.xyz / far.w - origin));
+}
+
+// Sample k of n x n: the multi-jittered grid's canonical arrangement (one sample per stratum of
+// the n x n grid and per row and column of the n^2 x n^2 grid).
+fn sample_offset(k: u32, n: u32) -> vec2<f32> {
+    let i = k % n;
+    let j = k / n;
+    let fn_ = f32(n);
+    return vec2<f32>((f32(i) + (f32(j) + 0.5) / fn_) / fn_, (f32(j) + (f32(i) + 0.5) / fn_) / fn_);
 }
 
 @compute @workgroup_size(8, 8)
@@ -139,8 +186,13 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let px = pixel_point(gid.xy, size);
-    store_pixel(gid.xy, px, diffuse_part(faces[px.face], px.point));
+    let n = max(view.samples_per_side, 1u);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < n * n; k++) {
+        let r = eye_ray(gid.xy, sample_offset(k, n), size);
+        sum += trace_path(r[0], r[1]).radiance;
+    }
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n * n), 1.0));
 }
 
 @compute @workgroup_size(8, 8)
@@ -149,11 +201,17 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let px = pixel_point(gid.xy, size);
-    let f = faces[px.face];
-    // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-    let mirror = select(1.0, 0.0, f.tile_slot == NO_FACE);
-    let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-    let l = diffuse_part(f, px.point) + view_dependent_part(f, slot, px.point) * mirror;
-    store_pixel(gid.xy, px, l);
+    let n = max(view.samples_per_side, 1u);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < n * n; k++) {
+        let r = eye_ray(gid.xy, sample_offset(k, n), size);
+        let path = trace_path(r[0], r[1]);
+        let f = faces[path.face];
+        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+        let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+        let out_dir = path.ray - 2.0 * dot(path.ray, f.normal) * f.normal;
+        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, out_dir);
+    }
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n * n), 1.0));
 }

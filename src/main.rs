@@ -50,9 +50,12 @@ enum Command {
         /// Exposure multiplier for PNG output
         #[arg(long, default_value_t = 1.0)]
         exposure: f32,
-        /// Anti-aliasing: N x N samples per pixel, box-filtered (for comparisons)
+        /// Supersampling on top of --aa: render N x N times the pixels and box-filter them
         #[arg(long, default_value_t = 1)]
         ssaa: u32,
+        /// Antialiasing: N x N eye rays per pixel on a multi-jittered grid, box-filtered
+        #[arg(long, default_value_t = vlf::render::STILL_SAMPLES_PER_SIDE)]
+        aa: u32,
         /// out.exr (linear radiance) or out.png (tonemapped)
         #[arg(short, long)]
         output: PathBuf,
@@ -279,6 +282,10 @@ struct ParamArgs {
     /// whose visibility does not fit are processed in batches, rebuilt every iteration
     #[arg(long, value_parser = parse_mebibytes)]
     memory_budget: Option<u64>,
+    /// Shadow rays per texel for direct light from the emitters (and again from the sky);
+    /// 0 sends direct light through the fixed directions as the paper does
+    #[arg(long)]
+    direct_samples: Option<u32>,
 }
 
 impl ParamArgs {
@@ -313,6 +320,9 @@ impl ParamArgs {
         }
         if let Some(m) = self.memory_budget {
             p.memory_budget_mib = Some(m);
+        }
+        if let Some(d) = self.direct_samples {
+            p.direct_samples = d;
         }
         Ok(p)
     }
@@ -380,7 +390,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("light field: {}", output.display());
         }
-        Command::Render { input, camera, size, lightfield, exposure, ssaa, output, params } => {
+        Command::Render { input, camera, size, lightfield, exposure, ssaa, aa, output, params } => {
             if !(1..=16).contains(&ssaa) {
                 bail!("--ssaa {ssaa}: use 1 (off) to 16");
             }
@@ -389,6 +399,7 @@ fn run(cli: Cli) -> Result<()> {
             let cam = lf.camera(camera.as_deref())?.clone();
             let [w, h] = size.unwrap_or(cam.size);
             let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+            renderer.set_samples_per_side(aa)?;
             let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
             image_io::write_image(&frame, &output, exposure)?;
             println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);

@@ -90,6 +90,12 @@ fn closer(t: f32, tri: u32, hit: Hit) -> bool {
 // distance at which the ray enters it: an entry that a hit found since has made too far is
 // dropped when popped, without reading its node.
 fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
+    return trace_skipping(origin, dir, t_max, any_hit, NO_FACE);
+}
+
+// The same, ignoring the triangles of face `skip` (a shadow ray leaving a face that is not
+// quite planar must not meet the face itself).
+fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, skip: u32) -> Hit {
     var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
     let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
@@ -111,6 +117,9 @@ fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
         let node = nodes[index];
         if node.count > 0u {
             for (var i = node.index; i < node.index + node.count; i++) {
+                if triangles[i].face == skip {
+                    continue;
+                }
                 let r = intersect(origin, dir, triangles[i], hit.t * TIE);
                 if closer(r.x, i, hit) {
                     hit = Hit(r.x, i, r.y, r.z);

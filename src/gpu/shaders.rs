@@ -14,6 +14,7 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("common/bvh.wgsl", include_str!("../../shaders/common/bvh.wgsl")),
     ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),
     ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
+    ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("specular.wgsl", include_str!("../../shaders/specular.wgsl")),
     ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
     ("normalize.wgsl", include_str!("../../shaders/normalize.wgsl")),
@@ -24,7 +25,7 @@ pub const SOURCES: &[(&str, &str)] = &[
 ];
 
 /// The stages compiled into pipelines (the `common/` files are only included).
-pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "present.wgsl", "reference.wgsl"];
+pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "direct.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "present.wgsl", "reference.wgsl"];
 
 /// A stage's source with its includes expanded, and for each output line its origin.
 pub struct ExpandedShader {

@@ -114,9 +114,11 @@ pub struct GpuView {
     pub tile_page_cells: u32,
     pub tile_cell_count: u32,
     pub texel_page_cells: u32,
+    /// antialiasing: samples_per_side^2 eye rays per pixel
+    pub samples_per_side: u32,
+    /// mirror reflections traced per eye ray (0: the scene has no mirror)
+    pub mirror_bounces: u32,
     pub _pad0: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to.
@@ -129,7 +131,7 @@ pub struct RenderVertex {
 }
 
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 7] {
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 9] {
     [
         ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
         ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
@@ -138,6 +140,8 @@ pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str);
         ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
         ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
         ("GpuPageRange", "PageRange", std::mem::size_of::<GpuPageRange>(), "specular.wgsl"),
+        ("GpuEmitter", "Emitter", std::mem::size_of::<GpuEmitter>(), "direct.wgsl"),
+        ("GpuDirectParams", "DirectParams", std::mem::size_of::<GpuDirectParams>(), "direct.wgsl"),
     ]
 }
 
@@ -152,3 +156,29 @@ pub struct GpuPresent {
     pub show_overlay: u32,
     pub _pad0: u32,
 }
+
+/// Mirrors WGSL `Emitter` (shaders/direct.wgsl, driven by src/propagate/direct.rs): one emitting triangle.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuEmitter {
+    pub v0: [f32; 3],
+    pub face: u32,
+    pub e1: [f32; 3],
+    /// 1 where the emission varies over the face (map_Ke)
+    pub textured: u32,
+    pub e2: [f32; 3],
+    pub _pad0: u32,
+    /// mean emitted radiance over the face, r+g+b in w
+    pub radiance: [f32; 4],
+}
+
+/// Mirrors WGSL `DirectParams` (shaders/direct.wgsl, driven by src/propagate/direct.rs).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuDirectParams {
+    pub emitter_count: u32,
+    pub emitter_samples: u32,
+    pub sky_samples: u32,
+    pub _pad0: u32,
+}
+

@@ -76,7 +76,65 @@ pub fn render_vertices(prepared: &PreparedScene) -> Vec<RenderVertex> {
     out
 }
 
+/// How rendering treats mirrors (shaders/render.wgsl): it follows each eye ray through `bounces`
+/// reflections by ray tracing; where a chain of mirrors can be longer than that (mirrors that
+/// face each other), the chain ends in the mirror tiles, which then stay resident.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct MirrorChains {
+    pub bounces: u32,
+    pub tiles_needed: bool,
+}
+
+/// Reflections traced per eye ray where mirrors face each other (then the tiles end the chain).
+pub const FACING_MIRROR_BOUNCES: u32 = 2;
+/// Above this many mirror faces the pairwise test is skipped and mirrors are taken to face
+/// each other.
+const MIRROR_PAIR_LIMIT: usize = 4096;
+
+impl MirrorChains {
+    /// From the faces and the render mesh: a reflected ray can reach mirror B from mirror A only
+    /// if part of B lies in front of A and part of A in front of B. Without such a pair one
+    /// reflection is exact, and the tiles are not needed to render.
+    pub fn of(faces: &[GpuFace], vertices: &[RenderVertex]) -> MirrorChains {
+        let mirror = |f: &GpuFace| f.mirror.iter().any(|&m| m > 0.0);
+        let mirrors: Vec<usize> = (0..faces.len()).filter(|&i| mirror(&faces[i])).collect();
+        if mirrors.is_empty() {
+            return MirrorChains { bounces: 0, tiles_needed: false };
+        }
+        let facing = MirrorChains { bounces: FACING_MIRROR_BOUNCES, tiles_needed: true };
+        if mirrors.len() > MIRROR_PAIR_LIMIT {
+            return facing;
+        }
+        // corners per face (a two-sided surface's back shares its front's)
+        let mut corners: Vec<Vec<glam::Vec3>> = vec![Vec::new(); faces.len()];
+        for v in vertices {
+            corners[v.face as usize].push(glam::Vec3::from(v.position));
+        }
+        for (i, f) in faces.iter().enumerate() {
+            if f.twin != crate::gpu::types::NO_FACE && corners[i].is_empty() {
+                corners[i] = corners[f.twin as usize].clone();
+            }
+        }
+        let in_front = |a: usize, b: usize| {
+            let n = glam::Vec3::from(faces[a].normal);
+            corners[b].iter().any(|p| n.dot(*p) - faces[a].plane_offset > 1e-5)
+        };
+        for (k, &a) in mirrors.iter().enumerate() {
+            for &b in &mirrors[k + 1..] {
+                if in_front(a, b) && in_front(b, a) {
+                    return facing;
+                }
+            }
+        }
+        MirrorChains { bounces: 1, tiles_needed: false }
+    }
+}
+
 impl LightField {
+    pub fn mirror_chains(&self) -> MirrorChains {
+        MirrorChains::of(&self.faces, &self.render_vertices)
+    }
+
     pub fn camera(&self, name: Option<&str>) -> crate::error::Result<&Camera> {
         let err = |n: &str| crate::error::VlfError::UnknownCamera {
             name: n.to_string(),
@@ -100,7 +158,8 @@ impl LightField {
             .iter()
             .map(|&(first, n)| ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total[first as usize..(first + n) as usize]), STORAGE))
             .collect();
-        let tiles = match &self.tiles {
+        // tiles only where rendering reads them (mirrors facing each other)
+        let tiles = match self.tiles.as_ref().filter(|_| self.mirror_chains().tiles_needed) {
             None => None,
             Some(t) => {
             let cells_per_tile = self.meta.params.tile_size * self.meta.params.tile_size;

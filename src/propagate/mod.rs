@@ -6,6 +6,7 @@
 pub mod checkpoint;
 pub mod cpu;
 pub mod cpu_specular;
+pub mod direct;
 pub mod transport;
 pub mod visibility;
 
@@ -44,6 +45,11 @@ pub struct PropagationParams {
     /// whose lists are rebuilt every iteration. None: the adapter's binding limits alone decide.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub memory_budget_mib: Option<u64>,
+    /// Shadow rays per texel for direct light (`shaders/direct.wgsl`), toward the emitters and
+    /// again toward the sky. 0: direct light comes through the fixed directions like every
+    /// other bounce (the paper's method, and light fields saved before this setting existed).
+    #[serde(default)]
+    pub direct_samples: u32,
 }
 
 fn yes() -> bool {
@@ -66,6 +72,7 @@ impl Default for PropagationParams {
             perturb: 1,
             accelerate: true,
             memory_budget_mib: None,
+            direct_samples: 256,
         }
     }
 }
@@ -73,7 +80,7 @@ impl Default for PropagationParams {
 impl PropagationParams {
     /// Lighter settings that finish in about a minute on a software adapter with 2 cores.
     pub fn software() -> Self {
-        PropagationParams { geodesic_frequency: 14, grid_resolution: 96, tile_size: 8, texel_density: 40.0, ..Self::default() }
+        PropagationParams { geodesic_frequency: 14, grid_resolution: 96, tile_size: 8, texel_density: 40.0, direct_samples: 64, ..Self::default() }
     }
 
     /// Smallest geodesic frequency giving at least `count` directions.
@@ -117,6 +124,9 @@ impl PropagationParams {
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
             return bad("tolerance", format!("{} must be in (0, 1)", self.tolerance));
+        }
+        if self.direct_samples > 65536 {
+            return bad("direct-samples", format!("{} shadow rays per texel: at most 65536", self.direct_samples));
         }
         if self.max_iterations == 0 {
             return bad("max-iterations", "must be at least 1".into());
@@ -485,8 +495,9 @@ pub fn propagate_with(
     let propagation_memory = crate::report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
     let layers = layers.max(prop.largest_batch_layers);
-    let resident = prop.into_resident();
     let render_vertices = crate::lightfield::render_vertices(&prepared);
+    let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
+    let resident = prop.into_resident(mirror_chains.tiles_needed);
     resident.ledger.record("render mesh", (render_vertices.len() * 16) as u64);
     let lf = crate::lightfield::LightField {
         meta: crate::lightfield::LightFieldMeta {

@@ -114,6 +114,8 @@ pub struct Propagator {
     pub iteration: u32,
     pub texel_count: u32,
     timestamps: Option<Timestamps>,
+    /// direct light for the first iteration's texels; None: through the fixed directions
+    pub direct: Option<super::direct::DirectLight>,
 }
 
 fn dispatch_2d(groups: u32) -> (u32, u32) {
@@ -318,6 +320,13 @@ impl Propagator {
             (ctx.buffer_zeroed(&MemoryLedger::default(), "weight sums placeholder", 16, STORAGE), None)
         };
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
+        let direct = if params.direct_samples > 0 {
+            let emitters = super::direct::emitters(prepared, &faces, &unshot);
+            let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) { params.direct_samples } else { 0 };
+            Some(super::direct::DirectLight::new(&ctx, &ledger, prepared, &emitters, params.direct_samples, sky_samples, &layout0, &layout1)?)
+        } else {
+            None
+        };
         let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
             ctx,
@@ -347,6 +356,7 @@ impl Propagator {
             iteration: 0,
             texel_count,
             timestamps,
+            direct,
         })
     }
 
@@ -418,6 +428,9 @@ impl Propagator {
         if batched {
             self.normalize_batches();
         }
+        if self.iteration == 0 && self.direct.is_some() {
+            self.encode_direct();
+        }
         if let Some((albedo, pipe, layout)) = &self.texture {
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
             {
@@ -453,7 +466,9 @@ impl Propagator {
         })
     }
 
-    fn encode_gathers(&mut self, with_tiles: bool) -> Result<()> {
+    /// The scene bind group (group 0) and one texel-page bind group (group 1) per page: all
+    /// pages' unshot to read, this page's next to write.
+    fn texel_bind_groups(&self) -> (wgpu::BindGroup, Vec<wgpu::BindGroup>) {
         let ctx = &self.ctx;
         let vis = self.visibility.as_ref().expect("build_visibility before iterate");
         let s = &self.scene;
@@ -464,14 +479,34 @@ impl Propagator {
         );
         let current = self.current;
         let unshot = |p: usize| &self.texels.get(p).unwrap_or(&self.texels[0]).state.radiance[current];
-        // one bind group per texel page: all pages' unshot to read, this page's next to write
-        let bg1: Vec<wgpu::BindGroup> = self
+        let bg1 = self
             .texels
             .iter()
             .map(|page| {
                 ctx.bind_group(&self.layout1, &[unshot(0), unshot(1), unshot(2), unshot(3), &page.state.radiance[1 - current], &page.page_uniform, &self.weight_sums])
             })
             .collect();
+        (bg0, bg1)
+    }
+
+    /// The first iteration's texels take their direct light from `shaders/direct.wgsl`
+    /// (overwriting what the gather found through the fixed directions: emitters and sky).
+    fn encode_direct(&self) {
+        let Some(direct) = &self.direct else { return };
+        let (bg0, bg1) = self.texel_bind_groups();
+        let pages: Vec<(&wgpu::BindGroup, u32)> = bg1.iter().zip(&self.texels).map(|(bg, page)| (bg, page.state.count)).collect();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("direct light"), timestamp_writes: None });
+            direct.encode(&mut pass, &bg0, &pages);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    fn encode_gathers(&mut self, with_tiles: bool) -> Result<()> {
+        let ctx = &self.ctx;
+        let (bg0, bg1) = self.texel_bind_groups();
+        let current = self.current;
         // per page: every page's unshot radiance to read, and this page's next to write
         let mut bg2: Vec<wgpu::BindGroup> = Vec::new();
         if let Some(t) = &self.tiles {
@@ -678,13 +713,14 @@ impl Propagator {
     }
 
     /// Keep only what rendering needs; everything else is freed.
-    pub fn into_resident(self) -> ResidentLightField {
+    /// What stays on the GPU for rendering; the mirror tiles only with `keep_tiles`.
+    pub fn into_resident(self, keep_tiles: bool) -> ResidentLightField {
         let ledger = MemoryLedger::default();
         ledger.record("faces", self.scene.faces.size());
         for page in &self.texels {
             ledger.record("total radiance", page.state.total.size());
         }
-        let tiles = self.tiles.map(|t| {
+        let tiles = self.tiles.filter(|_| keep_tiles).map(|t| {
             let [rects, index, _, points, geodesic_index] = t.tables;
             for (name, b) in [("tile rectangles", &rects), ("tile index", &index), ("geodesic tables", &points), ("geodesic index", &geodesic_index)] {
                 ledger.record(name, b.size());

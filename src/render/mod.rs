@@ -16,6 +16,13 @@ use wgpu::util::DeviceExt;
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 
+/// Antialiasing of real-time views (CAVE walls, headset eyes): 2 x 2 eye rays per pixel.
+pub const REALTIME_SAMPLES_PER_SIDE: u32 = 2;
+/// Antialiasing of stills (`vlf render`): 4 x 4 eye rays per pixel.
+pub const STILL_SAMPLES_PER_SIDE: u32 = 4;
+/// The most eye rays per pixel side a view may ask for.
+pub const MAX_SAMPLES_PER_SIDE: u32 = 16;
+
 /// Linear radiance, row-major from the top-left pixel.
 pub struct Frame {
     pub width: u32,
@@ -144,6 +151,8 @@ impl Renderer {
             tile_page_cells: resident.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
             tile_cell_count: resident.tiles.as_ref().map_or(0, |t| t.pages.total_cells as u32),
             texel_page_cells: resident.texel_pages.page_cells,
+            samples_per_side: REALTIME_SAMPLES_PER_SIDE,
+            mirror_bounces: lf.mirror_chains().bounces,
             ..Default::default()
         };
         Ok(Renderer {
@@ -160,6 +169,24 @@ impl Renderer {
             view_template,
             target: None,
         })
+    }
+
+    /// Antialiasing: `n` x `n` eye rays per pixel (1: one ray through the pixel's centre).
+    pub fn set_samples_per_side(&mut self, n: u32) -> Result<()> {
+        if !(1..=MAX_SAMPLES_PER_SIDE).contains(&n) {
+            return Err(VlfError::Parameter { name: "aa", message: format!("{n} eye rays per pixel side: use 1 (off) to {MAX_SAMPLES_PER_SIDE}") });
+        }
+        self.view_template.samples_per_side = n;
+        Ok(())
+    }
+
+    pub fn samples_per_side(&self) -> u32 {
+        self.view_template.samples_per_side
+    }
+
+    /// Mirror reflections traced per eye ray (0 without mirrors).
+    pub fn mirror_bounces(&self) -> u32 {
+        self.view_template.mirror_bounces
     }
 
     /// A view's visibility buffer, image and resolve bindings, `width` x `height`.

@@ -1,0 +1,280 @@
+// Direct light, driven by src/propagate/direct.rs: the first bounce onto every diffuse texel,
+// computed per texel instead of through the fixed directions. A small emitter seen through a
+// handful of discrete directions aliases into a ripple on every wall (each point's share of it
+// jumps as the directions' cells slide across it); here each texel integrates every emitter
+// triangle exactly where nothing is in the way, and shadow rays only say how much of it is
+// hidden:
+// - emitters: the unoccluded irradiance of each emitter triangle, clipped to the texel's
+//   hemisphere, in closed form (Lambert's polygon formula); visibility from stratified shadow
+//   rays through the BVH as a ratio estimator (Heitz et al. 2018): E = E_unoccluded x
+//   sum(g Le V / p) / sum(g Le_mean / p) over the same samples, exact whenever nothing occludes
+//   (furnaces, form factors) and free of the discrete directions wherever something does;
+// - the sky: cosine-weighted stratified shadow rays over the texel's hemisphere.
+// Every sample pattern is fixed per texel (a hash of its index rotates it), so the result is
+// bit-for-bit repeatable. It replaces the first iteration's gather for texels only; mirror tile
+// cells still receive the emitters through the light field, so emitter -> mirror -> diffuse
+// paths stay in the transport.
+#include "common/types.wgsl"
+#include "common/atlas.wgsl"
+#include "common/upstream.wgsl"
+
+// the gather's hook; unused here
+fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(0.0);
+}
+
+// mirrors propagate::direct::GpuEmitter: one emitting triangle
+struct Emitter {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    // 1: the emission varies over the face (map_Ke): read it from the atlas
+    textured: u32,
+    e2: vec3<f32>,
+    _pad0: u32,
+    // mean emitted radiance over the face (rgb), and its r+g+b in w
+    radiance: vec4<f32>,
+}
+
+// mirrors propagate::direct::GpuDirectParams
+struct DirectParams {
+    emitter_count: u32,
+    // shadow rays per texel toward the emitters, and toward the sky
+    emitter_samples: u32,
+    sky_samples: u32,
+    _pad0: u32,
+}
+
+@group(2) @binding(0) var<uniform> direct: DirectParams;
+@group(2) @binding(1) var<storage, read> emitters: array<Emitter>;
+@group(2) @binding(2) var<storage, read> triangles: array<Triangle>;
+@group(2) @binding(3) var<storage, read> nodes: array<BvhNode>;
+
+#include "common/bvh.wgsl"
+
+// shadow rays start this far off the receiver and stop this short of the emitter
+const RAY_OFFSET: f32 = 1e-4;
+
+fn hash(x: u32) -> u32 {
+    var h = x * 747796405u + 2891336453u;
+    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
+    return (h >> 22u) ^ h;
+}
+
+fn unit_float(bits: u32) -> f32 {
+    return f32(bits >> 8u) * (1.0 / 16777216.0);
+}
+
+fn radical_inverse(k: u32) -> f32 {
+    return unit_float(reverseBits(k));
+}
+
+// Point `k` of an `n`-point Hammersley set, rotated (Cranley-Patterson) by `shift`.
+fn hammersley(k: u32, n: u32, shift: vec2<f32>) -> vec2<f32> {
+    return fract(vec2<f32>((f32(k) + 0.5) / f32(n), radical_inverse(k)) + shift);
+}
+
+struct Polygon {
+    p: array<vec3<f32>, 4>,
+    count: u32,
+}
+
+// The triangle (relative to the receiver) clipped to the receiver's hemisphere (Sutherland-
+// Hodgman against the plane through it with normal n): 0, 3 or 4 corners.
+fn clip_to_hemisphere(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>) -> Polygon {
+    var out: Polygon;
+    out.count = 0u;
+    let corners = array<vec3<f32>, 3>(a, b, c);
+    for (var k = 0u; k < 3u; k++) {
+        let p = corners[k];
+        let q = corners[(k + 1u) % 3u];
+        let dp = dot(n, p);
+        let dq = dot(n, q);
+        if dp > 0.0 && out.count < 4u {
+            out.p[out.count] = p;
+            out.count += 1u;
+        }
+        if (dp > 0.0) != (dq > 0.0) && out.count < 4u {
+            out.p[out.count] = p + (q - p) * (dp / (dp - dq));
+            out.count += 1u;
+        }
+    }
+    if out.count < 3u {
+        out.count = 0u;
+    }
+    return out;
+}
+
+// Irradiance at the origin (normal n) from a polygon of unit radiance above its horizon:
+// Lambert's formula, half the sum over edges of the edge's angle times n . the edge's normal.
+fn polygon_irradiance(poly: Polygon, n: vec3<f32>) -> f32 {
+    var sum = 0.0;
+    for (var k = 0u; k < poly.count; k++) {
+        let a = normalize(poly.p[k]);
+        let b = normalize(poly.p[(k + 1u) % poly.count]);
+        let c = cross(a, b);
+        let len = length(c);
+        if len > 1e-12 {
+            sum += atan2(len, dot(a, b)) * dot(n, c / len);
+        }
+    }
+    return abs(sum) * 0.5;
+}
+
+fn polygon_area(poly: Polygon) -> vec2<f32> {
+    if poly.count < 3u {
+        return vec2<f32>(0.0);
+    }
+    let first = 0.5 * length(cross(poly.p[1] - poly.p[0], poly.p[2] - poly.p[0]));
+    var second = 0.0;
+    if poly.count == 4u {
+        second = 0.5 * length(cross(poly.p[2] - poly.p[0], poly.p[3] - poly.p[0]));
+    }
+    return vec2<f32>(first, second);
+}
+
+// A point of the polygon (its one or two triangles), uniform in area for uniform `u`.
+fn polygon_point(poly: Polygon, areas: vec2<f32>, u: vec2<f32>) -> vec3<f32> {
+    let split = areas.x / (areas.x + areas.y);
+    var s = u.x;
+    var c = poly.p[2];
+    var b = poly.p[1];
+    if s >= split {
+        s = (s - split) / max(1.0 - split, 1e-12);
+        b = poly.p[2];
+        c = poly.p[3];
+    } else {
+        s = s / max(split, 1e-12);
+    }
+    let r = sqrt(clamp(s, 0.0, 1.0));
+    return poly.p[0] * (1.0 - r) + b * (r * (1.0 - u.y)) + c * (r * u.y);
+}
+
+fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
+    var none: Polygon;
+    none.count = 0u;
+    let normal = faces[e.face].normal;
+    // emitters shine from their front only
+    if dot(normal, x - e.v0) <= 0.0 {
+        return none;
+    }
+    let a = e.v0 - x;
+    return clip_to_hemisphere(a, a + e.e1, a + e.e2, n);
+}
+
+fn emitted_radiance(e: Emitter, point: vec3<f32>) -> vec3<f32> {
+    if e.textured == 0u {
+        return e.radiance.xyz;
+    }
+    let taps = atlas_taps(faces[e.face], point, grid.atlas_width);
+    let b = unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+        + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w;
+    return b / PI;
+}
+
+fn visible(start: vec3<f32>, end: vec3<f32>, skip: u32) -> f32 {
+    let d = end - start;
+    let dist = length(d);
+    let hit = trace_skipping(start, d / dist, dist - RAY_OFFSET, true, skip);
+    return select(1.0, 0.0, hit.tri != NO_FACE);
+}
+
+// Irradiance from every emitter at x (normal n), rgb.
+fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    // the unoccluded irradiance in closed form, and each emitter's share for the samples
+    var unoccluded = vec3<f32>(0.0);
+    var weight_total = 0.0;
+    for (var i = 0u; i < direct.emitter_count; i++) {
+        let e = emitters[i];
+        let f = polygon_irradiance(emitter_polygon(e, x, n), n);
+        unoccluded += f * e.radiance.xyz;
+        weight_total += f * e.radiance.w;
+    }
+    if weight_total <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let samples = direct.emitter_samples;
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
+    let select_shift = unit_float(hash(seed));
+    let origin = x + n * RAY_OFFSET;
+    var seen = vec3<f32>(0.0);
+    var expected = vec3<f32>(0.0);
+    var cumulative = 0.0;
+    for (var i = 0u; i < direct.emitter_count; i++) {
+        let e = emitters[i];
+        let poly = emitter_polygon(e, x, n);
+        let f = polygon_irradiance(poly, n);
+        let w = f * e.radiance.w;
+        // stratified selection: sample j goes to the emitter whose share holds (j + shift) / N
+        let before = ceil(cumulative / weight_total * f32(samples) - select_shift);
+        cumulative += w;
+        let after = ceil(cumulative / weight_total * f32(samples) - select_shift);
+        let count = u32(max(after - before, 0.0));
+        if count == 0u || w <= 0.0 {
+            continue;
+        }
+        let areas = polygon_area(poly);
+        let normal = faces[e.face].normal;
+        // per sample: area / probability of choosing this emitter
+        let scale = (areas.x + areas.y) * weight_total / w;
+        for (var k = 0u; k < count; k++) {
+            let p = polygon_point(poly, areas, hammersley(k, count, shift));
+            let r2 = dot(p, p);
+            let dir = p / sqrt(r2);
+            let g = max(dot(n, dir), 0.0) * max(-dot(normal, dir), 0.0) / r2 * scale;
+            expected += g * e.radiance.xyz;
+            seen += g * emitted_radiance(e, x + p) * visible(origin, x + p, skip);
+        }
+    }
+    let ratio = select(vec3<f32>(0.0), seen / expected, expected > vec3<f32>(0.0));
+    return unoccluded * ratio;
+}
+
+// Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance.
+fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
+    let samples = direct.sky_samples;
+    if samples == 0u {
+        return 0.0;
+    }
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x85ebca6bu)), unit_float(hash(seed + 0xc2b2ae35u)));
+    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
+    let a = normalize(cross(n, t));
+    let b = cross(n, a);
+    let origin = x + n * RAY_OFFSET;
+    var open = 0u;
+    for (var k = 0u; k < samples; k++) {
+        let u = hammersley(k, samples, shift);
+        let r = sqrt(u.x);
+        let phi = 2.0 * PI * u.y;
+        let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
+        // the scene lies in the unit sphere: a ray that leaves it sees the sky
+        let hit = trace_skipping(origin, dir, 4.0, true, skip);
+        open += select(0u, 1u, hit.tri == NO_FACE);
+    }
+    return f32(open) / f32(samples);
+}
+
+// Next unshot radiosity of one texel from direct light (rgb), and the sky's share of its
+// irradiance (w): the same as the first iteration's gather would give without aliasing.
+@compute @workgroup_size(64)
+fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    if in_page >= texel_page.cells {
+        return;
+    }
+    let texel = texel_page.base + in_page;
+    let point = texel_point(texel);
+    let face_id = bitcast<u32>(point.w);
+    if face_id == NO_FACE {
+        next[in_page] = vec4<f32>(0.0);
+        return;
+    }
+    let f = faces[face_id];
+    let seed = hash(texel);
+    let e = emitter_irradiance(point.xyz, f.normal, seed, face_id);
+    var sky = vec3<f32>(0.0);
+    if (grid.flags & GRID_FLAG_SKY) != 0u {
+        sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
+    }
+    next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
+}

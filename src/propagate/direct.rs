@@ -1,0 +1,114 @@
+//! Drives `shaders/direct.wgsl`: the first bounce onto every diffuse texel, from the emitters
+//! (closed-form unoccluded irradiance, stratified shadow rays for visibility) and the sky
+//! (stratified shadow rays), replacing the first iteration's gather for texels. Direct light is
+//! the sharpest part of the solution: through the fixed directions a small emitter aliases into
+//! a ripple on every wall, here it does not depend on them. Mirror tile cells still receive the
+//! emitters through the light field, so emitter -> mirror -> diffuse paths are kept.
+
+use crate::error::Result;
+use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, NO_FACE};
+use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
+use crate::prepare::PreparedScene;
+use crate::reference::{build_bvh, GpuBvhNode, GpuTriangle};
+use glam::Vec3;
+
+/// The emitting triangles of a scene, with each face's mean emitted radiance (over its texels:
+/// map_Ke varies it) and whether it varies. `initial` is the texels' initial unshot radiosity.
+pub fn emitters(prepared: &PreparedScene, faces: &[GpuFace], initial: &[[f32; 4]]) -> Vec<GpuEmitter> {
+    // per face: sum of radiance, texel count, min and max of r+g+b
+    let mut stats = vec![([0.0f64; 3], 0u64, f32::INFINITY, 0.0f32); faces.len()];
+    for (point, value) in prepared.atlas.points.iter().zip(initial) {
+        let face = point[3].to_bits();
+        if face == NO_FACE {
+            continue;
+        }
+        let s = &mut stats[face as usize];
+        for k in 0..3 {
+            s.0[k] += value[k] as f64 / std::f64::consts::PI;
+        }
+        s.1 += 1;
+        let sum = (value[0] + value[1] + value[2]) / std::f32::consts::PI;
+        s.2 = s.2.min(sum);
+        s.3 = s.3.max(sum);
+    }
+    let mut out = Vec::new();
+    for t in &prepared.triangles {
+        let f = t.face as usize;
+        let (sum, n, lo, hi) = stats[f];
+        if n == 0 || hi <= 0.0 {
+            continue;
+        }
+        let mean = sum.map(|s| (s / n as f64) as f32);
+        let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());
+        out.push(GpuEmitter {
+            v0: a.into(),
+            face: t.face,
+            e1: (b - a).into(),
+            textured: u32::from(hi - lo > 1e-6 * hi),
+            e2: (c - a).into(),
+            _pad0: 0,
+            radiance: [mean[0], mean[1], mean[2], mean[0] + mean[1] + mean[2]],
+        });
+    }
+    out
+}
+
+/// The direct-light stage: its pipeline, emitters, and the scene's BVH for shadow rays.
+pub struct DirectLight {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    pub emitter_count: u32,
+}
+
+impl DirectLight {
+    /// `layout0` and `layout1` are the transport's scene and texel-page layouts
+    /// (shaders/common/upstream.wgsl), which the stage shares.
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        prepared: &PreparedScene,
+        emitters: &[GpuEmitter],
+        emitter_samples: u32,
+        sky_samples: u32,
+        layout0: &wgpu::BindGroupLayout,
+        layout1: &wgpu::BindGroupLayout,
+    ) -> Result<DirectLight> {
+        let device = &ctx.device;
+        let corners: Vec<[Vec3; 3]> = prepared.triangles.iter().map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3())).collect();
+        let (nodes, order) = build_bvh(&corners);
+        let triangles: Vec<GpuTriangle> = order
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = corners[i as usize];
+                GpuTriangle { v0: a.into(), face: prepared.triangles[i as usize].face, e1: (b - a).into(), e2: (c - a).into(), ..Default::default() }
+            })
+            .collect();
+        let params = GpuDirectParams { emitter_count: emitters.len() as u32, emitter_samples: emitter_samples.max(1), sky_samples, _pad0: 0 };
+        let placeholder = [GpuEmitter::default()];
+        let emitter_data: &[GpuEmitter] = if emitters.is_empty() { &placeholder } else { emitters };
+        let params_buffer = ctx.buffer_init(ledger, "direct light: parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
+        let emitter_buffer = ctx.buffer_init(ledger, "direct light: emitters", bytemuck::cast_slice(emitter_data), STORAGE);
+        let triangle_buffer = ctx.buffer_init(ledger, "direct light: triangles", bytemuck::cast_slice(&triangles), STORAGE);
+        let node_buffer = ctx.buffer_init(ledger, "direct light: BVH", bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes), STORAGE);
+        use Binding::*;
+        let layout2 = bind_group_layout(device, wgpu::ShaderStages::COMPUTE, &[Uniform, Storage, Storage, Storage]);
+        let module = shaders::module(device, "direct.wgsl")?;
+        let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
+        let bind_group = ctx.bind_group(&layout2, &[&params_buffer, &emitter_buffer, &triangle_buffer, &node_buffer]);
+        Ok(DirectLight { pipeline, bind_group, emitter_count: emitters.len() as u32 })
+    }
+
+    /// Record the pass: one thread per texel of each page, writing the page's `next`.
+    pub fn encode(&self, pass: &mut wgpu::ComputePass, bg0: &wgpu::BindGroup, pages: &[(&wgpu::BindGroup, u32)]) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bg0, &[]);
+        pass.set_bind_group(2, &self.bind_group, &[]);
+        for &(bg1, count) in pages {
+            pass.set_bind_group(1, bg1, &[]);
+            let groups = count.div_ceil(64);
+            let x = groups.clamp(1, 65535);
+            pass.dispatch_workgroups(x, groups.div_ceil(x).max(1), 1);
+        }
+    }
+}
