@@ -1,8 +1,8 @@
 // View rendering from the resident light field, driven by src/render/mod.rs: one compute
 // pass, one thread per pixel, and every pixel does the same fixed work whatever it sees:
-// - antialiasing: view.samples_per_side^2 eye rays per pixel on a multi-jittered grid (n x n
-//   strata that are also n^2 rooks, so a near-horizontal or near-vertical edge is resolved in
-//   n^2 steps), averaged with a box filter: an edge pixel shows the covered fraction;
+// - antialiasing: view.samples_per_side^2 eye rays per pixel on a Hammersley set (one sample in
+//   every elementary box of the pixel), averaged with a box filter: an edge pixel shows the
+//   covered fraction;
 // - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
 //   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
 //   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
@@ -101,19 +101,7 @@ struct Surface {
     point: vec3<f32>,
 }
 
-fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
-    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
-    if view.exhaustive_triangles > 0u {
-        // a small mesh: every ray tests every triangle, the same work for every ray
-        for (var i = 0u; i < view.exhaustive_triangles; i++) {
-            let r = intersect(origin, ray, triangles[i], hit.t * TIE);
-            let found = closer(r.x, i, hit);
-            hit.t = select(hit.t, r.x, found);
-            hit.tri = select(hit.tri, i, found);
-        }
-    } else {
-        hit = trace(origin, ray, 1e30, false);
-    }
+fn surface_of(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     var out: Surface;
     var id = SKY;
     if hit.tri != NO_FACE {
@@ -130,36 +118,84 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     return out;
 }
 
-// One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
-// chain ends: the last surface, its direction of travel and the weight still carried (for the
-// tiles, in resolve_mixed).
-struct Path {
-    radiance: vec3<f32>,
-    throughput: vec3<f32>,
-    face: u32,
-    point: vec3<f32>,
-    ray: vec3<f32>,
+// Rays go in packets of PACKET: a small mesh is tested triangle by triangle against all of
+// them, so each triangle is read once per packet rather than once per ray.
+const PACKET: u32 = 4u;
+
+struct Rays {
+    origin: array<vec3<f32>, 4>,
+    dir: array<vec3<f32>, 4>,
 }
 
-fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
-    var s = cast_ray(origin, ray_in);
-    var ray = ray_in;
-    var f = faces[s.face];
-    var path: Path;
-    path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
-    path.throughput = f.mirror * s.seen;
+fn cast_rays(rays: Rays) -> array<Surface, 4> {
+    var hits: array<Hit, 4>;
+    for (var k = 0u; k < PACKET; k++) {
+        hits[k] = Hit(1e30, NO_FACE, 0.0, 0.0);
+    }
+    if view.exhaustive_triangles > 0u {
+        // a small mesh: every ray tests every triangle, the same work for every ray
+        for (var i = 0u; i < view.exhaustive_triangles; i++) {
+            let tri = triangles[i];
+            for (var k = 0u; k < PACKET; k++) {
+                let r = intersect(rays.origin[k], rays.dir[k], tri, hits[k].t * TIE);
+                if closer(r.x, i, hits[k]) {
+                    hits[k].t = r.x;
+                    hits[k].tri = i;
+                }
+            }
+        }
+    } else {
+        for (var k = 0u; k < PACKET; k++) {
+            hits[k] = trace(rays.origin[k], rays.dir[k], 1e30, false);
+        }
+    }
+    var out: array<Surface, 4>;
+    for (var k = 0u; k < PACKET; k++) {
+        out[k] = surface_of(hits[k], rays.origin[k], rays.dir[k]);
+    }
+    return out;
+}
+
+// A packet of eye rays' radiance through up to view.mirror_bounces mirror reflections each, and
+// where each chain ends: the last surface, its direction of travel and the weight still carried
+// (for the tiles, in resolve_mixed).
+struct Paths {
+    radiance: array<vec3<f32>, 4>,
+    throughput: array<vec3<f32>, 4>,
+    face: array<u32, 4>,
+    point: array<vec3<f32>, 4>,
+    ray: array<vec3<f32>, 4>,
+}
+
+fn trace_paths(eye: Rays) -> Paths {
+    var rays = eye;
+    var s = cast_rays(rays);
+    var paths: Paths;
+    for (var k = 0u; k < PACKET; k++) {
+        let f = faces[s[k].face];
+        paths.radiance[k] = diffuse_part(f, s[k].point) * s[k].seen + s[k].background;
+        paths.throughput[k] = f.mirror * s[k].seen;
+    }
     for (var b = 0u; b < view.mirror_bounces; b++) {
         // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
-        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
-        s = cast_ray(s.point + f.normal * 1e-5, ray);
-        f = faces[s.face];
-        path.radiance += path.throughput * (diffuse_part(f, s.point) * s.seen + s.background);
-        path.throughput *= f.mirror * s.seen;
+        for (var k = 0u; k < PACKET; k++) {
+            let n = faces[s[k].face].normal;
+            rays.dir[k] = rays.dir[k] - 2.0 * dot(rays.dir[k], n) * n;
+            rays.origin[k] = s[k].point + n * 1e-5;
+        }
+        s = cast_rays(rays);
+        for (var k = 0u; k < PACKET; k++) {
+            let f = faces[s[k].face];
+            paths.radiance[k] += paths.throughput[k] * (diffuse_part(f, s[k].point) * s[k].seen + s[k].background);
+            paths.throughput[k] *= f.mirror * s[k].seen;
+        }
     }
-    path.face = s.face;
-    path.point = s.point;
-    path.ray = ray;
-    return path;
+    for (var k = 0u; k < PACKET; k++) {
+        paths.face[k] = s[k].face;
+        paths.point[k] = s[k].point;
+        paths.ray[k] = rays.dir[k];
+    }
+    return paths;
 }
 
 // The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
@@ -171,13 +207,27 @@ fn eye_ray(pixel: vec2<u32>, offset: vec2<f32>, size: vec2<u32>) -> array<vec3<f
     return array<vec3<f32>, 2>(origin, normalize(far.xyz / far.w - origin));
 }
 
-// Sample k of n x n: the multi-jittered grid's canonical arrangement (one sample per stratum of
-// the n x n grid and per row and column of the n^2 x n^2 grid).
+// Sample k of n x n: the Hammersley set of n^2 points, centred in its strata. For a power-of-two
+// count it is a (0, m, 2)-net in base 2: one sample in every elementary box of area 1/n^2
+// (n^2 x 1, ..., n x n, ..., 1 x n^2), so an edge of any slope is resolved in about 1/n^2 steps.
 fn sample_offset(k: u32, n: u32) -> vec2<f32> {
-    let i = k % n;
-    let j = k / n;
-    let fn_ = f32(n);
-    return vec2<f32>((f32(i) + (f32(j) + 0.5) / fn_) / fn_, (f32(j) + (f32(i) + 0.5) / fn_) / fn_);
+    let count = f32(n * n);
+    return vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) * 0.999999 + 0.5 / count);
+}
+
+// Packet p of a pixel's n x n eye rays; slots past the last sample repeat it with weight 0.
+fn eye_packet(pixel: vec2<u32>, size: vec2<u32>, p: u32, n: u32) -> Rays {
+    var rays: Rays;
+    for (var k = 0u; k < PACKET; k++) {
+        let r = eye_ray(pixel, sample_offset(min(p * PACKET + k, n * n - 1u), n), size);
+        rays.origin[k] = r[0];
+        rays.dir[k] = r[1];
+    }
+    return rays;
+}
+
+fn slot_weight(p: u32, k: u32, n: u32) -> f32 {
+    return select(0.0, 1.0 / f32(n * n), p * PACKET + k < n * n);
 }
 
 @compute @workgroup_size(8, 8)
@@ -188,11 +238,13 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_side, 1u);
     var sum = vec3<f32>(0.0);
-    for (var k = 0u; k < n * n; k++) {
-        let r = eye_ray(gid.xy, sample_offset(k, n), size);
-        sum += trace_path(r[0], r[1]).radiance;
+    for (var p = 0u; p * PACKET < n * n; p++) {
+        let paths = trace_paths(eye_packet(gid.xy, size, p, n));
+        for (var k = 0u; k < PACKET; k++) {
+            sum += paths.radiance[k] * slot_weight(p, k, n);
+        }
     }
-    textureStore(image, gid.xy, vec4<f32>(sum / f32(n * n), 1.0));
+    textureStore(image, gid.xy, vec4<f32>(sum, 1.0));
 }
 
 @compute @workgroup_size(8, 8)
@@ -203,15 +255,18 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_side, 1u);
     var sum = vec3<f32>(0.0);
-    for (var k = 0u; k < n * n; k++) {
-        let r = eye_ray(gid.xy, sample_offset(k, n), size);
-        let path = trace_path(r[0], r[1]);
-        let f = faces[path.face];
-        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-        let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
-        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-        let out_dir = path.ray - 2.0 * dot(path.ray, f.normal) * f.normal;
-        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, out_dir);
+    for (var p = 0u; p * PACKET < n * n; p++) {
+        let paths = trace_paths(eye_packet(gid.xy, size, p, n));
+        for (var k = 0u; k < PACKET; k++) {
+            let f = faces[paths.face[k]];
+            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+            let carried = select(paths.throughput[k], vec3<f32>(0.0), f.tile_slot == NO_FACE);
+            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+            let ray = paths.ray[k];
+            let out_dir = ray - 2.0 * dot(ray, f.normal) * f.normal;
+            let l = paths.radiance[k] + carried * view_dependent_part(f, slot, paths.point[k], out_dir);
+            sum += l * slot_weight(p, k, n);
+        }
     }
-    textureStore(image, gid.xy, vec4<f32>(sum / f32(n * n), 1.0));
+    textureStore(image, gid.xy, vec4<f32>(sum, 1.0));
 }

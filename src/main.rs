@@ -245,6 +245,9 @@ enum Command {
         frames: u32,
         #[arg(long, value_parser = parse_size, default_value = "1024x768")]
         size: [u32; 2],
+        /// Antialiasing of the timed view: N x N eye rays per pixel (default: the real-time one)
+        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES_PER_SIDE)]
+        aa: u32,
         #[command(flatten)]
         params: ParamArgs,
     },
@@ -574,7 +577,7 @@ fn run(cli: Cli) -> Result<()> {
                 }
             }
         }
-        Command::Bench { scene, suite, quick, work, plot, from_json, json, markdown, frames, size, params } => {
+        Command::Bench { scene, suite, quick, work, plot, from_json, json, markdown, frames, size, aa, params } => {
             if let Some(input) = from_json {
                 let report = vlf::suite::SuiteReport::load(&input)?;
                 let md = report.markdown();
@@ -612,7 +615,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             let scene = Scene::load(&scene)?;
             let params = params.apply(PropagationParams::default())?;
-            let report = vlf::bench::run(ctx, &scene, &params, size, frames)?;
+            let report = vlf::bench::run(ctx, &scene, &params, size, frames, aa)?;
             print!("{}", report.table());
             if let Some(path) = json {
                 write_json(&path, &report)?;

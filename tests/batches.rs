@@ -22,6 +22,7 @@ fn params(n: u32, grid: u32) -> PropagationParams {
         perturb: 1,
         accelerate: true,
         memory_budget_mib: None,
+        direct_samples: 16,
     }
 }
 

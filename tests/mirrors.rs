@@ -11,7 +11,7 @@ use vlf::render::Renderer;
 use vlf::scene::{Camera, Scene};
 
 fn params(n: u32, grid: u32, density: f64) -> PropagationParams {
-    PropagationParams { geodesic_frequency: n, grid_resolution: grid, tile_size: 8, texel_density: density, tolerance: 1e-4, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None }
+    PropagationParams { geodesic_frequency: n, grid_resolution: grid, tile_size: 8, texel_density: density, tolerance: 1e-4, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 }
 }
 
 #[test]
