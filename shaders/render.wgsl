@@ -1,8 +1,8 @@
 // View rendering from the resident light field, driven by src/render/mod.rs: one compute
 // pass, one thread per pixel, and every pixel does the same fixed work whatever it sees:
-// - antialiasing: view.samples_per_side^2 eye rays per pixel on a Hammersley set (one sample in
-//   every elementary box of the pixel), averaged with a box filter: an edge pixel shows the
-//   covered fraction;
+// - antialiasing: view.samples_per_pixel eye rays per pixel on a Hammersley set (for 2^m of
+//   them, one in every elementary box of the pixel), averaged with a box filter: an edge pixel
+//   shows the covered fraction;
 // - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
 //   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
 //   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
@@ -12,8 +12,9 @@
 // - one bilinear lookup in the diffuse atlas for the diffuse part (and emission);
 // - mirrors by ray tracing, the paper's rendering method (ii): the ray reflects off a mirror
 //   (or a mixed surface's mirror part) view.mirror_bounces times and reads the converged
-//   radiance where it lands, with the geometric sharpness of a path tracer. Every sample makes
-//   every bounce: one that sees no mirror traces a stand-in and multiplies it by zero. Where a
+//   radiance where it lands, with the geometric sharpness of a path tracer. Every reflection is
+//   traced whatever it carries (a pixel that sees no mirror traces a stand-in and multiplies
+//   it by zero); resolve_diffuse shares one reflection between two eye rays. Where a
 //   chain of mirrors can be longer than that (facing mirrors), resolve_mixed ends it with the
 //   mirror tiles: the three fixed directions around the reflected ray, looked up in the face's
 //   tiles (a diffuse or sky sample does the same lookups on a stand-in, times zero).
@@ -35,6 +36,26 @@
 @group(0) @binding(6) var<storage, read> radiance_1: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read> radiance_2: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read> radiance_3: array<vec4<f32>>;
+// the small mesh's triangles as affine maps (rows u, v, w: world -> the triangle's barycentric
+// u, v and its plane distance w), in the order of `triangles`
+@group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
+
+// mirrors gpu::types::GpuRayTriangle
+struct RayTriangle {
+    u: vec4<f32>,
+    v: vec4<f32>,
+    w: vec4<f32>,
+}
+
+// Where the ray meets the triangle's plane, and whether inside it, by the triangle's affine map
+// to the unit triangle (Baldwin & Weber 2016): four dot products and no branch.
+fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
+    let t = -(dot(tri.w.xyz, origin) + tri.w.w) / dot(tri.w.xyz, ray);
+    let h = origin + ray * t;
+    let u = dot(tri.u.xyz, h) + tri.u.w;
+    let v = dot(tri.v.xyz, h) + tri.v.w;
+    return select(-1.0, t, u >= 0.0 && v >= 0.0 && u + v <= 1.0);
+}
 
 fn radiance(texel: u32) -> vec4<f32> {
     let i = texel % view.texel_page_cells;
@@ -101,7 +122,26 @@ struct Surface {
     point: vec3<f32>,
 }
 
-fn surface_of(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    if view.exhaustive_triangles > 0u {
+        // a small mesh: every ray tests every triangle, the same work for every ray
+        // two triangles a step: their tests are independent, which keeps the GPU's pipes full
+        let n = view.exhaustive_triangles;
+        for (var i = 0u; i < n; i += 2u) {
+            let j = min(i + 1u, n - 1u);
+            let ti = ray_triangle(origin, ray, ray_triangles[i]);
+            let tj = ray_triangle(origin, ray, ray_triangles[j]);
+            let found_i = ti > 1e-5 && closer(ti, i, hit);
+            hit.t = select(hit.t, ti, found_i);
+            hit.tri = select(hit.tri, i, found_i);
+            let found_j = tj > 1e-5 && closer(tj, j, hit);
+            hit.t = select(hit.t, tj, found_j);
+            hit.tri = select(hit.tri, j, found_j);
+        }
+    } else {
+        hit = trace(origin, ray, 1e30, false);
+    }
     var out: Surface;
     var id = SKY;
     if hit.tri != NO_FACE {
@@ -118,84 +158,36 @@ fn surface_of(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     return out;
 }
 
-// Rays go in packets of PACKET: a small mesh is tested triangle by triangle against all of
-// them, so each triangle is read once per packet rather than once per ray.
-const PACKET: u32 = 4u;
-
-struct Rays {
-    origin: array<vec3<f32>, 4>,
-    dir: array<vec3<f32>, 4>,
+// One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
+// chain ends: the last surface, its direction of travel and the weight still carried (for the
+// tiles, in resolve_mixed).
+struct Path {
+    radiance: vec3<f32>,
+    throughput: vec3<f32>,
+    face: u32,
+    point: vec3<f32>,
+    ray: vec3<f32>,
 }
 
-fn cast_rays(rays: Rays) -> array<Surface, 4> {
-    var hits: array<Hit, 4>;
-    for (var k = 0u; k < PACKET; k++) {
-        hits[k] = Hit(1e30, NO_FACE, 0.0, 0.0);
-    }
-    if view.exhaustive_triangles > 0u {
-        // a small mesh: every ray tests every triangle, the same work for every ray
-        for (var i = 0u; i < view.exhaustive_triangles; i++) {
-            let tri = triangles[i];
-            for (var k = 0u; k < PACKET; k++) {
-                let r = intersect(rays.origin[k], rays.dir[k], tri, hits[k].t * TIE);
-                if closer(r.x, i, hits[k]) {
-                    hits[k].t = r.x;
-                    hits[k].tri = i;
-                }
-            }
-        }
-    } else {
-        for (var k = 0u; k < PACKET; k++) {
-            hits[k] = trace(rays.origin[k], rays.dir[k], 1e30, false);
-        }
-    }
-    var out: array<Surface, 4>;
-    for (var k = 0u; k < PACKET; k++) {
-        out[k] = surface_of(hits[k], rays.origin[k], rays.dir[k]);
-    }
-    return out;
-}
-
-// A packet of eye rays' radiance through up to view.mirror_bounces mirror reflections each, and
-// where each chain ends: the last surface, its direction of travel and the weight still carried
-// (for the tiles, in resolve_mixed).
-struct Paths {
-    radiance: array<vec3<f32>, 4>,
-    throughput: array<vec3<f32>, 4>,
-    face: array<u32, 4>,
-    point: array<vec3<f32>, 4>,
-    ray: array<vec3<f32>, 4>,
-}
-
-fn trace_paths(eye: Rays) -> Paths {
-    var rays = eye;
-    var s = cast_rays(rays);
-    var paths: Paths;
-    for (var k = 0u; k < PACKET; k++) {
-        let f = faces[s[k].face];
-        paths.radiance[k] = diffuse_part(f, s[k].point) * s[k].seen + s[k].background;
-        paths.throughput[k] = f.mirror * s[k].seen;
-    }
+fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
+    var s = cast_ray(origin, ray_in);
+    var ray = ray_in;
+    var f = faces[s.face];
+    var path: Path;
+    path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
+    path.throughput = f.mirror * s.seen;
     for (var b = 0u; b < view.mirror_bounces; b++) {
         // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
-        for (var k = 0u; k < PACKET; k++) {
-            let n = faces[s[k].face].normal;
-            rays.dir[k] = rays.dir[k] - 2.0 * dot(rays.dir[k], n) * n;
-            rays.origin[k] = s[k].point + n * 1e-5;
-        }
-        s = cast_rays(rays);
-        for (var k = 0u; k < PACKET; k++) {
-            let f = faces[s[k].face];
-            paths.radiance[k] += paths.throughput[k] * (diffuse_part(f, s[k].point) * s[k].seen + s[k].background);
-            paths.throughput[k] *= f.mirror * s[k].seen;
-        }
+        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
+        s = cast_ray(s.point + f.normal * 1e-5, ray);
+        f = faces[s.face];
+        path.radiance += path.throughput * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.throughput *= f.mirror * s.seen;
     }
-    for (var k = 0u; k < PACKET; k++) {
-        paths.face[k] = s[k].face;
-        paths.point[k] = s[k].point;
-        paths.ray[k] = rays.dir[k];
-    }
-    return paths;
+    path.face = s.face;
+    path.point = s.point;
+    path.ray = ray;
+    return path;
 }
 
 // The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
@@ -207,44 +199,70 @@ fn eye_ray(pixel: vec2<u32>, offset: vec2<f32>, size: vec2<u32>) -> array<vec3<f
     return array<vec3<f32>, 2>(origin, normalize(far.xyz / far.w - origin));
 }
 
-// Sample k of n x n: the Hammersley set of n^2 points, centred in its strata. For a power-of-two
-// count it is a (0, m, 2)-net in base 2: one sample in every elementary box of area 1/n^2
-// (n^2 x 1, ..., n x n, ..., 1 x n^2), so an edge of any slope is resolved in about 1/n^2 steps.
+// Sample k of n: the Hammersley set of n points, shifted half a stratum. For a power-of-two
+// count it is a (0, m, 2)-net in base 2: one sample in every elementary box of area 1/n
+// (n x 1, ..., 1 x n), so an edge of any slope is resolved in about 1/n steps.
 fn sample_offset(k: u32, n: u32) -> vec2<f32> {
-    let count = f32(n * n);
-    return vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) * 0.999999 + 0.5 / count);
+    let count = f32(n);
+    return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
 }
 
-// Packet p of a pixel's n x n eye rays; slots past the last sample repeat it with weight 0.
-fn eye_packet(pixel: vec2<u32>, size: vec2<u32>, p: u32, n: u32) -> Rays {
-    var rays: Rays;
-    for (var k = 0u; k < PACKET; k++) {
-        let r = eye_ray(pixel, sample_offset(min(p * PACKET + k, n * n - 1u), n), size);
-        rays.origin[k] = r[0];
-        rays.dir[k] = r[1];
+// Radiance arriving at surface `s` (met by `ray`) along its mirror reflection, through up to
+// view.mirror_bounces reflections: every one traced, whatever it carries.
+fn reflected(first: Surface, ray_in: vec3<f32>) -> vec3<f32> {
+    var s = first;
+    var ray = ray_in;
+    var n = faces[s.face].normal;
+    var weight = vec3<f32>(1.0);
+    var sum = vec3<f32>(0.0);
+    for (var b = 0u; b < view.mirror_bounces; b++) {
+        ray = ray - 2.0 * dot(ray, n) * n;
+        s = cast_ray(s.point + n * 1e-5, ray);
+        let f = faces[s.face];
+        sum += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        weight *= f.mirror * s.seen;
+        n = f.normal;
     }
-    return rays;
+    return sum;
 }
 
-fn slot_weight(p: u32, k: u32, n: u32) -> f32 {
-    return select(0.0, 1.0 / f32(n * n), p * PACKET + k < n * n);
-}
-
+// Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
+// from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
+// a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
+// reflections per pixel (the reflection is what a mirror makes expensive).
 @compute @workgroup_size(8, 8)
 fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let n = max(view.samples_per_side, 1u);
+    let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
-    for (var p = 0u; p * PACKET < n * n; p++) {
-        let paths = trace_paths(eye_packet(gid.xy, size, p, n));
-        for (var k = 0u; k < PACKET; k++) {
-            sum += paths.radiance[k] * slot_weight(p, k, n);
+    for (var k = 0u; k < n; k += 2u) {
+        // an odd count's last pair repeats its ray with weight 0
+        let second = min(k + 1u, n - 1u);
+        let w1 = select(0.0, 1.0, k + 1u < n);
+        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
+        let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
+        let s0 = cast_ray(r0[0], r0[1]);
+        let s1 = cast_ray(r1[0], r1[1]);
+        let f0 = faces[s0.face];
+        let f1 = faces[s1.face];
+        let m0 = f0.mirror * s0.seen;
+        let m1 = f1.mirror * s1.seen * w1;
+        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
+        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        if view.mirror_bounces > 0u {
+            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+            var s = s0;
+            if use_second {
+                s = s1;
+            }
+            let ray = select(r0[1], r1[1], use_second);
+            sum += (m0 + m1) * reflected(s, ray);
         }
     }
-    textureStore(image, gid.xy, vec4<f32>(sum, 1.0));
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }
 
 @compute @workgroup_size(8, 8)
@@ -253,20 +271,17 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let n = max(view.samples_per_side, 1u);
+    let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
-    for (var p = 0u; p * PACKET < n * n; p++) {
-        let paths = trace_paths(eye_packet(gid.xy, size, p, n));
-        for (var k = 0u; k < PACKET; k++) {
-            let f = faces[paths.face[k]];
-            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-            let carried = select(paths.throughput[k], vec3<f32>(0.0), f.tile_slot == NO_FACE);
-            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-            let ray = paths.ray[k];
-            let out_dir = ray - 2.0 * dot(ray, f.normal) * f.normal;
-            let l = paths.radiance[k] + carried * view_dependent_part(f, slot, paths.point[k], out_dir);
-            sum += l * slot_weight(p, k, n);
-        }
+    for (var k = 0u; k < n; k++) {
+        let r = eye_ray(gid.xy, sample_offset(k, n), size);
+        let path = trace_path(r[0], r[1]);
+        let f = faces[path.face];
+        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+        let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+        let out_dir = path.ray - 2.0 * dot(path.ray, f.normal) * f.normal;
+        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, out_dir);
     }
-    textureStore(image, gid.xy, vec4<f32>(sum, 1.0));
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }

@@ -58,11 +58,11 @@ pub struct BenchReport {
     pub render_timing_source: String,
 }
 
-pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size: [u32; 2], frames: u32, samples_per_side: u32) -> Result<BenchReport> {
+pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size: [u32; 2], frames: u32, samples_per_pixel: u32) -> Result<BenchReport> {
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, false)?;
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger)?;
-    renderer.set_samples_per_side(samples_per_side)?;
+    renderer.set_samples_per_pixel(samples_per_pixel)?;
     let camera = lf.camera(None)?.clone();
     // warm up, then measure
     renderer.time_frames(&camera, size[0], size[1], 10)?;
@@ -76,7 +76,7 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
         transport_samples_per_second: samples / report.propagation_seconds.max(1e-12),
         iteration_gpu_ms: (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms)),
         render_size: size,
-        eye_rays_per_pixel: samples_per_side * samples_per_side,
+        eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
         render_frame_ms: Distribution::of(&frame_ms),
         render_timing_source: if gpu { "GPU timestamp queries".into() } else { "wall clock (no timestamp queries)".into() },

@@ -53,8 +53,8 @@ enum Command {
         /// Supersampling on top of --aa: render N x N times the pixels and box-filter them
         #[arg(long, default_value_t = 1)]
         ssaa: u32,
-        /// Antialiasing: N x N eye rays per pixel on a multi-jittered grid, box-filtered
-        #[arg(long, default_value_t = vlf::render::STILL_SAMPLES_PER_SIDE)]
+        /// Antialiasing: N eye rays per pixel (a Hammersley set), box-filtered; 1 = off
+        #[arg(long, default_value_t = vlf::render::STILL_SAMPLES)]
         aa: u32,
         /// out.exr (linear radiance) or out.png (tonemapped)
         #[arg(short, long)]
@@ -245,8 +245,8 @@ enum Command {
         frames: u32,
         #[arg(long, value_parser = parse_size, default_value = "1024x768")]
         size: [u32; 2],
-        /// Antialiasing of the timed view: N x N eye rays per pixel (default: the real-time one)
-        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES_PER_SIDE)]
+        /// Antialiasing of the timed view: N eye rays per pixel (default: the real-time one)
+        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
         aa: u32,
         #[command(flatten)]
         params: ParamArgs,
@@ -402,7 +402,7 @@ fn run(cli: Cli) -> Result<()> {
             let cam = lf.camera(camera.as_deref())?.clone();
             let [w, h] = size.unwrap_or(cam.size);
             let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
-            renderer.set_samples_per_side(aa)?;
+            renderer.set_samples_per_pixel(aa)?;
             let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
             image_io::write_image(&frame, &output, exposure)?;
             println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);

@@ -109,8 +109,8 @@ struct View {
     tile_cell_count: u32,
     // the radiance atlas in pages: texels per page
     texel_page_cells: u32,
-    // antialiasing: samples_per_side^2 eye rays per pixel
-    samples_per_side: u32,
+    // antialiasing: eye rays per pixel
+    samples_per_pixel: u32,
     // mirror reflections traced per eye ray (0: the scene has no mirror)
     mirror_bounces: u32,
     _pad0: u32,

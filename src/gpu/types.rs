@@ -114,8 +114,8 @@ pub struct GpuView {
     pub tile_page_cells: u32,
     pub tile_cell_count: u32,
     pub texel_page_cells: u32,
-    /// antialiasing: samples_per_side^2 eye rays per pixel
-    pub samples_per_side: u32,
+    /// antialiasing: eye rays per pixel
+    pub samples_per_pixel: u32,
     /// mirror reflections traced per eye ray (0: the scene has no mirror)
     pub mirror_bounces: u32,
     pub _pad0: u32,
@@ -131,7 +131,7 @@ pub struct RenderVertex {
 }
 
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 9] {
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 10] {
     [
         ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
         ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
@@ -140,6 +140,7 @@ pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str);
         ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
         ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
         ("GpuPageRange", "PageRange", std::mem::size_of::<GpuPageRange>(), "specular.wgsl"),
+        ("GpuRayTriangle", "RayTriangle", std::mem::size_of::<GpuRayTriangle>(), "render.wgsl"),
         ("GpuEmitter", "Emitter", std::mem::size_of::<GpuEmitter>(), "direct.wgsl"),
         ("GpuDirectParams", "DirectParams", std::mem::size_of::<GpuDirectParams>(), "direct.wgsl"),
     ]
@@ -182,3 +183,26 @@ pub struct GpuDirectParams {
     pub _pad0: u32,
 }
 
+
+/// Mirrors WGSL `RayTriangle` (shaders/render.wgsl): a triangle as the rows of its affine map
+/// from world space to (u, v, w), barycentric u and v and the distance w from its plane.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuRayTriangle {
+    pub u: [f32; 4],
+    pub v: [f32; 4],
+    pub w: [f32; 4],
+}
+
+impl GpuRayTriangle {
+    /// The inverse of p = a + u (b - a) + v (c - a) + w n, computed in f64.
+    pub fn new(a: glam::Vec3, b: glam::Vec3, c: glam::Vec3) -> GpuRayTriangle {
+        let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+        let (e1, e2) = (b - a, c - a);
+        let n = e1.cross(e2).normalize_or_zero();
+        let m = glam::DMat4::from_cols(e1.extend(0.0), e2.extend(0.0), n.extend(0.0), a.extend(1.0));
+        let inv = m.inverse();
+        let row = |r: usize| [inv.row(r).x as f32, inv.row(r).y as f32, inv.row(r).z as f32, inv.row(r).w as f32];
+        GpuRayTriangle { u: row(0), v: row(1), w: row(2) }
+    }
+}

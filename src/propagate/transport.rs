@@ -39,6 +39,22 @@ struct ElementState {
 }
 
 impl ElementState {
+    /// All zero (mirror tiles start dark): allocated on the GPU, which zeroes new buffers,
+    /// instead of uploading zeros (1.4 GiB of tiles at Cornell-mirror's defaults).
+    fn zeroed(ctx: &GpuContext, ledger: &MemoryLedger, what: &str, count: u32, scale: f32) -> ElementState {
+        let (ax, ay) = dispatch_2d(count.div_ceil(256));
+        let params = GpuAccumulate { count, scale, ..Default::default() };
+        let bytes = count as u64 * 16;
+        ElementState {
+            radiance: [ctx.buffer_zeroed(ledger, &format!("{what}: unshot"), bytes, STORAGE), ctx.buffer_zeroed(ledger, &format!("{what}: next"), bytes, STORAGE)],
+            total: ctx.buffer_zeroed(ledger, &format!("{what}: total"), bytes, STORAGE),
+            partials: ctx.buffer_zeroed(ledger, &format!("{what}: power sums"), (ax * ay) as u64 * 8, STORAGE),
+            partial_count: ax * ay,
+            params: ctx.buffer_init(ledger, &format!("{what}: accumulate parameters"), bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM),
+            count,
+        }
+    }
+
     fn new(ctx: &GpuContext, ledger: &MemoryLedger, what: &str, unshot: &[[f32; 4]], total: &[[f32; 4]], scale: f32) -> ElementState {
         let count = unshot.len() as u32;
         let (ax, ay) = dispatch_2d(count.div_ceil(256));
@@ -264,10 +280,9 @@ impl Propagator {
                 .ranges()
                 .into_iter()
                 .map(|(first, cells)| {
-                    let zero = vec![[0.0f32; 4]; cells as usize];
                     let range = GpuPageRange { base: first, cells, ..Default::default() };
                     Page {
-                        state: ElementState::new(&ctx, &ledger, "mirror tiles", &zero, &zero, 1.0),
+                        state: ElementState::zeroed(&ctx, &ledger, "mirror tiles", cells, 1.0),
                         power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights[first as usize..(first + cells) as usize]), STORAGE),
                         first,
                         page_uniform: ctx.buffer_init(&ledger, "mirror tiles: page", bytemuck::bytes_of(&range), wgpu::BufferUsages::UNIFORM),
