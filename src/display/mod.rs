@@ -22,6 +22,10 @@ pub struct DisplayConfig {
     /// interpupillary distance, metres
     #[serde(default = "default_ipd")]
     pub eye_separation: f32,
+    /// from the tracked point of the head to the point between the eyes, metres in the head's
+    /// frame (x right, y up, -z ahead): e.g. [0, -0.05, -0.08] for a target on top of the glasses
+    #[serde(default)]
+    pub eye_offset: [f32; 3],
     #[serde(default)]
     pub start_pose: StartPose,
     #[serde(default)]
@@ -49,8 +53,14 @@ pub struct StartPose {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, tag = "source", rename_all = "lowercase")]
 pub enum TrackingConfig {
-    /// a fixed head position in room metres
-    Static { head: [f32; 3] },
+    /// a fixed head in room metres, looking along -z unless oriented (`tracking::head_rotation`)
+    Static {
+        head: [f32; 3],
+        head_yaw_deg: Option<f32>,
+        head_pitch_deg: Option<f32>,
+        head_roll_deg: Option<f32>,
+        head_orientation: Option<[f32; 4]>,
+    },
     /// keyframed head and navigation poses (a TOML file, path relative to the config)
     Scripted { path: PathBuf },
     /// live poses over UDP/OSC
@@ -59,7 +69,19 @@ pub enum TrackingConfig {
 
 impl Default for TrackingConfig {
     fn default() -> Self {
-        TrackingConfig::Static { head: [0.0, 1.7, 0.0] }
+        TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None }
+    }
+}
+
+impl TrackingConfig {
+    /// The static head's orientation (identity for the other sources).
+    pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
+        match self {
+            TrackingConfig::Static { head_yaw_deg, head_pitch_deg, head_roll_deg, head_orientation, .. } => {
+                tracking::head_rotation([*head_yaw_deg, *head_pitch_deg, *head_roll_deg], *head_orientation, "tracking.")
+            }
+            _ => Ok(glam::Quat::IDENTITY),
+        }
     }
 }
 
@@ -197,11 +219,15 @@ impl DisplayConfig {
                 return Err(format!("{at}.output: name a monitor (index or name) or a window position"));
             }
         }
-        if let TrackingConfig::Static { head } = &self.tracking {
+        if !(self.eye_offset.iter().all(|x| x.is_finite()) && Vec3::from(self.eye_offset).length() <= 0.5) {
+            return Err(format!("eye_offset: {:?} must be finite and at most 0.5 m long (it is the offset from the tracked point to the eyes' centre)", self.eye_offset));
+        }
+        if let TrackingConfig::Static { head, .. } = &self.tracking {
             if head.iter().any(|x| !x.is_finite()) {
                 return Err("tracking.head: must be finite".into());
             }
         }
+        self.tracking.static_head_rotation()?;
         Ok(())
     }
 
@@ -223,11 +249,11 @@ impl DisplayConfig {
 }
 
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection
-/// and the eye, in the light field's normalised space. Eyes sit along the room's x axis.
+/// and the eye, in the light field's normalised space. The eyes sit at +-IPD/2 along the
+/// tracked head's right axis, `eye_offset` (head frame) from the tracked point.
 pub fn wall_view(config: &DisplayConfig, wall: &Wall, side: f32, pose: &tracking::Pose, norm: &crate::prepare::Normalisation) -> (Mat4, Vec3) {
     let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
-    let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
-    let eye = to_unit(pose.room_to_world(head));
+    let eye = to_unit(pose.room_to_world(pose.eye(Vec3::from(config.eye_offset), config.eye_separation, side)));
     let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
     let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
     let near = (plane_distance * 0.5).clamp(1e-4, 0.01);

@@ -1,4 +1,5 @@
-//! Live head tracking over UDP/OSC. A thread receives `/vlf/head x y z` (room metres) and,
+//! Live head tracking over UDP/OSC. A thread receives `/vlf/head x y z` (room metres; the
+//! orientation kept) or `/vlf/head x y z qx qy qz qw` (with the head's orientation) and,
 //! optionally, `/vlf/room x y z yaw_deg` (navigation), and hands poses to the renderer through
 //! a crossbeam channel; the renderer takes the latest (older ones are dropped). A source that
 //! goes quiet leaves the last pose in place, and the tracker says so (status and log).
@@ -6,7 +7,7 @@
 use super::tracking::Pose;
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{Receiver, Sender};
-use glam::Vec3;
+use glam::{Quat, Vec3};
 use std::net::UdpSocket;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -114,7 +115,12 @@ fn apply(packet: &rosc::OscPacket, pose: &mut Pose, changed: &mut bool) {
         rosc::OscPacket::Message(m) => {
             let v = floats(&m.args);
             match (m.addr.as_str(), v.as_slice()) {
-                ("/vlf/head", [x, y, z, ..]) if [x, y, z].iter().all(|f| f.is_finite()) => {
+                ("/vlf/head", [x, y, z, qx, qy, qz, qw, ..]) if v[..7].iter().all(|f| f.is_finite()) && Quat::from_xyzw(*qx, *qy, *qz, *qw).length() > 1e-3 => {
+                    pose.head = Vec3::new(*x, *y, *z);
+                    pose.head_rotation = Quat::from_xyzw(*qx, *qy, *qz, *qw).normalize();
+                    *changed = true;
+                }
+                ("/vlf/head", [x, y, z]) if [x, y, z].iter().all(|f| f.is_finite()) => {
                     pose.head = Vec3::new(*x, *y, *z);
                     *changed = true;
                 }

@@ -1,0 +1,268 @@
+//! Head tracking in 6 degrees of freedom: the eyes follow the tracked head's orientation (the
+//! stereo disparity of points behind and on the CAVE's walls matches the geometry, computed
+//! here independently by intersecting each eye's line of sight with the wall), orientations
+//! from every source (static, scripted, OSC).
+
+mod common;
+use common::*;
+use glam::{Quat, Vec3};
+use std::path::Path;
+use vlf::display::projection::project_to_pixel;
+use vlf::display::tracking::{head_rotation_from_angles, Pose, PoseSource};
+use vlf::display::{wall_view, DisplayConfig, Wall};
+use vlf::prepare::Normalisation;
+
+/// Two unit quaternions are the same rotation (to float precision).
+fn same(a: Quat, b: Quat) -> bool {
+    a.dot(b).abs() > 1.0 - 1e-6
+}
+
+fn cave() -> DisplayConfig {
+    DisplayConfig::load(&repo_path("config/displays/cave-4wall.toml")).unwrap()
+}
+
+/// Where the line from `eye` to `point` (room metres) crosses the wall's plane, in pixels from
+/// the top-left of the wall's image: the geometry, without the renderer's matrices.
+fn expected_pixel(wall: &Wall, eye: Vec3, point: Vec3) -> (f32, f32) {
+    let [ll, lr, ul] = wall.corners();
+    let n = (lr - ll).cross(ul - ll).normalize();
+    let t = (ll - eye).dot(n) / (point - eye).dot(n);
+    let hit = eye + (point - eye) * t;
+    let u = (hit - ll).dot(lr - ll) / (lr - ll).length_squared();
+    let v = (hit - ll).dot(ul - ll) / (ul - ll).length_squared();
+    let [w, h] = wall.eye_pixels();
+    (u * w as f32, (1.0 - v) * h as f32)
+}
+
+/// The wall's normal pointing into the room (towards the CAVE's centre).
+fn inward_normal(wall: &Wall) -> Vec3 {
+    let [ll, lr, ul] = wall.corners();
+    let n = (lr - ll).cross(ul - ll).normalize();
+    let centre = ll + (lr - ll) * 0.5 + (ul - ll) * 0.5;
+    if (Vec3::new(0.0, 1.5, 0.0) - centre).dot(n) > 0.0 {
+        n
+    } else {
+        -n
+    }
+}
+
+/// Left- and right-eye pixels of a room point on a wall, through `wall_view` and the
+/// renderer's projection (in the light field's normalised space).
+fn rendered_pixels(config: &DisplayConfig, wall: &Wall, pose: &Pose, norm: &Normalisation, point: Vec3) -> [(f32, f32); 2] {
+    [-1.0, 1.0].map(|side| {
+        let (view_proj, _) = wall_view(config, wall, side, pose, norm);
+        let p = norm.to_unit(pose.room_to_world(point).into()).as_vec3();
+        project_to_pixel(view_proj, p, wall.eye_pixels()).expect("the point is in front of the eye")
+    })
+}
+
+struct Case {
+    name: &'static str,
+    yaw: f32,
+    pitch: f32,
+}
+
+const CASES: [Case; 4] = [
+    Case { name: "yaw 0", yaw: 0.0, pitch: 0.0 },
+    Case { name: "yaw +90", yaw: 90.0, pitch: 0.0 },
+    Case { name: "yaw -90", yaw: -90.0, pitch: 0.0 },
+    Case { name: "pitch -60 (the floor)", yaw: 0.0, pitch: -60.0 },
+];
+
+#[test]
+fn stereo_disparity_follows_the_head_orientation() {
+    let mut config = cave();
+    // the tracked target sits above and behind the eyes
+    config.eye_offset = [0.0, -0.05, 0.07];
+    let ipd = config.eye_separation;
+    // the room placed somewhere in the scene, which is normalised: neither may change pixels
+    let norm = Normalisation { center: [0.3, 1.1, -0.4], scale: 0.37 };
+    let mut front_disparity = std::collections::HashMap::new();
+    for case in &CASES {
+        let rotation = head_rotation_from_angles(case.yaw, case.pitch, 0.0);
+        let pose = Pose { head: Vec3::new(0.2, 1.55, 0.1), head_rotation: rotation, room_position: Vec3::new(0.5, 0.0, 2.2), room_yaw_deg: 20.0 };
+        // the eyes as the geometry puts them: +-IPD/2 along the head's right axis
+        let centre = pose.head + rotation * Vec3::from(config.eye_offset);
+        let right_axis = rotation * Vec3::X;
+        let eyes = [centre - right_axis * ipd * 0.5, centre + right_axis * ipd * 0.5];
+        for wall in &config.walls {
+            let [ll, lr, ul] = wall.corners();
+            let on_wall = ll + (lr - ll) * 0.4 + (ul - ll) * 0.55;
+            let n = inward_normal(wall);
+            let behind = on_wall - n;
+            let [left, right] = rendered_pixels(&config, wall, &pose, &norm, behind);
+            let expected = eyes.map(|e| expected_pixel(wall, e, behind));
+            for (got, want, eye) in [(left, expected[0], "left"), (right, expected[1], "right")] {
+                assert!(
+                    (got.0 - want.0).abs() < 0.5 && (got.1 - want.1).abs() < 0.5,
+                    "{}, wall {}, {eye} eye: rendered at {got:?}, the geometry says {want:?}",
+                    case.name,
+                    wall.name
+                );
+            }
+            let disparity = (right.0 - left.0, right.1 - left.1);
+            let want = (expected[1].0 - expected[0].0, expected[1].1 - expected[0].1);
+            assert!(
+                (disparity.0 - want.0).abs() < 0.5 && (disparity.1 - want.1).abs() < 0.5,
+                "{}, wall {}: disparity {disparity:?} px, the geometry says {want:?}",
+                case.name,
+                wall.name
+            );
+            // direction and sign: where the eyes' baseline lies along the wall, a point behind
+            // the wall is seen uncrossed, displaced along the baseline's projection on the wall
+            let (vr, vu) = ((lr - ll).normalize(), (ul - ll).normalize());
+            let along = Vec3::new(right_axis.dot(vr), right_axis.dot(vu), 0.0);
+            let [w, h] = wall.eye_pixels();
+            let metres = Vec3::new(disparity.0 * (lr - ll).length() / w as f32, -disparity.1 * (ul - ll).length() / h as f32, 0.0);
+            if along.length() > 0.5 {
+                let cos = metres.normalize().dot(along.normalize());
+                assert!(
+                    cos > 0.99,
+                    "{}, wall {}: disparity {metres} m points away from the head's right axis on the wall {along} (cos {cos})",
+                    case.name,
+                    wall.name
+                );
+                // size: the baseline times the point's depth behind the wall over its depth from
+                // the eyes (1 m behind the wall), within the eyes' depth difference
+                let depth = (centre - on_wall).dot(n) + 1.0;
+                let size = ipd * along.length() / depth;
+                assert!(
+                    (metres.length() - size).abs() < 0.1 * size,
+                    "{}, wall {}: disparity {} m, expected about {size} m",
+                    case.name,
+                    wall.name,
+                    metres.length()
+                );
+            }
+            println!(
+                "{:<22} {:<6} disparity rendered ({:7.3}, {:7.3}) px, geometry ({:7.3}, {:7.3}) px",
+                case.name, wall.name, disparity.0, disparity.1, want.0, want.1
+            );
+            if wall.name == "front" {
+                front_disparity.insert(case.name, metres.length());
+            }
+            // a point on the wall is where it is drawn, for both eyes: no disparity
+            let [l, r] = rendered_pixels(&config, wall, &pose, &norm, on_wall);
+            assert!(
+                (r.0 - l.0).abs() < 0.5 && (r.1 - l.1).abs() < 0.5,
+                "{}, wall {}: a point on the wall has disparity ({}, {}) px",
+                case.name,
+                wall.name,
+                r.0 - l.0,
+                r.1 - l.1
+            );
+        }
+    }
+    // turned to face a side wall, the eyes' baseline points at the front wall: almost no
+    // horizontal disparity there (eyes on the room's x axis gave the full one)
+    for turned in ["yaw +90", "yaw -90"] {
+        assert!(
+            front_disparity[turned] < 0.25 * front_disparity["yaw 0"],
+            "{turned}: front-wall disparity {} m vs {} m facing it",
+            front_disparity[turned],
+            front_disparity["yaw 0"]
+        );
+    }
+}
+
+#[test]
+fn eyes_sit_on_the_head_axis_with_the_offset() {
+    let pose = Pose { head: Vec3::new(0.0, 1.7, 0.0), head_rotation: head_rotation_from_angles(90.0, 0.0, 0.0), room_position: Vec3::ZERO, room_yaw_deg: 0.0 };
+    // facing -x (turned left): the right eye is towards -z, the offset's -z (ahead) is -x
+    let right = pose.eye(Vec3::new(0.0, -0.1, -0.08), 0.064, 1.0);
+    assert!((right - Vec3::new(-0.08, 1.6, -0.032)).length() < 1e-5, "{right}");
+    // looking down 60 degrees: "ahead" points mostly at the floor, "right" stays +x
+    let down = Pose { head_rotation: head_rotation_from_angles(0.0, -60.0, 0.0), ..pose };
+    let ahead = down.eye(Vec3::new(0.0, 0.0, -1.0), 0.0, 0.0) - down.head;
+    assert!((ahead - Vec3::new(0.0, -(60f32.to_radians().sin()), -(60f32.to_radians().cos()))).length() < 1e-5, "{ahead}");
+    assert!((down.right() - Vec3::X).length() < 1e-5);
+    // roll: positive tilts the head to the left, the right eye goes up
+    let tilted = Pose { head_rotation: head_rotation_from_angles(0.0, 0.0, 30.0), ..pose };
+    assert!(tilted.eye(Vec3::ZERO, 0.064, 1.0).y > tilted.eye(Vec3::ZERO, 0.064, -1.0).y);
+}
+
+fn with_tracking(tracking: &str) -> Result<DisplayConfig, String> {
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap();
+    let text = text.replace("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]", tracking);
+    assert!(text.contains(tracking), "the shipped CAVE's [tracking] table changed");
+    DisplayConfig::parse(&text, Path::new("cave.toml")).map_err(|e| e.to_string())
+}
+
+#[test]
+fn static_and_scripted_heads_take_an_orientation() {
+    let config = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw_deg = 90.0\nhead_pitch_deg = -60.0").unwrap();
+    let PoseSource::Static(pose) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("static source") };
+    assert!(same(pose.head_rotation, head_rotation_from_angles(90.0, -60.0, 0.0)), "{:?}", pose.head_rotation);
+    let q = Quat::from_rotation_y(0.5);
+    let config = with_tracking(&format!("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = {:?}", (q * 2.0).to_array())).unwrap();
+    let PoseSource::Static(pose) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("static source") };
+    assert!(same(pose.head_rotation, q) && (pose.head_rotation.length() - 1.0).abs() < 1e-5);
+    // errors name the key
+    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = [0.0, 0.0, 0.0, 0.0]").unwrap_err();
+    assert!(e.contains("tracking.head_orientation"), "{e}");
+    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = [0.0, 0.0, 0.0, 1.0]\nhead_yaw_deg = 3.0").unwrap_err();
+    assert!(e.contains("tracking.head_orientation") && e.contains("not both"), "{e}");
+    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw = 3.0").unwrap_err();
+    assert!(e.contains("head_yaw"), "{e}");
+    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]").map(|mut c| {
+        c.eye_offset = [0.0, 0.0, 0.9];
+        c.validate().unwrap_err()
+    });
+    assert!(e.unwrap().contains("eye_offset"));
+
+    // scripted: the shipped walk has no orientations (looks ahead); an oriented path slerps
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("path.toml");
+    std::fs::write(
+        &path,
+        "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.6, 0.0]\nposition = [0.0, 0.0, 0.0]\n\n\
+         [[keyframe]]\nt = 2.0\nhead = [0.0, 1.6, 0.0]\nhead_yaw_deg = 90.0\nposition = [0.0, 0.0, 0.0]\n\n\
+         [[keyframe]]\nt = 3.0\nhead = [0.0, 1.6, 0.0]\nhead_orientation = [0.0, 0.0, 0.0, 1.0]\nposition = [0.0, 0.0, 0.0]\n",
+    )
+    .unwrap();
+    let p = vlf::display::tracking::ScriptedPath::load(&path).unwrap();
+    assert!(same(p.at(1.0).head_rotation, head_rotation_from_angles(45.0, 0.0, 0.0)));
+    assert!(same(p.at(0.0).head_rotation, Quat::IDENTITY));
+    assert!(same(p.at(2.5).head_rotation, head_rotation_from_angles(45.0, 0.0, 0.0)));
+    let walk = vlf::display::tracking::ScriptedPath::load(&repo_path("config/paths/cornell-walk.toml")).unwrap();
+    assert_eq!(walk.at(1.0).head_rotation, Quat::IDENTITY);
+    std::fs::write(&path, "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.6, 0.0]\nhead_pitch_deg = inf\nposition = [0.0, 0.0, 0.0]\n").unwrap();
+    let e = vlf::display::tracking::ScriptedPath::load(&path).unwrap_err().to_string();
+    assert!(e.contains("keyframe[0].head_pitch_deg"), "{e}");
+}
+
+#[test]
+fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
+    use vlf::display::osc::OscTracker;
+    let mut tracker = OscTracker::listen("127.0.0.1:0", Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0)).unwrap();
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = tracker.port;
+    let send = |args: Vec<f32>| {
+        let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: "/vlf/head".into(), args: args.into_iter().map(rosc::OscType::Float).collect() });
+        socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", port)).unwrap();
+    };
+    let wait_for = |tracker: &mut OscTracker, done: &dyn Fn(&Pose) -> bool| {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+        loop {
+            let (p, _) = tracker.latest();
+            if done(&p) {
+                return p;
+            }
+            assert!(std::time::Instant::now() < deadline, "no pose arrived: {p:?}");
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    };
+    let q = Quat::from_rotation_y(1.0) * Quat::from_rotation_x(-0.3);
+    send(vec![0.1, 1.5, 0.2, q.x * 3.0, q.y * 3.0, q.z * 3.0, q.w * 3.0]);
+    let p = wait_for(&mut tracker, &|p| p.head.x == 0.1);
+    assert!(same(p.head_rotation, q), "{p:?}");
+    // three numbers move the head and keep its orientation
+    send(vec![0.3, 1.4, 0.0]);
+    let p = wait_for(&mut tracker, &|p| p.head.x == 0.3);
+    assert!(same(p.head_rotation, q) && p.head == Vec3::new(0.3, 1.4, 0.0), "{p:?}");
+    // a zero quaternion is refused, the pose kept
+    send(vec![0.5, 1.4, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    send(vec![0.6, 1.4, 0.0]);
+    let p = wait_for(&mut tracker, &|p| p.head.x == 0.6);
+    assert!(same(p.head_rotation, q), "{p:?}");
+}
