@@ -266,3 +266,63 @@ fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
     let p = wait_for(&mut tracker, &|p| p.head.x == 0.6);
     assert!(same(p.head_rotation, q), "{p:?}");
 }
+
+// ---- calibration: room from tracker ----
+
+fn calibrated(source: &str, calibration: &str) -> Result<DisplayConfig, String> {
+    with_tracking(&format!("[tracking]\nsource = \"{source}\"\nport = 0\n\n[tracking.calibration]\n{calibration}"))
+}
+
+#[test]
+fn a_z_up_millimetre_tracker_maps_to_the_room() {
+    let config = calibrated("osc", "translation = [0.5, 0.0, -0.2]\nyaw_deg = 90.0\nunit_scale = 0.001\naxes = \"z_up\"\nhead_id = 2\nwand_id = 3").unwrap();
+    let (protocol, _, calibration) = config.tracking.live().unwrap();
+    let c = calibration.unwrap();
+    assert_eq!((protocol, c.head_id, c.wand_id), ("OSC", 2, 3));
+    // 100 mm right, 2 m ahead, 1.7 m up in the tracker: (0.1, 1.7, -2.0) in y-up metres; the
+    // tracker is turned 90 degrees left in the room, so ahead is -x: (-2.0, 1.7, -0.1); then
+    // moved by the translation
+    let p = c.position(Vec3::new(100.0, 2000.0, 1700.0));
+    assert!((p - Vec3::new(-1.5, 1.7, -0.3)).length() < 1e-5, "{p}");
+    // a body turned 30 degrees left about the tracker's up (z) axis and tilted 60 degrees down
+    // is a head turned 90 + 30 degrees left and looking 60 degrees down in the room
+    let body = Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
+    let head = c.orientation(body);
+    assert!(same(head, head_rotation_from_angles(120.0, -60.0, 0.0)), "{head:?}");
+    // a body aligned with the tracker looks along the tracker's forward axis (+y, z up): the
+    // calibration's rotation of the room's -z
+    assert!(((c.orientation(Quat::IDENTITY) * Vec3::NEG_Z) - c.rotation * Vec3::Y).length() < 1e-5);
+
+    // end to end: the same pose over OSC comes out in the room
+    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let mut tracker = tracker.into_inner().unwrap();
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let packet = rosc::OscPacket::Message(rosc::OscMessage {
+        addr: "/vlf/head".into(),
+        args: [100.0, 2000.0, 1700.0, body.x, body.y, body.z, body.w].into_iter().map(rosc::OscType::Float).collect(),
+    });
+    socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    let sample = tracker.next(std::time::Duration::from_secs(5)).expect("the pose arrived");
+    assert!((sample.state.pose.head - Vec3::new(-1.5, 1.7, -0.3)).length() < 1e-4, "{:?}", sample.state.pose);
+    assert!(same(sample.state.pose.head_rotation, head_rotation_from_angles(120.0, -60.0, 0.0)));
+}
+
+#[test]
+fn calibration_errors_name_the_key() {
+    let e = calibrated("osc", "unit_scael = 0.001").unwrap_err();
+    assert!(e.contains("unit_scael") && e.contains("cave.toml"), "{e}");
+    let e = calibrated("osc", "unit_scale = -1.0").unwrap_err();
+    assert!(e.contains("tracking.calibration.unit_scale"), "{e}");
+    let e = calibrated("osc", "axes = \"x_up\"").unwrap_err();
+    assert!(e.contains("x_up") && e.contains("z_up"), "{e}");
+    let e = calibrated("osc", "rotation = [0.0, 0.0, 0.0, 1.0]\nyaw_deg = 10.0").unwrap_err();
+    assert!(e.contains("tracking.calibration.rotation") && e.contains("not both"), "{e}");
+    let e = calibrated("osc", "translation = [0.0, nan, 0.0]").unwrap_err();
+    assert!(e.contains("tracking.calibration.translation"), "{e}");
+    let e = calibrated("osc", "head_id = -1").unwrap_err();
+    assert!(e.contains("head_id") || e.contains("-1"), "{e}");
+    // the default is the identity: OSC poses are room metres
+    let config = with_tracking("[tracking]\nsource = \"osc\"\nport = 0").unwrap();
+    let c = config.tracking.live().unwrap().2.unwrap();
+    assert_eq!(c.position(Vec3::new(0.1, 1.7, -0.2)), Vec3::new(0.1, 1.7, -0.2));
+}

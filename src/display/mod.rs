@@ -1,9 +1,12 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
-//! (`projection.rs`), head tracking (`tracking.rs`) and headless rendering of every view
-//! (`headless.rs`). Every wall and eye is drawn from one device and one light field.
+//! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`, `osc.rs`,
+//! calibrated by `calibration.rs`) and headless rendering of every view (`headless.rs`).
+//! Every wall and eye is drawn from one device and one light field.
 
+pub mod calibration;
 pub mod headless;
+pub mod live;
 pub mod osc;
 pub mod projection;
 pub mod tracking;
@@ -63,8 +66,12 @@ pub enum TrackingConfig {
     },
     /// keyframed head and navigation poses (a TOML file, path relative to the config)
     Scripted { path: PathBuf },
-    /// live poses over UDP/OSC
-    Osc { port: u16 },
+    /// live poses over UDP/OSC (`osc.rs`)
+    Osc {
+        port: u16,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
 }
 
 impl Default for TrackingConfig {
@@ -81,6 +88,15 @@ impl TrackingConfig {
                 tracking::head_rotation([*head_yaw_deg, *head_pitch_deg, *head_roll_deg], *head_orientation, "tracking.")
             }
             _ => Ok(glam::Quat::IDENTITY),
+        }
+    }
+
+    /// A live source's protocol, UDP port and calibration resolved with the protocol's own
+    /// unit and wand id (None for static and scripted heads).
+    pub fn live(&self) -> Option<(&'static str, u16, std::result::Result<calibration::RoomFromTracker, String>)> {
+        match self {
+            TrackingConfig::Osc { port, calibration } => Some(("OSC", *port, calibration.resolve(1.0, 1))),
+            _ => None,
         }
     }
 }
@@ -228,6 +244,9 @@ impl DisplayConfig {
             }
         }
         self.tracking.static_head_rotation()?;
+        if let Some((_, _, calibration)) = self.tracking.live() {
+            calibration?;
+        }
         Ok(())
     }
 

@@ -1,5 +1,5 @@
 //! Head tracking: a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements), or live poses over UDP/OSC (`osc.rs`).
+//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC).
 
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
@@ -149,7 +149,7 @@ impl ScriptedPath {
 pub enum PoseSource {
     Static(Pose),
     Scripted(ScriptedPath),
-    Live(std::sync::Mutex<super::osc::OscTracker>),
+    Live(std::sync::Mutex<super::live::LiveTracker>),
 }
 
 impl PoseSource {
@@ -163,15 +163,19 @@ impl PoseSource {
             TrackingConfig::Scripted { path } => {
                 Ok(PoseSource::Scripted(ScriptedPath::load(&config_path.parent().unwrap_or(Path::new(".")).join(path))?))
             }
-            TrackingConfig::Osc { port } => {
+            TrackingConfig::Osc { .. } => {
                 let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), ..start };
-                Ok(PoseSource::Live(std::sync::Mutex::new(super::osc::OscTracker::listen(&format!("0.0.0.0:{port}"), start)?)))
+                let (protocol, port, calibration) = config.tracking.live().expect("a live source");
+                let calibration = calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
+                let parse: super::live::Parser = super::osc::parse;
+                let tracker = super::live::LiveTracker::spawn(protocol, &format!("0.0.0.0:{port}"), start, calibration, parse)?;
+                Ok(PoseSource::Live(std::sync::Mutex::new(tracker)))
             }
         }
     }
 
     /// The pose at `t` and, for live tracking, how the source is doing.
-    pub fn at_with_status(&self, t: f32) -> (Pose, Option<super::osc::TrackingStatus>) {
+    pub fn at_with_status(&self, t: f32) -> (Pose, Option<super::live::TrackingStatus>) {
         match self {
             PoseSource::Live(tracker) => {
                 let (pose, status) = tracker.lock().unwrap().latest();

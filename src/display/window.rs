@@ -5,7 +5,7 @@
 //! status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
-use super::osc::TrackingStatus;
+use super::live::TrackingStatus;
 use super::tracking::{Pose, PoseSource};
 use super::{DisplayConfig, MonitorRef, Stereo};
 use crate::bench::Distribution;
@@ -365,7 +365,7 @@ impl App<'_> {
         let pose = self.navigator.apply(base);
         let status = match (tracking, &self.config.tracking) {
             (Some(TrackingStatus::Quiet(d)), _) => Some(format!("tracking quiet {:.0} s: holding the last pose", d.as_secs_f32().floor())),
-            (Some(TrackingStatus::Waiting), super::TrackingConfig::Osc { port }) => Some(format!("tracking: waiting for OSC on UDP {port}")),
+            (Some(TrackingStatus::Waiting), tracking) => tracking.live().map(|(protocol, port, _)| format!("tracking: waiting for {protocol} on UDP {port}")),
             _ => None,
         };
         self.set_status(status);

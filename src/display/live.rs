@@ -1,0 +1,232 @@
+//! Live tracking, whatever the protocol: a thread per source receives UDP packets, a parser
+//! (`osc.rs`, `dtrack.rs`) turns each into measurements in the tracker's frame, the
+//! calibration (`calibration.rs`) moves them into the room, and the merged state (head, wand,
+//! buttons, joystick, navigation) goes to the renderer through a crossbeam channel. The
+//! renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
+//! source that goes quiet leaves the last state in place, and the tracker says so (status,
+//! and the log once).
+
+use super::calibration::RoomFromTracker;
+use super::tracking::Pose;
+use crate::error::{Result, VlfError};
+use crossbeam::channel::{Receiver, Sender};
+use glam::{Quat, Vec3};
+use std::net::UdpSocket;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// How long without a packet before the source counts as quiet.
+pub const QUIET_AFTER: Duration = Duration::from_millis(500);
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TrackingStatus {
+    Live,
+    /// no pose for this long: the last pose is held
+    Quiet(Duration),
+    /// nothing received yet: the start pose is used
+    Waiting,
+}
+
+/// A tracked wand in the room: position (metres) and orientation (identity points along -z).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WandPose {
+    pub position: Vec3,
+    pub rotation: Quat,
+}
+
+/// Everything a live source has said so far, in the room.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LiveState {
+    pub pose: Pose,
+    pub wand: Option<WandPose>,
+    /// bit i: button i held
+    pub buttons: u64,
+    /// the wand's joystick: x right, y up (forward), -1..1
+    pub joystick: [f32; 2],
+}
+
+impl LiveState {
+    pub fn new(pose: Pose) -> LiveState {
+        LiveState { pose, wand: None, buttons: 0, joystick: [0.0; 2] }
+    }
+}
+
+/// One thing a packet said, in the tracker's frame (positions in its units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Measurement {
+    /// the head; without an orientation the last one is kept
+    Head {
+        position: Vec3,
+        rotation: Option<Quat>,
+    },
+    Wand {
+        position: Vec3,
+        rotation: Quat,
+    },
+    /// all buttons at once (bit i: button i)
+    Buttons(u64),
+    Button {
+        index: u32,
+        pressed: bool,
+    },
+    Joystick([f32; 2]),
+    /// navigation: where the room stands in the world (not calibrated: world coordinates)
+    Room {
+        position: Vec3,
+        yaw_deg: f32,
+    },
+}
+
+impl LiveState {
+    /// Apply one measurement through the calibration.
+    pub fn apply(&mut self, m: Measurement, calibration: &RoomFromTracker) {
+        match m {
+            Measurement::Head { position, rotation } => calibration.head(&mut self.pose, position, rotation),
+            Measurement::Wand { position, rotation } => {
+                self.wand = Some(WandPose { position: calibration.position(position), rotation: calibration.orientation(rotation) })
+            }
+            Measurement::Buttons(mask) => self.buttons = mask,
+            Measurement::Button { index, pressed } if index < 64 => {
+                self.buttons = if pressed { self.buttons | 1 << index } else { self.buttons & !(1 << index) }
+            }
+            Measurement::Button { .. } => {}
+            Measurement::Joystick(j) => self.joystick = j.map(|v| v.clamp(-1.0, 1.0)),
+            Measurement::Room { position, yaw_deg } => {
+                self.pose.room_position = position;
+                self.pose.room_yaw_deg = yaw_deg;
+            }
+        }
+    }
+}
+
+/// A live state and when its packet arrived.
+#[derive(Clone, Copy, Debug)]
+pub struct Sample {
+    pub state: LiveState,
+    pub received: Instant,
+}
+
+/// Parses one packet into measurements, or says why it is not one.
+pub type Parser = fn(&[u8], &RoomFromTracker, &mut Vec<Measurement>) -> std::result::Result<(), String>;
+
+pub struct LiveTracker {
+    samples: Receiver<Sample>,
+    state: LiveState,
+    last_packet: Option<Instant>,
+    /// the current state's arrival, until `take_fresh` hands it out once
+    fresh: Option<Instant>,
+    reported_quiet: bool,
+    stop: Arc<AtomicBool>,
+    pub port: u16,
+    /// e.g. "OSC on UDP 9000"
+    pub name: String,
+}
+
+impl LiveTracker {
+    /// Listen on `address` (e.g. "0.0.0.0:9000"; port 0 picks a free one) for `protocol`
+    /// ("OSC", "DTrack") packets read by `parse`. `start` is the pose until the first packet.
+    pub fn spawn(protocol: &str, address: &str, start: Pose, calibration: RoomFromTracker, parse: Parser) -> Result<LiveTracker> {
+        let socket = UdpSocket::bind(address).map_err(|e| VlfError::Config {
+            path: address.into(),
+            message: format!("cannot listen for {protocol} tracking on {address}: {e} (is another program using the port?)"),
+        })?;
+        socket.set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| VlfError::io(address, e))?;
+        let port = socket.local_addr().map_err(|e| VlfError::io(address, e))?.port();
+        let (tx, rx) = crossbeam::channel::unbounded();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stop_flag = stop.clone();
+        let name = format!("{protocol} on UDP {port}");
+        let thread_name = name.clone();
+        let start_state = LiveState::new(start);
+        std::thread::Builder::new()
+            .name(format!("vlf-{}", protocol.to_lowercase()))
+            .spawn(move || receive(socket, tx, start_state, calibration, parse, &thread_name, stop_flag))
+            .map_err(|e| VlfError::io(address, e))?;
+        Ok(LiveTracker { samples: rx, state: start_state, last_packet: None, fresh: None, reported_quiet: false, stop, port, name })
+    }
+
+    /// The latest pose (older queued poses are dropped) and whether the source is live.
+    pub fn latest(&mut self) -> (Pose, TrackingStatus) {
+        let (state, status) = self.latest_state();
+        (state.pose, status)
+    }
+
+    /// The latest state (older ones dropped) and whether the source is live.
+    pub fn latest_state(&mut self) -> (LiveState, TrackingStatus) {
+        if let Some(s) = self.samples.try_iter().last() {
+            self.take(s);
+        }
+        (self.state, self.status())
+    }
+
+    /// When the current state arrived, once per state: for the latency from a pose's arrival
+    /// to the frame that first shows it.
+    pub fn take_fresh(&mut self) -> Option<Instant> {
+        self.fresh.take()
+    }
+
+    /// The next state in arrival order (none dropped), waiting up to `timeout`.
+    pub fn next(&mut self, timeout: Duration) -> Option<Sample> {
+        let s = self.samples.recv_timeout(timeout).ok()?;
+        self.take(s);
+        Some(s)
+    }
+
+    fn take(&mut self, s: Sample) {
+        self.state = s.state;
+        self.last_packet = Some(s.received);
+        self.fresh = Some(s.received);
+        self.reported_quiet = false;
+    }
+
+    /// Live, quiet (logged once per silence) or waiting for the first packet.
+    pub fn status(&mut self) -> TrackingStatus {
+        let status = match self.last_packet {
+            None => TrackingStatus::Waiting,
+            Some(t) if t.elapsed() > QUIET_AFTER => TrackingStatus::Quiet(t.elapsed()),
+            Some(_) => TrackingStatus::Live,
+        };
+        if let TrackingStatus::Quiet(d) = status {
+            if !self.reported_quiet {
+                log::warn!("tracking ({}) quiet for {:.1} s: holding the last pose", self.name, d.as_secs_f32());
+                self.reported_quiet = true;
+            }
+        }
+        status
+    }
+}
+
+impl Drop for LiveTracker {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+fn receive(socket: UdpSocket, tx: Sender<Sample>, start: LiveState, calibration: RoomFromTracker, parse: Parser, name: &str, stop: Arc<AtomicBool>) {
+    let mut state = start;
+    let mut buf = vec![0u8; 65536];
+    let mut measurements = Vec::new();
+    let mut warned = false;
+    while !stop.load(Ordering::Relaxed) {
+        let Ok((n, _)) = socket.recv_from(&mut buf) else { continue };
+        let received = Instant::now();
+        measurements.clear();
+        if let Err(e) = parse(&buf[..n], &calibration, &mut measurements) {
+            // one warning per source; the rest at debug level
+            if !warned {
+                log::warn!("tracking ({name}): a packet was ignored: {e}");
+                warned = true;
+            } else {
+                log::debug!("tracking ({name}): a packet was ignored: {e}");
+            }
+            continue;
+        }
+        for m in &measurements {
+            state.apply(*m, &calibration);
+        }
+        if !measurements.is_empty() && tx.send(Sample { state, received }).is_err() {
+            return;
+        }
+    }
+}
