@@ -276,9 +276,9 @@ fn calibrated(source: &str, calibration: &str) -> Result<DisplayConfig, String> 
 #[test]
 fn a_z_up_millimetre_tracker_maps_to_the_room() {
     let config = calibrated("osc", "translation = [0.5, 0.0, -0.2]\nyaw_deg = 90.0\nunit_scale = 0.001\naxes = \"z_up\"\nhead_id = 2\nwand_id = 3").unwrap();
-    let (protocol, _, calibration) = config.tracking.live().unwrap();
-    let c = calibration.unwrap();
-    assert_eq!((protocol, c.head_id, c.wand_id), ("OSC", 2, 3));
+    let source = config.tracking.live().unwrap();
+    let c = source.calibration.unwrap();
+    assert_eq!((source.protocol, c.head_id, c.wand_id), ("OSC", 2, 3));
     // 100 mm right, 2 m ahead, 1.7 m up in the tracker: (0.1, 1.7, -2.0) in y-up metres; the
     // tracker is turned 90 degrees left in the room, so ahead is -x: (-2.0, 1.7, -0.1); then
     // moved by the translation
@@ -323,6 +323,137 @@ fn calibration_errors_name_the_key() {
     assert!(e.contains("head_id") || e.contains("-1"), "{e}");
     // the default is the identity: OSC poses are room metres
     let config = with_tracking("[tracking]\nsource = \"osc\"\nport = 0").unwrap();
-    let c = config.tracking.live().unwrap().2.unwrap();
+    let c = config.tracking.live().unwrap().calibration.unwrap();
     assert_eq!(c.position(Vec3::new(0.1, 1.7, -0.2)), Vec3::new(0.1, 1.7, -0.2));
+}
+
+// ---- live sources: DTrack2 ASCII and OSC, on loopback UDP ----
+
+/// A rotation matrix as DTrack prints it: column by column.
+fn dtrack_matrix(q: Quat) -> String {
+    glam::Mat3::from_quat(q).to_cols_array().iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>().join(" ")
+}
+
+fn wait_state(
+    tracker: &mut vlf::display::live::LiveTracker,
+    what: &str,
+    done: impl Fn(&vlf::display::live::LiveState) -> bool,
+) -> vlf::display::live::LiveState {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
+    loop {
+        let (state, _) = tracker.latest_state();
+        if done(&state) {
+            return state;
+        }
+        assert!(std::time::Instant::now() < deadline, "{what}: never arrived; last state {state:?}");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+#[test]
+fn dtrack_bodies_and_flysticks_reach_the_room() {
+    use vlf::display::live::TrackingStatus;
+    let config = calibrated("dtrack", "axes = \"z_up\"\nhead_id = 1\nwand_id = 1").unwrap();
+    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let mut tracker = tracker.into_inner().unwrap();
+    assert_eq!(tracker.latest_state().1, TrackingStatus::Waiting);
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = tracker.port;
+    let send = |text: &str| {
+        socket.send_to(text.as_bytes(), ("127.0.0.1", port)).unwrap();
+    };
+    let head_body = Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
+    let wand_body = Quat::from_rotation_z(-45f32.to_radians());
+    let identity = dtrack_matrix(Quat::IDENTITY);
+    let frame = |head_x_mm: f32| {
+        format!(
+            "fr 1234\r\nts 39599.967\r\n6dcal 4\r\n\
+             6d 2 [0 1.000][326.848 -187.216 109.503 -160.4704 -3.6963 -5.0913][{identity}] [1 0.950][{head_x_mm} 2000.0 1700.0 30.0 0.0 0.0][{}]\r\n\
+             6df2 2 2 [0 1.000 6 2][0 0 0][{identity}][0 0.0 0.0] [1 0.900 6 2][200.0 1500.0 1200.0][{}][33 0.25 -1.0]\r\n\
+             3d 1 [12 1.000][1 2 3]\r\n",
+            dtrack_matrix(head_body),
+            dtrack_matrix(wand_body)
+        )
+    };
+    send(&frame(100.0));
+    let state = wait_state(&mut tracker, "the first frame", |s| s.wand.is_some());
+    // body 1 is the head: millimetres, z up -> room metres, y up
+    assert!((state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-5, "{:?}", state.pose);
+    assert!(same(state.pose.head_rotation, head_rotation_from_angles(30.0, -60.0, 0.0)), "{:?}", state.pose.head_rotation);
+    // Flystick 1 is the wand: turned 45 degrees right, it points along (+x, -z)
+    let wand = state.wand.unwrap();
+    assert!((wand.position - Vec3::new(0.2, 1.2, -1.5)).length() < 1e-5, "{wand:?}");
+    assert!((wand.rotation * Vec3::NEG_Z - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-5, "{wand:?}");
+    // buttons 33 = trigger (0) and joystick press (5); joystick x, y
+    assert_eq!(state.buttons, 0b10_0001);
+    assert_eq!(state.joystick, [0.25, -1.0]);
+    assert_eq!(tracker.status(), TrackingStatus::Live);
+
+    // the latest of several frames wins
+    for i in 0..5 {
+        send(&frame(100.0 * i as f32));
+    }
+    wait_state(&mut tracker, "the fifth frame", |s| (s.pose.head.x - 0.4).abs() < 1e-6);
+
+    // a damaged frame and one whose head is not tracked leave the head where it is
+    send("6d 1 [1 1.000][1 2 3][1 0 0]\r\n");
+    send(&format!("fr 1\r\n6d 1 [1 -1.000][900 0 0][{identity}]\r\n"));
+    // the older Flystick format: 8 button bits, the hat as joystick
+    send(&format!("fr 2\r\n6df 1 [1 1.000 33][0 0 0 0 0 0][{identity}]\r\n"));
+    // (the damaged and the untracked frame said nothing: the next state is the 6df one)
+    let s = tracker.next(std::time::Duration::from_secs(5)).expect("the 6df frame");
+    assert_eq!((s.state.buttons, s.state.joystick), (1, [-1.0, 0.0]), "6df bits 0x21: button 0 and the hat to the left");
+    assert!((s.state.pose.head.x - 0.4).abs() < 1e-6, "a damaged or untracked frame moved the head: {:?}", s.state.pose);
+
+    // quiet: the last state is held, and the status says so
+    std::thread::sleep(vlf::display::live::QUIET_AFTER + std::time::Duration::from_millis(100));
+    let (held, status) = tracker.latest_state();
+    assert_eq!(held, s.state);
+    assert!(matches!(status, TrackingStatus::Quiet(d) if d > vlf::display::live::QUIET_AFTER), "{status:?}");
+}
+
+#[test]
+fn dtrack_parser_refuses_damaged_lines() {
+    let ids = vlf::display::calibration::RoomFromTracker::default();
+    let mut out = Vec::new();
+    let identity = dtrack_matrix(Quat::IDENTITY);
+    for bad in [
+        "6d 2 [0 1.000][1 2 3][1 0 0 0 1 0 0 0 1]".to_string(),
+        "6d 1 [0 1.000][1 2 3][1 0 0 0 1 0 0 0 1".to_string(),
+        "6d x".to_string(),
+        format!("6df2 1 1 [1 1.000 6 2][0 0 0][{identity}][1 0.5]"),
+        format!("6d 1 [0 1.000][1 2 3][{identity}] junk"),
+    ] {
+        out.clear();
+        let e = vlf::display::dtrack::parse(bad.as_bytes(), &ids, &mut out);
+        assert!(e.is_err(), "{bad:?} was accepted: {out:?}");
+    }
+    out.clear();
+    vlf::display::dtrack::parse(b"fr 5\r\n6dmt 0\r\nfuture 1 [2]\r\n6df2 1 0\r\n", &ids, &mut out).unwrap();
+    assert!(out.is_empty(), "{out:?}");
+}
+
+#[test]
+fn osc_wand_buttons_and_joystick() {
+    use vlf::display::osc::OscTracker;
+    let mut tracker = OscTracker::listen("127.0.0.1:0", Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0)).unwrap();
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let message = |addr: &str, args: Vec<rosc::OscType>| rosc::OscPacket::Message(rosc::OscMessage { addr: addr.into(), args });
+    let q = Quat::from_rotation_y(0.4);
+    let bundle = rosc::OscPacket::Bundle(rosc::OscBundle {
+        timetag: rosc::OscTime { seconds: 0, fractional: 1 },
+        content: vec![
+            message("/vlf/wand", [0.3, 1.1, -0.4, q.x, q.y, q.z, q.w].into_iter().map(rosc::OscType::Float).collect()),
+            message("/vlf/button", vec![rosc::OscType::Int(3), rosc::OscType::Int(1)]),
+            message("/vlf/joystick", vec![rosc::OscType::Float(0.2), rosc::OscType::Float(0.9)]),
+        ],
+    });
+    socket.send_to(&rosc::encoder::encode(&bundle).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    let state = wait_state(&mut tracker, "the bundle", |s| s.wand.is_some());
+    let wand = state.wand.unwrap();
+    assert!((wand.position - Vec3::new(0.3, 1.1, -0.4)).length() < 1e-6 && same(wand.rotation, q), "{wand:?}");
+    assert_eq!((state.buttons, state.joystick), (1 << 3, [0.2, 0.9]));
+    let release = message("/vlf/button", vec![rosc::OscType::Float(3.0), rosc::OscType::Bool(false)]);
+    socket.send_to(&rosc::encoder::encode(&release).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    wait_state(&mut tracker, "the release", |s| s.buttons == 0);
 }

@@ -1,10 +1,11 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
-//! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`, `osc.rs`,
-//! calibrated by `calibration.rs`) and headless rendering of every view (`headless.rs`).
+//! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
+//! `dtrack.rs`, calibrated by `calibration.rs`) and headless rendering of every view (`headless.rs`).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
+pub mod dtrack;
 pub mod headless;
 pub mod live;
 pub mod osc;
@@ -72,12 +73,26 @@ pub enum TrackingConfig {
         #[serde(default)]
         calibration: calibration::Calibration,
     },
+    /// live poses from A.R.T. DTrack2 (ASCII over UDP, `dtrack.rs`)
+    Dtrack {
+        port: u16,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
 }
 
 impl Default for TrackingConfig {
     fn default() -> Self {
         TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None }
     }
+}
+
+/// A live tracking source as configured (`TrackingConfig::live`).
+pub struct LiveSource {
+    pub protocol: &'static str,
+    pub port: u16,
+    pub calibration: std::result::Result<calibration::RoomFromTracker, String>,
+    pub parse: live::Parser,
 }
 
 impl TrackingConfig {
@@ -91,11 +106,14 @@ impl TrackingConfig {
         }
     }
 
-    /// A live source's protocol, UDP port and calibration resolved with the protocol's own
-    /// unit and wand id (None for static and scripted heads).
-    pub fn live(&self) -> Option<(&'static str, u16, std::result::Result<calibration::RoomFromTracker, String>)> {
+    /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
+    /// and wand id) and packet parser; None for static and scripted heads.
+    pub fn live(&self) -> Option<LiveSource> {
+        let source = |protocol, port, calibration: std::result::Result<_, _>, parse| LiveSource { protocol, port, calibration, parse };
         match self {
-            TrackingConfig::Osc { port, calibration } => Some(("OSC", *port, calibration.resolve(1.0, 1))),
+            TrackingConfig::Osc { port, calibration } => Some(source("OSC", *port, calibration.resolve(1.0, 1), osc::parse)),
+            // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
+            TrackingConfig::Dtrack { port, calibration } => Some(source("DTrack", *port, calibration.resolve(0.001, 0), dtrack::parse)),
             _ => None,
         }
     }
@@ -244,8 +262,8 @@ impl DisplayConfig {
             }
         }
         self.tracking.static_head_rotation()?;
-        if let Some((_, _, calibration)) = self.tracking.live() {
-            calibration?;
+        if let Some(source) = self.tracking.live() {
+            source.calibration?;
         }
         Ok(())
     }

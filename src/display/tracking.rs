@@ -1,5 +1,5 @@
 //! Head tracking: a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC).
+//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC, DTrack).
 
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
@@ -163,12 +163,11 @@ impl PoseSource {
             TrackingConfig::Scripted { path } => {
                 Ok(PoseSource::Scripted(ScriptedPath::load(&config_path.parent().unwrap_or(Path::new(".")).join(path))?))
             }
-            TrackingConfig::Osc { .. } => {
+            TrackingConfig::Osc { .. } | TrackingConfig::Dtrack { .. } => {
                 let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), ..start };
-                let (protocol, port, calibration) = config.tracking.live().expect("a live source");
-                let calibration = calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
-                let parse: super::live::Parser = super::osc::parse;
-                let tracker = super::live::LiveTracker::spawn(protocol, &format!("0.0.0.0:{port}"), start, calibration, parse)?;
+                let source = config.tracking.live().expect("a live source");
+                let calibration = source.calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
+                let tracker = super::live::LiveTracker::spawn(source.protocol, &format!("0.0.0.0:{}", source.port), start, calibration, source.parse)?;
                 Ok(PoseSource::Live(std::sync::Mutex::new(tracker)))
             }
         }
