@@ -457,3 +457,39 @@ fn osc_wand_buttons_and_joystick() {
     socket.send_to(&rosc::encoder::encode(&release).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
     wait_state(&mut tracker, "the release", |s| s.buttons == 0);
 }
+
+#[test]
+fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
+    let dir = tempfile::tempdir().unwrap();
+    // a free port for the tracker (taken back just before vlf listens on it)
+    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-dtrack.toml")).unwrap().replace("port = 5000", &format!("port = {port}"));
+    let path = dir.path().join("cave.toml");
+    std::fs::write(&path, text).unwrap();
+    let started = std::time::Instant::now();
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["track", path.to_str().unwrap(), "--seconds", "2.5"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let identity = dtrack_matrix(Quat::IDENTITY);
+    // stream for a second (the listener may start after the first packets), then go quiet
+    while started.elapsed() < std::time::Duration::from_secs(1) {
+        let packet = format!("fr 7\r\n6d 1 [0 1.000][100.0 2000.0 1700.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
+        socket.send_to(packet.as_bytes(), ("127.0.0.1", port)).unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let output = child.wait_with_output().unwrap();
+    let elapsed = started.elapsed();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "vlf track failed:\n{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
+    assert!(elapsed < std::time::Duration::from_secs(10), "--seconds 2.5 ran {elapsed:?}");
+    assert!(stdout.contains("listening for DTrack on UDP"), "{stdout}");
+    // millimetres, z up -> room metres, y up; the Flystick 1 m up with button 1 and the stick forward
+    let poses = stdout.lines().filter(|l| l.contains("head (  0.100,   1.700,  -2.000)")).count();
+    assert!(poses >= 5, "expected the streamed poses, one a line:\n{stdout}");
+    assert!(stdout.contains("wand (  0.000,   1.000,   0.000)") && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"), "{stdout}");
+    assert!(stdout.contains("quiet for"), "the source went quiet and vlf track did not say so:\n{stdout}");
+}

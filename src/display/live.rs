@@ -230,3 +230,66 @@ fn receive(socket: UdpSocket, tx: Sender<Sample>, start: LiveState, calibration:
         }
     }
 }
+
+/// One state as `vlf track` prints it: seconds since the start, head and wand (room metres,
+/// yaw/pitch/roll degrees as `tracking::head_rotation_from_angles` takes them), buttons held,
+/// joystick.
+pub fn describe(t: f64, state: &LiveState) -> String {
+    let angles = |q: Quat| {
+        let (yaw, pitch, roll) = q.to_euler(glam::EulerRot::YXZ);
+        // rounded to the printed tenth, + 0.0 turning -0.0 into 0.0
+        let d = |r: f32| (r.to_degrees() * 10.0).round() / 10.0 + 0.0;
+        format!("yaw {:6.1} pitch {:6.1} roll {:6.1}", d(yaw), d(pitch), d(roll))
+    };
+    let at = |p: Vec3| format!("({:7.3}, {:7.3}, {:7.3})", p.x, p.y, p.z);
+    let head = &state.pose;
+    let mut line = format!("{t:8.3} s  head {} {}", at(head.head), angles(head.head_rotation));
+    match &state.wand {
+        Some(w) => line.push_str(&format!("  wand {} {}", at(w.position), angles(w.rotation))),
+        None => line.push_str("  wand -"),
+    }
+    let held: Vec<String> = (0..64).filter(|i| state.buttons & (1 << i) != 0).map(|i: u32| i.to_string()).collect();
+    line.push_str(&format!("  buttons [{}]  joystick ({:5.2}, {:5.2})", held.join(","), state.joystick[0], state.joystick[1]));
+    line
+}
+
+/// `vlf track`: print the configured live source's states as they arrive (every one, in
+/// order) until `seconds` have passed (None: until the process is stopped), and when it goes
+/// quiet or comes back. A static or scripted head is printed once. Returns the states printed.
+pub fn track(config: &super::DisplayConfig, config_path: &std::path::Path, seconds: Option<Duration>, out: &mut dyn std::io::Write) -> Result<u64> {
+    let write = |out: &mut dyn std::io::Write, line: String| writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e));
+    let source = super::tracking::PoseSource::from_config(config, config_path)?;
+    let super::tracking::PoseSource::Live(tracker) = source else {
+        write(out, format!("{}: tracking is not live ({}); the head:", config.name, config_path.display()))?;
+        write(out, describe(0.0, &LiveState::new(source.at(0.0))))?;
+        return Ok(1);
+    };
+    let mut tracker = tracker.into_inner().unwrap_or_else(|e| e.into_inner());
+    write(out, format!("{}: listening for {} (room metres after calibration)", config.name, tracker.name))?;
+    let started = Instant::now();
+    let mut printed = 0;
+    let mut quiet = false;
+    while seconds.is_none_or(|s| started.elapsed() < s) {
+        let wait = seconds.map_or(Duration::from_millis(100), |s| s.saturating_sub(started.elapsed()).min(Duration::from_millis(100)));
+        match tracker.next(wait) {
+            Some(sample) => {
+                if quiet {
+                    write(out, format!("{:8.3} s  live again", sample.received.duration_since(started).as_secs_f64()))?;
+                    quiet = false;
+                }
+                write(out, describe(sample.received.duration_since(started).as_secs_f64(), &sample.state))?;
+                printed += 1;
+            }
+            None => {
+                if let (TrackingStatus::Quiet(d), false) = (tracker.status(), quiet) {
+                    write(out, format!("{:8.3} s  quiet for {:.1} s: holding the last pose", started.elapsed().as_secs_f64(), d.as_secs_f64()))?;
+                    quiet = true;
+                }
+            }
+        }
+    }
+    if printed == 0 {
+        write(out, format!("nothing arrived from {} in {:.1} s", tracker.name, started.elapsed().as_secs_f64()))?;
+    }
+    Ok(printed)
+}
