@@ -493,3 +493,52 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     assert!(stdout.contains("wand (  0.000,   1.000,   0.000)") && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"), "{stdout}");
     assert!(stdout.contains("quiet for"), "the source went quiet and vlf track did not say so:\n{stdout}");
 }
+
+// ---- wand navigation ----
+
+#[test]
+fn the_wand_flies_where_it_points_and_turns_about_the_head() {
+    use vlf::display::live::WandPose;
+    use vlf::display::wand::{pressed, step};
+    let nav = vlf::display::Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false, wand_reset_button: 1 };
+    let pose = Pose {
+        head: Vec3::new(0.3, 1.6, 0.2),
+        head_rotation: head_rotation_from_angles(10.0, 0.0, 0.0),
+        room_position: Vec3::new(1.0, 0.0, 2.0),
+        room_yaw_deg: 30.0,
+    };
+    // the wand points 45 degrees right of the room's -z and 20 degrees up
+    let wand = WandPose { position: Vec3::new(0.2, 1.2, -0.3), rotation: head_rotation_from_angles(-45.0, 20.0, 0.0) };
+    let pointing = Quat::from_rotation_y(30f32.to_radians()) * (wand.rotation * Vec3::NEG_Z);
+    let dt = 0.5;
+
+    // fly: full forward moves walk_speed * dt along the pointing direction, no turn
+    let (position, yaw) = step(&pose, &wand, [0.0, 1.0], &nav, true, dt);
+    assert!((position - pose.room_position - pointing * 0.7).length() < 1e-5, "{position}");
+    assert_eq!(yaw, 30.0);
+    assert!(position.y > 0.2, "flying up along the wand: {position}");
+    // walk: the same distance, levelled: the head keeps its height; half back moves half back
+    let (position, _) = step(&pose, &wand, [0.0, 1.0], &nav, false, dt);
+    let moved = position - pose.room_position;
+    assert!(moved.y.abs() < 1e-6 && (moved.length() - 0.7).abs() < 1e-5, "{moved}");
+    assert!(moved.normalize().dot(Vec3::new(pointing.x, 0.0, pointing.z).normalize()) > 1.0 - 1e-5);
+    let (back, _) = step(&pose, &wand, [0.0, -0.5], &nav, false, dt);
+    assert!((back - pose.room_position + moved * 0.5).length() < 1e-5, "{back}");
+    // a wand pointing straight up does not walk
+    let up = WandPose { rotation: head_rotation_from_angles(0.0, 90.0, 0.0), ..wand };
+    assert!((step(&pose, &up, [0.0, 1.0], &nav, false, dt).0 - pose.room_position).length() < 1e-5);
+
+    // sideways turns (right: yaw decreases) about the head: its place in the world stays
+    let (position, yaw) = step(&pose, &wand, [0.5, 0.0], &nav, false, dt);
+    assert!((yaw - (30.0 - 0.5 * 60.0 * dt)).abs() < 1e-5, "{yaw}");
+    let turned = Pose { room_position: position, room_yaw_deg: yaw, ..pose };
+    assert!((turned.room_to_world(pose.head) - pose.room_to_world(pose.head)).length() < 1e-5);
+    assert!((position - pose.room_position).length() > 0.01, "turning about the head (not the room's origin) moves the room");
+    // a resting stick (inside the dead zone) does nothing
+    assert_eq!(step(&pose, &wand, [0.05, -0.08], &nav, true, dt), (pose.room_position, pose.room_yaw_deg));
+
+    // the reset button counts when it goes down, once
+    assert!(pressed(0b01, 0b11, 1));
+    assert!(!pressed(0b11, 0b11, 1) && !pressed(0b10, 0b00, 1) && !pressed(0, 0b01, 1));
+    assert!(pressed(0, 1 << 63, 63) && !pressed(0, u64::MAX, 64));
+}

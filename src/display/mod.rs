@@ -1,7 +1,7 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
 //! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
-//! `dtrack.rs`, calibrated by `calibration.rs`) and headless rendering of every view (`headless.rs`).
+//! `dtrack.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`) and headless rendering of every view (`headless.rs`).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
@@ -11,6 +11,7 @@ pub mod live;
 pub mod osc;
 pub mod projection;
 pub mod tracking;
+pub mod wand;
 pub mod window;
 pub mod xr;
 
@@ -128,11 +129,19 @@ pub struct Navigation {
     pub turn_speed_deg: f32,
     /// fly (move along the view direction) rather than walk on the ground plane
     pub fly: bool,
+    /// the tracked wand's button that resets the navigation (DTrack Flystick2: 0 trigger,
+    /// 1-4 the blue buttons right to left, 5 the joystick pressed)
+    #[serde(default = "default_reset_button")]
+    pub wand_reset_button: u32,
+}
+
+fn default_reset_button() -> u32 {
+    1
 }
 
 impl Default for Navigation {
     fn default() -> Self {
-        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false }
+        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false, wand_reset_button: default_reset_button() }
     }
 }
 
@@ -264,6 +273,9 @@ impl DisplayConfig {
         self.tracking.static_head_rotation()?;
         if let Some(source) = self.tracking.live() {
             source.calibration?;
+        }
+        if self.navigation.wand_reset_button >= 64 {
+            return Err(format!("navigation.wand_reset_button: {} is not a button (0 to 63)", self.navigation.wand_reset_button));
         }
         Ok(())
     }
