@@ -542,3 +542,89 @@ fn the_wand_flies_where_it_points_and_turns_about_the_head() {
     assert!(!pressed(0b11, 0b11, 1) && !pressed(0b10, 0b00, 1) && !pressed(0, 0b01, 1));
     assert!(pressed(0, 1 << 63, 63) && !pressed(0, u64::MAX, 64));
 }
+
+// ---- VRPN over TCP ----
+
+/// A VRPN message as a server writes it: header (length, time, sender, type, sequence), payload
+/// padded to 8 bytes.
+fn vrpn_message(sender: i32, kind: i32, payload: &[u8]) -> Vec<u8> {
+    let mut m = Vec::new();
+    for v in [24 + payload.len() as i32, 1_700_000_000, 250_000, sender, kind, 0] {
+        m.extend_from_slice(&v.to_be_bytes());
+    }
+    m.extend_from_slice(payload);
+    m.resize(24 + payload.len().div_ceil(8) * 8, 0);
+    m
+}
+
+fn vrpn_name(id: i32, kind: i32, name: &str) -> Vec<u8> {
+    let mut p = ((name.len() + 1) as i32).to_be_bytes().to_vec();
+    p.extend_from_slice(name.as_bytes());
+    p.push(0);
+    vrpn_message(id, kind, &p)
+}
+
+fn vrpn_pose(sender: i32, sensor: i32, position: [f64; 3], q: Quat) -> Vec<u8> {
+    let mut p = sensor.to_be_bytes().to_vec();
+    p.extend_from_slice(&sensor.to_be_bytes());
+    for v in position.into_iter().chain([q.x, q.y, q.z, q.w].map(f64::from)) {
+        p.extend_from_slice(&v.to_be_bytes());
+    }
+    vrpn_message(sender, 3, &p)
+}
+
+#[test]
+fn vrpn_tracker_buttons_and_analogs_over_tcp() {
+    let server = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = server.local_addr().unwrap().port();
+    let config = with_tracking(&format!(
+        "[tracking]\nsource = \"vrpn\"\nserver = \"127.0.0.1:{port}\"\ndevice = \"Wand\"\n\n[tracking.calibration]\nhead_id = 0\nwand_id = 1"
+    ))
+    .unwrap();
+    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let mut tracker = tracker.into_inner().unwrap();
+    assert!(tracker.name.contains("VRPN Wand@127.0.0.1"), "{}", tracker.name);
+    let (mut stream, _) = server.accept().unwrap();
+    use std::io::{Read, Write};
+    let mut cookie = b"vrpn: ver. 07.38  0".to_vec();
+    cookie.resize(24, 0);
+    stream.write_all(&cookie).unwrap();
+    let mut reply = [0u8; 24];
+    stream.read_exact(&mut reply).unwrap();
+    assert_eq!(&reply[..19], b"vrpn: ver. 07.38  0", "the client's cookie");
+    let head = Quat::from_rotation_y(30f32.to_radians());
+    let mut stream_bytes = Vec::new();
+    for m in [
+        vrpn_name(0, -1, "Other"),
+        vrpn_name(1, -1, "Wand"),
+        vrpn_name(3, -2, "vrpn_Tracker Pos_Quat"),
+        vrpn_name(5, -2, "vrpn_Button Change"),
+        vrpn_name(7, -2, "vrpn_Analog Channel"),
+        // another device's sensor 0 is not the head
+        vrpn_pose(0, 0, [9.0, 9.0, 9.0], Quat::IDENTITY),
+        vrpn_pose(1, 0, [0.1, 1.7, -2.0], head),
+        vrpn_pose(1, 1, [0.2, 1.2, -0.5], Quat::IDENTITY),
+        vrpn_message(1, 5, &[1i32.to_be_bytes(), 1i32.to_be_bytes()].concat()),
+        vrpn_message(1, 7, &[2f64.to_be_bytes(), 0.25f64.to_be_bytes(), 1f64.to_be_bytes()].concat()),
+    ] {
+        stream_bytes.extend(m);
+    }
+    // in two pieces, split inside a message: the reader waits for the rest
+    let (a, b) = stream_bytes.split_at(stream_bytes.len() - 30);
+    stream.write_all(a).unwrap();
+    stream.flush().unwrap();
+    std::thread::sleep(std::time::Duration::from_millis(150));
+    stream.write_all(b).unwrap();
+    let state = wait_state(&mut tracker, "the VRPN reports", |s| s.joystick == [0.25, 1.0]);
+    assert!((state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-6 && same(state.pose.head_rotation, head), "{:?}", state.pose);
+    assert_eq!(state.wand.map(|w| w.position), Some(Vec3::new(0.2, 1.2, -0.5)));
+    assert_eq!(state.buttons, 1 << 1);
+    // a dropped connection is retried: the next server gets a new cookie exchange
+    drop(stream);
+    let (mut again, _) = server.accept().unwrap();
+    again.write_all(&cookie).unwrap();
+    again.read_exact(&mut reply).unwrap();
+    assert_eq!(&reply[..14], b"vrpn: ver. 07.");
+    let e = with_tracking("[tracking]\nsource = \"vrpn\"\nserver = \"host:port\"\ndevice = \"Wand\"").unwrap_err();
+    assert!(e.contains("tracking.server"), "{e}");
+}

@@ -1,5 +1,6 @@
-//! Live tracking, whatever the protocol: a thread per source receives UDP packets, a parser
-//! (`osc.rs`, `dtrack.rs`) turns each into measurements in the tracker's frame, the
+//! Live tracking, whatever the protocol: a thread per source receives UDP packets (or reads a
+//! VRPN server's TCP stream, `vrpn.rs`), a parser (`osc.rs`, `dtrack.rs`) turns each into
+//! measurements in the tracker's frame, the
 //! calibration (`calibration.rs`) moves them into the room, and the merged state (head, wand,
 //! buttons, joystick, navigation) goes to the renderer through a crossbeam channel. The
 //! renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
@@ -118,12 +119,64 @@ pub struct LiveTracker {
     fresh: Option<Instant>,
     reported_quiet: bool,
     stop: Arc<AtomicBool>,
+    /// the UDP port listened on (VRPN: the server's TCP port)
     pub port: u16,
     /// e.g. "OSC on UDP 9000"
     pub name: String,
 }
 
+/// The receiving side of a live tracker, owned by its thread: measurements in, calibrated
+/// states out to the renderer.
+pub struct Feed {
+    tx: Sender<Sample>,
+    state: LiveState,
+    calibration: RoomFromTracker,
+    stop: Arc<AtomicBool>,
+}
+
+impl Feed {
+    /// Apply a packet's measurements (received at `received`) and hand the state over; false
+    /// once the tracker is dropped (the thread should end).
+    pub fn push(&mut self, measurements: &[Measurement], received: Instant) -> bool {
+        for m in measurements {
+            self.state.apply(*m, &self.calibration);
+        }
+        measurements.is_empty() || self.tx.send(Sample { state: self.state, received }).is_ok()
+    }
+
+    /// The room-from-tracker calibration (its ids say which sensor is what).
+    pub fn calibration(&self) -> &RoomFromTracker {
+        &self.calibration
+    }
+
+    /// Whether the tracker was dropped.
+    pub fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+}
+
 impl LiveTracker {
+    /// Run `receive` on a thread named `vlf-<protocol>`, feeding a tracker called `name`
+    /// (e.g. "OSC on UDP 9000"); `start` is the pose until the first measurement.
+    pub fn spawn_thread(
+        protocol: &str,
+        name: String,
+        port: u16,
+        start: Pose,
+        calibration: RoomFromTracker,
+        receive: impl FnOnce(Feed) + Send + 'static,
+    ) -> Result<LiveTracker> {
+        let (tx, rx) = crossbeam::channel::unbounded();
+        let stop = Arc::new(AtomicBool::new(false));
+        let start_state = LiveState::new(start);
+        let feed = Feed { tx, state: start_state, calibration, stop: stop.clone() };
+        std::thread::Builder::new()
+            .name(format!("vlf-{}", protocol.to_lowercase()))
+            .spawn(move || receive(feed))
+            .map_err(|e| VlfError::io(name.as_str(), e))?;
+        Ok(LiveTracker { samples: rx, state: start_state, last_packet: None, fresh: None, reported_quiet: false, stop, port, name })
+    }
+
     /// Listen on `address` (e.g. "0.0.0.0:9000"; port 0 picks a free one) for `protocol`
     /// ("OSC", "DTrack") packets read by `parse`. `start` is the pose until the first packet.
     pub fn spawn(protocol: &str, address: &str, start: Pose, calibration: RoomFromTracker, parse: Parser) -> Result<LiveTracker> {
@@ -133,17 +186,9 @@ impl LiveTracker {
         })?;
         socket.set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| VlfError::io(address, e))?;
         let port = socket.local_addr().map_err(|e| VlfError::io(address, e))?.port();
-        let (tx, rx) = crossbeam::channel::unbounded();
-        let stop = Arc::new(AtomicBool::new(false));
-        let stop_flag = stop.clone();
         let name = format!("{protocol} on UDP {port}");
         let thread_name = name.clone();
-        let start_state = LiveState::new(start);
-        std::thread::Builder::new()
-            .name(format!("vlf-{}", protocol.to_lowercase()))
-            .spawn(move || receive(socket, tx, start_state, calibration, parse, &thread_name, stop_flag))
-            .map_err(|e| VlfError::io(address, e))?;
-        Ok(LiveTracker { samples: rx, state: start_state, last_packet: None, fresh: None, reported_quiet: false, stop, port, name })
+        LiveTracker::spawn_thread(protocol, name, port, start, calibration, move |feed| receive(socket, feed, parse, &thread_name))
     }
 
     /// The latest pose (older queued poses are dropped) and whether the source is live.
@@ -203,16 +248,15 @@ impl Drop for LiveTracker {
     }
 }
 
-fn receive(socket: UdpSocket, tx: Sender<Sample>, start: LiveState, calibration: RoomFromTracker, parse: Parser, name: &str, stop: Arc<AtomicBool>) {
-    let mut state = start;
+fn receive(socket: UdpSocket, mut feed: Feed, parse: Parser, name: &str) {
     let mut buf = vec![0u8; 65536];
     let mut measurements = Vec::new();
     let mut warned = false;
-    while !stop.load(Ordering::Relaxed) {
+    while !feed.stopped() {
         let Ok((n, _)) = socket.recv_from(&mut buf) else { continue };
         let received = Instant::now();
         measurements.clear();
-        if let Err(e) = parse(&buf[..n], &calibration, &mut measurements) {
+        if let Err(e) = parse(&buf[..n], &feed.calibration, &mut measurements) {
             // one warning per source; the rest at debug level
             if !warned {
                 log::warn!("tracking ({name}): a packet was ignored: {e}");
@@ -222,10 +266,7 @@ fn receive(socket: UdpSocket, tx: Sender<Sample>, start: LiveState, calibration:
             }
             continue;
         }
-        for m in &measurements {
-            state.apply(*m, &calibration);
-        }
-        if !measurements.is_empty() && tx.send(Sample { state, received }).is_err() {
+        if !feed.push(&measurements, received) {
             return;
         }
     }

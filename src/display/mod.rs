@@ -1,7 +1,7 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
 //! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
-//! `dtrack.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`) and headless rendering of every view (`headless.rs`).
+//! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`) and headless rendering of every view (`headless.rs`).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
@@ -11,6 +11,7 @@ pub mod live;
 pub mod osc;
 pub mod projection;
 pub mod tracking;
+pub mod vrpn;
 pub mod wand;
 pub mod window;
 pub mod xr;
@@ -80,6 +81,13 @@ pub enum TrackingConfig {
         #[serde(default)]
         calibration: calibration::Calibration,
     },
+    /// live poses from a VRPN server (`host[:port]`), device `device` (`vrpn.rs`)
+    Vrpn {
+        server: String,
+        device: String,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
 }
 
 impl Default for TrackingConfig {
@@ -91,9 +99,27 @@ impl Default for TrackingConfig {
 /// A live tracking source as configured (`TrackingConfig::live`).
 pub struct LiveSource {
     pub protocol: &'static str,
-    pub port: u16,
+    /// where it is received: "UDP 9000", "Tracker0@host:3883"
+    pub address: String,
     pub calibration: std::result::Result<calibration::RoomFromTracker, String>,
-    pub parse: live::Parser,
+    pub kind: LiveKind,
+}
+
+pub enum LiveKind {
+    /// packets on a UDP port, read by a parser
+    Udp { port: u16, parse: live::Parser },
+    Vrpn { server: String, device: String },
+}
+
+impl LiveSource {
+    /// Start receiving; `start` is the pose until the first measurement.
+    pub fn start(self, start: tracking::Pose, config_path: &Path) -> Result<live::LiveTracker> {
+        let calibration = self.calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
+        match self.kind {
+            LiveKind::Udp { port, parse } => live::LiveTracker::spawn(self.protocol, &format!("0.0.0.0:{port}"), start, calibration, parse),
+            LiveKind::Vrpn { server, device } => live::LiveTracker::connect_vrpn(&server, &device, start, calibration),
+        }
+    }
 }
 
 impl TrackingConfig {
@@ -110,11 +136,22 @@ impl TrackingConfig {
     /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
     /// and wand id) and packet parser; None for static and scripted heads.
     pub fn live(&self) -> Option<LiveSource> {
-        let source = |protocol, port, calibration: std::result::Result<_, _>, parse| LiveSource { protocol, port, calibration, parse };
+        let udp = |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
+            protocol,
+            address: format!("UDP {port}"),
+            calibration,
+            kind: LiveKind::Udp { port: *port, parse },
+        };
         match self {
-            TrackingConfig::Osc { port, calibration } => Some(source("OSC", *port, calibration.resolve(1.0, 1), osc::parse)),
+            TrackingConfig::Osc { port, calibration } => Some(udp("OSC", port, calibration.resolve(1.0, 1), osc::parse as live::Parser)),
             // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
-            TrackingConfig::Dtrack { port, calibration } => Some(source("DTrack", *port, calibration.resolve(0.001, 0), dtrack::parse)),
+            TrackingConfig::Dtrack { port, calibration } => Some(udp("DTrack", port, calibration.resolve(0.001, 0), dtrack::parse)),
+            TrackingConfig::Vrpn { server, device, calibration } => Some(LiveSource {
+                protocol: "VRPN",
+                address: format!("{device}@{server}"),
+                calibration: calibration.resolve(1.0, 1),
+                kind: LiveKind::Vrpn { server: server.clone(), device: device.clone() },
+            }),
             _ => None,
         }
     }
@@ -273,6 +310,12 @@ impl DisplayConfig {
         self.tracking.static_head_rotation()?;
         if let Some(source) = self.tracking.live() {
             source.calibration?;
+        }
+        if let TrackingConfig::Vrpn { server, device, .. } = &self.tracking {
+            vrpn::server_address(server).map_err(|e| format!("tracking.server: {e}"))?;
+            if device.is_empty() {
+                return Err("tracking.device: name the VRPN device (as in Tracker0@host)".into());
+            }
         }
         if self.navigation.wand_reset_button >= 64 {
             return Err(format!("navigation.wand_reset_button: {} is not a button (0 to 63)", self.navigation.wand_reset_button));

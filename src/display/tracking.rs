@@ -1,5 +1,5 @@
 //! Head tracking: a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC, DTrack).
+//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
@@ -163,11 +163,9 @@ impl PoseSource {
             TrackingConfig::Scripted { path } => {
                 Ok(PoseSource::Scripted(ScriptedPath::load(&config_path.parent().unwrap_or(Path::new(".")).join(path))?))
             }
-            TrackingConfig::Osc { .. } | TrackingConfig::Dtrack { .. } => {
+            TrackingConfig::Osc { .. } | TrackingConfig::Dtrack { .. } | TrackingConfig::Vrpn { .. } => {
                 let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), ..start };
-                let source = config.tracking.live().expect("a live source");
-                let calibration = source.calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
-                let tracker = super::live::LiveTracker::spawn(source.protocol, &format!("0.0.0.0:{}", source.port), start, calibration, source.parse)?;
+                let tracker = config.tracking.live().expect("a live source").start(start, config_path)?;
                 Ok(PoseSource::Live(std::sync::Mutex::new(tracker)))
             }
         }

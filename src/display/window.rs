@@ -395,7 +395,7 @@ impl App<'_> {
         let pose = self.navigator.apply(base);
         let status = match (tracking, &self.config.tracking) {
             (Some(TrackingStatus::Quiet(d)), _) => Some(format!("tracking quiet {:.0} s: holding the last pose", d.as_secs_f32().floor())),
-            (Some(TrackingStatus::Waiting), tracking) => tracking.live().map(|s| format!("tracking: waiting for {} on UDP {}", s.protocol, s.port)),
+            (Some(TrackingStatus::Waiting), tracking) => tracking.live().map(|s| format!("tracking: waiting for {} on {}", s.protocol, s.address)),
             _ => None,
         };
         self.set_status(status);
