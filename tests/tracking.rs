@@ -1,7 +1,8 @@
-//! Head tracking in 6 degrees of freedom: the eyes follow the tracked head's orientation (the
-//! stereo disparity of points behind and on the CAVE's walls matches the geometry, computed
-//! here independently by intersecting each eye's line of sight with the wall), orientations
-//! from every source (static, scripted, OSC).
+//! Tracking: the head in 6 degrees of freedom (the stereo disparity of points behind and on
+//! the CAVE's walls matches the geometry, computed here independently by intersecting each
+//! eye's line of sight with the wall; orientations from static, scripted and OSC sources), the
+//! room-from-tracker calibration, the live sources (DTrack2 ASCII and OSC on loopback UDP, VRPN
+//! over loopback TCP; latest wins, quiet holds), `vlf track`, and wand navigation.
 
 mod common;
 use common::*;
@@ -627,4 +628,29 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
     assert_eq!(&reply[..14], b"vrpn: ver. 07.");
     let e = with_tracking("[tracking]\nsource = \"vrpn\"\nserver = \"host:port\"\ndevice = \"Wand\"").unwrap_err();
     assert!(e.contains("tracking.server"), "{e}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 256, ..Default::default() })]
+
+    /// A damaged DTrack frame or VRPN stream is refused or read, never a panic.
+    #[test]
+    fn damaged_tracker_input_never_panics(at in 0usize..400, byte in proptest::prelude::any::<u8>(), cut in 0usize..400) {
+        let identity = dtrack_matrix(Quat::IDENTITY);
+        let mut frame = format!("fr 9\r\n6d 1 [0 1.000][1 2 3 0 0 0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 0][{identity}][33 0.5 -0.5]\r\n6df 1 [0 1.000 3][0 0 0][{identity}]\r\n").into_bytes();
+        let at = at % frame.len();
+        frame[at] = byte;
+        frame.truncate(cut.max(1).min(frame.len()));
+        let ids = vlf::display::calibration::RoomFromTracker { head_id: 0, wand_id: 0, ..Default::default() };
+        let _ = vlf::display::dtrack::parse(&frame, &ids, &mut Vec::new());
+        let mut stream = [vrpn_name(1, -1, "Wand"), vrpn_pose(1, 0, [0.1, 1.7, -2.0], Quat::IDENTITY)].concat();
+        let at = at % stream.len();
+        stream[at] = byte;
+        stream.truncate(cut.max(1).min(stream.len()));
+        if let Ok(Some(m)) = vlf::display::vrpn::message(&stream) {
+            for kind in ["vrpn_Tracker Pos_Quat", "vrpn_Button Change", "vrpn_Button States", "vrpn_Analog Channel"] {
+                let _ = vlf::display::vrpn::decode(kind, m.payload, &ids, &mut Vec::new());
+            }
+        }
+    }
 }
