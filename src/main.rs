@@ -155,6 +155,14 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
+    /// Print a display configuration's live tracking as it arrives: head and wand poses in the
+    /// room (after [tracking.calibration]), buttons and joystick
+    Track {
+        config: PathBuf,
+        /// Stop after this many seconds (default: until Ctrl-C)
+        #[arg(long)]
+        seconds: Option<f64>,
+    },
     /// An OpenXR headset: the runtime's Vulkan device, a swapchain per eye, thumbstick navigation
     Xr {
         /// scene.toml (propagated first) or file.vlf
@@ -519,6 +527,13 @@ fn run(cli: Cli) -> Result<()> {
                 write_json(&path, &report)?;
             }
             println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
+        }
+        Command::Track { config, seconds } => {
+            if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+                bail!("--seconds {s}: must be a number of seconds >= 0");
+            }
+            let display = vlf::display::DisplayConfig::load(&config)?;
+            vlf::display::live::track(&display, &config, seconds.map(std::time::Duration::from_secs_f64), &mut std::io::stdout())?;
         }
         Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, json, params } => {
             if !(resolution_scale.is_finite() && resolution_scale > 0.0 && resolution_scale <= 4.0) {

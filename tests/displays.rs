@@ -117,7 +117,7 @@ fn headless_cave_renders_every_wall_and_eye() {
 fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
     use vlf::display::osc::{OscTracker, TrackingStatus, QUIET_AFTER};
     use vlf::display::tracking::Pose;
-    let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), room_position: Vec3::ZERO, room_yaw_deg: 0.0 };
+    let start = Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0);
     let mut tracker = OscTracker::listen("127.0.0.1:0", start).unwrap();
     assert_eq!(tracker.latest(), (start, TrackingStatus::Waiting));
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();

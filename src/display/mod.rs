@@ -1,12 +1,18 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
-//! (`projection.rs`), head tracking (`tracking.rs`) and headless rendering of every view
-//! (`headless.rs`). Every wall and eye is drawn from one device and one light field.
+//! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
+//! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`) and headless rendering of every view (`headless.rs`).
+//! Every wall and eye is drawn from one device and one light field.
 
+pub mod calibration;
+pub mod dtrack;
 pub mod headless;
+pub mod live;
 pub mod osc;
 pub mod projection;
 pub mod tracking;
+pub mod vrpn;
+pub mod wand;
 pub mod window;
 pub mod xr;
 
@@ -22,6 +28,10 @@ pub struct DisplayConfig {
     /// interpupillary distance, metres
     #[serde(default = "default_ipd")]
     pub eye_separation: f32,
+    /// from the tracked point of the head to the point between the eyes, metres in the head's
+    /// frame (x right, y up, -z ahead): e.g. [0, -0.05, -0.08] for a target on top of the glasses
+    #[serde(default)]
+    pub eye_offset: [f32; 3],
     #[serde(default)]
     pub start_pose: StartPose,
     #[serde(default)]
@@ -49,17 +59,101 @@ pub struct StartPose {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, tag = "source", rename_all = "lowercase")]
 pub enum TrackingConfig {
-    /// a fixed head position in room metres
-    Static { head: [f32; 3] },
+    /// a fixed head in room metres, looking along -z unless oriented (`tracking::head_rotation`)
+    Static {
+        head: [f32; 3],
+        head_yaw_deg: Option<f32>,
+        head_pitch_deg: Option<f32>,
+        head_roll_deg: Option<f32>,
+        head_orientation: Option<[f32; 4]>,
+    },
     /// keyframed head and navigation poses (a TOML file, path relative to the config)
     Scripted { path: PathBuf },
-    /// live poses over UDP/OSC
-    Osc { port: u16 },
+    /// live poses over UDP/OSC (`osc.rs`)
+    Osc {
+        port: u16,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
+    /// live poses from A.R.T. DTrack2 (ASCII over UDP, `dtrack.rs`)
+    Dtrack {
+        port: u16,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
+    /// live poses from a VRPN server (`host[:port]`), device `device` (`vrpn.rs`)
+    Vrpn {
+        server: String,
+        device: String,
+        #[serde(default)]
+        calibration: calibration::Calibration,
+    },
 }
 
 impl Default for TrackingConfig {
     fn default() -> Self {
-        TrackingConfig::Static { head: [0.0, 1.7, 0.0] }
+        TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None }
+    }
+}
+
+/// A live tracking source as configured (`TrackingConfig::live`).
+pub struct LiveSource {
+    pub protocol: &'static str,
+    /// where it is received: "UDP 9000", "Tracker0@host:3883"
+    pub address: String,
+    pub calibration: std::result::Result<calibration::RoomFromTracker, String>,
+    pub kind: LiveKind,
+}
+
+pub enum LiveKind {
+    /// packets on a UDP port, read by a parser
+    Udp { port: u16, parse: live::Parser },
+    Vrpn { server: String, device: String },
+}
+
+impl LiveSource {
+    /// Start receiving; `start` is the pose until the first measurement.
+    pub fn start(self, start: tracking::Pose, config_path: &Path) -> Result<live::LiveTracker> {
+        let calibration = self.calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
+        match self.kind {
+            LiveKind::Udp { port, parse } => live::LiveTracker::spawn(self.protocol, &format!("0.0.0.0:{port}"), start, calibration, parse),
+            LiveKind::Vrpn { server, device } => live::LiveTracker::connect_vrpn(&server, &device, start, calibration),
+        }
+    }
+}
+
+impl TrackingConfig {
+    /// The static head's orientation (identity for the other sources).
+    pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
+        match self {
+            TrackingConfig::Static { head_yaw_deg, head_pitch_deg, head_roll_deg, head_orientation, .. } => {
+                tracking::head_rotation([*head_yaw_deg, *head_pitch_deg, *head_roll_deg], *head_orientation, "tracking.")
+            }
+            _ => Ok(glam::Quat::IDENTITY),
+        }
+    }
+
+    /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
+    /// and wand id) and packet parser; None for static and scripted heads.
+    pub fn live(&self) -> Option<LiveSource> {
+        let udp = |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
+            protocol,
+            address: format!("UDP {port}"),
+            calibration,
+            kind: LiveKind::Udp { port: *port, parse },
+        };
+        match self {
+            TrackingConfig::Osc { port, calibration } => Some(udp("OSC", port, calibration.resolve(1.0, 1), osc::parse as live::Parser)),
+            // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
+            TrackingConfig::Dtrack { port, calibration } => Some(udp("DTrack", port, calibration.resolve(0.001, 0), dtrack::parse)),
+            TrackingConfig::Vrpn { server, device, calibration } => Some(LiveSource {
+                protocol: "VRPN",
+                address: format!("{device}@{server}"),
+                calibration: calibration.resolve(1.0, 1),
+                kind: LiveKind::Vrpn { server: server.clone(), device: device.clone() },
+            }),
+            _ => None,
+        }
     }
 }
 
@@ -72,11 +166,19 @@ pub struct Navigation {
     pub turn_speed_deg: f32,
     /// fly (move along the view direction) rather than walk on the ground plane
     pub fly: bool,
+    /// the tracked wand's button that resets the navigation (DTrack Flystick2: 0 trigger,
+    /// 1-4 the blue buttons right to left, 5 the joystick pressed)
+    #[serde(default = "default_reset_button")]
+    pub wand_reset_button: u32,
+}
+
+fn default_reset_button() -> u32 {
+    1
 }
 
 impl Default for Navigation {
     fn default() -> Self {
-        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false }
+        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false, wand_reset_button: default_reset_button() }
     }
 }
 
@@ -197,10 +299,26 @@ impl DisplayConfig {
                 return Err(format!("{at}.output: name a monitor (index or name) or a window position"));
             }
         }
-        if let TrackingConfig::Static { head } = &self.tracking {
+        if !(self.eye_offset.iter().all(|x| x.is_finite()) && Vec3::from(self.eye_offset).length() <= 0.5) {
+            return Err(format!("eye_offset: {:?} must be finite and at most 0.5 m long (it is the offset from the tracked point to the eyes' centre)", self.eye_offset));
+        }
+        if let TrackingConfig::Static { head, .. } = &self.tracking {
             if head.iter().any(|x| !x.is_finite()) {
                 return Err("tracking.head: must be finite".into());
             }
+        }
+        self.tracking.static_head_rotation()?;
+        if let Some(source) = self.tracking.live() {
+            source.calibration?;
+        }
+        if let TrackingConfig::Vrpn { server, device, .. } = &self.tracking {
+            vrpn::server_address(server).map_err(|e| format!("tracking.server: {e}"))?;
+            if device.is_empty() {
+                return Err("tracking.device: name the VRPN device (as in Tracker0@host)".into());
+            }
+        }
+        if self.navigation.wand_reset_button >= 64 {
+            return Err(format!("navigation.wand_reset_button: {} is not a button (0 to 63)", self.navigation.wand_reset_button));
         }
         Ok(())
     }
@@ -223,11 +341,11 @@ impl DisplayConfig {
 }
 
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection
-/// and the eye, in the light field's normalised space. Eyes sit along the room's x axis.
+/// and the eye, in the light field's normalised space. The eyes sit at +-IPD/2 along the
+/// tracked head's right axis, `eye_offset` (head frame) from the tracked point.
 pub fn wall_view(config: &DisplayConfig, wall: &Wall, side: f32, pose: &tracking::Pose, norm: &crate::prepare::Normalisation) -> (Mat4, Vec3) {
     let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
-    let head = pose.head + Vec3::X * side * config.eye_separation * 0.5;
-    let eye = to_unit(pose.room_to_world(head));
+    let eye = to_unit(pose.room_to_world(pose.eye(Vec3::from(config.eye_offset), config.eye_separation, side)));
     let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
     let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
     let near = (plane_distance * 0.5).clamp(1e-4, 0.01);

@@ -5,7 +5,7 @@
 //! status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
-use super::osc::TrackingStatus;
+use super::live::{LiveState, TrackingStatus};
 use super::tracking::{Pose, PoseSource};
 use super::{DisplayConfig, MonitorRef, Stereo};
 use crate::bench::Distribution;
@@ -44,6 +44,9 @@ pub struct WindowReport {
     pub cpu_frame_ms: Option<Distribution>,
     /// messages shown on screen (tracking gone quiet), in order
     pub status_messages: Vec<String>,
+    /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
+    /// drawn from it (None without live tracking)
+    pub tracking_latency_ms: Option<Distribution>,
 }
 
 /// One eye's offscreen image and the bindings that put it on its window.
@@ -76,6 +79,8 @@ pub(crate) struct Navigator {
     dragging: bool,
     last_cursor_x: Option<f64>,
     mouse_turn_deg: f32,
+    /// the tracked wand's buttons last frame (for the reset button's press)
+    wand_buttons: u64,
 }
 
 impl Navigator {
@@ -108,6 +113,22 @@ impl Navigator {
         self.offset = Vec3::ZERO;
         self.yaw_deg = 0.0;
     }
+
+    /// The tracked wand (`wand.rs`): its reset button resets; while the source is live its
+    /// joystick flies along the wand and turns about the head (a quiet source's last joystick
+    /// value is not acted on).
+    pub(crate) fn wand(&mut self, state: &LiveState, live: bool, nav: &super::Navigation, dt: f32) {
+        if super::wand::pressed(self.wand_buttons, state.buttons, nav.wand_reset_button) {
+            self.reset();
+        }
+        self.wand_buttons = state.buttons;
+        if let (Some(wand), true) = (&state.wand, live) {
+            let pose = self.apply(state.pose);
+            let (position, yaw) = super::wand::step(&pose, wand, state.joystick, nav, self.fly || nav.fly, dt);
+            self.offset += position - pose.room_position;
+            self.yaw_deg += yaw - pose.room_yaw_deg;
+        }
+    }
 }
 
 /// Open the windows and run the frame loop until Esc, closed windows or `options.frames`.
@@ -138,6 +159,7 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
         gpu: Vec::new(),
         cpu: Vec::new(),
         status_messages: Vec::new(),
+        latency: Vec::new(),
         error: None,
         printed_done: false,
     };
@@ -174,6 +196,8 @@ struct App<'a> {
     gpu: Vec<Vec<f64>>,
     cpu: Vec<f64>,
     status_messages: Vec<String>,
+    /// milliseconds from a live pose's arrival to the frame drawn from it
+    latency: Vec<f64>,
     error: Option<VlfError>,
     printed_done: bool,
 }
@@ -357,15 +381,21 @@ impl App<'_> {
         let dt = (now - self.last_frame).as_secs_f32().min(0.1);
         self.last_frame = now;
         let pad = self.poll_gamepads();
-        let (base, tracking) = match &self.poses {
-            PoseSource::Scripted(s) => (s.at(self.started.elapsed().as_secs_f32() % s.duration().max(1e-3)), None),
-            other => other.at_with_status(0.0),
+        let (base, tracking, fresh) = match &self.poses {
+            PoseSource::Scripted(s) => (s.at(self.started.elapsed().as_secs_f32() % s.duration().max(1e-3)), None, None),
+            PoseSource::Live(tracker) => {
+                let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
+                let (state, status) = tracker.latest_state();
+                self.navigator.wand(&state, status == TrackingStatus::Live, &self.config.navigation, dt);
+                (state.pose, Some(status), tracker.take_fresh())
+            }
+            other => (other.at(0.0), None, None),
         };
         self.navigator.step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         let pose = self.navigator.apply(base);
         let status = match (tracking, &self.config.tracking) {
             (Some(TrackingStatus::Quiet(d)), _) => Some(format!("tracking quiet {:.0} s: holding the last pose", d.as_secs_f32().floor())),
-            (Some(TrackingStatus::Waiting), super::TrackingConfig::Osc { port }) => Some(format!("tracking: waiting for OSC on UDP {port}")),
+            (Some(TrackingStatus::Waiting), tracking) => tracking.live().map(|s| format!("tracking: waiting for {} on {}", s.protocol, s.address)),
             _ => None,
         };
         self.set_status(status);
@@ -424,6 +454,9 @@ impl App<'_> {
             ctx.queue.submit([encoder.finish()]);
             outputs.push(texture);
         }
+        if let (Some(arrived), true) = (fresh, timed) {
+            self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
+        }
         // every window's frame is ready before any is shown: the walls change together
         for texture in outputs {
             ctx.queue.present(texture);
@@ -481,6 +514,7 @@ impl App<'_> {
             views,
             cpu_frame_ms: (!self.cpu.is_empty()).then(|| Distribution::of(&self.cpu)),
             status_messages: self.status_messages.clone(),
+            tracking_latency_ms: (!self.latency.is_empty()).then(|| Distribution::of(&self.latency)),
         }
     }
 }
@@ -680,6 +714,9 @@ impl WindowReport {
         }
         if let Some(d) = &self.cpu_frame_ms {
             s.push_str(&format!("  CPU frame time (all windows presented): median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+        }
+        if let Some(d) = &self.tracking_latency_ms {
+            s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
         }
         for m in &self.status_messages {
             s.push_str(&format!("  shown on screen: {m}\n"));

@@ -186,7 +186,7 @@ fn start_room(camera: &crate::scene::Camera, views: &[xr::View]) -> Pose {
     let yaw = if camera_forward.x.abs() + camera_forward.z.abs() > 1e-6 { yaw_of(camera_forward) } else { 0.0 };
     let head_yaw = if head_forward.x.abs() + head_forward.z.abs() > 1e-6 { yaw_of(head_forward) } else { 0.0 };
     let room_yaw = yaw - head_yaw;
-    Pose { head, room_position: Vec3::from(camera.eye) - Quat::from_rotation_y(room_yaw) * head, room_yaw_deg: room_yaw.to_degrees() }
+    Pose::new(head, Vec3::from(camera.eye) - Quat::from_rotation_y(room_yaw) * head, room_yaw.to_degrees())
 }
 
 /// Run the session until the runtime ends it (or `options.frames` have been shown). The light

@@ -1,0 +1,137 @@
+//! Room-from-tracker calibration (`[tracking.calibration]` in a display configuration): a
+//! tracking system reports poses in its own frame (its units, often millimetres, and often
+//! z up); the room is metres, y up, the viewer facing -z. A tracker position p becomes
+//! `translation + rotation * axes * (unit_scale * p)`, and a tracked body's orientation q
+//! becomes `rotation * axes * q * axes^-1` (a body aligned with the tracker's axes is a head
+//! looking along the tracker's forward axis, expressed in the room's convention). It also says
+//! which sensor or body is the head and which the wand.
+
+use super::tracking::{head_rotation_from_angles, Pose};
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+
+/// Which of the tracker's axes points up.
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Axes {
+    /// x right, y up, z towards the viewer (the room's own convention)
+    #[default]
+    YUp,
+    /// x right, y ahead (away from the viewer), z up
+    ZUp,
+}
+
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Calibration {
+    /// where the tracker's origin lies in the room, metres
+    #[serde(default)]
+    pub translation: [f32; 3],
+    /// the tracker's axes turned in the room (after `axes`): degrees, yaw about up, then pitch
+    /// about x, then roll about z; or a quaternion `rotation = [x, y, z, w]`
+    pub yaw_deg: Option<f32>,
+    pub pitch_deg: Option<f32>,
+    pub roll_deg: Option<f32>,
+    pub rotation: Option<[f32; 4]>,
+    /// metres per tracker unit (0.001 for millimetres); default: the source's own unit
+    /// (DTrack: millimetres, OSC and VRPN: metres)
+    pub unit_scale: Option<f32>,
+    #[serde(default)]
+    pub axes: Axes,
+    /// the head's body (DTrack `6d`) or sensor (VRPN) id; default 0
+    pub head_id: Option<u32>,
+    /// the wand's Flystick (DTrack `6df2`) or sensor (VRPN) id; default: DTrack 0, VRPN 1
+    pub wand_id: Option<u32>,
+}
+
+/// A calibration resolved for one source: the transform and the ids.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoomFromTracker {
+    pub translation: Vec3,
+    /// the calibration rotation times the axis convention
+    pub rotation: Quat,
+    /// the axis convention alone (conjugates body orientations)
+    pub axes: Quat,
+    pub scale: f32,
+    pub head_id: u32,
+    pub wand_id: u32,
+}
+
+impl Default for RoomFromTracker {
+    fn default() -> Self {
+        RoomFromTracker { translation: Vec3::ZERO, rotation: Quat::IDENTITY, axes: Quat::IDENTITY, scale: 1.0, head_id: 0, wand_id: 1 }
+    }
+}
+
+impl Calibration {
+    /// Check the values; errors name the key under `[tracking.calibration]`.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        self.resolve(1.0, 0).map(|_| ())
+    }
+
+    /// The transform for a source whose unit is `default_scale` metres and whose wand is
+    /// `default_wand` unless configured.
+    pub fn resolve(&self, default_scale: f32, default_wand: u32) -> std::result::Result<RoomFromTracker, String> {
+        let at = "tracking.calibration";
+        if !self.translation.iter().all(|x| x.is_finite()) {
+            return Err(format!("{at}.translation: {:?} must be finite metres", self.translation));
+        }
+        let scale = self.unit_scale.unwrap_or(default_scale);
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(format!("{at}.unit_scale: {scale} must be a positive number of metres per tracker unit (0.001 for millimetres)"));
+        }
+        let angles = [("yaw_deg", self.yaw_deg), ("pitch_deg", self.pitch_deg), ("roll_deg", self.roll_deg)];
+        let rotation = match self.rotation {
+            Some(_) if angles.iter().any(|(_, a)| a.is_some()) => {
+                return Err(format!("{at}.rotation: give the rotation either as a quaternion or as yaw_deg/pitch_deg/roll_deg, not both"));
+            }
+            Some(q) => {
+                let q = Quat::from_array(q);
+                if !q.is_finite() || q.length() < 1e-3 {
+                    return Err(format!("{at}.rotation: {:?} is not a rotation (a finite quaternion [x, y, z, w] of non-zero length)", q.to_array()));
+                }
+                q.normalize()
+            }
+            None => {
+                if let Some((name, a)) = angles.iter().find(|(_, a)| !a.unwrap_or(0.0).is_finite()) {
+                    return Err(format!("{at}.{name}: {a:?} must be a finite number of degrees"));
+                }
+                let [yaw, pitch, roll] = angles.map(|(_, a)| a.unwrap_or(0.0));
+                head_rotation_from_angles(yaw, pitch, roll)
+            }
+        };
+        let axes = match self.axes {
+            Axes::YUp => Quat::IDENTITY,
+            // tracker (x, y, z) with z up -> room (x, z, -y)
+            Axes::ZUp => Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+        };
+        Ok(RoomFromTracker {
+            translation: Vec3::from(self.translation),
+            rotation: rotation * axes,
+            axes,
+            scale,
+            head_id: self.head_id.unwrap_or(0),
+            wand_id: self.wand_id.unwrap_or(default_wand),
+        })
+    }
+}
+
+impl RoomFromTracker {
+    /// A tracker position in the room, metres.
+    pub fn position(&self, p: Vec3) -> Vec3 {
+        self.translation + self.rotation * (p * self.scale)
+    }
+
+    /// A tracked body's orientation in the room.
+    pub fn orientation(&self, q: Quat) -> Quat {
+        (self.rotation * q * self.axes.inverse()).normalize()
+    }
+
+    /// A tracked head (position and orientation in the tracker's frame) as the head of `pose`.
+    pub fn head(&self, pose: &mut Pose, position: Vec3, orientation: Option<Quat>) {
+        pose.head = self.position(position);
+        if let Some(q) = orientation {
+            pose.head_rotation = self.orientation(q);
+        }
+    }
+}
