@@ -179,16 +179,19 @@ fn visible(start: vec3<f32>, end: vec3<f32>, skip: u32) -> f32 {
     return select(1.0, 0.0, hit.tri != NO_FACE);
 }
 
-// Irradiance from every emitter at x (normal n), rgb.
+// Irradiance from every emitter at x (normal n), rgb. Each emitter's unoccluded irradiance is
+// exact; its visibility is the ratio over its own shadow rays. The rays go half by each
+// emitter's unoccluded share and half evenly, so that a dim emitter next to a bright one that
+// is hidden from x still gets rays of its own; an emitter left without one (more emitters
+// than rays) takes the visibility of all the rays together.
 fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
-    // the unoccluded irradiance in closed form, and each emitter's share for the samples
-    var unoccluded = vec3<f32>(0.0);
     var weight_total = 0.0;
+    var lit_emitters = 0.0;
     for (var i = 0u; i < direct.emitter_count; i++) {
         let e = emitters[i];
-        let f = polygon_irradiance(emitter_polygon(e, x, n), n);
-        unoccluded += f * e.radiance.xyz;
-        weight_total += f * e.radiance.w;
+        let w = polygon_irradiance(emitter_polygon(e, x, n), n) * e.radiance.w;
+        weight_total += w;
+        lit_emitters += select(0.0, 1.0, w > 0.0);
     }
     if weight_total <= 0.0 {
         return vec3<f32>(0.0);
@@ -197,37 +200,52 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
     let select_shift = unit_float(hash(seed));
     let origin = x + n * RAY_OFFSET;
-    var seen = vec3<f32>(0.0);
-    var expected = vec3<f32>(0.0);
+    var irradiance = vec3<f32>(0.0);
+    // emitters without a ray of their own, and the visibility of all rays together
+    var unsampled = vec3<f32>(0.0);
+    var seen_all = vec3<f32>(0.0);
+    var expected_all = vec3<f32>(0.0);
     var cumulative = 0.0;
     for (var i = 0u; i < direct.emitter_count; i++) {
         let e = emitters[i];
         let poly = emitter_polygon(e, x, n);
         let f = polygon_irradiance(poly, n);
         let w = f * e.radiance.w;
-        // stratified selection: sample j goes to the emitter whose share holds (j + shift) / N
-        let before = ceil(cumulative / weight_total * f32(samples) - select_shift);
-        cumulative += w;
-        let after = ceil(cumulative / weight_total * f32(samples) - select_shift);
+        if w <= 0.0 {
+            continue;
+        }
+        // stratified: ray j goes to the emitter whose share holds (j + shift) / N
+        let share = 0.5 * w / weight_total + 0.5 / lit_emitters;
+        let before = ceil(cumulative * f32(samples) - select_shift);
+        cumulative += share;
+        let after = ceil(cumulative * f32(samples) - select_shift);
         let count = u32(max(after - before, 0.0));
-        if count == 0u || w <= 0.0 {
+        let unoccluded = f * e.radiance.xyz;
+        if count == 0u {
+            unsampled += unoccluded;
             continue;
         }
         let areas = polygon_area(poly);
         let normal = faces[e.face].normal;
-        // per sample: area / probability of choosing this emitter
-        let scale = (areas.x + areas.y) * weight_total / w;
+        var seen = vec3<f32>(0.0);
+        var expected = vec3<f32>(0.0);
         for (var k = 0u; k < count; k++) {
             let p = polygon_point(poly, areas, hammersley(k, count, shift));
             let r2 = dot(p, p);
             let dir = p / sqrt(r2);
-            let g = max(dot(n, dir), 0.0) * max(-dot(normal, dir), 0.0) / r2 * scale;
+            let g = max(dot(n, dir), 0.0) * max(-dot(normal, dir), 0.0) / r2;
             expected += g * e.radiance.xyz;
             seen += g * emitted_radiance(e, x + p) * visible(origin, x + p, skip);
         }
+        let ratio = select(vec3<f32>(0.0), seen / expected, expected > vec3<f32>(0.0));
+        irradiance += unoccluded * ratio;
+        // over all rays: weighted by area per ray, so that emitters count by their irradiance
+        let scale = (areas.x + areas.y) / f32(count);
+        seen_all += seen * scale;
+        expected_all += expected * scale;
     }
-    let ratio = select(vec3<f32>(0.0), seen / expected, expected > vec3<f32>(0.0));
-    return unoccluded * ratio;
+    let ratio_all = select(vec3<f32>(0.0), seen_all / expected_all, expected_all > vec3<f32>(0.0));
+    return irradiance + unsampled * ratio_all;
 }
 
 // Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance.
