@@ -218,6 +218,10 @@ enum Command {
         /// Write a false-colour difference image (FLIP error, magma colour map)
         #[arg(long)]
         diff: Option<PathBuf>,
+        /// Compare only where this PNG (same size) is white, e.g. away from geometric edges
+        /// (tools/mitsuba/edges.py writes such a mask)
+        #[arg(long)]
+        mask: Option<PathBuf>,
     },
     /// Propagate the built-in Cornell box and write PNG + EXR into out/
     Demo {
@@ -576,10 +580,20 @@ fn run(cli: Cli) -> Result<()> {
                 bail!("{failed} stability case(s) failed");
             }
         }
-        Command::Compare { image, reference, json, diff } => {
+        Command::Compare { image, reference, json, diff, mask } => {
             let a = image_io::read_image(&image)?;
             let b = image_io::read_image(&reference)?;
-            let c = vlf::metrics::compare(&a, &b)?;
+            let keep = match &mask {
+                Some(path) => {
+                    let (w, h, keep) = vlf::metrics::read_mask(path)?;
+                    if (w, h) != (a.width, a.height) {
+                        bail!("{}: the mask is {w}x{h}, the images {}x{}", path.display(), a.width, a.height);
+                    }
+                    Some(keep)
+                }
+                None => None,
+            };
+            let c = vlf::metrics::compare_where(&a, &b, keep.as_deref())?;
             if json {
                 println!("{}", serde_json::to_string_pretty(&c)?);
             } else {

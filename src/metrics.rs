@@ -19,6 +19,9 @@ pub struct Comparison {
     pub max_abs: f64,
     pub display_mse: f64,
     pub flip_mean: f64,
+    /// pixels compared (all, or those a mask keeps)
+    #[serde(default)]
+    pub pixels: u64,
 }
 
 fn display_bytes(frame: &Frame) -> Vec<u8> {
@@ -27,6 +30,11 @@ fn display_bytes(frame: &Frame) -> Vec<u8> {
 
 /// Compare `test` with `reference` (same size).
 pub fn compare(test: &Frame, reference: &Frame) -> Result<Comparison> {
+    compare_where(test, reference, None)
+}
+
+/// Compare over the pixels `keep` marks (all where None); FLIP is averaged over them too.
+pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> Result<Comparison> {
     if (test.width, test.height) != (reference.width, reference.height) {
         return Err(VlfError::Parameter {
             name: "images",
@@ -36,9 +44,20 @@ pub fn compare(test: &Frame, reference: &Frame) -> Result<Comparison> {
             ),
         });
     }
-    let n = (test.pixels.len() * 3) as f64;
+    if keep.is_some_and(|k| k.len() != test.pixels.len()) {
+        return Err(VlfError::Parameter { name: "mask", message: format!("the mask is not {}x{}: use one of the images' size", test.width, test.height) });
+    }
+    let kept = |i: usize| keep.is_none_or(|k| k[i]);
+    let pixels = (0..test.pixels.len()).filter(|&i| kept(i)).count();
+    if pixels == 0 {
+        return Err(VlfError::Parameter { name: "mask", message: "the mask keeps no pixel".into() });
+    }
+    let n = (pixels * 3) as f64;
     let (mut se, mut rel, mut max_abs, mut display) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for (a, b) in test.pixels.iter().zip(&reference.pixels) {
+    for (i, (a, b)) in test.pixels.iter().zip(&reference.pixels).enumerate() {
+        if !kept(i) {
+            continue;
+        }
         for c in 0..3 {
             let (x, y) = (a[c] as f64, b[c] as f64);
             if !x.is_finite() || !y.is_finite() {
@@ -53,7 +72,10 @@ pub fn compare(test: &Frame, reference: &Frame) -> Result<Comparison> {
         }
     }
     let flip = flip_map(test, reference);
-    let flip_mean = nv_flip::FlipPool::from_image(&flip).mean() as f64;
+    let flip_mean = match keep {
+        None => nv_flip::FlipPool::from_image(&flip).mean() as f64,
+        Some(_) => flip.to_vec().iter().enumerate().filter(|(i, _)| kept(*i)).map(|(_, &v)| v as f64).sum::<f64>() / pixels as f64,
+    };
     Ok(Comparison {
         width: test.width,
         height: test.height,
@@ -63,6 +85,7 @@ pub fn compare(test: &Frame, reference: &Frame) -> Result<Comparison> {
         max_abs,
         display_mse: display / n,
         flip_mean,
+        pixels: pixels as u64,
     })
 }
 
@@ -83,8 +106,14 @@ pub fn write_difference_png(test: &Frame, reference: &Frame, path: &std::path::P
 impl Comparison {
     pub fn table(&self) -> String {
         format!(
-            "  size         {}x{}\n  MSE          {:.6e}\n  RMSE         {:.6e}\n  relMSE       {:.6e}\n  max |a-b|    {:.6e}\n  display MSE  {:.6e}\n  FLIP (mean)  {:.6}\n",
-            self.width, self.height, self.mse, self.rmse, self.rel_mse, self.max_abs, self.display_mse, self.flip_mean
+            "  size         {}x{} ({} pixels compared)\n  MSE          {:.6e}\n  RMSE         {:.6e}\n  relMSE       {:.6e}\n  max |a-b|    {:.6e}\n  display MSE  {:.6e}\n  FLIP (mean)  {:.6}\n",
+            self.width, self.height, self.pixels, self.mse, self.rmse, self.rel_mse, self.max_abs, self.display_mse, self.flip_mean
         )
     }
+}
+
+/// A mask from a PNG of the images' size: pixels whose red channel is above half are kept.
+pub fn read_mask(path: &std::path::Path) -> Result<(u32, u32, Vec<bool>)> {
+    let img = image::open(path).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })?.to_rgb8();
+    Ok((img.width(), img.height(), img.pixels().map(|p| p[0] > 127).collect()))
 }
