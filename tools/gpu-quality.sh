@@ -1,17 +1,17 @@
 #!/usr/bin/env bash
-# Runs on the lent NVIDIA machine: the picture-quality figures. Default-setting propagation of
-# Cornell and Cornell-mirror (reports), 512x512 stills of the accuracy views (EXR, compared
-# later with the Mitsuba references), view times at 1024x768 for 1..4 x 1..4 eye rays per
-# pixel, and the 8-view 1920x1200 CAVE (static and walking into the mirror), packed into
-# OUT_DIR/quality.tar.gz.          tools/gpu-quality.sh VLF_BINARY OUT_DIR
+# Runs on the lent NVIDIA machine: the picture-quality figures (README "Picture quality").
+# Default-setting propagation of Cornell and Cornell-mirror (reports; bench runs them again
+# warm), 512x512 stills of the accuracy views at default settings (EXR, compared here with the
+# Mitsuba references by tools/accuracy.py), view times at 1024x768 with the real-time and the
+# still antialiasing, and the 8-view 1920x1200 CAVE (static, and walking into the mirror),
+# packed into OUT_DIR/quality.tar.gz.          tools/gpu-quality.sh VLF_BINARY OUT_DIR
 set -uo pipefail
 vlf=$1; out=$2; work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
 for scene in cornell cornell-mirror; do
-  "$vlf" propagate scenes/$scene/scene.toml -o $work/$scene.vlf --report $work/propagate-$scene.json 2>&1 | quiet | tail -20
-  for aa in 1 2 3 4; do
-    "$vlf" bench --scene scenes/$scene/scene.toml --aa $aa --frames 200 --json $work/bench-$scene-aa$aa.json 2>&1 | quiet | grep -E "render|propagation  "
-  done
+  "$vlf" propagate scenes/$scene/scene.toml -o $work/$scene.vlf --report $work/propagate-$scene.json 2>&1 | quiet | tail -16
+  "$vlf" bench --scene scenes/$scene/scene.toml --frames 200 --json $work/bench-$scene.json 2>&1 | quiet | grep -E "render|setup|visibility  |propagation  "
+  "$vlf" bench --scene scenes/$scene/scene.toml --frames 50 --aa 16 --json $work/bench-$scene-still.json 2>&1 | quiet | grep -E "render"
 done
 "$vlf" render $work/cornell.vlf --camera front --size 512x512 -o $work/vlf-cornell-front-512.exr 2>&1 | quiet
 for cam in front side; do
@@ -22,4 +22,6 @@ done
 cp $work/cave-walk/overview.png $work/cave-walk-overview.png
 rm -rf $work/cave-static $work/cave-walk $work/*.vlf
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt
+echo "${VLF_COMMIT:-unknown}" > $work/commit.txt
+date -u +%Y-%m-%dT%H:%M:%SZ > $work/date.txt
 (cd $work && tar czf "$out/quality.tar.gz" .)
