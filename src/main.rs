@@ -186,6 +186,9 @@ enum Command {
         /// clamped to the runtime's maximum)
         #[arg(long, default_value_t = 1.0)]
         resolution_scale: f32,
+        /// Antialiasing: N eye rays per pixel (1 = off)
+        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
+        aa: u32,
         /// Write the frame-time report as JSON
         #[arg(long)]
         json: Option<PathBuf>,
@@ -539,7 +542,7 @@ fn run(cli: Cli) -> Result<()> {
             let display = vlf::display::DisplayConfig::load(&config)?;
             vlf::display::live::track(&display, &config, seconds.map(std::time::Duration::from_secs_f64), &mut std::io::stdout())?;
         }
-        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, json, params } => {
+        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, aa, json, params } => {
             if !(resolution_scale.is_finite() && resolution_scale > 0.0 && resolution_scale <= 4.0) {
                 bail!("--resolution-scale {resolution_scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
             }
@@ -551,7 +554,7 @@ fn run(cli: Cli) -> Result<()> {
                     bail!("--screenshot-frame {screenshot_frame} is after the last of --frames {n}");
                 }
             }
-            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera, resolution_scale };
+            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera, resolution_scale, antialiasing: aa };
             let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, &scene, None, &params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
             let report = vlf::display::xr::run_headset(&mut make, &options)?;
             print!("{}", report.table());

@@ -80,3 +80,4 @@ fn a_failed_save_keeps_the_previous_file() {
     assert!(file::save(&lf, &bad).is_err());
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }
+

@@ -63,6 +63,7 @@ pub fn run(
         PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
     };
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+    renderer.set_samples_per_pixel(config.antialiasing)?;
     let views: Vec<(usize, &'static str, f32)> =
         config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];

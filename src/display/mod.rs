@@ -38,12 +38,19 @@ pub struct DisplayConfig {
     pub tracking: TrackingConfig,
     #[serde(default)]
     pub navigation: Navigation,
+    /// antialiasing: eye rays per pixel of every wall (1 = off)
+    #[serde(default = "default_antialiasing")]
+    pub antialiasing: u32,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
 }
 
 fn default_ipd() -> f32 {
     0.064
+}
+
+fn default_antialiasing() -> u32 {
+    crate::render::REALTIME_SAMPLES
 }
 
 /// Where the room stands in the scene: world = position + rotate_y(yaw) * room.
@@ -267,6 +274,9 @@ impl DisplayConfig {
     pub fn validate(&self) -> std::result::Result<(), String> {
         if self.walls.is_empty() {
             return Err("[[wall]]: at least one wall is needed".into());
+        }
+        if !(1..=crate::render::MAX_SAMPLES).contains(&self.antialiasing) {
+            return Err(format!("antialiasing: {} eye rays per pixel: use 1 (off) to {}", self.antialiasing, crate::render::MAX_SAMPLES));
         }
         if !(self.eye_separation.is_finite() && (0.0..0.2).contains(&self.eye_separation)) {
             return Err(format!("eye_separation: {} m is not a plausible interpupillary distance (0 to 0.2)", self.eye_separation));

@@ -146,7 +146,11 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
         config,
         poses: PoseSource::from_config(config, config_path)?,
         options,
-        renderer: Renderer::new(resident, lf, &MemoryLedger::default())?,
+        renderer: {
+            let mut r = Renderer::new(resident, lf, &MemoryLedger::default())?;
+            r.set_samples_per_pixel(config.antialiasing)?;
+            r
+        },
         windows: Vec::new(),
         present: None,
         overlay: None,

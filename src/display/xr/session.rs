@@ -37,6 +37,8 @@ pub struct XrOptions {
     /// per-eye resolution relative to the runtime's recommendation (1.0: as recommended;
     /// above 1 supersamples), clamped to the runtime's maximum
     pub resolution_scale: f32,
+    /// antialiasing: eye rays per pixel (1 = off)
+    pub antialiasing: u32,
 }
 
 /// What a headset run measured.
@@ -204,6 +206,7 @@ pub fn run(
     let (lf, resident) = make_light_field(&ctx)?;
     let camera = lf.camera(options.camera.as_deref())?.clone();
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
+    renderer.set_samples_per_pixel(options.antialiasing)?;
     let controls = controls(&instance)?;
 
     // SAFETY: the session info names the instance, device and queue the runtime created for
