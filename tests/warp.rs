@@ -4,7 +4,8 @@
 //! two soft-edged projectors sum to the unblended wall in linear light and follow their masks
 //! (computed, and read back from a 16-bit PNG), bad warp and blend settings name the file and
 //! key, the wand ray lands where projection predicts (within 1 px), keyframes carry a wand,
-//! and headless runs write one image per projector and draw the ray.
+//! headless runs write one image per projector and draw the ray, and the pass's parameters
+//! have one size in Rust and WGSL.
 
 mod common;
 use common::*;
@@ -368,4 +369,13 @@ fn headless_writes_every_projector_and_draws_the_wand() {
         let ray = front.pixels.iter().filter(|p| p[..3] == colour).count();
         assert!(ray >= 20, "front-{eye}: {ray} pixels of the ray's colour");
     }
+}
+
+#[test]
+fn the_warp_parameters_have_the_same_size_in_rust_and_wgsl() {
+    let module = vlf::gpu::shaders::expand("warp.wgsl").unwrap().validate().unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let (handle, _) = module.types.iter().find(|(_, t)| t.name.as_deref() == Some("WarpParams")).expect("WGSL struct WarpParams");
+    assert_eq!(std::mem::size_of::<vlf::display::post::GpuWarp>(), layouter[handle].size as usize);
 }
