@@ -130,23 +130,8 @@ pub fn run(
     if cpu.is_empty() {
         cpu.push(0.0);
     }
-    let mut images = Vec::new();
-    for (image, &(wall_index, eye, _)) in last.iter().zip(&views) {
-        let base = out.join(format!("{}-{eye}", config.walls[wall_index].name));
-        write_image(image, &base.with_extension("png"), 1.0)?;
-        images.push(base.with_extension("png").display().to_string());
-        if exr {
-            write_image(image, &base.with_extension("exr"), 1.0)?;
-            images.push(base.with_extension("exr").display().to_string());
-        }
-    }
-    for (name, image) in &projector_images {
-        for ext in ["png", "exr"].into_iter().filter(|e| *e == "png" || exr) {
-            let path = out.join(format!("{name}.{ext}"));
-            write_image(image, &path, 1.0)?;
-            images.push(path.display().to_string());
-        }
-    }
+    let named = last.iter().zip(&views).map(|(image, &(wall_index, eye, _))| (format!("{}-{eye}", config.walls[wall_index].name), image));
+    let mut images = write_images(named.chain(projector_images.iter().map(|(name, image)| (name.clone(), image))), out, exr)?;
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
@@ -238,6 +223,19 @@ impl Post {
         self.ctx.check_errors()?;
         Ok((frame, images))
     }
+}
+
+/// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
+fn write_images<'a>(named: impl Iterator<Item = (String, &'a Frame)>, out: &Path, exr: bool) -> Result<Vec<String>> {
+    let mut images = Vec::new();
+    for (name, image) in named {
+        for ext in ["png", "exr"].into_iter().filter(|e| *e == "png" || exr) {
+            let path = out.join(format!("{name}.{ext}"));
+            write_image(image, &path, 1.0)?;
+            images.push(path.display().to_string());
+        }
+    }
+    Ok(images)
 }
 
 /// The walls unfolded as a cross: front in the middle, left and right beside it, floor below,

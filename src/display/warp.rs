@@ -60,6 +60,11 @@ fn default_exponent() -> f32 {
     2.0
 }
 
+/// The most vertices of a warp grid (8 bytes each in one GPU storage buffer of 128 MiB at most).
+pub const MAX_VERTICES: usize = 16_000_000;
+/// The most pixels of a projector's output (its mask: 4 bytes each in one such buffer).
+pub const MAX_OUTPUT_PIXELS: u64 = 32 << 20;
+
 /// A checked warp grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Grid {
@@ -84,6 +89,9 @@ impl Grid {
         let (c, r) = (self.columns as usize, self.rows as usize);
         if c < 2 || r < 2 || c > 4096 || r > 4096 {
             return Err(format!("the grid is {c} x {r} vertices; it needs 2 to 4096 each way"));
+        }
+        if c * r > MAX_VERTICES {
+            return Err(format!("the grid is {c} x {r} vertices; at most {MAX_VERTICES} in all fit one GPU buffer"));
         }
         if self.points.len() != c * r {
             return Err(format!("{} points for a grid of {c} columns x {r} rows: it needs {}", self.points.len(), c * r));
@@ -138,8 +146,8 @@ pub fn validate_projectors(wall: &Wall) -> std::result::Result<(), String> {
         if !names.insert(p.name.as_str()) {
             return Err(format!("{at}.name: duplicate projector name"));
         }
-        if p.pixels[0] == 0 || p.pixels[1] == 0 || p.pixels[0] > 16384 || p.pixels[1] > 16384 {
-            return Err(format!("{at}.pixels: {:?} must be 1..16384 each way", p.pixels));
+        if p.pixels[0] == 0 || p.pixels[1] == 0 || p.pixels[0] > 16384 || p.pixels[1] > 16384 || p.pixels[0] as u64 * p.pixels[1] as u64 > MAX_OUTPUT_PIXELS {
+            return Err(format!("{at}.pixels: {:?} must be 1..16384 each way and at most {MAX_OUTPUT_PIXELS} in all", p.pixels));
         }
         let warps = [p.region.is_some(), p.warp_grid.is_some(), p.warp_file.is_some()].iter().filter(|b| **b).count();
         if warps > 1 {
