@@ -1,7 +1,8 @@
 //! `vlf cave --headless`: every wall and eye of a display configuration rendered offscreen
 //! from one light field, frame after frame along the configured tracking; the last frame's
-//! images, an overview with the walls unfolded as a cross, and a frame-time report (GPU time
-//! per wall and eye from timestamp queries, CPU time per frame).
+//! images (and each projector's output: `<wall>-<eye>-<projector>.png`), an overview with the
+//! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
+//! queries, of the output passes, and CPU time per frame).
 
 use super::tracking::PoseSource;
 use super::DisplayConfig;
@@ -36,6 +37,9 @@ pub struct CaveReport {
     pub all_views_gpu_ms: Option<Distribution>,
     /// wall-clock milliseconds per frame on the CPU (all views submitted, GPU finished)
     pub cpu_frame_ms: Distribution,
+    /// GPU milliseconds per frame of the passes after rendering (warp, blend, wand ray: one per
+    /// projector, or per wall without projectors); None when there are none or no timestamps
+    pub outputs_gpu_ms: Option<Distribution>,
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
     pub constant_frame_time: Option<bool>,
@@ -67,27 +71,39 @@ pub fn run(
     let views: Vec<(usize, &'static str, f32)> =
         config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
+    let specs = super::warp::load_outputs(config, config_path)?;
+    let mut post = Post::new(&resident.ctx, &renderer, config, &specs, &poses)?;
+    let mut post_gpu = Vec::new();
 
     let mut all_gpu = Vec::new();
     let mut cpu = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
-    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, views.len() as u32);
+    let mut projector_images: Vec<(String, Frame)> = Vec::new();
+    let pairs = views.len() + post.as_ref().map_or(0, |p| views.iter().map(|v| p.timed_outputs(v.0)).sum());
+    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, pairs as u32);
     let total_frames = frames.max(1);
     for f in 0..total_frames {
         let t = if total_frames > 1 { duration * f as f32 / (total_frames - 1) as f32 } else { 0.0 };
         let pose = poses.at(t);
+        let wand = poses.wand_at(&config.tracking, t);
         let last_frame = f + 1 == total_frames;
         let started = std::time::Instant::now();
         last.clear();
-        for &(wall_index, _, side) in &views {
+        for &(wall_index, eye_name, side) in &views {
             let wall = &config.walls[wall_index];
             let (view_proj, eye) = super::wall_view(config, wall, side, &pose, &lf.meta.normalisation);
             let [w, h] = wall.eye_pixels();
-            if last_frame {
+            let overlay = super::post::wand_overlay(config, wall, side, &pose, wand.as_ref(), &lf.meta.normalisation);
+            match post.as_mut() {
+                Some(p) if last_frame => {
+                    let (frame, projectors) = p.draw(&mut renderer, wall_index, view_proj, eye, overlay.as_ref())?;
+                    last.push(frame);
+                    projector_images.extend(projectors.into_iter().map(|(name, image)| (format!("{}-{eye_name}-{name}", wall.name), image)));
+                }
+                Some(p) => p.submit(&mut renderer, wall_index, view_proj, eye, overlay.as_ref(), timestamps.as_mut()),
                 // the images to keep: drawn and read back one by one (not timed)
-                last.push(renderer.render_matrix(view_proj, eye, w, h)?.0);
-            } else {
-                renderer.submit_matrix(view_proj, eye, w, h, timestamps.as_mut());
+                None if last_frame => last.push(renderer.render_matrix(view_proj, eye, w, h)?.0),
+                None => renderer.submit_matrix(view_proj, eye, w, h, timestamps.as_mut()),
             }
         }
         if last_frame {
@@ -97,25 +113,26 @@ pub fn run(
         cpu.push(started.elapsed().as_secs_f64() * 1e3);
         if let Some(ts) = timestamps.as_mut() {
             let ms = ts.read_ms(&resident.ctx)?;
-            for (v, m) in ms.iter().enumerate() {
-                gpu[v].push(*m);
+            // per view: its render, then (with outputs) each output's pass
+            let mut it = ms.into_iter();
+            let mut post_ms = 0.0;
+            for (v, view) in views.iter().enumerate() {
+                gpu[v].push(it.next().unwrap_or(0.0));
+                for _ in 0..post.as_ref().map_or(0, |p| p.timed_outputs(view.0)) {
+                    post_ms += it.next().unwrap_or(0.0);
+                }
             }
-            all_gpu.push(ms.iter().sum());
+            all_gpu.push(gpu.iter().filter_map(|g| g.last()).sum::<f64>() + post_ms);
+            if post.is_some() {
+                post_gpu.push(post_ms);
+            }
         }
     }
     if cpu.is_empty() {
         cpu.push(0.0);
     }
-    let mut images = Vec::new();
-    for (image, &(wall_index, eye, _)) in last.iter().zip(&views) {
-        let base = out.join(format!("{}-{eye}", config.walls[wall_index].name));
-        write_image(image, &base.with_extension("png"), 1.0)?;
-        images.push(base.with_extension("png").display().to_string());
-        if exr {
-            write_image(image, &base.with_extension("exr"), 1.0)?;
-            images.push(base.with_extension("exr").display().to_string());
-        }
-    }
+    let named = last.iter().zip(&views).map(|(image, &(wall_index, eye, _))| (format!("{}-{eye}", config.walls[wall_index].name), image));
+    let mut images = write_images(named.chain(projector_images.iter().map(|(name, image)| (name.clone(), image))), out, exr)?;
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
@@ -144,8 +161,82 @@ pub fn run(
         views: timings,
         all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
         cpu_frame_ms: Distribution::of(&cpu),
+        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
         images,
     })
+}
+
+/// The pass after rendering (`post.rs`), when a wall has projectors or a wand may be tracked:
+/// each view is rendered into a wall image kept on the GPU, then its outputs are drawn from it
+/// (the projectors' outputs, or the whole wall when it has none), wand ray included.
+struct Post {
+    ctx: std::sync::Arc<crate::gpu::GpuContext>,
+    pass: super::post::PostPass,
+    /// per wall: the whole wall's output, then its projectors' outputs
+    outputs: Vec<(super::post::Output, Vec<super::post::Output>)>,
+    /// per wall: the wall image the views are rendered into
+    targets: Vec<crate::render::ViewTargets>,
+}
+
+impl Post {
+    fn new(ctx: &std::sync::Arc<crate::gpu::GpuContext>, renderer: &Renderer, config: &DisplayConfig, specs: &[Vec<super::warp::OutputSpec>], poses: &PoseSource) -> Result<Option<Post>> {
+        let wand = config.wand_ray.show && poses.may_have_wand(&config.tracking);
+        if !wand && specs.iter().all(|s| s.is_empty()) {
+            return Ok(None);
+        }
+        let pass = super::post::PostPass::new(ctx)?;
+        let outputs = config.walls.iter().zip(specs).map(|(wall, s)| (pass.output(ctx, &super::post::wall_output(wall)), s.iter().map(|o| pass.output(ctx, o)).collect())).collect();
+        let targets = config.walls.iter().map(|w| renderer.view_targets(w.eye_pixels()[0], w.eye_pixels()[1])).collect();
+        Ok(Some(Post { ctx: ctx.clone(), pass, outputs, targets }))
+    }
+
+    /// Output passes timed per view of `wall`: its projectors, or the whole wall.
+    fn timed_outputs(&self, wall: usize) -> usize {
+        self.outputs[wall].1.len().max(1)
+    }
+
+    fn encode(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>, mut timestamps: Option<&mut crate::gpu::Timestamps>, everything: bool) {
+        renderer.set_view_matrix(view_proj, eye);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        let target = &self.targets[wall];
+        renderer.encode_view(&mut encoder, target, timestamps.as_deref_mut());
+        let (whole, projectors) = &self.outputs[wall];
+        let size = [target.width, target.height];
+        if everything || projectors.is_empty() {
+            self.pass.encode(&self.ctx, &mut encoder, &target.image_view, size, whole, wand, if everything { None } else { timestamps.as_deref_mut() });
+        }
+        for p in projectors {
+            self.pass.encode(&self.ctx, &mut encoder, &target.image_view, size, p, wand, if everything { None } else { timestamps.as_deref_mut() });
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    fn submit(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>, timestamps: Option<&mut crate::gpu::Timestamps>) {
+        self.encode(renderer, wall, view_proj, eye, wand, timestamps, false);
+    }
+
+    /// Draw one view and read back the whole wall's image and each projector's (named).
+    fn draw(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>) -> Result<(Frame, Vec<(String, Frame)>)> {
+        self.encode(renderer, wall, view_proj, eye, wand, None, true);
+        let (whole, projectors) = &self.outputs[wall];
+        let frame = super::post::read_texture(&self.ctx, &whole.image)?;
+        let images = projectors.iter().map(|p| Ok((p.name.clone(), super::post::read_texture(&self.ctx, &p.image)?))).collect::<Result<Vec<_>>>()?;
+        self.ctx.check_errors()?;
+        Ok((frame, images))
+    }
+}
+
+/// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
+fn write_images<'a>(named: impl Iterator<Item = (String, &'a Frame)>, out: &Path, exr: bool) -> Result<Vec<String>> {
+    let mut images = Vec::new();
+    for (name, image) in named {
+        for ext in ["png", "exr"].into_iter().filter(|e| *e == "png" || exr) {
+            let path = out.join(format!("{name}.{ext}"));
+            write_image(image, &path, 1.0)?;
+            images.push(path.display().to_string());
+        }
+    }
+    Ok(images)
 }
 
 /// The walls unfolded as a cross: front in the middle, left and right beside it, floor below,
@@ -199,6 +290,9 @@ impl CaveReport {
         }
         if let Some(d) = &self.all_views_gpu_ms {
             s.push_str(&format!("  all views, GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+        }
+        if let Some(d) = &self.outputs_gpu_ms {
+            s.push_str(&format!("  of which outputs (warp, blend, wand ray), GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
         }
         s.push_str(&format!("  CPU frame time: median {:.3} ms, p99 {:.3} ms\n", self.cpu_frame_ms.median, self.cpu_frame_ms.p99));
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {

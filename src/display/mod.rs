@@ -1,7 +1,9 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
 //! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
-//! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`) and headless rendering of every view (`headless.rs`).
+//! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`), projector warp and blend (`warp.rs`) applied with the wand
+//! ray by one GPU pass per output (`post.rs`), and headless rendering of every view
+//! (`headless.rs`).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
@@ -9,10 +11,12 @@ pub mod dtrack;
 pub mod headless;
 pub mod live;
 pub mod osc;
+pub mod post;
 pub mod projection;
 pub mod tracking;
 pub mod vrpn;
 pub mod wand;
+pub mod warp;
 pub mod window;
 pub mod xr;
 
@@ -41,6 +45,9 @@ pub struct DisplayConfig {
     /// antialiasing: eye rays per pixel of every wall (1 = off)
     #[serde(default = "default_antialiasing")]
     pub antialiasing: u32,
+    /// the tracked wand's ray, drawn on every wall (`post.rs`)
+    #[serde(default)]
+    pub wand_ray: post::WandRay,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
 }
@@ -73,6 +80,11 @@ pub enum TrackingConfig {
         head_pitch_deg: Option<f32>,
         head_roll_deg: Option<f32>,
         head_orientation: Option<[f32; 4]>,
+        /// a tracked wand held still (room metres; see `wand::wand_pose`): draws the wand ray
+        wand_position: Option<[f32; 3]>,
+        wand_yaw_deg: Option<f32>,
+        wand_pitch_deg: Option<f32>,
+        wand_orientation: Option<[f32; 4]>,
     },
     /// keyframed head and navigation poses (a TOML file, path relative to the config)
     Scripted { path: PathBuf },
@@ -99,7 +111,7 @@ pub enum TrackingConfig {
 
 impl Default for TrackingConfig {
     fn default() -> Self {
-        TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None }
+        TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None, wand_position: None, wand_yaw_deg: None, wand_pitch_deg: None, wand_orientation: None }
     }
 }
 
@@ -131,6 +143,16 @@ impl LiveSource {
 
 impl TrackingConfig {
     /// The static head's orientation (identity for the other sources).
+    /// The static wand, if one is configured.
+    pub fn static_wand(&self) -> std::result::Result<Option<live::WandPose>, String> {
+        match self {
+            TrackingConfig::Static { wand_position, wand_yaw_deg, wand_pitch_deg, wand_orientation, .. } => {
+                wand::wand_pose(*wand_position, [*wand_yaw_deg, *wand_pitch_deg], *wand_orientation, "tracking.")
+            }
+            _ => Ok(None),
+        }
+    }
+
     pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
         match self {
             TrackingConfig::Static { head_yaw_deg, head_pitch_deg, head_roll_deg, head_orientation, .. } => {
@@ -230,6 +252,10 @@ pub struct Wall {
     #[serde(default = "mono")]
     pub stereo: Stereo,
     pub output: Output,
+    /// projectors that share this wall's image, each with a warp and a blend mask (`warp.rs`);
+    /// none: the wall image goes to the output as it is
+    #[serde(default, rename = "projector", skip_serializing_if = "Vec::is_empty")]
+    pub projectors: Vec<warp::Projector>,
 }
 
 fn mono() -> Stereo {
@@ -258,9 +284,12 @@ impl Wall {
 }
 
 impl DisplayConfig {
+    /// Read and check a configuration, and the warp and blend files it names.
     pub fn load(path: &Path) -> Result<DisplayConfig> {
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        Self::parse(&text, path)
+        let config = Self::parse(&text, path)?;
+        warp::load_outputs(&config, path)?;
+        Ok(config)
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<DisplayConfig> {
@@ -318,6 +347,11 @@ impl DisplayConfig {
             }
         }
         self.tracking.static_head_rotation()?;
+        self.tracking.static_wand()?;
+        self.wand_ray.validate()?;
+        for (i, w) in self.walls.iter().enumerate() {
+            warp::validate_projectors(w).map_err(|e| format!("wall[{i}] ({:?}).{e}", w.name))?;
+        }
         if let Some(source) = self.tracking.live() {
             source.calibration?;
         }

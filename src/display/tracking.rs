@@ -1,6 +1,7 @@
 //! Head tracking: a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements), or live poses (`live.rs`: OSC, DTrack, VRPN).
+//! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
+use super::live::WandPose;
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
 use glam::{Quat, Vec3};
@@ -88,11 +89,19 @@ pub struct Keyframe {
     pub position: [f32; 3],
     #[serde(default)]
     pub yaw_deg: f32,
+    /// a tracked wand at this moment (room metres; `wand::wand_pose`): its ray is drawn
+    pub wand_position: Option<[f32; 3]>,
+    pub wand_yaw_deg: Option<f32>,
+    pub wand_pitch_deg: Option<f32>,
+    pub wand_orientation: Option<[f32; 4]>,
 }
 
 impl Keyframe {
     fn head_rotation(&self) -> std::result::Result<Quat, String> {
         head_rotation([self.head_yaw_deg, self.head_pitch_deg, self.head_roll_deg], self.head_orientation, "")
+    }
+    fn wand(&self) -> std::result::Result<Option<WandPose>, String> {
+        super::wand::wand_pose(self.wand_position, [self.wand_yaw_deg, self.wand_pitch_deg], self.wand_orientation, "")
     }
 }
 
@@ -113,6 +122,7 @@ impl ScriptedPath {
         }
         for (i, k) in p.keyframes.iter().enumerate() {
             k.head_rotation().map_err(|e| err(format!("keyframe[{i}].{e}")))?;
+            k.wand().map_err(|e| err(format!("keyframe[{i}].{e}")))?;
         }
         for (i, w) in p.keyframes.windows(2).enumerate() {
             if w[1].t <= w[0].t {
@@ -137,6 +147,23 @@ impl ScriptedPath {
             room_position: lerp(a.position, b.position),
             room_yaw_deg: a.yaw_deg + (b.yaw_deg - a.yaw_deg) * s,
         }
+    }
+
+    /// The wand at `t`: shown from a keyframe with a wand until the next keyframe, moving
+    /// towards that one's wand if it has one (slerped), held otherwise.
+    pub fn wand_at(&self, t: f32) -> Option<WandPose> {
+        let k = &self.keyframes;
+        let i = k.iter().rposition(|f| f.t <= t).unwrap_or(0);
+        let (a, b) = (&k[i], &k[(i + 1).min(k.len() - 1)]);
+        let wa = a.wand().ok().flatten()?;
+        let Some(wb) = b.wand().ok().flatten() else { return Some(wa) };
+        let s = if b.t > a.t { ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 0.0 };
+        Some(WandPose { position: wa.position.lerp(wb.position, s), rotation: wa.rotation.slerp(wb.rotation, s) })
+    }
+
+    /// Whether any keyframe carries a wand.
+    pub fn has_wand(&self) -> bool {
+        self.keyframes.iter().any(|k| k.wand_position.is_some())
     }
 
     pub fn duration(&self) -> f32 {
@@ -179,6 +206,25 @@ impl PoseSource {
                 (pose, Some(status))
             }
             other => (other.at(t), None),
+        }
+    }
+
+    /// The tracked wand at `t`, if any (a static wand comes from the configuration's
+    /// `tracking`; a live source's wand once one has been seen).
+    pub fn wand_at(&self, tracking: &TrackingConfig, t: f32) -> Option<WandPose> {
+        match self {
+            PoseSource::Static(_) => tracking.static_wand().ok().flatten(),
+            PoseSource::Scripted(s) => s.wand_at(t),
+            PoseSource::Live(tracker) => tracker.lock().unwrap_or_else(|e| e.into_inner()).latest_state().0.wand,
+        }
+    }
+
+    /// Whether this source can ever give a wand.
+    pub fn may_have_wand(&self, tracking: &TrackingConfig) -> bool {
+        match self {
+            PoseSource::Static(_) => matches!(tracking.static_wand(), Ok(Some(_))),
+            PoseSource::Scripted(s) => s.has_wand(),
+            PoseSource::Live(_) => true,
         }
     }
 

@@ -57,6 +57,8 @@ struct EyeImage {
     /// which part of the window: 0 whole, 1 left/top half, 2 right/bottom half
     part: u8,
     targets: crate::render::ViewTargets,
+    /// the wall image with the wand's ray drawn over it (`post.rs`), when a wand may be tracked
+    wand_output: Option<super::post::Output>,
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -138,13 +140,19 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
             "no display to open windows on (neither DISPLAY nor WAYLAND_DISPLAY is set); run with --headless to render every wall and eye to files, or start a virtual display (Xvfb :99 & export DISPLAY=:99)".into(),
         ));
     }
+    if config.walls.iter().any(|w| !w.projectors.is_empty()) {
+        log::warn!("{}: projector warp and blend are applied by --headless only so far; the windows show each wall's image unwarped", config_path.display());
+    }
     let event_loop = EventLoop::new().map_err(|e| VlfError::Display(format!("cannot open the windowing system: {e}; run with --headless instead")))?;
     event_loop.set_control_flow(ControlFlow::Poll);
+    let poses = PoseSource::from_config(config, config_path)?;
+    let wand_pass = if config.wand_ray.show && poses.may_have_wand(&config.tracking) { Some(super::post::PostPass::new(&resident.ctx)?) } else { None };
     let mut app = App {
         lf,
         resident,
         config,
-        poses: PoseSource::from_config(config, config_path)?,
+        poses,
+        wand_pass,
         options,
         renderer: {
             let mut r = Renderer::new(resident, lf, &MemoryLedger::default())?;
@@ -187,6 +195,8 @@ struct App<'a> {
     poses: PoseSource,
     options: WindowOptions,
     renderer: Renderer,
+    /// the pass that draws the wand's ray, when the tracking may give a wand
+    wand_pass: Option<super::post::PostPass>,
     windows: Vec<WallWindow>,
     present: Option<PresentPipeline>,
     overlay: Option<(wgpu::Texture, wgpu::TextureView)>,
@@ -304,6 +314,8 @@ impl App<'_> {
         let [w, h] = self.config.walls[wall].eye_pixels();
         let ctx = self.ctx().clone();
         let targets = self.renderer.view_targets(w, h);
+        let wand_output = self.wand_pass.as_ref().map(|pass| pass.output(&ctx, &super::post::wall_output(&self.config.walls[wall])));
+        let shown = wand_output.as_ref().map_or(&targets.image_view, |o| &o.image_view);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("present parameters"),
             size: std::mem::size_of::<GpuPresent>() as u64,
@@ -317,11 +329,11 @@ impl App<'_> {
             layout,
             entries: &[
                 wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&targets.image_view) },
+                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(shown) },
                 wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&overlay) },
             ],
         });
-        Ok(EyeImage { wall, eye, side, part, targets, params, bind_group })
+        Ok(EyeImage { wall, eye, side, part, targets, wand_output, params, bind_group })
     }
 
     fn poll_gamepads(&mut self) -> [f32; 4] {
@@ -385,15 +397,18 @@ impl App<'_> {
         let dt = (now - self.last_frame).as_secs_f32().min(0.1);
         self.last_frame = now;
         let pad = self.poll_gamepads();
-        let (base, tracking, fresh) = match &self.poses {
-            PoseSource::Scripted(s) => (s.at(self.started.elapsed().as_secs_f32() % s.duration().max(1e-3)), None, None),
+        let (base, tracking, fresh, wand) = match &self.poses {
+            PoseSource::Scripted(s) => {
+                let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
+                (s.at(t), None, None, s.wand_at(t))
+            }
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
                 let (state, status) = tracker.latest_state();
                 self.navigator.wand(&state, status == TrackingStatus::Live, &self.config.navigation, dt);
-                (state.pose, Some(status), tracker.take_fresh())
+                (state.pose, Some(status), tracker.take_fresh(), state.wand)
             }
-            other => (other.at(0.0), None, None),
+            other => (other.at(0.0), None, None, other.wand_at(&self.config.tracking, 0.0)),
         };
         self.navigator.step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         let pose = self.navigator.apply(base);
@@ -431,6 +446,10 @@ impl App<'_> {
                 self.renderer.set_view_matrix(view_proj, eye_position);
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
                 self.renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
+                if let (Some(pass), Some(output)) = (&self.wand_pass, &eye.wand_output) {
+                    let overlay = super::post::wand_overlay(self.config, wall, eye.side, &pose, wand.as_ref(), &self.lf.meta.normalisation);
+                    pass.encode(&ctx, &mut encoder, &eye.targets.image_view, [eye.targets.width, eye.targets.height], output, overlay.as_ref(), None);
+                }
                 ctx.queue.submit([encoder.finish()]);
                 let (origin, size) = viewport(w.stereo, eye.part, width, height);
                 let params = GpuPresent {

@@ -22,10 +22,11 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("reference.wgsl", include_str!("../../shaders/reference.wgsl")),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
+    ("warp.wgsl", include_str!("../../shaders/warp.wgsl")),
 ];
 
 /// The stages compiled into pipelines (the `common/` files are only included).
-pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "direct.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "present.wgsl", "reference.wgsl"];
+pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "direct.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "present.wgsl", "warp.wgsl", "reference.wgsl"];
 
 /// A stage's source with its includes expanded, and for each output line its origin.
 pub struct ExpandedShader {
