@@ -36,19 +36,31 @@ struct Emitter {
     radiance: vec4<f32>,
 }
 
-// mirrors propagate::direct::GpuDirectParams
+// mirrors gpu::types::GpuDirectParams
 struct DirectParams {
     emitter_count: u32,
     // shadow rays per texel toward the emitters, and toward the sky
     emitter_samples: u32,
     sky_samples: u32,
+    // triangles of faces with a mirror part (emitters seen in them are virtual emitters)
+    mirror_count: u32,
+}
+
+// mirrors gpu::types::GpuMirrorTriangle: a triangle of a face with a mirror part
+struct MirrorTriangle {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
     _pad0: u32,
+    e2: vec3<f32>,
+    _pad1: u32,
 }
 
 @group(2) @binding(0) var<uniform> direct: DirectParams;
 @group(2) @binding(1) var<storage, read> emitters: array<Emitter>;
 @group(2) @binding(2) var<storage, read> triangles: array<Triangle>;
 @group(2) @binding(3) var<storage, read> nodes: array<BvhNode>;
+@group(2) @binding(4) var<storage, read> mirrors: array<MirrorTriangle>;
 
 #include "common/bvh.wgsl"
 
@@ -103,6 +115,84 @@ fn clip_to_hemisphere(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>) ->
         out.count = 0u;
     }
     return out;
+}
+
+// A polygon of up to 8 corners (clipping a triangle by four planes).
+struct Poly8 {
+    p: array<vec3<f32>, 8>,
+    count: u32,
+}
+
+fn clip_to_plane(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
+    var poly: Poly8;
+    poly.p[0] = a;
+    poly.p[1] = b;
+    poly.p[2] = c;
+    poly.count = 3u;
+    return clip_polygon(poly, n, at);
+}
+
+// Keep the part of the polygon on the side of the plane (through `at`) that n points to.
+fn clip_polygon(poly: Poly8, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
+    var out: Poly8;
+    out.count = 0u;
+    for (var k = 0u; k < poly.count; k++) {
+        let p = poly.p[k];
+        let q = poly.p[(k + 1u) % poly.count];
+        let dp = dot(n, p - at);
+        let dq = dot(n, q - at);
+        if dp > 0.0 && out.count < 8u {
+            out.p[out.count] = p;
+            out.count += 1u;
+        }
+        if (dp > 0.0) != (dq > 0.0) && out.count < 8u {
+            out.p[out.count] = p + (q - p) * (dp / (dp - dq));
+            out.count += 1u;
+        }
+    }
+    if out.count < 3u {
+        out.count = 0u;
+    }
+    return out;
+}
+
+fn polygon_irradiance_any(poly: Poly8, n: vec3<f32>) -> f32 {
+    var sum = 0.0;
+    for (var k = 0u; k < poly.count; k++) {
+        let a = normalize(poly.p[k]);
+        let b = normalize(poly.p[(k + 1u) % poly.count]);
+        let c = cross(a, b);
+        let len = length(c);
+        if len > 1e-12 {
+            sum += atan2(len, dot(a, b)) * dot(n, c / len);
+        }
+    }
+    return abs(sum) * 0.5;
+}
+
+// A point of a convex polygon for uniform u: a fan triangle by area, then uniform in it.
+fn polygon_fan_point(poly: Poly8, u: vec2<f32>) -> vec3<f32> {
+    var total = 0.0;
+    for (var k = 1u; k + 1u < poly.count; k++) {
+        total += length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
+    }
+    var target_area = u.x * total;
+    var s = 0.0;
+    var k = 1u;
+    for (; k + 2u < poly.count; k++) {
+        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
+        if target_area < area {
+            s = target_area / max(area, 1e-20);
+            break;
+        }
+        target_area -= area;
+    }
+    if k + 2u >= poly.count {
+        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
+        s = clamp(target_area / max(area, 1e-20), 0.0, 1.0);
+    }
+    let r = sqrt(s);
+    return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
 }
 
 // Irradiance at the origin (normal n) from a polygon of unit radiance above its horizon:
@@ -248,28 +338,112 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
     return irradiance + unsampled * ratio_all;
 }
 
-// Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance.
-fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
+// Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance (rgb: a ray
+// that meets a mirror first goes on, reflected, with the mirror's reflectance).
+fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
     let samples = direct.sky_samples;
     if samples == 0u {
-        return 0.0;
+        return vec3<f32>(0.0);
     }
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x85ebca6bu)), unit_float(hash(seed + 0xc2b2ae35u)));
     let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
     let a = normalize(cross(n, t));
     let b = cross(n, a);
     let origin = x + n * RAY_OFFSET;
-    var open = 0u;
+    let follow_mirrors = direct.mirror_count > 0u;
+    var open = vec3<f32>(0.0);
     for (var k = 0u; k < samples; k++) {
         let u = hammersley(k, samples, shift);
         let r = sqrt(u.x);
         let phi = 2.0 * PI * u.y;
         let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
         // the scene lies in the unit sphere: a ray that leaves it sees the sky
-        let hit = trace_skipping(origin, dir, 4.0, true, skip);
-        open += select(0u, 1u, hit.tri == NO_FACE);
+        let hit = trace_skipping(origin, dir, 4.0, !follow_mirrors, skip);
+        if hit.tri == NO_FACE {
+            open += vec3<f32>(1.0);
+        } else if follow_mirrors {
+            let face = triangles[hit.tri].face;
+            let f = faces[face];
+            if any(f.mirror > vec3<f32>(0.0)) && dot(f.normal, dir) < 0.0 {
+                let p = origin + dir * hit.t;
+                let reflected = dir - 2.0 * dot(dir, f.normal) * f.normal;
+                let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face);
+                open += select(vec3<f32>(0.0), f.mirror, again.tri == NO_FACE);
+            }
+        }
     }
-    return f32(open) / f32(samples);
+    return open / f32(samples);
+}
+
+// The emitters seen in the mirrors: a planar mirror shows each emitter as a virtual emitter, its
+// mirror image, seen through the mirror's outline. Irradiance at x from emitter E through mirror
+// triangle M equals that at x' (x mirrored, normal mirrored) from E itself through M (M lies in
+// the plane that mirrors): E clipped to the front of M's plane, to x''s hemisphere, and to the
+// cone from x' through M's edges, in closed form; visibility from shadow rays along both legs
+// (x -> the point on the mirror -> the emitter), per pair. These paths would otherwise reach the
+// texels through the mirror tiles' fixed directions (a caustic that aliases like direct light
+// did); the first iteration after this one leaves mirror senders out of the texels' gather.
+fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x27d4eb2fu)), unit_float(hash(seed + 0x165667b1u)));
+    let pairs = direct.mirror_count * direct.emitter_count;
+    let count = max(1u, direct.emitter_samples / max(pairs, 1u));
+    for (var m = 0u; m < direct.mirror_count; m++) {
+        let mt = mirrors[m];
+        let mf = faces[mt.face];
+        let nm = mf.normal;
+        // x must see the mirror's front
+        let side = dot(nm, x - mt.v0);
+        if side <= 0.0 || mt.face == skip {
+            continue;
+        }
+        let xr = x - 2.0 * side * nm;
+        let nr = n - 2.0 * dot(n, nm) * nm;
+        let c0 = mt.v0 - xr;
+        let c1 = c0 + mt.e1;
+        let c2 = c0 + mt.e2;
+        // the window's three planes through x' (normals pointing into the cone)
+        // inside the cone, dot(cross(c0, c1), p) has the sign of the triple product [c0, c1, c2]
+        let orient = select(-1.0, 1.0, dot(cross(c1 - c0, c2 - c0), c0) > 0.0);
+        let w0 = normalize(cross(c0, c1)) * orient;
+        let w1 = normalize(cross(c1, c2)) * orient;
+        let w2 = normalize(cross(c2, c0)) * orient;
+        for (var i = 0u; i < direct.emitter_count; i++) {
+            let e = emitters[i];
+            let en = faces[e.face].normal;
+            if dot(en, xr - e.v0) <= 0.0 {
+                continue;
+            }
+            var poly = clip_to_plane(e.v0 - xr, e.v0 + e.e1 - xr, e.v0 + e.e2 - xr, nr, vec3<f32>(0.0));
+            poly = clip_polygon(poly, nm, mt.v0 - xr);
+            poly = clip_polygon(poly, w0, vec3<f32>(0.0));
+            poly = clip_polygon(poly, w1, vec3<f32>(0.0));
+            poly = clip_polygon(poly, w2, vec3<f32>(0.0));
+            let f = polygon_irradiance_any(poly, nr);
+            if f <= 0.0 {
+                continue;
+            }
+            // visibility over the two legs, from `count` points of the clipped emitter
+            var seen = 0.0;
+            var expected = 0.0;
+            for (var k = 0u; k < count; k++) {
+                let p = polygon_fan_point(poly, hammersley(k, count, shift));
+                let r2 = dot(p, p);
+                let dir = p / sqrt(r2);
+                let g = max(dot(nr, dir), 0.0) * max(-dot(en, dir), 0.0) / r2;
+                // where x' -> p crosses the mirror's plane, and that point seen from x
+                let t = dot(nm, mt.v0 - xr) / dot(nm, dir);
+                let on_mirror = xr + dir * t;
+                let real = xr + p;
+                let v = visible(x + n * RAY_OFFSET, on_mirror, skip) * visible(on_mirror + nm * RAY_OFFSET, real, mt.face);
+                expected += g;
+                seen += g * v;
+            }
+            let ratio = select(0.0, seen / expected, expected > 0.0);
+            sum += f * ratio * e.radiance.xyz * mf.mirror;
+        }
+    }
+    return sum;
 }
 
 // Next unshot radiosity of one texel from direct light (rgb), and the sky's share of its
@@ -294,5 +468,9 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (grid.flags & GRID_FLAG_SKY) != 0u {
         sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
     }
-    next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
+    var mirrored = vec3<f32>(0.0);
+    if direct.mirror_count > 0u {
+        mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
+    }
+    next[in_page] = vec4<f32>(f.albedo * (e + mirrored + sky), sky.x + sky.y + sky.z);
 }

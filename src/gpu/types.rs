@@ -85,6 +85,9 @@ pub struct GpuPageRange {
 pub const GRID_FLAG_SKY: u32 = 1;
 pub const GRID_FLAG_ACCUMULATE: u32 = 2;
 pub const GRID_FLAG_BATCHED: u32 = 4;
+/// the texels' gather leaves mirror senders out (their first reflections of the emitters and the
+/// sky came with direct light)
+pub const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
 #[repr(C)]
@@ -131,7 +134,7 @@ pub struct RenderVertex {
 }
 
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 10] {
+pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 11] {
     [
         ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
         ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
@@ -142,6 +145,7 @@ pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str);
         ("GpuPageRange", "PageRange", std::mem::size_of::<GpuPageRange>(), "specular.wgsl"),
         ("GpuRayTriangle", "RayTriangle", std::mem::size_of::<GpuRayTriangle>(), "render.wgsl"),
         ("GpuEmitter", "Emitter", std::mem::size_of::<GpuEmitter>(), "direct.wgsl"),
+        ("GpuMirrorTriangle", "MirrorTriangle", std::mem::size_of::<GpuMirrorTriangle>(), "direct.wgsl"),
         ("GpuDirectParams", "DirectParams", std::mem::size_of::<GpuDirectParams>(), "direct.wgsl"),
     ]
 }
@@ -180,7 +184,19 @@ pub struct GpuDirectParams {
     pub emitter_count: u32,
     pub emitter_samples: u32,
     pub sky_samples: u32,
+    pub mirror_count: u32,
+}
+
+/// Mirrors WGSL `MirrorTriangle` (shaders/direct.wgsl): a triangle of a face with a mirror part.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuMirrorTriangle {
+    pub v0: [f32; 3],
+    pub face: u32,
+    pub e1: [f32; 3],
     pub _pad0: u32,
+    pub e2: [f32; 3],
+    pub _pad1: u32,
 }
 
 

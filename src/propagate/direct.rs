@@ -3,10 +3,12 @@
 //! (stratified shadow rays), replacing the first iteration's gather for texels. Direct light is
 //! the sharpest part of the solution: through the fixed directions a small emitter aliases into
 //! a ripple on every wall, here it does not depend on them. Mirror tile cells still receive the
-//! emitters through the light field, so emitter -> mirror -> diffuse paths are kept.
+//! emitters through the light field (they carry mirror -> mirror chains); what a mirror first
+//! reflects of the emitters (virtual emitters) and of the sky reaches the texels here too, and
+//! the next iteration's texel gather leaves mirror senders out.
 
 use crate::error::Result;
-use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, NO_FACE};
+use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
 use crate::reference::{build_bvh, GpuBvhNode, GpuTriangle};
@@ -53,11 +55,27 @@ pub fn emitters(prepared: &PreparedScene, faces: &[GpuFace], initial: &[[f32; 4]
     out
 }
 
+/// The triangles of faces with a mirror part: emitters seen in them are virtual emitters.
+pub fn mirror_triangles(prepared: &PreparedScene, faces: &[GpuFace]) -> Vec<GpuMirrorTriangle> {
+    prepared
+        .triangles
+        .iter()
+        .filter(|t| faces[t.face as usize].mirror.iter().any(|&m| m > 0.0))
+        .map(|t| {
+            let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());
+            GpuMirrorTriangle { v0: a.into(), face: t.face, e1: (b - a).into(), e2: (c - a).into(), ..Default::default() }
+        })
+        .collect()
+}
+
 /// The direct-light stage: its pipeline, emitters, and the scene's BVH for shadow rays.
 pub struct DirectLight {
     pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     pub emitter_count: u32,
+    /// mirror triangles: when there are any, the next iteration's texel gather leaves mirror
+    /// senders out
+    pub mirror_count: u32,
 }
 
 impl DirectLight {
@@ -69,6 +87,7 @@ impl DirectLight {
         ledger: &MemoryLedger,
         prepared: &PreparedScene,
         emitters: &[GpuEmitter],
+        mirrors: &[GpuMirrorTriangle],
         emitter_samples: u32,
         sky_samples: u32,
         layout0: &wgpu::BindGroupLayout,
@@ -84,7 +103,9 @@ impl DirectLight {
                 GpuTriangle { v0: a.into(), face: prepared.triangles[i as usize].face, e1: (b - a).into(), e2: (c - a).into(), ..Default::default() }
             })
             .collect();
-        let params = GpuDirectParams { emitter_count: emitters.len() as u32, emitter_samples: emitter_samples.max(1), sky_samples, _pad0: 0 };
+        let params = GpuDirectParams { emitter_count: emitters.len() as u32, emitter_samples: emitter_samples.max(1), sky_samples, mirror_count: mirrors.len() as u32 };
+        let no_mirror = [GpuMirrorTriangle::default()];
+        let mirror_buffer = ctx.buffer_init(ledger, "direct light: mirror triangles", bytemuck::cast_slice(if mirrors.is_empty() { &no_mirror } else { mirrors }), STORAGE);
         let placeholder = [GpuEmitter::default()];
         let emitter_data: &[GpuEmitter] = if emitters.is_empty() { &placeholder } else { emitters };
         let params_buffer = ctx.buffer_init(ledger, "direct light: parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
@@ -92,11 +113,11 @@ impl DirectLight {
         let triangle_buffer = ctx.buffer_init(ledger, "direct light: triangles", bytemuck::cast_slice(&triangles), STORAGE);
         let node_buffer = ctx.buffer_init(ledger, "direct light: BVH", bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes), STORAGE);
         use Binding::*;
-        let layout2 = bind_group_layout(device, wgpu::ShaderStages::COMPUTE, &[Uniform, Storage, Storage, Storage]);
+        let layout2 = bind_group_layout(device, wgpu::ShaderStages::COMPUTE, &[Uniform, Storage, Storage, Storage, Storage]);
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
-        let bind_group = ctx.bind_group(&layout2, &[&params_buffer, &emitter_buffer, &triangle_buffer, &node_buffer]);
-        Ok(DirectLight { pipeline, bind_group, emitter_count: emitters.len() as u32 })
+        let bind_group = ctx.bind_group(&layout2, &[&params_buffer, &emitter_buffer, &triangle_buffer, &node_buffer, &mirror_buffer]);
+        Ok(DirectLight { pipeline, bind_group, emitter_count: emitters.len() as u32, mirror_count: mirrors.len() as u32 })
     }
 
     /// Record the pass: one thread per texel of each page, writing the page's `next`.

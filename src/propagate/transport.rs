@@ -10,7 +10,7 @@
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams, DEPTH_EPSILON};
 use crate::error::Result;
-use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_SKY};
+use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_SKY};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
 use crate::lightfield::tiles::{TileLayout, TilePages};
@@ -337,8 +337,9 @@ impl Propagator {
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
         let direct = if params.direct_samples > 0 {
             let emitters = super::direct::emitters(prepared, &faces, &unshot);
+            let mirrors = super::direct::mirror_triangles(prepared, &faces);
             let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) { params.direct_samples } else { 0 };
-            Some(super::direct::DirectLight::new(&ctx, &ledger, prepared, &emitters, params.direct_samples, sky_samples, &layout0, &layout1)?)
+            Some(super::direct::DirectLight::new(&ctx, &ledger, prepared, &emitters, &mirrors, params.direct_samples, sky_samples, &layout0, &layout1)?)
         } else {
             None
         };
@@ -426,6 +427,9 @@ impl Propagator {
                 }
                 grid.iteration = self.iteration;
                 grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
+                if self.iteration == 1 && self.direct.as_ref().is_some_and(|d| d.mirror_count > 0) {
+                    grid.flags |= GRID_FLAG_NO_MIRROR_SENDERS;
+                }
                 if batched {
                     grid.flags |= GRID_FLAG_BATCHED;
                 } else if n > 0 {
