@@ -368,12 +368,45 @@ fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 }
 
 fn main() {
+    quiet_vulkan_device_select();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", error_text(&e));
         std::process::exit(1);
     }
+}
+
+/// Mesa's implicit Vulkan layer VK_LAYER_MESA_device_select asks the Wayland compositor for
+/// the default GPU whenever physical devices are enumerated (wgpu enables the Wayland surface
+/// extension); without a session, libwayland prints "error: XDG_RUNTIME_DIR is invalid or not
+/// set in the environment." twice before every command. Where libwayland cannot connect
+/// anyway (no WAYLAND_SOCKET, no absolute WAYLAND_DISPLAY, no absolute XDG_RUNTIME_DIR), the
+/// layer has nothing to ask: switch it off with its own variable, unless the user set one of
+/// its variables (NODEVICE_SELECT, MESA_VK_DEVICE_SELECT, DRI_PRIME). vlf chooses its adapter
+/// itself (WGPU_ADAPTER_NAME); this runs first, before any thread exists.
+fn quiet_vulkan_device_select() {
+    let set = |k: &str| std::env::var_os(k).is_some_and(|v| !v.is_empty());
+    let absolute = |k: &str| std::env::var_os(k).is_some_and(|v| v.to_string_lossy().starts_with('/'));
+    let wayland_possible = set("WAYLAND_SOCKET") || absolute("WAYLAND_DISPLAY") || absolute("XDG_RUNTIME_DIR");
+    let user_chose = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"].iter().any(|k| std::env::var_os(k).is_some());
+    if !wayland_possible && !user_chose {
+        std::env::set_var("NODEVICE_SELECT", "1");
+    }
+}
+
+/// The error and its causes on one line, each cause once: a library error that already
+/// names its cause (`{path}: cannot read: {source}`) is not followed by that cause again.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let cause = cause.to_string();
+        if !text.contains(&cause) {
+            text.push_str(": ");
+            text.push_str(&cause);
+        }
+    }
+    text
 }
 
 fn run(cli: Cli) -> Result<()> {

@@ -112,3 +112,30 @@ fn reference_compare_and_sweep_write_their_files() {
     let png = image::open(sweep.join("sweep.png")).unwrap();
     assert!(png.width() >= 800);
 }
+
+/// Each missing file, through each command that reads one: one "error:" line that names the
+/// file and states the cause once, and nothing else on stderr before it (no probing noise
+/// from backends vlf does not use, such as EGL's "XDG_RUNTIME_DIR is invalid or not set").
+#[test]
+fn a_missing_file_is_named_with_its_cause_once_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing");
+    let scene = repo_path("scenes/cornell/scene.toml");
+    let png = dir.path().join("x.png");
+    let cases: Vec<(&str, Vec<std::ffi::OsString>, std::path::PathBuf)> = vec![
+        ("render a missing .vlf", vec!["render".into(), missing.join("a.vlf").into(), "-o".into(), png.clone().into()], missing.join("a.vlf")),
+        ("propagate a missing scene", vec!["propagate".into(), missing.join("scene.toml").into(), "-o".into(), dir.path().join("x.vlf").into()], missing.join("scene.toml")),
+        ("render with a missing --config", vec!["render".into(), scene.clone().into(), "--config".into(), missing.join("p.toml").into(), "-o".into(), png.clone().into()], missing.join("p.toml")),
+        ("render with a missing --lightfield", vec!["render".into(), scene.clone().into(), "--lightfield".into(), missing.join("b.vlf").into(), "-o".into(), png.clone().into()], missing.join("b.vlf")),
+    ];
+    for (what, args, path) in cases {
+        let out = vlf().args(&args).env_remove("XDG_RUNTIME_DIR").env_remove("WGPU_BACKEND").output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{what}: succeeded");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning: ")).collect();
+        assert_eq!(lines.len(), 1, "{what}: expected one error line, got:\n{err}");
+        assert!(lines[0].starts_with("error: ") && lines[0].contains(&*path.to_string_lossy()), "{what}: the file is not named: {err}");
+        assert_eq!(lines[0].matches("No such file or directory").count(), 1, "{what}: the cause is not stated exactly once: {err}");
+        assert!(!err.contains("XDG_RUNTIME_DIR"), "{what}: {err}");
+    }
+}
