@@ -139,3 +139,43 @@ fn a_missing_file_is_named_with_its_cause_once_and_nothing_else() {
         assert!(!err.contains("XDG_RUNTIME_DIR"), "{what}: {err}");
     }
 }
+
+/// The settings each way of asking gives, read back from the report: no flags (the software
+/// preset on a software adapter, saying so and estimating the time; the default on a GPU),
+/// --quality presets, flags over a preset, and --config with --quality refused.
+#[test]
+fn quality_presets_and_the_software_adapters_lighter_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let propagate = |args: &[&str]| {
+        let report = dir.path().join("r.json");
+        let _ = std::fs::remove_file(&report);
+        let out = vlf().arg("propagate").arg(repo_path("scenes/cornell/scene.toml")).arg("-o").arg(dir.path().join("x.vlf")).arg("--report").arg(&report).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{args:?}: {err}");
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (json, err)
+    };
+    let preset = |name: &str| vlf::propagate::PropagationParams::from_toml_file(&repo_path(&format!("config/propagation/{name}.toml"))).unwrap();
+    let (json, err) = propagate(&["--max-iterations", "1"]);
+    let software = json["adapter"]["software"].as_bool().unwrap();
+    let expected = if software { preset("software") } else { preset("default") };
+    assert_eq!(json["params"]["geodesic_frequency"], expected.geodesic_frequency, "{}", json["params"]);
+    assert_eq!(json["params"]["grid_resolution"], expected.grid_resolution);
+    assert_eq!(json["params"]["max_iterations"], 1, "the flag overrides the automatic choice");
+    assert_eq!(err.contains("software adapter") && err.contains("lighter settings"), software, "{err}");
+    assert_eq!(err.contains("estimate: propagating takes about") && err.contains("rough model"), software, "{err}");
+
+    let (json, err) = propagate(&["--quality", "draft"]);
+    assert_eq!(json["params"], serde_json::to_value(preset("draft")).unwrap());
+    assert!(!err.contains("lighter settings"), "an explicit preset is not replaced: {err}");
+    let (json, _) = propagate(&["--quality", "draft", "--directions", "126", "--grid", "32"]);
+    assert_eq!((json["params"]["geodesic_frequency"].as_u64(), json["params"]["grid_resolution"].as_u64()), (Some(5), Some(32)));
+    assert_eq!(json["params"]["texel_density"], preset("draft").texel_density);
+
+    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "high", "--config"]).arg(repo_path("config/propagation/paper.toml")).args(["-o", "x.png"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--quality") && err.contains("--config"), "{err}");
+    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "best", "-o", "x.png"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("draft") && err.contains("high"), "the choices are listed: {err}");
+}
