@@ -518,103 +518,13 @@ fn run(cli: Cli) -> Result<()> {
                 println!("variance: {}", path.display());
             }
         }
-        Command::Sweep {
-            scene,
-            reference,
-            camera,
-            directions,
-            grid,
-            texel_density,
-            tolerance,
-            perturb,
-            spp,
-            ssaa,
-            walkthrough,
-            budget_ms,
-            frames,
-            reference_spp,
-            size,
-            out,
-            config,
-        } => {
-            let scene = Scene::load(&scene)?;
-            print_warnings(&scene.warnings);
-            let cam = scene.camera(camera.as_deref())?.clone();
-            let ctx = GpuContext::new()?;
-            std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
-            if walkthrough {
-                let params = match &config {
-                    Some(path) => PropagationParams::from_toml_file(path)?,
-                    None => PropagationParams::default(),
-                };
-                let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
-                let (rows, propagation_s, pt_spp) =
-                    vlf::sweep::walkthrough(ctx, &scene, &params, &path, size, budget_ms, reference_spp, true)?;
-                let csv = out.join("walkthrough.csv");
-                let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
-                for r in &rows {
-                    text.push_str(&format!("{},{},{},{:.4},{:.6e},{:.6}\n", r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip));
-                }
-                std::fs::write(&csv, text)?;
-                let series = |m: &'static str, color| vlf::sweep::plot::Series {
-                    name: m,
-                    color,
-                    points: rows.iter().filter(|r| r.method == m).map(|r| (r.frame as f64, r.rel_mse)).collect(),
-                };
-                let png = out.join("walkthrough.png");
-                vlf::sweep::plot::error_per_frame(
-                    &png,
-                    &format!("{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)", scene.name),
-                    "relMSE against the frame's reference",
-                    &[series("light field", plotters::style::RGBColor(200, 60, 40)), series("path tracer", plotters::style::RGBColor(40, 90, 200))],
-                )?;
-                let mean = |m: &str| {
-                    let v: Vec<f64> = rows.iter().filter(|r| r.method == m).map(|r| r.rel_mse).collect();
-                    v.iter().sum::<f64>() / v.len() as f64
-                };
-                println!(
-                    "walkthrough, {} frames at {}x{}, budget {budget_ms} ms: light field (one propagation of {propagation_s:.3} s) mean relMSE {:.3e}; path tracer at {pt_spp} spp mean relMSE {:.3e}",
-                    path.len(), size[0], size[1], mean("light field"), mean("path tracer")
-                );
-                println!("{}\n{}", csv.display(), png.display());
-            } else {
-                let reference = image_io::read_image(reference.as_deref().expect("clap requires it"))?;
-                let grid = vlf::sweep::SweepGrid { directions, grid, texel_density, tolerance, perturb, spp, ssaa: ssaa.max(1) };
-                let rows = vlf::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
-                let csv = out.join("sweep.csv");
-                let mut text = format!("{}\n", vlf::sweep::SweepRow::CSV_HEADER);
-                for r in &rows {
-                    text.push_str(&r.csv());
-                    text.push('\n');
-                }
-                std::fs::write(&csv, text)?;
-                let png = out.join("sweep.png");
-                vlf::sweep::chart(&rows, &scene.name, &png)?;
-                println!("{}\n{}", csv.display(), png.display());
-            }
+        Command::Sweep { scene, reference, camera, directions, grid, texel_density, tolerance, perturb, spp, ssaa, walkthrough, budget_ms, frames, reference_spp, size, out, config } => {
+            let grid = vlf::sweep::SweepGrid { directions, grid, texel_density, tolerance, perturb, spp, ssaa: ssaa.max(1) };
+            let walk = walkthrough.then_some(Walkthrough { budget_ms, frames, reference_spp, config });
+            sweep(&scene, reference.as_deref(), camera.as_deref(), grid, walk, size, &out)?;
         }
         Command::Cave { config, scene, headless, frames, hold_seconds, exposure, out, exr, json, params } => {
-            let display = vlf::display::DisplayConfig::load(&config)?;
-            let ctx = GpuContext::new()?;
-            let (lf, resident) = light_field_for(&ctx, &scene, None, &params)?;
-            if !headless {
-                if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
-                    bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
-                }
-                let options = vlf::display::window::WindowOptions { frames, hold: std::time::Duration::from_secs_f64(hold_seconds), exposure };
-                let report = vlf::display::window::run(&lf, &resident, &display, &config, options)?;
-                print!("{}", report.table());
-                if let Some(path) = json {
-                    write_json(&path, &report)?;
-                }
-                return Ok(());
-            }
-            let report = vlf::display::headless::run(&lf, &resident, &display, &config, frames.unwrap_or(60), &out, exr)?;
-            print!("{}", report.table());
-            if let Some(path) = json {
-                write_json(&path, &report)?;
-            }
-            println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
+            cave(&config, &scene, headless, frames, hold_seconds, exposure, &out, exr, json, &params)?;
         }
         Command::Track { config, seconds } => {
             if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
@@ -624,27 +534,8 @@ fn run(cli: Cli) -> Result<()> {
             vlf::display::live::track(&display, &config, seconds.map(std::time::Duration::from_secs_f64), &mut std::io::stdout())?;
         }
         Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, json, params } => {
-            if !(resolution_scale.is_finite() && resolution_scale > 0.0 && resolution_scale <= 4.0) {
-                bail!("--resolution-scale {resolution_scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
-            }
-            if screenshot_frame == 0 {
-                bail!("--screenshot-frame 0: frames count from 1");
-            }
-            if let (Some(n), Some(_)) = (frames, &screenshot) {
-                if screenshot_frame > n {
-                    bail!("--screenshot-frame {screenshot_frame} is after the last of --frames {n}");
-                }
-            }
             let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera, resolution_scale };
-            let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, &scene, None, &params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
-            let report = vlf::display::xr::run_headset(&mut make, &options)?;
-            print!("{}", report.table());
-            if let Some(path) = json {
-                write_json(&path, &report)?;
-            }
-            if report.lost {
-                bail!("{}", report.ended);
-            }
+            xr(&scene, options, json, &params)?;
         }
         Command::Generate { kind, size, mirrors, out } => {
             let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;
@@ -681,54 +572,191 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         Command::Bench { scene, suite, quick, work, plot, from_json, json, markdown, frames, size, aa, params } => {
-            if let Some(input) = from_json {
-                let report = vlf::suite::SuiteReport::load(&input)?;
-                let md = report.markdown();
-                match markdown {
-                    Some(path) => std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?,
-                    None => print!("{md}"),
-                }
-                if let Some(path) = plot {
-                    report.plot(&path)?;
-                }
-                return Ok(());
-            }
-            let ctx = GpuContext::new()?;
-            if ctx.summary.software {
-                eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
-            }
-            if suite {
-                let root = std::env::current_dir().context("the current folder")?;
-                let report = vlf::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
-                let md = report.markdown();
-                print!("{md}");
-                if let Some(path) = json {
-                    write_json(&path, &report)?;
-                    println!("json: {}", path.display());
-                }
-                if let Some(path) = markdown {
-                    std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
-                    println!("markdown: {}", path.display());
-                }
-                if let Some(path) = plot {
-                    report.plot(&path)?;
-                    println!("chart: {}", path.display());
-                }
-                return Ok(());
-            }
-            let scene = Scene::load(&scene)?;
-            let params = params.for_adapter(&ctx)?;
-            let report = vlf::bench::run(ctx, &scene, &params, size, frames, aa)?;
-            print!("{}", report.table());
-            if let Some(path) = json {
-                write_json(&path, &report)?;
-                println!("json: {}", path.display());
-            }
-            if let Some(path) = markdown {
-                std::fs::write(&path, report.markdown()).with_context(|| format!("writing {}", path.display()))?;
-                println!("markdown: {}", path.display());
-            }
+            let outputs = BenchOutputs { json, markdown, plot };
+            bench(&scene, suite.then_some((quick, work)), from_json.as_deref(), outputs, frames, size, aa, &params)?;
         }
+    }
+    Ok(())
+}
+
+/// `vlf cave`: every wall and eye of a display, in windows or offscreen (`headless`).
+#[allow(clippy::too_many_arguments)]
+fn cave(config: &Path, scene: &Path, headless: bool, frames: Option<u32>, hold_seconds: f64, exposure: f32, out: &Path, exr: bool, json: Option<PathBuf>, params: &ParamArgs) -> Result<()> {
+    let display = vlf::display::DisplayConfig::load(config)?;
+    let ctx = GpuContext::new()?;
+    let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
+    if !headless {
+        if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
+            bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
+        }
+        let options = vlf::display::window::WindowOptions { frames, hold: std::time::Duration::from_secs_f64(hold_seconds), exposure };
+        let report = vlf::display::window::run(&lf, &resident, &display, config, options)?;
+        print!("{}", report.table());
+        if let Some(path) = json {
+            write_json(&path, &report)?;
+        }
+        return Ok(());
+    }
+    let report = vlf::display::headless::run(&lf, &resident, &display, config, frames.unwrap_or(60), out, exr)?;
+    print!("{}", report.table());
+    if let Some(path) = json {
+        write_json(&path, &report)?;
+    }
+    println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
+    Ok(())
+}
+
+/// `vlf xr`: an OpenXR headset session.
+fn xr(scene: &Path, options: vlf::display::xr::XrOptions, json: Option<PathBuf>, params: &ParamArgs) -> Result<()> {
+    let scale = options.resolution_scale;
+    if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {
+        bail!("--resolution-scale {scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
+    }
+    let shot = options.screenshot_frame;
+    if shot == 0 {
+        bail!("--screenshot-frame 0: frames count from 1");
+    }
+    if let (Some(n), Some(_)) = (options.frames, &options.screenshot) {
+        if shot > n {
+            bail!("--screenshot-frame {shot} is after the last of --frames {n}");
+        }
+    }
+    let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, scene, None, params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
+    let report = vlf::display::xr::run_headset(&mut make, &options)?;
+    print!("{}", report.table());
+    if let Some(path) = json {
+        write_json(&path, &report)?;
+    }
+    if report.lost {
+        bail!("{}", report.ended);
+    }
+    Ok(())
+}
+
+/// Where `vlf bench` writes.
+struct BenchOutputs {
+    json: Option<PathBuf>,
+    markdown: Option<PathBuf>,
+    plot: Option<PathBuf>,
+}
+
+/// `vlf bench`: one scene, the suite (`suite`: quick, work folder), or the tables of an earlier report.
+#[allow(clippy::too_many_arguments)]
+fn bench(scene: &Path, suite: Option<(bool, PathBuf)>, from_json: Option<&Path>, outputs: BenchOutputs, frames: u32, size: [u32; 2], aa: u32, params: &ParamArgs) -> Result<()> {
+    let BenchOutputs { json, markdown, plot } = outputs;
+    if let Some(input) = from_json {
+        let report = vlf::suite::SuiteReport::load(input)?;
+        let md = report.markdown();
+        match markdown {
+            Some(path) => std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?,
+            None => print!("{md}"),
+        }
+        if let Some(path) = plot {
+            report.plot(&path)?;
+        }
+        return Ok(());
+    }
+    let ctx = GpuContext::new()?;
+    if ctx.summary.software {
+        eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
+    }
+    if let Some((quick, work)) = suite {
+        let root = std::env::current_dir().context("the current folder")?;
+        let report = vlf::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
+        let md = report.markdown();
+        print!("{md}");
+        if let Some(path) = json {
+            write_json(&path, &report)?;
+            println!("json: {}", path.display());
+        }
+        if let Some(path) = markdown {
+            std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
+            println!("markdown: {}", path.display());
+        }
+        if let Some(path) = plot {
+            report.plot(&path)?;
+            println!("chart: {}", path.display());
+        }
+        return Ok(());
+    }
+    let scene = Scene::load(scene)?;
+    let params = params.for_adapter(&ctx)?;
+    let report = vlf::bench::run(ctx, &scene, &params, size, frames, aa)?;
+    print!("{}", report.table());
+    if let Some(path) = json {
+        write_json(&path, &report)?;
+        println!("json: {}", path.display());
+    }
+    if let Some(path) = markdown {
+        std::fs::write(&path, report.markdown()).with_context(|| format!("writing {}", path.display()))?;
+        println!("markdown: {}", path.display());
+    }
+    Ok(())
+}
+
+/// `vlf sweep --walkthrough`'s settings.
+struct Walkthrough {
+    budget_ms: f64,
+    frames: u32,
+    reference_spp: u32,
+    config: Option<PathBuf>,
+}
+
+/// `vlf sweep`: the grid of settings against a reference, or the walkthrough at a frame budget.
+fn sweep(scene: &Path, reference: Option<&Path>, camera: Option<&str>, grid: vlf::sweep::SweepGrid, walk: Option<Walkthrough>, size: [u32; 2], out: &Path) -> Result<()> {
+    let scene = Scene::load(scene)?;
+    print_warnings(&scene.warnings);
+    let cam = scene.camera(camera)?.clone();
+    let ctx = GpuContext::new()?;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    if let Some(Walkthrough { budget_ms, frames, reference_spp, config }) = walk {
+        let params = match &config {
+            Some(path) => PropagationParams::from_toml_file(path)?,
+            None => PropagationParams::default(),
+        };
+        let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
+        let (rows, propagation_s, pt_spp) =
+            vlf::sweep::walkthrough(ctx, &scene, &params, &path, size, budget_ms, reference_spp, true)?;
+        let csv = out.join("walkthrough.csv");
+        let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
+        for r in &rows {
+            text.push_str(&format!("{},{},{},{:.4},{:.6e},{:.6}\n", r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip));
+        }
+        std::fs::write(&csv, text)?;
+        let series = |m: &'static str, color| vlf::sweep::plot::Series {
+            name: m,
+            color,
+            points: rows.iter().filter(|r| r.method == m).map(|r| (r.frame as f64, r.rel_mse)).collect(),
+        };
+        let png = out.join("walkthrough.png");
+        vlf::sweep::plot::error_per_frame(
+            &png,
+            &format!("{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)", scene.name),
+            "relMSE against the frame's reference",
+            &[series("light field", plotters::style::RGBColor(200, 60, 40)), series("path tracer", plotters::style::RGBColor(40, 90, 200))],
+        )?;
+        let mean = |m: &str| {
+            let v: Vec<f64> = rows.iter().filter(|r| r.method == m).map(|r| r.rel_mse).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        println!(
+            "walkthrough, {} frames at {}x{}, budget {budget_ms} ms: light field (one propagation of {propagation_s:.3} s) mean relMSE {:.3e}; path tracer at {pt_spp} spp mean relMSE {:.3e}",
+            path.len(), size[0], size[1], mean("light field"), mean("path tracer")
+        );
+        println!("{}\n{}", csv.display(), png.display());
+    } else {
+        let reference = image_io::read_image(reference.expect("clap requires it"))?;
+        let rows = vlf::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
+        let csv = out.join("sweep.csv");
+        let mut text = format!("{}\n", vlf::sweep::SweepRow::CSV_HEADER);
+        for r in &rows {
+            text.push_str(&r.csv());
+            text.push('\n');
+        }
+        std::fs::write(&csv, text)?;
+        let png = out.join("sweep.png");
+        vlf::sweep::chart(&rows, &scene.name, &png)?;
+        println!("{}\n{}", csv.display(), png.display());
     }
     Ok(())
 }
