@@ -112,3 +112,70 @@ fn reference_compare_and_sweep_write_their_files() {
     let png = image::open(sweep.join("sweep.png")).unwrap();
     assert!(png.width() >= 800);
 }
+
+/// Each missing file, through each command that reads one: one "error:" line that names the
+/// file and states the cause once, and nothing else on stderr before it (no probing noise
+/// from backends vlf does not use, such as EGL's "XDG_RUNTIME_DIR is invalid or not set").
+#[test]
+fn a_missing_file_is_named_with_its_cause_once_and_nothing_else() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing");
+    let scene = repo_path("scenes/cornell/scene.toml");
+    let png = dir.path().join("x.png");
+    let cases: Vec<(&str, Vec<std::ffi::OsString>, std::path::PathBuf)> = vec![
+        ("render a missing .vlf", vec!["render".into(), missing.join("a.vlf").into(), "-o".into(), png.clone().into()], missing.join("a.vlf")),
+        ("propagate a missing scene", vec!["propagate".into(), missing.join("scene.toml").into(), "-o".into(), dir.path().join("x.vlf").into()], missing.join("scene.toml")),
+        ("render with a missing --config", vec!["render".into(), scene.clone().into(), "--config".into(), missing.join("p.toml").into(), "-o".into(), png.clone().into()], missing.join("p.toml")),
+        ("render with a missing --lightfield", vec!["render".into(), scene.clone().into(), "--lightfield".into(), missing.join("b.vlf").into(), "-o".into(), png.clone().into()], missing.join("b.vlf")),
+    ];
+    for (what, args, path) in cases {
+        let out = vlf().args(&args).env_remove("XDG_RUNTIME_DIR").env_remove("WGPU_BACKEND").output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{what}: succeeded");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning: ")).collect();
+        assert_eq!(lines.len(), 1, "{what}: expected one error line, got:\n{err}");
+        assert!(lines[0].starts_with("error: ") && lines[0].contains(&*path.to_string_lossy()), "{what}: the file is not named: {err}");
+        assert_eq!(lines[0].matches("No such file or directory").count(), 1, "{what}: the cause is not stated exactly once: {err}");
+        assert!(!err.contains("XDG_RUNTIME_DIR"), "{what}: {err}");
+    }
+}
+
+/// The settings each way of asking gives, read back from the report: no flags (the software
+/// preset on a software adapter, saying so and estimating the time; the default on a GPU),
+/// --quality presets, flags over a preset, and --config with --quality refused.
+#[test]
+fn quality_presets_and_the_software_adapters_lighter_settings() {
+    let dir = tempfile::tempdir().unwrap();
+    let propagate = |args: &[&str]| {
+        let report = dir.path().join("r.json");
+        let _ = std::fs::remove_file(&report);
+        let out = vlf().arg("propagate").arg(repo_path("scenes/cornell/scene.toml")).arg("-o").arg(dir.path().join("x.vlf")).arg("--report").arg(&report).args(args).output().unwrap();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{args:?}: {err}");
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        (json, err)
+    };
+    let preset = |name: &str| vlf::propagate::PropagationParams::from_toml_file(&repo_path(&format!("config/propagation/{name}.toml"))).unwrap();
+    let (json, err) = propagate(&["--max-iterations", "1"]);
+    let software = json["adapter"]["software"].as_bool().unwrap();
+    let expected = if software { preset("software") } else { preset("default") };
+    assert_eq!(json["params"]["geodesic_frequency"], expected.geodesic_frequency, "{}", json["params"]);
+    assert_eq!(json["params"]["grid_resolution"], expected.grid_resolution);
+    assert_eq!(json["params"]["max_iterations"], 1, "the flag overrides the automatic choice");
+    assert_eq!(err.contains("software adapter") && err.contains("lighter settings"), software, "{err}");
+    assert_eq!(err.contains("estimate: propagating takes about") && err.contains("rough model"), software, "{err}");
+
+    let (json, err) = propagate(&["--quality", "draft"]);
+    assert_eq!(json["params"], serde_json::to_value(preset("draft")).unwrap());
+    assert!(!err.contains("lighter settings"), "an explicit preset is not replaced: {err}");
+    let (json, _) = propagate(&["--quality", "draft", "--directions", "126", "--grid", "32"]);
+    assert_eq!((json["params"]["geodesic_frequency"].as_u64(), json["params"]["grid_resolution"].as_u64()), (Some(5), Some(32)));
+    assert_eq!(json["params"]["texel_density"], preset("draft").texel_density);
+
+    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "high", "--config"]).arg(repo_path("config/propagation/paper.toml")).args(["-o", "x.png"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--quality") && err.contains("--config"), "{err}");
+    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "best", "-o", "x.png"]).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("draft") && err.contains("high"), "the choices are listed: {err}");
+}
