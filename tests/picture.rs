@@ -339,3 +339,15 @@ fn an_emitter_seen_in_a_mirror_lights_a_floor_as_the_closed_form_says() {
     assert!(direct < 1e-4, "emitter seen in the mirror: largest relative error {direct:.2e}");
     assert!(through_tiles > 0.05, "the mirror tiles' fixed directions should ripple past 5%: {through_tiles:.3}");
 }
+
+#[test]
+fn the_readme_accuracy_block_is_current() {
+    // README's accuracy section is generated from docs/results/accuracy.json by
+    // tools/accuracy.py; a hand edit or a stale block fails here
+    let out = std::process::Command::new("python3")
+        .arg(common::repo_path("tools/accuracy.py"))
+        .arg("--check")
+        .output()
+        .expect("python3 runs tools/accuracy.py --check (install python3)");
+    assert!(out.status.success(), "{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+}

@@ -22,8 +22,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tools" / "mitsuba"))
 
@@ -39,12 +37,14 @@ BEGIN, END = "<!-- accuracy:begin (tools/accuracy.py) -->", "<!-- accuracy:end -
 
 
 def read_exr(path):
+    import numpy as np
     import mitsuba as mi
     mi.set_variant("scalar_rgb")
     return np.array(mi.Bitmap(str(path)), dtype=np.float64)[:, :, :3]
 
 
 def srgb(x):
+    import numpy as np
     x = np.clip(x, 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 1e-12), 1 / 2.4) - 0.055)
 
@@ -52,7 +52,7 @@ def srgb(x):
 def reference_noise(ref, var, keep):
     """relMSE and display MSE that the reference's own noise contributes (its variance of the
     mean, propagated to first order)."""
-    rel = var / (ref * ref + 0.01)
+    rel = var / (ref * ref + 0.01)  # numpy arrays
     h = 1e-4
     slope = (srgb(ref + h) - srgb(ref - h)) / (2 * h)
     display = var * slope * slope
@@ -70,6 +70,7 @@ def vlf_compare(vlf, image, reference, mask=None, diff=None):
 
 
 def measure(vlf):
+    import numpy as np
     import reference as mref
     rows = []
     for view, scene, camera, targets in VIEWS:
