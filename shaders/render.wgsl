@@ -163,6 +163,8 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
 // tiles, in resolve_mixed).
 struct Path {
     radiance: vec3<f32>,
+    // the weight carried to the last surface (its own mirror reflectance not included: the
+    // tiles hold reflected radiance)
     throughput: vec3<f32>,
     face: u32,
     point: vec3<f32>,
@@ -175,14 +177,16 @@ fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
     var f = faces[s.face];
     var path: Path;
     path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
-    path.throughput = f.mirror * s.seen;
+    var weight = f.mirror * s.seen;
+    path.throughput = vec3<f32>(s.seen);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
         ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
-        path.radiance += path.throughput * (diffuse_part(f, s.point) * s.seen + s.background);
-        path.throughput *= f.mirror * s.seen;
+        path.radiance += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.throughput = weight * s.seen;
+        weight *= f.mirror * s.seen;
     }
     path.face = s.face;
     path.point = s.point;
@@ -280,8 +284,8 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
         // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
         let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
         let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-        let out_dir = path.ray - 2.0 * dot(path.ray, f.normal) * f.normal;
-        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, out_dir);
+        // the tiles hold the radiance the mirror reflects toward where the ray came from
+        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, -path.ray);
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }

@@ -338,6 +338,9 @@ struct ParamArgs {
     /// 0 sends direct light through the fixed directions as the paper does
     #[arg(long)]
     direct_samples: Option<u32>,
+    /// Direct light also through planar mirrors (virtual emitters; experimental, off by default)
+    #[arg(long)]
+    mirror_direct: bool,
 }
 
 impl ParamArgs {
@@ -395,6 +398,9 @@ impl ParamArgs {
         }
         if let Some(d) = self.direct_samples {
             p.direct_samples = d;
+        }
+        if self.mirror_direct {
+            p.mirror_direct = true;
         }
         Ok(p)
     }

@@ -47,6 +47,11 @@ pub struct PropagationReport {
     pub propagation_memory: Vec<MemoryItem>,
     pub render_memory_bytes: u64,
     pub render_memory: Vec<MemoryItem>,
+    /// how rendering shows mirrors: reflections traced per eye ray, and whether the mirror tiles
+    /// stay resident to end longer chains
+    pub mirror_rendering: Option<crate::lightfield::MirrorChains>,
+    /// emitter triangles whose light reaches the texels directly (0: through the directions)
+    pub direct_emitters: u32,
     pub sky: bool,
     pub warnings: Vec<String>,
 }
@@ -113,6 +118,18 @@ impl PropagationReport {
             ("GPU memory, propagating".into(), human_bytes(self.propagation_memory_bytes)),
             ("GPU memory, rendering".into(), human_bytes(self.render_memory_bytes)),
         ];
+        rows.push((
+            "direct light".into(),
+            if self.params.direct_samples > 0 {
+                format!("{} emitter triangle(s), {} shadow rays per texel (closed form x visibility)", self.direct_emitters, self.params.direct_samples)
+            } else {
+                "through the fixed directions (--direct-samples 0)".into()
+            },
+        ));
+        if let Some(m) = self.mirror_rendering.filter(|m| m.bounces > 0) {
+            let tiles = if m.tiles_needed { "mirror tiles kept: mirrors face each other" } else { "mirror tiles freed: not needed to render" };
+            rows.push(("mirrors, rendering".into(), format!("{} reflection(s) traced per eye ray; {tiles}", m.bounces)));
+        }
         if !self.sky {
             rows.push(("sky".into(), "none (black): nothing allocated".into()));
         }

@@ -71,7 +71,7 @@ impl Builder {
 }
 
 fn small() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64, mirror_direct: false }
 }
 
 fn temp() -> Result<tempfile::TempDir> {

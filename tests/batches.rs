@@ -23,6 +23,7 @@ fn params(n: u32, grid: u32) -> PropagationParams {
         accelerate: true,
         memory_budget_mib: None,
         direct_samples: 16,
+        mirror_direct: false,
     }
 }
 

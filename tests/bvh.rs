@@ -180,6 +180,7 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
         accelerate: true,
         memory_budget_mib: None,
         direct_samples: 16,
+        mirror_direct: false,
     };
     let ctx = vlf::gpu::GpuContext::new().expect("a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)");
     let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();

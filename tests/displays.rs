@@ -97,7 +97,7 @@ fn headless_cave_renders_every_wall_and_eye() {
     std::fs::write(&path, text).unwrap();
     let display = DisplayConfig::load(&path).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 };
+    let params = vlf::propagate::PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let out = dir.path().join("out");
     let report = vlf::display::headless::run(&lf, &resident, &display, &path, 3, &out, true).unwrap();

@@ -8,7 +8,7 @@ use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
 fn small() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false }
 }
 
 fn load(dir: &std::path::Path, obj: &ObjBuilder, mats: &[Mat], extra: &str) -> Scene {

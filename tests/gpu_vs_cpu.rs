@@ -37,7 +37,7 @@ fn tiny_scene_with(dir: &std::path::Path, extra: &str) -> Scene {
 }
 
 fn tiny_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0 }
+    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0, mirror_direct: false }
 }
 
 #[test]
@@ -171,7 +171,7 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
 fn propagation_is_bit_for_bit_repeatable() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0 };
+    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0, mirror_direct: false };
     let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     assert_eq!(ra.iterations, rb.iterations);

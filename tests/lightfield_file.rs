@@ -8,7 +8,7 @@ use vlf::scene::Scene;
 
 fn small_light_field() -> (Scene, LightField) {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 };
+    let params = PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     (scene, lf)
 }

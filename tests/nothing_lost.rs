@@ -52,7 +52,7 @@ fn killing_propagate_mid_save_keeps_the_previous_file() {
 fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 };
+    let params = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
     let (whole, _, whole_report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     assert!(whole_report.iterations >= 4);
 

@@ -33,7 +33,7 @@ fn mirror_room(dir: &std::path::Path) -> Scene {
 fn paged_mirror_tiles_give_the_one_page_result() {
     let dir = tempfile::tempdir().unwrap();
     let scene = mirror_room(dir.path());
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 };
+    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
     let render = |lf: &vlf::lightfield::LightField| {
         let resident = lf.upload(gpu()).unwrap();
         let pages = (resident.total.len(), resident.tiles.as_ref().unwrap().radiance.len());

@@ -11,7 +11,7 @@ use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
 fn small_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-4, max_iterations: 200, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64, mirror_direct: false }
 }
 
 fn furnace(rho: f32, le: f32) -> (tempfile::TempDir, Scene) {
@@ -92,7 +92,7 @@ fn received_form_factor(obj: &ObjBuilder, params: &PropagationParams) -> f64 {
 }
 
 fn form_factor_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64 }
+    PropagationParams { geodesic_frequency: 10, grid_resolution: 64, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 1, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64, mirror_direct: false }
 }
 
 #[test]
@@ -164,7 +164,7 @@ fn perturbed_directions_keep_the_furnace_and_the_memory() {
 fn perturbed_directions_change_an_open_scene() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let base = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 30, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64 };
+    let base = PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 30, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 64, mirror_direct: false };
     let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
     let (b, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &PropagationParams { perturb: 4, ..base }, false).unwrap();
     let differing = a.total.iter().zip(&b.total).filter(|(x, y)| (x[1] - y[1]).abs() > 1e-4 * (1.0 + x[1].abs())).count();

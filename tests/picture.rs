@@ -30,6 +30,7 @@ fn params(direct_samples: u32) -> PropagationParams {
         accelerate: true,
         memory_budget_mib: None,
         direct_samples,
+        mirror_direct: false,
     }
 }
 
@@ -293,7 +294,7 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
         "[materials.mirror]\nmirror = [0.8, 0.8, 0.8]\ndiffuse = [0.0, 0.0, 0.0]\n",
     );
     let scene = Scene::load(&path).unwrap();
-    let p = PropagationParams { max_iterations: 2, accelerate: false, ..params(direct_samples) };
+    let p = PropagationParams { max_iterations: 2, accelerate: false, mirror_direct: true, ..params(direct_samples) };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;

@@ -81,7 +81,7 @@ proptest! {
 #[test]
 fn every_damage_to_a_light_field_file_is_caught() {
     let scene = Scene::load(&repo_path("scenes/cornell-mirror/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 10, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 };
+    let params = vlf::propagate::PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 10, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let bytes = file::encode(&lf);
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: 512, ..ProptestConfig::default() });

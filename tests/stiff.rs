@@ -17,7 +17,7 @@ fn furnace(dir: &std::path::Path, rho: f32) -> Scene {
 }
 
 fn params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false }
 }
 
 #[test]

@@ -7,7 +7,7 @@ use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
 fn small() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16 }
+    PropagationParams { geodesic_frequency: 4, grid_resolution: 32, tile_size: 8, texel_density: 24.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false }
 }
 
 fn texels_of<'a>(lf: &'a vlf::lightfield::LightField, scene: &Scene, material: &str) -> Vec<[f32; 4]> {

@@ -50,6 +50,12 @@ pub struct PropagationParams {
     /// other bounce (the paper's method, and light fields saved before this setting existed).
     #[serde(default)]
     pub direct_samples: u32,
+    /// Direct light also through planar mirrors (emitters seen in them as virtual emitters, sky
+    /// rays followed through one reflection) instead of through the mirror tiles. Off by
+    /// default: exact for a mirror alone (tests/picture.rs), but a closed box of emitting
+    /// mirrors and walls still comes out 1.3% off at 181 directions.
+    #[serde(default)]
+    pub mirror_direct: bool,
 }
 
 fn yes() -> bool {
@@ -73,6 +79,7 @@ impl Default for PropagationParams {
             accelerate: true,
             memory_budget_mib: None,
             direct_samples: 256,
+            mirror_direct: false,
         }
     }
 }
@@ -497,6 +504,7 @@ pub fn propagate_with(
     let layers = layers.max(prop.largest_batch_layers);
     let render_vertices = crate::lightfield::render_vertices(&prepared);
     let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
+    let direct_emitters = prop.direct.as_ref().map_or(0, |d| d.emitter_count);
     let resident = prop.into_resident(mirror_chains.tiles_needed);
     resident.ledger.record("render mesh", (render_vertices.len() * 16) as u64);
     let lf = crate::lightfield::LightField {
@@ -547,6 +555,8 @@ pub fn propagate_with(
         propagation_memory_bytes,
         propagation_memory,
         render_memory_bytes: resident.ledger.total(),
+        mirror_rendering: Some(mirror_chains),
+        direct_emitters,
         render_memory: crate::report::memory_items(resident.ledger.entries()),
         sky: scene.sky.is_some(),
         warnings,

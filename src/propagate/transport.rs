@@ -337,7 +337,7 @@ impl Propagator {
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
         let direct = if params.direct_samples > 0 {
             let emitters = super::direct::emitters(prepared, &faces, &unshot);
-            let mirrors = super::direct::mirror_triangles(prepared, &faces);
+            let mirrors = if params.mirror_direct { super::direct::mirror_triangles(prepared, &faces) } else { Vec::new() };
             let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) { params.direct_samples } else { 0 };
             Some(super::direct::DirectLight::new(&ctx, &ledger, prepared, &emitters, &mirrors, params.direct_samples, sky_samples, &layout0, &layout1)?)
         } else {
