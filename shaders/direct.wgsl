@@ -66,6 +66,8 @@ struct MirrorTriangle {
 
 // shadow rays start this far off the receiver and stop this short of the emitter
 const RAY_OFFSET: f32 = 1e-4;
+// shadow rays meet triangles grown by this much (common/bvh.wgsl, intersect_grown)
+const SHADOW_GROW: f32 = 1e-4;
 
 fn hash(x: u32) -> u32 {
     var h = x * 747796405u + 2891336453u;
@@ -265,7 +267,7 @@ fn emitted_radiance(e: Emitter, point: vec3<f32>) -> vec3<f32> {
 fn visible(start: vec3<f32>, end: vec3<f32>, skip: u32) -> f32 {
     let d = end - start;
     let dist = length(d);
-    let hit = trace_skipping(start, d / dist, dist - RAY_OFFSET, true, skip);
+    let hit = trace_skipping(start, d / dist, dist - RAY_OFFSET, true, skip, SHADOW_GROW);
     return select(1.0, 0.0, hit.tri != NO_FACE);
 }
 
@@ -358,7 +360,7 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
         let phi = 2.0 * PI * u.y;
         let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
         // the scene lies in the unit sphere: a ray that leaves it sees the sky
-        let hit = trace_skipping(origin, dir, 4.0, !follow_mirrors, skip);
+        let hit = trace_skipping(origin, dir, 4.0, !follow_mirrors, skip, SHADOW_GROW);
         if hit.tri == NO_FACE {
             open += vec3<f32>(1.0);
         } else if follow_mirrors {
@@ -367,7 +369,7 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
             if any(f.mirror > vec3<f32>(0.0)) && dot(f.normal, dir) < 0.0 {
                 let p = origin + dir * hit.t;
                 let reflected = dir - 2.0 * dot(dir, f.normal) * f.normal;
-                let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face);
+                let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face, SHADOW_GROW);
                 open += select(vec3<f32>(0.0), f.mirror, again.tri == NO_FACE);
             }
         }

@@ -31,6 +31,13 @@ struct Hit {
 }
 
 fn intersect(origin: vec3<f32>, dir: vec3<f32>, tri: Triangle, t_max: f32) -> vec3<f32> {
+    return intersect_grown(origin, dir, tri, t_max, 0.0);
+}
+
+// The same, with the triangle grown by `grow` in barycentric terms: shadow rays use it so that
+// none slips through the crack between two triangles that share an edge (Moller-Trumbore is not
+// watertight), which an emitter a million times brighter behind a wall would amplify.
+fn intersect_grown(origin: vec3<f32>, dir: vec3<f32>, tri: Triangle, t_max: f32, grow: f32) -> vec3<f32> {
     let p = cross(dir, tri.e2);
     let det = dot(tri.e1, p);
     if abs(det) < 1e-12 {
@@ -39,12 +46,12 @@ fn intersect(origin: vec3<f32>, dir: vec3<f32>, tri: Triangle, t_max: f32) -> ve
     let inv = 1.0 / det;
     let s = origin - tri.v0;
     let u = dot(s, p) * inv;
-    if u < 0.0 || u > 1.0 {
+    if u < -grow || u > 1.0 + grow {
         return vec3<f32>(-1.0, 0.0, 0.0);
     }
     let q = cross(s, tri.e1);
     let v = dot(dir, q) * inv;
-    if v < 0.0 || u + v > 1.0 {
+    if v < -grow || u + v > 1.0 + grow {
         return vec3<f32>(-1.0, 0.0, 0.0);
     }
     let t = dot(tri.e2, q) * inv;
@@ -90,12 +97,12 @@ fn closer(t: f32, tri: u32, hit: Hit) -> bool {
 // distance at which the ray enters it: an entry that a hit found since has made too far is
 // dropped when popped, without reading its node.
 fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
-    return trace_skipping(origin, dir, t_max, any_hit, NO_FACE);
+    return trace_skipping(origin, dir, t_max, any_hit, NO_FACE, 0.0);
 }
 
 // The same, ignoring the triangles of face `skip` (a shadow ray leaving a face that is not
 // quite planar must not meet the face itself).
-fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, skip: u32) -> Hit {
+fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, skip: u32, grow: f32) -> Hit {
     var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
     let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
@@ -120,7 +127,7 @@ fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, 
                 if triangles[i].face == skip {
                     continue;
                 }
-                let r = intersect(origin, dir, triangles[i], hit.t * TIE);
+                let r = intersect_grown(origin, dir, triangles[i], hit.t * TIE, grow);
                 if closer(r.x, i, hit) {
                     hit = Hit(r.x, i, r.y, r.z);
                     if any_hit {
