@@ -58,7 +58,14 @@ pub struct BenchReport {
     pub render_timing_source: String,
 }
 
-pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size: [u32; 2], frames: u32, samples_per_pixel: u32) -> Result<BenchReport> {
+pub fn run(
+    ctx: Arc<GpuContext>,
+    scene: &Scene,
+    params: &PropagationParams,
+    size: [u32; 2],
+    frames: u32,
+    samples_per_pixel: u32,
+) -> Result<BenchReport> {
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, false)?;
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger)?;
@@ -67,8 +74,13 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
     // warm up, then measure
     renderer.time_frames(&camera, size[0], size[1], 10)?;
     let (frame_ms, gpu) = renderer.time_frames(&camera, size[0], size[1], frames.max(1))?;
-    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
-    let samples = report.diffuse_elements as f64 * report.directions as f64 * report.iterations as f64;
+    let iteration_ms: Vec<f64> = report
+        .per_iteration
+        .iter()
+        .filter_map(|i| i.gpu_ms)
+        .collect();
+    let samples =
+        report.diffuse_elements as f64 * report.directions as f64 * report.iterations as f64;
     Ok(BenchReport {
         vlf_version: env!("CARGO_PKG_VERSION").into(),
         commit: commit(),
@@ -79,14 +91,24 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, params: &PropagationParams, size
         eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
         render_frame_ms: Distribution::of(&frame_ms),
-        render_timing_source: if gpu { "GPU timestamp queries".into() } else { "wall clock (no timestamp queries)".into() },
+        render_timing_source: if gpu {
+            "GPU timestamp queries".into()
+        } else {
+            "wall clock (no timestamp queries)".into()
+        },
         propagation: report,
     })
 }
 
 /// "Measured by `command` (vlf version, commit, date) on **GPU** (backend, driver)": the stamp
 /// every generated benchmark section carries.
-pub fn measured_by(command: &str, version: &str, commit: Option<&str>, date: &str, a: &crate::gpu::AdapterSummary) -> String {
+pub fn measured_by(
+    command: &str,
+    version: &str,
+    commit: Option<&str>,
+    date: &str,
+    a: &crate::gpu::AdapterSummary,
+) -> String {
     format!(
         "Measured by `{command}` (vlf {version}, commit {}, {date}) on **{}** ({} backend, driver {} {})",
         commit.unwrap_or("unknown"),
@@ -99,16 +121,27 @@ pub fn measured_by(command: &str, version: &str, commit: Option<&str>, date: &st
 
 /// The commit measured: VLF_COMMIT (set where the tree has no .git), else git's.
 pub fn commit() -> Option<String> {
-    std::env::var("VLF_COMMIT").ok().filter(|c| !c.is_empty()).or_else(git_commit)
+    std::env::var("VLF_COMMIT")
+        .ok()
+        .filter(|c| !c.is_empty())
+        .or_else(git_commit)
 }
 
 fn git_commit() -> Option<String> {
-    let out = std::process::Command::new("git").args(["rev-parse", "--short", "HEAD"]).output().ok()?;
-    out.status.success().then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
+    let out = std::process::Command::new("git")
+        .args(["rev-parse", "--short", "HEAD"])
+        .output()
+        .ok()?;
+    out.status
+        .success()
+        .then(|| String::from_utf8_lossy(&out.stdout).trim().to_string())
 }
 
 pub fn utc_date() -> String {
-    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map(|d| d.as_secs()).unwrap_or(0);
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_secs())
+        .unwrap_or(0);
     // civil date from days since 1970-01-01 (Howard Hinnant's algorithm)
     let z = (secs / 86400) as i64 + 719468;
     let era = z.div_euclid(146097);
@@ -126,9 +159,15 @@ impl BenchReport {
     pub fn table(&self) -> String {
         let p = &self.propagation;
         let mut s = p.table();
-        s.push_str(&format!("  transport samples/s       {:.3e}\n", self.transport_samples_per_second));
+        s.push_str(&format!(
+            "  transport samples/s       {:.3e}\n",
+            self.transport_samples_per_second
+        ));
         if let Some(d) = &self.iteration_gpu_ms {
-            s.push_str(&format!("  iteration (GPU)           median {:.3} ms, p99 {:.3} ms, over {}\n", d.median, d.p99, d.samples));
+            s.push_str(&format!(
+                "  iteration (GPU)           median {:.3} ms, p99 {:.3} ms, over {}\n",
+                d.median, d.p99, d.samples
+            ));
         }
         let r = &self.render_frame_ms;
         s.push_str(&format!(
@@ -149,35 +188,96 @@ impl BenchReport {
             "## {} — {}\n\n{}.\n\n",
             p.scene,
             self.date_utc,
-            measured_by("vlf bench", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
+            measured_by(
+                "vlf bench",
+                &self.vlf_version,
+                self.commit.as_deref(),
+                &self.date_utc,
+                a
+            )
         ));
         s.push_str("| | paper (GeForce 8800 GTX) | vlf |\n|---|---|---|\n");
         let rows = [
-            ("directions", "512".to_string(), format!("{} (geodesic n={})", p.directions, p.params.geodesic_frequency)),
-            ("grid / tile", "—".into(), format!("{0}x{0}, {1}x{1} tiles", p.params.grid_resolution, p.params.tile_size)),
+            (
+                "directions",
+                "512".to_string(),
+                format!(
+                    "{} (geodesic n={})",
+                    p.directions, p.params.geodesic_frequency
+                ),
+            ),
+            (
+                "grid / tile",
+                "—".into(),
+                format!(
+                    "{0}x{0}, {1}x{1} tiles",
+                    p.params.grid_resolution, p.params.tile_size
+                ),
+            ),
             ("faces", "19".into(), p.faces.to_string()),
-            ("diffuse elements", "34,816".into(), p.diffuse_elements.to_string()),
-            ("non-diffuse elements", "931,136".into(), p.non_diffuse_elements.to_string()),
+            (
+                "diffuse elements",
+                "34,816".into(),
+                p.diffuse_elements.to_string(),
+            ),
+            (
+                "non-diffuse elements",
+                "931,136".into(),
+                p.non_diffuse_elements.to_string(),
+            ),
             ("setup", "—".into(), format!("{:.3} s", p.setup_seconds)),
             (
                 "visibility",
                 "—".into(),
-                format!("{:.1} ms ({} layers{})", p.visibility_seconds * 1e3, p.layers, p.visibility_gpu_ms.map(|g| format!(", {g:.2} ms GPU")).unwrap_or_default()),
+                format!(
+                    "{:.1} ms ({} layers{})",
+                    p.visibility_seconds * 1e3,
+                    p.layers,
+                    p.visibility_gpu_ms
+                        .map(|g| format!(", {g:.2} ms GPU"))
+                        .unwrap_or_default()
+                ),
             ),
-            ("iterations", "3".into(), format!("{} (residual {:.2e})", p.iterations, p.final_residual)),
+            (
+                "iterations",
+                "3".into(),
+                format!("{} (residual {:.2e})", p.iterations, p.final_residual),
+            ),
             (
                 "propagation per iteration (GPU)",
                 "—".into(),
-                self.iteration_gpu_ms.as_ref().map(|d| format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99)).unwrap_or("—".into()),
+                self.iteration_gpu_ms
+                    .as_ref()
+                    .map(|d| format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99))
+                    .unwrap_or("—".into()),
             ),
-            ("propagation total", "4.07 s".into(), format!("{:.1} ms", p.propagation_seconds * 1e3)),
-            ("transport samples/s", "—".into(), format!("{:.3e}", self.transport_samples_per_second)),
-            ("memory while propagating", "23.2 MB".into(), human_bytes(p.propagation_memory_bytes)),
-            ("memory for rendering", "2.9 MB".into(), human_bytes(p.render_memory_bytes)),
+            (
+                "propagation total",
+                "4.07 s".into(),
+                format!("{:.1} ms", p.propagation_seconds * 1e3),
+            ),
+            (
+                "transport samples/s",
+                "—".into(),
+                format!("{:.3e}", self.transport_samples_per_second),
+            ),
+            (
+                "memory while propagating",
+                "23.2 MB".into(),
+                human_bytes(p.propagation_memory_bytes),
+            ),
+            (
+                "memory for rendering",
+                "2.9 MB".into(),
+                human_bytes(p.render_memory_bytes),
+            ),
             (
                 "frame time (1024x768 in the paper)",
                 "8.3 ms (122 fps)".into(),
-                format!("{}x{}: median {:.4} ms, p99 {:.4} ms ({fps:.0} fps)", self.render_size[0], self.render_size[1], r.median, r.p99),
+                format!(
+                    "{}x{}: median {:.4} ms, p99 {:.4} ms ({fps:.0} fps)",
+                    self.render_size[0], self.render_size[1], r.median, r.p99
+                ),
             ),
         ];
         for (k, a, b) in rows {

@@ -6,7 +6,10 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum VlfError {
     #[error("{path}: cannot read: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 
     #[error("{path}: {message}")]
     SceneToml { path: PathBuf, message: String },
@@ -15,7 +18,11 @@ pub enum VlfError {
     Mesh { path: PathBuf, message: String },
 
     #[error("{path}: material {material:?}: {message}")]
-    Material { path: PathBuf, material: String, message: String },
+    Material {
+        path: PathBuf,
+        material: String,
+        message: String,
+    },
 
     #[error("{path}: {message}")]
     Config { path: PathBuf, message: String },
@@ -56,6 +63,9 @@ pub type Result<T> = std::result::Result<T, VlfError>;
 
 impl VlfError {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        VlfError::Io { path: path.into(), source }
+        VlfError::Io {
+            path: path.into(),
+            source,
+        }
     }
 }

@@ -10,7 +10,11 @@ use vlf::render::{image_io, Renderer};
 use vlf::scene::Scene;
 
 #[derive(Parser)]
-#[command(name = "vlf", version, about = "Virtual light field: propagate global illumination on the GPU, render any view from it")]
+#[command(
+    name = "vlf",
+    version,
+    about = "Virtual light field: propagate global illumination on the GPU, render any view from it"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -285,16 +289,38 @@ enum Quality {
 
 /// The shipped presets: (name, file, text). Parsed like any --config file, so an error names it.
 const PRESETS: [(&str, &str, &str); 4] = [
-    ("draft", "config/propagation/draft.toml", include_str!("../config/propagation/draft.toml")),
-    ("default", "config/propagation/default.toml", include_str!("../config/propagation/default.toml")),
-    ("high", "config/propagation/high.toml", include_str!("../config/propagation/high.toml")),
-    ("software", "config/propagation/software.toml", include_str!("../config/propagation/software.toml")),
+    (
+        "draft",
+        "config/propagation/draft.toml",
+        include_str!("../config/propagation/draft.toml"),
+    ),
+    (
+        "default",
+        "config/propagation/default.toml",
+        include_str!("../config/propagation/default.toml"),
+    ),
+    (
+        "high",
+        "config/propagation/high.toml",
+        include_str!("../config/propagation/high.toml"),
+    ),
+    (
+        "software",
+        "config/propagation/software.toml",
+        include_str!("../config/propagation/software.toml"),
+    ),
 ];
 
 fn preset(name: &str) -> Result<PropagationParams> {
-    let (_, file, text) = PRESETS.iter().find(|p| p.0 == name).with_context(|| format!("no preset {name:?}"))?;
-    let params: PropagationParams = toml::from_str(text).with_context(|| format!("{file} (built in)"))?;
-    params.validate().with_context(|| format!("{file} (built in)"))?;
+    let (_, file, text) = PRESETS
+        .iter()
+        .find(|p| p.0 == name)
+        .with_context(|| format!("no preset {name:?}"))?;
+    let params: PropagationParams =
+        toml::from_str(text).with_context(|| format!("{file} (built in)"))?;
+    params
+        .validate()
+        .with_context(|| format!("{file} (built in)"))?;
     Ok(params)
 }
 
@@ -409,9 +435,13 @@ impl ParamArgs {
 /// "512MiB", "2GiB", "1.5G", "800M" or a bare number of MiB, as MiB.
 fn parse_mebibytes(s: &str) -> std::result::Result<u64, String> {
     let t = s.trim();
-    let split = t.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(t.len());
+    let split = t
+        .find(|c: char| !(c.is_ascii_digit() || c == '.'))
+        .unwrap_or(t.len());
     let (number, unit) = t.split_at(split);
-    let value: f64 = number.parse().map_err(|_| format!("{s:?}: expected a size such as 512MiB or 2GiB"))?;
+    let value: f64 = number
+        .parse()
+        .map_err(|_| format!("{s:?}: expected a size such as 512MiB or 2GiB"))?;
     let mib = match unit.trim().to_ascii_lowercase().as_str() {
         "" | "m" | "mb" | "mib" => value,
         "g" | "gb" | "gib" => value * 1024.0,
@@ -425,9 +455,17 @@ fn parse_mebibytes(s: &str) -> std::result::Result<u64, String> {
 }
 
 fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
-    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("{s:?}: expected WxH, e.g. 1024x768"))?;
-    let w: u32 = w.trim().parse().map_err(|_| format!("{s:?}: width is not a number"))?;
-    let h: u32 = h.trim().parse().map_err(|_| format!("{s:?}: height is not a number"))?;
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?}: expected WxH, e.g. 1024x768"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?}: width is not a number"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?}: height is not a number"))?;
     if w == 0 || h == 0 || w > 16384 || h > 16384 {
         return Err(format!("{s:?}: width and height must be 1..16384"));
     }
@@ -454,9 +492,13 @@ fn main() {
 /// itself (WGPU_ADAPTER_NAME); this runs first, before any thread exists.
 fn quiet_vulkan_device_select() {
     let set = |k: &str| std::env::var_os(k).is_some_and(|v| !v.is_empty());
-    let absolute = |k: &str| std::env::var_os(k).is_some_and(|v| v.to_string_lossy().starts_with('/'));
-    let wayland_possible = set("WAYLAND_SOCKET") || absolute("WAYLAND_DISPLAY") || absolute("XDG_RUNTIME_DIR");
-    let user_chose = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"].iter().any(|k| std::env::var_os(k).is_some());
+    let absolute =
+        |k: &str| std::env::var_os(k).is_some_and(|v| v.to_string_lossy().starts_with('/'));
+    let wayland_possible =
+        set("WAYLAND_SOCKET") || absolute("WAYLAND_DISPLAY") || absolute("XDG_RUNTIME_DIR");
+    let user_chose = ["NODEVICE_SELECT", "MESA_VK_DEVICE_SELECT", "DRI_PRIME"]
+        .iter()
+        .any(|k| std::env::var_os(k).is_some());
     if !wayland_possible && !user_chose {
         std::env::set_var("NODEVICE_SELECT", "1");
     }
@@ -477,8 +519,17 @@ fn error_text(e: &anyhow::Error) -> String {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    match cli.command.unwrap_or(Command::Demo { out: PathBuf::from("out") }) {
-        Command::Propagate { scene, output, report, checkpoint, resume, params } => {
+    match cli.command.unwrap_or(Command::Demo {
+        out: PathBuf::from("out"),
+    }) {
+        Command::Propagate {
+            scene,
+            output,
+            report,
+            checkpoint,
+            resume,
+            params,
+        } => {
             let scene = Scene::load(&scene)?;
             print_warnings(&scene.warnings);
             let ctx = GpuContext::new()?;
@@ -489,11 +540,13 @@ fn run(cli: Cli) -> Result<()> {
                 every: checkpoint,
                 resume,
             };
-            let (lf, _resident, rep) = vlf::propagate::propagate_with(ctx, &scene, &params, true, Some(&plan))?;
+            let (lf, _resident, rep) =
+                vlf::propagate::propagate_with(ctx, &scene, &params, true, Some(&plan))?;
             print_warnings(&rep.warnings[scene.warnings.len()..]);
             file::save(&lf, &output)?;
             if plan.path.exists() {
-                std::fs::remove_file(&plan.path).with_context(|| format!("removing {}", plan.path.display()))?;
+                std::fs::remove_file(&plan.path)
+                    .with_context(|| format!("removing {}", plan.path.display()))?;
             }
             println!("{}", rep.table());
             if let Some(path) = report {
@@ -502,7 +555,17 @@ fn run(cli: Cli) -> Result<()> {
             }
             println!("light field: {}", output.display());
         }
-        Command::Render { input, camera, size, lightfield, exposure, ssaa, aa, output, params } => {
+        Command::Render {
+            input,
+            camera,
+            size,
+            lightfield,
+            exposure,
+            ssaa,
+            aa,
+            output,
+            params,
+        } => {
             if !(1..=16).contains(&ssaa) {
                 bail!("--ssaa {ssaa}: use 1 (off) to 16");
             }
@@ -517,7 +580,15 @@ fn run(cli: Cli) -> Result<()> {
             println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);
         }
         Command::Demo { out } => demo(&out)?,
-        Command::Reference { scene, camera, size, spp, seed, variance, output } => {
+        Command::Reference {
+            scene,
+            camera,
+            size,
+            spp,
+            seed,
+            variance,
+            output,
+        } => {
             let scene = Scene::load(&scene)?;
             print_warnings(&scene.warnings);
             let cam = scene.camera(camera.as_deref())?.clone();
@@ -525,34 +596,144 @@ fn run(cli: Cli) -> Result<()> {
             let ctx = GpuContext::new()?;
             let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
             image_io::write_image(&r.mean, &output, 1.0)?;
-            println!("{} ({}x{}, {} spp, seed {seed}, {:.2} s)", output.display(), size[0], size[1], r.spp, r.seconds);
+            println!(
+                "{} ({}x{}, {} spp, seed {seed}, {:.2} s)",
+                output.display(),
+                size[0],
+                size[1],
+                r.spp,
+                r.seconds
+            );
             if let Some(path) = variance {
                 image_io::write_image(&r.variance, &path, 1.0)?;
                 println!("variance: {}", path.display());
             }
         }
-        Command::Sweep { scene, reference, camera, directions, grid, texel_density, tolerance, perturb, spp, ssaa, walkthrough, budget_ms, frames, reference_spp, size, out, config } => {
-            let grid = vlf::sweep::SweepGrid { directions, grid, texel_density, tolerance, perturb, spp, ssaa: ssaa.max(1) };
-            let walk = walkthrough.then_some(Walkthrough { budget_ms, frames, reference_spp, config });
-            sweep(&scene, reference.as_deref(), camera.as_deref(), grid, walk, size, &out)?;
+        Command::Sweep {
+            scene,
+            reference,
+            camera,
+            directions,
+            grid,
+            texel_density,
+            tolerance,
+            perturb,
+            spp,
+            ssaa,
+            walkthrough,
+            budget_ms,
+            frames,
+            reference_spp,
+            size,
+            out,
+            config,
+        } => {
+            let grid = vlf::sweep::SweepGrid {
+                directions,
+                grid,
+                texel_density,
+                tolerance,
+                perturb,
+                spp,
+                ssaa: ssaa.max(1),
+            };
+            let walk = walkthrough.then_some(Walkthrough {
+                budget_ms,
+                frames,
+                reference_spp,
+                config,
+            });
+            sweep(
+                &scene,
+                reference.as_deref(),
+                camera.as_deref(),
+                grid,
+                walk,
+                size,
+                &out,
+            )?;
         }
-        Command::Cave { config, scene, headless, frames, hold_seconds, exposure, out, exr, json, params } => {
-            cave(&config, &scene, headless, frames, hold_seconds, exposure, &out, exr, json, &params)?;
+        Command::Cave {
+            config,
+            scene,
+            headless,
+            frames,
+            hold_seconds,
+            exposure,
+            out,
+            exr,
+            json,
+            params,
+        } => {
+            cave(
+                &config,
+                &scene,
+                headless,
+                frames,
+                hold_seconds,
+                exposure,
+                &out,
+                exr,
+                json,
+                &params,
+            )?;
         }
         Command::Track { config, seconds } => {
             if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
                 bail!("--seconds {s}: must be a number of seconds >= 0");
             }
             let display = vlf::display::DisplayConfig::load(&config)?;
-            vlf::display::live::track(&display, &config, seconds.map(std::time::Duration::from_secs_f64), &mut std::io::stdout())?;
+            vlf::display::live::track(
+                &display,
+                &config,
+                seconds.map(std::time::Duration::from_secs_f64),
+                &mut std::io::stdout(),
+            )?;
         }
-        Command::Xr { scene, frames, screenshot, screenshot_frame, camera, exposure, resolution_scale, aa, json, params } => {
-            let options = vlf::display::xr::XrOptions { frames, screenshot, screenshot_frame, exposure, camera, resolution_scale, antialiasing: aa };
+        Command::Xr {
+            scene,
+            frames,
+            screenshot,
+            screenshot_frame,
+            camera,
+            exposure,
+            resolution_scale,
+            aa,
+            json,
+            params,
+        } => {
+            let options = vlf::display::xr::XrOptions {
+                frames,
+                screenshot,
+                screenshot_frame,
+                exposure,
+                camera,
+                resolution_scale,
+                antialiasing: aa,
+            };
             xr(&scene, options, json, &params)?;
         }
-        Command::Generate { kind, size, mirrors, out } => {
-            let g = vlf::generate::generate(&vlf::generate::GenerateOptions { kind, size, mirrors }, &out)?;
-            println!("{}: {} triangles, {} faces ({})", g.scene.display(), g.triangles, g.faces, g.description);
+        Command::Generate {
+            kind,
+            size,
+            mirrors,
+            out,
+        } => {
+            let g = vlf::generate::generate(
+                &vlf::generate::GenerateOptions {
+                    kind,
+                    size,
+                    mirrors,
+                },
+                &out,
+            )?;
+            println!(
+                "{}: {} triangles, {} faces ({})",
+                g.scene.display(),
+                g.triangles,
+                g.faces,
+                g.description
+            );
         }
         Command::Stress { out, quick } => {
             let ctx = GpuContext::new()?;
@@ -560,22 +741,42 @@ fn run(cli: Cli) -> Result<()> {
             let cases = vlf::stress::run(ctx, quick, true)?;
             let out = out.or_else(|| (!quick).then(|| PathBuf::from("STABILITY.md")));
             if let Some(out) = out {
-                std::fs::write(&out, vlf::stress::markdown(&cases, &adapter)).with_context(|| format!("writing {}", out.display()))?;
+                std::fs::write(&out, vlf::stress::markdown(&cases, &adapter))
+                    .with_context(|| format!("writing {}", out.display()))?;
                 println!("{}", out.display());
             }
-            let failed: Vec<&str> = cases.iter().filter(|c| !c.pass).map(|c| c.name.as_str()).collect();
+            let failed: Vec<&str> = cases
+                .iter()
+                .filter(|c| !c.pass)
+                .map(|c| c.name.as_str())
+                .collect();
             if !failed.is_empty() {
-                bail!("{} stability case(s) failed: {}", failed.len(), failed.join(", "));
+                bail!(
+                    "{} stability case(s) failed: {}",
+                    failed.len(),
+                    failed.join(", ")
+                );
             }
         }
-        Command::Compare { image, reference, json, diff, mask } => {
+        Command::Compare {
+            image,
+            reference,
+            json,
+            diff,
+            mask,
+        } => {
             let a = image_io::read_image(&image)?;
             let b = image_io::read_image(&reference)?;
             let keep = match &mask {
                 Some(path) => {
                     let (w, h, keep) = vlf::metrics::read_mask(path)?;
                     if (w, h) != (a.width, a.height) {
-                        bail!("{}: the mask is {w}x{h}, the images {}x{}", path.display(), a.width, a.height);
+                        bail!(
+                            "{}: the mask is {w}x{h}, the images {}x{}",
+                            path.display(),
+                            a.width,
+                            a.height
+                        );
                     }
                     Some(keep)
                 }
@@ -594,9 +795,35 @@ fn run(cli: Cli) -> Result<()> {
                 }
             }
         }
-        Command::Bench { scene, suite, quick, work, plot, from_json, json, markdown, frames, size, aa, params } => {
-            let outputs = BenchOutputs { json, markdown, plot };
-            bench(&scene, suite.then_some((quick, work)), from_json.as_deref(), outputs, frames, size, aa, &params)?;
+        Command::Bench {
+            scene,
+            suite,
+            quick,
+            work,
+            plot,
+            from_json,
+            json,
+            markdown,
+            frames,
+            size,
+            aa,
+            params,
+        } => {
+            let outputs = BenchOutputs {
+                json,
+                markdown,
+                plot,
+            };
+            bench(
+                &scene,
+                suite.then_some((quick, work)),
+                from_json.as_deref(),
+                outputs,
+                frames,
+                size,
+                aa,
+                &params,
+            )?;
         }
     }
     Ok(())
@@ -604,7 +831,18 @@ fn run(cli: Cli) -> Result<()> {
 
 /// `vlf cave`: every wall and eye of a display, in windows or offscreen (`headless`).
 #[allow(clippy::too_many_arguments)]
-fn cave(config: &Path, scene: &Path, headless: bool, frames: Option<u32>, hold_seconds: f64, exposure: f32, out: &Path, exr: bool, json: Option<PathBuf>, params: &ParamArgs) -> Result<()> {
+fn cave(
+    config: &Path,
+    scene: &Path,
+    headless: bool,
+    frames: Option<u32>,
+    hold_seconds: f64,
+    exposure: f32,
+    out: &Path,
+    exr: bool,
+    json: Option<PathBuf>,
+    params: &ParamArgs,
+) -> Result<()> {
     let display = vlf::display::DisplayConfig::load(config)?;
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
@@ -612,7 +850,11 @@ fn cave(config: &Path, scene: &Path, headless: bool, frames: Option<u32>, hold_s
         if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
             bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
         }
-        let options = vlf::display::window::WindowOptions { frames, hold: std::time::Duration::from_secs_f64(hold_seconds), exposure };
+        let options = vlf::display::window::WindowOptions {
+            frames,
+            hold: std::time::Duration::from_secs_f64(hold_seconds),
+            exposure,
+        };
         let report = vlf::display::window::run(&lf, &resident, &display, config, options)?;
         print!("{}", report.table());
         if let Some(path) = json {
@@ -620,17 +862,34 @@ fn cave(config: &Path, scene: &Path, headless: bool, frames: Option<u32>, hold_s
         }
         return Ok(());
     }
-    let report = vlf::display::headless::run(&lf, &resident, &display, config, frames.unwrap_or(60), out, exr)?;
+    let report = vlf::display::headless::run(
+        &lf,
+        &resident,
+        &display,
+        config,
+        frames.unwrap_or(60),
+        out,
+        exr,
+    )?;
     print!("{}", report.table());
     if let Some(path) = json {
         write_json(&path, &report)?;
     }
-    println!("images in {} (overview: {})", out.display(), out.join("overview.png").display());
+    println!(
+        "images in {} (overview: {})",
+        out.display(),
+        out.join("overview.png").display()
+    );
     Ok(())
 }
 
 /// `vlf xr`: an OpenXR headset session.
-fn xr(scene: &Path, options: vlf::display::xr::XrOptions, json: Option<PathBuf>, params: &ParamArgs) -> Result<()> {
+fn xr(
+    scene: &Path,
+    options: vlf::display::xr::XrOptions,
+    json: Option<PathBuf>,
+    params: &ParamArgs,
+) -> Result<()> {
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {
         bail!("--resolution-scale {scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
@@ -644,7 +903,10 @@ fn xr(scene: &Path, options: vlf::display::xr::XrOptions, json: Option<PathBuf>,
             bail!("--screenshot-frame {shot} is after the last of --frames {n}");
         }
     }
-    let mut make = |ctx: &std::sync::Arc<GpuContext>| light_field_for(ctx, scene, None, params).map_err(|e| vlf::VlfError::Display(format!("{e:#}")));
+    let mut make = |ctx: &std::sync::Arc<GpuContext>| {
+        light_field_for(ctx, scene, None, params)
+            .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
+    };
     let report = vlf::display::xr::run_headset(&mut make, &options)?;
     print!("{}", report.table());
     if let Some(path) = json {
@@ -665,13 +927,28 @@ struct BenchOutputs {
 
 /// `vlf bench`: one scene, the suite (`suite`: quick, work folder), or the tables of an earlier report.
 #[allow(clippy::too_many_arguments)]
-fn bench(scene: &Path, suite: Option<(bool, PathBuf)>, from_json: Option<&Path>, outputs: BenchOutputs, frames: u32, size: [u32; 2], aa: u32, params: &ParamArgs) -> Result<()> {
-    let BenchOutputs { json, markdown, plot } = outputs;
+fn bench(
+    scene: &Path,
+    suite: Option<(bool, PathBuf)>,
+    from_json: Option<&Path>,
+    outputs: BenchOutputs,
+    frames: u32,
+    size: [u32; 2],
+    aa: u32,
+    params: &ParamArgs,
+) -> Result<()> {
+    let BenchOutputs {
+        json,
+        markdown,
+        plot,
+    } = outputs;
     if let Some(input) = from_json {
         let report = vlf::suite::SuiteReport::load(input)?;
         let md = report.markdown();
         match markdown {
-            Some(path) => std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?,
+            Some(path) => {
+                std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?
+            }
             None => print!("{md}"),
         }
         if let Some(path) = plot {
@@ -681,7 +958,10 @@ fn bench(scene: &Path, suite: Option<(bool, PathBuf)>, from_json: Option<&Path>,
     }
     let ctx = GpuContext::new()?;
     if ctx.summary.software {
-        eprintln!("note: {} is a software adapter: these timings say nothing about GPU speed", ctx.summary.name);
+        eprintln!(
+            "note: {} is a software adapter: these timings say nothing about GPU speed",
+            ctx.summary.name
+        );
     }
     if let Some((quick, work)) = suite {
         let root = std::env::current_dir().context("the current folder")?;
@@ -711,7 +991,8 @@ fn bench(scene: &Path, suite: Option<(bool, PathBuf)>, from_json: Option<&Path>,
         println!("json: {}", path.display());
     }
     if let Some(path) = markdown {
-        std::fs::write(&path, report.markdown()).with_context(|| format!("writing {}", path.display()))?;
+        std::fs::write(&path, report.markdown())
+            .with_context(|| format!("writing {}", path.display()))?;
         println!("markdown: {}", path.display());
     }
     Ok(())
@@ -726,40 +1007,79 @@ struct Walkthrough {
 }
 
 /// `vlf sweep`: the grid of settings against a reference, or the walkthrough at a frame budget.
-fn sweep(scene: &Path, reference: Option<&Path>, camera: Option<&str>, grid: vlf::sweep::SweepGrid, walk: Option<Walkthrough>, size: [u32; 2], out: &Path) -> Result<()> {
+fn sweep(
+    scene: &Path,
+    reference: Option<&Path>,
+    camera: Option<&str>,
+    grid: vlf::sweep::SweepGrid,
+    walk: Option<Walkthrough>,
+    size: [u32; 2],
+    out: &Path,
+) -> Result<()> {
     let scene = Scene::load(scene)?;
     print_warnings(&scene.warnings);
     let cam = scene.camera(camera)?.clone();
     let ctx = GpuContext::new()?;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    if let Some(Walkthrough { budget_ms, frames, reference_spp, config }) = walk {
+    if let Some(Walkthrough {
+        budget_ms,
+        frames,
+        reference_spp,
+        config,
+    }) = walk
+    {
         let params = match &config {
             Some(path) => PropagationParams::from_toml_file(path)?,
             None => PropagationParams::default(),
         };
         let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
-        let (rows, propagation_s, pt_spp) =
-            vlf::sweep::walkthrough(ctx, &scene, &params, &path, size, budget_ms, reference_spp, true)?;
+        let (rows, propagation_s, pt_spp) = vlf::sweep::walkthrough(
+            ctx,
+            &scene,
+            &params,
+            &path,
+            size,
+            budget_ms,
+            reference_spp,
+            true,
+        )?;
         let csv = out.join("walkthrough.csv");
         let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
         for r in &rows {
-            text.push_str(&format!("{},{},{},{:.4},{:.6e},{:.6}\n", r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip));
+            text.push_str(&format!(
+                "{},{},{},{:.4},{:.6e},{:.6}\n",
+                r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip
+            ));
         }
         std::fs::write(&csv, text)?;
         let series = |m: &'static str, color| vlf::sweep::plot::Series {
             name: m,
             color,
-            points: rows.iter().filter(|r| r.method == m).map(|r| (r.frame as f64, r.rel_mse)).collect(),
+            points: rows
+                .iter()
+                .filter(|r| r.method == m)
+                .map(|r| (r.frame as f64, r.rel_mse))
+                .collect(),
         };
         let png = out.join("walkthrough.png");
         vlf::sweep::plot::error_per_frame(
             &png,
-            &format!("{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)", scene.name),
+            &format!(
+                "{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)",
+                scene.name
+            ),
             "relMSE against the frame's reference",
-            &[series("light field", plotters::style::RGBColor(200, 60, 40)), series("path tracer", plotters::style::RGBColor(40, 90, 200))],
+            &[
+                series("light field", plotters::style::RGBColor(200, 60, 40)),
+                series("path tracer", plotters::style::RGBColor(40, 90, 200)),
+            ],
         )?;
         let mean = |m: &str| {
-            let v: Vec<f64> = rows.iter().filter(|r| r.method == m).map(|r| r.rel_mse).collect();
+            let v: Vec<f64> = rows
+                .iter()
+                .filter(|r| r.method == m)
+                .map(|r| r.rel_mse)
+                .collect();
             v.iter().sum::<f64>() / v.len() as f64
         };
         println!(
@@ -792,7 +1112,9 @@ fn light_field_for(
     lightfield: Option<&Path>,
     params: &ParamArgs,
 ) -> Result<(LightField, ResidentLightField)> {
-    let is_vlf = input.extension().is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
+    let is_vlf = input
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
     if is_vlf {
         let lf = file::load(input)?;
         let resident = lf.upload(ctx.clone())?;
@@ -829,9 +1151,12 @@ fn estimate_time(ctx: &GpuContext, scene: &Scene, params: &PropagationParams) ->
     if !ctx.summary.software {
         return Ok(());
     }
-    let texels = vlf::prepare::PreparedScene::new(scene, params.texel_density)?.atlas.texel_count() as f64;
+    let texels = vlf::prepare::PreparedScene::new(scene, params.texel_density)?
+        .atlas
+        .texel_count() as f64;
     let cores = std::thread::available_parallelism().map_or(2, |n| n.get()) as f64;
-    let work = params.direction_count() as f64 * texels * ESTIMATE_ITERATIONS * params.perturb as f64;
+    let work =
+        params.direction_count() as f64 * texels * ESTIMATE_ITERATIONS * params.perturb as f64;
     let seconds = work * SOFTWARE_SECONDS_PER_TEXEL_DIRECTION * 2.0 / cores;
     eprintln!(
         "estimate: propagating takes about {} on {} ({} directions x {} texels x ~{ESTIMATE_ITERATIONS} iterations, {cores} CPU cores; a rough model, mirrors add more)",
@@ -854,7 +1179,11 @@ fn human_seconds(s: f64) -> String {
 
 fn demo(out: &Path) -> Result<()> {
     let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
-    let scene_path = if Path::new("scenes/cornell/scene.toml").exists() { PathBuf::from("scenes/cornell/scene.toml") } else { scene_path };
+    let scene_path = if Path::new("scenes/cornell/scene.toml").exists() {
+        PathBuf::from("scenes/cornell/scene.toml")
+    } else {
+        scene_path
+    };
     let scene = Scene::load(&scene_path)?;
     print_warnings(&scene.warnings);
     let ctx = GpuContext::new()?;
@@ -886,7 +1215,12 @@ fn demo(out: &Path) -> Result<()> {
     image_io::write_image(&frame, &png, 1.0)?;
     image_io::write_image(&frame, &exr, 1.0)?;
     file::save(&lf, &vlf_path)?;
-    println!("wrote {}\nwrote {}\nwrote {}", png.display(), exr.display(), vlf_path.display());
+    println!(
+        "wrote {}\nwrote {}\nwrote {}",
+        png.display(),
+        exr.display(),
+        vlf_path.display()
+    );
     Ok(())
 }
 

@@ -45,12 +45,21 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
         });
     }
     if keep.is_some_and(|k| k.len() != test.pixels.len()) {
-        return Err(VlfError::Parameter { name: "mask", message: format!("the mask is not {}x{}: use one of the images' size", test.width, test.height) });
+        return Err(VlfError::Parameter {
+            name: "mask",
+            message: format!(
+                "the mask is not {}x{}: use one of the images' size",
+                test.width, test.height
+            ),
+        });
     }
     let kept = |i: usize| keep.is_none_or(|k| k[i]);
     let pixels = (0..test.pixels.len()).filter(|&i| kept(i)).count();
     if pixels == 0 {
-        return Err(VlfError::Parameter { name: "mask", message: "the mask keeps no pixel".into() });
+        return Err(VlfError::Parameter {
+            name: "mask",
+            message: "the mask keeps no pixel".into(),
+        });
     }
     let n = (pixels * 3) as f64;
     let (mut se, mut rel, mut max_abs, mut display) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
@@ -61,7 +70,10 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
         for c in 0..3 {
             let (x, y) = (a[c] as f64, b[c] as f64);
             if !x.is_finite() || !y.is_finite() {
-                return Err(VlfError::Parameter { name: "images", message: "an image holds NaN or infinite values".into() });
+                return Err(VlfError::Parameter {
+                    name: "images",
+                    message: "an image holds NaN or infinite values".into(),
+                });
             }
             let d = x - y;
             se += d * d;
@@ -74,7 +86,15 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
     let flip = flip_map(test, reference);
     let flip_mean = match keep {
         None => nv_flip::FlipPool::from_image(&flip).mean() as f64,
-        Some(_) => flip.to_vec().iter().enumerate().filter(|(i, _)| kept(*i)).map(|(_, &v)| v as f64).sum::<f64>() / pixels as f64,
+        Some(_) => {
+            flip.to_vec()
+                .iter()
+                .enumerate()
+                .filter(|(i, _)| kept(*i))
+                .map(|(_, &v)| v as f64)
+                .sum::<f64>()
+                / pixels as f64
+        }
     };
     Ok(Comparison {
         width: test.width,
@@ -90,7 +110,11 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
 }
 
 fn flip_map(test: &Frame, reference: &Frame) -> nv_flip::FlipImageFloat {
-    let r = nv_flip::FlipImageRgb8::with_data(reference.width, reference.height, &display_bytes(reference));
+    let r = nv_flip::FlipImageRgb8::with_data(
+        reference.width,
+        reference.height,
+        &display_bytes(reference),
+    );
     let t = nv_flip::FlipImageRgb8::with_data(test.width, test.height, &display_bytes(test));
     nv_flip::flip(r, t, nv_flip::DEFAULT_PIXELS_PER_DEGREE)
 }
@@ -98,9 +122,18 @@ fn flip_map(test: &Frame, reference: &Frame) -> nv_flip::FlipImageFloat {
 /// A false-colour difference image: FLIP error per pixel through the magma colour map.
 pub fn write_difference_png(test: &Frame, reference: &Frame, path: &std::path::Path) -> Result<()> {
     let map = flip_map(test, reference).apply_color_lut(&nv_flip::magma_lut());
-    let img = image::RgbImage::from_raw(map.width(), map.height(), map.to_vec())
-        .ok_or_else(|| VlfError::Image { path: path.to_path_buf(), message: "difference image has the wrong size".into() })?;
-    img.save_with_format(path, image::ImageFormat::Png).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })
+    let img =
+        image::RgbImage::from_raw(map.width(), map.height(), map.to_vec()).ok_or_else(|| {
+            VlfError::Image {
+                path: path.to_path_buf(),
+                message: "difference image has the wrong size".into(),
+            }
+        })?;
+    img.save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| VlfError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }
 
 impl Comparison {
@@ -114,6 +147,15 @@ impl Comparison {
 
 /// A mask from a PNG of the images' size: pixels whose red channel is above half are kept.
 pub fn read_mask(path: &std::path::Path) -> Result<(u32, u32, Vec<bool>)> {
-    let img = image::open(path).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })?.to_rgb8();
-    Ok((img.width(), img.height(), img.pixels().map(|p| p[0] > 127).collect()))
+    let img = image::open(path)
+        .map_err(|e| VlfError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?
+        .to_rgb8();
+    Ok((
+        img.width(),
+        img.height(),
+        img.pixels().map(|p| p[0] > 127).collect(),
+    ))
 }

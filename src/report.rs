@@ -60,22 +60,60 @@ impl PropagationReport {
     pub fn table(&self) -> String {
         let mut rows: Vec<(String, String)> = vec![
             ("scene".into(), self.scene.clone()),
-            ("adapter".into(), format!("{} ({}, {})", self.adapter.name, self.adapter.backend, self.adapter.driver_info)),
+            (
+                "adapter".into(),
+                format!(
+                    "{} ({}, {})",
+                    self.adapter.name, self.adapter.backend, self.adapter.driver_info
+                ),
+            ),
             (
                 "directions".into(),
                 if self.params.perturb > 1 {
-                    format!("{} (geodesic n={}), {} perturbed sets in transport", self.directions, self.params.geodesic_frequency, self.params.perturb)
+                    format!(
+                        "{} (geodesic n={}), {} perturbed sets in transport",
+                        self.directions, self.params.geodesic_frequency, self.params.perturb
+                    )
                 } else {
-                    format!("{} (geodesic n={})", self.directions, self.params.geodesic_frequency)
+                    format!(
+                        "{} (geodesic n={})",
+                        self.directions, self.params.geodesic_frequency
+                    )
                 },
             ),
-            ("grid / tile".into(), format!("{0}x{0} cells, {1}x{1}-cell tiles", self.params.grid_resolution, self.params.tile_size)),
-            ("faces (triangles)".into(), format!("{} ({})", self.faces, self.triangles)),
-            ("diffuse elements".into(), format!("{} texels at {} / unit", self.diffuse_elements, self.params.texel_density)),
-            ("non-diffuse elements".into(), format!("{} ({} of tiles)", self.non_diffuse_elements, human_bytes(self.tile_bytes))),
+            (
+                "grid / tile".into(),
+                format!(
+                    "{0}x{0} cells, {1}x{1}-cell tiles",
+                    self.params.grid_resolution, self.params.tile_size
+                ),
+            ),
+            (
+                "faces (triangles)".into(),
+                format!("{} ({})", self.faces, self.triangles),
+            ),
+            (
+                "diffuse elements".into(),
+                format!(
+                    "{} texels at {} / unit",
+                    self.diffuse_elements, self.params.texel_density
+                ),
+            ),
+            (
+                "non-diffuse elements".into(),
+                format!(
+                    "{} ({} of tiles)",
+                    self.non_diffuse_elements,
+                    human_bytes(self.tile_bytes)
+                ),
+            ),
             (
                 "textures".into(),
-                if self.texture_bytes == 0 { "none: nothing allocated".into() } else { human_bytes(self.texture_bytes) },
+                if self.texture_bytes == 0 {
+                    "none: nothing allocated".into()
+                } else {
+                    human_bytes(self.texture_bytes)
+                },
             ),
             (
                 "visibility layers".into(),
@@ -96,7 +134,10 @@ impl PropagationReport {
                     None => format!("{:.3} s", self.visibility_seconds),
                 },
             ),
-            ("propagation".into(), format!("{:.3} s", self.propagation_seconds)),
+            (
+                "propagation".into(),
+                format!("{:.3} s", self.propagation_seconds),
+            ),
             (
                 "iterations".into(),
                 match &self.tail {
@@ -112,32 +153,57 @@ impl PropagationReport {
                 format!(
                     "{:.3e} ({})",
                     self.final_residual,
-                    if self.converged { format!("converged below {:.0e}", self.params.tolerance) } else { "iteration cap reached".into() }
+                    if self.converged {
+                        format!("converged below {:.0e}", self.params.tolerance)
+                    } else {
+                        "iteration cap reached".into()
+                    }
                 ),
             ),
-            ("GPU memory, propagating".into(), human_bytes(self.propagation_memory_bytes)),
-            ("GPU memory, rendering".into(), human_bytes(self.render_memory_bytes)),
+            (
+                "GPU memory, propagating".into(),
+                human_bytes(self.propagation_memory_bytes),
+            ),
+            (
+                "GPU memory, rendering".into(),
+                human_bytes(self.render_memory_bytes),
+            ),
         ];
         rows.push((
             "direct light".into(),
             if self.params.direct_samples > 0 {
-                format!("{} emitter triangle(s), {} shadow rays per texel (closed form x visibility)", self.direct_emitters, self.params.direct_samples)
+                format!(
+                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility)",
+                    self.direct_emitters, self.params.direct_samples
+                )
             } else {
                 "through the fixed directions (--direct-samples 0)".into()
             },
         ));
         if let Some(m) = self.mirror_rendering.filter(|m| m.bounces > 0) {
-            let tiles = if m.tiles_needed { "mirror tiles kept: mirrors face each other" } else { "mirror tiles freed: not needed to render" };
-            rows.push(("mirrors, rendering".into(), format!("{} reflection(s) traced per eye ray; {tiles}", m.bounces)));
+            let tiles = if m.tiles_needed {
+                "mirror tiles kept: mirrors face each other"
+            } else {
+                "mirror tiles freed: not needed to render"
+            };
+            rows.push((
+                "mirrors, rendering".into(),
+                format!("{} reflection(s) traced per eye ray; {tiles}", m.bounces),
+            ));
         }
         if !self.sky {
             rows.push(("sky".into(), "none (black): nothing allocated".into()));
         }
         let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
-        rows.iter().map(|(k, v)| format!("  {k:<width$}  {v}\n")).collect()
+        rows.iter()
+            .map(|(k, v)| format!("  {k:<width$}  {v}\n"))
+            .collect()
     }
 }
 
 pub fn memory_items(entries: Vec<(String, u64)>) -> Vec<MemoryItem> {
-    entries.into_iter().map(|(name, bytes)| MemoryItem { name, bytes }).collect()
+    entries
+        .into_iter()
+        .map(|(name, bytes)| MemoryItem { name, bytes })
+        .collect()
 }

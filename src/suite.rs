@@ -77,10 +77,17 @@ pub struct Target {
 /// Datasheet bandwidth by adapter name (GB/s).
 fn peak_bandwidth(name: &str) -> Option<f64> {
     let n = name.to_lowercase();
-    [("h200", 4800.0), ("h100 pcie", 2000.0), ("h100", 3350.0), ("a100", 2039.0), ("l40s", 864.0), ("rtx 4090", 1008.0)]
-        .iter()
-        .find(|(k, _)| n.contains(k))
-        .map(|(_, v)| *v)
+    [
+        ("h200", 4800.0),
+        ("h100 pcie", 2000.0),
+        ("h100", 3350.0),
+        ("a100", 2039.0),
+        ("l40s", 864.0),
+        ("rtx 4090", 1008.0),
+    ]
+    .iter()
+    .find(|(k, _)| n.contains(k))
+    .map(|(_, v)| *v)
 }
 
 struct Case {
@@ -99,7 +106,12 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     let paper = PropagationParams::from_toml_file(&root.join("config/propagation/paper.toml"))?;
     // quick (software adapters, the test): light settings everywhere
     let ours = if quick {
-        PropagationParams { geodesic_frequency: 6, grid_resolution: 48, texel_density: 16.0, ..PropagationParams::default() }
+        PropagationParams {
+            geodesic_frequency: 6,
+            grid_resolution: 48,
+            texel_density: 16.0,
+            ..PropagationParams::default()
+        }
     } else {
         PropagationParams::default()
     };
@@ -113,38 +125,110 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     };
     let cornell = root.join("scenes/cornell/scene.toml");
     let mut out = vec![
-        case("cornell (paper settings)", cornell.clone(), paper.clone(), "paper: 501 dirs, 64^2, 3 iterations"),
-        case("cornell", cornell.clone(), ours.clone(), "defaults, to 1e-3"),
-        case("cornell-mirror (paper settings)", root.join("scenes/cornell-mirror/scene.toml"), paper, "paper: 501 dirs, 64^2, 3 iterations"),
-        case("cornell-mirror", root.join("scenes/cornell-mirror/scene.toml"), ours.clone(), "defaults, to 1e-3"),
+        case(
+            "cornell (paper settings)",
+            cornell.clone(),
+            paper.clone(),
+            "paper: 501 dirs, 64^2, 3 iterations",
+        ),
+        case(
+            "cornell",
+            cornell.clone(),
+            ours.clone(),
+            "defaults, to 1e-3",
+        ),
+        case(
+            "cornell-mirror (paper settings)",
+            root.join("scenes/cornell-mirror/scene.toml"),
+            paper,
+            "paper: 501 dirs, 64^2, 3 iterations",
+        ),
+        case(
+            "cornell-mirror",
+            root.join("scenes/cornell-mirror/scene.toml"),
+            ours.clone(),
+            "defaults, to 1e-3",
+        ),
     ];
     // elements x directions varied on one scene, 3 plain iterations each: the cost's slope
-    let grid: &[(u32, f64)] = if quick { &[(3, 12.0), (5, 12.0), (5, 20.0)] } else { &[(10, 96.0), (14, 96.0), (20, 96.0), (28, 96.0), (20, 48.0), (20, 136.0)] };
+    let grid: &[(u32, f64)] = if quick {
+        &[(3, 12.0), (5, 12.0), (5, 20.0)]
+    } else {
+        &[
+            (10, 96.0),
+            (14, 96.0),
+            (20, 96.0),
+            (28, 96.0),
+            (20, 48.0),
+            (20, 136.0),
+        ]
+    };
     for &(n, density) in grid {
-        let params = PropagationParams { geodesic_frequency: n, texel_density: density, max_iterations: 3, accelerate: false, tolerance: 1e-9, ..ours.clone() };
+        let params = PropagationParams {
+            geodesic_frequency: n,
+            texel_density: density,
+            max_iterations: 3,
+            accelerate: false,
+            tolerance: 1e-9,
+            ..ours.clone()
+        };
         out.push(Case {
-            name: format!("cornell, {} directions, {density} texels/unit", params.direction_count()),
+            name: format!(
+                "cornell, {} directions, {density} texels/unit",
+                params.direction_count()
+            ),
             scene: cornell.clone(),
             params,
             settings: format!("{SCALING}: 3 iterations"),
             render: false,
         });
     }
-    let sizes: &[u64] = if quick { &[1_000] } else { &[1_000, 10_000, 100_000, 1_000_000] };
+    let sizes: &[u64] = if quick {
+        &[1_000]
+    } else {
+        &[1_000, 10_000, 100_000, 1_000_000]
+    };
     for &size in sizes {
         let dir = work.join(format!("classroom-{size}"));
-        let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Classroom, size, mirrors: false }, &dir)?;
-        out.push(case(&format!("classroom ~{}K triangles", size / 1000), g.scene, ours.clone(), "defaults, to 1e-3"));
+        let g = crate::generate::generate(
+            &GenerateOptions {
+                kind: SceneKind::Classroom,
+                size,
+                mirrors: false,
+            },
+            &dir,
+        )?;
+        out.push(case(
+            &format!("classroom ~{}K triangles", size / 1000),
+            g.scene,
+            ours.clone(),
+            "defaults, to 1e-3",
+        ));
     }
     let gallery = work.join("gallery-mirror");
-    let g = crate::generate::generate(&GenerateOptions { kind: SceneKind::Gallery, size: if quick { 1_000 } else { 10_000 }, mirrors: true }, &gallery)?;
-    out.push(case("gallery with mirrors", g.scene, ours.clone(), "defaults, to 1e-3"));
+    let g = crate::generate::generate(
+        &GenerateOptions {
+            kind: SceneKind::Gallery,
+            size: if quick { 1_000 } else { 10_000 },
+            mirrors: true,
+        },
+        &gallery,
+    )?;
+    out.push(case(
+        "gallery with mirrors",
+        g.scene,
+        ours.clone(),
+        "defaults, to 1e-3",
+    ));
     let budget_scene = work.join(format!("classroom-{}", sizes[sizes.len().min(3) - 1]));
     let budget = if quick { 3 } else { 512 };
     out.push(case(
         &format!("same classroom, --memory-budget {budget}MiB"),
         budget_scene.join("scene.toml"),
-        PropagationParams { memory_budget_mib: Some(budget), ..ours },
+        PropagationParams {
+            memory_budget_mib: Some(budget),
+            ..ours
+        },
         "defaults, directions in batches",
     ));
     Ok(out)
@@ -160,7 +244,14 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
         let right = dir.cross(glam::Vec3::Y).normalize_or_zero();
         for side in [-1.0f32, 1.0] {
             let e = eye + right * side * 0.032;
-            views.push(Camera { name: format!("cave {k}"), eye: e.into(), target: (e + dir).into(), up: [0.0, 1.0, 0.0], fov_y_deg: 90.0, size: [1920, 1200] });
+            views.push(Camera {
+                name: format!("cave {k}"),
+                eye: e.into(),
+                target: (e + dir).into(),
+                up: [0.0, 1.0, 0.0],
+                fov_y_deg: 90.0,
+                size: [1920, 1200],
+            });
         }
     }
     views
@@ -168,14 +259,19 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
 
 fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
-    let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
+    let (lf, resident, report) =
+        crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
         let (a, b, c) = time_rendering(ctx, &lf, &resident, frames)?;
         (Some(a), Some(b), Some(c))
     } else {
         (None, None, None)
     };
-    let iteration_ms: Vec<f64> = report.per_iteration.iter().filter_map(|i| i.gpu_ms).collect();
+    let iteration_ms: Vec<f64> = report
+        .per_iteration
+        .iter()
+        .filter_map(|i| i.gpu_ms)
+        .collect();
     let iteration_gpu_ms = (!iteration_ms.is_empty()).then(|| Distribution::of(&iteration_ms));
     let samples_per_iteration = report.diffuse_elements as f64 * report.directions as f64;
     Ok(SuiteEntry {
@@ -191,12 +287,17 @@ fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntr
         visibility_seconds: report.visibility_seconds,
         visibility_gpu_ms: report.visibility_gpu_ms,
         iterations: report.iterations,
-        modelled_bandwidth_gb_s: iteration_gpu_ms.as_ref().map(|d| samples_per_iteration * MODEL_BYTES_PER_SAMPLE / (d.median * 1e-3) / 1e9),
+        modelled_bandwidth_gb_s: iteration_gpu_ms
+            .as_ref()
+            .map(|d| samples_per_iteration * MODEL_BYTES_PER_SAMPLE / (d.median * 1e-3) / 1e9),
         iteration_gpu_ms,
         propagation_seconds: report.propagation_seconds,
-        total_seconds: report.setup_seconds + report.visibility_seconds + report.propagation_seconds,
+        total_seconds: report.setup_seconds
+            + report.visibility_seconds
+            + report.propagation_seconds,
         final_residual: report.final_residual,
-        transport_samples_per_second: samples_per_iteration * report.iterations as f64 / report.propagation_seconds.max(1e-12),
+        transport_samples_per_second: samples_per_iteration * report.iterations as f64
+            / report.propagation_seconds.max(1e-12),
         render_1024x768_ms,
         render_1920x1080_ms,
         cave_frame_ms,
@@ -216,7 +317,9 @@ fn time_rendering(
     let camera = lf.camera(None)?.clone();
     let mut time = |w: u32, h: u32| -> Result<Distribution> {
         renderer.time_frames(&camera, w, h, 5)?;
-        Ok(Distribution::of(&renderer.time_frames(&camera, w, h, frames)?.0))
+        Ok(Distribution::of(
+            &renderer.time_frames(&camera, w, h, frames)?.0,
+        ))
     };
     let render_1024x768_ms = time(1024, 768)?;
     let render_1920x1080_ms = time(1920, 1080)?;
@@ -236,27 +339,55 @@ fn time_rendering(
             None => started.elapsed().as_secs_f64() * 1e3,
         });
     }
-    Ok((render_1024x768_ms, render_1920x1080_ms, Distribution::of(&cave)))
+    Ok((
+        render_1024x768_ms,
+        render_1920x1080_ms,
+        Distribution::of(&cave),
+    ))
 }
 
 /// Least-squares slope of log y against log x.
 pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
-    let p: Vec<(f64, f64)> = points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    let p: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
     if p.len() < 2 {
         return None;
     }
     let n = p.len() as f64;
-    let (mx, my) = (p.iter().map(|q| q.0).sum::<f64>() / n, p.iter().map(|q| q.1).sum::<f64>() / n);
+    let (mx, my) = (
+        p.iter().map(|q| q.0).sum::<f64>() / n,
+        p.iter().map(|q| q.1).sum::<f64>() / n,
+    );
     let sxx: f64 = p.iter().map(|q| (q.0 - mx).powi(2)).sum();
     (sxx > 0.0).then(|| p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum::<f64>() / sxx)
 }
 
 /// Run the suite. `quick` (software adapters, tests) keeps the scenes small.
-pub fn run(ctx: Arc<GpuContext>, root: &Path, work: &Path, quick: bool, frames: u32, progress: bool) -> Result<SuiteReport> {
+pub fn run(
+    ctx: Arc<GpuContext>,
+    root: &Path,
+    work: &Path,
+    quick: bool,
+    frames: u32,
+    progress: bool,
+) -> Result<SuiteReport> {
     let peak = peak_bandwidth(&ctx.summary.name);
     let cases = cases(root, work, quick)?;
-    let bar = if progress { indicatif::ProgressBar::new(cases.len() as u64) } else { indicatif::ProgressBar::hidden() };
-    bar.set_style(indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}").unwrap().progress_chars("=> "));
+    let bar = if progress {
+        indicatif::ProgressBar::new(cases.len() as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
+        )
+        .unwrap()
+        .progress_chars("=> "),
+    );
     let mut entries = Vec::new();
     for case in &cases {
         bar.set_message(case.name.clone());
@@ -268,7 +399,12 @@ pub fn run(ctx: Arc<GpuContext>, root: &Path, work: &Path, quick: bool, frames: 
     let points: Vec<(f64, f64)> = entries
         .iter()
         .filter(|e| e.settings.starts_with(SCALING))
-        .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median)))
+        .filter_map(|e| {
+            Some((
+                (e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64,
+                e.iteration_gpu_ms.as_ref()?.median,
+            ))
+        })
         .collect();
     let cost_slope = log_log_slope(&points);
     let targets = targets(&entries, cost_slope, quick);
@@ -291,29 +427,58 @@ fn targets(entries: &[SuiteEntry], slope: Option<f64>, quick: bool) -> Vec<Targe
         t.push(Target {
             what: what.into(),
             goal: goal.into(),
-            measured: measured.as_ref().map_or("not measured".into(), |m| m.0.clone()),
+            measured: measured
+                .as_ref()
+                .map_or("not measured".into(), |m| m.0.clone()),
             met: measured.map(|m| m.1),
         })
     };
     add(
         "Cornell, paper settings, 3 iterations",
         "propagation under 20 ms (paper 4.07 s)",
-        find("cornell (paper").map(|e| (format!("{:.1} ms", e.propagation_seconds * 1e3), e.propagation_seconds < 0.020)),
+        find("cornell (paper").map(|e| {
+            (
+                format!("{:.1} ms", e.propagation_seconds * 1e3),
+                e.propagation_seconds < 0.020,
+            )
+        }),
     );
     add(
         "10K-face gallery with mirrors to 1e-3",
         "under 2 s (paper's Atenea: 153 s for 3 iterations)",
-        find("gallery").filter(|_| !quick).map(|e| (format!("{:.2} s ({} faces, {} elements)", e.total_seconds, e.faces, e.diffuse_elements + e.non_diffuse_elements), e.total_seconds < 2.0)),
+        find("gallery").filter(|_| !quick).map(|e| {
+            (
+                format!(
+                    "{:.2} s ({} faces, {} elements)",
+                    e.total_seconds,
+                    e.faces,
+                    e.diffuse_elements + e.non_diffuse_elements
+                ),
+                e.total_seconds < 2.0,
+            )
+        }),
     );
     add(
         "1M diffuse triangles to 1e-3",
         "under 30 s",
-        find("classroom ~1000K").map(|e| (format!("{:.2} s ({} triangles)", e.total_seconds, e.triangles), e.total_seconds < 30.0)),
+        find("classroom ~1000K").map(|e| {
+            (
+                format!("{:.2} s ({} triangles)", e.total_seconds, e.triangles),
+                e.total_seconds < 30.0,
+            )
+        }),
     );
     add(
         "a 1024x768 view (Cornell)",
         "under 0.5 ms",
-        find("cornell").and_then(|e| e.render_1024x768_ms.as_ref()).map(|d| (format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99), d.p99 < 0.5)),
+        find("cornell")
+            .and_then(|e| e.render_1024x768_ms.as_ref())
+            .map(|d| {
+                (
+                    format!("median {:.3} ms, p99 {:.3} ms", d.median, d.p99),
+                    d.p99 < 0.5,
+                )
+            }),
     );
     add(
         "propagation cost against elements x directions",
@@ -326,12 +491,19 @@ fn targets(entries: &[SuiteEntry], slope: Option<f64>, quick: bool) -> Vec<Targe
 impl SuiteReport {
     /// A report written earlier with --json (BENCHMARKS.md is regenerated from it).
     pub fn load(path: &Path) -> Result<SuiteReport> {
-        let text = std::fs::read_to_string(path).map_err(|e| crate::error::VlfError::io(path, e))?;
-        serde_json::from_str(&text).map_err(|e| crate::error::VlfError::Config { path: path.to_path_buf(), message: format!("not a suite report: {e}") })
+        let text =
+            std::fs::read_to_string(path).map_err(|e| crate::error::VlfError::io(path, e))?;
+        serde_json::from_str(&text).map_err(|e| crate::error::VlfError::Config {
+            path: path.to_path_buf(),
+            message: format!("not a suite report: {e}"),
+        })
     }
 
     pub fn markdown(&self) -> String {
-        let ms = |d: &Option<Distribution>| d.as_ref().map_or("—".into(), |d| format!("{:.3}", d.median));
+        let ms = |d: &Option<Distribution>| {
+            d.as_ref()
+                .map_or("—".into(), |d| format!("{:.3}", d.median))
+        };
         let a = &self.adapter;
         let mut s = format!(
             "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
@@ -379,7 +551,10 @@ impl SuiteReport {
                 Some(false) => "**no**",
                 None => "—",
             };
-            s.push_str(&format!("| {} | {} | {} | {} |\n", t.what, t.goal, t.measured, met));
+            s.push_str(&format!(
+                "| {} | {} | {} | {} |\n",
+                t.what, t.goal, t.measured, met
+            ));
         }
         s.push_str("\n### The paper's Table 1 (GeForce 8800 GTX, 512 directions, 3 iterations)\n\n| scene | faces | elements | propagation |\n|---|---|---|---|\n| Cornell box | 19 | 34,816 diffuse + 931,136 non-diffuse | 4.07 s |\n| Grotto | 318 | — | 17.2 s |\n| Classroom | 3,024 | — | 63.7 s |\n| Atenea | 9,410 | 2.4 M diffuse + 7.6 M non-diffuse | 153 s |\n\nRendering 1024x768 at about 121 fps (8.3 ms).\n");
         s
@@ -393,7 +568,9 @@ impl SuiteReport {
         let converged = |mirror: bool| -> Vec<(f64, f64)> {
             self.entries
                 .iter()
-                .filter(|e| e.settings == "defaults, to 1e-3" && (e.non_diffuse_elements > 0) == mirror)
+                .filter(|e| {
+                    e.settings == "defaults, to 1e-3" && (e.non_diffuse_elements > 0) == mirror
+                })
                 .map(|e| (e.triangles as f64, e.total_seconds))
                 .collect()
         };
@@ -401,21 +578,50 @@ impl SuiteReport {
             self.entries
                 .iter()
                 .filter(|e| pick(e))
-                .filter_map(|e| Some(((e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64, e.iteration_gpu_ms.as_ref()?.median * 1e-3)))
+                .filter_map(|e| {
+                    Some((
+                        (e.diffuse_elements + e.non_diffuse_elements) as f64 * e.directions as f64,
+                        e.iteration_gpu_ms.as_ref()?.median * 1e-3,
+                    ))
+                })
                 .collect()
         };
         let left = vec![
-            Series { name: "diffuse scenes: setup + visibility + propagation to 1e-3", color: RGBColor(31, 119, 180), points: converged(false) },
-            Series { name: "scenes with mirrors", color: RGBColor(255, 127, 14), points: converged(true) },
+            Series {
+                name: "diffuse scenes: setup + visibility + propagation to 1e-3",
+                color: RGBColor(31, 119, 180),
+                points: converged(false),
+            },
+            Series {
+                name: "scenes with mirrors",
+                color: RGBColor(255, 127, 14),
+                points: converged(true),
+            },
         ];
         let right = vec![
-            Series { name: "Cornell, 3 iterations at 6 settings (fitted)", color: RGBColor(214, 39, 40), points: per_iteration(&|e| e.settings.starts_with(SCALING)) },
-            Series { name: "suite scenes at defaults", color: RGBColor(44, 160, 44), points: per_iteration(&|e| e.settings == "defaults, to 1e-3") },
+            Series {
+                name: "Cornell, 3 iterations at 6 settings (fitted)",
+                color: RGBColor(214, 39, 40),
+                points: per_iteration(&|e| e.settings.starts_with(SCALING)),
+            },
+            Series {
+                name: "suite scenes at defaults",
+                color: RGBColor(44, 160, 44),
+                points: per_iteration(&|e| e.settings == "defaults, to 1e-3"),
+            },
         ];
         log_log(
             path,
             &format!("vlf bench --suite on {}", self.adapter.name),
-            [("triangles", "time to converge (s)", left, None), ("elements x directions", "GPU time per iteration (s)", right, self.cost_slope)],
+            [
+                ("triangles", "time to converge (s)", left, None),
+                (
+                    "elements x directions",
+                    "GPU time per iteration (s)",
+                    right,
+                    self.cost_slope,
+                ),
+            ],
         )
     }
 }

@@ -48,11 +48,19 @@ fn box_entry(n: &GpuBvhNode, origin: Vec3, inv: Vec3, t_max: f32) -> Option<f32>
 /// The shader's traversal: children tested when their parent is opened, only entered ones
 /// pushed (nearer on top) with their entry distance, stale entries dropped; a 64-entry stack
 /// (overflow is a failure here).
-fn trace(nodes: &[GpuBvhNode], order: &[u32], tris: &[[Vec3; 3]], origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
+fn trace(
+    nodes: &[GpuBvhNode],
+    order: &[u32],
+    tris: &[[Vec3; 3]],
+    origin: Vec3,
+    dir: Vec3,
+) -> Option<(f32, u32)> {
     let inv = dir.recip();
     let mut best: Option<(f32, u32)> = None;
     let t_max = |best: Option<(f32, u32)>| best.map_or(f32::INFINITY, |b| b.0);
-    let Some(root) = box_entry(&nodes[0], origin, inv, f32::INFINITY) else { return None };
+    let Some(root) = box_entry(&nodes[0], origin, inv, f32::INFINITY) else {
+        return None;
+    };
     let mut stack = vec![(0u32, root)];
     while let Some((index, entry)) = stack.pop() {
         if entry >= t_max(best) {
@@ -94,24 +102,35 @@ fn check_structure(nodes: &[GpuBvhNode], order: &[u32], tris: &[[Vec3; 3]]) -> u
         let n = &nodes[index as usize];
         let (lo, hi) = (Vec3::from(n.lo), Vec3::from(n.hi));
         let under: Vec<u32> = if n.count > 0 {
-            (n.index..n.index + n.count).map(|i| order[i as usize]).collect()
+            (n.index..n.index + n.count)
+                .map(|i| order[i as usize])
+                .collect()
         } else {
             stack.push((index + 1, depth + 1));
             stack.push((n.index, depth + 1));
             for child in [index + 1, n.index] {
                 let c = &nodes[child as usize];
-                assert!(Vec3::from(c.lo).cmpge(lo).all() && Vec3::from(c.hi).cmple(hi).all(), "child box outside its parent");
+                assert!(
+                    Vec3::from(c.lo).cmpge(lo).all() && Vec3::from(c.hi).cmple(hi).all(),
+                    "child box outside its parent"
+                );
             }
             vec![]
         };
         for t in under {
             seen[t as usize] += 1;
             for p in tris[t as usize] {
-                assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "triangle outside its leaf's box");
+                assert!(
+                    p.cmpge(lo).all() && p.cmple(hi).all(),
+                    "triangle outside its leaf's box"
+                );
             }
         }
     }
-    assert!(seen.iter().all(|&n| n == 1), "every triangle belongs to exactly one leaf");
+    assert!(
+        seen.iter().all(|&n| n == 1),
+        "every triangle belongs to exactly one leaf"
+    );
     max_depth
 }
 
@@ -125,8 +144,16 @@ fn a_random_soup_is_traversed_to_the_same_closest_triangle_as_brute_force() {
             [c, c + (rng.vec() - 0.5) * 0.6, c + (rng.vec() - 0.5) * 0.6]
         })
         .collect();
-    tris.push([Vec3::new(-1.0, -1.0, -1.0), Vec3::new(11.0, -1.0, -1.0), Vec3::new(-1.0, 11.0, -1.0)]);
-    tris.push([Vec3::new(-1.0, -1.0, 11.0), Vec3::new(-1.0, 11.0, 11.0), Vec3::new(11.0, -1.0, 11.0)]);
+    tris.push([
+        Vec3::new(-1.0, -1.0, -1.0),
+        Vec3::new(11.0, -1.0, -1.0),
+        Vec3::new(-1.0, 11.0, -1.0),
+    ]);
+    tris.push([
+        Vec3::new(-1.0, -1.0, 11.0),
+        Vec3::new(-1.0, 11.0, 11.0),
+        Vec3::new(11.0, -1.0, 11.0),
+    ]);
     let (nodes, order) = build_bvh(&tris);
     let depth = check_structure(&nodes, &order, &tris);
     println!("{} nodes, depth {depth}", nodes.len());
@@ -134,9 +161,17 @@ fn a_random_soup_is_traversed_to_the_same_closest_triangle_as_brute_force() {
     for _ in 0..4000 {
         let origin = rng.vec() * 12.0 - 1.0;
         let dir = (rng.vec() - 0.5).normalize();
-        let brute = tris.iter().enumerate().filter_map(|(i, t)| intersect(origin, dir, t).map(|d| (d, i as u32))).min_by(|a, b| a.0.total_cmp(&b.0));
+        let brute = tris
+            .iter()
+            .enumerate()
+            .filter_map(|(i, t)| intersect(origin, dir, t).map(|d| (d, i as u32)))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
         let bvh = trace(&nodes, &order, &tris, origin, dir);
-        assert_eq!(bvh.map(|b| b.1), brute.map(|b| b.1), "ray from {origin} along {dir}");
+        assert_eq!(
+            bvh.map(|b| b.1),
+            brute.map(|b| b.1),
+            "ray from {origin} along {dir}"
+        );
         hits += brute.is_some() as u32;
     }
     assert!(hits > 1000, "too few rays hit anything to test: {hits}");
@@ -148,12 +183,19 @@ fn pathological_input_stays_within_the_traversal_stack() {
     let tris: Vec<[Vec3; 3]> = (0..20_000)
         .map(|i| {
             let x = 1.0005f32.powi(i);
-            [Vec3::new(x, 0.0, 0.0), Vec3::new(x, 1.0, 0.0), Vec3::new(x, 0.0, 1.0)]
+            [
+                Vec3::new(x, 0.0, 0.0),
+                Vec3::new(x, 1.0, 0.0),
+                Vec3::new(x, 0.0, 1.0),
+            ]
         })
         .collect();
     let (nodes, order) = build_bvh(&tris);
     let depth = check_structure(&nodes, &order, &tris);
-    assert!(depth < 60, "depth {depth}: the GPU traversal keeps at most 64 entries");
+    assert!(
+        depth < 60,
+        "depth {depth}: the GPU traversal keeps at most 64 entries"
+    );
     // and 10,000 copies of one triangle: a single leaf, not an endless split
     let same = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 10_000];
     let (nodes, order) = build_bvh(&same);
@@ -166,7 +208,11 @@ fn pathological_input_stays_within_the_traversal_stack() {
 #[test]
 fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let dir = tempfile::tempdir().unwrap();
-    let options = vlf::generate::GenerateOptions { kind: vlf::generate::SceneKind::Classroom, size: 1000, mirrors: true };
+    let options = vlf::generate::GenerateOptions {
+        kind: vlf::generate::SceneKind::Classroom,
+        size: 1000,
+        mirrors: true,
+    };
     let generated = vlf::generate::generate(&options, dir.path()).unwrap();
     let scene = vlf::scene::Scene::load(&generated.scene).unwrap();
     let params = vlf::propagate::PropagationParams {
@@ -182,22 +228,48 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
         direct_samples: 16,
         mirror_direct: false,
     };
-    let ctx = vlf::gpu::GpuContext::new().expect("a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)");
+    let ctx = vlf::gpu::GpuContext::new().expect(
+        "a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)",
+    );
     let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
     let render = |threshold: usize| {
         std::env::set_var("VLF_EXHAUSTIVE_TRIANGLES", threshold.to_string());
-        let mut renderer = vlf::render::Renderer::new(&resident, &lf, &vlf::gpu::MemoryLedger::default()).unwrap();
+        let mut renderer =
+            vlf::render::Renderer::new(&resident, &lf, &vlf::gpu::MemoryLedger::default()).unwrap();
         std::env::remove_var("VLF_EXHAUSTIVE_TRIANGLES");
-        lf.meta.cameras.iter().map(|c| renderer.render(c, 160, 120).unwrap()).collect::<Vec<_>>()
+        lf.meta
+            .cameras
+            .iter()
+            .map(|c| renderer.render(c, 160, 120).unwrap())
+            .collect::<Vec<_>>()
     };
     let (bvh, exhaustive) = (render(0), render(usize::MAX));
     assert!(generated.triangles > 256 && !bvh.is_empty());
     for (a, b) in bvh.iter().zip(&exhaustive) {
         let pixels = a.pixels.len();
-        let differ = a.pixels.iter().zip(&b.pixels).filter(|(x, y)| x.iter().zip(y.iter()).any(|(p, q)| (p - q).abs() > 1e-5 * q.abs().max(1e-3))).count();
-        let lit = a.pixels.iter().filter(|p| p.iter().any(|v| *v > 0.0)).count();
+        let differ = a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .filter(|(x, y)| {
+                x.iter()
+                    .zip(y.iter())
+                    .any(|(p, q)| (p - q).abs() > 1e-5 * q.abs().max(1e-3))
+            })
+            .count();
+        let lit = a
+            .pixels
+            .iter()
+            .filter(|p| p.iter().any(|v| *v > 0.0))
+            .count();
         println!("{differ} of {pixels} pixels differ, {lit} lit");
-        assert!(lit > pixels / 4, "the view shows too little of the room to compare: {lit} of {pixels} lit");
-        assert_eq!(differ, 0, "the BVH's eye rays found other surfaces than exhaustive rays");
+        assert!(
+            lit > pixels / 4,
+            "the view shows too little of the room to compare: {lit} of {pixels} lit"
+        );
+        assert_eq!(
+            differ, 0,
+            "the BVH's eye rays found other surfaces than exhaustive rays"
+        );
     }
 }

@@ -27,25 +27,57 @@ fn propagate_then_render_from_the_file() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
-    for row in ["faces", "diffuse elements", "non-diffuse elements", "visibility", "propagation", "iterations", "final residual", "GPU memory, propagating", "GPU memory, rendering"] {
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for row in [
+        "faces",
+        "diffuse elements",
+        "non-diffuse elements",
+        "visibility",
+        "propagation",
+        "iterations",
+        "final residual",
+        "GPU memory, propagating",
+        "GPU memory, rendering",
+    ] {
         assert!(stdout.contains(row), "summary lacks {row:?}:\n{stdout}");
     }
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
     assert_eq!(json["faces"], 16);
     assert_eq!(json["non_diffuse_elements"], 0);
     assert_eq!(json["tile_bytes"], 0);
-    assert!(json["render_memory_bytes"].as_u64().unwrap() < json["propagation_memory_bytes"].as_u64().unwrap());
+    assert!(
+        json["render_memory_bytes"].as_u64().unwrap()
+            < json["propagation_memory_bytes"].as_u64().unwrap()
+    );
 
     for ext in ["png", "exr"] {
         let image = dir.path().join(format!("front.{ext}"));
-        let out = vlf().arg("render").arg(&vlf_path).args(["--camera", "front", "--size", "96x64", "-o"]).arg(&image).output().unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let out = vlf()
+            .arg("render")
+            .arg(&vlf_path)
+            .args(["--camera", "front", "--size", "96x64", "-o"])
+            .arg(&image)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         assert!(image.exists());
     }
     let frame = vlf::render::image_io::read_exr(&dir.path().join("front.exr")).unwrap();
     assert_eq!((frame.width, frame.height), (96, 64));
-    assert!(frame.pixels.iter().flatten().all(|x| x.is_finite() && *x >= 0.0));
+    assert!(frame
+        .pixels
+        .iter()
+        .flatten()
+        .all(|x| x.is_finite() && *x >= 0.0));
     // the light is the brightest thing in view, the open front shows black sky at the corners
     let max = frame.pixels.iter().map(|p| p[0]).fold(0.0f32, f32::max);
     assert!(max > 10.0, "the emitter (Ke 17) is not visible: max {max}");
@@ -58,19 +90,47 @@ fn bad_use_gives_a_clear_error_and_nonzero_exit() {
     let dir = tempfile::tempdir().unwrap();
     let junk = dir.path().join("junk.vlf");
     std::fs::write(&junk, b"not a light field").unwrap();
-    let out = vlf().arg("render").arg(&junk).arg("-o").arg(dir.path().join("x.png")).output().unwrap();
+    let out = vlf()
+        .arg("render")
+        .arg(&junk)
+        .arg("-o")
+        .arg(dir.path().join("x.png"))
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
-    assert!(err.contains("junk.vlf") && err.contains("not a vlf light field file"), "{err}");
+    assert!(
+        err.contains("junk.vlf") && err.contains("not a vlf light field file"),
+        "{err}"
+    );
     assert!(!err.contains("panicked"), "{err}");
 
-    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--camera", "nope", "-o"]).arg(dir.path().join("x.png")).args(SMALL).output().unwrap();
+    let out = vlf()
+        .arg("render")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(["--camera", "nope", "-o"])
+        .arg(dir.path().join("x.png"))
+        .args(SMALL)
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("camera \"nope\" not found") && err.contains("front"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("camera \"nope\" not found") && err.contains("front"),
+        "{err}"
+    );
 
-    let out = vlf().arg("propagate").arg(repo_path("scenes/cornell/scene.toml")).args(["--grid", "30", "--tile", "8", "-o"]).arg(dir.path().join("x.vlf")).output().unwrap();
+    let out = vlf()
+        .arg("propagate")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(["--grid", "30", "--tile", "8", "-o"])
+        .arg(dir.path().join("x.vlf"))
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"), "{err}");
+    assert!(
+        !out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -79,19 +139,67 @@ fn reference_compare_and_sweep_write_their_files() {
     let scene = repo_path("scenes/cornell/scene.toml");
     let reference = dir.path().join("ref.exr");
     let variance = dir.path().join("var.exr");
-    let out = vlf().arg("reference").arg(&scene).args(["--size", "32x32", "--spp", "16", "-o"]).arg(&reference).arg("--variance").arg(&variance).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = vlf()
+        .arg("reference")
+        .arg(&scene)
+        .args(["--size", "32x32", "--spp", "16", "-o"])
+        .arg(&reference)
+        .arg("--variance")
+        .arg(&variance)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(reference.exists() && variance.exists());
 
     let image = dir.path().join("vlf.exr");
-    let out = vlf().arg("render").arg(&scene).args(["--size", "32x32", "--ssaa", "2", "-o"]).arg(&image).args(SMALL).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = vlf()
+        .arg("render")
+        .arg(&scene)
+        .args(["--size", "32x32", "--ssaa", "2", "-o"])
+        .arg(&image)
+        .args(SMALL)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let diff = dir.path().join("diff.png");
-    let out = vlf().arg("compare").arg(&image).arg(&reference).arg("--json").arg("--diff").arg(&diff).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = vlf()
+        .arg("compare")
+        .arg(&image)
+        .arg(&reference)
+        .arg("--json")
+        .arg("--diff")
+        .arg(&diff)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    for key in ["mse", "rmse", "rel_mse", "max_abs", "display_mse", "flip_mean"] {
-        assert!(json[key].as_f64().is_some_and(|v| v.is_finite() && v >= 0.0), "{key}: {}", json[key]);
+    for key in [
+        "mse",
+        "rmse",
+        "rel_mse",
+        "max_abs",
+        "display_mse",
+        "flip_mean",
+    ] {
+        assert!(
+            json[key]
+                .as_f64()
+                .is_some_and(|v| v.is_finite() && v >= 0.0),
+            "{key}: {}",
+            json[key]
+        );
     }
     assert!(diff.exists());
 
@@ -101,14 +209,33 @@ fn reference_compare_and_sweep_write_their_files() {
         .arg(&scene)
         .arg("--reference")
         .arg(&reference)
-        .args(["--directions", "6,21", "--grid", "16", "--texel-density", "6", "--spp", "1,4", "--ssaa", "1", "--out"])
+        .args([
+            "--directions",
+            "6,21",
+            "--grid",
+            "16",
+            "--texel-density",
+            "6",
+            "--spp",
+            "1,4",
+            "--ssaa",
+            "1",
+            "--out",
+        ])
         .arg(&sweep)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let csv = std::fs::read_to_string(sweep.join("sweep.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 2 + 2, "{csv}");
-    assert!(csv.lines().skip(1).any(|l| l.starts_with("light field")) && csv.lines().any(|l| l.starts_with("path tracer")));
+    assert!(
+        csv.lines().skip(1).any(|l| l.starts_with("light field"))
+            && csv.lines().any(|l| l.starts_with("path tracer"))
+    );
     let png = image::open(sweep.join("sweep.png")).unwrap();
     assert!(png.width() >= 800);
 }
@@ -123,19 +250,78 @@ fn a_missing_file_is_named_with_its_cause_once_and_nothing_else() {
     let scene = repo_path("scenes/cornell/scene.toml");
     let png = dir.path().join("x.png");
     let cases: Vec<(&str, Vec<std::ffi::OsString>, std::path::PathBuf)> = vec![
-        ("render a missing .vlf", vec!["render".into(), missing.join("a.vlf").into(), "-o".into(), png.clone().into()], missing.join("a.vlf")),
-        ("propagate a missing scene", vec!["propagate".into(), missing.join("scene.toml").into(), "-o".into(), dir.path().join("x.vlf").into()], missing.join("scene.toml")),
-        ("render with a missing --config", vec!["render".into(), scene.clone().into(), "--config".into(), missing.join("p.toml").into(), "-o".into(), png.clone().into()], missing.join("p.toml")),
-        ("render with a missing --lightfield", vec!["render".into(), scene.clone().into(), "--lightfield".into(), missing.join("b.vlf").into(), "-o".into(), png.clone().into()], missing.join("b.vlf")),
+        (
+            "render a missing .vlf",
+            vec![
+                "render".into(),
+                missing.join("a.vlf").into(),
+                "-o".into(),
+                png.clone().into(),
+            ],
+            missing.join("a.vlf"),
+        ),
+        (
+            "propagate a missing scene",
+            vec![
+                "propagate".into(),
+                missing.join("scene.toml").into(),
+                "-o".into(),
+                dir.path().join("x.vlf").into(),
+            ],
+            missing.join("scene.toml"),
+        ),
+        (
+            "render with a missing --config",
+            vec![
+                "render".into(),
+                scene.clone().into(),
+                "--config".into(),
+                missing.join("p.toml").into(),
+                "-o".into(),
+                png.clone().into(),
+            ],
+            missing.join("p.toml"),
+        ),
+        (
+            "render with a missing --lightfield",
+            vec![
+                "render".into(),
+                scene.clone().into(),
+                "--lightfield".into(),
+                missing.join("b.vlf").into(),
+                "-o".into(),
+                png.clone().into(),
+            ],
+            missing.join("b.vlf"),
+        ),
     ];
     for (what, args, path) in cases {
-        let out = vlf().args(&args).env_remove("XDG_RUNTIME_DIR").env_remove("WGPU_BACKEND").output().unwrap();
+        let out = vlf()
+            .args(&args)
+            .env_remove("XDG_RUNTIME_DIR")
+            .env_remove("WGPU_BACKEND")
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{what}: succeeded");
-        let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning: ")).collect();
-        assert_eq!(lines.len(), 1, "{what}: expected one error line, got:\n{err}");
-        assert!(lines[0].starts_with("error: ") && lines[0].contains(&*path.to_string_lossy()), "{what}: the file is not named: {err}");
-        assert_eq!(lines[0].matches("No such file or directory").count(), 1, "{what}: the cause is not stated exactly once: {err}");
+        let lines: Vec<&str> = err
+            .lines()
+            .filter(|l| !l.starts_with("warning: "))
+            .collect();
+        assert_eq!(
+            lines.len(),
+            1,
+            "{what}: expected one error line, got:\n{err}"
+        );
+        assert!(
+            lines[0].starts_with("error: ") && lines[0].contains(&*path.to_string_lossy()),
+            "{what}: the file is not named: {err}"
+        );
+        assert_eq!(
+            lines[0].matches("No such file or directory").count(),
+            1,
+            "{what}: the cause is not stated exactly once: {err}"
+        );
         assert!(!err.contains("XDG_RUNTIME_DIR"), "{what}: {err}");
     }
 }
@@ -149,33 +335,100 @@ fn quality_presets_and_the_software_adapters_lighter_settings() {
     let propagate = |args: &[&str]| {
         let report = dir.path().join("r.json");
         let _ = std::fs::remove_file(&report);
-        let out = vlf().arg("propagate").arg(repo_path("scenes/cornell/scene.toml")).arg("-o").arg(dir.path().join("x.vlf")).arg("--report").arg(&report).args(args).output().unwrap();
+        let out = vlf()
+            .arg("propagate")
+            .arg(repo_path("scenes/cornell/scene.toml"))
+            .arg("-o")
+            .arg(dir.path().join("x.vlf"))
+            .arg("--report")
+            .arg(&report)
+            .args(args)
+            .output()
+            .unwrap();
         let err = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(out.status.success(), "{args:?}: {err}");
-        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
         (json, err)
     };
-    let preset = |name: &str| vlf::propagate::PropagationParams::from_toml_file(&repo_path(&format!("config/propagation/{name}.toml"))).unwrap();
+    let preset = |name: &str| {
+        vlf::propagate::PropagationParams::from_toml_file(&repo_path(&format!(
+            "config/propagation/{name}.toml"
+        )))
+        .unwrap()
+    };
     let (json, err) = propagate(&["--max-iterations", "1"]);
     let software = json["adapter"]["software"].as_bool().unwrap();
-    let expected = if software { preset("software") } else { preset("default") };
-    assert_eq!(json["params"]["geodesic_frequency"], expected.geodesic_frequency, "{}", json["params"]);
+    let expected = if software {
+        preset("software")
+    } else {
+        preset("default")
+    };
+    assert_eq!(
+        json["params"]["geodesic_frequency"], expected.geodesic_frequency,
+        "{}",
+        json["params"]
+    );
     assert_eq!(json["params"]["grid_resolution"], expected.grid_resolution);
-    assert_eq!(json["params"]["max_iterations"], 1, "the flag overrides the automatic choice");
-    assert_eq!(err.contains("software adapter") && err.contains("lighter settings"), software, "{err}");
-    assert_eq!(err.contains("estimate: propagating takes about") && err.contains("rough model"), software, "{err}");
+    assert_eq!(
+        json["params"]["max_iterations"], 1,
+        "the flag overrides the automatic choice"
+    );
+    assert_eq!(
+        err.contains("software adapter") && err.contains("lighter settings"),
+        software,
+        "{err}"
+    );
+    assert_eq!(
+        err.contains("estimate: propagating takes about") && err.contains("rough model"),
+        software,
+        "{err}"
+    );
 
     let (json, err) = propagate(&["--quality", "draft"]);
-    assert_eq!(json["params"], serde_json::to_value(preset("draft")).unwrap());
-    assert!(!err.contains("lighter settings"), "an explicit preset is not replaced: {err}");
+    assert_eq!(
+        json["params"],
+        serde_json::to_value(preset("draft")).unwrap()
+    );
+    assert!(
+        !err.contains("lighter settings"),
+        "an explicit preset is not replaced: {err}"
+    );
     let (json, _) = propagate(&["--quality", "draft", "--directions", "126", "--grid", "32"]);
-    assert_eq!((json["params"]["geodesic_frequency"].as_u64(), json["params"]["grid_resolution"].as_u64()), (Some(5), Some(32)));
-    assert_eq!(json["params"]["texel_density"], preset("draft").texel_density);
+    assert_eq!(
+        (
+            json["params"]["geodesic_frequency"].as_u64(),
+            json["params"]["grid_resolution"].as_u64()
+        ),
+        (Some(5), Some(32))
+    );
+    assert_eq!(
+        json["params"]["texel_density"],
+        preset("draft").texel_density
+    );
 
-    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "high", "--config"]).arg(repo_path("config/propagation/paper.toml")).args(["-o", "x.png"]).output().unwrap();
+    let out = vlf()
+        .arg("render")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(["--quality", "high", "--config"])
+        .arg(repo_path("config/propagation/paper.toml"))
+        .args(["-o", "x.png"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("--quality") && err.contains("--config"), "{err}");
-    let out = vlf().arg("render").arg(repo_path("scenes/cornell/scene.toml")).args(["--quality", "best", "-o", "x.png"]).output().unwrap();
+    assert!(
+        !out.status.success() && err.contains("--quality") && err.contains("--config"),
+        "{err}"
+    );
+    let out = vlf()
+        .arg("render")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(["--quality", "best", "-o", "x.png"])
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success() && err.contains("draft") && err.contains("high"), "the choices are listed: {err}");
+    assert!(
+        !out.status.success() && err.contains("draft") && err.contains("high"),
+        "the choices are listed: {err}"
+    );
 }

@@ -4,7 +4,9 @@ use std::path::Path;
 use vlf::propagate::PropagationParams;
 
 fn config(rel: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("config").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("config")
+        .join(rel)
 }
 
 #[test]
@@ -20,21 +22,38 @@ fn every_shipped_config_parses() {
 
 #[test]
 fn code_defaults_match_the_shipped_files() {
-    assert_eq!(PropagationParams::from_toml_file(&config("propagation/default.toml")).unwrap(), PropagationParams::default());
-    assert_eq!(PropagationParams::from_toml_file(&config("propagation/software.toml")).unwrap(), PropagationParams::software());
+    assert_eq!(
+        PropagationParams::from_toml_file(&config("propagation/default.toml")).unwrap(),
+        PropagationParams::default()
+    );
+    assert_eq!(
+        PropagationParams::from_toml_file(&config("propagation/software.toml")).unwrap(),
+        PropagationParams::software()
+    );
 }
 
 #[test]
 fn errors_name_the_file_and_key() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("bad.toml");
-    let text = std::fs::read_to_string(config("propagation/default.toml")).unwrap().replace("tile_size", "tile_sise");
+    let text = std::fs::read_to_string(config("propagation/default.toml"))
+        .unwrap()
+        .replace("tile_size", "tile_sise");
     std::fs::write(&path, text).unwrap();
-    let e = PropagationParams::from_toml_file(&path).unwrap_err().to_string();
+    let e = PropagationParams::from_toml_file(&path)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("bad.toml") && e.contains("tile_sise"), "{e}");
 
-    let text = std::fs::read_to_string(config("propagation/default.toml")).unwrap().replace("tile_size = 8", "tile_size = 7");
+    let text = std::fs::read_to_string(config("propagation/default.toml"))
+        .unwrap()
+        .replace("tile_size = 8", "tile_size = 7");
     std::fs::write(&path, text).unwrap();
-    let e = PropagationParams::from_toml_file(&path).unwrap_err().to_string();
-    assert!(e.contains("bad.toml") && e.contains("tile size 7 must divide"), "{e}");
+    let e = PropagationParams::from_toml_file(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bad.toml") && e.contains("tile size 7 must divide"),
+        "{e}"
+    );
 }

@@ -22,30 +22,57 @@ fn every_shipped_display_config_parses() {
     }
     assert!(n >= 3);
     let cave = DisplayConfig::load(&config("cave-4wall.toml")).unwrap();
-    assert_eq!(cave.walls.iter().map(|w| w.name.as_str()).collect::<Vec<_>>(), ["front", "left", "right", "floor"]);
+    assert_eq!(
+        cave.walls
+            .iter()
+            .map(|w| w.name.as_str())
+            .collect::<Vec<_>>(),
+        ["front", "left", "right", "floor"]
+    );
     assert_eq!(cave.walls.iter().map(|w| w.eyes().len()).sum::<usize>(), 8);
 }
 
 #[test]
 fn a_viewer_on_the_axis_gets_a_symmetric_frustum() {
-    let (ll, lr, ul) = (Vec3::new(-1.5, 0.0, -1.5), Vec3::new(1.5, 0.0, -1.5), Vec3::new(-1.5, 3.0, -1.5));
+    let (ll, lr, ul) = (
+        Vec3::new(-1.5, 0.0, -1.5),
+        Vec3::new(1.5, 0.0, -1.5),
+        Vec3::new(-1.5, 3.0, -1.5),
+    );
     let p = off_axis(ll, lr, ul, Vec3::new(0.0, 1.5, 0.7), 0.1, 100.0);
-    assert!((p.left + p.right).abs() < 1e-6 && (p.bottom + p.top).abs() < 1e-6, "{p:?}");
+    assert!(
+        (p.left + p.right).abs() < 1e-6 && (p.bottom + p.top).abs() < 1e-6,
+        "{p:?}"
+    );
     let q = off_axis(ll, lr, ul, Vec3::new(0.5, 1.0, 0.0), 0.1, 100.0);
-    assert!((q.left + q.right).abs() > 0.01, "off axis must be asymmetric: {q:?}");
+    assert!(
+        (q.left + q.right).abs() > 0.01,
+        "off axis must be asymmetric: {q:?}"
+    );
 }
 
 #[test]
 fn a_point_on_the_wall_projects_to_its_pixel() {
-    let (ll, lr, ul) = (Vec3::new(-1.5, 0.0, -1.5), Vec3::new(1.5, 0.0, -1.5), Vec3::new(-1.5, 3.0, -1.5));
+    let (ll, lr, ul) = (
+        Vec3::new(-1.5, 0.0, -1.5),
+        Vec3::new(1.5, 0.0, -1.5),
+        Vec3::new(-1.5, 3.0, -1.5),
+    );
     let pixels = [1920, 1200];
-    for eye in [Vec3::new(0.0, 1.7, 0.0), Vec3::new(0.9, 1.2, 0.8), Vec3::new(-1.2, 0.4, -1.0)] {
+    for eye in [
+        Vec3::new(0.0, 1.7, 0.0),
+        Vec3::new(0.9, 1.2, 0.8),
+        Vec3::new(-1.2, 0.4, -1.0),
+    ] {
         let p = off_axis(ll, lr, ul, eye, 0.05, 100.0);
         for (u, v) in [(0.25f32, 0.5f32), (0.9, 0.1), (0.5, 0.95)] {
             let point = ll + (lr - ll) * u + (ul - ll) * v;
             let (x, y) = project_to_pixel(p.view_proj, point, pixels).unwrap();
             let (ex, ey) = (u * pixels[0] as f32, (1.0 - v) * pixels[1] as f32);
-            assert!((x - ex).abs() < 0.05 && (y - ey).abs() < 0.05, "eye {eye}: ({x}, {y}) vs ({ex}, {ey})");
+            assert!(
+                (x - ex).abs() < 0.05 && (y - ey).abs() < 0.05,
+                "eye {eye}: ({x}, {y}) vs ({ex}, {ey})"
+            );
         }
     }
 }
@@ -55,61 +82,120 @@ fn a_line_across_two_walls_is_continuous_at_the_seam() {
     let cave = DisplayConfig::load(&config("cave-4wall.toml")).unwrap();
     let (front, left) = (&cave.walls[0], &cave.walls[1]);
     let eye = Vec3::new(0.3, 1.6, 0.2);
-    let pf = off_axis(Vec3::from(front.lower_left), Vec3::from(front.lower_right), Vec3::from(front.upper_left), eye, 0.05, 100.0);
-    let pl = off_axis(Vec3::from(left.lower_left), Vec3::from(left.lower_right), Vec3::from(left.upper_left), eye, 0.05, 100.0);
+    let pf = off_axis(
+        Vec3::from(front.lower_left),
+        Vec3::from(front.lower_right),
+        Vec3::from(front.upper_left),
+        eye,
+        0.05,
+        100.0,
+    );
+    let pl = off_axis(
+        Vec3::from(left.lower_left),
+        Vec3::from(left.lower_right),
+        Vec3::from(left.upper_left),
+        eye,
+        0.05,
+        100.0,
+    );
     // a straight vertical line along the seam: both walls put it at their shared edge, at
     // the same heights (within 1 pixel)
     for h in [0.3f32, 1.5, 2.7] {
         let seam = Vec3::new(-1.5, h, -1.5);
         let (xf, yf) = project_to_pixel(pf.view_proj, seam, front.pixels).unwrap();
         let (xl, yl) = project_to_pixel(pl.view_proj, seam, left.pixels).unwrap();
-        assert!(xf.abs() < 0.5 && (xl - left.pixels[0] as f32).abs() < 0.5, "seam at x {xf} and {xl}");
+        assert!(
+            xf.abs() < 0.5 && (xl - left.pixels[0] as f32).abs() < 0.5,
+            "seam at x {xf} and {xl}"
+        );
         assert!((yf - yl).abs() <= 1.0, "seam height {yf} vs {yl} px");
     }
 }
 
 fn bad(text_change: (&str, &str)) -> String {
-    let text = std::fs::read_to_string(config("cave-4wall.toml")).unwrap().replacen(text_change.0, text_change.1, 1);
-    DisplayConfig::parse(&text, Path::new("cave.toml")).unwrap_err().to_string()
+    let text = std::fs::read_to_string(config("cave-4wall.toml"))
+        .unwrap()
+        .replacen(text_change.0, text_change.1, 1);
+    DisplayConfig::parse(&text, Path::new("cave.toml"))
+        .unwrap_err()
+        .to_string()
 }
 
 #[test]
 fn invalid_configs_name_the_key() {
-    let e = bad(("upper_left = [-1.5, 3.0, -1.5]", "upper_left = [-1.0, 3.0, -1.5]"));
-    assert!(e.contains("cave.toml") && e.contains("wall[0]") && e.contains("right angle"), "{e}");
-    let e = bad(("lower_right = [1.5, 0.0, -1.5]", "lower_right = [-1.5, 0.0, -1.5]"));
+    let e = bad((
+        "upper_left = [-1.5, 3.0, -1.5]",
+        "upper_left = [-1.0, 3.0, -1.5]",
+    ));
+    assert!(
+        e.contains("cave.toml") && e.contains("wall[0]") && e.contains("right angle"),
+        "{e}"
+    );
+    let e = bad((
+        "lower_right = [1.5, 0.0, -1.5]",
+        "lower_right = [-1.5, 0.0, -1.5]",
+    ));
     assert!(e.contains("wall[0]") && e.contains("zero size"), "{e}");
     let e = bad(("name = \"left\"", "name = \"front\""));
-    assert!(e.contains("wall[1]") && e.contains("duplicate wall name"), "{e}");
+    assert!(
+        e.contains("wall[1]") && e.contains("duplicate wall name"),
+        "{e}"
+    );
     let e = bad(("eye_separation = 0.064", "eye_seperation = 0.064"));
     assert!(e.contains("eye_seperation"), "{e}");
     let cave = DisplayConfig::load(&config("cave-4wall.toml")).unwrap();
-    let e = cave.check_outputs(&["DP-1".into(), "DP-2".into()]).unwrap_err();
-    assert!(e.contains("wall[2]") && e.contains("output.monitor") && e.contains("DP-1"), "{e}");
+    let e = cave
+        .check_outputs(&["DP-1".into(), "DP-2".into()])
+        .unwrap_err();
+    assert!(
+        e.contains("wall[2]") && e.contains("output.monitor") && e.contains("DP-1"),
+        "{e}"
+    );
 }
 
 #[test]
 fn headless_cave_renders_every_wall_and_eye() {
     let dir = tempfile::tempdir().unwrap();
     // the shipped CAVE at small pixels
-    let text = std::fs::read_to_string(config("cave-4wall.toml")).unwrap().replace("pixels = [1920, 1200]", "pixels = [96, 60]");
+    let text = std::fs::read_to_string(config("cave-4wall.toml"))
+        .unwrap()
+        .replace("pixels = [1920, 1200]", "pixels = [96, 60]");
     let path = dir.path().join("cave.toml");
     std::fs::write(&path, text).unwrap();
     let display = DisplayConfig::load(&path).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams { geodesic_frequency: 3, grid_resolution: 32, tile_size: 8, texel_density: 8.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
+    let params = vlf::propagate::PropagationParams {
+        geodesic_frequency: 3,
+        grid_resolution: 32,
+        tile_size: 8,
+        texel_density: 8.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let out = dir.path().join("out");
-    let report = vlf::display::headless::run(&lf, &resident, &display, &path, 3, &out, true).unwrap();
+    let report =
+        vlf::display::headless::run(&lf, &resident, &display, &path, 3, &out, true).unwrap();
     assert_eq!(report.views_per_frame, 8);
     for wall in ["front", "left", "right", "floor"] {
         for eye in ["left", "right"] {
-            assert!(out.join(format!("{wall}-{eye}.png")).exists() && out.join(format!("{wall}-{eye}.exr")).exists());
+            assert!(
+                out.join(format!("{wall}-{eye}.png")).exists()
+                    && out.join(format!("{wall}-{eye}.exr")).exists()
+            );
         }
     }
     let front = vlf::render::image_io::read_exr(&out.join("front-left.exr")).unwrap();
     assert_eq!((front.width, front.height), (96, 60));
-    assert!(front.pixels.iter().map(|p| p[1]).sum::<f32>() > 1.0, "the front wall shows the box");
+    assert!(
+        front.pixels.iter().map(|p| p[1]).sum::<f32>() > 1.0,
+        "the front wall shows the box"
+    );
     assert!(out.join("overview.png").exists());
 }
 
@@ -122,14 +208,24 @@ fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
     assert_eq!(tracker.latest(), (start, TrackingStatus::Waiting));
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let send = |addr: &str, args: Vec<f32>| {
-        let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: addr.into(), args: args.into_iter().map(rosc::OscType::Float).collect() });
-        socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+        let packet = rosc::OscPacket::Message(rosc::OscMessage {
+            addr: addr.into(),
+            args: args.into_iter().map(rosc::OscType::Float).collect(),
+        });
+        socket
+            .send_to(
+                &rosc::encoder::encode(&packet).unwrap(),
+                ("127.0.0.1", tracker.port),
+            )
+            .unwrap();
     };
     for i in 0..5 {
         send("/vlf/head", vec![0.1 * i as f32, 1.6, 0.2]);
     }
     send("/vlf/room", vec![1.0, 0.0, 2.0, 30.0]);
-    socket.send_to(b"not osc at all", ("127.0.0.1", tracker.port)).unwrap();
+    socket
+        .send_to(b"not osc at all", ("127.0.0.1", tracker.port))
+        .unwrap();
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
     let pose = loop {
         let (p, status) = tracker.latest();
@@ -141,7 +237,10 @@ fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
         std::thread::sleep(std::time::Duration::from_millis(10));
     };
     // the latest of the five head poses won
-    assert!((pose.head - Vec3::new(0.4, 1.6, 0.2)).length() < 1e-6, "{pose:?}");
+    assert!(
+        (pose.head - Vec3::new(0.4, 1.6, 0.2)).length() < 1e-6,
+        "{pose:?}"
+    );
     assert_eq!(pose.room_position, Vec3::new(1.0, 0.0, 2.0));
     std::thread::sleep(QUIET_AFTER + std::time::Duration::from_millis(100));
     let (held, status) = tracker.latest();

@@ -19,17 +19,53 @@ fn tiny_scene_with(dir: &std::path::Path, extra: &str) -> Scene {
     let mut obj = ObjBuilder::default();
     obj.cube("room", DVec3::ZERO, 0.5, true);
     // a tilted block and a floating emitter: occlusion in every direction
-    obj.quad("block", DVec3::new(0.1, -0.2, 0.05), DVec3::new(0.3, 1.0, 0.2), [0.4, 0.3], 0.4);
-    obj.quad("block", DVec3::new(-0.15, -0.1, 0.2), DVec3::new(-1.0, 0.2, 0.4), [0.3, 0.5], 0.1);
-    obj.quad("block", DVec3::new(0.2, 0.0, -0.2), DVec3::new(0.5, 0.1, -1.0), [0.35, 0.35], 0.9);
-    obj.quad("light", DVec3::new(0.0, 0.45, 0.0), DVec3::new(0.05, -1.0, 0.02), [0.3, 0.25], 0.2);
+    obj.quad(
+        "block",
+        DVec3::new(0.1, -0.2, 0.05),
+        DVec3::new(0.3, 1.0, 0.2),
+        [0.4, 0.3],
+        0.4,
+    );
+    obj.quad(
+        "block",
+        DVec3::new(-0.15, -0.1, 0.2),
+        DVec3::new(-1.0, 0.2, 0.4),
+        [0.3, 0.5],
+        0.1,
+    );
+    obj.quad(
+        "block",
+        DVec3::new(0.2, 0.0, -0.2),
+        DVec3::new(0.5, 0.1, -1.0),
+        [0.35, 0.35],
+        0.9,
+    );
+    obj.quad(
+        "light",
+        DVec3::new(0.0, 0.45, 0.0),
+        DVec3::new(0.05, -1.0, 0.02),
+        [0.3, 0.25],
+        0.2,
+    );
     let path = write_scene(
         dir,
         &obj,
         &[
-            Mat { name: "room", kd: [0.7, 0.5, 0.3], ke: [0.0; 3] },
-            Mat { name: "block", kd: [0.4, 0.6, 0.8], ke: [0.0; 3] },
-            Mat { name: "light", kd: [0.2; 3], ke: [4.0, 3.0, 2.0] },
+            Mat {
+                name: "room",
+                kd: [0.7, 0.5, 0.3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "block",
+                kd: [0.4, 0.6, 0.8],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.2; 3],
+                ke: [4.0, 3.0, 2.0],
+            },
         ],
         &format!("[sky]\nradiance = [0.0, 0.0, 0.0]\n{extra}"),
     );
@@ -37,7 +73,19 @@ fn tiny_scene_with(dir: &std::path::Path, extra: &str) -> Scene {
 }
 
 fn tiny_params() -> PropagationParams {
-    PropagationParams { geodesic_frequency: 2, grid_resolution: 32, tile_size: 8, texel_density: 10.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0, mirror_direct: false }
+    PropagationParams {
+        geodesic_frequency: 2,
+        grid_resolution: 32,
+        tile_size: 8,
+        texel_density: 10.0,
+        tolerance: 1e-3,
+        max_iterations: 50,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 0,
+        mirror_direct: false,
+    }
 }
 
 #[test]
@@ -50,13 +98,23 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
     assert!(prepared.faces.len() <= 20);
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
     assert_eq!(directions.len(), 21);
-    let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
+    let mut prop =
+        Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
     prop.build_visibility().unwrap();
     let cells = (params.grid_resolution * params.grid_resolution) as u64 * directions.len() as u64;
-    let (gpu_offset, gpu_count, gpu_layers) = prop.visibility.as_ref().unwrap().read(&ctx, cells).unwrap();
+    let (gpu_offset, gpu_count, gpu_layers) =
+        prop.visibility.as_ref().unwrap().read(&ctx, cells).unwrap();
 
-    let vertices: Vec<[f32; 4]> = prepared.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]).collect();
-    let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
+    let vertices: Vec<[f32; 4]> = prepared
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0])
+        .collect();
+    let triangles: Vec<[u32; 4]> = prepared
+        .triangles
+        .iter()
+        .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
+        .collect();
     let gdirs = gpu_directions(&directions.directions);
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
     assert_eq!(vis.cell_count, gpu_count, "per-cell layer counts differ");
@@ -68,7 +126,12 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
             mismatched += 1;
         }
     }
-    assert_eq!(mismatched, 0, "{mismatched} of {} layers differ", vis.layers.len());
+    assert_eq!(
+        mismatched,
+        0,
+        "{mismatched} of {} layers differ",
+        vis.layers.len()
+    );
 
     // three iterations; each GPU result against the CPU gather of the same unshot input
     let faces = prop.faces.clone();
@@ -85,10 +148,15 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
             unshot: &unshot,
             tiles: None,
         };
-        let expected: Vec<[f32; 4]> = (0..prepared.atlas.texel_count()).map(|t| inputs.gather(t)).collect();
+        let expected: Vec<[f32; 4]> = (0..prepared.atlas.texel_count())
+            .map(|t| inputs.gather(t))
+            .collect();
         prop.iterate().unwrap();
         let got = prop.read_unshot().unwrap();
-        let scale = expected.iter().flat_map(|v| v[..3].iter()).fold(0.0f32, |m, &x| m.max(x.abs()));
+        let scale = expected
+            .iter()
+            .flat_map(|v| v[..3].iter())
+            .fold(0.0f32, |m, &x| m.max(x.abs()));
         assert!(scale > 0.0, "nothing was lit");
         let mut worst = 0.0f32;
         for (e, g) in expected.iter().zip(&got) {
@@ -97,7 +165,10 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
                 worst = worst.max(rel);
             }
         }
-        assert!(worst <= 1e-5, "iteration {iteration}: GPU and CPU gather differ by {worst:.2e} relative");
+        assert!(
+            worst <= 1e-5,
+            "iteration {iteration}: GPU and CPU gather differ by {worst:.2e} relative"
+        );
         unshot = got;
     }
 }
@@ -108,14 +179,26 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
     // the geodesic lookup, and texels receive from mirror senders' tiles
     let ctx = gpu();
     let dir = tempfile::tempdir().unwrap();
-    let scene = tiny_scene_with(dir.path(), "[materials.block]\nmirror = [0.5, 0.5, 0.5]\ndiffuse = [0.3, 0.3, 0.3]\n");
+    let scene = tiny_scene_with(
+        dir.path(),
+        "[materials.block]\nmirror = [0.5, 0.5, 0.5]\ndiffuse = [0.3, 0.3, 0.3]\n",
+    );
     let params = tiny_params();
     let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
-    let mut prop = Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
+    let mut prop =
+        Propagator::new(ctx.clone(), &prepared, &params, &directions, None, None).unwrap();
     prop.build_visibility().unwrap();
-    let vertices: Vec<[f32; 4]> = prepared.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]).collect();
-    let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
+    let vertices: Vec<[f32; 4]> = prepared
+        .positions
+        .iter()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0])
+        .collect();
+    let triangles: Vec<[u32; 4]> = prepared
+        .triangles
+        .iter()
+        .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
+        .collect();
     let gdirs = gpu_directions(&directions.directions);
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
     let layout = prop.tile_layout().expect("mirror tiles").clone();
@@ -142,25 +225,53 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
             unshot: &unshot,
             tiles: Some(&tiles),
         };
-        let expected_texels: Vec<[f32; 4]> = (0..prepared.atlas.texel_count()).map(|t| inputs.gather(t)).collect();
-        let expected_tiles: Vec<[f32; 4]> = (0..layout.cell_count() as u32).map(|c| inputs.gather_tile(c)).collect();
+        let expected_texels: Vec<[f32; 4]> = (0..prepared.atlas.texel_count())
+            .map(|t| inputs.gather(t))
+            .collect();
+        let expected_tiles: Vec<[f32; 4]> = (0..layout.cell_count() as u32)
+            .map(|c| inputs.gather_tile(c))
+            .collect();
         if iteration > 0 {
             // the mirror senders' tiles really take part: without them the texels come out darker
-            let diffuse_only = cpu::GatherInputs { tiles: None, ..inputs };
-            let without: f32 = (0..prepared.atlas.texel_count()).map(|t| diffuse_only.gather(t)[0]).sum();
+            let diffuse_only = cpu::GatherInputs {
+                tiles: None,
+                ..inputs
+            };
+            let without: f32 = (0..prepared.atlas.texel_count())
+                .map(|t| diffuse_only.gather(t)[0])
+                .sum();
             let with: f32 = expected_texels.iter().map(|v| v[0]).sum();
-            assert!(with > without * 1.001, "iteration {iteration}: mirror senders add nothing ({with} vs {without})");
+            assert!(
+                with > without * 1.001,
+                "iteration {iteration}: mirror senders add nothing ({with} vs {without})"
+            );
         }
         prop.iterate().unwrap();
-        let (got_texels, got_tiles) = (prop.read_unshot().unwrap(), prop.read_tile_unshot().unwrap());
-        for (what, expected, got) in [("texels", &expected_texels, &got_texels), ("tile cells", &expected_tiles, &got_tiles)] {
-            let scale = expected.iter().flat_map(|v| v[..3].iter()).fold(0.0f32, |m, &x| m.max(x.abs()));
+        let (got_texels, got_tiles) = (
+            prop.read_unshot().unwrap(),
+            prop.read_tile_unshot().unwrap(),
+        );
+        for (what, expected, got) in [
+            ("texels", &expected_texels, &got_texels),
+            ("tile cells", &expected_tiles, &got_tiles),
+        ] {
+            let scale = expected
+                .iter()
+                .flat_map(|v| v[..3].iter())
+                .fold(0.0f32, |m, &x| m.max(x.abs()));
             assert!(scale > 0.0, "iteration {iteration}: no {what} lit");
-            let worst = expected.iter().zip(got.iter()).flat_map(|(e, g)| (0..3).map(move |c| (e[c] - g[c]).abs() / scale)).fold(0.0f32, f32::max);
+            let worst = expected
+                .iter()
+                .zip(got.iter())
+                .flat_map(|(e, g)| (0..3).map(move |c| (e[c] - g[c]).abs() / scale))
+                .fold(0.0f32, f32::max);
             println!("iteration {iteration}: {what} agree to {worst:.1e} of the largest value");
             // the geodesic lookup is f64 on the CPU, f32 on the GPU: a tap weight may differ in
             // its last bits
-            assert!(worst <= 1e-4, "iteration {iteration}: GPU and CPU {what} differ by {worst:.2e} of the maximum");
+            assert!(
+                worst <= 1e-4,
+                "iteration {iteration}: GPU and CPU {what} differ by {worst:.2e} of the maximum"
+            );
         }
         unshot = got_texels;
         tile_unshot = got_tiles;
@@ -171,7 +282,19 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
 fn propagation_is_bit_for_bit_repeatable() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 12.0, tolerance: 1e-3, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 0, mirror_direct: false };
+    let params = PropagationParams {
+        geodesic_frequency: 4,
+        grid_resolution: 48,
+        tile_size: 8,
+        texel_density: 12.0,
+        tolerance: 1e-3,
+        max_iterations: 100,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 0,
+        mirror_direct: false,
+    };
     let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
     assert_eq!(ra.iterations, rb.iterations);
@@ -179,6 +302,9 @@ fn propagation_is_bit_for_bit_repeatable() {
     let bits = |t: &[[f32; 4]]| t.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
     let (ba, bb) = (bits(&a.total), bits(&b.total));
     let differing = ba.iter().zip(&bb).filter(|(x, y)| x != y).count();
-    assert_eq!(differing, 0, "{differing} radiance values differ between two runs");
+    assert_eq!(
+        differing, 0,
+        "{differing} radiance values differ between two runs"
+    );
     assert!(a.total.iter().flatten().all(|x| x.is_finite()));
 }

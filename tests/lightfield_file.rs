@@ -8,7 +8,19 @@ use vlf::scene::Scene;
 
 fn small_light_field() -> (Scene, LightField) {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 20, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
+    let params = PropagationParams {
+        geodesic_frequency: 2,
+        grid_resolution: 16,
+        tile_size: 8,
+        texel_density: 4.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     (scene, lf)
 }
@@ -40,20 +52,31 @@ fn round_trip_and_damage() {
     let mut wrong_version = bytes.clone();
     wrong_version[8..12].copy_from_slice(&99u32.to_le_bytes());
     let e = decode_err(&wrong_version);
-    assert!(e.contains("format version 99") && e.contains("re-run `vlf propagate`"), "{e}");
+    assert!(
+        e.contains("format version 99") && e.contains("re-run `vlf propagate`"),
+        "{e}"
+    );
 
     for cut in [4, 30, bytes.len() / 2, bytes.len() - 1] {
-        assert!(decode_err(&bytes[..cut]).contains("truncated"), "cut at {cut}");
+        assert!(
+            decode_err(&bytes[..cut]).contains("truncated"),
+            "cut at {cut}"
+        );
     }
 
     // every flipped byte is caught (sampled across the whole file)
     for at in (0..bytes.len()).step_by((bytes.len() / 97).max(1)) {
         let mut flipped = bytes.clone();
         flipped[at] ^= 0x40;
-        assert!(file::decode(&flipped).is_err(), "flipped byte at {at} went unnoticed");
+        assert!(
+            file::decode(&flipped).is_err(),
+            "flipped byte at {at} went unnoticed"
+        );
     }
 
-    let e = file::load(&dir.path().join("missing.vlf")).unwrap_err().to_string();
+    let e = file::load(&dir.path().join("missing.vlf"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("missing.vlf"), "{e}");
 }
 
@@ -63,9 +86,27 @@ fn a_file_for_another_scene_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("wall", glam::DVec3::ZERO, 0.5, true);
-    let other = Scene::load(&write_scene(dir.path(), &obj, &[Mat { name: "wall", kd: [0.5; 3], ke: [1.0; 3] }], "")).unwrap();
-    let e = lf.check_scene(&other, std::path::Path::new("cornell.vlf")).unwrap_err().to_string();
-    assert!(e.contains("cornell.vlf") && e.contains("made for scene \"cornell\"") && e.contains("re-run"), "{e}");
+    let other = Scene::load(&write_scene(
+        dir.path(),
+        &obj,
+        &[Mat {
+            name: "wall",
+            kd: [0.5; 3],
+            ke: [1.0; 3],
+        }],
+        "",
+    ))
+    .unwrap();
+    let e = lf
+        .check_scene(&other, std::path::Path::new("cornell.vlf"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("cornell.vlf")
+            && e.contains("made for scene \"cornell\"")
+            && e.contains("re-run"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -80,4 +121,3 @@ fn a_failed_save_keeps_the_previous_file() {
     assert!(file::save(&lf, &bad).is_err());
     assert_eq!(std::fs::read(&path).unwrap(), before);
 }
-

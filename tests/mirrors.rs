@@ -11,7 +11,19 @@ use vlf::render::Renderer;
 use vlf::scene::{Camera, Scene};
 
 fn params(n: u32, grid: u32, density: f64) -> PropagationParams {
-    PropagationParams { geodesic_frequency: n, grid_resolution: grid, tile_size: 8, texel_density: density, tolerance: 1e-4, max_iterations: 100, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false }
+    PropagationParams {
+        geodesic_frequency: n,
+        grid_resolution: grid,
+        tile_size: 8,
+        texel_density: density,
+        tolerance: 1e-4,
+        max_iterations: 100,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    }
 }
 
 #[test]
@@ -34,11 +46,23 @@ fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
     let path = write_scene(
         dir.path(),
         &obj,
-        &[Mat { name: "mirror", kd: [0.0; 3], ke: [le; 3] }, Mat { name: "diffuse", kd: [rho; 3], ke: [le; 3] }],
+        &[
+            Mat {
+                name: "mirror",
+                kd: [0.0; 3],
+                ke: [le; 3],
+            },
+            Mat {
+                name: "diffuse",
+                kd: [rho; 3],
+                ke: [le; 3],
+            },
+        ],
         &format!("[materials.mirror]\nmirror = [{rho}, {rho}, {rho}]\n"),
     );
     let scene = Scene::load(&path).unwrap();
-    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
+    let (lf, resident, report) =
+        vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
     assert!(report.converged && report.non_diffuse_elements > 0);
     let expected = le / (1.0 - rho);
     // the diffuse walls' texels
@@ -53,22 +77,45 @@ fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
                 }
             }
             eprintln!("diffuse face {i}: worst texel off by {:.2}%", worst * 100.0);
-            assert!(worst < 0.01, "diffuse face {i}: off by {:.2}%", worst * 100.0);
+            assert!(
+                worst < 0.01,
+                "diffuse face {i}: off by {:.2}%",
+                worst * 100.0
+            );
         }
     }
     // every pixel of views from inside (mirror walls: emission + reflection)
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger).unwrap();
     assert!(renderer.view_dependent());
-    for target in [[1.0, 0.3, 0.2], [-0.4, -1.0, 0.3], [0.2, 0.4, 1.0], [-1.0, 0.5, -0.5]] {
-        let cam = Camera { name: "in".into(), eye: [0.05, -0.02, 0.03], target, up: [0.0, 1.0, 0.0], fov_y_deg: 70.0, size: [64, 64] };
+    for target in [
+        [1.0, 0.3, 0.2],
+        [-0.4, -1.0, 0.3],
+        [0.2, 0.4, 1.0],
+        [-1.0, 0.5, -0.5],
+    ] {
+        let cam = Camera {
+            name: "in".into(),
+            eye: [0.05, -0.02, 0.03],
+            target,
+            up: [0.0, 1.0, 0.0],
+            fov_y_deg: 70.0,
+            size: [64, 64],
+        };
         let frame = renderer.render(&cam, 64, 64).unwrap();
         let mut worst = 0.0f32;
         for p in &frame.pixels {
             worst = worst.max((p[1] - expected).abs() / expected);
         }
-        eprintln!("looking at {target:?}: worst pixel off by {:.2}%", worst * 100.0);
-        assert!(worst < 0.01, "looking at {target:?}: a pixel is off by {:.2}% from {expected}", worst * 100.0);
+        eprintln!(
+            "looking at {target:?}: worst pixel off by {:.2}%",
+            worst * 100.0
+        );
+        assert!(
+            worst < 0.01,
+            "looking at {target:?}: a pixel is off by {:.2}% from {expected}",
+            worst * 100.0
+        );
     }
 }
 
@@ -78,20 +125,45 @@ fn a_mirror_shows_the_emitter_where_geometry_says() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     // mirror in the plane z = -1 facing +z; a small emitter at z = 0 facing the mirror
-    obj.quad("mirror", DVec3::new(0.0, 0.0, -1.0), DVec3::Z, [2.0, 2.0], 0.0);
+    obj.quad(
+        "mirror",
+        DVec3::new(0.0, 0.0, -1.0),
+        DVec3::Z,
+        [2.0, 2.0],
+        0.0,
+    );
     let emitter = DVec3::new(0.3, 0.2, 0.0);
     obj.quad("light", emitter, -DVec3::Z, [0.12, 0.12], 0.0);
     let path = write_scene(
         dir.path(),
         &obj,
-        &[Mat { name: "mirror", kd: [0.0; 3], ke: [0.0; 3] }, Mat { name: "light", kd: [0.0; 3], ke: [10.0; 3] }],
+        &[
+            Mat {
+                name: "mirror",
+                kd: [0.0; 3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.0; 3],
+                ke: [10.0; 3],
+            },
+        ],
         "[materials.mirror]\nmirror = [0.9, 0.9, 0.9]\n",
     );
     let scene = Scene::load(&path).unwrap();
-    let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params(12, 128, 16.0), false).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(ctx, &scene, &params(12, 128, 16.0), false).unwrap();
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger).unwrap();
-    let cam = Camera { name: "c".into(), eye: [-0.3, -0.2, 1.0], target: [0.0, 0.0, -1.0], up: [0.0, 1.0, 0.0], fov_y_deg: 50.0, size: [256, 256] };
+    let cam = Camera {
+        name: "c".into(),
+        eye: [-0.3, -0.2, 1.0],
+        target: [0.0, 0.0, -1.0],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 50.0,
+        size: [256, 256],
+    };
     let frame = renderer.render(&cam, 256, 256).unwrap();
     // where the eye sees the emitter's mirror image (z -> -2 - z) cross the mirror plane
     let eye = DVec3::from(cam.eye.map(|x| x as f64));
@@ -99,7 +171,11 @@ fn a_mirror_shows_the_emitter_where_geometry_says() {
     let t = (-1.0 - eye.z) / (image.z - eye.z);
     let on_mirror = eye + (image - eye) * t;
     let vp = vlf::render::view_projection(&cam, &lf.meta.normalisation, 256, 256);
-    let p = lf.meta.normalisation.to_unit([on_mirror.x as f32, on_mirror.y as f32, on_mirror.z as f32]).as_vec3();
+    let p = lf
+        .meta
+        .normalisation
+        .to_unit([on_mirror.x as f32, on_mirror.y as f32, on_mirror.z as f32])
+        .as_vec3();
     let clip = vp * p.extend(1.0);
     let ndc = Vec3::new(clip.x / clip.w, clip.y / clip.w, clip.z / clip.w);
     let expected = ((ndc.x + 1.0) * 0.5 * 256.0, (1.0 - ndc.y) * 0.5 * 256.0);
@@ -116,9 +192,13 @@ fn a_mirror_shows_the_emitter_where_geometry_says() {
         }
     }
     let found = (sx / sw, sy / sw);
-    let err = ((found.0 - expected.0 as f64).powi(2) + (found.1 - expected.1 as f64).powi(2)).sqrt();
+    let err =
+        ((found.0 - expected.0 as f64).powi(2) + (found.1 - expected.1 as f64).powi(2)).sqrt();
     println!("reflection centroid {err:.2} px from the geometric prediction");
-    assert!(err <= 1.0, "reflection centred at {found:?}, geometry says {expected:?} ({err:.2} px off)");
+    assert!(
+        err <= 1.0,
+        "reflection centred at {found:?}, geometry says {expected:?} ({err:.2} px off)"
+    );
 }
 
 #[test]
@@ -127,30 +207,65 @@ fn cornell_mirror_renders_finite_values_and_shows_the_mirror() {
     let scene = Scene::load(&repo_path("scenes/cornell-mirror/scene.toml")).unwrap();
     let front = scene.camera(Some("front")).unwrap().clone();
     let plain = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    assert_eq!(plain.camera(Some("front")).unwrap(), &front, "both scenes share the front camera");
-    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
+    assert_eq!(
+        plain.camera(Some("front")).unwrap(),
+        &front,
+        "both scenes share the front camera"
+    );
+    let (lf, resident, report) =
+        vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
     assert!(report.non_diffuse_elements > 0 && report.tile_bytes > 0);
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger).unwrap();
     for cam in &scene.cameras {
         let frame = renderer.render(cam, 96, 96).unwrap();
-        assert!(frame.pixels.iter().flatten().all(|x| x.is_finite() && *x >= 0.0), "camera {}: NaN, Inf or negative", cam.name);
+        assert!(
+            frame
+                .pixels
+                .iter()
+                .flatten()
+                .all(|x| x.is_finite() && *x >= 0.0),
+            "camera {}: NaN, Inf or negative",
+            cam.name
+        );
     }
-    assert!(lf.tiles.as_ref().unwrap().total.iter().flatten().all(|x| x.is_finite()));
+    assert!(lf
+        .tiles
+        .as_ref()
+        .unwrap()
+        .total
+        .iter()
+        .flatten()
+        .all(|x| x.is_finite()));
 }
 
 #[test]
 fn a_diffuse_only_scene_allocates_no_tiles_and_binds_no_view_dependent_path() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params(3, 32, 8.0), false).unwrap();
+    let (lf, resident, report) =
+        vlf::propagate::propagate(ctx, &scene, &params(3, 32, 8.0), false).unwrap();
     assert_eq!((report.non_diffuse_elements, report.tile_bytes), (0, 0));
     assert!(lf.tiles.is_none() && resident.tiles.is_none());
-    assert!(!report.propagation_memory.iter().any(|m| m.name.contains("tile") || m.name.contains("geodesic")));
-    assert!(!report.propagation_memory.iter().any(|m| m.name.contains("sky")), "no sky, nothing for it");
+    assert!(!report
+        .propagation_memory
+        .iter()
+        .any(|m| m.name.contains("tile") || m.name.contains("geodesic")));
+    assert!(
+        !report
+            .propagation_memory
+            .iter()
+            .any(|m| m.name.contains("sky")),
+        "no sky, nothing for it"
+    );
     let renderer = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
     assert!(!renderer.view_dependent());
     // after propagation only the total maps stay: rendering memory is a small part
     assert!(report.render_memory_bytes * 4 < report.propagation_memory_bytes);
-    assert!(!report.render_memory.iter().any(|m| m.name.contains("unshot") || m.name.contains("next") || m.name.contains("visibility")));
+    assert!(!report
+        .render_memory
+        .iter()
+        .any(|m| m.name.contains("unshot")
+            || m.name.contains("next")
+            || m.name.contains("visibility")));
 }

@@ -13,16 +13,46 @@ use vlf::scene::Scene;
 fn mirror_room(dir: &std::path::Path) -> Scene {
     let mut obj = ObjBuilder::default();
     obj.cube("wall", DVec3::ZERO, 0.8, true);
-    obj.quad("light", DVec3::new(0.0, 0.79, 0.0), -DVec3::Y, [0.4, 0.4], 0.0);
-    obj.quad("glass", DVec3::new(-0.79, 0.0, 0.0), DVec3::X, [1.2, 1.2], 0.0);
-    obj.quad("glass", DVec3::new(0.0, 0.0, -0.79), DVec3::Z, [1.2, 1.2], 0.0);
+    obj.quad(
+        "light",
+        DVec3::new(0.0, 0.79, 0.0),
+        -DVec3::Y,
+        [0.4, 0.4],
+        0.0,
+    );
+    obj.quad(
+        "glass",
+        DVec3::new(-0.79, 0.0, 0.0),
+        DVec3::X,
+        [1.2, 1.2],
+        0.0,
+    );
+    obj.quad(
+        "glass",
+        DVec3::new(0.0, 0.0, -0.79),
+        DVec3::Z,
+        [1.2, 1.2],
+        0.0,
+    );
     Scene::load(&write_scene(
         dir,
         &obj,
         &[
-            Mat { name: "wall", kd: [0.6, 0.6, 0.6], ke: [0.0; 3] },
-            Mat { name: "light", kd: [0.0; 3], ke: [10.0; 3] },
-            Mat { name: "glass", kd: [0.0; 3], ke: [0.0; 3] },
+            Mat {
+                name: "wall",
+                kd: [0.6, 0.6, 0.6],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.0; 3],
+                ke: [10.0; 3],
+            },
+            Mat {
+                name: "glass",
+                kd: [0.0; 3],
+                ke: [0.0; 3],
+            },
         ],
         "[materials.glass]\nmirror = [0.8, 0.8, 0.8]\n",
     ))
@@ -33,12 +63,31 @@ fn mirror_room(dir: &std::path::Path) -> Scene {
 fn paged_mirror_tiles_give_the_one_page_result() {
     let dir = tempfile::tempdir().unwrap();
     let scene = mirror_room(dir.path());
-    let params = PropagationParams { geodesic_frequency: 4, grid_resolution: 48, tile_size: 8, texel_density: 8.0, tolerance: 1e-3, max_iterations: 50, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
+    let params = PropagationParams {
+        geodesic_frequency: 4,
+        grid_resolution: 48,
+        tile_size: 8,
+        texel_density: 8.0,
+        tolerance: 1e-3,
+        max_iterations: 50,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
     let render = |lf: &vlf::lightfield::LightField| {
         let resident = lf.upload(gpu()).unwrap();
-        let pages = (resident.total.len(), resident.tiles.as_ref().unwrap().radiance.len());
-        let mut renderer = vlf::render::Renderer::new(&resident, lf, &vlf::gpu::MemoryLedger::default()).unwrap();
-        (renderer.render(lf.camera(None).unwrap(), 96, 96).unwrap(), pages)
+        let pages = (
+            resident.total.len(),
+            resident.tiles.as_ref().unwrap().radiance.len(),
+        );
+        let mut renderer =
+            vlf::render::Renderer::new(&resident, lf, &vlf::gpu::MemoryLedger::default()).unwrap();
+        (
+            renderer.render(lf.camera(None).unwrap(), 96, 96).unwrap(),
+            pages,
+        )
     };
     let (one, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let (one_image, one_pages) = render(&one);
@@ -58,14 +107,52 @@ fn paged_mirror_tiles_give_the_one_page_result() {
         report.iterations
     );
     assert_eq!(one_pages, (1, 1));
-    assert!(paged_pages.0 >= 3 && paged_pages.1 >= 3, "{paged_pages:?} pages");
-    let (a, b) = (&one.tiles.as_ref().unwrap().total, &paged.tiles.as_ref().unwrap().total);
-    let scale = a.iter().map(|v| v[0].max(v[1]).max(v[2])).fold(0.0f32, f32::max);
-    let worst = a.iter().zip(b).flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs())).fold(0.0f32, f32::max) / scale;
-    assert!(worst < 1e-6, "tile radiance differs by {worst:.2e} of the maximum");
-    let texel_scale = one.total.iter().map(|v| v[0].max(v[1]).max(v[2])).fold(0.0f32, f32::max);
-    let texels = one.total.iter().zip(&paged.total).flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs())).fold(0.0f32, f32::max) / texel_scale;
-    assert!(texels < 1e-6, "texels differ by {texels:.2e} of the maximum");
-    let image = one_image.pixels.iter().zip(&paged_image.pixels).flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs())).fold(0.0f32, f32::max);
-    assert!(image < 1e-5 * texel_scale, "the paged light field renders differently ({image:.2e})");
+    assert!(
+        paged_pages.0 >= 3 && paged_pages.1 >= 3,
+        "{paged_pages:?} pages"
+    );
+    let (a, b) = (
+        &one.tiles.as_ref().unwrap().total,
+        &paged.tiles.as_ref().unwrap().total,
+    );
+    let scale = a
+        .iter()
+        .map(|v| v[0].max(v[1]).max(v[2]))
+        .fold(0.0f32, f32::max);
+    let worst = a
+        .iter()
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs()))
+        .fold(0.0f32, f32::max)
+        / scale;
+    assert!(
+        worst < 1e-6,
+        "tile radiance differs by {worst:.2e} of the maximum"
+    );
+    let texel_scale = one
+        .total
+        .iter()
+        .map(|v| v[0].max(v[1]).max(v[2]))
+        .fold(0.0f32, f32::max);
+    let texels = one
+        .total
+        .iter()
+        .zip(&paged.total)
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs()))
+        .fold(0.0f32, f32::max)
+        / texel_scale;
+    assert!(
+        texels < 1e-6,
+        "texels differ by {texels:.2e} of the maximum"
+    );
+    let image = one_image
+        .pixels
+        .iter()
+        .zip(&paged_image.pixels)
+        .flat_map(|(x, y)| (0..3).map(move |k| (x[k] - y[k]).abs()))
+        .fold(0.0f32, f32::max);
+    assert!(
+        image < 1e-5 * texel_scale,
+        "the paged light field renders differently ({image:.2e})"
+    );
 }

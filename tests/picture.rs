@@ -52,23 +52,50 @@ fn floor_error(direct_samples: u32) -> f64 {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
-    obj.quad("light", DVec3::new(0.1, 0.5, -0.05), -DVec3::Y, [0.2, 0.2], 0.3);
+    obj.quad(
+        "light",
+        DVec3::new(0.1, 0.5, -0.05),
+        -DVec3::Y,
+        [0.2, 0.2],
+        0.3,
+    );
     let (rho, le) = (0.5f64, 10.0f32);
     let path = write_scene(
         dir.path(),
         &obj,
-        &[Mat { name: "floor", kd: [rho as f32; 3], ke: [0.0; 3] }, Mat { name: "light", kd: [0.0; 3], ke: [le; 3] }],
+        &[
+            Mat {
+                name: "floor",
+                kd: [rho as f32; 3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.0; 3],
+                ke: [le; 3],
+            },
+        ],
         "",
     );
     let scene = Scene::load(&path).unwrap();
     let p = params(direct_samples);
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
-    let light = prepared.materials.iter().position(|m| m.emission[0] > 0.0).unwrap() as u32;
-    let light_face = (0..prepared.faces.len()).find(|&f| prepared.faces[f].material == light).unwrap();
+    let light = prepared
+        .materials
+        .iter()
+        .position(|m| m.emission[0] > 0.0)
+        .unwrap() as u32;
+    let light_face = (0..prepared.faces.len())
+        .find(|&f| prepared.faces[f].material == light)
+        .unwrap();
     // the emitter's corners in normalised space (irradiance does not change with scale)
     let mut corners: Vec<DVec3> = Vec::new();
-    for t in prepared.triangles.iter().filter(|t| t.face as usize == light_face) {
+    for t in prepared
+        .triangles
+        .iter()
+        .filter(|t| t.face as usize == light_face)
+    {
         for v in t.vertices {
             let q = prepared.positions[v as usize];
             if !corners.iter().any(|c| c.distance(q) < 1e-9) {
@@ -79,7 +106,10 @@ fn floor_error(direct_samples: u32) -> f64 {
     assert_eq!(corners.len(), 4);
     // order the corners around their centre
     let centre = corners.iter().sum::<DVec3>() / 4.0;
-    let (a, b) = ((corners[0] - centre).normalize(), DVec3::Y.cross((corners[0] - centre).normalize()));
+    let (a, b) = (
+        (corners[0] - centre).normalize(),
+        DVec3::Y.cross((corners[0] - centre).normalize()),
+    );
     corners.sort_by(|p, q| {
         let angle = |v: &DVec3| (*v - centre).dot(b).atan2((*v - centre).dot(a));
         angle(p).total_cmp(&angle(q))
@@ -91,11 +121,15 @@ fn floor_error(direct_samples: u32) -> f64 {
             continue;
         }
         let x = DVec3::new(point[0] as f64, point[1] as f64, point[2] as f64);
-        let expected = rho / std::f64::consts::PI * le as f64 * polygon_irradiance(x, DVec3::Y, &corners);
+        let expected =
+            rho / std::f64::consts::PI * le as f64 * polygon_irradiance(x, DVec3::Y, &corners);
         rows.push((lf.total[i][0] as f64, expected));
     }
     let brightest = rows.iter().map(|r| r.1).fold(0.0, f64::max);
-    rows.iter().filter(|r| r.1 > 0.1 * brightest).map(|r| (r.0 - r.1).abs() / r.1).fold(0.0, f64::max)
+    rows.iter()
+        .filter(|r| r.1 > 0.1 * brightest)
+        .map(|r| (r.0 - r.1).abs() / r.1)
+        .fold(0.0, f64::max)
 }
 
 #[test]
@@ -104,14 +138,25 @@ fn a_floor_under_a_small_emitter_matches_the_closed_form_without_ripple() {
     // 181 fixed directions 1.7 (each texel sees the small emitter through a handful of them)
     let direct = floor_error(16);
     eprintln!("largest relative error, direct light: {direct:.3e}");
-    assert!(direct < 1.5e-4, "direct light: largest relative error {direct:.2e} (bound 1.5e-4)");
+    assert!(
+        direct < 1.5e-4,
+        "direct light: largest relative error {direct:.2e} (bound 1.5e-4)"
+    );
     let through_directions = floor_error(0);
     eprintln!("largest relative error, fixed directions: {through_directions:.3e}");
-    assert!(through_directions > 0.05, "the fixed directions should ripple past 5%: {through_directions:.3}");
+    assert!(
+        through_directions > 0.05,
+        "the fixed directions should ripple past 5%: {through_directions:.3}"
+    );
 }
 
 /// The renderer of a freshly propagated scene.
-fn propagate_and_renderer(path: &std::path::Path) -> (vlf::lightfield::LightField, vlf::lightfield::ResidentLightField) {
+fn propagate_and_renderer(
+    path: &std::path::Path,
+) -> (
+    vlf::lightfield::LightField,
+    vlf::lightfield::ResidentLightField,
+) {
     let scene = Scene::load(path).unwrap();
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params(16), false).unwrap();
     (lf, resident)
@@ -122,7 +167,10 @@ fn propagate_and_renderer(path: &std::path::Path) -> (vlf::lightfield::LightFiel
 fn project(p: DVec3, size: f64) -> [f64; 2] {
     let t = (20f64).to_radians().tan();
     let depth = 3.0 - p.z;
-    [(p.x / depth / t + 1.0) * 0.5 * size, (1.0 - p.y / depth / t) * 0.5 * size]
+    [
+        (p.x / depth / t + 1.0) * 0.5 * size,
+        (1.0 - p.y / depth / t) * 0.5 * size,
+    ]
 }
 
 /// Where along `row` the radiance crosses half of `level`, rising (left edges) or falling, with
@@ -135,7 +183,10 @@ fn crossings(row: &[f32], level: f32) -> (Vec<f64>, usize) {
             out.push(x as f64 + 0.5 + (a / (a - b)) as f64);
         }
     }
-    let between = row.iter().filter(|&&v| v > 0.1 * level && v < 0.9 * level).count();
+    let between = row
+        .iter()
+        .filter(|&&v| v > 0.1 * level && v < 0.9 * level)
+        .count();
     (out, between)
 }
 
@@ -145,35 +196,80 @@ fn a_mirror_shows_an_emitter_edge_where_geometry_puts_it_and_sharp() {
     let mut obj = ObjBuilder::default();
     obj.quad("mirror", DVec3::ZERO, DVec3::Z, [3.0, 3.0], 0.0);
     // facing the mirror; the camera sees its absorbing back
-    obj.quad("light", DVec3::new(0.5, 0.0, 1.0), -DVec3::Z, [0.3, 0.3], 0.0);
+    obj.quad(
+        "light",
+        DVec3::new(0.5, 0.0, 1.0),
+        -DVec3::Z,
+        [0.3, 0.3],
+        0.0,
+    );
     let le = 4.0f32;
     let path = write_scene(
         dir.path(),
         &obj,
-        &[Mat { name: "mirror", kd: [0.0; 3], ke: [0.0; 3] }, Mat { name: "light", kd: [0.0; 3], ke: [le; 3] }],
+        &[
+            Mat {
+                name: "mirror",
+                kd: [0.0; 3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.0; 3],
+                ke: [le; 3],
+            },
+        ],
         "[materials.mirror]\nmirror = [0.8, 0.8, 0.8]\ndiffuse = [0.0, 0.0, 0.0]\n",
     );
     let (lf, resident) = propagate_and_renderer(&path);
-    assert_eq!(lf.mirror_chains(), vlf::lightfield::MirrorChains { bounces: 1, tiles_needed: false });
-    assert!(resident.tiles.is_none(), "one mirror: rendering needs no tiles");
+    assert_eq!(
+        lf.mirror_chains(),
+        vlf::lightfield::MirrorChains {
+            bounces: 1,
+            tiles_needed: false
+        }
+    );
+    assert!(
+        resident.tiles.is_none(),
+        "one mirror: rendering needs no tiles"
+    );
     let mut renderer = Renderer::new(&resident, &lf, &vlf::gpu::MemoryLedger::default()).unwrap();
     renderer.set_samples_per_pixel(16).unwrap();
     let size = 64u32;
-    let frame = renderer.render(lf.camera(None).unwrap(), size, size).unwrap();
-    let row: Vec<f32> = (0..size).map(|x| frame.pixels[(32 * size + x) as usize][0]).collect();
+    let frame = renderer
+        .render(lf.camera(None).unwrap(), size, size)
+        .unwrap();
+    let row: Vec<f32> = (0..size)
+        .map(|x| frame.pixels[(32 * size + x) as usize][0])
+        .collect();
     // the emitter's mirror image lies at z = -1: its edges x = 0.35 and x = 0.65
     let expected = [0.35, 0.65].map(|x| project(DVec3::new(x, 0.0, -1.0), size as f64)[0]);
     let (found, between) = crossings(&row, 0.8 * le);
-    assert_eq!(found.len(), 2, "one bright reflection along the row: {row:?}");
-    eprintln!("reflected edges at {found:?} px, geometry {expected:?}; {between} pixels partly lit");
+    assert_eq!(
+        found.len(),
+        2,
+        "one bright reflection along the row: {row:?}"
+    );
+    eprintln!(
+        "reflected edges at {found:?} px, geometry {expected:?}; {between} pixels partly lit"
+    );
     for (f, e) in found.iter().zip(expected) {
         // measured: 0.08 and 0.06 px off
-        assert!((f - e).abs() < 1.0, "reflected edge at {f:.2} px, geometry says {e:.2}");
+        assert!(
+            (f - e).abs() < 1.0,
+            "reflected edge at {f:.2} px, geometry says {e:.2}"
+        );
     }
     // each edge covers at most one pixel partly (measured: 2 pixels between 10% and 90%)
-    assert!(between <= 2, "reflected edges are blurred over {between} pixels: {row:?}");
+    assert!(
+        between <= 2,
+        "reflected edges are blurred over {between} pixels: {row:?}"
+    );
     let plateau = row[((expected[0] + expected[1]) * 0.5) as usize];
-    assert!((plateau - 0.8 * le).abs() < 1e-3 * le, "the mirror reflects 0.8 of the emitter: {plateau}");
+    assert!(
+        (plateau - 0.8 * le).abs() < 1e-3 * le,
+        "the mirror reflects 0.8 of the emitter: {plateau}"
+    );
 }
 
 /// Area of the unit pixel square at (x, y) inside the convex polygon `poly` (counter-clockwise
@@ -190,7 +286,8 @@ fn covered_fraction(x: f64, y: f64, poly: &[[f64; 2]]) -> f64 {
     };
     for k in 0..poly.len() {
         let (p, q) = (poly[k], poly[(k + 1) % poly.len()]);
-        let side = |v: [f64; 2]| orient * ((q[0] - p[0]) * (v[1] - p[1]) - (q[1] - p[1]) * (v[0] - p[0]));
+        let side =
+            |v: [f64; 2]| orient * ((q[0] - p[0]) * (v[1] - p[1]) - (q[1] - p[1]) * (v[0] - p[0]));
         let mut next = Vec::new();
         for i in 0..pts.len() {
             let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
@@ -218,11 +315,19 @@ fn covered_fraction(x: f64, y: f64, poly: &[[f64; 2]]) -> f64 {
 
 /// Largest and mean error of edge pixels (coverage strictly between 0 and 1) against the covered
 /// fraction, for n eye rays per pixel.
-fn edge_error(lf: &vlf::lightfield::LightField, resident: &vlf::lightfield::ResidentLightField, n: u32, poly: &[[f64; 2]], le: f32) -> (f64, f64) {
+fn edge_error(
+    lf: &vlf::lightfield::LightField,
+    resident: &vlf::lightfield::ResidentLightField,
+    n: u32,
+    poly: &[[f64; 2]],
+    le: f32,
+) -> (f64, f64) {
     let mut renderer = Renderer::new(resident, lf, &vlf::gpu::MemoryLedger::default()).unwrap();
     renderer.set_samples_per_pixel(n).unwrap();
     let size = 64u32;
-    let frame = renderer.render(lf.camera(None).unwrap(), size, size).unwrap();
+    let frame = renderer
+        .render(lf.camera(None).unwrap(), size, size)
+        .unwrap();
     let (mut worst, mut sum, mut count) = (0.0f64, 0.0, 0);
     for y in 0..size {
         for x in 0..size {
@@ -233,7 +338,11 @@ fn edge_error(lf: &vlf::lightfield::LightField, resident: &vlf::lightfield::Resi
                 sum += (v - c).abs();
                 count += 1;
             } else {
-                assert!((v - c).abs() < 1e-4, "pixel ({x}, {y}) wholly {} shows {v}", if c > 0.5 { "inside" } else { "outside" });
+                assert!(
+                    (v - c).abs() < 1e-4,
+                    "pixel ({x}, {y}) wholly {} shows {v}",
+                    if c > 0.5 { "inside" } else { "outside" }
+                );
             }
         }
     }
@@ -248,7 +357,16 @@ fn an_antialiased_edge_pixel_shows_the_covered_fraction() {
     let spin = 0.3;
     obj.quad("light", DVec3::ZERO, DVec3::Z, [1.0, 1.0], spin);
     let le = 2.0f32;
-    let path = write_scene(dir.path(), &obj, &[Mat { name: "light", kd: [0.0; 3], ke: [le; 3] }], "");
+    let path = write_scene(
+        dir.path(),
+        &obj,
+        &[Mat {
+            name: "light",
+            kd: [0.0; 3],
+            ke: [le; 3],
+        }],
+        "",
+    );
     let (lf, resident) = propagate_and_renderer(&path);
     // the square's corners as QuadMesh::quad places them, projected
     let (s, c) = (spin as f64).sin_cos();
@@ -257,18 +375,27 @@ fn an_antialiased_edge_pixel_shows_the_covered_fraction() {
     let a0 = (helper - n * n.dot(helper)).normalize();
     let b0 = n.cross(a0);
     let (a, b) = ((a0 * c + b0 * s) * 0.5, (-a0 * s + b0 * c) * 0.5);
-    let poly: Vec<[f64; 2]> = [-a - b, a - b, a + b, -a + b].iter().map(|&p| project(p, 64.0)).collect();
+    let poly: Vec<[f64; 2]> = [-a - b, a - b, a + b, -a + b]
+        .iter()
+        .map(|&p| project(p, 64.0))
+        .collect();
     let (worst, mean) = edge_error(&lf, &resident, 16, &poly, le);
     eprintln!("16 eye rays: edge pixels off the covered fraction by {worst:.3} at most, {mean:.4} on average");
     // measured on lavapipe: worst 0.105, mean 0.033 (16 samples resolve coverage in 1/16 steps;
     // 16 x 16 gives 0.013 and 0.005, so the outline here is the renderer's)
-    assert!(worst < 0.16 && mean < 0.05, "16 eye rays: worst {worst:.3}, mean {mean:.4}");
+    assert!(
+        worst < 0.16 && mean < 0.05,
+        "16 eye rays: worst {worst:.3}, mean {mean:.4}"
+    );
     let realtime = vlf::render::REALTIME_SAMPLES;
     let (worst_rt, mean_rt) = edge_error(&lf, &resident, realtime, &poly, le);
     eprintln!("{realtime} eye rays (real-time default): worst {worst_rt:.3}, mean {mean_rt:.4}");
     let (worst_1, mean_1) = edge_error(&lf, &resident, 1, &poly, le);
     eprintln!("1 eye ray: worst {worst_1:.3}, mean {mean_1:.4}");
-    assert!(worst_1 > 0.3, "one ray per pixel must alias: worst {worst_1:.3}");
+    assert!(
+        worst_1 > 0.3,
+        "one ray per pixel must alias: worst {worst_1:.3}"
+    );
 }
 
 /// The floor's largest relative error against the closed form when all its light comes from an
@@ -280,30 +407,71 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
     let mut obj = ObjBuilder::default();
     obj.quad("floor", DVec3::ZERO, DVec3::Y, [1.0, 1.0], 0.0);
     // a mirror ceiling at y = 1, facing down, and an emitter under it facing up (at the mirror)
-    obj.quad("mirror", DVec3::new(0.0, 1.0, 0.0), -DVec3::Y, [6.0, 6.0], 0.0);
-    obj.quad("light", DVec3::new(1.2, 0.7, 0.0), DVec3::Y, [0.2, 0.2], 0.3);
+    obj.quad(
+        "mirror",
+        DVec3::new(0.0, 1.0, 0.0),
+        -DVec3::Y,
+        [6.0, 6.0],
+        0.0,
+    );
+    obj.quad(
+        "light",
+        DVec3::new(1.2, 0.7, 0.0),
+        DVec3::Y,
+        [0.2, 0.2],
+        0.3,
+    );
     let (rho, le, rho_s) = (0.5f64, 10.0f32, 0.8f64);
     let path = write_scene(
         dir.path(),
         &obj,
         &[
-            Mat { name: "floor", kd: [rho as f32; 3], ke: [0.0; 3] },
-            Mat { name: "mirror", kd: [0.0; 3], ke: [0.0; 3] },
-            Mat { name: "light", kd: [0.0; 3], ke: [le; 3] },
+            Mat {
+                name: "floor",
+                kd: [rho as f32; 3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "mirror",
+                kd: [0.0; 3],
+                ke: [0.0; 3],
+            },
+            Mat {
+                name: "light",
+                kd: [0.0; 3],
+                ke: [le; 3],
+            },
         ],
         "[materials.mirror]\nmirror = [0.8, 0.8, 0.8]\ndiffuse = [0.0, 0.0, 0.0]\n",
     );
     let scene = Scene::load(&path).unwrap();
-    let p = PropagationParams { max_iterations: 2, accelerate: false, mirror_direct: true, ..params(direct_samples) };
+    let p = PropagationParams {
+        max_iterations: 2,
+        accelerate: false,
+        mirror_direct: true,
+        ..params(direct_samples)
+    };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;
     let (floor, light) = (material("floor"), material("light"));
-    let light_face = (0..prepared.faces.len()).find(|&f| prepared.faces[f].material == light).unwrap();
-    let mirror_y = prepared.faces.iter().find(|f| f.material == material("mirror")).unwrap().plane_offset.abs();
+    let light_face = (0..prepared.faces.len())
+        .find(|&f| prepared.faces[f].material == light)
+        .unwrap();
+    let mirror_y = prepared
+        .faces
+        .iter()
+        .find(|f| f.material == material("mirror"))
+        .unwrap()
+        .plane_offset
+        .abs();
     // the emitter's corners mirrored in the ceiling's plane (normalised space)
     let mut corners: Vec<DVec3> = Vec::new();
-    for t in prepared.triangles.iter().filter(|t| t.face as usize == light_face) {
+    for t in prepared
+        .triangles
+        .iter()
+        .filter(|t| t.face as usize == light_face)
+    {
         for v in t.vertices {
             let q = prepared.positions[v as usize];
             let q = DVec3::new(q.x, 2.0 * mirror_y - q.y, q.z);
@@ -315,7 +483,10 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
     let centre = corners.iter().sum::<DVec3>() / corners.len() as f64;
     let a = (corners[0] - centre).normalize();
     let b = DVec3::Y.cross(a);
-    corners.sort_by(|p, q| ((*p - centre).dot(b).atan2((*p - centre).dot(a))).total_cmp(&(*q - centre).dot(b).atan2((*q - centre).dot(a))));
+    corners.sort_by(|p, q| {
+        ((*p - centre).dot(b).atan2((*p - centre).dot(a)))
+            .total_cmp(&(*q - centre).dot(b).atan2((*q - centre).dot(a)))
+    });
     let mut worst = 0.0f64;
     for (i, point) in prepared.atlas.points.iter().enumerate() {
         let face = point[3].to_bits();
@@ -324,7 +495,10 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
         }
         let x = DVec3::new(point[0] as f64, point[1] as f64, point[2] as f64);
         // the floor sees the emitter's back (black) directly: only the mirror image lights it
-        let expected = rho / std::f64::consts::PI * le as f64 * rho_s * polygon_irradiance(x, DVec3::Y, &corners);
+        let expected = rho / std::f64::consts::PI
+            * le as f64
+            * rho_s
+            * polygon_irradiance(x, DVec3::Y, &corners);
         worst = worst.max((lf.total[i][0] as f64 - expected).abs() / expected);
     }
     worst
@@ -337,8 +511,14 @@ fn an_emitter_seen_in_a_mirror_lights_a_floor_as_the_closed_form_says() {
     let through_tiles = mirrored_floor_error(0);
     eprintln!("largest relative error, through the mirror tiles: {through_tiles:.3e}");
     // measured on lavapipe: 3.1e-5 (single precision); through the mirror tiles 4.0
-    assert!(direct < 1e-4, "emitter seen in the mirror: largest relative error {direct:.2e}");
-    assert!(through_tiles > 0.05, "the mirror tiles' fixed directions should ripple past 5%: {through_tiles:.3}");
+    assert!(
+        direct < 1e-4,
+        "emitter seen in the mirror: largest relative error {direct:.2e}"
+    );
+    assert!(
+        through_tiles > 0.05,
+        "the mirror tiles' fixed directions should ripple past 5%: {through_tiles:.3}"
+    );
 }
 
 #[test]
@@ -350,5 +530,10 @@ fn the_readme_accuracy_block_is_current() {
         .arg("--check")
         .output()
         .expect("python3 runs tools/accuracy.py --check (install python3)");
-    assert!(out.status.success(), "{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

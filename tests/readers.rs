@@ -81,18 +81,44 @@ proptest! {
 #[test]
 fn every_damage_to_a_light_field_file_is_caught() {
     let scene = Scene::load(&repo_path("scenes/cornell-mirror/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams { geodesic_frequency: 2, grid_resolution: 16, tile_size: 8, texel_density: 4.0, tolerance: 1e-2, max_iterations: 10, perturb: 1, accelerate: true, memory_budget_mib: None, direct_samples: 16, mirror_direct: false };
+    let params = vlf::propagate::PropagationParams {
+        geodesic_frequency: 2,
+        grid_resolution: 16,
+        tile_size: 8,
+        texel_density: 4.0,
+        tolerance: 1e-2,
+        max_iterations: 10,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
     let bytes = file::encode(&lf);
-    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig { cases: 512, ..ProptestConfig::default() });
+    let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
+        cases: 512,
+        ..ProptestConfig::default()
+    });
     runner
-        .run(&(0..bytes.len(), 1u8..=255, 0..bytes.len()), |(at, mask, cut)| {
-            let mut flipped = bytes.clone();
-            flipped[at] ^= mask;
-            prop_assert!(file::decode(&flipped).is_err(), "flipping byte {} went unnoticed", at);
-            prop_assert!(file::decode(&bytes[..cut]).is_err(), "a file cut at {} decoded", cut);
-            Ok(())
-        })
+        .run(
+            &(0..bytes.len(), 1u8..=255, 0..bytes.len()),
+            |(at, mask, cut)| {
+                let mut flipped = bytes.clone();
+                flipped[at] ^= mask;
+                prop_assert!(
+                    file::decode(&flipped).is_err(),
+                    "flipping byte {} went unnoticed",
+                    at
+                );
+                prop_assert!(
+                    file::decode(&bytes[..cut]).is_err(),
+                    "a file cut at {} decoded",
+                    cut
+                );
+                Ok(())
+            },
+        )
         .unwrap();
 }
 

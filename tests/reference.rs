@@ -16,15 +16,44 @@ fn path_tracer_furnace_matches_le_over_one_minus_rho() {
     let (le, rho) = (1.0f32, 0.5f32);
     let mut obj = ObjBuilder::default();
     obj.cube("wall", DVec3::ZERO, 0.5, true);
-    let scene = Scene::load(&write_scene(dir.path(), &obj, &[Mat { name: "wall", kd: [rho; 3], ke: [le; 3] }], "")).unwrap();
-    let cam = Camera { name: "in".into(), eye: [0.1, -0.05, 0.2], target: [-1.0, 0.3, -0.6], up: [0.0, 1.0, 0.0], fov_y_deg: 90.0, size: [64, 64] };
+    let scene = Scene::load(&write_scene(
+        dir.path(),
+        &obj,
+        &[Mat {
+            name: "wall",
+            kd: [rho; 3],
+            ke: [le; 3],
+        }],
+        "",
+    ))
+    .unwrap();
+    let cam = Camera {
+        name: "in".into(),
+        eye: [0.1, -0.05, 0.2],
+        target: [-1.0, 0.3, -0.6],
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 90.0,
+        size: [64, 64],
+    };
     let r = vlf::reference::render(gpu(), &scene, &cam, [64, 64], 256, 7, false).unwrap();
     let expected = (le / (1.0 - rho)) as f64;
     let mean = r.mean.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / r.mean.pixels.len() as f64;
-    assert!((mean - expected).abs() / expected < 0.02, "mean {mean} vs {expected}");
-    let worst = r.mean.pixels.iter().map(|p| (p[1] as f64 - expected).abs() / expected).fold(0.0, f64::max);
+    assert!(
+        (mean - expected).abs() / expected < 0.02,
+        "mean {mean} vs {expected}"
+    );
+    let worst = r
+        .mean
+        .pixels
+        .iter()
+        .map(|p| (p[1] as f64 - expected).abs() / expected)
+        .fold(0.0, f64::max);
     assert!(worst < 0.10, "a pixel is {:.1}% off", worst * 100.0);
-    assert!(r.variance.pixels.iter().all(|v| v[1] >= 0.0 && v[1].is_finite()));
+    assert!(r
+        .variance
+        .pixels
+        .iter()
+        .all(|v| v[1] >= 0.0 && v[1].is_finite()));
 }
 
 #[test]
@@ -46,14 +75,27 @@ fn light_field_is_within_relmse_0_02_of_the_path_tracer_on_cornell() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let cam = scene.camera(Some("front")).unwrap().clone();
     let reference = vlf::reference::render(gpu(), &scene, &cam, [128, 128], 512, 1, false).unwrap();
-    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), false).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), false).unwrap();
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
     let image = renderer.render_antialiased(&cam, 128, 128, 4).unwrap();
     let c = vlf::metrics::compare(&image, &reference.mean).unwrap();
-    println!("light field vs path tracer (512 spp), 128x128:\n{}", c.table());
+    println!(
+        "light field vs path tracer (512 spp), 128x128:\n{}",
+        c.table()
+    );
     if c.rel_mse >= 0.02 {
         let dir = std::env::temp_dir();
-        vlf::metrics::write_difference_png(&image, &reference.mean, &dir.join("vlf-vs-reference-diff.png")).unwrap();
-        panic!("relMSE {} >= 0.02; difference image in {}", c.rel_mse, dir.join("vlf-vs-reference-diff.png").display());
+        vlf::metrics::write_difference_png(
+            &image,
+            &reference.mean,
+            &dir.join("vlf-vs-reference-diff.png"),
+        )
+        .unwrap();
+        panic!(
+            "relMSE {} >= 0.02; difference image in {}",
+            c.rel_mse,
+            dir.join("vlf-vs-reference-diff.png").display()
+        );
     }
 }

@@ -8,7 +8,16 @@ use vlf::scene::Scene;
 fn tiny(dir: &std::path::Path) -> std::path::PathBuf {
     let mut obj = ObjBuilder::default();
     obj.quad("white", DVec3::ZERO, DVec3::Z, [1.0, 1.0], 0.0);
-    write_scene(dir, &obj, &[Mat { name: "white", kd: [0.5; 3], ke: [0.0; 3] }], "")
+    write_scene(
+        dir,
+        &obj,
+        &[Mat {
+            name: "white",
+            kd: [0.5; 3],
+            ke: [0.0; 3],
+        }],
+        "",
+    )
 }
 
 fn load_err(path: &std::path::Path) -> String {
@@ -41,17 +50,25 @@ fn missing_mtl_names_the_library() {
     let path = tiny(dir.path());
     std::fs::remove_file(dir.path().join("scene.mtl")).unwrap();
     let e = load_err(&path);
-    assert!(e.contains("scene.mtl") && e.contains("material library"), "{e}");
+    assert!(
+        e.contains("scene.mtl") && e.contains("material library"),
+        "{e}"
+    );
 }
 
 #[test]
 fn nan_vertex_names_the_line() {
     let dir = tempfile::tempdir().unwrap();
     let path = tiny(dir.path());
-    let obj = std::fs::read_to_string(dir.path().join("scene.obj")).unwrap().replacen("v -0.5", "v nan", 1);
+    let obj = std::fs::read_to_string(dir.path().join("scene.obj"))
+        .unwrap()
+        .replacen("v -0.5", "v nan", 1);
     std::fs::write(dir.path().join("scene.obj"), obj).unwrap();
     let e = load_err(&path);
-    assert!(e.contains("scene.obj") && e.contains("line 3") && e.contains("non-finite"), "{e}");
+    assert!(
+        e.contains("scene.obj") && e.contains("line 3") && e.contains("non-finite"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -61,7 +78,10 @@ fn face_index_out_of_range_names_the_line() {
     let obj = std::fs::read_to_string(dir.path().join("scene.obj")).unwrap() + "f 1 2 9\n";
     std::fs::write(dir.path().join("scene.obj"), obj).unwrap();
     let e = load_err(&path);
-    assert!(e.contains("scene.obj") && e.contains("line 8") && e.contains("out of range"), "{e}");
+    assert!(
+        e.contains("scene.obj") && e.contains("line 8") && e.contains("out of range"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -69,25 +89,35 @@ fn albedo_outside_zero_one_is_refused() {
     for bad in ["1.2 0.5 0.5", "-0.1 0.5 0.5"] {
         let dir = tempfile::tempdir().unwrap();
         let path = tiny(dir.path());
-        let mtl = std::fs::read_to_string(dir.path().join("scene.mtl")).unwrap().replace("Kd 0.5 0.5 0.5", &format!("Kd {bad}"));
+        let mtl = std::fs::read_to_string(dir.path().join("scene.mtl"))
+            .unwrap()
+            .replace("Kd 0.5 0.5 0.5", &format!("Kd {bad}"));
         std::fs::write(dir.path().join("scene.mtl"), mtl).unwrap();
         let e = load_err(&path);
-        assert!(e.contains("scene.mtl") && e.contains("\"white\"") && e.contains("Kd"), "{e}");
+        assert!(
+            e.contains("scene.mtl") && e.contains("\"white\"") && e.contains("Kd"),
+            "{e}"
+        );
     }
     // the same through a scene override
     let dir = tempfile::tempdir().unwrap();
     let path = tiny(dir.path());
-    let toml = std::fs::read_to_string(&path).unwrap() + "\n[materials.white]\ndiffuse = [1.5, 0.0, 0.0]\n";
+    let toml = std::fs::read_to_string(&path).unwrap()
+        + "\n[materials.white]\ndiffuse = [1.5, 0.0, 0.0]\n";
     std::fs::write(&path, toml).unwrap();
     let e = load_err(&path);
-    assert!(e.contains("scene.toml") && e.contains("materials.white.diffuse"), "{e}");
+    assert!(
+        e.contains("scene.toml") && e.contains("materials.white.diffuse"),
+        "{e}"
+    );
 }
 
 #[test]
 fn diffuse_plus_mirror_above_one_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let path = tiny(dir.path());
-    let toml = std::fs::read_to_string(&path).unwrap() + "\n[materials.white]\nmirror = [0.8, 0.8, 0.8]\n";
+    let toml =
+        std::fs::read_to_string(&path).unwrap() + "\n[materials.white]\nmirror = [0.8, 0.8, 0.8]\n";
     std::fs::write(&path, toml).unwrap();
     let e = load_err(&path);
     assert!(e.contains("exceeds 1"), "{e}");
@@ -97,10 +127,15 @@ fn diffuse_plus_mirror_above_one_is_refused() {
 fn unknown_toml_key_names_the_key_and_line() {
     let dir = tempfile::tempdir().unwrap();
     let path = tiny(dir.path());
-    let toml = std::fs::read_to_string(&path).unwrap().replace("mesh =", "colour = 3\nmesh =");
+    let toml = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("mesh =", "colour = 3\nmesh =");
     std::fs::write(&path, toml).unwrap();
     let e = load_err(&path);
-    assert!(e.contains("scene.toml") && e.contains("colour") && e.contains("line 2"), "{e}");
+    assert!(
+        e.contains("scene.toml") && e.contains("colour") && e.contains("line 2"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -112,15 +147,38 @@ fn zero_area_triangles_are_dropped_with_a_count() {
     std::fs::write(dir.path().join("scene.obj"), obj).unwrap();
     let scene = Scene::load(&path).unwrap();
     assert_eq!(scene.triangles.len(), 2);
-    assert!(scene.warnings.iter().any(|w| w.contains("dropped 2 zero-area")), "{:?}", scene.warnings);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("dropped 2 zero-area")),
+        "{:?}",
+        scene.warnings
+    );
 }
 
 #[test]
 fn cornell_duplicated_faces_are_dropped_and_reported() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    assert!(scene.warnings.iter().any(|w| w.contains("dropped 4 duplicated")), "{:?}", scene.warnings);
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("dropped 4 duplicated")),
+        "{:?}",
+        scene.warnings
+    );
     let cam = scene.camera(Some("front")).unwrap();
-    assert_eq!((cam.eye, cam.target, cam.up, cam.fov_y_deg, cam.size), ([0.0, 1.0, 3.9], [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], 39.3, [512, 512]));
+    assert_eq!(
+        (cam.eye, cam.target, cam.up, cam.fov_y_deg, cam.size),
+        (
+            [0.0, 1.0, 3.9],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            39.3,
+            [512, 512]
+        )
+    );
 }
 
 #[test]
@@ -140,7 +198,10 @@ fn cornell_groups_into_planar_faces_with_a_padded_atlas() {
     for (i, a) in prepared.faces.iter().enumerate() {
         for b in &prepared.faces[i + 1..] {
             let (ra, rb) = (a.atlas, b.atlas);
-            let disjoint = ra.x + ra.w <= rb.x || rb.x + rb.w <= ra.x || ra.y + ra.h <= rb.y || rb.y + rb.h <= ra.y;
+            let disjoint = ra.x + ra.w <= rb.x
+                || rb.x + rb.w <= ra.x
+                || ra.y + ra.h <= rb.y
+                || rb.y + rb.h <= ra.y;
             assert!(disjoint, "charts {ra:?} and {rb:?} overlap");
         }
     }

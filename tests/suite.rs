@@ -10,15 +10,44 @@ use vlf::generate::{generate, GenerateOptions, SceneKind};
 #[test]
 fn generated_scenes_have_about_the_asked_size_and_load() {
     let dir = tempfile::tempdir().unwrap();
-    for (kind, size, mirrors) in [(SceneKind::Classroom, 1_000u64, false), (SceneKind::Classroom, 100_000, true), (SceneKind::Gallery, 10_000, true)] {
-        let g = generate(&GenerateOptions { kind, size, mirrors }, &dir.path().join(format!("{kind:?}-{size}"))).unwrap();
-        let counted = if kind == SceneKind::Classroom { g.triangles } else { g.faces };
-        println!("{kind:?} {size}: {} triangles, {} faces", g.triangles, g.faces);
-        assert!((counted as f64 / size as f64 - 1.0).abs() < 0.35, "{kind:?} asked {size}, got {counted}");
+    for (kind, size, mirrors) in [
+        (SceneKind::Classroom, 1_000u64, false),
+        (SceneKind::Classroom, 100_000, true),
+        (SceneKind::Gallery, 10_000, true),
+    ] {
+        let g = generate(
+            &GenerateOptions {
+                kind,
+                size,
+                mirrors,
+            },
+            &dir.path().join(format!("{kind:?}-{size}")),
+        )
+        .unwrap();
+        let counted = if kind == SceneKind::Classroom {
+            g.triangles
+        } else {
+            g.faces
+        };
+        println!(
+            "{kind:?} {size}: {} triangles, {} faces",
+            g.triangles, g.faces
+        );
+        assert!(
+            (counted as f64 / size as f64 - 1.0).abs() < 0.35,
+            "{kind:?} asked {size}, got {counted}"
+        );
         let scene = vlf::scene::Scene::load(&g.scene).unwrap();
         let prepared = vlf::prepare::PreparedScene::new(&scene, 4.0).unwrap();
-        assert_eq!(prepared.triangles.len() as u64, g.triangles, "every generated triangle survives import");
-        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared).iter().filter(|&&m| m).count();
+        assert_eq!(
+            prepared.triangles.len() as u64,
+            g.triangles,
+            "every generated triangle survives import"
+        );
+        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared)
+            .iter()
+            .filter(|&&m| m)
+            .count();
         assert_eq!(mirror_faces > 0, mirrors);
     }
 }
@@ -31,7 +60,10 @@ fn quick_suite_runs_and_reports_every_scene() {
     let names: Vec<&str> = report.entries.iter().map(|e| e.name.as_str()).collect();
     println!("{names:?}");
     assert!(names.len() >= 10, "{names:?}");
-    assert!(report.entries.iter().any(|e| e.direction_batches > 1), "the memory-budget run did not batch");
+    assert!(
+        report.entries.iter().any(|e| e.direction_batches > 1),
+        "the memory-budget run did not batch"
+    );
     assert!(report.entries.iter().any(|e| e.non_diffuse_elements > 0));
     assert!(report.cost_slope.is_some_and(|s| s.is_finite()));
     assert_eq!(report.targets.len(), 5);
@@ -40,7 +72,9 @@ fn quick_suite_runs_and_reports_every_scene() {
     let again = vlf::suite::SuiteReport::load(&json).unwrap();
     assert_eq!(again.markdown(), report.markdown());
     let md = report.markdown();
-    assert!(md.contains("### Targets") && md.contains("Atenea") && md.contains(&report.adapter.name));
+    assert!(
+        md.contains("### Targets") && md.contains("Atenea") && md.contains(&report.adapter.name)
+    );
     let chart = dir.path().join("suite.png");
     report.plot(&chart).unwrap();
     let img = image::open(&chart).unwrap();

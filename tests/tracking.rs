@@ -49,7 +49,13 @@ fn inward_normal(wall: &Wall) -> Vec3 {
 
 /// Left- and right-eye pixels of a room point on a wall, through `wall_view` and the
 /// renderer's projection (in the light field's normalised space).
-fn rendered_pixels(config: &DisplayConfig, wall: &Wall, pose: &Pose, norm: &Normalisation, point: Vec3) -> [(f32, f32); 2] {
+fn rendered_pixels(
+    config: &DisplayConfig,
+    wall: &Wall,
+    pose: &Pose,
+    norm: &Normalisation,
+    point: Vec3,
+) -> [(f32, f32); 2] {
     [-1.0, 1.0].map(|side| {
         let (view_proj, _) = wall_view(config, wall, side, pose, norm);
         let p = norm.to_unit(pose.room_to_world(point).into()).as_vec3();
@@ -64,10 +70,26 @@ struct Case {
 }
 
 const CASES: [Case; 4] = [
-    Case { name: "yaw 0", yaw: 0.0, pitch: 0.0 },
-    Case { name: "yaw +90", yaw: 90.0, pitch: 0.0 },
-    Case { name: "yaw -90", yaw: -90.0, pitch: 0.0 },
-    Case { name: "pitch -60 (the floor)", yaw: 0.0, pitch: -60.0 },
+    Case {
+        name: "yaw 0",
+        yaw: 0.0,
+        pitch: 0.0,
+    },
+    Case {
+        name: "yaw +90",
+        yaw: 90.0,
+        pitch: 0.0,
+    },
+    Case {
+        name: "yaw -90",
+        yaw: -90.0,
+        pitch: 0.0,
+    },
+    Case {
+        name: "pitch -60 (the floor)",
+        yaw: 0.0,
+        pitch: -60.0,
+    },
 ];
 
 #[test]
@@ -77,15 +99,26 @@ fn stereo_disparity_follows_the_head_orientation() {
     config.eye_offset = [0.0, -0.05, 0.07];
     let ipd = config.eye_separation;
     // the room placed somewhere in the scene, which is normalised: neither may change pixels
-    let norm = Normalisation { center: [0.3, 1.1, -0.4], scale: 0.37 };
+    let norm = Normalisation {
+        center: [0.3, 1.1, -0.4],
+        scale: 0.37,
+    };
     let mut front_disparity = std::collections::HashMap::new();
     for case in &CASES {
         let rotation = head_rotation_from_angles(case.yaw, case.pitch, 0.0);
-        let pose = Pose { head: Vec3::new(0.2, 1.55, 0.1), head_rotation: rotation, room_position: Vec3::new(0.5, 0.0, 2.2), room_yaw_deg: 20.0 };
+        let pose = Pose {
+            head: Vec3::new(0.2, 1.55, 0.1),
+            head_rotation: rotation,
+            room_position: Vec3::new(0.5, 0.0, 2.2),
+            room_yaw_deg: 20.0,
+        };
         // the eyes as the geometry puts them: +-IPD/2 along the head's right axis
         let centre = pose.head + rotation * Vec3::from(config.eye_offset);
         let right_axis = rotation * Vec3::X;
-        let eyes = [centre - right_axis * ipd * 0.5, centre + right_axis * ipd * 0.5];
+        let eyes = [
+            centre - right_axis * ipd * 0.5,
+            centre + right_axis * ipd * 0.5,
+        ];
         for wall in &config.walls {
             let [ll, lr, ul] = wall.corners();
             let on_wall = ll + (lr - ll) * 0.4 + (ul - ll) * 0.55;
@@ -114,7 +147,11 @@ fn stereo_disparity_follows_the_head_orientation() {
             let (vr, vu) = ((lr - ll).normalize(), (ul - ll).normalize());
             let along = Vec3::new(right_axis.dot(vr), right_axis.dot(vu), 0.0);
             let [w, h] = wall.eye_pixels();
-            let metres = Vec3::new(disparity.0 * (lr - ll).length() / w as f32, -disparity.1 * (ul - ll).length() / h as f32, 0.0);
+            let metres = Vec3::new(
+                disparity.0 * (lr - ll).length() / w as f32,
+                -disparity.1 * (ul - ll).length() / h as f32,
+                0.0,
+            );
             if along.length() > 0.5 {
                 let cos = metres.normalize().dot(along.normalize());
                 assert!(
@@ -168,47 +205,102 @@ fn stereo_disparity_follows_the_head_orientation() {
 
 #[test]
 fn eyes_sit_on_the_head_axis_with_the_offset() {
-    let pose = Pose { head: Vec3::new(0.0, 1.7, 0.0), head_rotation: head_rotation_from_angles(90.0, 0.0, 0.0), room_position: Vec3::ZERO, room_yaw_deg: 0.0 };
+    let pose = Pose {
+        head: Vec3::new(0.0, 1.7, 0.0),
+        head_rotation: head_rotation_from_angles(90.0, 0.0, 0.0),
+        room_position: Vec3::ZERO,
+        room_yaw_deg: 0.0,
+    };
     // facing -x (turned left): the right eye is towards -z, the offset's -z (ahead) is -x
     let right = pose.eye(Vec3::new(0.0, -0.1, -0.08), 0.064, 1.0);
-    assert!((right - Vec3::new(-0.08, 1.6, -0.032)).length() < 1e-5, "{right}");
+    assert!(
+        (right - Vec3::new(-0.08, 1.6, -0.032)).length() < 1e-5,
+        "{right}"
+    );
     // looking down 60 degrees: "ahead" points mostly at the floor, "right" stays +x
-    let down = Pose { head_rotation: head_rotation_from_angles(0.0, -60.0, 0.0), ..pose };
+    let down = Pose {
+        head_rotation: head_rotation_from_angles(0.0, -60.0, 0.0),
+        ..pose
+    };
     let ahead = down.eye(Vec3::new(0.0, 0.0, -1.0), 0.0, 0.0) - down.head;
-    assert!((ahead - Vec3::new(0.0, -(60f32.to_radians().sin()), -(60f32.to_radians().cos()))).length() < 1e-5, "{ahead}");
+    assert!(
+        (ahead
+            - Vec3::new(
+                0.0,
+                -(60f32.to_radians().sin()),
+                -(60f32.to_radians().cos())
+            ))
+        .length()
+            < 1e-5,
+        "{ahead}"
+    );
     assert!((down.right() - Vec3::X).length() < 1e-5);
     // roll: positive tilts the head to the left, the right eye goes up
-    let tilted = Pose { head_rotation: head_rotation_from_angles(0.0, 0.0, 30.0), ..pose };
+    let tilted = Pose {
+        head_rotation: head_rotation_from_angles(0.0, 0.0, 30.0),
+        ..pose
+    };
     assert!(tilted.eye(Vec3::ZERO, 0.064, 1.0).y > tilted.eye(Vec3::ZERO, 0.064, -1.0).y);
 }
 
 fn with_tracking(tracking: &str) -> Result<DisplayConfig, String> {
     let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap();
-    let text = text.replace("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]", tracking);
-    assert!(text.contains(tracking), "the shipped CAVE's [tracking] table changed");
+    let text = text.replace(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]",
+        tracking,
+    );
+    assert!(
+        text.contains(tracking),
+        "the shipped CAVE's [tracking] table changed"
+    );
     DisplayConfig::parse(&text, Path::new("cave.toml")).map_err(|e| e.to_string())
 }
 
 #[test]
 fn static_and_scripted_heads_take_an_orientation() {
     let config = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw_deg = 90.0\nhead_pitch_deg = -60.0").unwrap();
-    let PoseSource::Static(pose) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("static source") };
-    assert!(same(pose.head_rotation, head_rotation_from_angles(90.0, -60.0, 0.0)), "{:?}", pose.head_rotation);
+    let PoseSource::Static(pose) =
+        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
+    else {
+        panic!("static source")
+    };
+    assert!(
+        same(
+            pose.head_rotation,
+            head_rotation_from_angles(90.0, -60.0, 0.0)
+        ),
+        "{:?}",
+        pose.head_rotation
+    );
     let q = Quat::from_rotation_y(0.5);
-    let config = with_tracking(&format!("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = {:?}", (q * 2.0).to_array())).unwrap();
-    let PoseSource::Static(pose) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("static source") };
+    let config = with_tracking(&format!(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = {:?}",
+        (q * 2.0).to_array()
+    ))
+    .unwrap();
+    let PoseSource::Static(pose) =
+        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
+    else {
+        panic!("static source")
+    };
     assert!(same(pose.head_rotation, q) && (pose.head_rotation.length() - 1.0).abs() < 1e-5);
     // errors name the key
     let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = [0.0, 0.0, 0.0, 0.0]").unwrap_err();
     assert!(e.contains("tracking.head_orientation"), "{e}");
     let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_orientation = [0.0, 0.0, 0.0, 1.0]\nhead_yaw_deg = 3.0").unwrap_err();
-    assert!(e.contains("tracking.head_orientation") && e.contains("not both"), "{e}");
-    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw = 3.0").unwrap_err();
+    assert!(
+        e.contains("tracking.head_orientation") && e.contains("not both"),
+        "{e}"
+    );
+    let e =
+        with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw = 3.0")
+            .unwrap_err();
     assert!(e.contains("head_yaw"), "{e}");
-    let e = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]").map(|mut c| {
-        c.eye_offset = [0.0, 0.0, 0.9];
-        c.validate().unwrap_err()
-    });
+    let e =
+        with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]").map(|mut c| {
+            c.eye_offset = [0.0, 0.0, 0.9];
+            c.validate().unwrap_err()
+        });
     assert!(e.unwrap().contains("eye_offset"));
 
     // scripted: the shipped walk has no orientations (looks ahead); an oriented path slerps
@@ -222,25 +314,47 @@ fn static_and_scripted_heads_take_an_orientation() {
     )
     .unwrap();
     let p = vlf::display::tracking::ScriptedPath::load(&path).unwrap();
-    assert!(same(p.at(1.0).head_rotation, head_rotation_from_angles(45.0, 0.0, 0.0)));
+    assert!(same(
+        p.at(1.0).head_rotation,
+        head_rotation_from_angles(45.0, 0.0, 0.0)
+    ));
     assert!(same(p.at(0.0).head_rotation, Quat::IDENTITY));
-    assert!(same(p.at(2.5).head_rotation, head_rotation_from_angles(45.0, 0.0, 0.0)));
-    let walk = vlf::display::tracking::ScriptedPath::load(&repo_path("config/paths/cornell-walk.toml")).unwrap();
+    assert!(same(
+        p.at(2.5).head_rotation,
+        head_rotation_from_angles(45.0, 0.0, 0.0)
+    ));
+    let walk =
+        vlf::display::tracking::ScriptedPath::load(&repo_path("config/paths/cornell-walk.toml"))
+            .unwrap();
     assert_eq!(walk.at(1.0).head_rotation, Quat::IDENTITY);
     std::fs::write(&path, "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.6, 0.0]\nhead_pitch_deg = inf\nposition = [0.0, 0.0, 0.0]\n").unwrap();
-    let e = vlf::display::tracking::ScriptedPath::load(&path).unwrap_err().to_string();
+    let e = vlf::display::tracking::ScriptedPath::load(&path)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("keyframe[0].head_pitch_deg"), "{e}");
 }
 
 #[test]
 fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
     use vlf::display::osc::OscTracker;
-    let mut tracker = OscTracker::listen("127.0.0.1:0", Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0)).unwrap();
+    let mut tracker = OscTracker::listen(
+        "127.0.0.1:0",
+        Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0),
+    )
+    .unwrap();
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let port = tracker.port;
     let send = |args: Vec<f32>| {
-        let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: "/vlf/head".into(), args: args.into_iter().map(rosc::OscType::Float).collect() });
-        socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", port)).unwrap();
+        let packet = rosc::OscPacket::Message(rosc::OscMessage {
+            addr: "/vlf/head".into(),
+            args: args.into_iter().map(rosc::OscType::Float).collect(),
+        });
+        socket
+            .send_to(
+                &rosc::encoder::encode(&packet).unwrap(),
+                ("127.0.0.1", port),
+            )
+            .unwrap();
     };
     let wait_for = |tracker: &mut OscTracker, done: &dyn Fn(&Pose) -> bool| {
         let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
@@ -249,18 +363,32 @@ fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
             if done(&p) {
                 return p;
             }
-            assert!(std::time::Instant::now() < deadline, "no pose arrived: {p:?}");
+            assert!(
+                std::time::Instant::now() < deadline,
+                "no pose arrived: {p:?}"
+            );
             std::thread::sleep(std::time::Duration::from_millis(5));
         }
     };
     let q = Quat::from_rotation_y(1.0) * Quat::from_rotation_x(-0.3);
-    send(vec![0.1, 1.5, 0.2, q.x * 3.0, q.y * 3.0, q.z * 3.0, q.w * 3.0]);
+    send(vec![
+        0.1,
+        1.5,
+        0.2,
+        q.x * 3.0,
+        q.y * 3.0,
+        q.z * 3.0,
+        q.w * 3.0,
+    ]);
     let p = wait_for(&mut tracker, &|p| p.head.x == 0.1);
     assert!(same(p.head_rotation, q), "{p:?}");
     // three numbers move the head and keep its orientation
     send(vec![0.3, 1.4, 0.0]);
     let p = wait_for(&mut tracker, &|p| p.head.x == 0.3);
-    assert!(same(p.head_rotation, q) && p.head == Vec3::new(0.3, 1.4, 0.0), "{p:?}");
+    assert!(
+        same(p.head_rotation, q) && p.head == Vec3::new(0.3, 1.4, 0.0),
+        "{p:?}"
+    );
     // a zero quaternion is refused, the pose kept
     send(vec![0.5, 1.4, 0.0, 0.0, 0.0, 0.0, 0.0]);
     send(vec![0.6, 1.4, 0.0]);
@@ -271,7 +399,9 @@ fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
 // ---- calibration: room from tracker ----
 
 fn calibrated(source: &str, calibration: &str) -> Result<DisplayConfig, String> {
-    with_tracking(&format!("[tracking]\nsource = \"{source}\"\nport = 0\n\n[tracking.calibration]\n{calibration}"))
+    with_tracking(&format!(
+        "[tracking]\nsource = \"{source}\"\nport = 0\n\n[tracking.calibration]\n{calibration}"
+    ))
 }
 
 #[test]
@@ -287,25 +417,50 @@ fn a_z_up_millimetre_tracker_maps_to_the_room() {
     assert!((p - Vec3::new(-1.5, 1.7, -0.3)).length() < 1e-5, "{p}");
     // a body turned 30 degrees left about the tracker's up (z) axis and tilted 60 degrees down
     // is a head turned 90 + 30 degrees left and looking 60 degrees down in the room
-    let body = Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
+    let body =
+        Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
     let head = c.orientation(body);
-    assert!(same(head, head_rotation_from_angles(120.0, -60.0, 0.0)), "{head:?}");
+    assert!(
+        same(head, head_rotation_from_angles(120.0, -60.0, 0.0)),
+        "{head:?}"
+    );
     // a body aligned with the tracker looks along the tracker's forward axis (+y, z up): the
     // calibration's rotation of the room's -z
     assert!(((c.orientation(Quat::IDENTITY) * Vec3::NEG_Z) - c.rotation * Vec3::Y).length() < 1e-5);
 
     // end to end: the same pose over OSC comes out in the room
-    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let PoseSource::Live(tracker) =
+        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
+    else {
+        panic!("a live source")
+    };
     let mut tracker = tracker.into_inner().unwrap();
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let packet = rosc::OscPacket::Message(rosc::OscMessage {
         addr: "/vlf/head".into(),
-        args: [100.0, 2000.0, 1700.0, body.x, body.y, body.z, body.w].into_iter().map(rosc::OscType::Float).collect(),
+        args: [100.0, 2000.0, 1700.0, body.x, body.y, body.z, body.w]
+            .into_iter()
+            .map(rosc::OscType::Float)
+            .collect(),
     });
-    socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
-    let sample = tracker.next(std::time::Duration::from_secs(5)).expect("the pose arrived");
-    assert!((sample.state.pose.head - Vec3::new(-1.5, 1.7, -0.3)).length() < 1e-4, "{:?}", sample.state.pose);
-    assert!(same(sample.state.pose.head_rotation, head_rotation_from_angles(120.0, -60.0, 0.0)));
+    socket
+        .send_to(
+            &rosc::encoder::encode(&packet).unwrap(),
+            ("127.0.0.1", tracker.port),
+        )
+        .unwrap();
+    let sample = tracker
+        .next(std::time::Duration::from_secs(5))
+        .expect("the pose arrived");
+    assert!(
+        (sample.state.pose.head - Vec3::new(-1.5, 1.7, -0.3)).length() < 1e-4,
+        "{:?}",
+        sample.state.pose
+    );
+    assert!(same(
+        sample.state.pose.head_rotation,
+        head_rotation_from_angles(120.0, -60.0, 0.0)
+    ));
 }
 
 #[test]
@@ -317,7 +472,10 @@ fn calibration_errors_name_the_key() {
     let e = calibrated("osc", "axes = \"x_up\"").unwrap_err();
     assert!(e.contains("x_up") && e.contains("z_up"), "{e}");
     let e = calibrated("osc", "rotation = [0.0, 0.0, 0.0, 1.0]\nyaw_deg = 10.0").unwrap_err();
-    assert!(e.contains("tracking.calibration.rotation") && e.contains("not both"), "{e}");
+    assert!(
+        e.contains("tracking.calibration.rotation") && e.contains("not both"),
+        "{e}"
+    );
     let e = calibrated("osc", "translation = [0.0, nan, 0.0]").unwrap_err();
     assert!(e.contains("tracking.calibration.translation"), "{e}");
     let e = calibrated("osc", "head_id = -1").unwrap_err();
@@ -325,14 +483,22 @@ fn calibration_errors_name_the_key() {
     // the default is the identity: OSC poses are room metres
     let config = with_tracking("[tracking]\nsource = \"osc\"\nport = 0").unwrap();
     let c = config.tracking.live().unwrap().calibration.unwrap();
-    assert_eq!(c.position(Vec3::new(0.1, 1.7, -0.2)), Vec3::new(0.1, 1.7, -0.2));
+    assert_eq!(
+        c.position(Vec3::new(0.1, 1.7, -0.2)),
+        Vec3::new(0.1, 1.7, -0.2)
+    );
 }
 
 // ---- live sources: DTrack2 ASCII and OSC, on loopback UDP ----
 
 /// A rotation matrix as DTrack prints it: column by column.
 fn dtrack_matrix(q: Quat) -> String {
-    glam::Mat3::from_quat(q).to_cols_array().iter().map(|v| format!("{v:.6}")).collect::<Vec<_>>().join(" ")
+    glam::Mat3::from_quat(q)
+        .to_cols_array()
+        .iter()
+        .map(|v| format!("{v:.6}"))
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 fn wait_state(
@@ -346,7 +512,10 @@ fn wait_state(
         if done(&state) {
             return state;
         }
-        assert!(std::time::Instant::now() < deadline, "{what}: never arrived; last state {state:?}");
+        assert!(
+            std::time::Instant::now() < deadline,
+            "{what}: never arrived; last state {state:?}"
+        );
         std::thread::sleep(std::time::Duration::from_millis(5));
     }
 }
@@ -355,15 +524,22 @@ fn wait_state(
 fn dtrack_bodies_and_flysticks_reach_the_room() {
     use vlf::display::live::TrackingStatus;
     let config = calibrated("dtrack", "axes = \"z_up\"\nhead_id = 1\nwand_id = 1").unwrap();
-    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let PoseSource::Live(tracker) =
+        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
+    else {
+        panic!("a live source")
+    };
     let mut tracker = tracker.into_inner().unwrap();
     assert_eq!(tracker.latest_state().1, TrackingStatus::Waiting);
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
     let port = tracker.port;
     let send = |text: &str| {
-        socket.send_to(text.as_bytes(), ("127.0.0.1", port)).unwrap();
+        socket
+            .send_to(text.as_bytes(), ("127.0.0.1", port))
+            .unwrap();
     };
-    let head_body = Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
+    let head_body =
+        Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
     let wand_body = Quat::from_rotation_z(-45f32.to_radians());
     let identity = dtrack_matrix(Quat::IDENTITY);
     let frame = |head_x_mm: f32| {
@@ -379,12 +555,29 @@ fn dtrack_bodies_and_flysticks_reach_the_room() {
     send(&frame(100.0));
     let state = wait_state(&mut tracker, "the first frame", |s| s.wand.is_some());
     // body 1 is the head: millimetres, z up -> room metres, y up
-    assert!((state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-5, "{:?}", state.pose);
-    assert!(same(state.pose.head_rotation, head_rotation_from_angles(30.0, -60.0, 0.0)), "{:?}", state.pose.head_rotation);
+    assert!(
+        (state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-5,
+        "{:?}",
+        state.pose
+    );
+    assert!(
+        same(
+            state.pose.head_rotation,
+            head_rotation_from_angles(30.0, -60.0, 0.0)
+        ),
+        "{:?}",
+        state.pose.head_rotation
+    );
     // Flystick 1 is the wand: turned 45 degrees right, it points along (+x, -z)
     let wand = state.wand.unwrap();
-    assert!((wand.position - Vec3::new(0.2, 1.2, -1.5)).length() < 1e-5, "{wand:?}");
-    assert!((wand.rotation * Vec3::NEG_Z - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-5, "{wand:?}");
+    assert!(
+        (wand.position - Vec3::new(0.2, 1.2, -1.5)).length() < 1e-5,
+        "{wand:?}"
+    );
+    assert!(
+        (wand.rotation * Vec3::NEG_Z - Vec3::new(1.0, 0.0, -1.0).normalize()).length() < 1e-5,
+        "{wand:?}"
+    );
     // buttons 33 = trigger (0) and joystick press (5); joystick x, y
     assert_eq!(state.buttons, 0b10_0001);
     assert_eq!(state.joystick, [0.25, -1.0]);
@@ -394,23 +587,40 @@ fn dtrack_bodies_and_flysticks_reach_the_room() {
     for i in 0..5 {
         send(&frame(100.0 * i as f32));
     }
-    wait_state(&mut tracker, "the fifth frame", |s| (s.pose.head.x - 0.4).abs() < 1e-6);
+    wait_state(&mut tracker, "the fifth frame", |s| {
+        (s.pose.head.x - 0.4).abs() < 1e-6
+    });
 
     // a damaged frame and one whose head is not tracked leave the head where it is
     send("6d 1 [1 1.000][1 2 3][1 0 0]\r\n");
     send(&format!("fr 1\r\n6d 1 [1 -1.000][900 0 0][{identity}]\r\n"));
     // the older Flystick format: 8 button bits, the hat as joystick
-    send(&format!("fr 2\r\n6df 1 [1 1.000 33][0 0 0 0 0 0][{identity}]\r\n"));
+    send(&format!(
+        "fr 2\r\n6df 1 [1 1.000 33][0 0 0 0 0 0][{identity}]\r\n"
+    ));
     // (the damaged and the untracked frame said nothing: the next state is the 6df one)
-    let s = tracker.next(std::time::Duration::from_secs(5)).expect("the 6df frame");
-    assert_eq!((s.state.buttons, s.state.joystick), (1, [-1.0, 0.0]), "6df bits 0x21: button 0 and the hat to the left");
-    assert!((s.state.pose.head.x - 0.4).abs() < 1e-6, "a damaged or untracked frame moved the head: {:?}", s.state.pose);
+    let s = tracker
+        .next(std::time::Duration::from_secs(5))
+        .expect("the 6df frame");
+    assert_eq!(
+        (s.state.buttons, s.state.joystick),
+        (1, [-1.0, 0.0]),
+        "6df bits 0x21: button 0 and the hat to the left"
+    );
+    assert!(
+        (s.state.pose.head.x - 0.4).abs() < 1e-6,
+        "a damaged or untracked frame moved the head: {:?}",
+        s.state.pose
+    );
 
     // quiet: the last state is held, and the status says so
     std::thread::sleep(vlf::display::live::QUIET_AFTER + std::time::Duration::from_millis(100));
     let (held, status) = tracker.latest_state();
     assert_eq!(held, s.state);
-    assert!(matches!(status, TrackingStatus::Quiet(d) if d > vlf::display::live::QUIET_AFTER), "{status:?}");
+    assert!(
+        matches!(status, TrackingStatus::Quiet(d) if d > vlf::display::live::QUIET_AFTER),
+        "{status:?}"
+    );
 }
 
 #[test]
@@ -430,32 +640,77 @@ fn dtrack_parser_refuses_damaged_lines() {
         assert!(e.is_err(), "{bad:?} was accepted: {out:?}");
     }
     out.clear();
-    vlf::display::dtrack::parse(b"fr 5\r\n6dmt 0\r\nfuture 1 [2]\r\n6df2 1 0\r\n", &ids, &mut out).unwrap();
+    vlf::display::dtrack::parse(
+        b"fr 5\r\n6dmt 0\r\nfuture 1 [2]\r\n6df2 1 0\r\n",
+        &ids,
+        &mut out,
+    )
+    .unwrap();
     assert!(out.is_empty(), "{out:?}");
 }
 
 #[test]
 fn osc_wand_buttons_and_joystick() {
     use vlf::display::osc::OscTracker;
-    let mut tracker = OscTracker::listen("127.0.0.1:0", Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0)).unwrap();
+    let mut tracker = OscTracker::listen(
+        "127.0.0.1:0",
+        Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0),
+    )
+    .unwrap();
     let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    let message = |addr: &str, args: Vec<rosc::OscType>| rosc::OscPacket::Message(rosc::OscMessage { addr: addr.into(), args });
+    let message = |addr: &str, args: Vec<rosc::OscType>| {
+        rosc::OscPacket::Message(rosc::OscMessage {
+            addr: addr.into(),
+            args,
+        })
+    };
     let q = Quat::from_rotation_y(0.4);
     let bundle = rosc::OscPacket::Bundle(rosc::OscBundle {
-        timetag: rosc::OscTime { seconds: 0, fractional: 1 },
+        timetag: rosc::OscTime {
+            seconds: 0,
+            fractional: 1,
+        },
         content: vec![
-            message("/vlf/wand", [0.3, 1.1, -0.4, q.x, q.y, q.z, q.w].into_iter().map(rosc::OscType::Float).collect()),
-            message("/vlf/button", vec![rosc::OscType::Int(3), rosc::OscType::Int(1)]),
-            message("/vlf/joystick", vec![rosc::OscType::Float(0.2), rosc::OscType::Float(0.9)]),
+            message(
+                "/vlf/wand",
+                [0.3, 1.1, -0.4, q.x, q.y, q.z, q.w]
+                    .into_iter()
+                    .map(rosc::OscType::Float)
+                    .collect(),
+            ),
+            message(
+                "/vlf/button",
+                vec![rosc::OscType::Int(3), rosc::OscType::Int(1)],
+            ),
+            message(
+                "/vlf/joystick",
+                vec![rosc::OscType::Float(0.2), rosc::OscType::Float(0.9)],
+            ),
         ],
     });
-    socket.send_to(&rosc::encoder::encode(&bundle).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    socket
+        .send_to(
+            &rosc::encoder::encode(&bundle).unwrap(),
+            ("127.0.0.1", tracker.port),
+        )
+        .unwrap();
     let state = wait_state(&mut tracker, "the bundle", |s| s.wand.is_some());
     let wand = state.wand.unwrap();
-    assert!((wand.position - Vec3::new(0.3, 1.1, -0.4)).length() < 1e-6 && same(wand.rotation, q), "{wand:?}");
+    assert!(
+        (wand.position - Vec3::new(0.3, 1.1, -0.4)).length() < 1e-6 && same(wand.rotation, q),
+        "{wand:?}"
+    );
     assert_eq!((state.buttons, state.joystick), (1 << 3, [0.2, 0.9]));
-    let release = message("/vlf/button", vec![rosc::OscType::Float(3.0), rosc::OscType::Bool(false)]);
-    socket.send_to(&rosc::encoder::encode(&release).unwrap(), ("127.0.0.1", tracker.port)).unwrap();
+    let release = message(
+        "/vlf/button",
+        vec![rosc::OscType::Float(3.0), rosc::OscType::Bool(false)],
+    );
+    socket
+        .send_to(
+            &rosc::encoder::encode(&release).unwrap(),
+            ("127.0.0.1", tracker.port),
+        )
+        .unwrap();
     wait_state(&mut tracker, "the release", |s| s.buttons == 0);
 }
 
@@ -463,8 +718,14 @@ fn osc_wand_buttons_and_joystick() {
 fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     let dir = tempfile::tempdir().unwrap();
     // a free port for the tracker (taken back just before vlf listens on it)
-    let port = std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
-    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-dtrack.toml")).unwrap().replace("port = 5000", &format!("port = {port}"));
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-dtrack.toml"))
+        .unwrap()
+        .replace("port = 5000", &format!("port = {port}"));
     let path = dir.path().join("cave.toml");
     std::fs::write(&path, text).unwrap();
     let started = std::time::Instant::now();
@@ -479,20 +740,42 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     // stream for a second (the listener may start after the first packets), then go quiet
     while started.elapsed() < std::time::Duration::from_secs(1) {
         let packet = format!("fr 7\r\n6d 1 [0 1.000][100.0 2000.0 1700.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
-        socket.send_to(packet.as_bytes(), ("127.0.0.1", port)).unwrap();
+        socket
+            .send_to(packet.as_bytes(), ("127.0.0.1", port))
+            .unwrap();
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let output = child.wait_with_output().unwrap();
     let elapsed = started.elapsed();
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(output.status.success(), "vlf track failed:\n{stdout}\n{}", String::from_utf8_lossy(&output.stderr));
-    assert!(elapsed < std::time::Duration::from_secs(10), "--seconds 2.5 ran {elapsed:?}");
+    assert!(
+        output.status.success(),
+        "vlf track failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(
+        elapsed < std::time::Duration::from_secs(10),
+        "--seconds 2.5 ran {elapsed:?}"
+    );
     assert!(stdout.contains("listening for DTrack on UDP"), "{stdout}");
     // millimetres, z up -> room metres, y up; the Flystick 1 m up with button 1 and the stick forward
-    let poses = stdout.lines().filter(|l| l.contains("head (  0.100,   1.700,  -2.000)")).count();
-    assert!(poses >= 5, "expected the streamed poses, one a line:\n{stdout}");
-    assert!(stdout.contains("wand (  0.000,   1.000,   0.000)") && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"), "{stdout}");
-    assert!(stdout.contains("quiet for"), "the source went quiet and vlf track did not say so:\n{stdout}");
+    let poses = stdout
+        .lines()
+        .filter(|l| l.contains("head (  0.100,   1.700,  -2.000)"))
+        .count();
+    assert!(
+        poses >= 5,
+        "expected the streamed poses, one a line:\n{stdout}"
+    );
+    assert!(
+        stdout.contains("wand (  0.000,   1.000,   0.000)")
+            && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("quiet for"),
+        "the source went quiet and vlf track did not say so:\n{stdout}"
+    );
 }
 
 // ---- wand navigation ----
@@ -501,7 +784,12 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
 fn the_wand_flies_where_it_points_and_turns_about_the_head() {
     use vlf::display::live::WandPose;
     use vlf::display::wand::{pressed, step};
-    let nav = vlf::display::Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false, wand_reset_button: 1 };
+    let nav = vlf::display::Navigation {
+        walk_speed: 1.4,
+        turn_speed_deg: 60.0,
+        fly: false,
+        wand_reset_button: 1,
+    };
     let pose = Pose {
         head: Vec3::new(0.3, 1.6, 0.2),
         head_rotation: head_rotation_from_angles(10.0, 0.0, 0.0),
@@ -509,34 +797,64 @@ fn the_wand_flies_where_it_points_and_turns_about_the_head() {
         room_yaw_deg: 30.0,
     };
     // the wand points 45 degrees right of the room's -z and 20 degrees up
-    let wand = WandPose { position: Vec3::new(0.2, 1.2, -0.3), rotation: head_rotation_from_angles(-45.0, 20.0, 0.0) };
+    let wand = WandPose {
+        position: Vec3::new(0.2, 1.2, -0.3),
+        rotation: head_rotation_from_angles(-45.0, 20.0, 0.0),
+    };
     let pointing = Quat::from_rotation_y(30f32.to_radians()) * (wand.rotation * Vec3::NEG_Z);
     let dt = 0.5;
 
     // fly: full forward moves walk_speed * dt along the pointing direction, no turn
     let (position, yaw) = step(&pose, &wand, [0.0, 1.0], &nav, true, dt);
-    assert!((position - pose.room_position - pointing * 0.7).length() < 1e-5, "{position}");
+    assert!(
+        (position - pose.room_position - pointing * 0.7).length() < 1e-5,
+        "{position}"
+    );
     assert_eq!(yaw, 30.0);
     assert!(position.y > 0.2, "flying up along the wand: {position}");
     // walk: the same distance, levelled: the head keeps its height; half back moves half back
     let (position, _) = step(&pose, &wand, [0.0, 1.0], &nav, false, dt);
     let moved = position - pose.room_position;
-    assert!(moved.y.abs() < 1e-6 && (moved.length() - 0.7).abs() < 1e-5, "{moved}");
-    assert!(moved.normalize().dot(Vec3::new(pointing.x, 0.0, pointing.z).normalize()) > 1.0 - 1e-5);
+    assert!(
+        moved.y.abs() < 1e-6 && (moved.length() - 0.7).abs() < 1e-5,
+        "{moved}"
+    );
+    assert!(
+        moved
+            .normalize()
+            .dot(Vec3::new(pointing.x, 0.0, pointing.z).normalize())
+            > 1.0 - 1e-5
+    );
     let (back, _) = step(&pose, &wand, [0.0, -0.5], &nav, false, dt);
-    assert!((back - pose.room_position + moved * 0.5).length() < 1e-5, "{back}");
+    assert!(
+        (back - pose.room_position + moved * 0.5).length() < 1e-5,
+        "{back}"
+    );
     // a wand pointing straight up does not walk
-    let up = WandPose { rotation: head_rotation_from_angles(0.0, 90.0, 0.0), ..wand };
+    let up = WandPose {
+        rotation: head_rotation_from_angles(0.0, 90.0, 0.0),
+        ..wand
+    };
     assert!((step(&pose, &up, [0.0, 1.0], &nav, false, dt).0 - pose.room_position).length() < 1e-5);
 
     // sideways turns (right: yaw decreases) about the head: its place in the world stays
     let (position, yaw) = step(&pose, &wand, [0.5, 0.0], &nav, false, dt);
     assert!((yaw - (30.0 - 0.5 * 60.0 * dt)).abs() < 1e-5, "{yaw}");
-    let turned = Pose { room_position: position, room_yaw_deg: yaw, ..pose };
+    let turned = Pose {
+        room_position: position,
+        room_yaw_deg: yaw,
+        ..pose
+    };
     assert!((turned.room_to_world(pose.head) - pose.room_to_world(pose.head)).length() < 1e-5);
-    assert!((position - pose.room_position).length() > 0.01, "turning about the head (not the room's origin) moves the room");
+    assert!(
+        (position - pose.room_position).length() > 0.01,
+        "turning about the head (not the room's origin) moves the room"
+    );
     // a resting stick (inside the dead zone) does nothing
-    assert_eq!(step(&pose, &wand, [0.05, -0.08], &nav, true, dt), (pose.room_position, pose.room_yaw_deg));
+    assert_eq!(
+        step(&pose, &wand, [0.05, -0.08], &nav, true, dt),
+        (pose.room_position, pose.room_yaw_deg)
+    );
 
     // the reset button counts when it goes down, once
     assert!(pressed(0b01, 0b11, 1));
@@ -550,7 +868,14 @@ fn the_wand_flies_where_it_points_and_turns_about_the_head() {
 /// padded to 8 bytes.
 fn vrpn_message(sender: i32, kind: i32, payload: &[u8]) -> Vec<u8> {
     let mut m = Vec::new();
-    for v in [24 + payload.len() as i32, 1_700_000_000, 250_000, sender, kind, 0] {
+    for v in [
+        24 + payload.len() as i32,
+        1_700_000_000,
+        250_000,
+        sender,
+        kind,
+        0,
+    ] {
         m.extend_from_slice(&v.to_be_bytes());
     }
     m.extend_from_slice(payload);
@@ -568,7 +893,10 @@ fn vrpn_name(id: i32, kind: i32, name: &str) -> Vec<u8> {
 fn vrpn_pose(sender: i32, sensor: i32, position: [f64; 3], q: Quat) -> Vec<u8> {
     let mut p = sensor.to_be_bytes().to_vec();
     p.extend_from_slice(&sensor.to_be_bytes());
-    for v in position.into_iter().chain([q.x, q.y, q.z, q.w].map(f64::from)) {
+    for v in position
+        .into_iter()
+        .chain([q.x, q.y, q.z, q.w].map(f64::from))
+    {
         p.extend_from_slice(&v.to_be_bytes());
     }
     vrpn_message(sender, 3, &p)
@@ -582,9 +910,17 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
         "[tracking]\nsource = \"vrpn\"\nserver = \"127.0.0.1:{port}\"\ndevice = \"Wand\"\n\n[tracking.calibration]\nhead_id = 0\nwand_id = 1"
     ))
     .unwrap();
-    let PoseSource::Live(tracker) = PoseSource::from_config(&config, Path::new("cave.toml")).unwrap() else { panic!("a live source") };
+    let PoseSource::Live(tracker) =
+        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
+    else {
+        panic!("a live source")
+    };
     let mut tracker = tracker.into_inner().unwrap();
-    assert!(tracker.name.contains("VRPN Wand@127.0.0.1"), "{}", tracker.name);
+    assert!(
+        tracker.name.contains("VRPN Wand@127.0.0.1"),
+        "{}",
+        tracker.name
+    );
     let (mut stream, _) = server.accept().unwrap();
     use std::io::{Read, Write};
     let mut cookie = b"vrpn: ver. 07.38  0".to_vec();
@@ -606,7 +942,16 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
         vrpn_pose(1, 0, [0.1, 1.7, -2.0], head),
         vrpn_pose(1, 1, [0.2, 1.2, -0.5], Quat::IDENTITY),
         vrpn_message(1, 5, &[1i32.to_be_bytes(), 1i32.to_be_bytes()].concat()),
-        vrpn_message(1, 7, &[2f64.to_be_bytes(), 0.25f64.to_be_bytes(), 1f64.to_be_bytes()].concat()),
+        vrpn_message(
+            1,
+            7,
+            &[
+                2f64.to_be_bytes(),
+                0.25f64.to_be_bytes(),
+                1f64.to_be_bytes(),
+            ]
+            .concat(),
+        ),
     ] {
         stream_bytes.extend(m);
     }
@@ -616,9 +961,19 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
     stream.flush().unwrap();
     std::thread::sleep(std::time::Duration::from_millis(150));
     stream.write_all(b).unwrap();
-    let state = wait_state(&mut tracker, "the VRPN reports", |s| s.joystick == [0.25, 1.0]);
-    assert!((state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-6 && same(state.pose.head_rotation, head), "{:?}", state.pose);
-    assert_eq!(state.wand.map(|w| w.position), Some(Vec3::new(0.2, 1.2, -0.5)));
+    let state = wait_state(&mut tracker, "the VRPN reports", |s| {
+        s.joystick == [0.25, 1.0]
+    });
+    assert!(
+        (state.pose.head - Vec3::new(0.1, 1.7, -2.0)).length() < 1e-6
+            && same(state.pose.head_rotation, head),
+        "{:?}",
+        state.pose
+    );
+    assert_eq!(
+        state.wand.map(|w| w.position),
+        Some(Vec3::new(0.2, 1.2, -0.5))
+    );
     assert_eq!(state.buttons, 1 << 1);
     // a dropped connection is retried: the next server gets a new cookie exchange
     drop(stream);
@@ -626,7 +981,9 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
     again.write_all(&cookie).unwrap();
     again.read_exact(&mut reply).unwrap();
     assert_eq!(&reply[..14], b"vrpn: ver. 07.");
-    let e = with_tracking("[tracking]\nsource = \"vrpn\"\nserver = \"host:port\"\ndevice = \"Wand\"").unwrap_err();
+    let e =
+        with_tracking("[tracking]\nsource = \"vrpn\"\nserver = \"host:port\"\ndevice = \"Wand\"")
+            .unwrap_err();
     assert!(e.contains("tracking.server"), "{e}");
 }
 

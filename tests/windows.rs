@@ -24,7 +24,12 @@ impl Drop for KillOnDrop {
 }
 
 fn require(tool: &str, package: &str) {
-    let found = Command::new("sh").arg("-c").arg(format!("command -v {tool}")).output().map(|o| o.status.success()).unwrap_or(false);
+    let found = Command::new("sh")
+        .arg("-c")
+        .arg(format!("command -v {tool}"))
+        .output()
+        .map(|o| o.status.success())
+        .unwrap_or(false);
     assert!(found, "the windowed CAVE test needs `{tool}`: run `bash tools/setup.sh` or `sudo apt-get install {package}`");
 }
 
@@ -39,7 +44,14 @@ fn start_xvfb() -> (KillOnDrop, String) {
         }
         let display = format!(":{number}");
         let child = Command::new("Xvfb")
-            .args([display.as_str(), "-screen", "0", "800x400x24", "-nolisten", "tcp"])
+            .args([
+                display.as_str(),
+                "-screen",
+                "0",
+                "800x400x24",
+                "-nolisten",
+                "tcp",
+            ])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
             .spawn()
@@ -57,12 +69,22 @@ fn start_xvfb() -> (KillOnDrop, String) {
 }
 
 fn free_udp_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
 }
 
 fn send_head(socket: &std::net::UdpSocket, port: u16, head: [f32; 3]) {
-    let packet = rosc::OscPacket::Message(rosc::OscMessage { addr: "/vlf/head".into(), args: head.into_iter().map(rosc::OscType::Float).collect() });
-    let _ = socket.send_to(&rosc::encoder::encode(&packet).unwrap(), ("127.0.0.1", port));
+    let packet = rosc::OscPacket::Message(rosc::OscMessage {
+        addr: "/vlf/head".into(),
+        args: head.into_iter().map(rosc::OscType::Float).collect(),
+    });
+    let _ = socket.send_to(
+        &rosc::encoder::encode(&packet).unwrap(),
+        ("127.0.0.1", port),
+    );
 }
 
 /// Mean display value and share of lit pixels in a rectangle of the screenshot.
@@ -118,8 +140,24 @@ output = {{ window = [340, 0] }}
     std::fs::write(&config_path, config).unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
     let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .args(["cave", config_path.to_str().unwrap(), "--scene", scene.to_str().unwrap()])
-        .args(["--directions", "126", "--grid", "48", "--texel-density", "16", "--frames", "12", "--hold-seconds", "6"])
+        .args([
+            "cave",
+            config_path.to_str().unwrap(),
+            "--scene",
+            scene.to_str().unwrap(),
+        ])
+        .args([
+            "--directions",
+            "126",
+            "--grid",
+            "48",
+            "--texel-density",
+            "16",
+            "--frames",
+            "12",
+            "--hold-seconds",
+            "6",
+        ])
         .env("DISPLAY", &display)
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .stdout(Stdio::piped())
@@ -129,7 +167,8 @@ output = {{ window = [340, 0] }}
     let stdout = child.stdout.take().unwrap();
     let stderr = child.stderr.take().unwrap();
     let child = KillOnDrop(child);
-    let err_thread = std::thread::spawn(move || std::io::read_to_string(stderr).unwrap_or_default());
+    let err_thread =
+        std::thread::spawn(move || std::io::read_to_string(stderr).unwrap_or_default());
     // the tracker streams head poses until the frames are drawn, then goes quiet
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let stop_sender = stop.clone();
@@ -145,7 +184,10 @@ output = {{ window = [340, 0] }}
     let deadline = Instant::now() + Duration::from_secs(300);
     loop {
         let Some(line) = lines.next() else {
-            panic!("vlf cave ended before presenting its frames:\n{out}\n{}", err_thread.join().unwrap_or_default())
+            panic!(
+                "vlf cave ended before presenting its frames:\n{out}\n{}",
+                err_thread.join().unwrap_or_default()
+            )
         };
         let line = line.unwrap();
         out.push_str(&line);
@@ -160,8 +202,20 @@ output = {{ window = [340, 0] }}
     // quiet after 0.5 s; the status line is on screen from then on
     std::thread::sleep(Duration::from_millis(2500));
     let shot: PathBuf = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-xvfb.png");
-    let status = Command::new("import").args(["-display", &display, "-window", "root", shot.to_str().unwrap()]).status().unwrap();
-    assert!(status.success(), "import could not take a screenshot of {display}");
+    let status = Command::new("import")
+        .args([
+            "-display",
+            &display,
+            "-window",
+            "root",
+            shot.to_str().unwrap(),
+        ])
+        .status()
+        .unwrap();
+    assert!(
+        status.success(),
+        "import could not take a screenshot of {display}"
+    );
     for line in lines {
         let line = line.unwrap();
         out.push_str(&line);
@@ -172,33 +226,78 @@ output = {{ window = [340, 0] }}
     let err = err_thread.join().unwrap();
     println!("{out}{err}\nscreenshot: {}", shot.display());
     assert!(exit.success(), "vlf cave failed: {out}\n{err}");
-    assert!(out.contains("front      mono") && out.contains("stereo     left") && out.contains("stereo     right"), "{out}");
-    assert!(out.contains("shown on screen: tracking quiet") && out.contains("holding the last pose"), "the quiet tracker was not reported:\n{out}");
-    assert!(err.contains("quiet"), "the quiet tracker was not logged:\n{err}");
+    assert!(
+        out.contains("front      mono")
+            && out.contains("stereo     left")
+            && out.contains("stereo     right"),
+        "{out}"
+    );
+    assert!(
+        out.contains("shown on screen: tracking quiet") && out.contains("holding the last pose"),
+        "the quiet tracker was not reported:\n{out}"
+    );
+    assert!(
+        err.contains("quiet"),
+        "the quiet tracker was not logged:\n{err}"
+    );
 
     let img = image::open(&shot).unwrap().to_rgb8();
     // below the status line: the front window, and each half of the stereo window
-    for (name, x, y, w, h) in [("front", 0, 40, 300, 250), ("stereo left eye", 340, 40, 200, 250), ("stereo right eye", 540, 40, 200, 250)] {
+    for (name, x, y, w, h) in [
+        ("front", 0, 40, 300, 250),
+        ("stereo left eye", 340, 40, 200, 250),
+        ("stereo right eye", 540, 40, 200, 250),
+    ] {
         let (mean, lit) = region_stats(&img, x, y, w, h);
-        println!("{name}: mean display value {mean:.1}, {:.0}% of pixels lit", lit * 100.0);
-        assert!(mean > 15.0 && lit > 0.3, "{name} looks black in {}: mean {mean:.1}, lit {:.0}%", shot.display(), lit * 100.0);
+        println!(
+            "{name}: mean display value {mean:.1}, {:.0}% of pixels lit",
+            lit * 100.0
+        );
+        assert!(
+            mean > 15.0 && lit > 0.3,
+            "{name} looks black in {}: mean {mean:.1}, lit {:.0}%",
+            shot.display(),
+            lit * 100.0
+        );
     }
     let (_, background_lit) = region_stats(&img, 760, 320, 40, 80);
-    assert!(background_lit < 0.01, "the screen outside the windows should stay black");
+    assert!(
+        background_lit < 0.01,
+        "the screen outside the windows should stay black"
+    );
     // the status band: a dark translucent strip with light text across the window's top-left
     let (band_mean, band_lit) = region_stats(&img, 0, 0, 300, 30);
-    println!("status band: mean {band_mean:.1}, {:.0}% lit", band_lit * 100.0);
+    println!(
+        "status band: mean {band_mean:.1}, {:.0}% lit",
+        band_lit * 100.0
+    );
     assert!(band_lit > 0.02, "no status line on screen");
 }
 
 fn screenshot(display: &str, path: &Path) -> image::RgbImage {
-    let status = Command::new("import").args(["-display", display, "-window", "root", path.to_str().unwrap()]).status().unwrap();
-    assert!(status.success(), "import could not take a screenshot of {display}");
+    let status = Command::new("import")
+        .args([
+            "-display",
+            display,
+            "-window",
+            "root",
+            path.to_str().unwrap(),
+        ])
+        .status()
+        .unwrap();
+    assert!(
+        status.success(),
+        "import could not take a screenshot of {display}"
+    );
     image::open(path).unwrap().to_rgb8()
 }
 
 fn xdotool(display: &str, args: &[&str]) {
-    let status = Command::new("xdotool").args(args).env("DISPLAY", display).status().unwrap();
+    let status = Command::new("xdotool")
+        .args(args)
+        .env("DISPLAY", display)
+        .status()
+        .unwrap();
     assert!(status.success(), "xdotool {args:?} failed");
 }
 
@@ -227,8 +326,20 @@ output = { window = [0, 0] }
     std::fs::write(&config_path, config).unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
     let child = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .args(["cave", config_path.to_str().unwrap(), "--scene", scene.to_str().unwrap()])
-        .args(["--directions", "126", "--grid", "48", "--texel-density", "16"])
+        .args([
+            "cave",
+            config_path.to_str().unwrap(),
+            "--scene",
+            scene.to_str().unwrap(),
+        ])
+        .args([
+            "--directions",
+            "126",
+            "--grid",
+            "48",
+            "--texel-density",
+            "16",
+        ])
         .env("DISPLAY", &display)
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .stdout(Stdio::piped())
@@ -239,26 +350,74 @@ output = { window = [0, 0] }
     // the window exists once propagation is done; then give it a few frames
     xdotool(&display, &["search", "--sync", "--name", "vlf: front"]);
     std::thread::sleep(Duration::from_millis(1500));
-    let before = screenshot(&display, &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-before-walk.png"));
+    let before = screenshot(
+        &display,
+        &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-before-walk.png"),
+    );
     // focus and keys in one xdotool run: without a window manager focus does not outlive it
-    xdotool(&display, &["search", "--name", "vlf: front", "windowfocus", "--sync", "keydown", "w", "sleep", "1.2", "keyup", "w"]);
+    xdotool(
+        &display,
+        &[
+            "search",
+            "--name",
+            "vlf: front",
+            "windowfocus",
+            "--sync",
+            "keydown",
+            "w",
+            "sleep",
+            "1.2",
+            "keyup",
+            "w",
+        ],
+    );
     std::thread::sleep(Duration::from_millis(800));
-    let after = screenshot(&display, &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-after-walk.png"));
-    let changed = before.pixels().zip(after.pixels()).filter(|(a, b)| a.0.iter().zip(b.0.iter()).any(|(x, y)| x.abs_diff(*y) > 24)).count();
+    let after = screenshot(
+        &display,
+        &Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-after-walk.png"),
+    );
+    let changed = before
+        .pixels()
+        .zip(after.pixels())
+        .filter(|(a, b)| a.0.iter().zip(b.0.iter()).any(|(x, y)| x.abs_diff(*y) > 24))
+        .count();
     println!("{changed} pixels changed after walking forward");
-    assert!(changed > 2000, "holding W did not move the view ({changed} pixels changed)");
-    xdotool(&display, &["search", "--name", "vlf: front", "windowfocus", "--sync", "key", "Escape"]);
+    assert!(
+        changed > 2000,
+        "holding W did not move the view ({changed} pixels changed)"
+    );
+    xdotool(
+        &display,
+        &[
+            "search",
+            "--name",
+            "vlf: front",
+            "windowfocus",
+            "--sync",
+            "key",
+            "Escape",
+        ],
+    );
     let deadline = Instant::now() + Duration::from_secs(30);
     let status = loop {
         if let Some(status) = child.0.try_wait().unwrap() {
             break status;
         }
-        assert!(Instant::now() < deadline, "Esc did not end vlf cave within 30 s");
+        assert!(
+            Instant::now() < deadline,
+            "Esc did not end vlf cave within 30 s"
+        );
         std::thread::sleep(Duration::from_millis(100));
     };
     let mut out = String::new();
     std::io::Read::read_to_string(child.0.stdout.as_mut().unwrap(), &mut out).unwrap();
     println!("{out}");
-    assert!(status.success(), "vlf cave did not exit cleanly after Esc: {status}\n{out}");
-    assert!(out.contains("frames timed") && out.contains("front      mono"), "no frame-time report at exit:\n{out}");
+    assert!(
+        status.success(),
+        "vlf cave did not exit cleanly after Esc: {status}\n{out}"
+    );
+    assert!(
+        out.contains("frames timed") && out.contains("front      mono"),
+        "no frame-time report at exit:\n{out}"
+    );
 }

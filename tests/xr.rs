@@ -12,7 +12,12 @@ use vlf::display::xr::{pose_from_view, projection_from_fov, view_from_pose, Fov,
 
 #[test]
 fn projection_of_an_asymmetric_fov_matches_the_hand_computed_matrix() {
-    let fov = Fov { angle_left: -45f32.to_radians(), angle_right: 30f32.to_radians(), angle_up: 20f32.to_radians(), angle_down: -35f32.to_radians() };
+    let fov = Fov {
+        angle_left: -45f32.to_radians(),
+        angle_right: 30f32.to_radians(),
+        angle_up: 20f32.to_radians(),
+        angle_down: -35f32.to_radians(),
+    };
     let (near, far) = (0.05f32, 100.0f32);
     let m = projection_from_fov(fov, near, far);
     // tan(-45) = -1, tan(30) = 0.577350, tan(20) = 0.363970, tan(-35) = -0.700208
@@ -40,24 +45,37 @@ fn projection_of_an_asymmetric_fov_matches_the_hand_computed_matrix() {
 #[test]
 fn openxr_poses_and_views_round_trip() {
     let q = glam::Quat::from_euler(glam::EulerRot::YXZ, 0.7, -0.3, 0.1);
-    let pose = XrPose { orientation: q.to_array(), position: [0.3, 1.62, -0.4] };
+    let pose = XrPose {
+        orientation: q.to_array(),
+        position: [0.3, 1.62, -0.4],
+    };
     let view = view_from_pose(pose);
     // the eye sits at the view's origin, looking down its -z
     assert!(view.transform_point3(Vec3::from(pose.position)).length() < 1e-5);
     assert!((view.transform_vector3(q * Vec3::NEG_Z) - Vec3::NEG_Z).length() < 1e-5);
     let back = pose_from_view(view);
     let same_rotation = glam::Quat::from_array(back.orientation).dot(q).abs() > 1.0 - 1e-5;
-    assert!(same_rotation && (Vec3::from(back.position) - Vec3::from(pose.position)).length() < 1e-5, "{back:?}");
+    assert!(
+        same_rotation && (Vec3::from(back.position) - Vec3::from(pose.position)).length() < 1e-5,
+        "{back:?}"
+    );
 }
 
 fn vlf_xr(envs: &[(&str, &str)]) -> (bool, String) {
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_vlf"));
-    cmd.args(["xr", "--scene", concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell/scene.toml")]);
+    cmd.args([
+        "xr",
+        "--scene",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell/scene.toml"),
+    ]);
     for (k, v) in envs {
         cmd.env(k, v);
     }
     let out = cmd.output().unwrap();
-    (out.status.success(), String::from_utf8_lossy(&out.stderr).into_owned())
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -66,27 +84,53 @@ fn without_a_loader_the_error_says_what_to_install_and_how_to_select_a_runtime()
     println!("{err}");
     assert!(!ok, "vlf xr succeeded without a loader");
     assert!(!err.contains("panicked"), "{err}");
-    for needle in ["no OpenXR loader", "libopenxr-loader1", "Monado", "SteamVR", "XR_RUNTIME_JSON"] {
+    for needle in [
+        "no OpenXR loader",
+        "libopenxr-loader1",
+        "Monado",
+        "SteamVR",
+        "XR_RUNTIME_JSON",
+    ] {
         assert!(err.contains(needle), "missing {needle:?} in: {err}");
     }
 }
 
 #[test]
 fn without_a_runtime_the_error_names_the_selection_and_how_to_install_one() {
-    let loader = ["/usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1", "/usr/lib/libopenxr_loader.so.1"].into_iter().find(|p| std::path::Path::new(p).exists());
+    let loader = [
+        "/usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1",
+        "/usr/lib/libopenxr_loader.so.1",
+    ]
+    .into_iter()
+    .find(|p| std::path::Path::new(p).exists());
     let Some(loader) = loader else {
         panic!("this test needs the OpenXR loader (libopenxr_loader.so.1): run `bash tools/setup.sh` or `sudo apt-get install libopenxr-loader1`");
     };
-    let (ok, err) = vlf_xr(&[("VLF_OPENXR_LOADER", loader), ("XR_RUNTIME_JSON", "/nonexistent/runtime.json")]);
+    let (ok, err) = vlf_xr(&[
+        ("VLF_OPENXR_LOADER", loader),
+        ("XR_RUNTIME_JSON", "/nonexistent/runtime.json"),
+    ]);
     println!("{err}");
     assert!(!ok && !err.contains("panicked"), "{err}");
-    for needle in ["no usable runtime", "XR_RUNTIME_JSON=/nonexistent/runtime.json", "Monado", "SteamVR"] {
+    for needle in [
+        "no usable runtime",
+        "XR_RUNTIME_JSON=/nonexistent/runtime.json",
+        "Monado",
+        "SteamVR",
+    ] {
         assert!(err.contains(needle), "missing {needle:?} in: {err}");
     }
 }
 
 /// Small propagation settings: the session, not the light field, is under test.
-const SMALL: [&str; 6] = ["--directions", "126", "--grid", "48", "--texel-density", "16"];
+const SMALL: [&str; 6] = [
+    "--directions",
+    "126",
+    "--grid",
+    "48",
+    "--texel-density",
+    "16",
+];
 
 fn system_loader() -> &'static str {
     ["/usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1", "/usr/lib/libopenxr_loader.so.1"]
@@ -138,52 +182,127 @@ fn session(name: &str, scene: &Path, args: &[&str], envs: &[(&str, &str)]) -> Se
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("xr-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let (shot, json, runtime_report) = (dir.join("left.png"), dir.join("report.json"), dir.join("runtime.txt"));
+    let (shot, json, runtime_report) = (
+        dir.join("left.png"),
+        dir.join("report.json"),
+        dir.join("runtime.txt"),
+    );
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_vlf"));
-    cmd.arg("xr").arg("--scene").arg(scene).args(SMALL).args(args);
+    cmd.arg("xr")
+        .arg("--scene")
+        .arg(scene)
+        .args(SMALL)
+        .args(args);
     cmd.arg("--json").arg(&json).arg("--screenshot").arg(&shot);
-    cmd.env("VLF_OPENXR_LOADER", system_loader()).env("XR_RUNTIME_JSON", manifest).env("VLF_TEST_XR_REPORT", &runtime_report);
+    cmd.env("VLF_OPENXR_LOADER", system_loader())
+        .env("XR_RUNTIME_JSON", manifest)
+        .env("VLF_TEST_XR_REPORT", &runtime_report);
     cmd.env("XDG_RUNTIME_DIR", std::env::temp_dir());
     for (k, v) in envs {
         cmd.env(k, v);
     }
     let out = cmd.output().unwrap();
-    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned());
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    );
     println!("{stdout}\n{stderr}");
-    let report = std::fs::read_to_string(&json).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or(serde_json::Value::Null);
+    let report = std::fs::read_to_string(&json)
+        .ok()
+        .and_then(|t| serde_json::from_str(&t).ok())
+        .unwrap_or(serde_json::Value::Null);
     let runtime = std::fs::read_to_string(&runtime_report)
         .unwrap_or_default()
         .lines()
-        .filter_map(|l| l.split_once('=').map(|(k, v)| (k.to_string(), v.to_string())))
+        .filter_map(|l| {
+            l.split_once('=')
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+        })
         .collect();
     let screenshot = image::open(&shot).ok().map(|i| i.to_rgb8());
-    Session { ok: out.status.success(), stdout, stderr, report, runtime, screenshot }
+    Session {
+        ok: out.status.success(),
+        stdout,
+        stderr,
+        report,
+        runtime,
+        screenshot,
+    }
 }
 
 /// Mean display value and the share of pixels above a dim threshold.
 fn brightness(img: &image::RgbImage) -> (f64, f64) {
     let n = (img.width() * img.height()) as f64;
-    let values: Vec<f64> = img.pixels().map(|p| (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0).collect();
-    (values.iter().sum::<f64>() / n, values.iter().filter(|&&v| v > 8.0).count() as f64 / n)
+    let values: Vec<f64> = img
+        .pixels()
+        .map(|p| (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0)
+        .collect();
+    (
+        values.iter().sum::<f64>() / n,
+        values.iter().filter(|&&v| v > 8.0).count() as f64 / n,
+    )
 }
 
 #[test]
 fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
-    let s = session("frames", &cornell(), &["--frames", "24", "--screenshot-frame", "12"], &[]);
-    assert!(s.ok && !s.stderr.contains("panicked"), "vlf xr failed: {}", s.stderr);
+    let s = session(
+        "frames",
+        &cornell(),
+        &["--frames", "24", "--screenshot-frame", "12"],
+        &[],
+    );
+    assert!(
+        s.ok && !s.stderr.contains("panicked"),
+        "vlf xr failed: {}",
+        s.stderr
+    );
     // the runtime's own account: every frame ended with a valid two-view projection layer,
     // both images released each frame, no rule broken
-    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
-    let count = |k: &str| s.runtime.get(k).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
+    let count = |k: &str| {
+        s.runtime
+            .get(k)
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0)
+    };
     assert!(count("layers_checked") >= 24, "{:?}", s.runtime);
-    assert_eq!(count("images_released"), 2 * count("layers_checked"), "{:?}", s.runtime);
+    assert_eq!(
+        count("images_released"),
+        2 * count("layers_checked"),
+        "{:?}",
+        s.runtime
+    );
     // the session went through its states in order, to the end
-    let states = s.report["states"].as_array().expect("states in the report").iter().map(|v| v.as_str().unwrap().to_string()).collect::<Vec<_>>().join(",");
-    assert!(states.starts_with("idle,ready,synchronized,visible,focused"), "{states}");
+    let states = s.report["states"]
+        .as_array()
+        .expect("states in the report")
+        .iter()
+        .map(|v| v.as_str().unwrap().to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    assert!(
+        states.starts_with("idle,ready,synchronized,visible,focused"),
+        "{states}"
+    );
     assert!(states.ends_with("stopping,idle,exiting"), "{states}");
-    assert!(s.report["ended"].as_str().unwrap().starts_with("cleanly, after the 24 frames"), "{}", s.report);
+    assert!(
+        s.report["ended"]
+            .as_str()
+            .unwrap()
+            .starts_with("cleanly, after the 24 frames"),
+        "{}",
+        s.report
+    );
     assert_eq!(s.report["frames"], 24);
-    assert!(s.report["frames_skipped"].as_u64().unwrap() >= 1, "the first frame (synchronized, not yet visible) is not to be rendered");
+    assert!(
+        s.report["frames_skipped"].as_u64().unwrap() >= 1,
+        "the first frame (synchronized, not yet visible) is not to be rendered"
+    );
     // the per-eye report: GPU time per eye (lavapipe has timestamps), missed frames counted
     let eyes = s.report["eyes"].as_array().unwrap();
     assert_eq!(eyes.len(), 2);
@@ -191,28 +310,70 @@ fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
         assert_eq!(eye["eye"], name);
         assert_eq!(eye["pixels"], serde_json::json!([256, 224]));
         let gpu = &eye["gpu_ms"];
-        assert!(gpu["samples"].as_u64().unwrap() == 24 && gpu["median"].as_f64().unwrap() > 0.0 && gpu["max"].as_f64().unwrap() >= gpu["p99"].as_f64().unwrap(), "{eye}");
+        assert!(
+            gpu["samples"].as_u64().unwrap() == 24
+                && gpu["median"].as_f64().unwrap() > 0.0
+                && gpu["max"].as_f64().unwrap() >= gpu["p99"].as_f64().unwrap(),
+            "{eye}"
+        );
     }
-    assert!(s.report["missed_frames"].is_u64() && s.report["display_period_ms"].as_f64().unwrap() > 11.0);
+    assert!(
+        s.report["missed_frames"].is_u64()
+            && s.report["display_period_ms"].as_f64().unwrap() > 11.0
+    );
     // the runtime converts the system clock (XR_KHR_convert_timespec_time): late frames are counted
-    assert!(s.report["late_frames"].as_u64().is_some_and(|n| n <= 24), "{}", s.report);
-    for needle in ["eye    pixels", "left ", "right ", "missed display refreshes", "after their predicted display time", "session states: idle -> ready"] {
-        assert!(s.stdout.contains(needle), "missing {needle:?} in the printed report:\n{}", s.stdout);
+    assert!(
+        s.report["late_frames"].as_u64().is_some_and(|n| n <= 24),
+        "{}",
+        s.report
+    );
+    for needle in [
+        "eye    pixels",
+        "left ",
+        "right ",
+        "missed display refreshes",
+        "after their predicted display time",
+        "session states: idle -> ready",
+    ] {
+        assert!(
+            s.stdout.contains(needle),
+            "missing {needle:?} in the printed report:\n{}",
+            s.stdout
+        );
     }
     // the left eye's swapchain image, as the runtime received it: the Cornell box, not black
     let shot = s.screenshot.expect("--screenshot wrote the left eye");
     assert_eq!(shot.dimensions(), (256, 224));
     let (mean, lit) = brightness(&shot);
     println!("left eye: mean {mean:.1}, lit {:.0}%", lit * 100.0);
-    assert!(mean > 3.0 && lit > 0.05, "the left eye is (nearly) black: mean {mean:.1}, lit {lit:.3}");
+    assert!(
+        mean > 3.0 && lit > 0.05,
+        "the left eye is (nearly) black: mean {mean:.1}, lit {lit:.3}"
+    );
 }
 
 #[test]
 fn the_left_thumbstick_walks_the_viewer_into_the_room() {
     // lockstep display: 39 steps of 1/90 s at 1.4 m/s walk 0.61 m on any machine
     let frames = ["--frames", "40", "--screenshot-frame", "40"];
-    let still = session("stick-still", &cornell(), &frames, &[("VLF_TEST_XR_LEFT_STICK", "0,0"), ("VLF_TEST_XR_LOCKSTEP", "1")]);
-    let walked = session("stick-forward", &cornell(), &frames, &[("VLF_TEST_XR_LEFT_STICK", "0,1"), ("VLF_TEST_XR_LOCKSTEP", "1")]);
+    let still = session(
+        "stick-still",
+        &cornell(),
+        &frames,
+        &[
+            ("VLF_TEST_XR_LEFT_STICK", "0,0"),
+            ("VLF_TEST_XR_LOCKSTEP", "1"),
+        ],
+    );
+    let walked = session(
+        "stick-forward",
+        &cornell(),
+        &frames,
+        &[
+            ("VLF_TEST_XR_LEFT_STICK", "0,1"),
+            ("VLF_TEST_XR_LOCKSTEP", "1"),
+        ],
+    );
     assert!(still.ok && walked.ok, "{}\n{}", still.stderr, walked.stderr);
     let (_, lit_still) = brightness(&still.screenshot.unwrap());
     let (_, lit_walked) = brightness(&walked.screenshot.unwrap());
@@ -224,21 +385,61 @@ fn the_left_thumbstick_walks_the_viewer_into_the_room() {
 #[test]
 fn a_saved_light_field_goes_onto_the_runtimes_device_and_the_runtime_can_end_the_session() {
     let vlf_file = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-cornell.vlf");
-    let out = Command::new(env!("CARGO_BIN_EXE_vlf")).arg("propagate").arg(cornell()).args(SMALL).arg("-o").arg(&vlf_file).output().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
-    let s = session("runtime-ends", &vlf_file, &["--screenshot-frame", "3"], &[("VLF_TEST_XR_END_AFTER", "8")]);
+    let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("propagate")
+        .arg(cornell())
+        .args(SMALL)
+        .arg("-o")
+        .arg(&vlf_file)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let s = session(
+        "runtime-ends",
+        &vlf_file,
+        &["--screenshot-frame", "3"],
+        &[("VLF_TEST_XR_END_AFTER", "8")],
+    );
     assert!(s.ok, "{}", s.stderr);
-    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
-    assert!(s.report["ended"].as_str().unwrap().contains("the runtime or the user ended the session"), "{}", s.report);
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
+    assert!(
+        s.report["ended"]
+            .as_str()
+            .unwrap()
+            .contains("the runtime or the user ended the session"),
+        "{}",
+        s.report
+    );
     assert!(s.report["frames"].as_u64().unwrap() >= 6, "{}", s.report);
-    assert!(!s.stderr.contains("propagated in"), "the saved light field was propagated again: {}", s.stderr);
+    assert!(
+        !s.stderr.contains("propagated in"),
+        "the saved light field was propagated again: {}",
+        s.stderr
+    );
     let (mean, _) = brightness(&s.screenshot.expect("left eye written"));
-    assert!(mean > 3.0, "the left eye from the loaded light field is black");
+    assert!(
+        mean > 3.0,
+        "the left eye from the loaded light field is black"
+    );
 }
 
 #[test]
 fn a_screenshot_of_a_frame_the_session_never_reached_is_an_error() {
-    let s = session("late-screenshot", &cornell(), &["--screenshot-frame", "50"], &[("VLF_TEST_XR_END_AFTER", "5")]);
+    let s = session(
+        "late-screenshot",
+        &cornell(),
+        &["--screenshot-frame", "50"],
+        &[("VLF_TEST_XR_END_AFTER", "5")],
+    );
     assert!(!s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
     assert!(s.stderr.contains("before frame 50"), "{}", s.stderr);
 }
@@ -250,10 +451,17 @@ fn headset_runtime() -> (PathBuf, &'static str) {
     match std::env::var_os("XR_RUNTIME_JSON") {
         Some(path) => {
             let path = PathBuf::from(path);
-            assert!(path.exists(), "XR_RUNTIME_JSON={} does not exist: unset it to run on vlf's test runtime", path.display());
+            assert!(
+                path.exists(),
+                "XR_RUNTIME_JSON={} does not exist: unset it to run on vlf's test runtime",
+                path.display()
+            );
             (path, "the configured runtime")
         }
-        None => (test_runtime().to_path_buf(), "vlf's headless test runtime (XR_RUNTIME_JSON unset)"),
+        None => (
+            test_runtime().to_path_buf(),
+            "vlf's headless test runtime (XR_RUNTIME_JSON unset)",
+        ),
     }
 }
 
@@ -274,22 +482,55 @@ fn a_headset_run_on_the_configured_runtime_or_else_the_test_runtime() {
         .env("XR_RUNTIME_JSON", &manifest)
         .output()
         .unwrap();
-    let (stdout, err) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let (stdout, err) = (
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr),
+    );
     println!("{stdout}\n{err}");
-    assert!(out.status.success() && !err.contains("panicked"), "vlf xr failed on {which} ({}): {err}", manifest.display());
-    assert!(stdout.contains("ended: cleanly, after the 60 frames"), "the session did not run its 60 frames on {which}:\n{stdout}");
-    let (mean, lit) = brightness(&image::open(&shot).expect("the left eye was written").to_rgb8());
-    assert!(mean > 3.0 && lit > 0.05, "the left eye is (nearly) black on {which}: mean {mean:.1}, lit {lit:.3}");
+    assert!(
+        out.status.success() && !err.contains("panicked"),
+        "vlf xr failed on {which} ({}): {err}",
+        manifest.display()
+    );
+    assert!(
+        stdout.contains("ended: cleanly, after the 60 frames"),
+        "the session did not run its 60 frames on {which}:\n{stdout}"
+    );
+    let (mean, lit) = brightness(
+        &image::open(&shot)
+            .expect("the left eye was written")
+            .to_rgb8(),
+    );
+    assert!(
+        mean > 3.0 && lit > 0.05,
+        "the left eye is (nearly) black on {which}: mean {mean:.1}, lit {lit:.3}"
+    );
 }
 
 #[test]
 fn a_lost_session_ends_with_the_report_and_a_failing_exit_code() {
-    let s = session("lost", &cornell(), &["--screenshot-frame", "2"], &[("VLF_TEST_XR_LOSE_AFTER", "5")]);
+    let s = session(
+        "lost",
+        &cornell(),
+        &["--screenshot-frame", "2"],
+        &[("VLF_TEST_XR_LOSE_AFTER", "5")],
+    );
     assert!(!s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
     assert!(s.stderr.contains("lost the session after"), "{}", s.stderr);
-    assert!(s.stdout.contains("session states: idle -> ready -> synchronized -> visible -> focused -> loss_pending"), "{}", s.stdout);
+    assert!(
+        s.stdout.contains(
+            "session states: idle -> ready -> synchronized -> visible -> focused -> loss_pending"
+        ),
+        "{}",
+        s.stdout
+    );
     assert_eq!(s.report["lost"], true);
-    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
 }
 
 #[test]
@@ -316,24 +557,60 @@ fn ctrl_c_ends_the_session_cleanly_with_the_report() {
         }
     }
     std::thread::sleep(std::time::Duration::from_millis(1500));
-    let status = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
     assert!(status.success());
     let rest: Vec<String> = lines.map_while(|l| l.ok()).collect();
     let out = child.wait_with_output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}\n{}", rest.join("\n"));
     assert!(out.status.success(), "{}", rest.join("\n"));
-    assert!(stdout.contains("ended: cleanly, interrupted (Ctrl-C)") && stdout.contains("stopping -> idle -> exiting"), "{stdout}");
+    assert!(
+        stdout.contains("ended: cleanly, interrupted (Ctrl-C)")
+            && stdout.contains("stopping -> idle -> exiting"),
+        "{stdout}"
+    );
 }
 
 #[test]
 fn the_resolution_scale_sets_the_swapchain_size() {
-    let s = session("scale", &cornell(), &["--frames", "4", "--screenshot-frame", "4", "--resolution-scale", "1.5"], &[]);
+    let s = session(
+        "scale",
+        &cornell(),
+        &[
+            "--frames",
+            "4",
+            "--screenshot-frame",
+            "4",
+            "--resolution-scale",
+            "1.5",
+        ],
+        &[],
+    );
     assert!(s.ok, "{}", s.stderr);
     // the test runtime recommends 256x224 per eye
-    assert_eq!(s.report["eyes"][0]["pixels"], serde_json::json!([384, 336]), "{}", s.report);
-    assert_eq!(s.screenshot.expect("left eye written").dimensions(), (384, 336));
-    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"), "{:?}", s.runtime);
+    assert_eq!(
+        s.report["eyes"][0]["pixels"],
+        serde_json::json!([384, 336]),
+        "{}",
+        s.report
+    );
+    assert_eq!(
+        s.screenshot.expect("left eye written").dimensions(),
+        (384, 336)
+    );
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
     let bad = session("scale-bad", &cornell(), &["--resolution-scale", "0"], &[]);
-    assert!(!bad.ok && bad.stderr.contains("--resolution-scale 0"), "{}", bad.stderr);
+    assert!(
+        !bad.ok && bad.stderr.contains("--resolution-scale 0"),
+        "{}",
+        bad.stderr
+    );
 }

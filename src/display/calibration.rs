@@ -59,7 +59,14 @@ pub struct RoomFromTracker {
 
 impl Default for RoomFromTracker {
     fn default() -> Self {
-        RoomFromTracker { translation: Vec3::ZERO, rotation: Quat::IDENTITY, axes: Quat::IDENTITY, scale: 1.0, head_id: 0, wand_id: 1 }
+        RoomFromTracker {
+            translation: Vec3::ZERO,
+            rotation: Quat::IDENTITY,
+            axes: Quat::IDENTITY,
+            scale: 1.0,
+            head_id: 0,
+            wand_id: 1,
+        }
     }
 }
 
@@ -71,16 +78,27 @@ impl Calibration {
 
     /// The transform for a source whose unit is `default_scale` metres and whose wand is
     /// `default_wand` unless configured.
-    pub fn resolve(&self, default_scale: f32, default_wand: u32) -> std::result::Result<RoomFromTracker, String> {
+    pub fn resolve(
+        &self,
+        default_scale: f32,
+        default_wand: u32,
+    ) -> std::result::Result<RoomFromTracker, String> {
         let at = "tracking.calibration";
         if !self.translation.iter().all(|x| x.is_finite()) {
-            return Err(format!("{at}.translation: {:?} must be finite metres", self.translation));
+            return Err(format!(
+                "{at}.translation: {:?} must be finite metres",
+                self.translation
+            ));
         }
         let scale = self.unit_scale.unwrap_or(default_scale);
         if !(scale.is_finite() && scale > 0.0) {
             return Err(format!("{at}.unit_scale: {scale} must be a positive number of metres per tracker unit (0.001 for millimetres)"));
         }
-        let angles = [("yaw_deg", self.yaw_deg), ("pitch_deg", self.pitch_deg), ("roll_deg", self.roll_deg)];
+        let angles = [
+            ("yaw_deg", self.yaw_deg),
+            ("pitch_deg", self.pitch_deg),
+            ("roll_deg", self.roll_deg),
+        ];
         let rotation = match self.rotation {
             Some(_) if angles.iter().any(|(_, a)| a.is_some()) => {
                 return Err(format!("{at}.rotation: give the rotation either as a quaternion or as yaw_deg/pitch_deg/roll_deg, not both"));
@@ -93,8 +111,11 @@ impl Calibration {
                 q.normalize()
             }
             None => {
-                if let Some((name, a)) = angles.iter().find(|(_, a)| !a.unwrap_or(0.0).is_finite()) {
-                    return Err(format!("{at}.{name}: {a:?} must be a finite number of degrees"));
+                if let Some((name, a)) = angles.iter().find(|(_, a)| !a.unwrap_or(0.0).is_finite())
+                {
+                    return Err(format!(
+                        "{at}.{name}: {a:?} must be a finite number of degrees"
+                    ));
                 }
                 let [yaw, pitch, roll] = angles.map(|(_, a)| a.unwrap_or(0.0));
                 head_rotation_from_angles(yaw, pitch, roll)

@@ -18,9 +18,18 @@ use glam::{Mat3, Quat, Vec3};
 
 /// Read one DTrack2 packet into measurements of the head (body `head_id`) and the wand
 /// (Flystick `wand_id`): its pose, buttons and joystick.
-pub fn parse(packet: &[u8], ids: &RoomFromTracker, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
-    let text = std::str::from_utf8(packet).map_err(|_| "not DTrack ASCII (not UTF-8 text)".to_string())?;
-    for line in text.split(['\r', '\n']).map(str::trim).filter(|l| !l.is_empty()) {
+pub fn parse(
+    packet: &[u8],
+    ids: &RoomFromTracker,
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
+    let text =
+        std::str::from_utf8(packet).map_err(|_| "not DTrack ASCII (not UTF-8 text)".to_string())?;
+    for line in text
+        .split(['\r', '\n'])
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+    {
         let (kind, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
         let result = match kind {
             "6d" => bodies(rest, ids.head_id, out),
@@ -35,14 +44,27 @@ pub fn parse(packet: &[u8], ids: &RoomFromTracker, out: &mut Vec<Measurement>) -
 
 /// A line after its identifier: the numbers before the first block, and the blocks' numbers.
 fn split(rest: &str) -> std::result::Result<(Vec<f64>, Vec<Vec<f64>>), String> {
-    let number = |t: &str| t.parse::<f64>().map_err(|_| format!("{t:?} is not a number"));
-    let (head, blocks_text) = rest.split_once('[').map_or((rest, None), |(h, b)| (h, Some(b)));
-    let header = head.split_whitespace().map(number).collect::<std::result::Result<Vec<_>, _>>()?;
+    let number = |t: &str| {
+        t.parse::<f64>()
+            .map_err(|_| format!("{t:?} is not a number"))
+    };
+    let (head, blocks_text) = rest
+        .split_once('[')
+        .map_or((rest, None), |(h, b)| (h, Some(b)));
+    let header = head
+        .split_whitespace()
+        .map(number)
+        .collect::<std::result::Result<Vec<_>, _>>()?;
     let mut blocks = Vec::new();
     let mut next = blocks_text;
     while let Some(text) = next {
         let (inside, after) = text.split_once(']').ok_or("a block has no closing ']'")?;
-        blocks.push(inside.split_whitespace().map(number).collect::<std::result::Result<Vec<_>, _>>()?);
+        blocks.push(
+            inside
+                .split_whitespace()
+                .map(number)
+                .collect::<std::result::Result<Vec<_>, _>>()?,
+        );
         let after = after.trim_start();
         next = match after.strip_prefix('[') {
             Some(text) => Some(text),
@@ -65,22 +87,33 @@ fn count(header: &[f64], index: usize) -> std::result::Result<usize, String> {
 /// column) of a body.
 fn pose(position: &[f64], matrix: &[f64]) -> std::result::Result<(Vec3, Quat), String> {
     if position.len() < 3 {
-        return Err(format!("a position needs 3 numbers, found {}", position.len()));
+        return Err(format!(
+            "a position needs 3 numbers, found {}",
+            position.len()
+        ));
     }
     if matrix.len() != 9 {
-        return Err(format!("a rotation matrix needs 9 numbers, found {}", matrix.len()));
+        return Err(format!(
+            "a rotation matrix needs 9 numbers, found {}",
+            matrix.len()
+        ));
     }
     let m: [f32; 9] = std::array::from_fn(|i| matrix[i] as f32);
     let rotation = Quat::from_mat3(&Mat3::from_cols_array(&m));
     if !rotation.is_finite() || rotation.length() < 1e-3 {
         return Err("the rotation matrix is not a rotation".into());
     }
-    Ok((Vec3::new(position[0] as f32, position[1] as f32, position[2] as f32), rotation.normalize()))
+    Ok((
+        Vec3::new(position[0] as f32, position[1] as f32, position[2] as f32),
+        rotation.normalize(),
+    ))
 }
 
 fn id_quality(block: &[f64], fields: usize) -> std::result::Result<(u32, f64), String> {
     if block.len() != fields || block[0] < 0.0 || block[0].fract() != 0.0 {
-        return Err(format!("expected [id quality ...] with {fields} numbers, found {block:?}"));
+        return Err(format!(
+            "expected [id quality ...] with {fields} numbers, found {block:?}"
+        ));
     }
     Ok((block[0] as u32, block[1]))
 }
@@ -89,23 +122,38 @@ fn bodies(rest: &str, head_id: u32, out: &mut Vec<Measurement>) -> std::result::
     let (header, blocks) = split(rest)?;
     let n = count(&header, 0)?;
     if blocks.len() != 3 * n {
-        return Err(format!("{n} bodies need {} blocks, found {}", 3 * n, blocks.len()));
+        return Err(format!(
+            "{n} bodies need {} blocks, found {}",
+            3 * n,
+            blocks.len()
+        ));
     }
     for body in blocks.chunks(3) {
         let (id, quality) = id_quality(&body[0], 2)?;
         let (position, rotation) = pose(&body[1], &body[2])?;
         if id == head_id && quality >= 0.0 {
-            out.push(Measurement::Head { position, rotation: Some(rotation) });
+            out.push(Measurement::Head {
+                position,
+                rotation: Some(rotation),
+            });
         }
     }
     Ok(())
 }
 
-fn flysticks2(rest: &str, wand_id: u32, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
+fn flysticks2(
+    rest: &str,
+    wand_id: u32,
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
     let (header, blocks) = split(rest)?;
     let n = count(&header, 1)?;
     if blocks.len() != 4 * n {
-        return Err(format!("{n} Flysticks need {} blocks, found {}", 4 * n, blocks.len()));
+        return Err(format!(
+            "{n} Flysticks need {} blocks, found {}",
+            4 * n,
+            blocks.len()
+        ));
     }
     for stick in blocks.chunks(4) {
         let (id, quality) = id_quality(&stick[0], 4)?;
@@ -139,11 +187,19 @@ fn flysticks2(rest: &str, wand_id: u32, out: &mut Vec<Measurement>) -> std::resu
     Ok(())
 }
 
-fn flysticks1(rest: &str, wand_id: u32, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
+fn flysticks1(
+    rest: &str,
+    wand_id: u32,
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
     let (header, blocks) = split(rest)?;
     let n = count(&header, 0)?;
     if blocks.len() != 3 * n {
-        return Err(format!("{n} Flysticks need {} blocks, found {}", 3 * n, blocks.len()));
+        return Err(format!(
+            "{n} Flysticks need {} blocks, found {}",
+            3 * n,
+            blocks.len()
+        ));
     }
     for stick in blocks.chunks(3) {
         let (id, quality) = id_quality(&stick[0], 3)?;

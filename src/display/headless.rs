@@ -68,8 +68,16 @@ pub fn run(
     };
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
-    let views: Vec<(usize, &'static str, f32)> =
-        config.walls.iter().enumerate().flat_map(|(i, w)| w.eyes().into_iter().map(move |(name, side)| (i, name, side))).collect();
+    let views: Vec<(usize, &'static str, f32)> = config
+        .walls
+        .iter()
+        .enumerate()
+        .flat_map(|(i, w)| {
+            w.eyes()
+                .into_iter()
+                .map(move |(name, side)| (i, name, side))
+        })
+        .collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
     let specs = super::warp::load_outputs(config, config_path)?;
     let mut post = Post::new(&resident.ctx, &renderer, config, &specs, &poses)?;
@@ -79,11 +87,18 @@ pub fn run(
     let mut cpu = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
     let mut projector_images: Vec<(String, Frame)> = Vec::new();
-    let pairs = views.len() + post.as_ref().map_or(0, |p| views.iter().map(|v| p.timed_outputs(v.0)).sum());
+    let pairs = views.len()
+        + post
+            .as_ref()
+            .map_or(0, |p| views.iter().map(|v| p.timed_outputs(v.0)).sum());
     let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, pairs as u32);
     let total_frames = frames.max(1);
     for f in 0..total_frames {
-        let t = if total_frames > 1 { duration * f as f32 / (total_frames - 1) as f32 } else { 0.0 };
+        let t = if total_frames > 1 {
+            duration * f as f32 / (total_frames - 1) as f32
+        } else {
+            0.0
+        };
         let pose = poses.at(t);
         let wand = poses.wand_at(&config.tracking, t);
         let last_frame = f + 1 == total_frames;
@@ -91,16 +106,36 @@ pub fn run(
         last.clear();
         for &(wall_index, eye_name, side) in &views {
             let wall = &config.walls[wall_index];
-            let (view_proj, eye) = super::wall_view(config, wall, side, &pose, &lf.meta.normalisation);
+            let (view_proj, eye) =
+                super::wall_view(config, wall, side, &pose, &lf.meta.normalisation);
             let [w, h] = wall.eye_pixels();
-            let overlay = super::post::wand_overlay(config, wall, side, &pose, wand.as_ref(), &lf.meta.normalisation);
+            let overlay = super::post::wand_overlay(
+                config,
+                wall,
+                side,
+                &pose,
+                wand.as_ref(),
+                &lf.meta.normalisation,
+            );
             match post.as_mut() {
                 Some(p) if last_frame => {
-                    let (frame, projectors) = p.draw(&mut renderer, wall_index, view_proj, eye, overlay.as_ref())?;
+                    let (frame, projectors) =
+                        p.draw(&mut renderer, wall_index, view_proj, eye, overlay.as_ref())?;
                     last.push(frame);
-                    projector_images.extend(projectors.into_iter().map(|(name, image)| (format!("{}-{eye_name}-{name}", wall.name), image)));
+                    projector_images.extend(
+                        projectors.into_iter().map(|(name, image)| {
+                            (format!("{}-{eye_name}-{name}", wall.name), image)
+                        }),
+                    );
                 }
-                Some(p) => p.submit(&mut renderer, wall_index, view_proj, eye, overlay.as_ref(), timestamps.as_mut()),
+                Some(p) => p.submit(
+                    &mut renderer,
+                    wall_index,
+                    view_proj,
+                    eye,
+                    overlay.as_ref(),
+                    timestamps.as_mut(),
+                ),
                 // the images to keep: drawn and read back one by one (not timed)
                 None if last_frame => last.push(renderer.render_matrix(view_proj, eye, w, h)?.0),
                 None => renderer.submit_matrix(view_proj, eye, w, h, timestamps.as_mut()),
@@ -131,8 +166,21 @@ pub fn run(
     if cpu.is_empty() {
         cpu.push(0.0);
     }
-    let named = last.iter().zip(&views).map(|(image, &(wall_index, eye, _))| (format!("{}-{eye}", config.walls[wall_index].name), image));
-    let mut images = write_images(named.chain(projector_images.iter().map(|(name, image)| (name.clone(), image))), out, exr)?;
+    let named = last
+        .iter()
+        .zip(&views)
+        .map(|(image, &(wall_index, eye, _))| {
+            (format!("{}-{eye}", config.walls[wall_index].name), image)
+        });
+    let mut images = write_images(
+        named.chain(
+            projector_images
+                .iter()
+                .map(|(name, image)| (name.clone(), image)),
+        ),
+        out,
+        exr,
+    )?;
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
@@ -150,7 +198,10 @@ pub fn run(
             }
         })
         .collect();
-    let worst = timings.iter().filter_map(|v: &ViewTiming| v.p99_over_p50).fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
+    let worst = timings
+        .iter()
+        .filter_map(|v: &ViewTiming| v.p99_over_p50)
+        .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
     Ok(CaveReport {
         worst_p99_over_p50: worst,
         constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
@@ -179,15 +230,40 @@ struct Post {
 }
 
 impl Post {
-    fn new(ctx: &std::sync::Arc<crate::gpu::GpuContext>, renderer: &Renderer, config: &DisplayConfig, specs: &[Vec<super::warp::OutputSpec>], poses: &PoseSource) -> Result<Option<Post>> {
+    fn new(
+        ctx: &std::sync::Arc<crate::gpu::GpuContext>,
+        renderer: &Renderer,
+        config: &DisplayConfig,
+        specs: &[Vec<super::warp::OutputSpec>],
+        poses: &PoseSource,
+    ) -> Result<Option<Post>> {
         let wand = config.wand_ray.show && poses.may_have_wand(&config.tracking);
         if !wand && specs.iter().all(|s| s.is_empty()) {
             return Ok(None);
         }
         let pass = super::post::PostPass::new(ctx)?;
-        let outputs = config.walls.iter().zip(specs).map(|(wall, s)| (pass.output(ctx, &super::post::wall_output(wall)), s.iter().map(|o| pass.output(ctx, o)).collect())).collect();
-        let targets = config.walls.iter().map(|w| renderer.view_targets(w.eye_pixels()[0], w.eye_pixels()[1])).collect();
-        Ok(Some(Post { ctx: ctx.clone(), pass, outputs, targets }))
+        let outputs = config
+            .walls
+            .iter()
+            .zip(specs)
+            .map(|(wall, s)| {
+                (
+                    pass.output(ctx, &super::post::wall_output(wall)),
+                    s.iter().map(|o| pass.output(ctx, o)).collect(),
+                )
+            })
+            .collect();
+        let targets = config
+            .walls
+            .iter()
+            .map(|w| renderer.view_targets(w.eye_pixels()[0], w.eye_pixels()[1]))
+            .collect();
+        Ok(Some(Post {
+            ctx: ctx.clone(),
+            pass,
+            outputs,
+            targets,
+        }))
     }
 
     /// Output passes timed per view of `wall`: its projectors, or the whole wall.
@@ -195,7 +271,16 @@ impl Post {
         self.outputs[wall].1.len().max(1)
     }
 
-    fn encode(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>, mut timestamps: Option<&mut crate::gpu::Timestamps>, everything: bool) {
+    fn encode(
+        &self,
+        renderer: &mut Renderer,
+        wall: usize,
+        view_proj: glam::Mat4,
+        eye: glam::Vec3,
+        wand: Option<&super::post::WandOverlay>,
+        mut timestamps: Option<&mut crate::gpu::Timestamps>,
+        everything: bool,
+    ) {
         renderer.set_view_matrix(view_proj, eye);
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         let target = &self.targets[wall];
@@ -203,31 +288,82 @@ impl Post {
         let (whole, projectors) = &self.outputs[wall];
         let size = [target.width, target.height];
         if everything || projectors.is_empty() {
-            self.pass.encode(&self.ctx, &mut encoder, &target.image_view, size, whole, wand, if everything { None } else { timestamps.as_deref_mut() });
+            self.pass.encode(
+                &self.ctx,
+                &mut encoder,
+                &target.image_view,
+                size,
+                whole,
+                wand,
+                if everything {
+                    None
+                } else {
+                    timestamps.as_deref_mut()
+                },
+            );
         }
         for p in projectors {
-            self.pass.encode(&self.ctx, &mut encoder, &target.image_view, size, p, wand, if everything { None } else { timestamps.as_deref_mut() });
+            self.pass.encode(
+                &self.ctx,
+                &mut encoder,
+                &target.image_view,
+                size,
+                p,
+                wand,
+                if everything {
+                    None
+                } else {
+                    timestamps.as_deref_mut()
+                },
+            );
         }
         self.ctx.queue.submit([encoder.finish()]);
     }
 
-    fn submit(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>, timestamps: Option<&mut crate::gpu::Timestamps>) {
+    fn submit(
+        &self,
+        renderer: &mut Renderer,
+        wall: usize,
+        view_proj: glam::Mat4,
+        eye: glam::Vec3,
+        wand: Option<&super::post::WandOverlay>,
+        timestamps: Option<&mut crate::gpu::Timestamps>,
+    ) {
         self.encode(renderer, wall, view_proj, eye, wand, timestamps, false);
     }
 
     /// Draw one view and read back the whole wall's image and each projector's (named).
-    fn draw(&self, renderer: &mut Renderer, wall: usize, view_proj: glam::Mat4, eye: glam::Vec3, wand: Option<&super::post::WandOverlay>) -> Result<(Frame, Vec<(String, Frame)>)> {
+    fn draw(
+        &self,
+        renderer: &mut Renderer,
+        wall: usize,
+        view_proj: glam::Mat4,
+        eye: glam::Vec3,
+        wand: Option<&super::post::WandOverlay>,
+    ) -> Result<(Frame, Vec<(String, Frame)>)> {
         self.encode(renderer, wall, view_proj, eye, wand, None, true);
         let (whole, projectors) = &self.outputs[wall];
         let frame = super::post::read_texture(&self.ctx, &whole.image)?;
-        let images = projectors.iter().map(|p| Ok((p.name.clone(), super::post::read_texture(&self.ctx, &p.image)?))).collect::<Result<Vec<_>>>()?;
+        let images = projectors
+            .iter()
+            .map(|p| {
+                Ok((
+                    p.name.clone(),
+                    super::post::read_texture(&self.ctx, &p.image)?,
+                ))
+            })
+            .collect::<Result<Vec<_>>>()?;
         self.ctx.check_errors()?;
         Ok((frame, images))
     }
 }
 
 /// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
-fn write_images<'a>(named: impl Iterator<Item = (String, &'a Frame)>, out: &Path, exr: bool) -> Result<Vec<String>> {
+fn write_images<'a>(
+    named: impl Iterator<Item = (String, &'a Frame)>,
+    out: &Path,
+    exr: bool,
+) -> Result<Vec<String>> {
     let mut images = Vec::new();
     for (name, image) in named {
         for ext in ["png", "exr"].into_iter().filter(|e| *e == "png" || exr) {
@@ -241,7 +377,12 @@ fn write_images<'a>(named: impl Iterator<Item = (String, &'a Frame)>, out: &Path
 
 /// The walls unfolded as a cross: front in the middle, left and right beside it, floor below,
 /// ceiling above; any other wall follows in a row. Left (or mono) eye.
-fn write_overview(config: &DisplayConfig, views: &[(usize, &'static str, f32)], images: &[Frame], path: &Path) -> Result<()> {
+fn write_overview(
+    config: &DisplayConfig,
+    views: &[(usize, &'static str, f32)],
+    images: &[Frame],
+    path: &Path,
+) -> Result<()> {
     const CELL: u32 = 256;
     let slot = |name: &str| match name {
         "left" => Some((0, 1)),
@@ -269,16 +410,32 @@ fn write_overview(config: &DisplayConfig, views: &[(usize, &'static str, f32)], 
     for (cx, cy, frame) in placed {
         let img = display_image(frame, 1.0);
         let scale = (CELL as f32 / frame.width as f32).min(CELL as f32 / frame.height as f32);
-        let (w, h) = (((frame.width as f32 * scale) as u32).max(1), ((frame.height as f32 * scale) as u32).max(1));
+        let (w, h) = (
+            ((frame.width as f32 * scale) as u32).max(1),
+            ((frame.height as f32 * scale) as u32).max(1),
+        );
         let small = image::imageops::resize(&img, w, h, image::imageops::FilterType::Triangle);
-        image::imageops::overlay(&mut canvas, &small, (cx * CELL + (CELL - w) / 2) as i64, (cy * CELL + (CELL - h) / 2) as i64);
+        image::imageops::overlay(
+            &mut canvas,
+            &small,
+            (cx * CELL + (CELL - w) / 2) as i64,
+            (cy * CELL + (CELL - h) / 2) as i64,
+        );
     }
-    canvas.save_with_format(path, image::ImageFormat::Png).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })
+    canvas
+        .save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| VlfError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }
 
 impl CaveReport {
     pub fn table(&self) -> String {
-        let mut s = format!("  display {} on {}: {} frames, {} views per frame\n", self.display, self.adapter, self.frames, self.views_per_frame);
+        let mut s = format!(
+            "  display {} on {}: {} frames, {} views per frame\n",
+            self.display, self.adapter, self.frames, self.views_per_frame
+        );
         for v in &self.views {
             match &v.gpu_ms {
                 Some(d) => s.push_str(&format!(
@@ -289,12 +446,21 @@ impl CaveReport {
             }
         }
         if let Some(d) = &self.all_views_gpu_ms {
-            s.push_str(&format!("  all views, GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+            s.push_str(&format!(
+                "  all views, GPU: median {:.3} ms, p99 {:.3} ms\n",
+                d.median, d.p99
+            ));
         }
         if let Some(d) = &self.outputs_gpu_ms {
-            s.push_str(&format!("  of which outputs (warp, blend, wand ray), GPU: median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+            s.push_str(&format!(
+                "  of which outputs (warp, blend, wand ray), GPU: median {:.3} ms, p99 {:.3} ms\n",
+                d.median, d.p99
+            ));
         }
-        s.push_str(&format!("  CPU frame time: median {:.3} ms, p99 {:.3} ms\n", self.cpu_frame_ms.median, self.cpu_frame_ms.p99));
+        s.push_str(&format!(
+            "  CPU frame time: median {:.3} ms, p99 {:.3} ms\n",
+            self.cpu_frame_ms.median, self.cpu_frame_ms.p99
+        ));
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
             s.push_str(&format!(
                 "  constant per-eye frame time: {} (worst p99/p50 {w:.3}; limit {CONSTANT_FRAME_TIME:.2})\n",

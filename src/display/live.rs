@@ -49,7 +49,12 @@ pub struct LiveState {
 
 impl LiveState {
     pub fn new(pose: Pose) -> LiveState {
-        LiveState { pose, wand: None, buttons: 0, joystick: [0.0; 2] }
+        LiveState {
+            pose,
+            wand: None,
+            buttons: 0,
+            joystick: [0.0; 2],
+        }
     }
 }
 
@@ -83,13 +88,22 @@ impl LiveState {
     /// Apply one measurement through the calibration.
     pub fn apply(&mut self, m: Measurement, calibration: &RoomFromTracker) {
         match m {
-            Measurement::Head { position, rotation } => calibration.head(&mut self.pose, position, rotation),
+            Measurement::Head { position, rotation } => {
+                calibration.head(&mut self.pose, position, rotation)
+            }
             Measurement::Wand { position, rotation } => {
-                self.wand = Some(WandPose { position: calibration.position(position), rotation: calibration.orientation(rotation) })
+                self.wand = Some(WandPose {
+                    position: calibration.position(position),
+                    rotation: calibration.orientation(rotation),
+                })
             }
             Measurement::Buttons(mask) => self.buttons = mask,
             Measurement::Button { index, pressed } if index < 64 => {
-                self.buttons = if pressed { self.buttons | 1 << index } else { self.buttons & !(1 << index) }
+                self.buttons = if pressed {
+                    self.buttons | 1 << index
+                } else {
+                    self.buttons & !(1 << index)
+                }
             }
             Measurement::Button { .. } => {}
             Measurement::Joystick(j) => self.joystick = j.map(|v| v.clamp(-1.0, 1.0)),
@@ -109,7 +123,8 @@ pub struct Sample {
 }
 
 /// Parses one packet into measurements, or says why it is not one.
-pub type Parser = fn(&[u8], &RoomFromTracker, &mut Vec<Measurement>) -> std::result::Result<(), String>;
+pub type Parser =
+    fn(&[u8], &RoomFromTracker, &mut Vec<Measurement>) -> std::result::Result<(), String>;
 
 pub struct LiveTracker {
     samples: Receiver<Sample>,
@@ -141,7 +156,14 @@ impl Feed {
         for m in measurements {
             self.state.apply(*m, &self.calibration);
         }
-        measurements.is_empty() || self.tx.send(Sample { state: self.state, received }).is_ok()
+        measurements.is_empty()
+            || self
+                .tx
+                .send(Sample {
+                    state: self.state,
+                    received,
+                })
+                .is_ok()
     }
 
     /// The room-from-tracker calibration (its ids say which sensor is what).
@@ -169,26 +191,53 @@ impl LiveTracker {
         let (tx, rx) = crossbeam::channel::unbounded();
         let stop = Arc::new(AtomicBool::new(false));
         let start_state = LiveState::new(start);
-        let feed = Feed { tx, state: start_state, calibration, stop: stop.clone() };
+        let feed = Feed {
+            tx,
+            state: start_state,
+            calibration,
+            stop: stop.clone(),
+        };
         std::thread::Builder::new()
             .name(format!("vlf-{}", protocol.to_lowercase()))
             .spawn(move || receive(feed))
             .map_err(|e| VlfError::io(name.as_str(), e))?;
-        Ok(LiveTracker { samples: rx, state: start_state, last_packet: None, fresh: None, reported_quiet: false, stop, port, name })
+        Ok(LiveTracker {
+            samples: rx,
+            state: start_state,
+            last_packet: None,
+            fresh: None,
+            reported_quiet: false,
+            stop,
+            port,
+            name,
+        })
     }
 
     /// Listen on `address` (e.g. "0.0.0.0:9000"; port 0 picks a free one) for `protocol`
     /// ("OSC", "DTrack") packets read by `parse`. `start` is the pose until the first packet.
-    pub fn spawn(protocol: &str, address: &str, start: Pose, calibration: RoomFromTracker, parse: Parser) -> Result<LiveTracker> {
+    pub fn spawn(
+        protocol: &str,
+        address: &str,
+        start: Pose,
+        calibration: RoomFromTracker,
+        parse: Parser,
+    ) -> Result<LiveTracker> {
         let socket = UdpSocket::bind(address).map_err(|e| VlfError::Config {
             path: address.into(),
             message: format!("cannot listen for {protocol} tracking on {address}: {e} (is another program using the port?)"),
         })?;
-        socket.set_read_timeout(Some(Duration::from_millis(50))).map_err(|e| VlfError::io(address, e))?;
-        let port = socket.local_addr().map_err(|e| VlfError::io(address, e))?.port();
+        socket
+            .set_read_timeout(Some(Duration::from_millis(50)))
+            .map_err(|e| VlfError::io(address, e))?;
+        let port = socket
+            .local_addr()
+            .map_err(|e| VlfError::io(address, e))?
+            .port();
         let name = format!("{protocol} on UDP {port}");
         let thread_name = name.clone();
-        LiveTracker::spawn_thread(protocol, name, port, start, calibration, move |feed| receive(socket, feed, parse, &thread_name))
+        LiveTracker::spawn_thread(protocol, name, port, start, calibration, move |feed| {
+            receive(socket, feed, parse, &thread_name)
+        })
     }
 
     /// The latest pose (older queued poses are dropped) and whether the source is live.
@@ -234,7 +283,11 @@ impl LiveTracker {
         };
         if let TrackingStatus::Quiet(d) = status {
             if !self.reported_quiet {
-                log::warn!("tracking ({}) quiet for {:.1} s: holding the last pose", self.name, d.as_secs_f32());
+                log::warn!(
+                    "tracking ({}) quiet for {:.1} s: holding the last pose",
+                    self.name,
+                    d.as_secs_f32()
+                );
                 self.reported_quiet = true;
             }
         }
@@ -253,7 +306,9 @@ fn receive(socket: UdpSocket, mut feed: Feed, parse: Parser, name: &str) {
     let mut measurements = Vec::new();
     let mut warned = false;
     while !feed.stopped() {
-        let Ok((n, _)) = socket.recv_from(&mut buf) else { continue };
+        let Ok((n, _)) = socket.recv_from(&mut buf) else {
+            continue;
+        };
         let received = Instant::now();
         measurements.clear();
         if let Err(e) = parse(&buf[..n], &feed.calibration, &mut measurements) {
@@ -280,57 +335,123 @@ pub fn describe(t: f64, state: &LiveState) -> String {
         let (yaw, pitch, roll) = q.to_euler(glam::EulerRot::YXZ);
         // rounded to the printed tenth, + 0.0 turning -0.0 into 0.0
         let d = |r: f32| (r.to_degrees() * 10.0).round() / 10.0 + 0.0;
-        format!("yaw {:6.1} pitch {:6.1} roll {:6.1}", d(yaw), d(pitch), d(roll))
+        format!(
+            "yaw {:6.1} pitch {:6.1} roll {:6.1}",
+            d(yaw),
+            d(pitch),
+            d(roll)
+        )
     };
     let at = |p: Vec3| format!("({:7.3}, {:7.3}, {:7.3})", p.x, p.y, p.z);
     let head = &state.pose;
-    let mut line = format!("{t:8.3} s  head {} {}", at(head.head), angles(head.head_rotation));
+    let mut line = format!(
+        "{t:8.3} s  head {} {}",
+        at(head.head),
+        angles(head.head_rotation)
+    );
     match &state.wand {
         Some(w) => line.push_str(&format!("  wand {} {}", at(w.position), angles(w.rotation))),
         None => line.push_str("  wand -"),
     }
-    let held: Vec<String> = (0..64).filter(|i| state.buttons & (1 << i) != 0).map(|i: u32| i.to_string()).collect();
-    line.push_str(&format!("  buttons [{}]  joystick ({:5.2}, {:5.2})", held.join(","), state.joystick[0], state.joystick[1]));
+    let held: Vec<String> = (0..64)
+        .filter(|i| state.buttons & (1 << i) != 0)
+        .map(|i: u32| i.to_string())
+        .collect();
+    line.push_str(&format!(
+        "  buttons [{}]  joystick ({:5.2}, {:5.2})",
+        held.join(","),
+        state.joystick[0],
+        state.joystick[1]
+    ));
     line
 }
 
 /// `vlf track`: print the configured live source's states as they arrive (every one, in
 /// order) until `seconds` have passed (None: until the process is stopped), and when it goes
 /// quiet or comes back. A static or scripted head is printed once. Returns the states printed.
-pub fn track(config: &super::DisplayConfig, config_path: &std::path::Path, seconds: Option<Duration>, out: &mut dyn std::io::Write) -> Result<u64> {
-    let write = |out: &mut dyn std::io::Write, line: String| writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e));
+pub fn track(
+    config: &super::DisplayConfig,
+    config_path: &std::path::Path,
+    seconds: Option<Duration>,
+    out: &mut dyn std::io::Write,
+) -> Result<u64> {
+    let write = |out: &mut dyn std::io::Write, line: String| {
+        writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e))
+    };
     let source = super::tracking::PoseSource::from_config(config, config_path)?;
     let super::tracking::PoseSource::Live(tracker) = source else {
-        write(out, format!("{}: tracking is not live ({}); the head:", config.name, config_path.display()))?;
+        write(
+            out,
+            format!(
+                "{}: tracking is not live ({}); the head:",
+                config.name,
+                config_path.display()
+            ),
+        )?;
         write(out, describe(0.0, &LiveState::new(source.at(0.0))))?;
         return Ok(1);
     };
     let mut tracker = tracker.into_inner().unwrap_or_else(|e| e.into_inner());
-    write(out, format!("{}: listening for {} (room metres after calibration)", config.name, tracker.name))?;
+    write(
+        out,
+        format!(
+            "{}: listening for {} (room metres after calibration)",
+            config.name, tracker.name
+        ),
+    )?;
     let started = Instant::now();
     let mut printed = 0;
     let mut quiet = false;
     while seconds.is_none_or(|s| started.elapsed() < s) {
-        let wait = seconds.map_or(Duration::from_millis(100), |s| s.saturating_sub(started.elapsed()).min(Duration::from_millis(100)));
+        let wait = seconds.map_or(Duration::from_millis(100), |s| {
+            s.saturating_sub(started.elapsed())
+                .min(Duration::from_millis(100))
+        });
         match tracker.next(wait) {
             Some(sample) => {
                 if quiet {
-                    write(out, format!("{:8.3} s  live again", sample.received.duration_since(started).as_secs_f64()))?;
+                    write(
+                        out,
+                        format!(
+                            "{:8.3} s  live again",
+                            sample.received.duration_since(started).as_secs_f64()
+                        ),
+                    )?;
                     quiet = false;
                 }
-                write(out, describe(sample.received.duration_since(started).as_secs_f64(), &sample.state))?;
+                write(
+                    out,
+                    describe(
+                        sample.received.duration_since(started).as_secs_f64(),
+                        &sample.state,
+                    ),
+                )?;
                 printed += 1;
             }
             None => {
                 if let (TrackingStatus::Quiet(d), false) = (tracker.status(), quiet) {
-                    write(out, format!("{:8.3} s  quiet for {:.1} s: holding the last pose", started.elapsed().as_secs_f64(), d.as_secs_f64()))?;
+                    write(
+                        out,
+                        format!(
+                            "{:8.3} s  quiet for {:.1} s: holding the last pose",
+                            started.elapsed().as_secs_f64(),
+                            d.as_secs_f64()
+                        ),
+                    )?;
                     quiet = true;
                 }
             }
         }
     }
     if printed == 0 {
-        write(out, format!("nothing arrived from {} in {:.1} s", tracker.name, started.elapsed().as_secs_f64()))?;
+        write(
+            out,
+            format!(
+                "nothing arrived from {} in {:.1} s",
+                tracker.name,
+                started.elapsed().as_secs_f64()
+            ),
+        )?;
     }
     Ok(printed)
 }

@@ -111,7 +111,17 @@ pub enum TrackingConfig {
 
 impl Default for TrackingConfig {
     fn default() -> Self {
-        TrackingConfig::Static { head: [0.0, 1.7, 0.0], head_yaw_deg: None, head_pitch_deg: None, head_roll_deg: None, head_orientation: None, wand_position: None, wand_yaw_deg: None, wand_pitch_deg: None, wand_orientation: None }
+        TrackingConfig::Static {
+            head: [0.0, 1.7, 0.0],
+            head_yaw_deg: None,
+            head_pitch_deg: None,
+            head_roll_deg: None,
+            head_orientation: None,
+            wand_position: None,
+            wand_yaw_deg: None,
+            wand_pitch_deg: None,
+            wand_orientation: None,
+        }
     }
 }
 
@@ -126,17 +136,34 @@ pub struct LiveSource {
 
 pub enum LiveKind {
     /// packets on a UDP port, read by a parser
-    Udp { port: u16, parse: live::Parser },
-    Vrpn { server: String, device: String },
+    Udp {
+        port: u16,
+        parse: live::Parser,
+    },
+    Vrpn {
+        server: String,
+        device: String,
+    },
 }
 
 impl LiveSource {
     /// Start receiving; `start` is the pose until the first measurement.
     pub fn start(self, start: tracking::Pose, config_path: &Path) -> Result<live::LiveTracker> {
-        let calibration = self.calibration.map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
+        let calibration = self.calibration.map_err(|message| VlfError::Config {
+            path: config_path.to_path_buf(),
+            message,
+        })?;
         match self.kind {
-            LiveKind::Udp { port, parse } => live::LiveTracker::spawn(self.protocol, &format!("0.0.0.0:{port}"), start, calibration, parse),
-            LiveKind::Vrpn { server, device } => live::LiveTracker::connect_vrpn(&server, &device, start, calibration),
+            LiveKind::Udp { port, parse } => live::LiveTracker::spawn(
+                self.protocol,
+                &format!("0.0.0.0:{port}"),
+                start,
+                calibration,
+                parse,
+            ),
+            LiveKind::Vrpn { server, device } => {
+                live::LiveTracker::connect_vrpn(&server, &device, start, calibration)
+            }
         }
     }
 }
@@ -146,18 +173,35 @@ impl TrackingConfig {
     /// The static wand, if one is configured.
     pub fn static_wand(&self) -> std::result::Result<Option<live::WandPose>, String> {
         match self {
-            TrackingConfig::Static { wand_position, wand_yaw_deg, wand_pitch_deg, wand_orientation, .. } => {
-                wand::wand_pose(*wand_position, [*wand_yaw_deg, *wand_pitch_deg], *wand_orientation, "tracking.")
-            }
+            TrackingConfig::Static {
+                wand_position,
+                wand_yaw_deg,
+                wand_pitch_deg,
+                wand_orientation,
+                ..
+            } => wand::wand_pose(
+                *wand_position,
+                [*wand_yaw_deg, *wand_pitch_deg],
+                *wand_orientation,
+                "tracking.",
+            ),
             _ => Ok(None),
         }
     }
 
     pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
         match self {
-            TrackingConfig::Static { head_yaw_deg, head_pitch_deg, head_roll_deg, head_orientation, .. } => {
-                tracking::head_rotation([*head_yaw_deg, *head_pitch_deg, *head_roll_deg], *head_orientation, "tracking.")
-            }
+            TrackingConfig::Static {
+                head_yaw_deg,
+                head_pitch_deg,
+                head_roll_deg,
+                head_orientation,
+                ..
+            } => tracking::head_rotation(
+                [*head_yaw_deg, *head_pitch_deg, *head_roll_deg],
+                *head_orientation,
+                "tracking.",
+            ),
             _ => Ok(glam::Quat::IDENTITY),
         }
     }
@@ -165,21 +209,39 @@ impl TrackingConfig {
     /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
     /// and wand id) and packet parser; None for static and scripted heads.
     pub fn live(&self) -> Option<LiveSource> {
-        let udp = |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
-            protocol,
-            address: format!("UDP {port}"),
-            calibration,
-            kind: LiveKind::Udp { port: *port, parse },
-        };
+        let udp =
+            |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
+                protocol,
+                address: format!("UDP {port}"),
+                calibration,
+                kind: LiveKind::Udp { port: *port, parse },
+            };
         match self {
-            TrackingConfig::Osc { port, calibration } => Some(udp("OSC", port, calibration.resolve(1.0, 1), osc::parse as live::Parser)),
+            TrackingConfig::Osc { port, calibration } => Some(udp(
+                "OSC",
+                port,
+                calibration.resolve(1.0, 1),
+                osc::parse as live::Parser,
+            )),
             // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
-            TrackingConfig::Dtrack { port, calibration } => Some(udp("DTrack", port, calibration.resolve(0.001, 0), dtrack::parse)),
-            TrackingConfig::Vrpn { server, device, calibration } => Some(LiveSource {
+            TrackingConfig::Dtrack { port, calibration } => Some(udp(
+                "DTrack",
+                port,
+                calibration.resolve(0.001, 0),
+                dtrack::parse,
+            )),
+            TrackingConfig::Vrpn {
+                server,
+                device,
+                calibration,
+            } => Some(LiveSource {
                 protocol: "VRPN",
                 address: format!("{device}@{server}"),
                 calibration: calibration.resolve(1.0, 1),
-                kind: LiveKind::Vrpn { server: server.clone(), device: device.clone() },
+                kind: LiveKind::Vrpn {
+                    server: server.clone(),
+                    device: device.clone(),
+                },
             }),
             _ => None,
         }
@@ -207,7 +269,12 @@ fn default_reset_button() -> u32 {
 
 impl Default for Navigation {
     fn default() -> Self {
-        Navigation { walk_speed: 1.4, turn_speed_deg: 60.0, fly: false, wand_reset_button: default_reset_button() }
+        Navigation {
+            walk_speed: 1.4,
+            turn_speed_deg: 60.0,
+            fly: false,
+            wand_reset_button: default_reset_button(),
+        }
     }
 }
 
@@ -264,7 +331,11 @@ fn mono() -> Stereo {
 
 impl Wall {
     pub fn corners(&self) -> [Vec3; 3] {
-        [Vec3::from(self.lower_left), Vec3::from(self.lower_right), Vec3::from(self.upper_left)]
+        [
+            Vec3::from(self.lower_left),
+            Vec3::from(self.lower_right),
+            Vec3::from(self.upper_left),
+        ]
     }
     /// The eyes drawn on this wall: ("mono", 0) or ("left", -1) and ("right", +1).
     pub fn eyes(&self) -> Vec<(&'static str, f32)> {
@@ -293,8 +364,12 @@ impl DisplayConfig {
     }
 
     pub fn parse(text: &str, path: &Path) -> Result<DisplayConfig> {
-        let err = |message: String| VlfError::Config { path: path.to_path_buf(), message };
-        let config: DisplayConfig = toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+        let err = |message: String| VlfError::Config {
+            path: path.to_path_buf(),
+            message,
+        };
+        let config: DisplayConfig =
+            toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
         config.validate().map_err(err)?;
         Ok(config)
     }
@@ -305,10 +380,17 @@ impl DisplayConfig {
             return Err("[[wall]]: at least one wall is needed".into());
         }
         if !(1..=crate::render::MAX_SAMPLES).contains(&self.antialiasing) {
-            return Err(format!("antialiasing: {} eye rays per pixel: use 1 (off) to {}", self.antialiasing, crate::render::MAX_SAMPLES));
+            return Err(format!(
+                "antialiasing: {} eye rays per pixel: use 1 (off) to {}",
+                self.antialiasing,
+                crate::render::MAX_SAMPLES
+            ));
         }
         if !(self.eye_separation.is_finite() && (0.0..0.2).contains(&self.eye_separation)) {
-            return Err(format!("eye_separation: {} m is not a plausible interpupillary distance (0 to 0.2)", self.eye_separation));
+            return Err(format!(
+                "eye_separation: {} m is not a plausible interpupillary distance (0 to 0.2)",
+                self.eye_separation
+            ));
         }
         let mut names = std::collections::HashSet::new();
         for (i, w) in self.walls.iter().enumerate() {
@@ -322,7 +404,9 @@ impl DisplayConfig {
             }
             let (right, up) = (lr - ll, ul - ll);
             if right.length() < 1e-4 || up.length() < 1e-4 {
-                return Err(format!("{at}.lower_right/upper_left: the wall has zero size"));
+                return Err(format!(
+                    "{at}.lower_right/upper_left: the wall has zero size"
+                ));
             }
             let cos = right.normalize().dot(up.normalize());
             if cos.abs() > 1e-3 {
@@ -332,13 +416,20 @@ impl DisplayConfig {
                 ));
             }
             if w.pixels[0] == 0 || w.pixels[1] == 0 || w.pixels[0] > 16384 || w.pixels[1] > 16384 {
-                return Err(format!("{at}.pixels: {:?} must be 1..16384 each way", w.pixels));
+                return Err(format!(
+                    "{at}.pixels: {:?} must be 1..16384 each way",
+                    w.pixels
+                ));
             }
             if w.output.monitor.is_none() && w.output.window.is_none() {
-                return Err(format!("{at}.output: name a monitor (index or name) or a window position"));
+                return Err(format!(
+                    "{at}.output: name a monitor (index or name) or a window position"
+                ));
             }
         }
-        if !(self.eye_offset.iter().all(|x| x.is_finite()) && Vec3::from(self.eye_offset).length() <= 0.5) {
+        if !(self.eye_offset.iter().all(|x| x.is_finite())
+            && Vec3::from(self.eye_offset).length() <= 0.5)
+        {
             return Err(format!("eye_offset: {:?} must be finite and at most 0.5 m long (it is the offset from the tracked point to the eyes' centre)", self.eye_offset));
         }
         if let TrackingConfig::Static { head, .. } = &self.tracking {
@@ -362,7 +453,10 @@ impl DisplayConfig {
             }
         }
         if self.navigation.wand_reset_button >= 64 {
-            return Err(format!("navigation.wand_reset_button: {} is not a button (0 to 63)", self.navigation.wand_reset_button));
+            return Err(format!(
+                "navigation.wand_reset_button: {} is not a button (0 to 63)",
+                self.navigation.wand_reset_button
+            ));
         }
         Ok(())
     }
@@ -375,7 +469,11 @@ impl DisplayConfig {
                     return Err(format!("wall[{i}] ({:?}).output.monitor: {n} is not a monitor here; there are {} ({})", w.name, monitors.len(), monitors.join(", ")));
                 }
                 Some(MonitorRef::Name(name)) if !monitors.iter().any(|m| m == name) => {
-                    return Err(format!("wall[{i}] ({:?}).output.monitor: no monitor named {name:?}; there are: {}", w.name, monitors.join(", ")));
+                    return Err(format!(
+                        "wall[{i}] ({:?}).output.monitor: no monitor named {name:?}; there are: {}",
+                        w.name,
+                        monitors.join(", ")
+                    ));
                 }
                 _ => {}
             }
@@ -387,11 +485,24 @@ impl DisplayConfig {
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection
 /// and the eye, in the light field's normalised space. The eyes sit at +-IPD/2 along the
 /// tracked head's right axis, `eye_offset` (head frame) from the tracked point.
-pub fn wall_view(config: &DisplayConfig, wall: &Wall, side: f32, pose: &tracking::Pose, norm: &crate::prepare::Normalisation) -> (Mat4, Vec3) {
+pub fn wall_view(
+    config: &DisplayConfig,
+    wall: &Wall,
+    side: f32,
+    pose: &tracking::Pose,
+    norm: &crate::prepare::Normalisation,
+) -> (Mat4, Vec3) {
     let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();
-    let eye = to_unit(pose.room_to_world(pose.eye(Vec3::from(config.eye_offset), config.eye_separation, side)));
+    let eye = to_unit(pose.room_to_world(pose.eye(
+        Vec3::from(config.eye_offset),
+        config.eye_separation,
+        side,
+    )));
     let [ll, lr, ul] = wall.corners().map(|c| to_unit(pose.room_to_world(c)));
     let plane_distance = (ll - eye).dot((lr - ll).cross(ul - ll).normalize()).abs();
     let near = (plane_distance * 0.5).clamp(1e-4, 0.01);
-    (projection::off_axis(ll, lr, ul, eye, near, eye.length() + 4.0).view_proj, eye)
+    (
+        projection::off_axis(ll, lr, ul, eye, near, eye.length() + 4.0).view_proj,
+        eye,
+    )
 }

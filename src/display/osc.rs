@@ -30,7 +30,11 @@ impl LiveTracker {
 }
 
 /// Read one OSC packet (message or bundle) into measurements.
-pub fn parse(packet: &[u8], _calibration: &RoomFromTracker, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
+pub fn parse(
+    packet: &[u8],
+    _calibration: &RoomFromTracker,
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
     let (_, packet) = rosc::decoder::decode_udp(packet).map_err(|e| format!("not OSC ({e:?})"))?;
     collect(&packet, out);
     Ok(())
@@ -62,16 +66,33 @@ fn collect(packet: &rosc::OscPacket, out: &mut Vec<Measurement>) {
             let finite = v.iter().all(|f| f.is_finite());
             let measurement = match (m.addr.as_str(), v.as_slice()) {
                 _ if !finite => None,
-                ("/vlf/head", [x, y, z]) => Some(Measurement::Head { position: Vec3::new(*x, *y, *z), rotation: None }),
+                ("/vlf/head", [x, y, z]) => Some(Measurement::Head {
+                    position: Vec3::new(*x, *y, *z),
+                    rotation: None,
+                }),
                 ("/vlf/head", [x, y, z, q @ ..]) if q.len() == 4 => {
-                    quaternion(q).map(|q| Measurement::Head { position: Vec3::new(*x, *y, *z), rotation: Some(q) })
+                    quaternion(q).map(|q| Measurement::Head {
+                        position: Vec3::new(*x, *y, *z),
+                        rotation: Some(q),
+                    })
                 }
-                ("/vlf/wand", [x, y, z, q @ ..]) if q.len() == 4 => quaternion(q).map(|q| Measurement::Wand { position: Vec3::new(*x, *y, *z), rotation: q }),
+                ("/vlf/wand", [x, y, z, q @ ..]) if q.len() == 4 => {
+                    quaternion(q).map(|q| Measurement::Wand {
+                        position: Vec3::new(*x, *y, *z),
+                        rotation: q,
+                    })
+                }
                 ("/vlf/button", [i, state]) if *i >= 0.0 && *i < 64.0 && i.fract() == 0.0 => {
-                    Some(Measurement::Button { index: *i as u32, pressed: *state != 0.0 })
+                    Some(Measurement::Button {
+                        index: *i as u32,
+                        pressed: *state != 0.0,
+                    })
                 }
                 ("/vlf/joystick", [x, y]) => Some(Measurement::Joystick([*x, *y])),
-                ("/vlf/room", [x, y, z, yaw, ..]) => Some(Measurement::Room { position: Vec3::new(*x, *y, *z), yaw_deg: *yaw }),
+                ("/vlf/room", [x, y, z, yaw, ..]) => Some(Measurement::Room {
+                    position: Vec3::new(*x, *y, *z),
+                    yaw_deg: *yaw,
+                }),
                 _ => None,
             };
             match measurement {

@@ -54,23 +54,38 @@ fn default_colour() -> [f32; 3] {
 
 impl Default for WandRay {
     fn default() -> Self {
-        WandRay { show: true, length: default_length(), radius: default_radius(), min_pixels: default_min_pixels(), colour: default_colour() }
+        WandRay {
+            show: true,
+            length: default_length(),
+            radius: default_radius(),
+            min_pixels: default_min_pixels(),
+            colour: default_colour(),
+        }
     }
 }
 
 impl WandRay {
     pub fn validate(&self) -> std::result::Result<(), String> {
         if !(self.length.is_finite() && self.length > 0.0 && self.length <= 1000.0) {
-            return Err(format!("wand_ray.length: {} m must be more than 0 and at most 1000", self.length));
+            return Err(format!(
+                "wand_ray.length: {} m must be more than 0 and at most 1000",
+                self.length
+            ));
         }
         if !(self.radius.is_finite() && (0.0..=1.0).contains(&self.radius)) {
             return Err(format!("wand_ray.radius: {} m must be 0 to 1", self.radius));
         }
         if !(self.min_pixels.is_finite() && (0.0..=64.0).contains(&self.min_pixels)) {
-            return Err(format!("wand_ray.min_pixels: {} must be 0 to 64", self.min_pixels));
+            return Err(format!(
+                "wand_ray.min_pixels: {} must be 0 to 64",
+                self.min_pixels
+            ));
         }
         if self.colour.iter().any(|c| !(c.is_finite() && *c >= 0.0)) {
-            return Err(format!("wand_ray.colour: {:?} must be linear RGB, each at least 0", self.colour));
+            return Err(format!(
+                "wand_ray.colour: {:?} must be linear RGB, each at least 0",
+                self.colour
+            ));
         }
         Ok(())
     }
@@ -108,7 +123,14 @@ pub struct WandOverlay {
 }
 
 /// The wand's ray on `wall` seen by eye `side` (as `super::wall_view`); None when not shown.
-pub fn wand_overlay(config: &DisplayConfig, wall: &Wall, side: f32, pose: &Pose, wand: Option<&WandPose>, norm: &crate::prepare::Normalisation) -> Option<WandOverlay> {
+pub fn wand_overlay(
+    config: &DisplayConfig,
+    wall: &Wall,
+    side: f32,
+    pose: &Pose,
+    wand: Option<&WandPose>,
+    norm: &crate::prepare::Normalisation,
+) -> Option<WandOverlay> {
     let wand = wand.filter(|_| config.wand_ray.show)?;
     let (view_proj, eye) = super::wall_view(config, wall, side, pose, norm);
     let to_unit = |p: Vec3| norm.to_unit(pose.room_to_world(p).into()).as_vec3();
@@ -163,7 +185,11 @@ impl PostPass {
         let buffer = |binding, ty| wgpu::BindGroupLayoutEntry {
             binding,
             visibility: cs,
-            ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
             count: None,
         };
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -201,9 +227,18 @@ impl PostPass {
     /// An output's resources: its grid and mask uploaded once.
     pub fn output(&self, ctx: &GpuContext, spec: &OutputSpec) -> Output {
         let device = &ctx.device;
-        let storage = |label, bytes: &[u8]| device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage: wgpu::BufferUsages::STORAGE });
+        let storage = |label, bytes: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytes,
+                usage: wgpu::BufferUsages::STORAGE,
+            })
+        };
         let grid = storage("warp grid", bytemuck::cast_slice(&spec.grid.points));
-        let mask = storage("blend mask", bytemuck::cast_slice(spec.mask.as_deref().unwrap_or(&[1.0f32])));
+        let mask = storage(
+            "blend mask",
+            bytemuck::cast_slice(spec.mask.as_deref().unwrap_or(&[1.0f32])),
+        );
         let params = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("warp parameters"),
             size: std::mem::size_of::<GpuWarp>() as u64,
@@ -211,7 +246,13 @@ impl PostPass {
             mapped_at_creation: false,
         });
         use wgpu::TextureUsages as U;
-        let image = texture_2d(device, "output", spec.pixels, COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
+        let image = texture_2d(
+            device,
+            "output",
+            spec.pixels,
+            COLOR_FORMAT,
+            U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
+        );
         let image_view = image.create_view(&Default::default());
         Output {
             name: spec.name.clone(),
@@ -228,7 +269,16 @@ impl PostPass {
 
     /// Encode one output from the wall image `source` (`source_size` pixels). Its parameters are
     /// written now (queue order): submit before encoding the same output again.
-    pub fn encode(&self, ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, source: &wgpu::TextureView, source_size: [u32; 2], output: &Output, wand: Option<&WandOverlay>, timestamps: Option<&mut Timestamps>) {
+    pub fn encode(
+        &self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        source: &wgpu::TextureView,
+        source_size: [u32; 2],
+        output: &Output,
+        wand: Option<&WandOverlay>,
+        timestamps: Option<&mut Timestamps>,
+    ) {
         let mut params = GpuWarp {
             inv_view_proj: Mat4::IDENTITY.to_cols_array_2d(),
             eye: [0.0, 0.0, 0.0, EYE_RAY_LENGTH],
@@ -248,22 +298,45 @@ impl PostPass {
             params.wand_direction = w.direction.extend(w.radius).into();
             params.wand_colour = [w.colour[0], w.colour[1], w.colour[2], w.min_angle];
         }
-        ctx.queue.write_buffer(&output.params, 0, bytemuck::bytes_of(&params));
+        ctx.queue
+            .write_buffer(&output.params, 0, bytemuck::bytes_of(&params));
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("warp"),
             layout: &self.layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: output.params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(source) },
-                wgpu::BindGroupEntry { binding: 2, resource: output.grid.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: output.mask.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&output.image_view) },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: output.params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(source),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: output.grid.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: output.mask.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&output.image_view),
+                },
             ],
         });
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("warp"), timestamp_writes: timestamps.and_then(|t| t.compute_writes()) });
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("warp"),
+            timestamp_writes: timestamps.and_then(|t| t.compute_writes()),
+        });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &bind_group, &[]);
-        pass.dispatch_workgroups(output.pixels[0].div_ceil(8), output.pixels[1].div_ceil(8), 1);
+        pass.dispatch_workgroups(
+            output.pixels[0].div_ceil(8),
+            output.pixels[1].div_ceil(8),
+            1,
+        );
     }
 }
 
@@ -280,38 +353,110 @@ pub fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result<Frame> 
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
     encoder.copy_texture_to_buffer(
         texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo { buffer: &readback, layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(height) } },
-        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
     );
     ctx.queue.submit([encoder.finish()]);
     let raw: Vec<[f32; 4]> = ctx.read_buffer(&readback, padded_row as u64 * height as u64)?;
     let stride = (padded_row / 16) as usize;
-    let pixels = (0..height as usize).flat_map(|row| raw[row * stride..row * stride + width as usize].iter().copied()).collect();
-    Ok(Frame { width, height, pixels })
+    let pixels = (0..height as usize)
+        .flat_map(|row| {
+            raw[row * stride..row * stride + width as usize]
+                .iter()
+                .copied()
+        })
+        .collect();
+    Ok(Frame {
+        width,
+        height,
+        pixels,
+    })
 }
 
 /// Apply one output to an image on the CPU side (uploaded, warped, read back): for tests and
 /// tools; the CAVE keeps everything on the GPU.
-pub fn apply(ctx: &GpuContext, image: &Frame, spec: &OutputSpec, wand: Option<&WandOverlay>) -> Result<Frame> {
-    if image.pixels.len() != (image.width * image.height) as usize || image.width == 0 || image.height == 0 {
-        return Err(VlfError::Parameter { name: "image", message: format!("{} pixels for {}x{}", image.pixels.len(), image.width, image.height) });
+pub fn apply(
+    ctx: &GpuContext,
+    image: &Frame,
+    spec: &OutputSpec,
+    wand: Option<&WandOverlay>,
+) -> Result<Frame> {
+    if image.pixels.len() != (image.width * image.height) as usize
+        || image.width == 0
+        || image.height == 0
+    {
+        return Err(VlfError::Parameter {
+            name: "image",
+            message: format!(
+                "{} pixels for {}x{}",
+                image.pixels.len(),
+                image.width,
+                image.height
+            ),
+        });
     }
-    spec.grid.check().map_err(|message| VlfError::Parameter { name: "warp", message })?;
-    if spec.mask.as_ref().is_some_and(|m| m.len() != (spec.pixels[0] * spec.pixels[1]) as usize) {
-        return Err(VlfError::Parameter { name: "mask", message: format!("the mask is not {}x{} values", spec.pixels[0], spec.pixels[1]) });
+    spec.grid.check().map_err(|message| VlfError::Parameter {
+        name: "warp",
+        message,
+    })?;
+    if spec
+        .mask
+        .as_ref()
+        .is_some_and(|m| m.len() != (spec.pixels[0] * spec.pixels[1]) as usize)
+    {
+        return Err(VlfError::Parameter {
+            name: "mask",
+            message: format!(
+                "the mask is not {}x{} values",
+                spec.pixels[0], spec.pixels[1]
+            ),
+        });
     }
     let pass = PostPass::new(ctx)?;
     use wgpu::TextureUsages as U;
-    let source = texture_2d(&ctx.device, "wall image", [image.width, image.height], COLOR_FORMAT, U::TEXTURE_BINDING | U::COPY_DST);
+    let source = texture_2d(
+        &ctx.device,
+        "wall image",
+        [image.width, image.height],
+        COLOR_FORMAT,
+        U::TEXTURE_BINDING | U::COPY_DST,
+    );
     ctx.queue.write_texture(
         source.as_image_copy(),
         bytemuck::cast_slice(&image.pixels),
-        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(image.width * 16), rows_per_image: Some(image.height) },
-        wgpu::Extent3d { width: image.width, height: image.height, depth_or_array_layers: 1 },
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(image.width * 16),
+            rows_per_image: Some(image.height),
+        },
+        wgpu::Extent3d {
+            width: image.width,
+            height: image.height,
+            depth_or_array_layers: 1,
+        },
     );
     let output = pass.output(ctx, spec);
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    pass.encode(ctx, &mut encoder, &source.create_view(&Default::default()), [image.width, image.height], &output, wand, None);
+    pass.encode(
+        ctx,
+        &mut encoder,
+        &source.create_view(&Default::default()),
+        [image.width, image.height],
+        &output,
+        wand,
+        None,
+    );
     ctx.queue.submit([encoder.finish()]);
     let frame = read_texture(ctx, &output.image)?;
     ctx.check_errors()?;
@@ -320,5 +465,10 @@ pub fn apply(ctx: &GpuContext, image: &Frame, spec: &OutputSpec, wand: Option<&W
 
 /// The whole wall as one output: the identity warp, no mask (the wand's ray only).
 pub fn wall_output(wall: &Wall) -> OutputSpec {
-    OutputSpec { name: String::new(), pixels: wall.eye_pixels(), grid: Grid::identity(), mask: None }
+    OutputSpec {
+        name: String::new(),
+        pixels: wall.eye_pixels(),
+        grid: Grid::identity(),
+        mask: None,
+    }
 }

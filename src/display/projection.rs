@@ -17,7 +17,14 @@ pub struct OffAxis {
     pub view_proj: Mat4,
 }
 
-pub fn off_axis(lower_left: Vec3, lower_right: Vec3, upper_left: Vec3, eye: Vec3, near: f32, far: f32) -> OffAxis {
+pub fn off_axis(
+    lower_left: Vec3,
+    lower_right: Vec3,
+    upper_left: Vec3,
+    eye: Vec3,
+    near: f32,
+    far: f32,
+) -> OffAxis {
     let vr = (lower_right - lower_left).normalize();
     let vu = (upper_left - lower_left).normalize();
     let vn = vr.cross(vu).normalize();
@@ -29,9 +36,23 @@ pub fn off_axis(lower_left: Vec3, lower_right: Vec3, upper_left: Vec3, eye: Vec3
     let (bottom, top) = (vu.dot(va) * scale, vu.dot(vc) * scale);
     let projection = Mat4::frustum_rh(left, right, bottom, top, near, far);
     // rotate the screen's basis onto the axes, then move the eye to the origin
-    let basis = Mat4::from_cols(vr.extend(0.0), vu.extend(0.0), vn.extend(0.0), glam::Vec4::W).transpose();
+    let basis = Mat4::from_cols(
+        vr.extend(0.0),
+        vu.extend(0.0),
+        vn.extend(0.0),
+        glam::Vec4::W,
+    )
+    .transpose();
     let view_proj = projection * basis * Mat4::from_translation(-eye);
-    OffAxis { left, right, bottom, top, near, far, view_proj }
+    OffAxis {
+        left,
+        right,
+        bottom,
+        top,
+        near,
+        far,
+        view_proj,
+    }
 }
 
 /// Where a world point lands on a wall's image, in pixels from the top-left (None behind).
@@ -41,5 +62,8 @@ pub fn project_to_pixel(view_proj: Mat4, p: Vec3, pixels: [u32; 2]) -> Option<(f
         return None;
     }
     let ndc = clip.truncate() / clip.w;
-    Some(((ndc.x + 1.0) * 0.5 * pixels[0] as f32, (1.0 - ndc.y) * 0.5 * pixels[1] as f32))
+    Some((
+        (ndc.x + 1.0) * 0.5 * pixels[0] as f32,
+        (1.0 - ndc.y) * 0.5 * pixels[1] as f32,
+    ))
 }

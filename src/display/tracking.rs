@@ -23,7 +23,12 @@ pub struct Pose {
 impl Pose {
     /// A pose whose head looks along the room's -z.
     pub fn new(head: Vec3, room_position: Vec3, room_yaw_deg: f32) -> Pose {
-        Pose { head, head_rotation: Quat::IDENTITY, room_position, room_yaw_deg }
+        Pose {
+            head,
+            head_rotation: Quat::IDENTITY,
+            room_position,
+            room_yaw_deg,
+        }
     }
     pub fn room_to_world(&self, p: Vec3) -> Vec3 {
         self.room_position + Quat::from_rotation_y(self.room_yaw_deg.to_radians()) * p
@@ -44,13 +49,19 @@ impl Pose {
 /// left), then pitch about the head's right axis (positive looks up), then roll about the
 /// line of sight (positive tilts the head to the left).
 pub fn head_rotation_from_angles(yaw_deg: f32, pitch_deg: f32, roll_deg: f32) -> Quat {
-    Quat::from_rotation_y(yaw_deg.to_radians()) * Quat::from_rotation_x(pitch_deg.to_radians()) * Quat::from_rotation_z(roll_deg.to_radians())
+    Quat::from_rotation_y(yaw_deg.to_radians())
+        * Quat::from_rotation_x(pitch_deg.to_radians())
+        * Quat::from_rotation_z(roll_deg.to_radians())
 }
 
 /// A head orientation given in a configuration either as angles (`<key>_yaw_deg`, `_pitch_deg`,
 /// `_roll_deg`, each 0 when left out) or as a quaternion `<key>_orientation = [x, y, z, w]`
 /// (normalised here); `at` names the keys' table in errors.
-pub fn head_rotation(angles: [Option<f32>; 3], quaternion: Option<[f32; 4]>, at: &str) -> std::result::Result<Quat, String> {
+pub fn head_rotation(
+    angles: [Option<f32>; 3],
+    quaternion: Option<[f32; 4]>,
+    at: &str,
+) -> std::result::Result<Quat, String> {
     match quaternion {
         Some(_) if angles.iter().any(Option::is_some) => {
             Err(format!("{at}head_orientation: give the head's orientation either as a quaternion or as head_yaw_deg/head_pitch_deg/head_roll_deg, not both"))
@@ -98,10 +109,19 @@ pub struct Keyframe {
 
 impl Keyframe {
     fn head_rotation(&self) -> std::result::Result<Quat, String> {
-        head_rotation([self.head_yaw_deg, self.head_pitch_deg, self.head_roll_deg], self.head_orientation, "")
+        head_rotation(
+            [self.head_yaw_deg, self.head_pitch_deg, self.head_roll_deg],
+            self.head_orientation,
+            "",
+        )
     }
     fn wand(&self) -> std::result::Result<Option<WandPose>, String> {
-        super::wand::wand_pose(self.wand_position, [self.wand_yaw_deg, self.wand_pitch_deg], self.wand_orientation, "")
+        super::wand::wand_pose(
+            self.wand_position,
+            [self.wand_yaw_deg, self.wand_pitch_deg],
+            self.wand_orientation,
+            "",
+        )
     }
 }
 
@@ -115,18 +135,30 @@ pub struct ScriptedPath {
 impl ScriptedPath {
     pub fn load(path: &Path) -> Result<ScriptedPath> {
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        let err = |message: String| VlfError::Config { path: path.to_path_buf(), message };
-        let p: ScriptedPath = toml::from_str(&text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+        let err = |message: String| VlfError::Config {
+            path: path.to_path_buf(),
+            message,
+        };
+        let p: ScriptedPath =
+            toml::from_str(&text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
         if p.keyframes.is_empty() {
-            return Err(err("[[keyframe]]: a path needs at least one keyframe".into()));
+            return Err(err(
+                "[[keyframe]]: a path needs at least one keyframe".into()
+            ));
         }
         for (i, k) in p.keyframes.iter().enumerate() {
-            k.head_rotation().map_err(|e| err(format!("keyframe[{i}].{e}")))?;
+            k.head_rotation()
+                .map_err(|e| err(format!("keyframe[{i}].{e}")))?;
             k.wand().map_err(|e| err(format!("keyframe[{i}].{e}")))?;
         }
         for (i, w) in p.keyframes.windows(2).enumerate() {
             if w[1].t <= w[0].t {
-                return Err(err(format!("keyframe[{}].t: times must increase ({} after {})", i + 1, w[1].t, w[0].t)));
+                return Err(err(format!(
+                    "keyframe[{}].t: times must increase ({} after {})",
+                    i + 1,
+                    w[1].t,
+                    w[0].t
+                )));
             }
         }
         Ok(p)
@@ -138,7 +170,11 @@ impl ScriptedPath {
         let k = &self.keyframes;
         let i = k.iter().rposition(|f| f.t <= t).unwrap_or(0);
         let (a, b) = (&k[i], &k[(i + 1).min(k.len() - 1)]);
-        let s = if b.t > a.t { ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 0.0 };
+        let s = if b.t > a.t {
+            ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let lerp = |x: [f32; 3], y: [f32; 3]| Vec3::from(x).lerp(Vec3::from(y), s);
         let rotation = |k: &Keyframe| k.head_rotation().unwrap_or(Quat::IDENTITY);
         Pose {
@@ -156,9 +192,18 @@ impl ScriptedPath {
         let i = k.iter().rposition(|f| f.t <= t).unwrap_or(0);
         let (a, b) = (&k[i], &k[(i + 1).min(k.len() - 1)]);
         let wa = a.wand().ok().flatten()?;
-        let Some(wb) = b.wand().ok().flatten() else { return Some(wa) };
-        let s = if b.t > a.t { ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0) } else { 0.0 };
-        Some(WandPose { position: wa.position.lerp(wb.position, s), rotation: wa.rotation.slerp(wb.rotation, s) })
+        let Some(wb) = b.wand().ok().flatten() else {
+            return Some(wa);
+        };
+        let s = if b.t > a.t {
+            ((t - a.t) / (b.t - a.t)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        Some(WandPose {
+            position: wa.position.lerp(wb.position, s),
+            rotation: wa.rotation.slerp(wb.rotation, s),
+        })
     }
 
     /// Whether any keyframe carries a wand.
@@ -181,18 +226,42 @@ pub enum PoseSource {
 
 impl PoseSource {
     pub fn from_config(config: &DisplayConfig, config_path: &Path) -> Result<PoseSource> {
-        let start = Pose::new(Vec3::ZERO, Vec3::from(config.start_pose.position), config.start_pose.yaw_deg);
+        let start = Pose::new(
+            Vec3::ZERO,
+            Vec3::from(config.start_pose.position),
+            config.start_pose.yaw_deg,
+        );
         match &config.tracking {
             TrackingConfig::Static { head, .. } => {
-                let head_rotation = config.tracking.static_head_rotation().map_err(|message| VlfError::Config { path: config_path.to_path_buf(), message })?;
-                Ok(PoseSource::Static(Pose { head: Vec3::from(*head), head_rotation, ..start }))
+                let head_rotation =
+                    config
+                        .tracking
+                        .static_head_rotation()
+                        .map_err(|message| VlfError::Config {
+                            path: config_path.to_path_buf(),
+                            message,
+                        })?;
+                Ok(PoseSource::Static(Pose {
+                    head: Vec3::from(*head),
+                    head_rotation,
+                    ..start
+                }))
             }
-            TrackingConfig::Scripted { path } => {
-                Ok(PoseSource::Scripted(ScriptedPath::load(&config_path.parent().unwrap_or(Path::new(".")).join(path))?))
-            }
-            TrackingConfig::Osc { .. } | TrackingConfig::Dtrack { .. } | TrackingConfig::Vrpn { .. } => {
-                let start = Pose { head: Vec3::new(0.0, 1.7, 0.0), ..start };
-                let tracker = config.tracking.live().expect("a live source").start(start, config_path)?;
+            TrackingConfig::Scripted { path } => Ok(PoseSource::Scripted(ScriptedPath::load(
+                &config_path.parent().unwrap_or(Path::new(".")).join(path),
+            )?)),
+            TrackingConfig::Osc { .. }
+            | TrackingConfig::Dtrack { .. }
+            | TrackingConfig::Vrpn { .. } => {
+                let start = Pose {
+                    head: Vec3::new(0.0, 1.7, 0.0),
+                    ..start
+                };
+                let tracker = config
+                    .tracking
+                    .live()
+                    .expect("a live source")
+                    .start(start, config_path)?;
                 Ok(PoseSource::Live(std::sync::Mutex::new(tracker)))
             }
         }
@@ -215,7 +284,14 @@ impl PoseSource {
         match self {
             PoseSource::Static(_) => tracking.static_wand().ok().flatten(),
             PoseSource::Scripted(s) => s.wand_at(t),
-            PoseSource::Live(tracker) => tracker.lock().unwrap_or_else(|e| e.into_inner()).latest_state().0.wand,
+            PoseSource::Live(tracker) => {
+                tracker
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner())
+                    .latest_state()
+                    .0
+                    .wand
+            }
         }
     }
 

@@ -30,7 +30,9 @@ const COOKIE: usize = 24;
 pub fn server_address(server: &str) -> std::result::Result<(String, u16), String> {
     match server.rsplit_once(':') {
         Some((host, port)) if !host.is_empty() => {
-            let port = port.parse::<u16>().map_err(|_| format!("{port:?} is not a TCP port"))?;
+            let port = port
+                .parse::<u16>()
+                .map_err(|_| format!("{port:?} is not a TCP port"))?;
             Ok((host.to_string(), port))
         }
         _ if !server.is_empty() => Ok((server.to_string(), DEFAULT_PORT)),
@@ -41,18 +43,30 @@ pub fn server_address(server: &str) -> std::result::Result<(String, u16), String
 impl LiveTracker {
     /// Connect to the VRPN server `server` (`host[:port]`) and follow device `device`'s
     /// tracker, buttons and analogs. `start` is the pose until the first report.
-    pub fn connect_vrpn(server: &str, device: &str, start: Pose, calibration: RoomFromTracker) -> Result<LiveTracker> {
-        let (host, port) = server_address(server).map_err(|e| VlfError::Config { path: server.into(), message: format!("tracking.server: {e}") })?;
+    pub fn connect_vrpn(
+        server: &str,
+        device: &str,
+        start: Pose,
+        calibration: RoomFromTracker,
+    ) -> Result<LiveTracker> {
+        let (host, port) = server_address(server).map_err(|e| VlfError::Config {
+            path: server.into(),
+            message: format!("tracking.server: {e}"),
+        })?;
         let name = format!("VRPN {device}@{host}:{port}");
         let (device, thread_name) = (device.to_string(), name.clone());
-        LiveTracker::spawn_thread("VRPN", name, port, start, calibration, move |feed| run(&host, port, &device, feed, &thread_name))
+        LiveTracker::spawn_thread("VRPN", name, port, start, calibration, move |feed| {
+            run(&host, port, &device, feed, &thread_name)
+        })
     }
 }
 
 fn run(host: &str, port: u16, device: &str, mut feed: Feed, name: &str) {
     let mut warned = false;
     while !feed.stopped() {
-        let Err(e) = session(host, port, device, &mut feed) else { return };
+        let Err(e) = session(host, port, device, &mut feed) else {
+            return;
+        };
         // the first failure is a warning, the retries are not
         if !warned {
             log::warn!("tracking ({name}): {e}; trying again every second");
@@ -68,8 +82,15 @@ fn run(host: &str, port: u16, device: &str, mut feed: Feed, name: &str) {
 }
 
 /// One connection, until the tracker is dropped (Ok) or the connection fails (Err).
-fn session(host: &str, port: u16, device: &str, feed: &mut Feed) -> std::result::Result<(), String> {
-    let addresses = (host, port).to_socket_addrs().map_err(|e| format!("cannot resolve {host}: {e}"))?;
+fn session(
+    host: &str,
+    port: u16,
+    device: &str,
+    feed: &mut Feed,
+) -> std::result::Result<(), String> {
+    let addresses = (host, port)
+        .to_socket_addrs()
+        .map_err(|e| format!("cannot resolve {host}: {e}"))?;
     let mut last = format!("{host} has no address");
     let mut stream = None;
     for a in addresses {
@@ -82,7 +103,10 @@ fn session(host: &str, port: u16, device: &str, feed: &mut Feed) -> std::result:
         }
     }
     let mut stream = stream.ok_or(last)?;
-    stream.set_nodelay(true).and_then(|_| stream.set_read_timeout(Some(Duration::from_millis(100)))).map_err(|e| e.to_string())?;
+    stream
+        .set_nodelay(true)
+        .and_then(|_| stream.set_read_timeout(Some(Duration::from_millis(100))))
+        .map_err(|e| e.to_string())?;
     let mut buf = Vec::new();
     let mut chunk = vec![0u8; 65536];
     let mut cookie_done = false;
@@ -93,7 +117,14 @@ fn session(host: &str, port: u16, device: &str, feed: &mut Feed) -> std::result:
         match stream.read(&mut chunk) {
             Ok(0) => return Err("the VRPN server closed the connection".into()),
             Ok(n) => buf.extend_from_slice(&chunk[..n]),
-            Err(e) if matches!(e.kind(), std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut) => continue,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
+                ) =>
+            {
+                continue
+            }
             Err(e) => return Err(format!("reading from the VRPN server: {e}")),
         }
         let received = Instant::now();
@@ -102,13 +133,21 @@ fn session(host: &str, port: u16, device: &str, feed: &mut Feed) -> std::result:
                 continue;
             }
             let reply = answer_cookie(&buf[..COOKIE])?;
-            stream.write_all(&reply).map_err(|e| format!("writing the cookie: {e}"))?;
+            stream
+                .write_all(&reply)
+                .map_err(|e| format!("writing the cookie: {e}"))?;
             buf.drain(..COOKIE);
             cookie_done = true;
         }
         out.clear();
         let mut at = 0;
-        while let Some(Message { sender, kind, payload, size }) = message(&buf[at..])? {
+        while let Some(Message {
+            sender,
+            kind,
+            payload,
+            size,
+        }) = message(&buf[at..])?
+        {
             match kind {
                 -1 => drop(senders.insert(sender, name(payload)?)),
                 -2 => drop(types.insert(sender, name(payload)?)),
@@ -132,7 +171,10 @@ fn session(host: &str, port: u16, device: &str, feed: &mut Feed) -> std::result:
 /// Check the server's cookie and answer with the same version (remote logging off).
 pub fn answer_cookie(cookie: &[u8]) -> std::result::Result<Vec<u8>, String> {
     if !cookie.starts_with(b"vrpn: ver. 07.") || cookie.len() < 16 {
-        return Err(format!("not a VRPN 07 server (it sent {:?})", String::from_utf8_lossy(&cookie[..cookie.len().min(16)])));
+        return Err(format!(
+            "not a VRPN 07 server (it sent {:?})",
+            String::from_utf8_lossy(&cookie[..cookie.len().min(16)])
+        ));
     }
     let mut reply = cookie[..16].to_vec();
     reply.extend_from_slice(b"  0");
@@ -172,7 +214,12 @@ pub fn message(buf: &[u8]) -> std::result::Result<Option<Message<'_>>, String> {
     if buf.len() < total {
         return Ok(None);
     }
-    Ok(Some(Message { sender: be_i32(buf, 12), kind: be_i32(buf, 16), payload: &buf[HEADER..HEADER + payload], size: total }))
+    Ok(Some(Message {
+        sender: be_i32(buf, 12),
+        kind: be_i32(buf, 16),
+        payload: &buf[HEADER..HEADER + payload],
+        size: total,
+    }))
 }
 
 /// A sender or type description's name.
@@ -181,12 +228,19 @@ fn name(payload: &[u8]) -> std::result::Result<String, String> {
         return Err("a name description without its length".into());
     }
     let n = be_i32(payload, 0).max(1) as usize;
-    let bytes = payload.get(4..4 + n - 1).ok_or("a name description shorter than its length")?;
+    let bytes = payload
+        .get(4..4 + n - 1)
+        .ok_or("a name description shorter than its length")?;
     Ok(String::from_utf8_lossy(bytes).into_owned())
 }
 
 /// One message of the followed device as measurements.
-pub fn decode(kind: &str, p: &[u8], ids: &RoomFromTracker, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
+pub fn decode(
+    kind: &str,
+    p: &[u8],
+    ids: &RoomFromTracker,
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
     let short = || format!("{kind}: {} bytes is too short", p.len());
     match kind {
         "vrpn_Tracker Pos_Quat" => {
@@ -195,13 +249,17 @@ pub fn decode(kind: &str, p: &[u8], ids: &RoomFromTracker, out: &mut Vec<Measure
             }
             let sensor = be_i32(p, 0);
             let position = DVec3::new(be_f64(p, 8), be_f64(p, 16), be_f64(p, 24)).as_vec3();
-            let q = DQuat::from_xyzw(be_f64(p, 32), be_f64(p, 40), be_f64(p, 48), be_f64(p, 56)).as_quat();
+            let q = DQuat::from_xyzw(be_f64(p, 32), be_f64(p, 40), be_f64(p, 48), be_f64(p, 56))
+                .as_quat();
             if !(position.is_finite() && q.is_finite() && q.length() > 1e-3) {
                 return Err(format!("{kind}: sensor {sensor} is not a pose"));
             }
             let rotation = q.normalize();
             if sensor == ids.head_id as i32 {
-                out.push(Measurement::Head { position, rotation: Some(rotation) });
+                out.push(Measurement::Head {
+                    position,
+                    rotation: Some(rotation),
+                });
             } else if sensor == ids.wand_id as i32 {
                 out.push(Measurement::Wand { position, rotation });
             }
@@ -212,22 +270,43 @@ pub fn decode(kind: &str, p: &[u8], ids: &RoomFromTracker, out: &mut Vec<Measure
             }
             let (button, state) = (be_i32(p, 0), be_i32(p, 4));
             if (0..64).contains(&button) {
-                out.push(Measurement::Button { index: button as u32, pressed: state != 0 });
+                out.push(Measurement::Button {
+                    index: button as u32,
+                    pressed: state != 0,
+                });
             }
         }
         "vrpn_Button States" => {
-            let n = if p.len() >= 4 { be_i32(p, 0).clamp(0, 64) as usize } else { return Err(short()) };
+            let n = if p.len() >= 4 {
+                be_i32(p, 0).clamp(0, 64) as usize
+            } else {
+                return Err(short());
+            };
             if p.len() < 4 + 4 * n {
                 return Err(short());
             }
-            out.push(Measurement::Buttons((0..n).filter(|i| be_i32(p, 4 + 4 * i) != 0).fold(0u64, |m, i| m | 1 << i)));
+            out.push(Measurement::Buttons(
+                (0..n)
+                    .filter(|i| be_i32(p, 4 + 4 * i) != 0)
+                    .fold(0u64, |m, i| m | 1 << i),
+            ));
         }
         "vrpn_Analog Channel" => {
-            let n = if p.len() >= 8 { be_f64(p, 0).clamp(0.0, 128.0) as usize } else { return Err(short()) };
+            let n = if p.len() >= 8 {
+                be_f64(p, 0).clamp(0.0, 128.0) as usize
+            } else {
+                return Err(short());
+            };
             if p.len() < 8 + 8 * n {
                 return Err(short());
             }
-            let channel = |i: usize| if i < n { be_f64(p, 8 + 8 * i) as f32 } else { 0.0 };
+            let channel = |i: usize| {
+                if i < n {
+                    be_f64(p, 8 + 8 * i) as f32
+                } else {
+                    0.0
+                }
+            };
             out.push(Measurement::Joystick([channel(0), channel(1)]));
         }
         _ => {}

@@ -24,7 +24,14 @@ fn dead(v: f32) -> f32 {
 /// degrees). Forward moves at `nav.walk_speed` along the wand's pointing direction (its -z),
 /// levelled unless `fly`; right turns right at `nav.turn_speed_deg`, about the tracked head
 /// (its place in the world stays where it is).
-pub fn step(pose: &Pose, wand: &WandPose, joystick: [f32; 2], nav: &Navigation, fly: bool, dt: f32) -> (Vec3, f32) {
+pub fn step(
+    pose: &Pose,
+    wand: &WandPose,
+    joystick: [f32; 2],
+    nav: &Navigation,
+    fly: bool,
+    dt: f32,
+) -> (Vec3, f32) {
     let [x, y] = joystick.map(dead);
     let room = Quat::from_rotation_y(pose.room_yaw_deg.to_radians());
     let mut direction = room * (wand.rotation * Vec3::NEG_Z);
@@ -35,7 +42,10 @@ pub fn step(pose: &Pose, wand: &WandPose, joystick: [f32; 2], nav: &Navigation, 
     let moved = pose.room_position + direction * y * nav.walk_speed * dt;
     let head = moved + room * pose.head;
     let yaw = pose.room_yaw_deg - x * nav.turn_speed_deg * dt;
-    (head - Quat::from_rotation_y(yaw.to_radians()) * pose.head, yaw)
+    (
+        head - Quat::from_rotation_y(yaw.to_radians()) * pose.head,
+        yaw,
+    )
 }
 
 /// Whether `button` went down between two button states (bit i: button i).
@@ -48,15 +58,24 @@ pub fn pressed(before: u64, now: u64, button: u32) -> bool {
 /// `wand_pitch_deg`, positive points up) or a quaternion `wand_orientation = [x, y, z, w]`;
 /// pointing along the room's -z when neither is given. None without a position; `at` names
 /// the keys' table in errors.
-pub fn wand_pose(position: Option<[f32; 3]>, angles: [Option<f32>; 2], orientation: Option<[f32; 4]>, at: &str) -> Result<Option<WandPose>, String> {
+pub fn wand_pose(
+    position: Option<[f32; 3]>,
+    angles: [Option<f32>; 2],
+    orientation: Option<[f32; 4]>,
+    at: &str,
+) -> Result<Option<WandPose>, String> {
     let Some(position) = position else {
         if orientation.is_some() || angles.iter().any(Option::is_some) {
-            return Err(format!("{at}wand_position: a wand orientation is given without the wand's position"));
+            return Err(format!(
+                "{at}wand_position: a wand orientation is given without the wand's position"
+            ));
         }
         return Ok(None);
     };
     if position.iter().any(|x| !x.is_finite()) {
-        return Err(format!("{at}wand_position: {position:?} must be finite (room metres)"));
+        return Err(format!(
+            "{at}wand_position: {position:?} must be finite (room metres)"
+        ));
     }
     let rotation = match orientation {
         Some(_) if angles.iter().any(Option::is_some) => {
@@ -72,10 +91,15 @@ pub fn wand_pose(position: Option<[f32; 3]>, angles: [Option<f32>; 2], orientati
         None => {
             let [yaw, pitch] = angles.map(|a| a.unwrap_or(0.0));
             if !(yaw.is_finite() && pitch.is_finite()) {
-                return Err(format!("{at}wand_yaw_deg/wand_pitch_deg: must be finite numbers of degrees"));
+                return Err(format!(
+                    "{at}wand_yaw_deg/wand_pitch_deg: must be finite numbers of degrees"
+                ));
             }
             Quat::from_rotation_y(yaw.to_radians()) * Quat::from_rotation_x(pitch.to_radians())
         }
     };
-    Ok(Some(WandPose { position: Vec3::from(position), rotation }))
+    Ok(Some(WandPose {
+        position: Vec3::from(position),
+        rotation,
+    }))
 }

@@ -89,9 +89,15 @@ impl Navigator {
     /// Move by keys held and by stick axes `pad` = [strafe right, back, turn right, sink].
     pub(crate) fn step(&mut self, dt: f32, nav: &super::Navigation, pad: [f32; 4], base_yaw: f32) {
         let key = |k: KeyCode| if self.keys.contains(&k) { 1.0f32 } else { 0.0 };
-        let forward = key(KeyCode::KeyW) + key(KeyCode::ArrowUp) - key(KeyCode::KeyS) - key(KeyCode::ArrowDown) - pad[1];
+        let forward = key(KeyCode::KeyW) + key(KeyCode::ArrowUp)
+            - key(KeyCode::KeyS)
+            - key(KeyCode::ArrowDown)
+            - pad[1];
         let strafe = key(KeyCode::KeyD) - key(KeyCode::KeyA) + pad[0];
-        let turn = key(KeyCode::KeyQ) + key(KeyCode::ArrowLeft) - key(KeyCode::KeyE) - key(KeyCode::ArrowRight) - pad[2];
+        let turn = key(KeyCode::KeyQ) + key(KeyCode::ArrowLeft)
+            - key(KeyCode::KeyE)
+            - key(KeyCode::ArrowRight)
+            - pad[2];
         let rise = key(KeyCode::KeyR) - key(KeyCode::KeyF) - pad[3];
         self.yaw_deg += turn * nav.turn_speed_deg * dt + std::mem::take(&mut self.mouse_turn_deg);
         let rotation = Quat::from_rotation_y((base_yaw + self.yaw_deg).to_radians());
@@ -108,7 +114,11 @@ impl Navigator {
     }
 
     pub(crate) fn apply(&self, base: Pose) -> Pose {
-        Pose { room_position: base.room_position + self.offset, room_yaw_deg: base.room_yaw_deg + self.yaw_deg, ..base }
+        Pose {
+            room_position: base.room_position + self.offset,
+            room_yaw_deg: base.room_yaw_deg + self.yaw_deg,
+            ..base
+        }
     }
 
     pub(crate) fn reset(&mut self) {
@@ -126,7 +136,8 @@ impl Navigator {
         self.wand_buttons = state.buttons;
         if let (Some(wand), true) = (&state.wand, live) {
             let pose = self.apply(state.pose);
-            let (position, yaw) = super::wand::step(&pose, wand, state.joystick, nav, self.fly || nav.fly, dt);
+            let (position, yaw) =
+                super::wand::step(&pose, wand, state.joystick, nav, self.fly || nav.fly, dt);
             self.offset += position - pose.room_position;
             self.yaw_deg += yaw - pose.room_yaw_deg;
         }
@@ -134,7 +145,13 @@ impl Navigator {
 }
 
 /// Open the windows and run the frame loop until Esc, closed windows or `options.frames`.
-pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfig, config_path: &Path, options: WindowOptions) -> Result<WindowReport> {
+pub fn run(
+    lf: &LightField,
+    resident: &ResidentLightField,
+    config: &DisplayConfig,
+    config_path: &Path,
+    options: WindowOptions,
+) -> Result<WindowReport> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(VlfError::Display(
             "no display to open windows on (neither DISPLAY nor WAYLAND_DISPLAY is set); run with --headless to render every wall and eye to files, or start a virtual display (Xvfb :99 & export DISPLAY=:99)".into(),
@@ -143,10 +160,18 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
     if config.walls.iter().any(|w| !w.projectors.is_empty()) {
         log::warn!("{}: projector warp and blend are applied by --headless only so far; the windows show each wall's image unwarped", config_path.display());
     }
-    let event_loop = EventLoop::new().map_err(|e| VlfError::Display(format!("cannot open the windowing system: {e}; run with --headless instead")))?;
+    let event_loop = EventLoop::new().map_err(|e| {
+        VlfError::Display(format!(
+            "cannot open the windowing system: {e}; run with --headless instead"
+        ))
+    })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let poses = PoseSource::from_config(config, config_path)?;
-    let wand_pass = if config.wand_ray.show && poses.may_have_wand(&config.tracking) { Some(super::post::PostPass::new(&resident.ctx)?) } else { None };
+    let wand_pass = if config.wand_ray.show && poses.may_have_wand(&config.tracking) {
+        Some(super::post::PostPass::new(&resident.ctx)?)
+    } else {
+        None
+    };
     let mut app = App {
         lf,
         resident,
@@ -164,7 +189,9 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
         overlay: None,
         status: None,
         navigator: Navigator::default(),
-        gamepads: gilrs::Gilrs::new().map_err(|e| log::warn!("gamepads unavailable: {e}")).ok(),
+        gamepads: gilrs::Gilrs::new()
+            .map_err(|e| log::warn!("gamepads unavailable: {e}"))
+            .ok(),
         started: Instant::now(),
         last_frame: Instant::now(),
         frames: 0,
@@ -175,7 +202,9 @@ pub fn run(lf: &LightField, resident: &ResidentLightField, config: &DisplayConfi
         error: None,
         printed_done: false,
     };
-    event_loop.run_app(&mut app).map_err(|e| VlfError::Display(format!("the window loop failed: {e}")))?;
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| VlfError::Display(format!("the window loop failed: {e}")))?;
     if let Some(e) = app.error.take() {
         return Err(e);
     }
@@ -227,9 +256,16 @@ impl App<'_> {
     }
 
     fn open_windows(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
-        let monitors: Vec<winit::monitor::MonitorHandle> = event_loop.available_monitors().collect();
-        let names: Vec<String> = monitors.iter().enumerate().map(|(i, m)| m.name().unwrap_or_else(|| format!("monitor {i}"))).collect();
-        self.config.check_outputs(&names).map_err(VlfError::Display)?;
+        let monitors: Vec<winit::monitor::MonitorHandle> =
+            event_loop.available_monitors().collect();
+        let names: Vec<String> = monitors
+            .iter()
+            .enumerate()
+            .map(|(i, m)| m.name().unwrap_or_else(|| format!("monitor {i}")))
+            .collect();
+        self.config
+            .check_outputs(&names)
+            .map_err(VlfError::Display)?;
         let ctx = self.ctx().clone();
         for (wall_index, wall) in self.config.walls.iter().enumerate() {
             // a wall whose eyes go to separate outputs gets two windows: the right eye on the
@@ -239,37 +275,74 @@ impl App<'_> {
                 _ => vec![("", 0.0, 0)],
             };
             for (suffix, _, shift) in outputs {
-                let title = if suffix.is_empty() { format!("vlf: {}", wall.name) } else { format!("vlf: {} ({suffix} eye)", wall.name) };
+                let title = if suffix.is_empty() {
+                    format!("vlf: {}", wall.name)
+                } else {
+                    format!("vlf: {} ({suffix} eye)", wall.name)
+                };
                 let monitor = match &wall.output.monitor {
-                    Some(MonitorRef::Index(n)) => monitors.get((*n + shift) as usize).or(monitors.get(*n as usize)).cloned(),
-                    Some(MonitorRef::Name(name)) => monitors.iter().zip(&names).find(|(_, n)| *n == name).map(|(m, _)| m.clone()),
+                    Some(MonitorRef::Index(n)) => monitors
+                        .get((*n + shift) as usize)
+                        .or(monitors.get(*n as usize))
+                        .cloned(),
+                    Some(MonitorRef::Name(name)) => monitors
+                        .iter()
+                        .zip(&names)
+                        .find(|(_, n)| *n == name)
+                        .map(|(m, _)| m.clone()),
                     None => None,
                 };
                 let mut attributes = Window::default_attributes()
                     .with_title(title)
-                    .with_inner_size(winit::dpi::PhysicalSize::new(wall.pixels[0], wall.pixels[1]));
-                let origin = monitor.as_ref().map(|m| m.position()).unwrap_or(winit::dpi::PhysicalPosition::new(0, 0));
+                    .with_inner_size(winit::dpi::PhysicalSize::new(
+                        wall.pixels[0],
+                        wall.pixels[1],
+                    ));
+                let origin = monitor
+                    .as_ref()
+                    .map(|m| m.position())
+                    .unwrap_or(winit::dpi::PhysicalPosition::new(0, 0));
                 if let Some([x, y]) = wall.output.window {
                     let x = x + shift as i32 * wall.pixels[0] as i32;
-                    attributes = attributes.with_position(winit::dpi::PhysicalPosition::new(origin.x + x, origin.y + y));
+                    attributes = attributes.with_position(winit::dpi::PhysicalPosition::new(
+                        origin.x + x,
+                        origin.y + y,
+                    ));
                 } else {
                     attributes = attributes.with_position(origin);
                 }
                 if wall.output.fullscreen {
-                    attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(monitor.clone())));
+                    attributes =
+                        attributes.with_fullscreen(Some(Fullscreen::Borderless(monitor.clone())));
                 }
-                let window = Arc::new(event_loop.create_window(attributes).map_err(|e| VlfError::Display(format!("wall {:?}: cannot open a window: {e}", wall.name)))?);
-                let surface = ctx
-                    .instance
-                    .create_surface(window.clone())
-                    .map_err(|e| VlfError::Display(format!("wall {:?}: no GPU surface for its window: {e}", wall.name)))?;
+                let window = Arc::new(event_loop.create_window(attributes).map_err(|e| {
+                    VlfError::Display(format!("wall {:?}: cannot open a window: {e}", wall.name))
+                })?);
+                let surface = ctx.instance.create_surface(window.clone()).map_err(|e| {
+                    VlfError::Display(format!(
+                        "wall {:?}: no GPU surface for its window: {e}",
+                        wall.name
+                    ))
+                })?;
                 if !ctx.adapter.is_surface_supported(&surface) {
-                    return Err(VlfError::Display(format!("the adapter {} cannot present to wall {:?}'s window", ctx.summary.name, wall.name)));
+                    return Err(VlfError::Display(format!(
+                        "the adapter {} cannot present to wall {:?}'s window",
+                        ctx.summary.name, wall.name
+                    )));
                 }
                 let caps = surface.get_capabilities(&ctx.adapter);
-                let format = caps.formats.iter().copied().find(|f| f.is_srgb()).or(caps.formats.first().copied()).ok_or_else(|| {
-                    VlfError::Display(format!("wall {:?}: the window's surface offers no format", wall.name))
-                })?;
+                let format = caps
+                    .formats
+                    .iter()
+                    .copied()
+                    .find(|f| f.is_srgb())
+                    .or(caps.formats.first().copied())
+                    .ok_or_else(|| {
+                        VlfError::Display(format!(
+                            "wall {:?}: the window's surface offers no format",
+                            wall.name
+                        ))
+                    })?;
                 let size = window.inner_size();
                 let surface_config = wgpu::SurfaceConfiguration {
                     usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
@@ -288,11 +361,24 @@ impl App<'_> {
                 }
                 let eyes: Vec<(&'static str, f32, u8)> = match wall.stereo {
                     Stereo::Mono => vec![("mono", 0.0, 0)],
-                    Stereo::Separate => vec![(suffix, if suffix == "left" { -1.0 } else { 1.0 }, 0)],
-                    Stereo::SideBySide | Stereo::TopBottom => vec![("left", -1.0, 1), ("right", 1.0, 2)],
+                    Stereo::Separate => {
+                        vec![(suffix, if suffix == "left" { -1.0 } else { 1.0 }, 0)]
+                    }
+                    Stereo::SideBySide | Stereo::TopBottom => {
+                        vec![("left", -1.0, 1), ("right", 1.0, 2)]
+                    }
                 };
-                let eyes = eyes.into_iter().map(|(eye, side, part)| self.eye_image(wall_index, eye, side, part)).collect::<Result<Vec<_>>>()?;
-                self.windows.push(WallWindow { window, surface, config: surface_config, stereo: wall.stereo, eyes });
+                let eyes = eyes
+                    .into_iter()
+                    .map(|(eye, side, part)| self.eye_image(wall_index, eye, side, part))
+                    .collect::<Result<Vec<_>>>()?;
+                self.windows.push(WallWindow {
+                    window,
+                    surface,
+                    config: surface_config,
+                    stereo: wall.stereo,
+                    eyes,
+                });
             }
         }
         let views: usize = self.windows.iter().map(|w| w.eyes.len()).sum();
@@ -303,19 +389,36 @@ impl App<'_> {
     fn overlay_view(&mut self) -> &wgpu::TextureView {
         if self.overlay.is_none() {
             let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
-            let texture = crate::render::texture_2d(&self.ctx().device, "status overlay", OVERLAY_SIZE, wgpu::TextureFormat::Rgba8Unorm, usage);
+            let texture = crate::render::texture_2d(
+                &self.ctx().device,
+                "status overlay",
+                OVERLAY_SIZE,
+                wgpu::TextureFormat::Rgba8Unorm,
+                usage,
+            );
             let view = texture.create_view(&Default::default());
             self.overlay = Some((texture, view));
         }
         &self.overlay.as_ref().unwrap().1
     }
 
-    fn eye_image(&mut self, wall: usize, eye: &'static str, side: f32, part: u8) -> Result<EyeImage> {
+    fn eye_image(
+        &mut self,
+        wall: usize,
+        eye: &'static str,
+        side: f32,
+        part: u8,
+    ) -> Result<EyeImage> {
         let [w, h] = self.config.walls[wall].eye_pixels();
         let ctx = self.ctx().clone();
         let targets = self.renderer.view_targets(w, h);
-        let wand_output = self.wand_pass.as_ref().map(|pass| pass.output(&ctx, &super::post::wall_output(&self.config.walls[wall])));
-        let shown = wand_output.as_ref().map_or(&targets.image_view, |o| &o.image_view);
+        let wand_output = self
+            .wand_pass
+            .as_ref()
+            .map(|pass| pass.output(&ctx, &super::post::wall_output(&self.config.walls[wall])));
+        let shown = wand_output
+            .as_ref()
+            .map_or(&targets.image_view, |o| &o.image_view);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("present parameters"),
             size: std::mem::size_of::<GpuPresent>() as u64,
@@ -323,21 +426,45 @@ impl App<'_> {
             mapped_at_creation: false,
         });
         let overlay = self.overlay_view().clone();
-        let layout = &self.present.as_ref().expect("present pipeline made with the first window").layout;
+        let layout = &self
+            .present
+            .as_ref()
+            .expect("present pipeline made with the first window")
+            .layout;
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("present"),
             layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(shown) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&overlay) },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(shown),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&overlay),
+                },
             ],
         });
-        Ok(EyeImage { wall, eye, side, part, targets, wand_output, params, bind_group })
+        Ok(EyeImage {
+            wall,
+            eye,
+            side,
+            part,
+            targets,
+            wand_output,
+            params,
+            bind_group,
+        })
     }
 
     fn poll_gamepads(&mut self) -> [f32; 4] {
-        let Some(g) = self.gamepads.as_mut() else { return [0.0; 4] };
+        let Some(g) = self.gamepads.as_mut() else {
+            return [0.0; 4];
+        };
         let mut reset = false;
         while let Some(event) = g.next_event() {
             if let gilrs::EventType::ButtonPressed(gilrs::Button::Start, _) = event.event {
@@ -366,7 +493,14 @@ impl App<'_> {
             return;
         }
         // log a new condition once; the seconds counting up only redraw the line
-        let kind = |t: &Option<String>| t.as_ref().map(|t| t.split(|c: char| c.is_ascii_digit()).next().unwrap_or_default().to_string());
+        let kind = |t: &Option<String>| {
+            t.as_ref().map(|t| {
+                t.split(|c: char| c.is_ascii_digit())
+                    .next()
+                    .unwrap_or_default()
+                    .to_string()
+            })
+        };
         if let (Some(t), true) = (&text, kind(&text) != kind(&self.status)) {
             log::warn!("{t}");
             self.status_messages.push(t.clone());
@@ -381,12 +515,23 @@ impl App<'_> {
         }
         if let Some(t) = &text {
             let pixels = rasterise_status(t);
-            let (texture, _) = self.overlay.as_ref().expect("overlay made with the first window");
+            let (texture, _) = self
+                .overlay
+                .as_ref()
+                .expect("overlay made with the first window");
             self.ctx().queue.write_texture(
                 texture.as_image_copy(),
                 &pixels,
-                wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(OVERLAY_SIZE[0] * 4), rows_per_image: Some(OVERLAY_SIZE[1]) },
-                wgpu::Extent3d { width: OVERLAY_SIZE[0], height: OVERLAY_SIZE[1], depth_or_array_layers: 1 },
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(OVERLAY_SIZE[0] * 4),
+                    rows_per_image: Some(OVERLAY_SIZE[1]),
+                },
+                wgpu::Extent3d {
+                    width: OVERLAY_SIZE[0],
+                    height: OVERLAY_SIZE[1],
+                    depth_or_array_layers: 1,
+                },
             );
         }
         self.status = text;
@@ -405,16 +550,32 @@ impl App<'_> {
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
                 let (state, status) = tracker.latest_state();
-                self.navigator.wand(&state, status == TrackingStatus::Live, &self.config.navigation, dt);
+                self.navigator.wand(
+                    &state,
+                    status == TrackingStatus::Live,
+                    &self.config.navigation,
+                    dt,
+                );
                 (state.pose, Some(status), tracker.take_fresh(), state.wand)
             }
-            other => (other.at(0.0), None, None, other.wand_at(&self.config.tracking, 0.0)),
+            other => (
+                other.at(0.0),
+                None,
+                None,
+                other.wand_at(&self.config.tracking, 0.0),
+            ),
         };
-        self.navigator.step(dt, &self.config.navigation, pad, base.room_yaw_deg);
+        self.navigator
+            .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         let pose = self.navigator.apply(base);
         let status = match (tracking, &self.config.tracking) {
-            (Some(TrackingStatus::Quiet(d)), _) => Some(format!("tracking quiet {:.0} s: holding the last pose", d.as_secs_f32().floor())),
-            (Some(TrackingStatus::Waiting), tracking) => tracking.live().map(|s| format!("tracking: waiting for {} on {}", s.protocol, s.address)),
+            (Some(TrackingStatus::Quiet(d)), _) => Some(format!(
+                "tracking quiet {:.0} s: holding the last pose",
+                d.as_secs_f32().floor()
+            )),
+            (Some(TrackingStatus::Waiting), tracking) => tracking
+                .live()
+                .map(|s| format!("tracking: waiting for {} on {}", s.protocol, s.address)),
             _ => None,
         };
         self.set_status(status);
@@ -422,13 +583,18 @@ impl App<'_> {
         let timed = self.options.frames.is_none_or(|n| self.frames < n);
         let views: usize = self.windows.iter().map(|w| w.eyes.len()).sum();
         let ctx = self.ctx().clone();
-        let mut timestamps = if timed { Timestamps::new(&ctx, views as u32) } else { None };
+        let mut timestamps = if timed {
+            Timestamps::new(&ctx, views as u32)
+        } else {
+            None
+        };
         let started = Instant::now();
         let present = self.present.as_ref().expect("windows open");
         let mut outputs = Vec::new();
         for w in &mut self.windows {
             let texture = match w.surface.get_current_texture() {
-                wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+                wgpu::CurrentSurfaceTexture::Success(t)
+                | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
                 wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
                     let size = w.window.inner_size();
                     w.config.width = size.width.max(1);
@@ -436,19 +602,47 @@ impl App<'_> {
                     w.surface.configure(&ctx.device, &w.config);
                     continue;
                 }
-                wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => continue,
-                wgpu::CurrentSurfaceTexture::Validation => return Err(VlfError::Display("the window's surface failed validation".into())),
+                wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
+                    continue
+                }
+                wgpu::CurrentSurfaceTexture::Validation => {
+                    return Err(VlfError::Display(
+                        "the window's surface failed validation".into(),
+                    ))
+                }
             };
             let (width, height) = (w.config.width as f32, w.config.height as f32);
             for eye in &w.eyes {
                 let wall = &self.config.walls[eye.wall];
-                let (view_proj, eye_position) = super::wall_view(self.config, wall, eye.side, &pose, &self.lf.meta.normalisation);
+                let (view_proj, eye_position) = super::wall_view(
+                    self.config,
+                    wall,
+                    eye.side,
+                    &pose,
+                    &self.lf.meta.normalisation,
+                );
                 self.renderer.set_view_matrix(view_proj, eye_position);
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                self.renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
+                self.renderer
+                    .encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
                 if let (Some(pass), Some(output)) = (&self.wand_pass, &eye.wand_output) {
-                    let overlay = super::post::wand_overlay(self.config, wall, eye.side, &pose, wand.as_ref(), &self.lf.meta.normalisation);
-                    pass.encode(&ctx, &mut encoder, &eye.targets.image_view, [eye.targets.width, eye.targets.height], output, overlay.as_ref(), None);
+                    let overlay = super::post::wand_overlay(
+                        self.config,
+                        wall,
+                        eye.side,
+                        &pose,
+                        wand.as_ref(),
+                        &self.lf.meta.normalisation,
+                    );
+                    pass.encode(
+                        &ctx,
+                        &mut encoder,
+                        &eye.targets.image_view,
+                        [eye.targets.width, eye.targets.height],
+                        output,
+                        overlay.as_ref(),
+                        None,
+                    );
                 }
                 ctx.queue.submit([encoder.finish()]);
                 let (origin, size) = viewport(w.stereo, eye.part, width, height);
@@ -460,12 +654,14 @@ impl App<'_> {
                     show_overlay: (self.status.is_some() && eye.part < 2) as u32,
                     _pad0: 0,
                 };
-                ctx.queue.write_buffer(&eye.params, 0, bytemuck::bytes_of(&params));
+                ctx.queue
+                    .write_buffer(&eye.params, 0, bytemuck::bytes_of(&params));
             }
             let view = texture.texture.create_view(&Default::default());
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
-                let mut pass = present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+                let mut pass =
+                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
                 pass.set_pipeline(&present.pipeline);
                 for eye in &w.eyes {
                     let (origin, size) = viewport(w.stereo, eye.part, width, height);
@@ -518,7 +714,11 @@ impl App<'_> {
         let mut v = 0;
         for w in &self.windows {
             for eye in &w.eyes {
-                let d = self.gpu.get(v).filter(|s| !s.is_empty()).map(|s| Distribution::of(s));
+                let d = self
+                    .gpu
+                    .get(v)
+                    .filter(|s| !s.is_empty())
+                    .map(|s| Distribution::of(s));
                 views.push(super::headless::ViewTiming {
                     wall: self.config.walls[eye.wall].name.clone(),
                     eye: eye.eye.into(),
@@ -537,7 +737,8 @@ impl App<'_> {
             views,
             cpu_frame_ms: (!self.cpu.is_empty()).then(|| Distribution::of(&self.cpu)),
             status_messages: self.status_messages.clone(),
-            tracking_latency_ms: (!self.latency.is_empty()).then(|| Distribution::of(&self.latency)),
+            tracking_latency_ms: (!self.latency.is_empty())
+                .then(|| Distribution::of(&self.latency)),
         }
     }
 }
@@ -562,7 +763,12 @@ impl ApplicationHandler for App<'_> {
         }
     }
 
-    fn window_event(&mut self, event_loop: &ActiveEventLoop, window_id: WindowId, event: WindowEvent) {
+    fn window_event(
+        &mut self,
+        event_loop: &ActiveEventLoop,
+        window_id: WindowId,
+        event: WindowEvent,
+    ) {
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
@@ -574,11 +780,17 @@ impl ApplicationHandler for App<'_> {
                 }
             }
             WindowEvent::KeyboardInput { event, .. } => {
-                let PhysicalKey::Code(code) = event.physical_key else { return };
+                let PhysicalKey::Code(code) = event.physical_key else {
+                    return;
+                };
                 match (code, event.state) {
                     (KeyCode::Escape, ElementState::Pressed) => event_loop.exit(),
-                    (KeyCode::Home | KeyCode::Backspace, ElementState::Pressed) => self.navigator.reset(),
-                    (KeyCode::KeyG, ElementState::Pressed) => self.navigator.fly = !self.navigator.fly,
+                    (KeyCode::Home | KeyCode::Backspace, ElementState::Pressed) => {
+                        self.navigator.reset()
+                    }
+                    (KeyCode::KeyG, ElementState::Pressed) => {
+                        self.navigator.fly = !self.navigator.fly
+                    }
                     (code, ElementState::Pressed) => {
                         self.navigator.keys.insert(code);
                     }
@@ -587,7 +799,11 @@ impl ApplicationHandler for App<'_> {
                     }
                 }
             }
-            WindowEvent::MouseInput { state, button: MouseButton::Left, .. } => {
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Left,
+                ..
+            } => {
                 self.navigator.dragging = state == ElementState::Pressed;
                 self.navigator.last_cursor_x = None;
             }
@@ -595,8 +811,13 @@ impl ApplicationHandler for App<'_> {
                 if self.navigator.dragging {
                     if let Some(last) = self.navigator.last_cursor_x {
                         // a full window width of drag turns the room by 90 degrees
-                        let width = self.windows.iter().find(|w| w.window.id() == window_id).map_or(1000.0, |w| w.config.width as f64);
-                        self.navigator.mouse_turn_deg -= ((position.x - last) / width * 90.0) as f32;
+                        let width = self
+                            .windows
+                            .iter()
+                            .find(|w| w.window.id() == window_id)
+                            .map_or(1000.0, |w| w.config.width as f64);
+                        self.navigator.mouse_turn_deg -=
+                            ((position.x - last) / width * 90.0) as f32;
                     }
                     self.navigator.last_cursor_x = Some(position.x);
                 }
@@ -617,14 +838,21 @@ impl ApplicationHandler for App<'_> {
 
 /// A render pass onto one colour target (a window's surface, a headset's swapchain image),
 /// stored at the end.
-pub(crate) fn present_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, view: &wgpu::TextureView, load: wgpu::LoadOp<wgpu::Color>) -> wgpu::RenderPass<'e> {
+pub(crate) fn present_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
     encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("present"),
         color_attachments: &[Some(wgpu::RenderPassColorAttachment {
             view,
             depth_slice: None,
             resolve_target: None,
-            ops: wgpu::Operations { load, store: wgpu::StoreOp::Store },
+            ops: wgpu::Operations {
+                load,
+                store: wgpu::StoreOp::Store,
+            },
         })],
         depth_stencil_attachment: None,
         timestamp_writes: None,
@@ -633,7 +861,10 @@ pub(crate) fn present_pass<'e>(encoder: &'e mut wgpu::CommandEncoder, view: &wgp
     })
 }
 
-pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) -> Result<PresentPipeline> {
+pub(crate) fn present_pipeline(
+    ctx: &GpuContext,
+    format: wgpu::TextureFormat,
+) -> Result<PresentPipeline> {
     let device = &ctx.device;
     let module = crate::gpu::shaders::module(device, "present.wgsl")?;
     let texture = |binding, filterable| wgpu::BindGroupLayoutEntry {
@@ -652,7 +883,11 @@ pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) ->
             wgpu::BindGroupLayoutEntry {
                 binding: 0,
                 visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer { ty: wgpu::BufferBindingType::Uniform, has_dynamic_offset: false, min_binding_size: None },
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
                 count: None,
             },
             texture(1, false),
@@ -667,7 +902,12 @@ pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) ->
     let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some("present"),
         layout: Some(&pipeline_layout),
-        vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_fullscreen"), compilation_options: Default::default(), buffers: &[] },
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
         primitive: Default::default(),
         depth_stencil: None,
         multisample: Default::default(),
@@ -675,12 +915,20 @@ pub(crate) fn present_pipeline(ctx: &GpuContext, format: wgpu::TextureFormat) ->
             module: &module,
             entry_point: Some("fs_present"),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState { format, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
         }),
         multiview_mask: None,
         cache: None,
     });
-    Ok(PresentPipeline { pipeline, layout, surface_is_srgb: format.is_srgb() })
+    Ok(PresentPipeline {
+        pipeline,
+        layout,
+        surface_is_srgb: format.is_srgb(),
+    })
 }
 
 const OVERLAY_SIZE: [u32; 2] = [720, 30];
@@ -690,7 +938,9 @@ fn rasterise_status(text: &str) -> Vec<u8> {
     use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
     let [w, h] = OVERLAY_SIZE;
     let mut pixels = vec![0u8; (w * h * 4) as usize];
-    let Ok(font) = FontRef::try_from_slice(dejavu::sans::regular()) else { return pixels };
+    let Ok(font) = FontRef::try_from_slice(dejavu::sans::regular()) else {
+        return pixels;
+    };
     let scale = PxScale::from(16.0);
     let scaled = font.as_scaled(scale);
     let mut x = 8.0f32;
@@ -699,11 +949,16 @@ fn rasterise_status(text: &str) -> Vec<u8> {
     for c in text.chars() {
         let glyph = scaled.scaled_glyph(c);
         let advance = scaled.h_advance(glyph.id);
-        let glyph = glyph.id.with_scale_and_position(scale, ab_glyph::point(x, baseline));
+        let glyph = glyph
+            .id
+            .with_scale_and_position(scale, ab_glyph::point(x, baseline));
         if let Some(outline) = font.outline_glyph(glyph) {
             let bounds = outline.px_bounds();
             outline.draw(|gx, gy, c| {
-                let (px, py) = (bounds.min.x as i32 + gx as i32, bounds.min.y as i32 + gy as i32);
+                let (px, py) = (
+                    bounds.min.x as i32 + gx as i32,
+                    bounds.min.y as i32 + gy as i32,
+                );
                 if px >= 0 && py >= 0 && (px as u32) < w && (py as u32) < h {
                     let i = (py as u32 * w + px as u32) as usize;
                     coverage[i] = coverage[i].max(c);
@@ -718,7 +973,12 @@ fn rasterise_status(text: &str) -> Vec<u8> {
             let i = (py * w + px) as usize;
             let c = coverage[i];
             let v = (255.0 * c) as u8;
-            pixels[i * 4..i * 4 + 4].copy_from_slice(&[v.max(0), v, (255.0 * c * 0.6) as u8, (150.0 + 105.0 * c) as u8]);
+            pixels[i * 4..i * 4 + 4].copy_from_slice(&[
+                v.max(0),
+                v,
+                (255.0 * c * 0.6) as u8,
+                (150.0 + 105.0 * c) as u8,
+            ]);
         }
     }
     pixels
@@ -726,7 +986,10 @@ fn rasterise_status(text: &str) -> Vec<u8> {
 
 impl WindowReport {
     pub fn table(&self) -> String {
-        let mut s = format!("  display {} on {}: {} window(s), {} frames timed\n", self.display, self.adapter, self.windows, self.frames);
+        let mut s = format!(
+            "  display {} on {}: {} window(s), {} frames timed\n",
+            self.display, self.adapter, self.windows, self.frames
+        );
         for v in &self.views {
             if let Some(d) = &v.gpu_ms {
                 s.push_str(&format!(
@@ -736,7 +999,10 @@ impl WindowReport {
             }
         }
         if let Some(d) = &self.cpu_frame_ms {
-            s.push_str(&format!("  CPU frame time (all windows presented): median {:.3} ms, p99 {:.3} ms\n", d.median, d.p99));
+            s.push_str(&format!(
+                "  CPU frame time (all windows presented): median {:.3} ms, p99 {:.3} ms\n",
+                d.median, d.p99
+            ));
         }
         if let Some(d) = &self.tracking_latency_ms {
             s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));

@@ -66,7 +66,9 @@ impl GpuContext {
                     ..Default::default()
                 })
                 .await
-                .map_err(|e| VlfError::NoAdapter { detail: e.to_string() })?,
+                .map_err(|e| VlfError::NoAdapter {
+                    detail: e.to_string(),
+                })?,
         };
         let supported = adapter.features();
         let timestamps = supported.contains(wgpu::Features::TIMESTAMP_QUERY);
@@ -92,7 +94,12 @@ impl GpuContext {
 
     /// Wrap a device opened elsewhere (an OpenXR runtime's Vulkan device, see
     /// `display::xr::vulkan`): the same error sink and adapter summary as `new`.
-    pub fn from_device(instance: wgpu::Instance, adapter: wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Arc<GpuContext> {
+    pub fn from_device(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+    ) -> Arc<GpuContext> {
         let info = adapter.get_info();
         let software = info.device_type == wgpu::DeviceType::Cpu
             || info.name.to_lowercase().contains("llvmpipe")
@@ -117,7 +124,16 @@ impl GpuContext {
             device_type: format!("{:?}", info.device_type),
             software,
         };
-        Arc::new(GpuContext { instance, device, queue, adapter, summary, timestamps, timestamp_period_ns, errors })
+        Arc::new(GpuContext {
+            instance,
+            device,
+            queue,
+            adapter,
+            summary,
+            timestamps,
+            timestamp_period_ns,
+            errors,
+        })
     }
 
     pub fn limits(&self) -> wgpu::Limits {
@@ -127,7 +143,9 @@ impl GpuContext {
     /// Refuse a buffer that would not fit one binding, before allocating anything.
     pub fn check_binding(&self, what: &str, bytes: u64, advice: &str) -> Result<()> {
         let limits = self.limits();
-        let max = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let max = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
         if bytes > max {
             return Err(VlfError::GpuBudget(format!(
                 "{what} needs {} but this adapter binds at most {}; {advice}",
@@ -139,7 +157,9 @@ impl GpuContext {
     }
 
     pub fn wait(&self) -> Result<()> {
-        self.device.poll(wgpu::PollType::wait_indefinitely()).map_err(|e| VlfError::Gpu(e.to_string()))?;
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| VlfError::Gpu(e.to_string()))?;
         self.check_errors()
     }
 
@@ -154,7 +174,11 @@ impl GpuContext {
     }
 
     /// Copy a buffer back to the CPU.
-    pub fn read_buffer<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>> {
+    pub fn read_buffer<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        bytes: u64,
+    ) -> Result<Vec<T>> {
         if bytes == 0 {
             return Ok(Vec::new());
         }
@@ -176,7 +200,9 @@ impl GpuContext {
             .map_err(|e| VlfError::Gpu(e.to_string()))?
             .map_err(|e| VlfError::Gpu(format!("read-back failed: {e}")))?;
         let data = {
-            let view = staging.get_mapped_range(..).map_err(|e| VlfError::Gpu(e.to_string()))?;
+            let view = staging
+                .get_mapped_range(..)
+                .map_err(|e| VlfError::Gpu(e.to_string()))?;
             bytemuck::cast_slice::<u8, T>(&view).to_vec()
         };
         staging.unmap();
@@ -189,29 +215,44 @@ impl GpuContext {
         entry: &str,
         layouts: &[&wgpu::BindGroupLayout],
     ) -> wgpu::ComputePipeline {
-        let layouts: Vec<Option<&wgpu::BindGroupLayout>> = layouts.iter().map(|l| Some(*l)).collect();
-        let layout = self.device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(entry),
-            bind_group_layouts: &layouts,
-            immediate_size: 0,
-        });
-        self.device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: Some(&layout),
-            module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        })
+        let layouts: Vec<Option<&wgpu::BindGroupLayout>> =
+            layouts.iter().map(|l| Some(*l)).collect();
+        let layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(entry),
+                bind_group_layouts: &layouts,
+                immediate_size: 0,
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
     }
 
-    pub fn bind_group(&self, layout: &wgpu::BindGroupLayout, buffers: &[&wgpu::Buffer]) -> wgpu::BindGroup {
+    pub fn bind_group(
+        &self,
+        layout: &wgpu::BindGroupLayout,
+        buffers: &[&wgpu::Buffer],
+    ) -> wgpu::BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry { binding: i as u32, resource: b.as_entire_binding() })
+            .map(|(i, b)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: b.as_entire_binding(),
+            })
             .collect();
-        self.device.create_bind_group(&wgpu::BindGroupDescriptor { label: None, layout, entries: &entries })
+        self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: None,
+            layout,
+            entries: &entries,
+        })
     }
 }
 
@@ -228,7 +269,11 @@ pub enum Binding {
 }
 
 /// A bind group layout with one entry per binding, numbered from 0.
-pub fn bind_group_layout(device: &wgpu::Device, visibility: wgpu::ShaderStages, bindings: &[Binding]) -> wgpu::BindGroupLayout {
+pub fn bind_group_layout(
+    device: &wgpu::Device,
+    visibility: wgpu::ShaderStages,
+    bindings: &[Binding],
+) -> wgpu::BindGroupLayout {
     let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
         .iter()
         .enumerate()
@@ -249,7 +294,9 @@ pub fn bind_group_layout(device: &wgpu::Device, visibility: wgpu::ShaderStages, 
                 buffer => wgpu::BindingType::Buffer {
                     ty: match buffer {
                         Binding::Uniform => wgpu::BufferBindingType::Uniform,
-                        Binding::StorageReadWrite => wgpu::BufferBindingType::Storage { read_only: false },
+                        Binding::StorageReadWrite => {
+                            wgpu::BufferBindingType::Storage { read_only: false }
+                        }
                         _ => wgpu::BufferBindingType::Storage { read_only: true },
                     },
                     has_dynamic_offset: false,
@@ -259,7 +306,10 @@ pub fn bind_group_layout(device: &wgpu::Device, visibility: wgpu::ShaderStages, 
             count: None,
         })
         .collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label: None, entries: &entries })
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: None,
+        entries: &entries,
+    })
 }
 
 /// Named GPU allocations, so that reports can say what memory each stage used.
@@ -296,7 +346,13 @@ pub const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
 impl GpuContext {
     /// A storage buffer holding `data`, recorded in `ledger`. Empty data still gets 16 bytes,
     /// since bindings cannot be empty.
-    pub fn buffer_init(&self, ledger: &MemoryLedger, name: &str, data: &[u8], usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    pub fn buffer_init(
+        &self,
+        ledger: &MemoryLedger,
+        name: &str,
+        data: &[u8],
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
         let padded;
         let contents = if data.len() < 16 {
             padded = {
@@ -309,14 +365,30 @@ impl GpuContext {
             data
         };
         ledger.record(name, contents.len() as u64);
-        self.device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(name), contents, usage })
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(name),
+                contents,
+                usage,
+            })
     }
 
     /// A zeroed buffer of `bytes`, recorded in `ledger`.
-    pub fn buffer_zeroed(&self, ledger: &MemoryLedger, name: &str, bytes: u64, usage: wgpu::BufferUsages) -> wgpu::Buffer {
+    pub fn buffer_zeroed(
+        &self,
+        ledger: &MemoryLedger,
+        name: &str,
+        bytes: u64,
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
         let size = bytes.max(16).next_multiple_of(4);
         ledger.record(name, size);
-        self.device.create_buffer(&wgpu::BufferDescriptor { label: Some(name), size, usage, mapped_at_creation: false })
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(name),
+            size,
+            usage,
+            mapped_at_creation: false,
+        })
     }
 }
 
@@ -345,7 +417,12 @@ impl Timestamps {
             usage: wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        Some(Timestamps { query_set, resolve, capacity, used: 0 })
+        Some(Timestamps {
+            query_set,
+            resolve,
+            capacity,
+            used: 0,
+        })
     }
 
     /// The next pair of query indices, or None when full.

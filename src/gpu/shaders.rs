@@ -5,28 +5,76 @@ use crate::error::{Result, VlfError};
 
 /// Every shader file under `shaders/`, by its path relative to that folder.
 pub const SOURCES: &[(&str, &str)] = &[
-    ("common/types.wgsl", include_str!("../../shaders/common/types.wgsl")),
-    ("common/atlas.wgsl", include_str!("../../shaders/common/atlas.wgsl")),
-    ("common/directions.wgsl", include_str!("../../shaders/common/directions.wgsl")),
-    ("common/tiles.wgsl", include_str!("../../shaders/common/tiles.wgsl")),
-    ("common/tile_pages.wgsl", include_str!("../../shaders/common/tile_pages.wgsl")),
-    ("common/upstream.wgsl", include_str!("../../shaders/common/upstream.wgsl")),
-    ("common/bvh.wgsl", include_str!("../../shaders/common/bvh.wgsl")),
-    ("visibility.wgsl", include_str!("../../shaders/visibility.wgsl")),
-    ("propagate.wgsl", include_str!("../../shaders/propagate.wgsl")),
+    (
+        "common/types.wgsl",
+        include_str!("../../shaders/common/types.wgsl"),
+    ),
+    (
+        "common/atlas.wgsl",
+        include_str!("../../shaders/common/atlas.wgsl"),
+    ),
+    (
+        "common/directions.wgsl",
+        include_str!("../../shaders/common/directions.wgsl"),
+    ),
+    (
+        "common/tiles.wgsl",
+        include_str!("../../shaders/common/tiles.wgsl"),
+    ),
+    (
+        "common/tile_pages.wgsl",
+        include_str!("../../shaders/common/tile_pages.wgsl"),
+    ),
+    (
+        "common/upstream.wgsl",
+        include_str!("../../shaders/common/upstream.wgsl"),
+    ),
+    (
+        "common/bvh.wgsl",
+        include_str!("../../shaders/common/bvh.wgsl"),
+    ),
+    (
+        "visibility.wgsl",
+        include_str!("../../shaders/visibility.wgsl"),
+    ),
+    (
+        "propagate.wgsl",
+        include_str!("../../shaders/propagate.wgsl"),
+    ),
     ("direct.wgsl", include_str!("../../shaders/direct.wgsl")),
     ("specular.wgsl", include_str!("../../shaders/specular.wgsl")),
-    ("accumulate.wgsl", include_str!("../../shaders/accumulate.wgsl")),
-    ("normalize.wgsl", include_str!("../../shaders/normalize.wgsl")),
+    (
+        "accumulate.wgsl",
+        include_str!("../../shaders/accumulate.wgsl"),
+    ),
+    (
+        "normalize.wgsl",
+        include_str!("../../shaders/normalize.wgsl"),
+    ),
     ("texture.wgsl", include_str!("../../shaders/texture.wgsl")),
-    ("reference.wgsl", include_str!("../../shaders/reference.wgsl")),
+    (
+        "reference.wgsl",
+        include_str!("../../shaders/reference.wgsl"),
+    ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
     ("warp.wgsl", include_str!("../../shaders/warp.wgsl")),
 ];
 
 /// The stages compiled into pipelines (the `common/` files are only included).
-pub const STAGES: &[&str] = &["visibility.wgsl", "propagate.wgsl", "direct.wgsl", "specular.wgsl", "accumulate.wgsl", "normalize.wgsl", "texture.wgsl", "render.wgsl", "present.wgsl", "warp.wgsl", "reference.wgsl"];
+pub const STAGES: &[&str] = &[
+    "visibility.wgsl",
+    "propagate.wgsl",
+    "direct.wgsl",
+    "specular.wgsl",
+    "accumulate.wgsl",
+    "normalize.wgsl",
+    "texture.wgsl",
+    "render.wgsl",
+    "present.wgsl",
+    "warp.wgsl",
+    "reference.wgsl",
+];
 
 /// A stage's source with its includes expanded, and for each output line its origin.
 pub struct ExpandedShader {
@@ -44,14 +92,20 @@ fn raw_source(name: &str) -> Result<&'static str> {
 }
 
 pub fn expand(name: &str) -> Result<ExpandedShader> {
-    let mut out = ExpandedShader { name: name.to_string(), source: String::new(), line_origin: Vec::new() };
+    let mut out = ExpandedShader {
+        name: name.to_string(),
+        source: String::new(),
+        line_origin: Vec::new(),
+    };
     expand_into(name, &mut out, 0)?;
     Ok(out)
 }
 
 fn expand_into(name: &str, out: &mut ExpandedShader, depth: usize) -> Result<()> {
     if depth > 8 {
-        return Err(VlfError::Gpu(format!("shaders/{name}: #include nested too deeply")));
+        return Err(VlfError::Gpu(format!(
+            "shaders/{name}: #include nested too deeply"
+        )));
     }
     for (index, line) in raw_source(name)?.lines().enumerate() {
         if let Some(rest) = line.trim().strip_prefix("#include") {
@@ -70,13 +124,23 @@ impl ExpandedShader {
     /// Parse and validate with naga; errors name the original file and line.
     pub fn validate(&self) -> std::result::Result<naga::Module, String> {
         let module = naga::front::wgsl::parse_str(&self.source).map_err(|e| {
-            let location = e.location(&self.source).map(|l| self.origin(l.line_number as usize));
-            format!("{}: {}", location.unwrap_or_else(|| format!("shaders/{}", self.name)), e.emit_to_string(&self.source))
+            let location = e
+                .location(&self.source)
+                .map(|l| self.origin(l.line_number as usize));
+            format!(
+                "{}: {}",
+                location.unwrap_or_else(|| format!("shaders/{}", self.name)),
+                e.emit_to_string(&self.source)
+            )
         })?;
-        let mut validator =
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+        let mut validator = naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::default(),
+        );
         validator.validate(&module).map_err(|e| {
-            let location = e.location(&self.source).map(|l| self.origin(l.line_number as usize));
+            let location = e
+                .location(&self.source)
+                .map(|l| self.origin(l.line_number as usize));
             format!(
                 "{}: {}",
                 location.unwrap_or_else(|| format!("shaders/{}", self.name)),

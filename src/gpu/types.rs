@@ -136,17 +136,72 @@ pub struct RenderVertex {
 /// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
 pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 11] {
     [
-        ("GpuAccumulate", "AccumulateParams", std::mem::size_of::<GpuAccumulate>(), "accumulate.wgsl"),
-        ("GpuDirection", "Direction", std::mem::size_of::<GpuDirection>(), "render.wgsl"),
-        ("GpuFace", "Face", std::mem::size_of::<GpuFace>(), "render.wgsl"),
-        ("GpuGrid", "GridParams", std::mem::size_of::<GpuGrid>(), "render.wgsl"),
-        ("GpuView", "View", std::mem::size_of::<GpuView>(), "render.wgsl"),
-        ("GpuPresent", "PresentParams", std::mem::size_of::<GpuPresent>(), "present.wgsl"),
-        ("GpuPageRange", "PageRange", std::mem::size_of::<GpuPageRange>(), "specular.wgsl"),
-        ("GpuRayTriangle", "RayTriangle", std::mem::size_of::<GpuRayTriangle>(), "render.wgsl"),
-        ("GpuEmitter", "Emitter", std::mem::size_of::<GpuEmitter>(), "direct.wgsl"),
-        ("GpuMirrorTriangle", "MirrorTriangle", std::mem::size_of::<GpuMirrorTriangle>(), "direct.wgsl"),
-        ("GpuDirectParams", "DirectParams", std::mem::size_of::<GpuDirectParams>(), "direct.wgsl"),
+        (
+            "GpuAccumulate",
+            "AccumulateParams",
+            std::mem::size_of::<GpuAccumulate>(),
+            "accumulate.wgsl",
+        ),
+        (
+            "GpuDirection",
+            "Direction",
+            std::mem::size_of::<GpuDirection>(),
+            "render.wgsl",
+        ),
+        (
+            "GpuFace",
+            "Face",
+            std::mem::size_of::<GpuFace>(),
+            "render.wgsl",
+        ),
+        (
+            "GpuGrid",
+            "GridParams",
+            std::mem::size_of::<GpuGrid>(),
+            "render.wgsl",
+        ),
+        (
+            "GpuView",
+            "View",
+            std::mem::size_of::<GpuView>(),
+            "render.wgsl",
+        ),
+        (
+            "GpuPresent",
+            "PresentParams",
+            std::mem::size_of::<GpuPresent>(),
+            "present.wgsl",
+        ),
+        (
+            "GpuPageRange",
+            "PageRange",
+            std::mem::size_of::<GpuPageRange>(),
+            "specular.wgsl",
+        ),
+        (
+            "GpuRayTriangle",
+            "RayTriangle",
+            std::mem::size_of::<GpuRayTriangle>(),
+            "render.wgsl",
+        ),
+        (
+            "GpuEmitter",
+            "Emitter",
+            std::mem::size_of::<GpuEmitter>(),
+            "direct.wgsl",
+        ),
+        (
+            "GpuMirrorTriangle",
+            "MirrorTriangle",
+            std::mem::size_of::<GpuMirrorTriangle>(),
+            "direct.wgsl",
+        ),
+        (
+            "GpuDirectParams",
+            "DirectParams",
+            std::mem::size_of::<GpuDirectParams>(),
+            "direct.wgsl",
+        ),
     ]
 }
 
@@ -199,7 +254,6 @@ pub struct GpuMirrorTriangle {
     pub _pad1: u32,
 }
 
-
 /// Mirrors WGSL `RayTriangle` (shaders/render.wgsl): a triangle as the rows of its affine map
 /// from world space to (u, v, w), barycentric u and v and the distance w from its plane.
 #[repr(C)]
@@ -216,9 +270,21 @@ impl GpuRayTriangle {
         let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
         let (e1, e2) = (b - a, c - a);
         let n = e1.cross(e2).normalize_or_zero();
-        let m = glam::DMat4::from_cols(e1.extend(0.0), e2.extend(0.0), n.extend(0.0), a.extend(1.0));
+        let m =
+            glam::DMat4::from_cols(e1.extend(0.0), e2.extend(0.0), n.extend(0.0), a.extend(1.0));
         let inv = m.inverse();
-        let row = |r: usize| [inv.row(r).x as f32, inv.row(r).y as f32, inv.row(r).z as f32, inv.row(r).w as f32];
-        GpuRayTriangle { u: row(0), v: row(1), w: row(2) }
+        let row = |r: usize| {
+            [
+                inv.row(r).x as f32,
+                inv.row(r).y as f32,
+                inv.row(r).z as f32,
+                inv.row(r).w as f32,
+            ]
+        };
+        GpuRayTriangle {
+            u: row(0),
+            v: row(1),
+            w: row(2),
+        }
     }
 }

@@ -17,10 +17,26 @@ fn orientation() -> glam::DQuat {
 }
 
 const ICOSAHEDRON_FACES: [[usize; 3]; 20] = [
-    [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
-    [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-    [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-    [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+    [0, 11, 5],
+    [0, 5, 1],
+    [0, 1, 7],
+    [0, 7, 10],
+    [0, 10, 11],
+    [1, 5, 9],
+    [5, 11, 4],
+    [11, 10, 2],
+    [10, 7, 6],
+    [7, 1, 8],
+    [3, 9, 4],
+    [3, 4, 2],
+    [3, 2, 6],
+    [3, 6, 8],
+    [3, 8, 9],
+    [4, 9, 5],
+    [2, 4, 11],
+    [6, 2, 10],
+    [8, 6, 7],
+    [9, 8, 1],
 ];
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,7 +51,13 @@ impl Direction {
     /// An orthonormal frame (u, v, w) for this direction's grid.
     pub fn frame(&self) -> (DVec3, DVec3) {
         let w = self.w;
-        let helper = if w.x.abs() < 0.6 { DVec3::X } else if w.y.abs() < 0.6 { DVec3::Y } else { DVec3::Z };
+        let helper = if w.x.abs() < 0.6 {
+            DVec3::X
+        } else if w.y.abs() < 0.6 {
+            DVec3::Y
+        } else {
+            DVec3::Z
+        };
         let u = helper.cross(w).normalize();
         let v = w.cross(u);
         (u, v)
@@ -68,9 +90,18 @@ impl DirectionSet {
         assert!(n >= 1, "geodesic frequency must be at least 1");
         let rot = orientation();
         let raw = [
-            (-1.0, PHI, 0.0), (1.0, PHI, 0.0), (-1.0, -PHI, 0.0), (1.0, -PHI, 0.0),
-            (0.0, -1.0, PHI), (0.0, 1.0, PHI), (0.0, -1.0, -PHI), (0.0, 1.0, -PHI),
-            (PHI, 0.0, -1.0), (PHI, 0.0, 1.0), (-PHI, 0.0, -1.0), (-PHI, 0.0, 1.0),
+            (-1.0, PHI, 0.0),
+            (1.0, PHI, 0.0),
+            (-1.0, -PHI, 0.0),
+            (1.0, -PHI, 0.0),
+            (0.0, -1.0, PHI),
+            (0.0, 1.0, PHI),
+            (0.0, -1.0, -PHI),
+            (0.0, 1.0, -PHI),
+            (PHI, 0.0, -1.0),
+            (PHI, 0.0, 1.0),
+            (-PHI, 0.0, -1.0),
+            (-PHI, 0.0, 1.0),
         ];
         let corners = raw.map(|(x, y, z)| rot * DVec3::new(x, y, z).normalize());
         // A point is identified exactly by its integer barycentric weights on icosahedron corners.
@@ -82,10 +113,13 @@ impl DirectionSet {
             for j in 0..=n {
                 for i in 0..=(n - j) {
                     let weights = [(f[0], n - i - j), (f[1], i), (f[2], j)];
-                    let mut key: Vec<(usize, u32)> = weights.iter().copied().filter(|&(_, w)| w > 0).collect();
+                    let mut key: Vec<(usize, u32)> =
+                        weights.iter().copied().filter(|&(_, w)| w > 0).collect();
                     key.sort();
                     let id = *ids.entry(key).or_insert_with(|| {
-                        let p = weights.iter().fold(DVec3::ZERO, |acc, &(c, w)| acc + corners[c] * w as f64);
+                        let p = weights
+                            .iter()
+                            .fold(DVec3::ZERO, |acc, &(c, w)| acc + corners[c] * w as f64);
                         points.push(p.normalize());
                         points.len() as u32 - 1
                     });
@@ -105,7 +139,13 @@ impl DirectionSet {
         let areas = set.voronoi_areas();
         // Pair antipodes; the upper one of each pair represents it.
         let mut by_bits: HashMap<[i64; 3], u32> = HashMap::new();
-        let quant = |p: DVec3| [(p.x * 1e9).round() as i64, (p.y * 1e9).round() as i64, (p.z * 1e9).round() as i64];
+        let quant = |p: DVec3| {
+            [
+                (p.x * 1e9).round() as i64,
+                (p.y * 1e9).round() as i64,
+                (p.z * 1e9).round() as i64,
+            ]
+        };
         for (i, p) in points.iter().enumerate() {
             by_bits.insert(quant(*p), i as u32);
         }
@@ -115,7 +155,10 @@ impl DirectionSet {
             }
             let anti = by_bits[&quant(-*p)] as usize;
             let index = set.directions.len() as u32;
-            set.directions.push(Direction { w: *p, solid_angle: areas[i] });
+            set.directions.push(Direction {
+                w: *p,
+                solid_angle: areas[i],
+            });
             set.point_direction[i] = (index, 1.0);
             set.point_direction[anti] = (index, -1.0);
         }
@@ -159,7 +202,11 @@ impl DirectionSet {
             if o.dot(a + b + c) < 0.0 {
                 o = -o;
             }
-            let (mab, mbc, mca) = ((a + b).normalize(), (b + c).normalize(), (c + a).normalize());
+            let (mab, mbc, mca) = (
+                (a + b).normalize(),
+                (b + c).normalize(),
+                (c + a).normalize(),
+            );
             areas[t[0] as usize] += signed_area(a, mab, o) + signed_area(a, o, mca);
             areas[t[1] as usize] += signed_area(b, mbc, o) + signed_area(b, o, mab);
             areas[t[2] as usize] += signed_area(c, mca, o) + signed_area(c, o, mbc);
@@ -175,7 +222,12 @@ impl DirectionSet {
         // the icosahedron face whose cone holds d: its barycentrics are all >= 0
         let mut best = (0usize, f64::NEG_INFINITY, DVec3::ZERO);
         for (fi, f) in ICOSAHEDRON_FACES.iter().enumerate() {
-            let bary = solve3(self.corners[f[0]], self.corners[f[1]], self.corners[f[2]], d);
+            let bary = solve3(
+                self.corners[f[0]],
+                self.corners[f[1]],
+                self.corners[f[2]],
+                d,
+            );
             let worst = bary.min_element();
             if worst > best.1 {
                 best = (fi, worst, bary);
@@ -199,10 +251,18 @@ impl DirectionSet {
         let [p0, p1, p2] = tri.map(|i| self.points[i as usize]);
         let w = solve3(p0, p1, p2, d).max(DVec3::ZERO);
         let w = w / w.element_sum();
-        let mut out = [DirectionWeight { index: 0, sign: 1.0, weight: 0.0 }; 3];
+        let mut out = [DirectionWeight {
+            index: 0,
+            sign: 1.0,
+            weight: 0.0,
+        }; 3];
         for k in 0..3 {
             let (index, sign) = self.point_direction[tri[k] as usize];
-            out[k] = DirectionWeight { index, sign, weight: w[k] };
+            out[k] = DirectionWeight {
+                index,
+                sign,
+                weight: w[k],
+            };
         }
         out
     }
@@ -212,12 +272,24 @@ impl DirectionSet {
     /// point its direction index with bit 31 set for -w).
     pub fn gpu_tables(&self) -> (Vec<[f32; 4]>, Vec<u32>) {
         let f = |p: DVec3| [p.x as f32, p.y as f32, p.z as f32, 0.0];
-        let points: Vec<[f32; 4]> = self.corners.iter().map(|&c| f(c)).chain(self.points.iter().map(|&p| f(p))).collect();
-        let mut index: Vec<u32> = ICOSAHEDRON_FACES.iter().flat_map(|t| t.map(|c| c as u32)).collect();
+        let points: Vec<[f32; 4]> = self
+            .corners
+            .iter()
+            .map(|&c| f(c))
+            .chain(self.points.iter().map(|&p| f(p)))
+            .collect();
+        let mut index: Vec<u32> = ICOSAHEDRON_FACES
+            .iter()
+            .flat_map(|t| t.map(|c| c as u32))
+            .collect();
         for grid in &self.face_points {
             index.extend_from_slice(grid);
         }
-        index.extend(self.point_direction.iter().map(|&(d, sign)| d | if sign < 0.0 { 1 << 31 } else { 0 }));
+        index.extend(
+            self.point_direction
+                .iter()
+                .map(|&(d, sign)| d | if sign < 0.0 { 1 << 31 } else { 0 }),
+        );
         (points, index)
     }
 
@@ -231,7 +303,9 @@ impl DirectionSet {
             .iter()
             .enumerate()
             .map(|(i, d)| {
-                let mut state = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ (k as u64).wrapping_mul(0xD1B5_4A32_D192_ED03) ^ 0x2545_F491_4F6C_DD1D;
+                let mut state = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                    ^ (k as u64).wrapping_mul(0xD1B5_4A32_D192_ED03)
+                    ^ 0x2545_F491_4F6C_DD1D;
                 let mut next = || {
                     state ^= state << 13;
                     state ^= state >> 7;
@@ -245,14 +319,20 @@ impl DirectionSet {
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
                 let phi = 2.0 * std::f64::consts::PI * next();
                 let w = (d.w * cos_t + (u * phi.cos() + v * phi.sin()) * sin_t).normalize();
-                Direction { w, solid_angle: d.solid_angle }
+                Direction {
+                    w,
+                    solid_angle: d.solid_angle,
+                }
             })
             .collect()
     }
 
     /// Sum over directions of |n.w_i| dw_i: pi for an exact quadrature.
     pub fn cosine_sum(&self, normal: DVec3) -> f64 {
-        self.directions.iter().map(|d| normal.dot(d.w).abs() * d.solid_angle).sum()
+        self.directions
+            .iter()
+            .map(|d| normal.dot(d.w).abs() * d.solid_angle)
+            .sum()
     }
 }
 
@@ -324,8 +404,14 @@ mod tests {
             assert!(taps.iter().all(|t| t.weight >= 0.0));
             assert!((sum - 1.0).abs() < 1e-12);
             // the weighted fixed directions reproduce d's direction closely
-            let mix: DVec3 = taps.iter().map(|t| set.directions[t.index as usize].w * t.sign * t.weight).sum();
-            assert!(mix.normalize().dot(d.normalize()) > 0.99, "lookup of {d} is not local");
+            let mix: DVec3 = taps
+                .iter()
+                .map(|t| set.directions[t.index as usize].w * t.sign * t.weight)
+                .sum();
+            assert!(
+                mix.normalize().dot(d.normalize()) > 0.99,
+                "lookup of {d} is not local"
+            );
         }
     }
 
@@ -335,8 +421,15 @@ mod tests {
         for (i, dir) in set.directions.iter().enumerate() {
             for sign in [1.0, -1.0] {
                 let taps = set.lookup(dir.w * sign);
-                let own = taps.iter().find(|t| t.index == i as u32 && t.sign == sign).expect("finds itself");
-                assert!((own.weight - 1.0).abs() < 1e-6, "direction {i}: weight {}", own.weight);
+                let own = taps
+                    .iter()
+                    .find(|t| t.index == i as u32 && t.sign == sign)
+                    .expect("finds itself");
+                assert!(
+                    (own.weight - 1.0).abs() < 1e-6,
+                    "direction {i}: weight {}",
+                    own.weight
+                );
             }
         }
     }
@@ -361,7 +454,10 @@ mod tests {
         let set = DirectionSet::geodesic(10);
         for n in [DVec3::X, DVec3::Y, DVec3::new(0.3, -0.5, 0.8).normalize()] {
             let s = set.cosine_sum(n);
-            assert!((s / std::f64::consts::PI - 1.0).abs() < 0.02, "cosine sum {s}");
+            assert!(
+                (s / std::f64::consts::PI - 1.0).abs() < 0.02,
+                "cosine sum {s}"
+            );
         }
     }
 }

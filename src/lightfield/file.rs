@@ -12,7 +12,9 @@ pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
 pub const FORMAT_VERSION: u32 = 2;
 /// Metadata, faces, render mesh, texel radiance, then the mirror tiles (empty when diffuse-only):
 /// rectangles, index, radiance.
-const SECTIONS: [&[u8; 4]; 7] = [b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT"];
+const SECTIONS: [&[u8; 4]; 7] = [
+    b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT",
+];
 
 /// The container: magic, version, then (tag, length, CRC32, payload) per section.
 pub fn encode_sections(magic: &[u8; 8], version: u32, sections: &[(&[u8; 4], &[u8])]) -> Vec<u8> {
@@ -32,15 +34,24 @@ pub fn encode_sections(magic: &[u8; 8], version: u32, sections: &[(&[u8; 4], &[u
 /// Write bytes atomically and durably: a temporary file beside the target, fsync, rename,
 /// fsync the folder. `VLF_SAVE_DELAY_MS` (a test hook) waits between writing and renaming.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_else(|| "lightfield.vlf".into());
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_else(|| "lightfield.vlf".into());
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let write = || -> std::io::Result<()> {
         let mut f = std::fs::File::create(&tmp)?;
         f.write_all(bytes)?;
         f.sync_all()?;
         drop(f);
-        if let Some(ms) = std::env::var("VLF_SAVE_DELAY_MS").ok().and_then(|v| v.parse::<u64>().ok()) {
+        if let Some(ms) = std::env::var("VLF_SAVE_DELAY_MS")
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+        {
             std::thread::sleep(std::time::Duration::from_millis(ms));
         }
         std::fs::rename(&tmp, path)?;
@@ -56,11 +67,20 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
 }
 
 /// Read a container written by `encode_sections`, checking magic, version, tags and CRCs.
-pub fn decode_sections<'a>(bytes: &'a [u8], magic: &[u8; 8], version: u32, tags: &[&[u8; 4]], what: &str) -> std::result::Result<Vec<&'a [u8]>, String> {
+pub fn decode_sections<'a>(
+    bytes: &'a [u8],
+    magic: &[u8; 8],
+    version: u32,
+    tags: &[&[u8; 4]],
+    what: &str,
+) -> std::result::Result<Vec<&'a [u8]>, String> {
     let mut r = Reader { bytes, at: 0 };
     let found = r.take(8, "the header")?;
     if found != magic {
-        return Err(format!("wrong magic {:?}: this is not a {what}", String::from_utf8_lossy(found)));
+        return Err(format!(
+            "wrong magic {:?}: this is not a {what}",
+            String::from_utf8_lossy(found)
+        ));
     }
     let found_version = r.u32("the format version")?;
     if found_version != version {
@@ -78,7 +98,10 @@ pub fn decode_sections<'a>(bytes: &'a [u8], magic: &[u8; 8], version: u32, tags:
         let tag = r.take(4, "a section tag")?;
         let name = String::from_utf8_lossy(*expected).to_string();
         if tag != *expected {
-            return Err(format!("expected section {name}, found {:?}", String::from_utf8_lossy(tag)));
+            return Err(format!(
+                "expected section {name}, found {:?}",
+                String::from_utf8_lossy(tag)
+            ));
         }
         let len = r.u64(&format!("section {name}'s length"))?;
         let crc = r.u32(&format!("section {name}'s checksum"))?;
@@ -86,12 +109,17 @@ pub fn decode_sections<'a>(bytes: &'a [u8], magic: &[u8; 8], version: u32, tags:
         let payload = r.take(len, &format!("section {name}"))?;
         let actual = crc32fast::hash(payload);
         if actual != crc {
-            return Err(format!("section {name} is corrupt (checksum {actual:08x}, recorded {crc:08x})"));
+            return Err(format!(
+                "section {name} is corrupt (checksum {actual:08x}, recorded {crc:08x})"
+            ));
         }
         payloads.push(payload);
     }
     if r.at != bytes.len() {
-        return Err(format!("{} unexpected bytes after the last section", bytes.len() - r.at));
+        return Err(format!(
+            "{} unexpected bytes after the last section",
+            bytes.len() - r.at
+        ));
     }
     Ok(payloads)
 }
@@ -99,7 +127,11 @@ pub fn decode_sections<'a>(bytes: &'a [u8], magic: &[u8; 8], version: u32, tags:
 pub fn encode(lf: &LightField) -> Vec<u8> {
     let meta = serde_json::to_vec_pretty(&lf.meta).expect("metadata serialises");
     let (rects, index, tiles): (&[u8], &[u8], &[u8]) = match &lf.tiles {
-        Some(t) => (bytemuck::cast_slice(&t.rects), bytemuck::cast_slice(&t.index), bytemuck::cast_slice(&t.total)),
+        Some(t) => (
+            bytemuck::cast_slice(&t.rects),
+            bytemuck::cast_slice(&t.index),
+            bytemuck::cast_slice(&t.total),
+        ),
         None => (&[], &[], &[]),
     };
     let payloads: [&[u8]; 7] = [
@@ -122,7 +154,10 @@ pub fn save(lf: &LightField, path: &Path) -> Result<()> {
 
 pub fn load(path: &Path) -> Result<LightField> {
     let bytes = std::fs::read(path).map_err(|e| VlfError::io(path, e))?;
-    decode(&bytes).map_err(|message| VlfError::LightFieldFile { path: path.to_path_buf(), message })
+    decode(&bytes).map_err(|message| VlfError::LightFieldFile {
+        path: path.to_path_buf(),
+        message,
+    })
 }
 
 struct Reader<'a> {
@@ -133,7 +168,11 @@ struct Reader<'a> {
 impl<'a> Reader<'a> {
     fn take(&mut self, n: usize, what: &str) -> std::result::Result<&'a [u8], String> {
         if self.bytes.len() - self.at < n {
-            return Err(format!("truncated: {what} needs {n} bytes at offset {}, the file ends at {}", self.at, self.bytes.len()));
+            return Err(format!(
+                "truncated: {what} needs {n} bytes at offset {}, the file ends at {}",
+                self.at,
+                self.bytes.len()
+            ));
         }
         let s = &self.bytes[self.at..self.at + n];
         self.at += n;
@@ -150,15 +189,27 @@ impl<'a> Reader<'a> {
 fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<Vec<T>, String> {
     let size = std::mem::size_of::<T>();
     if !payload.len().is_multiple_of(size) {
-        return Err(format!("section {what} holds {} bytes, not a whole number of {size}-byte records", payload.len()));
+        return Err(format!(
+            "section {what} holds {} bytes, not a whole number of {size}-byte records",
+            payload.len()
+        ));
     }
-    Ok(payload.chunks_exact(size).map(bytemuck::pod_read_unaligned).collect())
+    Ok(payload
+        .chunks_exact(size)
+        .map(bytemuck::pod_read_unaligned)
+        .collect())
 }
 
 pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
-    let payloads = decode_sections(bytes, MAGIC, FORMAT_VERSION, &SECTIONS, "vlf light field file")?;
-    let meta: LightFieldMeta =
-        serde_json::from_slice(payloads[0]).map_err(|e| format!("section META is not valid metadata: {e}"))?;
+    let payloads = decode_sections(
+        bytes,
+        MAGIC,
+        FORMAT_VERSION,
+        &SECTIONS,
+        "vlf light field file",
+    )?;
+    let meta: LightFieldMeta = serde_json::from_slice(payloads[0])
+        .map_err(|e| format!("section META is not valid metadata: {e}"))?;
     let faces: Vec<GpuFace> = pod_vec(payloads[1], "FACE")?;
     let render_vertices: Vec<RenderVertex> = pod_vec(payloads[2], "RVTX")?;
     let total: Vec<[f32; 4]> = pod_vec(payloads[3], "TOTL")?;
@@ -170,11 +221,25 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     } else {
         let directions = meta.direction_count.max(1) as usize;
         if rects.len() % directions != 0 {
-            return Err(format!("{} tile rectangles do not divide among {directions} directions", rects.len()));
+            return Err(format!(
+                "{} tile rectangles do not divide among {directions} directions",
+                rects.len()
+            ));
         }
-        Some(super::TileField { face_count: (rects.len() / directions) as u32, rects, index, total: tile_total })
+        Some(super::TileField {
+            face_count: (rects.len() / directions) as u32,
+            rects,
+            index,
+            total: tile_total,
+        })
     };
-    let lf = LightField { meta, faces, render_vertices, total, tiles };
+    let lf = LightField {
+        meta,
+        faces,
+        render_vertices,
+        total,
+        tiles,
+    };
     check_consistency(&lf)?;
     Ok(lf)
 }
@@ -183,10 +248,17 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
 fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
     let (w, h) = (lf.meta.atlas_width as u64, lf.meta.atlas_height as u64);
     if lf.total.len() as u64 != w * h {
-        return Err(format!("radiance holds {} texels, the atlas is {w} x {h}", lf.total.len()));
+        return Err(format!(
+            "radiance holds {} texels, the atlas is {w} x {h}",
+            lf.total.len()
+        ));
     }
     for (i, f) in lf.faces.iter().enumerate() {
-        if f.atlas_w == 0 || f.atlas_h == 0 || (f.atlas_x + f.atlas_w) as u64 > w || (f.atlas_y + f.atlas_h) as u64 > h {
+        if f.atlas_w == 0
+            || f.atlas_h == 0
+            || (f.atlas_x + f.atlas_w) as u64 > w
+            || (f.atlas_y + f.atlas_h) as u64 > h
+        {
             return Err(format!("face {i}'s texel rectangle lies outside the atlas"));
         }
         if f.twin != crate::gpu::types::NO_FACE && f.twin as usize >= lf.faces.len() {
@@ -196,8 +268,16 @@ fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
     if !lf.render_vertices.len().is_multiple_of(3) {
         return Err("the render mesh is not made of whole triangles".into());
     }
-    if let Some(v) = lf.render_vertices.iter().find(|v| v.face as usize >= lf.faces.len()) {
-        return Err(format!("a render vertex names face {}, but there are {}", v.face, lf.faces.len()));
+    if let Some(v) = lf
+        .render_vertices
+        .iter()
+        .find(|v| v.face as usize >= lf.faces.len())
+    {
+        return Err(format!(
+            "a render vertex names face {}, but there are {}",
+            v.face,
+            lf.faces.len()
+        ));
     }
     if lf.total.iter().flatten().any(|x| !x.is_finite()) {
         return Err("radiance holds NaN or infinite values".into());
@@ -212,11 +292,21 @@ fn check_consistency(lf: &LightField) -> std::result::Result<(), String> {
         Some(t) => {
             let m = lf.meta.params.tile_size as usize;
             if m == 0 || t.total.len() % (m * m) != 0 {
-                return Err(format!("{} tile cells are not whole {m}x{m} tiles", t.total.len()));
+                return Err(format!(
+                    "{} tile cells are not whole {m}x{m} tiles",
+                    t.total.len()
+                ));
             }
             let slots = (t.total.len() / (m * m)) as u32;
-            if let Some(f) = lf.faces.iter().position(|f| f.tile_slot != no_face && f.tile_slot >= t.face_count) {
-                return Err(format!("face {f} names tile slot {}, but there are {}", lf.faces[f].tile_slot, t.face_count));
+            if let Some(f) = lf
+                .faces
+                .iter()
+                .position(|f| f.tile_slot != no_face && f.tile_slot >= t.face_count)
+            {
+                return Err(format!(
+                    "face {f} names tile slot {}, but there are {}",
+                    lf.faces[f].tile_slot, t.face_count
+                ));
             }
             for (i, r) in t.rects.iter().enumerate() {
                 let cells = (r[1] & 0xffff) as usize * (r[1] >> 16) as usize;

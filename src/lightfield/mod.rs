@@ -5,8 +5,8 @@
 
 pub mod atlas_lookup;
 pub mod directions;
-pub mod tiles;
 pub mod file;
+pub mod tiles;
 
 use crate::gpu::types::{GpuFace, RenderVertex};
 use crate::gpu::{GpuContext, MemoryLedger, STORAGE};
@@ -70,7 +70,10 @@ pub fn render_vertices(prepared: &PreparedScene) -> Vec<RenderVertex> {
         }
         for v in t.vertices {
             let p = prepared.positions[v as usize];
-            out.push(RenderVertex { position: [p.x as f32, p.y as f32, p.z as f32], face: t.face });
+            out.push(RenderVertex {
+                position: [p.x as f32, p.y as f32, p.z as f32],
+                face: t.face,
+            });
         }
     }
     out
@@ -99,9 +102,15 @@ impl MirrorChains {
         let mirror = |f: &GpuFace| f.mirror.iter().any(|&m| m > 0.0);
         let mirrors: Vec<usize> = (0..faces.len()).filter(|&i| mirror(&faces[i])).collect();
         if mirrors.is_empty() {
-            return MirrorChains { bounces: 0, tiles_needed: false };
+            return MirrorChains {
+                bounces: 0,
+                tiles_needed: false,
+            };
         }
-        let facing = MirrorChains { bounces: FACING_MIRROR_BOUNCES, tiles_needed: true };
+        let facing = MirrorChains {
+            bounces: FACING_MIRROR_BOUNCES,
+            tiles_needed: true,
+        };
         if mirrors.len() > MIRROR_PAIR_LIMIT {
             return facing;
         }
@@ -117,7 +126,9 @@ impl MirrorChains {
         }
         let in_front = |a: usize, b: usize| {
             let n = glam::Vec3::from(faces[a].normal);
-            corners[b].iter().any(|p| n.dot(*p) - faces[a].plane_offset > 1e-5)
+            corners[b]
+                .iter()
+                .any(|p| n.dot(*p) - faces[a].plane_offset > 1e-5)
         };
         for (k, &a) in mirrors.iter().enumerate() {
             for &b in &mirrors[k + 1..] {
@@ -126,7 +137,10 @@ impl MirrorChains {
                 }
             }
         }
-        MirrorChains { bounces: 1, tiles_needed: false }
+        MirrorChains {
+            bounces: 1,
+            tiles_needed: false,
+        }
     }
 }
 
@@ -138,11 +152,22 @@ impl LightField {
     pub fn camera(&self, name: Option<&str>) -> crate::error::Result<&Camera> {
         let err = |n: &str| crate::error::VlfError::UnknownCamera {
             name: n.to_string(),
-            available: self.meta.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
+            available: self
+                .meta
+                .cameras
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
         };
         match name {
             None => self.meta.cameras.first().ok_or_else(|| err("(default)")),
-            Some(n) => self.meta.cameras.iter().find(|c| c.name == n).ok_or_else(|| err(n)),
+            Some(n) => self
+                .meta
+                .cameras
+                .iter()
+                .find(|c| c.name == n)
+                .ok_or_else(|| err(n)),
         }
     }
 
@@ -150,42 +175,93 @@ impl LightField {
     pub fn upload(&self, ctx: Arc<GpuContext>) -> crate::error::Result<ResidentLightField> {
         let ledger = MemoryLedger::default();
         let limits = ctx.limits();
-        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let max_binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
         let texel_pages = tiles::TilePages::plan_texels(self.total.len() as u64, max_binding)?;
         let faces = ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&self.faces), STORAGE);
         let total = texel_pages
             .ranges()
             .iter()
-            .map(|&(first, n)| ctx.buffer_init(&ledger, "total radiance", bytemuck::cast_slice(&self.total[first as usize..(first + n) as usize]), STORAGE))
+            .map(|&(first, n)| {
+                ctx.buffer_init(
+                    &ledger,
+                    "total radiance",
+                    bytemuck::cast_slice(&self.total[first as usize..(first + n) as usize]),
+                    STORAGE,
+                )
+            })
             .collect();
         // tiles only where rendering reads them (mirrors facing each other)
-        let tiles = match self.tiles.as_ref().filter(|_| self.mirror_chains().tiles_needed) {
+        let tiles = match self
+            .tiles
+            .as_ref()
+            .filter(|_| self.mirror_chains().tiles_needed)
+        {
             None => None,
             Some(t) => {
-            let cells_per_tile = self.meta.params.tile_size * self.meta.params.tile_size;
-            let pages = tiles::TilePages::plan(t.total.len() as u64, cells_per_tile, max_binding)?;
-            let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
-            let (points, index) = set.gpu_tables();
-            let dirs = crate::propagate::gpu_directions(&set.directions);
-            Some(ResidentTiles {
-                rects: ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&t.rects), STORAGE),
-                index: ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&t.index), STORAGE),
-                radiance: pages
-                    .ranges()
-                    .iter()
-                    .map(|&(first, n)| {
-                        let cells = &t.total[first as usize..(first + n) as usize];
-                        ctx.buffer_init(&ledger, "mirror tiles: total radiance", bytemuck::cast_slice(cells), STORAGE)
-                    })
-                    .collect(),
-                pages,
-                geodesic_points: ctx.buffer_init(&ledger, "geodesic tables", bytemuck::cast_slice(&points), STORAGE),
-                geodesic_index: ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
-                directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&dirs), STORAGE),
-            })
+                let cells_per_tile = self.meta.params.tile_size * self.meta.params.tile_size;
+                let pages =
+                    tiles::TilePages::plan(t.total.len() as u64, cells_per_tile, max_binding)?;
+                let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
+                let (points, index) = set.gpu_tables();
+                let dirs = crate::propagate::gpu_directions(&set.directions);
+                Some(ResidentTiles {
+                    rects: ctx.buffer_init(
+                        &ledger,
+                        "tile rectangles",
+                        bytemuck::cast_slice(&t.rects),
+                        STORAGE,
+                    ),
+                    index: ctx.buffer_init(
+                        &ledger,
+                        "tile index",
+                        bytemuck::cast_slice(&t.index),
+                        STORAGE,
+                    ),
+                    radiance: pages
+                        .ranges()
+                        .iter()
+                        .map(|&(first, n)| {
+                            let cells = &t.total[first as usize..(first + n) as usize];
+                            ctx.buffer_init(
+                                &ledger,
+                                "mirror tiles: total radiance",
+                                bytemuck::cast_slice(cells),
+                                STORAGE,
+                            )
+                        })
+                        .collect(),
+                    pages,
+                    geodesic_points: ctx.buffer_init(
+                        &ledger,
+                        "geodesic tables",
+                        bytemuck::cast_slice(&points),
+                        STORAGE,
+                    ),
+                    geodesic_index: ctx.buffer_init(
+                        &ledger,
+                        "geodesic index",
+                        bytemuck::cast_slice(&index),
+                        STORAGE,
+                    ),
+                    directions: ctx.buffer_init(
+                        &ledger,
+                        "directions",
+                        bytemuck::cast_slice(&dirs),
+                        STORAGE,
+                    ),
+                })
             }
         };
-        Ok(ResidentLightField { ctx, faces, total, texel_pages, tiles, ledger })
+        Ok(ResidentLightField {
+            ctx,
+            faces,
+            total,
+            texel_pages,
+            tiles,
+            ledger,
+        })
     }
 }
 

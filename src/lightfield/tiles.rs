@@ -26,18 +26,41 @@ impl TilePages {
     /// each page at most `max_binding` bytes. `VLF_TILE_PAGE_BYTES` lowers the page size
     /// (tests: several pages on a small scene).
     pub fn plan(total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
-        Self::plan_for("the mirror tiles", "VLF_TILE_PAGE_BYTES", total_cells, cells_per_tile, max_binding)
+        Self::plan_for(
+            "the mirror tiles",
+            "VLF_TILE_PAGE_BYTES",
+            total_cells,
+            cells_per_tile,
+            max_binding,
+        )
     }
 
     /// Pages for the texel arrays (16 bytes per texel); `VLF_TEXEL_PAGE_BYTES` lowers the size.
     pub fn plan_texels(texels: u64, max_binding: u64) -> Result<TilePages> {
-        Self::plan_for("the radiance atlas", "VLF_TEXEL_PAGE_BYTES", texels, 1, max_binding)
+        Self::plan_for(
+            "the radiance atlas",
+            "VLF_TEXEL_PAGE_BYTES",
+            texels,
+            1,
+            max_binding,
+        )
     }
 
-    fn plan_for(what: &str, variable: &str, total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
-        let limit = std::env::var(variable).ok().and_then(|v| v.parse::<u64>().ok()).map_or(max_binding, |v| v.min(max_binding));
-        let tiles_per_page = (limit / (16 * cells_per_tile as u64)).clamp(1, (u32::MAX / cells_per_tile) as u64);
-        let page_cells = (tiles_per_page * cells_per_tile as u64).min(total_cells.max(cells_per_tile as u64));
+    fn plan_for(
+        what: &str,
+        variable: &str,
+        total_cells: u64,
+        cells_per_tile: u32,
+        max_binding: u64,
+    ) -> Result<TilePages> {
+        let limit = std::env::var(variable)
+            .ok()
+            .and_then(|v| v.parse::<u64>().ok())
+            .map_or(max_binding, |v| v.min(max_binding));
+        let tiles_per_page =
+            (limit / (16 * cells_per_tile as u64)).clamp(1, (u32::MAX / cells_per_tile) as u64);
+        let page_cells =
+            (tiles_per_page * cells_per_tile as u64).min(total_cells.max(cells_per_tile as u64));
         let pages = total_cells.div_ceil(page_cells).max(1);
         if pages > MAX_TILE_PAGES as u64 {
             return Err(VlfError::GpuBudget(format!(
@@ -46,7 +69,11 @@ impl TilePages {
                 crate::gpu::human_bytes(limit)
             )));
         }
-        Ok(TilePages { page_cells: page_cells as u32, pages: pages as u32, total_cells })
+        Ok(TilePages {
+            page_cells: page_cells as u32,
+            pages: pages as u32,
+            total_cells,
+        })
     }
 
     /// (first cell, cells) of every page.
@@ -54,7 +81,10 @@ impl TilePages {
         (0..self.pages)
             .map(|p| {
                 let first = p as u64 * self.page_cells as u64;
-                (first as u32, (self.total_cells - first).min(self.page_cells as u64) as u32)
+                (
+                    first as u32,
+                    (self.total_cells - first).min(self.page_cells as u64) as u32,
+                )
             })
             .collect()
     }
@@ -100,17 +130,28 @@ impl TileLayout {
         grid_resolution: u32,
         tile_size: u32,
     ) -> TileLayout {
-        let faces: Vec<u32> = (0..non_diffuse.len() as u32).filter(|&f| non_diffuse[f as usize]).collect();
+        let faces: Vec<u32> = (0..non_diffuse.len() as u32)
+            .filter(|&f| non_diffuse[f as usize])
+            .collect();
         let mut face_slot = vec![NO_FACE; non_diffuse.len()];
         for (i, &f) in faces.iter().enumerate() {
             face_slot[f as usize] = i as u32;
         }
-        let mut layout = TileLayout { grid_resolution, tile_size, faces, face_slot, ..Default::default() };
+        let mut layout = TileLayout {
+            grid_resolution,
+            tile_size,
+            faces,
+            face_slot,
+            ..Default::default()
+        };
         if layout.faces.is_empty() {
             return layout;
         }
         // each direction's rectangles are independent: build them on all cores
-        let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(1).min(16);
+        let threads = std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+            .min(16);
         let chunk = directions.len().div_ceil(threads);
         let per_direction: Vec<Vec<(u32, [u32; 4], Vec<bool>)>> = crossbeam::thread::scope(|s| {
             let handles: Vec<_> = directions
@@ -123,7 +164,15 @@ impl TileLayout {
                                 layout
                                     .faces
                                     .iter()
-                                    .map(|&f| overlapped_tiles(d, face_normals[f as usize], &face_triangles[f as usize], grid_resolution, tile_size))
+                                    .map(|&f| {
+                                        overlapped_tiles(
+                                            d,
+                                            face_normals[f as usize],
+                                            &face_triangles[f as usize],
+                                            grid_resolution,
+                                            tile_size,
+                                        )
+                                    })
                                     .map(|(rect, used)| (0, rect, used))
                                     .collect::<Vec<_>>()
                             })
@@ -131,7 +180,10 @@ impl TileLayout {
                     })
                 })
                 .collect();
-            handles.into_iter().flat_map(|h| h.join().unwrap()).collect()
+            handles
+                .into_iter()
+                .flat_map(|h| h.join().unwrap())
+                .collect()
         })
         .unwrap();
         for (dir, rects) in per_direction.into_iter().enumerate() {
@@ -148,7 +200,9 @@ impl TileLayout {
                         layout.index.push(NO_FACE);
                     }
                 }
-                layout.rects.push([rect[0] | rect[1] << 16, rect[2] | rect[3] << 16, first, 0]);
+                layout
+                    .rects
+                    .push([rect[0] | rect[1] << 16, rect[2] | rect[3] << 16, first, 0]);
             }
         }
         layout
@@ -157,12 +211,21 @@ impl TileLayout {
 
 /// The tile rectangle [x0, y0, w, h] of a face's projection along d, and which of its tiles
 /// the projection (widened for bilinear lookups) overlaps.
-fn overlapped_tiles(d: &GpuDirection, normal: DVec3, triangles: &[[DVec3; 3]], n: u32, m: u32) -> ([u32; 4], Vec<bool>) {
+fn overlapped_tiles(
+    d: &GpuDirection,
+    normal: DVec3,
+    triangles: &[[DVec3; 3]],
+    n: u32,
+    m: u32,
+) -> ([u32; 4], Vec<bool>) {
     let w = DVec3::from(d.w.map(|x| x as f64));
     if normal.dot(w).abs() < 1e-6 {
         return ([0; 4], Vec::new());
     }
-    let (u, v) = (DVec3::from(d.u.map(|x| x as f64)), DVec3::from(d.v.map(|x| x as f64)));
+    let (u, v) = (
+        DVec3::from(d.u.map(|x| x as f64)),
+        DVec3::from(d.v.map(|x| x as f64)),
+    );
     let h = 2.0 / n as f64;
     let to_cells = |p: DVec3| DVec2::new((p.dot(u) + 1.0) / h - 0.5, (p.dot(v) + 1.0) / h - 0.5);
     let tris: Vec<[DVec2; 3]> = triangles.iter().map(|t| t.map(to_cells)).collect();
@@ -182,8 +245,14 @@ fn overlapped_tiles(d: &GpuDirection, normal: DVec3, triangles: &[[DVec3; 3]], n
     for ty in y0..=y1 {
         for tx in x0..=x1 {
             // cell centres of this tile span [t*m, t*m + m - 1]
-            let rlo = DVec2::new((tx * m as i64) as f64 - MARGIN, (ty * m as i64) as f64 - MARGIN);
-            let rhi = DVec2::new(((tx + 1) * m as i64 - 1) as f64 + MARGIN, ((ty + 1) * m as i64 - 1) as f64 + MARGIN);
+            let rlo = DVec2::new(
+                (tx * m as i64) as f64 - MARGIN,
+                (ty * m as i64) as f64 - MARGIN,
+            );
+            let rhi = DVec2::new(
+                ((tx + 1) * m as i64 - 1) as f64 + MARGIN,
+                ((ty + 1) * m as i64 - 1) as f64 + MARGIN,
+            );
             used.push(tris.iter().any(|t| triangle_overlaps_rect(t, rlo, rhi)));
         }
     }
@@ -201,9 +270,13 @@ fn triangle_overlaps_rect(t: &[DVec2; 3], lo: DVec2, hi: DVec2) -> bool {
         let e = t[(k + 1) % 3] - t[k];
         let axis = DVec2::new(-e.y, e.x);
         let tri = t.iter().map(|p| p.dot(axis));
-        let (tlo, thi) = tri.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        let (tlo, thi) = tri.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
         let rect = corners.iter().map(|p| p.dot(axis));
-        let (rlo, rhi) = rect.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        let (rlo, rhi) = rect.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+            (a.min(x), b.max(x))
+        });
         if thi < rlo || rhi < tlo {
             return false;
         }

@@ -6,9 +6,9 @@
 //! (the share of the texel the face covers) for power sums.
 
 use super::{PlanarFace, PreparedTriangle};
-use crate::scene::{Material, Texture};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
+use crate::scene::{Material, Texture};
 use glam::{DVec2, DVec3};
 
 pub const PADDING: u32 = 1;
@@ -56,8 +56,18 @@ impl Atlas {
             uv_by_face[t.face as usize].push(t.uv);
         }
         let has_uv = |f: usize| uv_by_face[f].iter().all(|u| u.is_some());
-        let albedo_textured = (0..faces.len()).any(|f| has_uv(f) && materials[faces[f].material as usize].diffuse_texture.is_some());
-        let emission_textured = (0..faces.len()).any(|f| has_uv(f) && materials[faces[f].material as usize].emission_texture.is_some());
+        let albedo_textured = (0..faces.len()).any(|f| {
+            has_uv(f)
+                && materials[faces[f].material as usize]
+                    .diffuse_texture
+                    .is_some()
+        });
+        let emission_textured = (0..faces.len()).any(|f| {
+            has_uv(f)
+                && materials[faces[f].material as usize]
+                    .emission_texture
+                    .is_some()
+        });
         // chart rectangles in face coordinates
         let mut local_min = Vec::with_capacity(faces.len());
         for (f, tris) in faces.iter_mut().zip(&by_face) {
@@ -100,15 +110,24 @@ impl Atlas {
             f.origin = f.normal * f.plane_offset + f.axis_a * lo.x + f.axis_b * lo.y;
             let tris2: Vec<[DVec2; 3]> = by_face[fi]
                 .iter()
-                .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
+                .map(|t| {
+                    t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin)))
+                })
                 .collect();
-            let bounds: Vec<(DVec2, DVec2)> = tris2.iter().map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]))).collect();
+            let bounds: Vec<(DVec2, DVec2)> = tris2
+                .iter()
+                .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+                .collect();
             let r = f.atlas;
             charted_texels += r.w as u64 * r.h as u64;
             let material = &materials[f.material as usize];
             let uvs = &uv_by_face[fi];
-            let texture = |which: Option<u32>| which.filter(|_| has_uv(fi)).map(|t| &textures[t as usize]);
-            let (albedo_map, emission_map) = (texture(material.diffuse_texture), texture(material.emission_texture));
+            let texture =
+                |which: Option<u32>| which.filter(|_| has_uv(fi)).map(|t| &textures[t as usize]);
+            let (albedo_map, emission_map) = (
+                texture(material.diffuse_texture),
+                texture(material.emission_texture),
+            );
             for j in 0..r.h {
                 for i in 0..r.w {
                     let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
@@ -126,18 +145,34 @@ impl Atlas {
                             out[idx] = [c[0], c[1], c[2], 1.0];
                         }
                     }
-                    points[idx] = [p.x as f32, p.y as f32, p.z as f32, f32::from_bits(fi as u32)];
+                    points[idx] = [
+                        p.x as f32,
+                        p.y as f32,
+                        p.z as f32,
+                        f32::from_bits(fi as u32),
+                    ];
                     coverage[idx] = cover as f32;
                 }
             }
         }
-        Ok(Atlas { width, height, points, coverage, charted_texels, texture_albedo, texture_emission })
+        Ok(Atlas {
+            width,
+            height,
+            points,
+            coverage,
+            charted_texels,
+            texture_albedo,
+            texture_emission,
+        })
     }
 }
 
 /// Shelf packing, tallest first. Returns the atlas size and sets each face's rectangle.
 fn pack_shelves(faces: &mut [PlanarFace]) -> (u32, u32) {
-    let area: u64 = faces.iter().map(|f| f.atlas.w as u64 * f.atlas.h as u64).sum();
+    let area: u64 = faces
+        .iter()
+        .map(|f| f.atlas.w as u64 * f.atlas.h as u64)
+        .sum();
     let widest = faces.iter().map(|f| f.atlas.w).max().unwrap_or(1);
     let width = ((area as f64 * 1.1).sqrt().ceil() as u32).max(widest);
     let mut order: Vec<usize> = (0..faces.len()).collect();
@@ -182,21 +217,33 @@ fn interpolate_uv(t: &[DVec2; 3], uv: [[f32; 2]; 3], p: DVec2) -> [f32; 2] {
     let l1 = cross(p - t[0], t[2] - t[0]) / area;
     let l2 = cross(t[1] - t[0], p - t[0]) / area;
     let l0 = 1.0 - l1 - l2;
-    std::array::from_fn(|k| (uv[0][k] as f64 * l0 + uv[1][k] as f64 * l1 + uv[2][k] as f64 * l2) as f32)
+    std::array::from_fn(|k| {
+        (uv[0][k] as f64 * l0 + uv[1][k] as f64 * l1 + uv[2][k] as f64 * l2) as f32
+    })
 }
 
 /// Sample point, coverage and the triangle holding the sample point, for the texel centred at
 /// `centre` with half-size `half`.
 /// `bounds` holds each triangle's bounding box (min, max): only triangles whose box meets the
 /// texel are tested for coverage, which keeps faces of many triangles cheap.
-fn sample_texel(tris: &[[DVec2; 3]], bounds: &[(DVec2, DVec2)], centre: DVec2, half: f64) -> (DVec2, f64, usize) {
+fn sample_texel(
+    tris: &[[DVec2; 3]],
+    bounds: &[(DVec2, DVec2)],
+    centre: DVec2,
+    half: f64,
+) -> (DVec2, f64, usize) {
     const SUB: usize = 4;
     let (texel_lo, texel_hi) = (centre - DVec2::splat(half), centre + DVec2::splat(half));
-    let near: Vec<usize> = (0..tris.len()).filter(|&t| bounds[t].0.cmple(texel_hi).all() && bounds[t].1.cmpge(texel_lo).all()).collect();
+    let near: Vec<usize> = (0..tris.len())
+        .filter(|&t| bounds[t].0.cmple(texel_hi).all() && bounds[t].1.cmpge(texel_lo).all())
+        .collect();
     let mut covered = 0;
     for sj in 0..SUB {
         for si in 0..SUB {
-            let off = DVec2::new((si as f64 + 0.5) / SUB as f64 * 2.0 - 1.0, (sj as f64 + 0.5) / SUB as f64 * 2.0 - 1.0);
+            let off = DVec2::new(
+                (si as f64 + 0.5) / SUB as f64 * 2.0 - 1.0,
+                (sj as f64 + 0.5) / SUB as f64 * 2.0 - 1.0,
+            );
             let p = centre + off * half;
             if near.iter().any(|&t| inside(&tris[t], p)) {
                 covered += 1;

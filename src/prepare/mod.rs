@@ -70,17 +70,28 @@ impl PreparedScene {
     /// `texel_density` is in texels per unit length of the normalised scene.
     pub fn new(scene: &Scene, texel_density: f64) -> Result<PreparedScene> {
         if !(texel_density.is_finite() && texel_density > 0.0) {
-            return Err(VlfError::Parameter { name: "texel-density", message: format!("{texel_density} must be > 0") });
+            return Err(VlfError::Parameter {
+                name: "texel-density",
+                message: format!("{texel_density} must be > 0"),
+            });
         }
         let normalisation = normalise(&scene.positions);
-        let positions: Vec<DVec3> = scene.positions.iter().map(|&p| normalisation.to_unit(p)).collect();
+        let positions: Vec<DVec3> = scene
+            .positions
+            .iter()
+            .map(|&p| normalisation.to_unit(p))
+            .collect();
         let mut warnings = scene.warnings.clone();
         let mut faces = group_charts(scene, &positions);
         let mut triangles: Vec<PreparedTriangle> = Vec::new();
         for (fi, f) in faces.iter().enumerate() {
             for &t in &f.triangles {
                 let tri = &scene.triangles[t as usize];
-                triangles.push(PreparedTriangle { vertices: tri.vertices, face: fi as u32, uv: tri.uv });
+                triangles.push(PreparedTriangle {
+                    vertices: tri.vertices,
+                    face: fi as u32,
+                    uv: tri.uv,
+                });
             }
         }
         // The back of a two-sided surface is a face of its own, wound the other way.
@@ -101,12 +112,26 @@ impl PreparedScene {
                 let tri = &scene.triangles[t as usize];
                 let [a, b, c] = tri.vertices;
                 let uv = tri.uv.map(|[ua, ub, uc]| [ua, uc, ub]);
-                triangles.push(PreparedTriangle { vertices: [a, c, b], face: back_id, uv });
+                triangles.push(PreparedTriangle {
+                    vertices: [a, c, b],
+                    face: back_id,
+                    uv,
+                });
             }
             faces.push(back);
         }
-        let atlas = atlas::Atlas::build(&mut faces, &positions, &triangles, texel_density, &scene.materials, &scene.textures)?;
-        let small = faces.iter().filter(|f| f.atlas.w <= 3 && f.atlas.h <= 3).count();
+        let atlas = atlas::Atlas::build(
+            &mut faces,
+            &positions,
+            &triangles,
+            texel_density,
+            &scene.materials,
+            &scene.textures,
+        )?;
+        let small = faces
+            .iter()
+            .filter(|f| f.atlas.w <= 3 && f.atlas.h <= 3)
+            .count();
         if small > 0 {
             warnings.push(format!(
                 "{small} face(s) are smaller than one texel at texel density {texel_density}: their light is held by the padding texels only"
@@ -143,7 +168,10 @@ fn normalise(positions: &[[f32; 3]]) -> Normalisation {
         .map(|p| (DVec3::from(p.map(|x| x as f64)) - center).length())
         .fold(0.0, f64::max)
         .max(1e-12);
-    Normalisation { center: center.into(), scale: NORMALISED_RADIUS / radius }
+    Normalisation {
+        center: center.into(),
+        scale: NORMALISED_RADIUS / radius,
+    }
 }
 
 fn triangle_geometry(positions: &[DVec3], v: [u32; 3]) -> (DVec3, f64) {
@@ -172,7 +200,10 @@ fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
     edges.sort_unstable();
     let sharing = |key: u64| {
         let first = edges.partition_point(|e| e.0 < key);
-        edges[first..].iter().take_while(move |e| e.0 == key).map(|e| e.1)
+        edges[first..]
+            .iter()
+            .take_while(move |e| e.0 == key)
+            .map(|e| e.1)
     };
     let mut chart_of = vec![u32::MAX; scene.triangles.len()];
     let mut faces = Vec::new();

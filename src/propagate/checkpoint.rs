@@ -59,21 +59,37 @@ impl Checkpoint {
 
     pub fn load(path: &Path) -> Result<Checkpoint> {
         let bytes = std::fs::read(path).map_err(|e| VlfError::io(path, e))?;
-        let err = |message: String| VlfError::LightFieldFile { path: path.to_path_buf(), message };
-        let s = decode_sections(&bytes, MAGIC, VERSION, &SECTIONS, "vlf checkpoint").map_err(err)?;
-        let meta: CheckpointMeta = serde_json::from_slice(s[0]).map_err(|e| err(format!("section META is not valid: {e}")))?;
+        let err = |message: String| VlfError::LightFieldFile {
+            path: path.to_path_buf(),
+            message,
+        };
+        let s =
+            decode_sections(&bytes, MAGIC, VERSION, &SECTIONS, "vlf checkpoint").map_err(err)?;
+        let meta: CheckpointMeta = serde_json::from_slice(s[0])
+            .map_err(|e| err(format!("section META is not valid: {e}")))?;
         let vec = |b: &[u8], name: &str| -> Result<Vec<[f32; 4]>> {
             if b.len() % 16 != 0 {
                 return Err(err(format!("section {name} is not whole texels")));
             }
-            Ok(b.chunks_exact(16).map(bytemuck::pod_read_unaligned).collect())
+            Ok(b.chunks_exact(16)
+                .map(bytemuck::pod_read_unaligned)
+                .collect())
         };
-        Ok(Checkpoint { unshot: vec(s[1], "UNTX")?, total: vec(s[2], "TOTX")?, tile_unshot: vec(s[3], "UNTT")?, tile_total: vec(s[4], "TOTT")?, meta })
+        Ok(Checkpoint {
+            unshot: vec(s[1], "UNTX")?,
+            total: vec(s[2], "TOTX")?,
+            tile_unshot: vec(s[3], "UNTT")?,
+            tile_total: vec(s[4], "TOTT")?,
+            meta,
+        })
     }
 
     /// Refuse a checkpoint of another scene or other settings.
     pub fn check(&self, scene_hash: &str, params: &PropagationParams, path: &Path) -> Result<()> {
-        let err = |message: String| VlfError::LightFieldFile { path: path.to_path_buf(), message };
+        let err = |message: String| VlfError::LightFieldFile {
+            path: path.to_path_buf(),
+            message,
+        };
         if self.meta.scene_hash != scene_hash {
             return Err(err("it was made for another scene (or the scene's files changed); delete it or drop --resume".into()));
         }

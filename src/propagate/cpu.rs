@@ -18,7 +18,11 @@ pub(super) fn v3(a: [f32; 3]) -> Vec3 {
 
 fn to_cell_units(grid: &GpuGrid, p: Vec3, d: &GpuDirection) -> Vec3 {
     let inv_h = 1.0 / grid.cell_size;
-    Vec3::new((p.dot(v3(d.u)) + 1.0) * inv_h - 0.5, (p.dot(v3(d.v)) + 1.0) * inv_h - 0.5, p.dot(v3(d.w)))
+    Vec3::new(
+        (p.dot(v3(d.u)) + 1.0) * inv_h - 0.5,
+        (p.dot(v3(d.v)) + 1.0) * inv_h - 0.5,
+        p.dot(v3(d.w)),
+    )
 }
 
 fn cross2(a: Vec2, b: Vec2) -> f32 {
@@ -60,8 +64,21 @@ fn row_span(ps: [Vec2; 3], y: f32) -> Vec2 {
 }
 
 /// Every (cell, face, depth) fragment of one triangle in one direction.
-fn visit_triangle(grid: &GpuGrid, d: &GpuDirection, dir_index: u32, vertices: &[[f32; 4]], tri: [u32; 4], out: &mut Vec<(u32, [u32; 2])>) {
-    let p = |i: u32| Vec3::new(vertices[i as usize][0], vertices[i as usize][1], vertices[i as usize][2]);
+fn visit_triangle(
+    grid: &GpuGrid,
+    d: &GpuDirection,
+    dir_index: u32,
+    vertices: &[[f32; 4]],
+    tri: [u32; 4],
+    out: &mut Vec<(u32, [u32; 2])>,
+) {
+    let p = |i: u32| {
+        Vec3::new(
+            vertices[i as usize][0],
+            vertices[i as usize][1],
+            vertices[i as usize][2],
+        )
+    };
     let a3 = to_cell_units(grid, p(tri[0]), d);
     let b3 = to_cell_units(grid, p(tri[1]), d);
     let c3 = to_cell_units(grid, p(tri[2]), d);
@@ -103,7 +120,12 @@ fn layer_less(a: [u32; 2], b: [u32; 2]) -> bool {
     da < db || (da == db && a[0] < b[0])
 }
 
-pub fn build_visibility(grid: &GpuGrid, directions: &[GpuDirection], vertices: &[[f32; 4]], triangles: &[[u32; 4]]) -> CpuVisibility {
+pub fn build_visibility(
+    grid: &GpuGrid,
+    directions: &[GpuDirection],
+    vertices: &[[f32; 4]],
+    triangles: &[[u32; 4]],
+) -> CpuVisibility {
     let cells = (grid.resolution * grid.resolution * grid.direction_count) as usize;
     let mut fragments = Vec::new();
     for (di, d) in directions.iter().enumerate() {
@@ -129,9 +151,21 @@ pub fn build_visibility(grid: &GpuGrid, directions: &[GpuDirection], vertices: &
     }
     for i in 0..cells {
         let list = &mut layers[cell_offset[i] as usize..(cell_offset[i] + cell_count[i]) as usize];
-        list.sort_by(|a, b| if layer_less(*a, *b) { std::cmp::Ordering::Less } else if layer_less(*b, *a) { std::cmp::Ordering::Greater } else { std::cmp::Ordering::Equal });
+        list.sort_by(|a, b| {
+            if layer_less(*a, *b) {
+                std::cmp::Ordering::Less
+            } else if layer_less(*b, *a) {
+                std::cmp::Ordering::Greater
+            } else {
+                std::cmp::Ordering::Equal
+            }
+        });
     }
-    CpuVisibility { cell_offset, cell_count, layers }
+    CpuVisibility {
+        cell_offset,
+        cell_count,
+        layers,
+    }
 }
 
 /// Inputs of one gather pass.
@@ -154,7 +188,9 @@ impl GatherInputs<'_> {
     fn find_in_cell(&self, cell: u32, face: u32) -> i32 {
         let start = self.visibility.cell_offset[cell as usize];
         let n = self.visibility.cell_count[cell as usize];
-        (0..n).find(|&k| self.visibility.layers[(start + k) as usize][0] == face).map_or(-1, |k| k as i32)
+        (0..n)
+            .find(|&k| self.visibility.layers[(start + k) as usize][0] == face)
+            .map_or(-1, |k| k as i32)
     }
 
     fn upstream_of_entry(&self, cell: u32, k: u32, forward: bool) -> u32 {
@@ -164,9 +200,16 @@ impl GatherInputs<'_> {
         let own_depth = Self::layer_depth(layers[(start + k) as usize]);
         let eps = self.grid.depth_epsilon;
         if forward {
-            (0..k).rev().map(|j| layers[(start + j) as usize]).find(|l| (Self::layer_depth(*l) - own_depth).abs() > eps).map_or(NO_FACE, |l| l[0])
+            (0..k)
+                .rev()
+                .map(|j| layers[(start + j) as usize])
+                .find(|l| (Self::layer_depth(*l) - own_depth).abs() > eps)
+                .map_or(NO_FACE, |l| l[0])
         } else {
-            (k + 1..n).map(|j| layers[(start + j) as usize]).find(|l| (Self::layer_depth(*l) - own_depth).abs() > eps).map_or(NO_FACE, |l| l[0])
+            (k + 1..n)
+                .map(|j| layers[(start + j) as usize])
+                .find(|l| (Self::layer_depth(*l) - own_depth).abs() > eps)
+                .map_or(NO_FACE, |l| l[0])
         }
     }
 
@@ -194,9 +237,19 @@ impl GatherInputs<'_> {
         [c[0].clamp(0, n) as u32, c[1].clamp(0, n) as u32]
     }
 
-    pub(super) fn find_upstream(&self, dir_index: u32, d: &GpuDirection, x: Vec3, face: u32, forward: bool) -> u32 {
+    pub(super) fn find_upstream(
+        &self,
+        dir_index: u32,
+        d: &GpuDirection,
+        x: Vec3,
+        face: u32,
+        forward: bool,
+    ) -> u32 {
         let inv_h = 1.0 / self.grid.cell_size;
-        let q = Vec2::new((x.dot(v3(d.u)) + 1.0) * inv_h - 0.5, (x.dot(v3(d.v)) + 1.0) * inv_h - 0.5);
+        let q = Vec2::new(
+            (x.dot(v3(d.u)) + 1.0) * inv_h - 0.5,
+            (x.dot(v3(d.v)) + 1.0) * inv_h - 0.5,
+        );
         let base = dir_index * self.grid.resolution * self.grid.resolution;
         let nearest = [q.x.round_ties_even() as i32, q.y.round_ties_even() as i32];
         let c0 = self.clamp_cell(nearest);
@@ -219,7 +272,11 @@ impl GatherInputs<'_> {
         let depth = x.dot(v3(d.w));
         let travel = if forward { v3(d.w) } else { -v3(d.w) };
         for i in -1..9 {
-            let c = if i >= 0 { self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1]) } else { c0 };
+            let c = if i >= 0 {
+                self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1])
+            } else {
+                c0
+            };
             let cell = base + c[1] * self.grid.resolution + c[0];
             if self.visibility.cell_count[cell as usize] == 0 {
                 continue;
@@ -233,14 +290,21 @@ impl GatherInputs<'_> {
         NO_FACE
     }
 
-    pub(super) fn sender_radiance(&self, sender: u32, x: Vec3, dir_index: u32, travel: Vec3) -> Vec3 {
+    pub(super) fn sender_radiance(
+        &self,
+        sender: u32,
+        x: Vec3,
+        dir_index: u32,
+        travel: Vec3,
+    ) -> Vec3 {
         let s = &self.faces[sender as usize];
         let facing = v3(s.normal).dot(travel);
         if facing <= 1e-6 {
             return Vec3::ZERO;
         }
         let t = (v3(s.normal).dot(x) - s.plane_offset) / facing;
-        let taps = crate::lightfield::atlas_lookup::atlas_taps(s, x - travel * t, self.grid.atlas_width);
+        let taps =
+            crate::lightfield::atlas_lookup::atlas_taps(s, x - travel * t, self.grid.atlas_width);
         let mut b = Vec3::ZERO;
         for k in 0..4 {
             let u = self.unshot[taps.index[k] as usize];
@@ -283,7 +347,11 @@ impl GatherInputs<'_> {
                 irradiance += self.sender_radiance(sender, x, i as u32, travel) * weight;
             }
         }
-        let norm = if weight_sum > 0.0 { std::f32::consts::PI / weight_sum } else { 0.0 };
+        let norm = if weight_sum > 0.0 {
+            std::f32::consts::PI / weight_sum
+        } else {
+            0.0
+        };
         let e = (irradiance + sky_irradiance) * norm;
         let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
         let next = v3(f.albedo) * e;

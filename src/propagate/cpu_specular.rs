@@ -45,9 +45,19 @@ impl GatherInputs<'_> {
         [r[0], r[1], r[2], 1.0]
     }
 
-    fn tile_bilinear(&self, t: &TileInputs, dir_index: u32, d: &GpuDirection, slot: u32, p: Vec3) -> [f32; 4] {
+    fn tile_bilinear(
+        &self,
+        t: &TileInputs,
+        dir_index: u32,
+        d: &GpuDirection,
+        slot: u32,
+        p: Vec3,
+    ) -> [f32; 4] {
         let cell_size = self.grid.cell_size;
-        let q = Vec2::new((p.dot(v3(d.u)) + 1.0) / cell_size - 0.5, (p.dot(v3(d.v)) + 1.0) / cell_size - 0.5);
+        let q = Vec2::new(
+            (p.dot(v3(d.u)) + 1.0) / cell_size - 0.5,
+            (p.dot(v3(d.v)) + 1.0) / cell_size - 0.5,
+        );
         let c0 = [q.x.floor() as i32, q.y.floor() as i32];
         let f = q - q.floor();
         let a = self.tile_cell(t, dir_index, slot, c0[0], c0[1]);
@@ -69,7 +79,9 @@ impl GatherInputs<'_> {
     /// A mirror sender's radiance along its fixed direction `dir_index` at `xs` (zero for a
     /// diffuse-only sender, or without tiles).
     pub(super) fn sender_specular(&self, s: &GpuFace, xs: Vec3, dir_index: u32) -> Vec3 {
-        let Some(t) = self.tiles else { return Vec3::ZERO };
+        let Some(t) = self.tiles else {
+            return Vec3::ZERO;
+        };
         if s.tile_slot == NO_FACE {
             return Vec3::ZERO;
         }
@@ -94,21 +106,32 @@ impl GatherInputs<'_> {
             return [0.0; 4];
         }
         let h = self.grid.cell_size;
-        let line = v3(d.u) * ((col as f32 + 0.5) * h - 1.0) + v3(d.v) * ((row as f32 + 0.5) * h - 1.0);
+        let line =
+            v3(d.u) * ((col as f32 + 0.5) * h - 1.0) + v3(d.v) * ((row as f32 + 0.5) * h - 1.0);
         let on_plane = line + v3(d.w) * ((f.plane_offset - v3(f.normal).dot(line)) / cos_w);
         let rel = on_plane - v3(f.origin);
         let st = Vec2::new(rel.dot(v3(f.axis_a)), rel.dot(v3(f.axis_b))) * f.texel_density - 0.5;
-        let texel = [st.x.round_ties_even().clamp(0.0, (f.atlas_w - 1) as f32) as u32, st.y.round_ties_even().clamp(0.0, (f.atlas_h - 1) as f32) as u32];
-        let sp = self.texel_points[((f.atlas_y + texel[1]) * self.grid.atlas_width + f.atlas_x + texel[0]) as usize];
+        let texel = [
+            st.x.round_ties_even().clamp(0.0, (f.atlas_w - 1) as f32) as u32,
+            st.y.round_ties_even().clamp(0.0, (f.atlas_h - 1) as f32) as u32,
+        ];
+        let sp = self.texel_points
+            [((f.atlas_y + texel[1]) * self.grid.atlas_width + f.atlas_x + texel[0]) as usize];
         let sample = Vec3::new(sp[0], sp[1], sp[2]);
-        let centre = v3(f.origin) + (v3(f.axis_a) * (texel[0] as f32 + 0.5) + v3(f.axis_b) * (texel[1] as f32 + 0.5)) / f.texel_density;
+        let centre = v3(f.origin)
+            + (v3(f.axis_a) * (texel[0] as f32 + 0.5) + v3(f.axis_b) * (texel[1] as f32 + 0.5))
+                / f.texel_density;
         let off = st - Vec2::new(texel[0] as f32, texel[1] as f32);
         let inside = off.x.abs() <= 0.5 && off.y.abs() <= 0.5 && sample.distance(centre) < 1e-5;
         let x = if inside { on_plane } else { sample };
         let out_dir = v3(d.w) * cos_w.signum();
         let n = v3(f.normal);
         let arriving = out_dir - 2.0 * out_dir.dot(n) * n;
-        let taps = t.set.lookup(glam::DVec3::new(arriving.x as f64, arriving.y as f64, arriving.z as f64));
+        let taps = t.set.lookup(glam::DVec3::new(
+            arriving.x as f64,
+            arriving.y as f64,
+            arriving.z as f64,
+        ));
         let sky_on = self.grid.flags & GRID_FLAG_SKY != 0;
         let (mut radiance, mut sky, mut found) = (Vec3::ZERO, Vec3::ZERO, 0.0f32);
         for tap in taps {

@@ -16,7 +16,11 @@ use glam::Vec3;
 
 /// The emitting triangles of a scene, with each face's mean emitted radiance (over its texels:
 /// map_Ke varies it) and whether it varies. `initial` is the texels' initial unshot radiosity.
-pub fn emitters(prepared: &PreparedScene, faces: &[GpuFace], initial: &[[f32; 4]]) -> Vec<GpuEmitter> {
+pub fn emitters(
+    prepared: &PreparedScene,
+    faces: &[GpuFace],
+    initial: &[[f32; 4]],
+) -> Vec<GpuEmitter> {
     // per face: sum of radiance, texel count, min and max of r+g+b
     let mut stats = vec![([0.0f64; 3], 0u64, f32::INFINITY, 0.0f32); faces.len()];
     for (point, value) in prepared.atlas.points.iter().zip(initial) {
@@ -63,7 +67,13 @@ pub fn mirror_triangles(prepared: &PreparedScene, faces: &[GpuFace]) -> Vec<GpuM
         .filter(|t| faces[t.face as usize].mirror.iter().any(|&m| m > 0.0))
         .map(|t| {
             let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());
-            GpuMirrorTriangle { v0: a.into(), face: t.face, e1: (b - a).into(), e2: (c - a).into(), ..Default::default() }
+            GpuMirrorTriangle {
+                v0: a.into(),
+                face: t.face,
+                e1: (b - a).into(),
+                e2: (c - a).into(),
+                ..Default::default()
+            }
         })
         .collect()
 }
@@ -94,34 +104,105 @@ impl DirectLight {
         layout1: &wgpu::BindGroupLayout,
     ) -> Result<DirectLight> {
         let device = &ctx.device;
-        let corners: Vec<[Vec3; 3]> = prepared.triangles.iter().map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3())).collect();
+        let corners: Vec<[Vec3; 3]> = prepared
+            .triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
+            .collect();
         let (nodes, order) = build_bvh(&corners);
         let triangles: Vec<GpuTriangle> = order
             .iter()
             .map(|&i| {
                 let [a, b, c] = corners[i as usize];
-                GpuTriangle { v0: a.into(), face: prepared.triangles[i as usize].face, e1: (b - a).into(), e2: (c - a).into(), ..Default::default() }
+                GpuTriangle {
+                    v0: a.into(),
+                    face: prepared.triangles[i as usize].face,
+                    e1: (b - a).into(),
+                    e2: (c - a).into(),
+                    ..Default::default()
+                }
             })
             .collect();
-        let params = GpuDirectParams { emitter_count: emitters.len() as u32, emitter_samples: emitter_samples.max(1), sky_samples, mirror_count: mirrors.len() as u32 };
+        let params = GpuDirectParams {
+            emitter_count: emitters.len() as u32,
+            emitter_samples: emitter_samples.max(1),
+            sky_samples,
+            mirror_count: mirrors.len() as u32,
+        };
         let no_mirror = [GpuMirrorTriangle::default()];
-        let mirror_buffer = ctx.buffer_init(ledger, "direct light: mirror triangles", bytemuck::cast_slice(if mirrors.is_empty() { &no_mirror } else { mirrors }), STORAGE);
+        let mirror_buffer = ctx.buffer_init(
+            ledger,
+            "direct light: mirror triangles",
+            bytemuck::cast_slice(if mirrors.is_empty() {
+                &no_mirror
+            } else {
+                mirrors
+            }),
+            STORAGE,
+        );
         let placeholder = [GpuEmitter::default()];
-        let emitter_data: &[GpuEmitter] = if emitters.is_empty() { &placeholder } else { emitters };
-        let params_buffer = ctx.buffer_init(ledger, "direct light: parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
-        let emitter_buffer = ctx.buffer_init(ledger, "direct light: emitters", bytemuck::cast_slice(emitter_data), STORAGE);
-        let triangle_buffer = ctx.buffer_init(ledger, "direct light: triangles", bytemuck::cast_slice(&triangles), STORAGE);
-        let node_buffer = ctx.buffer_init(ledger, "direct light: BVH", bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes), STORAGE);
+        let emitter_data: &[GpuEmitter] = if emitters.is_empty() {
+            &placeholder
+        } else {
+            emitters
+        };
+        let params_buffer = ctx.buffer_init(
+            ledger,
+            "direct light: parameters",
+            bytemuck::bytes_of(&params),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let emitter_buffer = ctx.buffer_init(
+            ledger,
+            "direct light: emitters",
+            bytemuck::cast_slice(emitter_data),
+            STORAGE,
+        );
+        let triangle_buffer = ctx.buffer_init(
+            ledger,
+            "direct light: triangles",
+            bytemuck::cast_slice(&triangles),
+            STORAGE,
+        );
+        let node_buffer = ctx.buffer_init(
+            ledger,
+            "direct light: BVH",
+            bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes),
+            STORAGE,
+        );
         use Binding::*;
-        let layout2 = bind_group_layout(device, wgpu::ShaderStages::COMPUTE, &[Uniform, Storage, Storage, Storage, Storage]);
+        let layout2 = bind_group_layout(
+            device,
+            wgpu::ShaderStages::COMPUTE,
+            &[Uniform, Storage, Storage, Storage, Storage],
+        );
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
-        let bind_group = ctx.bind_group(&layout2, &[&params_buffer, &emitter_buffer, &triangle_buffer, &node_buffer, &mirror_buffer]);
-        Ok(DirectLight { pipeline, bind_group, emitter_count: emitters.len() as u32, mirror_count: mirrors.len() as u32 })
+        let bind_group = ctx.bind_group(
+            &layout2,
+            &[
+                &params_buffer,
+                &emitter_buffer,
+                &triangle_buffer,
+                &node_buffer,
+                &mirror_buffer,
+            ],
+        );
+        Ok(DirectLight {
+            pipeline,
+            bind_group,
+            emitter_count: emitters.len() as u32,
+            mirror_count: mirrors.len() as u32,
+        })
     }
 
     /// Record the pass: one thread per texel of each page, writing the page's `next`.
-    pub fn encode(&self, pass: &mut wgpu::ComputePass, bg0: &wgpu::BindGroup, pages: &[(&wgpu::BindGroup, u32)]) {
+    pub fn encode(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bg0, &[]);
         pass.set_bind_group(2, &self.bind_group, &[]);

@@ -87,7 +87,14 @@ impl Default for PropagationParams {
 impl PropagationParams {
     /// Lighter settings that finish in about a minute on a software adapter with 2 cores.
     pub fn software() -> Self {
-        PropagationParams { geodesic_frequency: 14, grid_resolution: 96, tile_size: 8, texel_density: 40.0, direct_samples: 64, ..Self::default() }
+        PropagationParams {
+            geodesic_frequency: 14,
+            grid_resolution: 96,
+            tile_size: 8,
+            texel_density: 40.0,
+            direct_samples: 64,
+            ..Self::default()
+        }
     }
 
     /// Smallest geodesic frequency giving at least `count` directions.
@@ -102,9 +109,14 @@ impl PropagationParams {
     /// Settings from a TOML file (see `config/propagation/`); unknown keys are refused.
     pub fn from_toml_file(path: &std::path::Path) -> Result<PropagationParams> {
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        let params: PropagationParams = toml::from_str(&text)
-            .map_err(|e| VlfError::Config { path: path.to_path_buf(), message: e.to_string().trim_end().to_string() })?;
-        params.validate().map_err(|e| VlfError::Config { path: path.to_path_buf(), message: e.to_string() })?;
+        let params: PropagationParams = toml::from_str(&text).map_err(|e| VlfError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        params.validate().map_err(|e| VlfError::Config {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
         Ok(params)
     }
 
@@ -115,25 +127,46 @@ impl PropagationParams {
     pub fn validate(&self) -> Result<()> {
         let bad = |name: &'static str, message: String| Err(VlfError::Parameter { name, message });
         if self.geodesic_frequency == 0 || self.geodesic_frequency > 100 {
-            return bad("directions", format!("geodesic frequency {} must be 1..=100", self.geodesic_frequency));
+            return bad(
+                "directions",
+                format!(
+                    "geodesic frequency {} must be 1..=100",
+                    self.geodesic_frequency
+                ),
+            );
         }
         if !(4..=1024).contains(&self.grid_resolution) {
-            return bad("grid", format!("{} cells per side must be 4..=1024", self.grid_resolution));
+            return bad(
+                "grid",
+                format!("{} cells per side must be 4..=1024", self.grid_resolution),
+            );
         }
         if self.tile_size == 0 || !self.grid_resolution.is_multiple_of(self.tile_size) {
             return bad(
                 "tile",
-                format!("tile size {} must divide the grid resolution {}", self.tile_size, self.grid_resolution),
+                format!(
+                    "tile size {} must divide the grid resolution {}",
+                    self.tile_size, self.grid_resolution
+                ),
             );
         }
         if !(self.texel_density.is_finite() && self.texel_density > 0.0) {
-            return bad("texel-density", format!("{} must be a positive number", self.texel_density));
+            return bad(
+                "texel-density",
+                format!("{} must be a positive number", self.texel_density),
+            );
         }
         if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
             return bad("tolerance", format!("{} must be in (0, 1)", self.tolerance));
         }
         if self.direct_samples > 65536 {
-            return bad("direct-samples", format!("{} shadow rays per texel: at most 65536", self.direct_samples));
+            return bad(
+                "direct-samples",
+                format!(
+                    "{} shadow rays per texel: at most 65536",
+                    self.direct_samples
+                ),
+            );
         }
         if self.max_iterations == 0 {
             return bad("max-iterations", "must be at least 1".into());
@@ -142,7 +175,10 @@ impl PropagationParams {
             return bad("memory-budget", "must be more than 0 MiB".into());
         }
         if !(1..=64).contains(&self.perturb) {
-            return bad("perturb", format!("{} perturbed sets: use 1 (none) to 64", self.perturb));
+            return bad(
+                "perturb",
+                format!("{} perturbed sets: use 1 (none) to 64", self.perturb),
+            );
         }
         Ok(())
     }
@@ -150,7 +186,9 @@ impl PropagationParams {
 
 /// Does face f have a mirror part (and so tiles)?
 pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
-    (0..prepared.faces.len()).map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0)).collect()
+    (0..prepared.faces.len())
+        .map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0))
+        .collect()
 }
 
 /// GPU face records for a prepared scene; `tile_slot[f]` is face f's index
@@ -189,7 +227,9 @@ pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
         .collect()
 }
 
-pub fn gpu_directions(directions: &[crate::lightfield::directions::Direction]) -> Vec<GpuDirection> {
+pub fn gpu_directions(
+    directions: &[crate::lightfield::directions::Direction],
+) -> Vec<GpuDirection> {
     directions
         .iter()
         .map(|d| {
@@ -207,7 +247,10 @@ pub fn gpu_directions(directions: &[crate::lightfield::directions::Direction]) -
 }
 
 /// Initial state: emitters hold unshot radiosity pi*Le and show Le.
-pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
+pub fn initial_radiance(
+    prepared: &PreparedScene,
+    faces: &[GpuFace],
+) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let n = prepared.atlas.texel_count();
     let mut unshot = vec![[0.0f32; 4]; n];
     let mut total = vec![[0.0f32; 4]; n];
@@ -220,7 +263,12 @@ pub fn initial_radiance(prepared: &PreparedScene, faces: &[GpuFace]) -> (Vec<[f3
         if let Some(t) = &prepared.atlas.texture_emission {
             e = std::array::from_fn(|k| e[k] * t[i][k]);
         }
-        unshot[i] = [e[0] * std::f32::consts::PI, e[1] * std::f32::consts::PI, e[2] * std::f32::consts::PI, 0.0];
+        unshot[i] = [
+            e[0] * std::f32::consts::PI,
+            e[1] * std::f32::consts::PI,
+            e[2] * std::f32::consts::PI,
+            0.0,
+        ];
         total[i] = [e[0], e[1], e[2], 0.0];
     }
     (unshot, total)
@@ -236,17 +284,39 @@ pub struct MemoryEstimate {
     pub total_bytes: u64,
 }
 
-pub fn estimate_memory(prepared: &PreparedScene, directions: &DirectionSet, params: &PropagationParams) -> MemoryEstimate {
+pub fn estimate_memory(
+    prepared: &PreparedScene,
+    directions: &DirectionSet,
+    params: &PropagationParams,
+) -> MemoryEstimate {
     let n = params.grid_resolution as u64;
     let cells = n * n * directions.len() as u64;
     let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
-    let layers: f64 = prepared.faces.iter().map(|f| f.area * directions.cosine_sum(f.normal) / directions.directions.iter().map(|d| d.solid_angle).sum::<f64>() * directions.len() as f64).sum::<f64>() / cell_area;
+    let layers: f64 = prepared
+        .faces
+        .iter()
+        .map(|f| {
+            f.area * directions.cosine_sum(f.normal)
+                / directions
+                    .directions
+                    .iter()
+                    .map(|d| d.solid_angle)
+                    .sum::<f64>()
+                * directions.len() as f64
+        })
+        .sum::<f64>()
+        / cell_area;
     let texels = prepared.atlas.texel_count() as u64;
     let cell_table_bytes = cells * 8;
     let layer_bytes = (layers * 8.0) as u64;
     // unshot, next, total, points, power weights (+ texture factors)
     let texel_bytes = texels * (16 * 4 + 4);
-    MemoryEstimate { cell_table_bytes, layer_bytes, texel_bytes, total_bytes: cell_table_bytes + layer_bytes + texel_bytes }
+    MemoryEstimate {
+        cell_table_bytes,
+        layer_bytes,
+        texel_bytes,
+        total_bytes: cell_table_bytes + layer_bytes + texel_bytes,
+    }
 }
 
 /// Refuse, before allocating anything, parameters whose buffers cannot be bound, and decide
@@ -254,8 +324,14 @@ pub fn estimate_memory(prepared: &PreparedScene, directions: &DirectionSet, para
 pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate) -> Result<()> {
     // the texel arrays (16 bytes a texel) go in pages of one binding, at most four
     let limits = ctx.limits();
-    let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-    crate::lightfield::tiles::TilePages::plan_texels(estimate.texel_bytes / (16 * 4 + 4), max_binding).map(|_| ())
+    let max_binding = limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size);
+    crate::lightfield::tiles::TilePages::plan_texels(
+        estimate.texel_bytes / (16 * 4 + 4),
+        max_binding,
+    )
+    .map(|_| ())
 }
 
 /// How the directions' visibility lists are built: all at once and kept for every iteration
@@ -271,7 +347,11 @@ pub struct BatchPlan {
 impl BatchPlan {
     /// Every direction in one batch: the lists stay resident.
     pub fn single(directions: u32) -> BatchPlan {
-        BatchPlan { batch_size: directions, batches: 1, reason: None }
+        BatchPlan {
+            batch_size: directions,
+            batches: 1,
+            reason: None,
+        }
     }
 
     pub fn resident(&self) -> bool {
@@ -294,13 +374,23 @@ const LAYER_HEADROOM: f64 = 1.5;
 
 /// Largest batch of directions whose visibility fits one binding and what the memory budget
 /// leaves beside `fixed_bytes` (radiance, tiles); every direction in one batch when it all fits.
-pub fn plan_batches(estimate: &MemoryEstimate, params: &PropagationParams, directions: u32, max_binding: u64, fixed_bytes: u64) -> Result<BatchPlan> {
+pub fn plan_batches(
+    estimate: &MemoryEstimate,
+    params: &PropagationParams,
+    directions: u32,
+    max_binding: u64,
+    fixed_bytes: u64,
+) -> Result<BatchPlan> {
     let cells = params.grid_resolution as u64 * params.grid_resolution as u64;
     let layers_per_direction = estimate.layer_bytes as f64 / directions as f64 * LAYER_HEADROOM;
     let by_cells = max_binding / (cells * 4);
     let by_layers = (max_binding as f64 / layers_per_direction.max(1.0)) as u64;
     let mut limit = by_cells.min(by_layers);
-    let mut reason = format!("one binding holds {} directions' lists (the adapter binds at most {})", limit, crate::gpu::human_bytes(max_binding));
+    let mut reason = format!(
+        "one binding holds {} directions' lists (the adapter binds at most {})",
+        limit,
+        crate::gpu::human_bytes(max_binding)
+    );
     if let Some(mib) = params.memory_budget_mib {
         let budget = mib << 20;
         let fixed = fixed_bytes;
@@ -308,7 +398,8 @@ pub fn plan_batches(estimate: &MemoryEstimate, params: &PropagationParams, direc
         let by_budget = (budget.saturating_sub(fixed) as f64 / per_direction) as u64;
         if by_budget < limit {
             limit = by_budget;
-            reason = format!("--memory-budget {mib} MiB leaves room for {by_budget} directions' lists");
+            reason =
+                format!("--memory-budget {mib} MiB leaves room for {by_budget} directions' lists");
         }
         if by_budget == 0 {
             return Err(VlfError::GpuBudget(format!(
@@ -327,19 +418,36 @@ pub fn plan_batches(estimate: &MemoryEstimate, params: &PropagationParams, direc
         )));
     }
     if limit >= directions as u64 {
-        return Ok(BatchPlan { batch_size: directions, batches: 1, reason: None });
+        return Ok(BatchPlan {
+            batch_size: directions,
+            batches: 1,
+            reason: None,
+        });
     }
     let batches = (directions as u64).div_ceil(limit) as u32;
-    Ok(BatchPlan { batch_size: directions.div_ceil(batches), batches, reason: Some(reason) })
+    Ok(BatchPlan {
+        batch_size: directions.div_ceil(batches),
+        batches,
+        reason: Some(reason),
+    })
 }
 
 /// Depth tolerance (normalised units) within which layers count as coplanar.
 pub const DEPTH_EPSILON: f32 = 2e-5;
 
-type Propagated = (crate::lightfield::LightField, crate::lightfield::ResidentLightField, crate::report::PropagationReport);
+type Propagated = (
+    crate::lightfield::LightField,
+    crate::lightfield::ResidentLightField,
+    crate::report::PropagationReport,
+);
 
 /// Propagate a scene to convergence. `progress` shows a bar on the terminal.
-pub fn propagate(ctx: std::sync::Arc<crate::gpu::GpuContext>, scene: &crate::scene::Scene, params: &PropagationParams, progress: bool) -> Result<Propagated> {
+pub fn propagate(
+    ctx: std::sync::Arc<crate::gpu::GpuContext>,
+    scene: &crate::scene::Scene,
+    params: &PropagationParams,
+    progress: bool,
+) -> Result<Propagated> {
     propagate_with(ctx, scene, params, progress, None)
 }
 
@@ -358,20 +466,32 @@ pub fn propagate_with(
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
     let estimate = estimate_memory(&prepared, &directions, params);
     check_memory(&ctx, &estimate)?;
-    let mut prop = transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky, None)?;
+    let mut prop =
+        transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky, None)?;
     let batch_plan = prop.plan.clone();
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
 
-    let bar = if progress { indicatif::ProgressBar::new(1000) } else { indicatif::ProgressBar::hidden() };
+    let bar = if progress {
+        indicatif::ProgressBar::new(1000)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
     bar.set_style(
         indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {msg}")
             .unwrap()
             .progress_chars("=> "),
     );
     bar.set_message(match batch_plan.resident() {
-        true => format!("visibility: {} directions x {}^2 cells", directions.len(), params.grid_resolution),
-        false => format!("{} batches of {} directions (rebuilt every iteration)", batch_plan.batches, batch_plan.batch_size),
+        true => format!(
+            "visibility: {} directions x {}^2 cells",
+            directions.len(),
+            params.grid_resolution
+        ),
+        false => format!(
+            "{} batches of {} directions (rebuilt every iteration)",
+            batch_plan.batches, batch_plan.batch_size
+        ),
     });
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
     let t1 = Instant::now();
@@ -395,8 +515,18 @@ pub fn propagate_with(
     // faces smaller than a grid cell: no cell line may cross them, so their texels rely on the
     // depth fallback; say how many and how much of the scene they are
     let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
-    let total_area: f64 = prepared.faces.iter().filter(|f| !f.is_back).map(|f| f.area).sum();
-    let small: Vec<f64> = prepared.faces.iter().filter(|f| !f.is_back && f.area < cell_area).map(|f| f.area).collect();
+    let total_area: f64 = prepared
+        .faces
+        .iter()
+        .filter(|f| !f.is_back)
+        .map(|f| f.area)
+        .sum();
+    let small: Vec<f64> = prepared
+        .faces
+        .iter()
+        .filter(|f| !f.is_back && f.area < cell_area)
+        .map(|f| f.area)
+        .collect();
     if !small.is_empty() {
         warnings.push(format!(
             "{} face(s), {:.3}% of the surface area, are smaller than one grid cell ({} cells per side): their light arrives through the depth fallback; raise --grid to resolve them",
@@ -418,10 +548,19 @@ pub fn propagate_with(
             .residuals
             .iter()
             .enumerate()
-            .map(|(i, &r)| transport::IterationStats { iteration: i as u32 + 1, residual: r, gpu_ms: None, wall_ms: 0.0 })
+            .map(|(i, &r)| transport::IterationStats {
+                iteration: i as u32 + 1,
+                residual: r,
+                gpu_ms: None,
+                wall_ms: 0.0,
+            })
             .collect();
         residual = per_iteration.last().map_or(1.0, |s| s.residual);
-        warnings.push(format!("resumed from {} at iteration {}", plan.path.display(), cp.meta.iteration));
+        warnings.push(format!(
+            "resumed from {} at iteration {}",
+            plan.path.display(),
+            cp.meta.iteration
+        ));
     }
     if prop.emitted_power <= 0.0 && scene.sky.is_none() {
         warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
@@ -432,9 +571,17 @@ pub fn propagate_with(
             residual = stats.residual;
             let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
             bar.set_position((done * 1000.0) as u64);
-            bar.set_message(format!("iteration {} residual {:.2e} (target {:.0e})", stats.iteration, residual, params.tolerance));
-            let ratio = per_iteration.last().map(|p| residual / p.residual.max(1e-300));
-            let previous_ratio = per_iteration.len().checked_sub(2).map(|i| per_iteration[i + 1].residual / per_iteration[i].residual.max(1e-300));
+            bar.set_message(format!(
+                "iteration {} residual {:.2e} (target {:.0e})",
+                stats.iteration, residual, params.tolerance
+            ));
+            let ratio = per_iteration
+                .last()
+                .map(|p| residual / p.residual.max(1e-300));
+            let previous_ratio = per_iteration
+                .len()
+                .checked_sub(2)
+                .map(|i| per_iteration[i + 1].residual / per_iteration[i].residual.max(1e-300));
             per_iteration.push(stats);
             if let Some(plan) = plan.filter(|p| p.every > 0 && prop.iteration % p.every == 0) {
                 checkpoint::Checkpoint {
@@ -461,12 +608,26 @@ pub fn propagate_with(
             // that tail and stop. The tail is U r/(1-r); an error dr in r moves it by
             // U dr/(1-r)^2, which relative to the converged total (about emitted/(1-r)) is
             // residual * dr / (1-r).
-            if let (true, Some(r), Some(r0)) = (params.accelerate && per_iteration.len() >= 3, ratio, previous_ratio) {
+            if let (true, Some(r), Some(r0)) = (
+                params.accelerate && per_iteration.len() >= 3,
+                ratio,
+                previous_ratio,
+            ) {
                 if r > 0.0 && r < 0.9999 {
                     let uncertainty = residual * (r - r0).abs() / (1.0 - r);
                     if uncertainty < params.tolerance {
                         prop.add_tail(r / (1.0 - r))?;
-                        tail = Some(Tail { ratio: r, factor: r / (1.0 - r), uncertainty, plain_iterations_estimate: plain_estimate(residual, r, per_iteration.len() as u32, params.tolerance) });
+                        tail = Some(Tail {
+                            ratio: r,
+                            factor: r / (1.0 - r),
+                            uncertainty,
+                            plain_iterations_estimate: plain_estimate(
+                                residual,
+                                r,
+                                per_iteration.len() as u32,
+                                params.tolerance,
+                            ),
+                        });
                         residual = uncertainty;
                         break;
                     }
@@ -496,8 +657,20 @@ pub fn propagate_with(
     };
     let non_diffuse_elements = tiles.as_ref().map_or(0, |t| t.total.len() as u64);
     // everything allocated for tiles while propagating (radiance copies, weights, tables)
-    let tile_bytes: u64 = prop.ledger.entries().iter().filter(|(n, _)| n.contains("tile")).map(|(_, b)| b).sum();
-    let texture_bytes: u64 = prop.ledger.entries().iter().filter(|(n, _)| n.starts_with("texture")).map(|(_, b)| b).sum();
+    let tile_bytes: u64 = prop
+        .ledger
+        .entries()
+        .iter()
+        .filter(|(n, _)| n.contains("tile"))
+        .map(|(_, b)| b)
+        .sum();
+    let texture_bytes: u64 = prop
+        .ledger
+        .entries()
+        .iter()
+        .filter(|(n, _)| n.starts_with("texture"))
+        .map(|(_, b)| b)
+        .sum();
     let propagation_memory_bytes = prop.memory_bytes();
     let propagation_memory = crate::report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
@@ -506,7 +679,9 @@ pub fn propagate_with(
     let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
     let direct_emitters = prop.direct.as_ref().map_or(0, |d| d.emitter_count);
     let resident = prop.into_resident(mirror_chains.tiles_needed);
-    resident.ledger.record("render mesh", (render_vertices.len() * 16) as u64);
+    resident
+        .ledger
+        .record("render mesh", (render_vertices.len() * 16) as u64);
     let lf = crate::lightfield::LightField {
         meta: crate::lightfield::LightFieldMeta {
             vlf_version: env!("CARGO_PKG_VERSION").into(),

@@ -8,10 +8,18 @@
 //! batch builds its lists and adds raw sums, and `shaders/normalize.wgsl` closes the iteration.
 
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
-use super::{gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams, DEPTH_EPSILON};
+use super::{
+    gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams,
+    DEPTH_EPSILON,
+};
 use crate::error::Result;
-use crate::gpu::types::{GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_SKY};
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
+use crate::gpu::types::{
+    GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
+    GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_SKY,
+};
+use crate::gpu::{
+    bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE,
+};
 use crate::lightfield::directions::DirectionSet;
 use crate::lightfield::tiles::{TileLayout, TilePages};
 use crate::lightfield::ResidentLightField;
@@ -41,33 +49,87 @@ struct ElementState {
 impl ElementState {
     /// All zero (mirror tiles start dark): allocated on the GPU, which zeroes new buffers,
     /// instead of uploading zeros (1.4 GiB of tiles at Cornell-mirror's defaults).
-    fn zeroed(ctx: &GpuContext, ledger: &MemoryLedger, what: &str, count: u32, scale: f32) -> ElementState {
+    fn zeroed(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        what: &str,
+        count: u32,
+        scale: f32,
+    ) -> ElementState {
         let (ax, ay) = dispatch_2d(count.div_ceil(256));
-        let params = GpuAccumulate { count, scale, ..Default::default() };
+        let params = GpuAccumulate {
+            count,
+            scale,
+            ..Default::default()
+        };
         let bytes = count as u64 * 16;
         ElementState {
-            radiance: [ctx.buffer_zeroed(ledger, &format!("{what}: unshot"), bytes, STORAGE), ctx.buffer_zeroed(ledger, &format!("{what}: next"), bytes, STORAGE)],
+            radiance: [
+                ctx.buffer_zeroed(ledger, &format!("{what}: unshot"), bytes, STORAGE),
+                ctx.buffer_zeroed(ledger, &format!("{what}: next"), bytes, STORAGE),
+            ],
             total: ctx.buffer_zeroed(ledger, &format!("{what}: total"), bytes, STORAGE),
-            partials: ctx.buffer_zeroed(ledger, &format!("{what}: power sums"), (ax * ay) as u64 * 8, STORAGE),
+            partials: ctx.buffer_zeroed(
+                ledger,
+                &format!("{what}: power sums"),
+                (ax * ay) as u64 * 8,
+                STORAGE,
+            ),
             partial_count: ax * ay,
-            params: ctx.buffer_init(ledger, &format!("{what}: accumulate parameters"), bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM),
+            params: ctx.buffer_init(
+                ledger,
+                &format!("{what}: accumulate parameters"),
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            ),
             count,
         }
     }
 
-    fn new(ctx: &GpuContext, ledger: &MemoryLedger, what: &str, unshot: &[[f32; 4]], total: &[[f32; 4]], scale: f32) -> ElementState {
+    fn new(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        what: &str,
+        unshot: &[[f32; 4]],
+        total: &[[f32; 4]],
+        scale: f32,
+    ) -> ElementState {
         let count = unshot.len() as u32;
         let (ax, ay) = dispatch_2d(count.div_ceil(256));
-        let params = GpuAccumulate { count, scale, ..Default::default() };
+        let params = GpuAccumulate {
+            count,
+            scale,
+            ..Default::default()
+        };
         ElementState {
             radiance: [
-                ctx.buffer_init(ledger, &format!("{what}: unshot"), bytemuck::cast_slice(unshot), STORAGE),
+                ctx.buffer_init(
+                    ledger,
+                    &format!("{what}: unshot"),
+                    bytemuck::cast_slice(unshot),
+                    STORAGE,
+                ),
                 ctx.buffer_zeroed(ledger, &format!("{what}: next"), count as u64 * 16, STORAGE),
             ],
-            total: ctx.buffer_init(ledger, &format!("{what}: total"), bytemuck::cast_slice(total), STORAGE),
-            partials: ctx.buffer_zeroed(ledger, &format!("{what}: power sums"), (ax * ay) as u64 * 8, STORAGE),
+            total: ctx.buffer_init(
+                ledger,
+                &format!("{what}: total"),
+                bytemuck::cast_slice(total),
+                STORAGE,
+            ),
+            partials: ctx.buffer_zeroed(
+                ledger,
+                &format!("{what}: power sums"),
+                (ax * ay) as u64 * 8,
+                STORAGE,
+            ),
             partial_count: ax * ay,
-            params: ctx.buffer_init(ledger, &format!("{what}: accumulate parameters"), bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM),
+            params: ctx.buffer_init(
+                ledger,
+                &format!("{what}: accumulate parameters"),
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            ),
             count,
         }
     }
@@ -106,7 +168,11 @@ pub struct Propagator {
     texel_pages: TilePages,
     tiles: Option<Tiles>,
     /// map_Kd factors per texel (per page) and their pass; None for an untextured scene
-    texture: Option<(Vec<wgpu::Buffer>, wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    texture: Option<(
+        Vec<wgpu::Buffer>,
+        wgpu::ComputePipeline,
+        wgpu::BindGroupLayout,
+    )>,
     /// the K direction sets (only kept when K > 1, or with batches)
     direction_sets: Vec<Vec<GpuDirection>>,
     /// (first direction, count) per batch; one batch keeps the lists resident
@@ -158,22 +224,42 @@ impl Propagator {
                 tris[t.face as usize].push(t.vertices.map(|v| prepared.positions[v as usize]));
             }
             let normals: Vec<glam::DVec3> = prepared.faces.iter().map(|f| f.normal).collect();
-            TileLayout::build(&fixed, &normals, &tris, &non_diffuse, params.grid_resolution, params.tile_size)
+            TileLayout::build(
+                &fixed,
+                &normals,
+                &tris,
+                &non_diffuse,
+                params.grid_resolution,
+                params.tile_size,
+            )
         } else {
             TileLayout::default()
         };
-        let tile_slot = if layout.face_slot.is_empty() { vec![crate::gpu::types::NO_FACE; prepared.faces.len()] } else { layout.face_slot.clone() };
+        let tile_slot = if layout.face_slot.is_empty() {
+            vec![crate::gpu::types::NO_FACE; prepared.faces.len()]
+        } else {
+            layout.face_slot.clone()
+        };
         let faces = gpu_faces(prepared, &tile_slot);
         let texel_count = prepared.atlas.texel_count() as u32;
         let limits = ctx.limits();
-        let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
+        let max_binding = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
         let texel_pages = TilePages::plan_texels(texel_count as u64, max_binding)?;
         let texel_ranges = texel_pages.ranges();
         // a per-page copy of a per-texel array
         let paged = |name: &str, data: &[u8], bytes_per: usize| -> Vec<wgpu::Buffer> {
             texel_ranges
                 .iter()
-                .map(|&(first, n)| ctx.buffer_init(&ledger, name, &data[first as usize * bytes_per..(first + n) as usize * bytes_per], STORAGE))
+                .map(|&(first, n)| {
+                    ctx.buffer_init(
+                        &ledger,
+                        name,
+                        &data[first as usize * bytes_per..(first + n) as usize * bytes_per],
+                        STORAGE,
+                    )
+                })
                 .collect()
         };
         let cells_per_tile = params.tile_size * params.tile_size;
@@ -185,11 +271,22 @@ impl Propagator {
             None => {
                 let estimate = super::estimate_memory(prepared, directions, params);
                 // tile radiance x3 and power weights, tables; with batches, a weight sum per element
-                let tile_bytes = tile_cells * (16 * 3 + 4) + layout.headers.len() as u64 * 16 + layout.index.len() as u64 * 4 + layout.rects.len() as u64 * 16;
+                let tile_bytes = tile_cells * (16 * 3 + 4)
+                    + layout.headers.len() as u64 * 16
+                    + layout.index.len() as u64 * 4
+                    + layout.rects.len() as u64 * 16;
                 let batch_sums = (texel_count as u64 + tile_cells) * 4;
                 let limits = ctx.limits();
-                let max_binding = limits.max_storage_buffer_binding_size.min(limits.max_buffer_size);
-                super::plan_batches(&estimate, params, directions.len() as u32, max_binding, estimate.texel_bytes + tile_bytes + batch_sums)?
+                let max_binding = limits
+                    .max_storage_buffer_binding_size
+                    .min(limits.max_buffer_size);
+                super::plan_batches(
+                    &estimate,
+                    params,
+                    directions.len() as u32,
+                    max_binding,
+                    estimate.texel_bytes + tile_bytes + batch_sums,
+                )?
             }
         };
         let k = params.perturb.max(1);
@@ -216,33 +313,94 @@ impl Propagator {
             ..Default::default()
         };
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
-        let vertices: Vec<[f32; 4]> = prepared.positions.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0]).collect();
-        let triangles: Vec<[u32; 4]> = prepared.triangles.iter().map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face]).collect();
+        let vertices: Vec<[f32; 4]> = prepared
+            .positions
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 0.0])
+            .collect();
+        let triangles: Vec<[u32; 4]> = prepared
+            .triangles
+            .iter()
+            .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
+            .collect();
         let scene = SceneBuffers {
-            grid: ctx.buffer_init(&ledger, "grid parameters", bytemuck::bytes_of(&grid), uniform),
+            grid: ctx.buffer_init(
+                &ledger,
+                "grid parameters",
+                bytemuck::bytes_of(&grid),
+                uniform,
+            ),
             // with batches this holds one batch at a time
-            directions: ctx.buffer_init(&ledger, "directions", bytemuck::cast_slice(&fixed[..plan.batch_size as usize]), STORAGE),
+            directions: ctx.buffer_init(
+                &ledger,
+                "directions",
+                bytemuck::cast_slice(&fixed[..plan.batch_size as usize]),
+                STORAGE,
+            ),
             faces: ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
-            vertices: ctx.buffer_init(&ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
-            triangles: ctx.buffer_init(&ledger, "triangles", bytemuck::cast_slice(&triangles), STORAGE),
-            texel_points: paged("texel sample points", bytemuck::cast_slice(&prepared.atlas.points), 16),
+            vertices: ctx.buffer_init(
+                &ledger,
+                "vertices",
+                bytemuck::cast_slice(&vertices),
+                STORAGE,
+            ),
+            triangles: ctx.buffer_init(
+                &ledger,
+                "triangles",
+                bytemuck::cast_slice(&triangles),
+                STORAGE,
+            ),
+            texel_points: paged(
+                "texel sample points",
+                bytemuck::cast_slice(&prepared.atlas.points),
+                16,
+            ),
         };
         // power per unit of radiosity: texel area x coverage
         let texel_area = 1.0 / (prepared.texel_density * prepared.texel_density);
-        let weights: Vec<f32> = prepared.atlas.coverage.iter().map(|&c| (c as f64 * texel_area) as f32).collect();
+        let weights: Vec<f32> = prepared
+            .atlas
+            .coverage
+            .iter()
+            .map(|&c| (c as f64 * texel_area) as f32)
+            .collect();
         let (unshot, total) = initial_radiance(prepared, &faces);
-        let emitted_power =
-            unshot.iter().zip(&weights).map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64).sum();
+        let emitted_power = unshot
+            .iter()
+            .zip(&weights)
+            .map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64)
+            .sum();
         let texels: Vec<Page> = texel_ranges
             .iter()
             .map(|&(first, n)| {
                 let r = first as usize..(first + n) as usize;
-                let range = GpuPageRange { base: first, cells: n, ..Default::default() };
+                let range = GpuPageRange {
+                    base: first,
+                    cells: n,
+                    ..Default::default()
+                };
                 Page {
-                    state: ElementState::new(&ctx, &ledger, "texels", &unshot[r.clone()], &total[r.clone()], std::f32::consts::FRAC_1_PI),
-                    power_weight: ctx.buffer_init(&ledger, "texels: power weights", bytemuck::cast_slice(&weights[r]), STORAGE),
+                    state: ElementState::new(
+                        &ctx,
+                        &ledger,
+                        "texels",
+                        &unshot[r.clone()],
+                        &total[r.clone()],
+                        std::f32::consts::FRAC_1_PI,
+                    ),
+                    power_weight: ctx.buffer_init(
+                        &ledger,
+                        "texels: power weights",
+                        bytemuck::cast_slice(&weights[r]),
+                        STORAGE,
+                    ),
                     first,
-                    page_uniform: ctx.buffer_init(&ledger, "texels: page", bytemuck::bytes_of(&range), wgpu::BufferUsages::UNIFORM),
+                    page_uniform: ctx.buffer_init(
+                        &ledger,
+                        "texels: page",
+                        bytemuck::bytes_of(&range),
+                        wgpu::BufferUsages::UNIFORM,
+                    ),
                 }
             })
             .collect();
@@ -250,42 +408,111 @@ impl Propagator {
         use Binding::*;
         let cs = wgpu::ShaderStages::COMPUTE;
         // grid, directions, faces, cell offsets, counts, layers, four pages of texel points
-        let layout0 = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage]);
+        let layout0 = bind_group_layout(
+            device,
+            cs,
+            &[
+                Uniform, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage,
+                Storage,
+            ],
+        );
         // four pages of unshot, the page of next written, its range, the batches' weight sums
-        let layout1 = bind_group_layout(device, cs, &[Storage, Storage, Storage, Storage, StorageReadWrite, Uniform, StorageReadWrite]);
-        let accumulate_layout = bind_group_layout(device, cs, &[Uniform, Storage, StorageReadWrite, Storage, StorageReadWrite]);
+        let layout1 = bind_group_layout(
+            device,
+            cs,
+            &[
+                Storage,
+                Storage,
+                Storage,
+                Storage,
+                StorageReadWrite,
+                Uniform,
+                StorageReadWrite,
+            ],
+        );
+        let accumulate_layout = bind_group_layout(
+            device,
+            cs,
+            &[
+                Uniform,
+                Storage,
+                StorageReadWrite,
+                Storage,
+                StorageReadWrite,
+            ],
+        );
         let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
-        let accumulate_pipe = ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
+        let accumulate_pipe =
+            ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
         let (gather_pipe, tiles) = if layout.is_empty() {
             let module = shaders::module(device, "propagate.wgsl")?;
-            (ctx.compute_pipeline(&module, "gather", &[&layout0, &layout1]), None)
+            (
+                ctx.compute_pipeline(&module, "gather", &[&layout0, &layout1]),
+                None,
+            )
         } else {
             let module = shaders::module(device, "specular.wgsl")?;
             // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
             let layout2 = bind_group_layout(
                 device,
                 cs,
-                &[Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage, StorageReadWrite, Uniform],
+                &[
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    Storage,
+                    StorageReadWrite,
+                    Uniform,
+                ],
             );
-            let gather = ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
-            let gather_tiles = ctx.compute_pipeline(&module, "gather_tiles", &[&layout0, &layout1, &layout2]);
+            let gather =
+                ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
+            let gather_tiles =
+                ctx.compute_pipeline(&module, "gather_tiles", &[&layout0, &layout1, &layout2]);
             let (points, index) = directions.gpu_tables();
             let h = grid.cell_size as f64;
             let weights: Vec<f32> = layout
                 .headers
                 .iter()
-                .flat_map(|hd| std::iter::repeat_n((h * h * directions.directions[hd[0] as usize].solid_angle) as f32, cells_per_tile as usize))
+                .flat_map(|hd| {
+                    std::iter::repeat_n(
+                        (h * h * directions.directions[hd[0] as usize].solid_angle) as f32,
+                        cells_per_tile as usize,
+                    )
+                })
                 .collect();
             let pages = tile_pages
                 .ranges()
                 .into_iter()
                 .map(|(first, cells)| {
-                    let range = GpuPageRange { base: first, cells, ..Default::default() };
+                    let range = GpuPageRange {
+                        base: first,
+                        cells,
+                        ..Default::default()
+                    };
                     Page {
                         state: ElementState::zeroed(&ctx, &ledger, "mirror tiles", cells, 1.0),
-                        power_weight: ctx.buffer_init(&ledger, "mirror tiles: power weights", bytemuck::cast_slice(&weights[first as usize..(first + cells) as usize]), STORAGE),
+                        power_weight: ctx.buffer_init(
+                            &ledger,
+                            "mirror tiles: power weights",
+                            bytemuck::cast_slice(
+                                &weights[first as usize..(first + cells) as usize],
+                            ),
+                            STORAGE,
+                        ),
                         first,
-                        page_uniform: ctx.buffer_init(&ledger, "mirror tiles: page", bytemuck::bytes_of(&range), wgpu::BufferUsages::UNIFORM),
+                        page_uniform: ctx.buffer_init(
+                            &ledger,
+                            "mirror tiles: page",
+                            bytemuck::bytes_of(&range),
+                            wgpu::BufferUsages::UNIFORM,
+                        ),
                     }
                 })
                 .collect();
@@ -293,14 +520,44 @@ impl Propagator {
                 pages,
                 page_plan: tile_pages,
                 tables: [
-                    ctx.buffer_init(&ledger, "tile rectangles", bytemuck::cast_slice(&layout.rects), STORAGE),
-                    ctx.buffer_init(&ledger, "tile index", bytemuck::cast_slice(&layout.index), STORAGE),
-                    ctx.buffer_init(&ledger, "tile headers", bytemuck::cast_slice(&layout.headers), STORAGE),
-                    ctx.buffer_init(&ledger, "geodesic points", bytemuck::cast_slice(&points), STORAGE),
-                    ctx.buffer_init(&ledger, "geodesic index", bytemuck::cast_slice(&index), STORAGE),
+                    ctx.buffer_init(
+                        &ledger,
+                        "tile rectangles",
+                        bytemuck::cast_slice(&layout.rects),
+                        STORAGE,
+                    ),
+                    ctx.buffer_init(
+                        &ledger,
+                        "tile index",
+                        bytemuck::cast_slice(&layout.index),
+                        STORAGE,
+                    ),
+                    ctx.buffer_init(
+                        &ledger,
+                        "tile headers",
+                        bytemuck::cast_slice(&layout.headers),
+                        STORAGE,
+                    ),
+                    ctx.buffer_init(
+                        &ledger,
+                        "geodesic points",
+                        bytemuck::cast_slice(&points),
+                        STORAGE,
+                    ),
+                    ctx.buffer_init(
+                        &ledger,
+                        "geodesic index",
+                        bytemuck::cast_slice(&index),
+                        STORAGE,
+                    ),
                 ],
                 fixed_directions: if k > 1 || batched {
-                    ctx.buffer_init(&ledger, "fixed directions", bytemuck::cast_slice(&fixed), STORAGE)
+                    ctx.buffer_init(
+                        &ledger,
+                        "fixed directions",
+                        bytemuck::cast_slice(&fixed),
+                        STORAGE,
+                    )
                 } else {
                     scene.directions.clone()
                 },
@@ -312,7 +569,11 @@ impl Propagator {
         };
         let texture = match &prepared.atlas.texture_albedo {
             Some(albedo) => {
-                let buffer = paged("texture albedo", bytemuck::cast_slice(albedo), std::mem::size_of_val(&albedo[0]));
+                let buffer = paged(
+                    "texture albedo",
+                    bytemuck::cast_slice(albedo),
+                    std::mem::size_of_val(&albedo[0]),
+                );
                 let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
                 let module = shaders::module(device, "texture.wgsl")?;
                 let pipe = ctx.compute_pipeline(&module, "modulate", &[&layout]);
@@ -321,25 +582,64 @@ impl Propagator {
             None => None,
         };
         let direction_sets = match (k > 1, batched) {
-            (true, _) => (0..k).map(|s| gpu_directions(&directions.perturbed(s))).collect(),
+            (true, _) => (0..k)
+                .map(|s| gpu_directions(&directions.perturbed(s)))
+                .collect(),
             (false, true) => vec![fixed.clone()],
             (false, false) => Vec::new(),
         };
         let (weight_sums, normalize) = if batched {
             let elements = texel_count as u64 + tile_cells;
-            let buffer = ctx.buffer_zeroed(&ledger, "batches: quadrature weight sums", elements * 4, STORAGE);
+            let buffer = ctx.buffer_zeroed(
+                &ledger,
+                "batches: quadrature weight sums",
+                elements * 4,
+                STORAGE,
+            );
             let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
             let module = shaders::module(device, "normalize.wgsl")?;
-            (buffer, Some((ctx.compute_pipeline(&module, "normalize", &[&layout]), layout)))
+            (
+                buffer,
+                Some((
+                    ctx.compute_pipeline(&module, "normalize", &[&layout]),
+                    layout,
+                )),
+            )
         } else {
-            (ctx.buffer_zeroed(&MemoryLedger::default(), "weight sums placeholder", 16, STORAGE), None)
+            (
+                ctx.buffer_zeroed(
+                    &MemoryLedger::default(),
+                    "weight sums placeholder",
+                    16,
+                    STORAGE,
+                ),
+                None,
+            )
         };
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
         let direct = if params.direct_samples > 0 {
             let emitters = super::direct::emitters(prepared, &faces, &unshot);
-            let mirrors = if params.mirror_direct { super::direct::mirror_triangles(prepared, &faces) } else { Vec::new() };
-            let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) { params.direct_samples } else { 0 };
-            Some(super::direct::DirectLight::new(&ctx, &ledger, prepared, &emitters, &mirrors, params.direct_samples, sky_samples, &layout0, &layout1)?)
+            let mirrors = if params.mirror_direct {
+                super::direct::mirror_triangles(prepared, &faces)
+            } else {
+                Vec::new()
+            };
+            let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) {
+                params.direct_samples
+            } else {
+                0
+            };
+            Some(super::direct::DirectLight::new(
+                &ctx,
+                &ledger,
+                prepared,
+                &emitters,
+                &mirrors,
+                params.direct_samples,
+                sky_samples,
+                &layout0,
+                &layout1,
+            )?)
         } else {
             None
         };
@@ -378,7 +678,15 @@ impl Propagator {
 
     pub fn build_visibility(&mut self) -> Result<&Visibility> {
         self.visibility = None;
-        let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &self.grid, &mut self.timestamps, None)?;
+        let vis = Visibility::build(
+            &self.ctx,
+            &self.visibility_pipelines,
+            &self.ledger,
+            &self.scene,
+            &self.grid,
+            &mut self.timestamps,
+            None,
+        )?;
         Ok(self.visibility.insert(vis))
     }
 
@@ -414,10 +722,26 @@ impl Propagator {
                 grid.first_direction = first;
                 if k > 1 || batched {
                     let slice = &self.direction_sets[set][first as usize..(first + count) as usize];
-                    self.ctx.queue.write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(slice));
+                    self.ctx.queue.write_buffer(
+                        &self.scene.directions,
+                        0,
+                        bytemuck::cast_slice(slice),
+                    );
                     let previous = self.visibility.take();
-                    let mut visibility_timer = if batched { self.timestamps.take() } else { None };
-                    let vis = Visibility::build(&self.ctx, &self.visibility_pipelines, &self.ledger, &self.scene, &grid, &mut visibility_timer, previous)?;
+                    let mut visibility_timer = if batched {
+                        self.timestamps.take()
+                    } else {
+                        None
+                    };
+                    let vis = Visibility::build(
+                        &self.ctx,
+                        &self.visibility_pipelines,
+                        &self.ledger,
+                        &self.scene,
+                        &grid,
+                        &mut visibility_timer,
+                        previous,
+                    )?;
                     if batched {
                         self.timestamps = visibility_timer;
                         gpu_ms += vis.gpu_ms.unwrap_or(0.0);
@@ -426,7 +750,11 @@ impl Propagator {
                     self.visibility = Some(vis);
                 }
                 grid.iteration = self.iteration;
-                grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) { GRID_FLAG_SKY } else { 0 };
+                grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
+                    GRID_FLAG_SKY
+                } else {
+                    0
+                };
                 if self.iteration == 1 && self.direct.as_ref().is_some_and(|d| d.mirror_count > 0) {
                     grid.flags |= GRID_FLAG_NO_MIRROR_SENDERS;
                 }
@@ -435,7 +763,9 @@ impl Propagator {
                 } else if n > 0 {
                     grid.flags |= GRID_FLAG_ACCUMULATE;
                 }
-                self.ctx.queue.write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
+                self.ctx
+                    .queue
+                    .write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
                 self.encode_gathers(set == 0)?;
                 if let Some(t) = self.timestamps.as_mut() {
                     gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
@@ -456,7 +786,14 @@ impl Propagator {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(pipe);
                 for (page, albedo) in self.texels.iter().zip(albedo) {
-                    let bg = self.ctx.bind_group(layout, &[&page.state.params, &page.state.radiance[1 - self.current], albedo]);
+                    let bg = self.ctx.bind_group(
+                        layout,
+                        &[
+                            &page.state.params,
+                            &page.state.radiance[1 - self.current],
+                            albedo,
+                        ],
+                    );
                     pass.set_bind_group(0, &bg, &[]);
                     let (x, y) = dispatch_2d(page.state.count.div_ceil(256));
                     pass.dispatch_workgroups(x, y, 1);
@@ -465,7 +802,11 @@ impl Propagator {
             self.ctx.queue.submit([encoder.finish()]);
         }
         let (texel_power, texel_sky) = self.accumulate(false)?;
-        let (tile_power, tile_sky) = if self.tiles.is_some() { self.accumulate(true)? } else { (0.0, 0.0) };
+        let (tile_power, tile_sky) = if self.tiles.is_some() {
+            self.accumulate(true)?
+        } else {
+            (0.0, 0.0)
+        };
         if let Some(t) = self.timestamps.as_mut() {
             gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
         }
@@ -476,7 +817,11 @@ impl Propagator {
         self.current = 1 - self.current;
         self.iteration += 1;
         let unshot_power = texel_power + tile_power;
-        let residual = if self.emitted_power > 0.0 { unshot_power / self.emitted_power } else { 0.0 };
+        let residual = if self.emitted_power > 0.0 {
+            unshot_power / self.emitted_power
+        } else {
+            0.0
+        };
         Ok(IterationStats {
             iteration: self.iteration,
             residual,
@@ -489,20 +834,46 @@ impl Propagator {
     /// pages' unshot to read, this page's next to write.
     fn texel_bind_groups(&self) -> (wgpu::BindGroup, Vec<wgpu::BindGroup>) {
         let ctx = &self.ctx;
-        let vis = self.visibility.as_ref().expect("build_visibility before iterate");
+        let vis = self
+            .visibility
+            .as_ref()
+            .expect("build_visibility before iterate");
         let s = &self.scene;
         let point = |p: usize| s.texel_points.get(p).unwrap_or(&s.texel_points[0]);
         let bg0 = ctx.bind_group(
             &self.layout0,
-            &[&s.grid, &s.directions, &s.faces, &vis.cell_offset, &vis.cell_count, &vis.layers, point(0), point(1), point(2), point(3)],
+            &[
+                &s.grid,
+                &s.directions,
+                &s.faces,
+                &vis.cell_offset,
+                &vis.cell_count,
+                &vis.layers,
+                point(0),
+                point(1),
+                point(2),
+                point(3),
+            ],
         );
         let current = self.current;
-        let unshot = |p: usize| &self.texels.get(p).unwrap_or(&self.texels[0]).state.radiance[current];
+        let unshot =
+            |p: usize| &self.texels.get(p).unwrap_or(&self.texels[0]).state.radiance[current];
         let bg1 = self
             .texels
             .iter()
             .map(|page| {
-                ctx.bind_group(&self.layout1, &[unshot(0), unshot(1), unshot(2), unshot(3), &page.state.radiance[1 - current], &page.page_uniform, &self.weight_sums])
+                ctx.bind_group(
+                    &self.layout1,
+                    &[
+                        unshot(0),
+                        unshot(1),
+                        unshot(2),
+                        unshot(3),
+                        &page.state.radiance[1 - current],
+                        &page.page_uniform,
+                        &self.weight_sums,
+                    ],
+                )
             })
             .collect();
         (bg0, bg1)
@@ -513,10 +884,17 @@ impl Propagator {
     fn encode_direct(&self) {
         let Some(direct) = &self.direct else { return };
         let (bg0, bg1) = self.texel_bind_groups();
-        let pages: Vec<(&wgpu::BindGroup, u32)> = bg1.iter().zip(&self.texels).map(|(bg, page)| (bg, page.state.count)).collect();
+        let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
+            .iter()
+            .zip(&self.texels)
+            .map(|(bg, page)| (bg, page.state.count))
+            .collect();
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor { label: Some("direct light"), timestamp_writes: None });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("direct light"),
+                timestamp_writes: None,
+            });
             direct.encode(&mut pass, &bg0, &pages);
         }
         self.ctx.queue.submit([encoder.finish()]);
@@ -533,7 +911,23 @@ impl Propagator {
             let unshot = |p: usize| &t.pages.get(p).unwrap_or(&t.pages[0]).state.radiance[current];
             for page in &t.pages {
                 let next = &page.state.radiance[1 - current];
-                bg2.push(ctx.bind_group(&t.layout2, &[a, b, c, d, e, &t.fixed_directions, unshot(0), unshot(1), unshot(2), unshot(3), next, &page.page_uniform]));
+                bg2.push(ctx.bind_group(
+                    &t.layout2,
+                    &[
+                        a,
+                        b,
+                        c,
+                        d,
+                        e,
+                        &t.fixed_directions,
+                        unshot(0),
+                        unshot(1),
+                        unshot(2),
+                        unshot(3),
+                        next,
+                        &page.page_uniform,
+                    ],
+                ));
             }
         }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -568,19 +962,46 @@ impl Propagator {
 
     /// Divide the raw sums of every batch by the quadrature weights they used.
     fn normalize_batches(&self) {
-        let Some((pipe, layout)) = &self.normalize else { return };
+        let Some((pipe, layout)) = &self.normalize else {
+            return;
+        };
         let ctx = &self.ctx;
-        let mut passes: Vec<(&wgpu::Buffer, u32, f32, u32)> =
-            self.texels.iter().map(|p| (&p.state.radiance[1 - self.current], p.state.count, std::f32::consts::PI, p.first)).collect();
+        let mut passes: Vec<(&wgpu::Buffer, u32, f32, u32)> = self
+            .texels
+            .iter()
+            .map(|p| {
+                (
+                    &p.state.radiance[1 - self.current],
+                    p.state.count,
+                    std::f32::consts::PI,
+                    p.first,
+                )
+            })
+            .collect();
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
-            passes.push((&page.state.radiance[1 - self.current], page.state.count, 1.0, self.texel_count + page.first));
+            passes.push((
+                &page.state.radiance[1 - self.current],
+                page.state.count,
+                1.0,
+                self.texel_count + page.first,
+            ));
         }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         let uniforms: Vec<wgpu::Buffer> = passes
             .iter()
             .map(|&(_, count, scale, weight_offset)| {
-                let params = GpuAccumulate { count, scale, weight_offset, ..Default::default() };
-                ctx.buffer_init(&MemoryLedger::default(), "normalize parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM)
+                let params = GpuAccumulate {
+                    count,
+                    scale,
+                    weight_offset,
+                    ..Default::default()
+                };
+                ctx.buffer_init(
+                    &MemoryLedger::default(),
+                    "normalize parameters",
+                    bytemuck::bytes_of(&params),
+                    wgpu::BufferUsages::UNIFORM,
+                )
             })
             .collect();
         {
@@ -619,7 +1040,13 @@ impl Propagator {
         };
         let bg = ctx.bind_group(
             &self.accumulate_layout,
-            &[&state.params, &state.radiance[1 - self.current], &state.total, weights, &state.partials],
+            &[
+                &state.params,
+                &state.radiance[1 - self.current],
+                &state.total,
+                weights,
+                &state.partials,
+            ],
         );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         {
@@ -633,23 +1060,54 @@ impl Propagator {
             pass.dispatch_workgroups(x, y, 1);
         }
         ctx.queue.submit([encoder.finish()]);
-        let partials: Vec<[f32; 2]> = ctx.read_buffer(&state.partials, state.partial_count as u64 * 8)?;
-        Ok((partials.iter().map(|p| p[0] as f64).sum(), partials.iter().map(|p| p[1] as f64).sum()))
+        let partials: Vec<[f32; 2]> =
+            ctx.read_buffer(&state.partials, state.partial_count as u64 * 8)?;
+        Ok((
+            partials.iter().map(|p| p[0] as f64).sum(),
+            partials.iter().map(|p| p[1] as f64).sum(),
+        ))
     }
 
     /// Add the geometric tail of the series to `total`: the unshot state times `factor`
     /// (= r / (1 - r) for a stable decay ratio r), as if the remaining iterations had run.
     pub fn add_tail(&mut self, factor: f64) -> Result<()> {
         let ctx = self.ctx.clone();
-        let mut states: Vec<(&ElementState, &wgpu::Buffer, f32)> =
-            self.texels.iter().map(|p| (&p.state, &p.power_weight, (factor / std::f64::consts::PI) as f32)).collect();
+        let mut states: Vec<(&ElementState, &wgpu::Buffer, f32)> = self
+            .texels
+            .iter()
+            .map(|p| {
+                (
+                    &p.state,
+                    &p.power_weight,
+                    (factor / std::f64::consts::PI) as f32,
+                )
+            })
+            .collect();
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             states.push((&page.state, &page.power_weight, factor as f32));
         }
         for (state, weights, scale) in states {
-            let params = GpuAccumulate { count: state.count, scale, ..Default::default() };
-            let uniform = ctx.buffer_init(&MemoryLedger::default(), "tail parameters", bytemuck::bytes_of(&params), wgpu::BufferUsages::UNIFORM);
-            let bg = ctx.bind_group(&self.accumulate_layout, &[&uniform, &state.radiance[self.current], &state.total, weights, &state.partials]);
+            let params = GpuAccumulate {
+                count: state.count,
+                scale,
+                ..Default::default()
+            };
+            let uniform = ctx.buffer_init(
+                &MemoryLedger::default(),
+                "tail parameters",
+                bytemuck::bytes_of(&params),
+                wgpu::BufferUsages::UNIFORM,
+            );
+            let bg = ctx.bind_group(
+                &self.accumulate_layout,
+                &[
+                    &uniform,
+                    &state.radiance[self.current],
+                    &state.total,
+                    weights,
+                    &state.partials,
+                ],
+            );
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -684,14 +1142,25 @@ impl Propagator {
     }
 
     /// Every page of one of the tiles' arrays, read back and joined.
-    fn read_pages(&self, t: &Tiles, buffer: impl Fn(&Page) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
+    fn read_pages(
+        &self,
+        t: &Tiles,
+        buffer: impl Fn(&Page) -> &wgpu::Buffer,
+    ) -> Result<Vec<[f32; 4]>> {
         self.read_page_list(&t.pages, buffer)
     }
 
-    fn read_page_list(&self, pages: &[Page], buffer: impl Fn(&Page) -> &wgpu::Buffer) -> Result<Vec<[f32; 4]>> {
+    fn read_page_list(
+        &self,
+        pages: &[Page],
+        buffer: impl Fn(&Page) -> &wgpu::Buffer,
+    ) -> Result<Vec<[f32; 4]>> {
         let mut out = Vec::new();
         for page in pages {
-            out.extend(self.ctx.read_buffer::<[f32; 4]>(buffer(page), page.state.count as u64 * 16)?);
+            out.extend(
+                self.ctx
+                    .read_buffer::<[f32; 4]>(buffer(page), page.state.count as u64 * 16)?,
+            );
         }
         Ok(out)
     }
@@ -700,21 +1169,44 @@ impl Propagator {
     pub fn restore(&mut self, cp: &super::checkpoint::Checkpoint) -> Result<()> {
         let sizes_match = cp.unshot.len() == self.texel_count as usize
             && cp.total.len() == self.texel_count as usize
-            && cp.tile_unshot.len() == self.tiles.as_ref().map_or(0, |t| t.page_plan.total_cells as usize)
+            && cp.tile_unshot.len()
+                == self
+                    .tiles
+                    .as_ref()
+                    .map_or(0, |t| t.page_plan.total_cells as usize)
             && cp.tile_total.len() == cp.tile_unshot.len();
         if !sizes_match {
-            return Err(crate::error::VlfError::Parameter { name: "resume", message: "the checkpoint's state does not fit this scene's light field".into() });
+            return Err(crate::error::VlfError::Parameter {
+                name: "resume",
+                message: "the checkpoint's state does not fit this scene's light field".into(),
+            });
         }
         let q = &self.ctx.queue;
         for page in &self.texels {
             let texels = page.first as usize..(page.first + page.state.count) as usize;
-            q.write_buffer(&page.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.unshot[texels.clone()]));
-            q.write_buffer(&page.state.total, 0, bytemuck::cast_slice(&cp.total[texels]));
+            q.write_buffer(
+                &page.state.radiance[self.current],
+                0,
+                bytemuck::cast_slice(&cp.unshot[texels.clone()]),
+            );
+            q.write_buffer(
+                &page.state.total,
+                0,
+                bytemuck::cast_slice(&cp.total[texels]),
+            );
         }
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             let cells = page.first as usize..(page.first + page.state.count) as usize;
-            q.write_buffer(&page.state.radiance[self.current], 0, bytemuck::cast_slice(&cp.tile_unshot[cells.clone()]));
-            q.write_buffer(&page.state.total, 0, bytemuck::cast_slice(&cp.tile_total[cells]));
+            q.write_buffer(
+                &page.state.radiance[self.current],
+                0,
+                bytemuck::cast_slice(&cp.tile_unshot[cells.clone()]),
+            );
+            q.write_buffer(
+                &page.state.total,
+                0,
+                bytemuck::cast_slice(&cp.tile_total[cells]),
+            );
         }
         self.iteration = cp.meta.iteration;
         self.emitted_power = cp.meta.emitted_power;
@@ -741,7 +1233,12 @@ impl Propagator {
         }
         let tiles = self.tiles.filter(|_| keep_tiles).map(|t| {
             let [rects, index, _, points, geodesic_index] = t.tables;
-            for (name, b) in [("tile rectangles", &rects), ("tile index", &index), ("geodesic tables", &points), ("geodesic index", &geodesic_index)] {
+            for (name, b) in [
+                ("tile rectangles", &rects),
+                ("tile index", &index),
+                ("geodesic tables", &points),
+                ("geodesic index", &geodesic_index),
+            ] {
                 ledger.record(name, b.size());
             }
             for page in &t.pages {

@@ -4,7 +4,9 @@
 
 use crate::error::Result;
 use crate::gpu::types::GpuGrid;
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE};
+use crate::gpu::{
+    bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE,
+};
 use wgpu::util::DeviceExt;
 
 /// Buffers describing the scene, shared by visibility and transport.
@@ -54,12 +56,21 @@ impl VisibilityPipelines {
         let layout0 = bind_group_layout(
             device,
             cs,
-            &[Uniform, Storage, Storage, Storage, StorageReadWrite, StorageReadWrite, StorageReadWrite],
+            &[
+                Uniform,
+                Storage,
+                Storage,
+                Storage,
+                StorageReadWrite,
+                StorageReadWrite,
+                StorageReadWrite,
+            ],
         );
         let layout1 = bind_group_layout(device, cs, &[StorageReadWrite]);
         // count_layers shares its traversal with fill_layers, so its layout names the layers
         // binding too; a placeholder stands in until the real size is known.
-        let placeholder = ctx.buffer_zeroed(&MemoryLedger::default(), "layers placeholder", 16, STORAGE);
+        let placeholder =
+            ctx.buffer_zeroed(&MemoryLedger::default(), "layers placeholder", 16, STORAGE);
         let placeholder_bg = ctx.bind_group(&layout1, &[&placeholder]);
         Ok(VisibilityPipelines {
             count_pipe: ctx.compute_pipeline(&module, "count_layers", &[&layout0, &layout1]),
@@ -98,41 +109,76 @@ impl Visibility {
     ) -> Result<Visibility> {
         let device = &ctx.device;
         let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
-        ctx.check_binding("the per-cell tables (directions x grid^2 x 4 bytes)", cells * 4, "use fewer directions or a coarser grid")?;
-        let VisibilityPipelines { layout0, layout1, count_pipe, scan_cells, scan_dirs, fill_pipe, sort_pipe, placeholder_bg } = pipelines;
+        ctx.check_binding(
+            "the per-cell tables (directions x grid^2 x 4 bytes)",
+            cells * 4,
+            "use fewer directions or a coarser grid",
+        )?;
+        let VisibilityPipelines {
+            layout0,
+            layout1,
+            count_pipe,
+            scan_cells,
+            scan_dirs,
+            fill_pipe,
+            sort_pipe,
+            placeholder_bg,
+        } = pipelines;
 
         let (cell_count, cell_offset, direction_base, old_layers) = match reuse {
             Some(v) => {
                 let mut encoder = device.create_command_encoder(&Default::default());
                 encoder.clear_buffer(&v.cell_count, 0, None);
                 ctx.queue.submit([encoder.finish()]);
-                (v.cell_count, v.cell_offset, v.direction_base, Some(v.layers))
+                (
+                    v.cell_count,
+                    v.cell_offset,
+                    v.direction_base,
+                    Some(v.layers),
+                )
             }
             None => (
                 ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE),
                 ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE),
-                ctx.buffer_zeroed(ledger, "visibility: direction bases", (grid.direction_count as u64 + 1) * 4, STORAGE),
+                ctx.buffer_zeroed(
+                    ledger,
+                    "visibility: direction bases",
+                    (grid.direction_count as u64 + 1) * 4,
+                    STORAGE,
+                ),
                 None,
             ),
         };
 
         // One uniform per triangle chunk, differing only in triangle_base.
-        let chunks: Vec<(wgpu::BindGroup, u32)> = (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
-            .map(|c| {
-                let base = c * TRIANGLES_PER_DISPATCH;
-                let g = GpuGrid { triangle_base: base, ..*grid };
-                let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("grid chunk"),
-                    contents: bytemuck::bytes_of(&g),
-                    usage: wgpu::BufferUsages::UNIFORM,
-                });
-                let bg = ctx.bind_group(
-                    layout0,
-                    &[&buf, &scene.directions, &scene.vertices, &scene.triangles, &cell_count, &cell_offset, &direction_base],
-                );
-                (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
-            })
-            .collect();
+        let chunks: Vec<(wgpu::BindGroup, u32)> =
+            (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
+                .map(|c| {
+                    let base = c * TRIANGLES_PER_DISPATCH;
+                    let g = GpuGrid {
+                        triangle_base: base,
+                        ..*grid
+                    };
+                    let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("grid chunk"),
+                        contents: bytemuck::bytes_of(&g),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                    let bg = ctx.bind_group(
+                        layout0,
+                        &[
+                            &buf,
+                            &scene.directions,
+                            &scene.vertices,
+                            &scene.triangles,
+                            &cell_count,
+                            &cell_offset,
+                            &direction_base,
+                        ],
+                    );
+                    (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
+                })
+                .collect();
         let main_bg = &chunks[0].0;
         let cell_groups = groups(grid.resolution * grid.resolution, 64);
 
@@ -147,7 +193,11 @@ impl Visibility {
             pass.set_bind_group(1, placeholder_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(1, groups(*n, TRIANGLES_PER_WORKGROUP), grid.direction_count);
+                pass.dispatch_workgroups(
+                    1,
+                    groups(*n, TRIANGLES_PER_WORKGROUP),
+                    grid.direction_count,
+                );
             }
             pass.set_bind_group(0, main_bg, &[]);
             pass.set_pipeline(scan_cells);
@@ -156,8 +206,7 @@ impl Visibility {
             pass.dispatch_workgroups(1, 1, 1);
         }
         ctx.queue.submit([encoder.finish()]);
-        let total: Vec<u32> =
-            read_tail(ctx, &direction_base, grid.direction_count as u64 * 4)?;
+        let total: Vec<u32> = read_tail(ctx, &direction_base, grid.direction_count as u64 * 4)?;
         let layer_count = total[0] as u64;
         ctx.check_binding(
             &format!("the layer lists ({layer_count} layers x 8 bytes)"),
@@ -169,8 +218,15 @@ impl Visibility {
             Some(l) => {
                 // another direction set needs more layers: grow with headroom, free the old
                 drop(l);
-                let bytes = (layer_count * 8 + layer_count / 2).min(ctx.limits().max_storage_buffer_binding_size).max(layer_count * 8);
-                let grown = ctx.buffer_zeroed(&MemoryLedger::default(), "visibility: layers", bytes, STORAGE);
+                let bytes = (layer_count * 8 + layer_count / 2)
+                    .min(ctx.limits().max_storage_buffer_binding_size)
+                    .max(layer_count * 8);
+                let grown = ctx.buffer_zeroed(
+                    &MemoryLedger::default(),
+                    "visibility: layers",
+                    bytes,
+                    STORAGE,
+                );
                 ledger.replace("visibility: layers", grown.size());
                 grown
             }
@@ -188,7 +244,11 @@ impl Visibility {
             pass.set_bind_group(1, &layers_bg, &[]);
             for (bg, n) in &chunks {
                 pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(1, groups(*n, TRIANGLES_PER_WORKGROUP), grid.direction_count);
+                pass.dispatch_workgroups(
+                    1,
+                    groups(*n, TRIANGLES_PER_WORKGROUP),
+                    grid.direction_count,
+                );
             }
             pass.set_bind_group(0, main_bg, &[]);
             pass.set_pipeline(sort_pipe);
@@ -200,7 +260,14 @@ impl Visibility {
             Some(t) => Some(t.read_ms(ctx)?.iter().sum()),
             None => None,
         };
-        Ok(Visibility { cell_offset, cell_count, layers, direction_base, layer_count, gpu_ms })
+        Ok(Visibility {
+            cell_offset,
+            cell_count,
+            layers,
+            direction_base,
+            layer_count,
+            gpu_ms,
+        })
     }
 
     /// Cell offsets, counts and layers, for comparison with the CPU twin.

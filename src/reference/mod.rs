@@ -69,7 +69,10 @@ struct Bounds {
 }
 
 impl Bounds {
-    const EMPTY: Bounds = Bounds { lo: Vec3::splat(f32::INFINITY), hi: Vec3::splat(f32::NEG_INFINITY) };
+    const EMPTY: Bounds = Bounds {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
     fn grow(&mut self, other: Bounds) {
         self.lo = self.lo.min(other.lo);
         self.hi = self.hi.max(other.hi);
@@ -83,7 +86,14 @@ impl Bounds {
 /// The best surface-area split of `order` into bins along one of the three axes: (axis, the
 /// centroid coordinate below which a triangle goes left, cost) where the cost counts one unit
 /// per triangle tested, in proportion to the probability of reaching each child.
-fn sah_split(order: &[u32], boxes: &[Bounds], centroids: &[Vec3], clo: Vec3, chi: Vec3, parent_area: f32) -> Option<(usize, f32, f32)> {
+fn sah_split(
+    order: &[u32],
+    boxes: &[Bounds],
+    centroids: &[Vec3],
+    clo: Vec3,
+    chi: Vec3,
+    parent_area: f32,
+) -> Option<(usize, f32, f32)> {
     let mut best: Option<(usize, f32, f32)> = None;
     for axis in 0..3 {
         let (lo, hi) = (clo[axis], chi[axis]);
@@ -115,7 +125,9 @@ fn sah_split(order: &[u32], boxes: &[Bounds], centroids: &[Vec3], clo: Vec3, chi
             if n == 0 || right_count[i] == 0 {
                 continue;
             }
-            let cost = 1.0 + (acc.area() * n as f32 + right_area[i] * right_count[i] as f32) / parent_area.max(1e-30);
+            let cost = 1.0
+                + (acc.area() * n as f32 + right_area[i] * right_count[i] as f32)
+                    / parent_area.max(1e-30);
             if best.is_none_or(|b| cost < b.2) {
                 best = Some((axis, lo + i as f32 / scale, cost));
             }
@@ -129,14 +141,29 @@ fn sah_split(order: &[u32], boxes: &[Bounds], centroids: &[Vec3], clo: Vec3, chi
 /// The left child of an internal node is the node after it; `index` holds the right child.
 pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
     let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-    let centroids: Vec<Vec3> = triangles.iter().map(|t| (t[0] + t[1] + t[2]) / 3.0).collect();
-    let boxes: Vec<Bounds> = triangles.iter().map(|t| Bounds { lo: t[0].min(t[1]).min(t[2]), hi: t[0].max(t[1]).max(t[2]) }).collect();
+    let centroids: Vec<Vec3> = triangles
+        .iter()
+        .map(|t| (t[0] + t[1] + t[2]) / 3.0)
+        .collect();
+    let boxes: Vec<Bounds> = triangles
+        .iter()
+        .map(|t| Bounds {
+            lo: t[0].min(t[1]).min(t[2]),
+            hi: t[0].max(t[1]).max(t[2]),
+        })
+        .collect();
     let mut nodes = Vec::with_capacity(triangles.len() * 2 / LEAF_SIZE + 1);
     struct Input<'a> {
         boxes: &'a [Bounds],
         centroids: &'a [Vec3],
     }
-    fn build(nodes: &mut Vec<GpuBvhNode>, order: &mut [u32], first: usize, depth: u32, input: &Input) -> u32 {
+    fn build(
+        nodes: &mut Vec<GpuBvhNode>,
+        order: &mut [u32],
+        first: usize,
+        depth: u32,
+        input: &Input,
+    ) -> u32 {
         let mut bounds = Bounds::EMPTY;
         let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for &t in order.iter() {
@@ -145,15 +172,26 @@ pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
             chi = chi.max(input.centroids[t as usize]);
         }
         let me = nodes.len();
-        nodes.push(GpuBvhNode { lo: bounds.lo.into(), hi: bounds.hi.into(), index: first as u32, count: order.len() as u32 });
+        nodes.push(GpuBvhNode {
+            lo: bounds.lo.into(),
+            hi: bounds.hi.into(),
+            index: first as u32,
+            count: order.len() as u32,
+        });
         let extent = chi - clo;
         if order.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
             return me as u32;
         }
-        let by_sah = if depth < SAH_DEPTH { sah_split(order, input.boxes, input.centroids, clo, chi, bounds.area()) } else { None };
+        let by_sah = if depth < SAH_DEPTH {
+            sah_split(order, input.boxes, input.centroids, clo, chi, bounds.area())
+        } else {
+            None
+        };
         let mid = match by_sah {
             // a leaf is cheaper than any split: keep it, if it is small enough
-            Some((_, _, cost)) if cost >= order.len() as f32 && order.len() <= MAX_LEAF_SIZE => return me as u32,
+            Some((_, _, cost)) if cost >= order.len() as f32 && order.len() <= MAX_LEAF_SIZE => {
+                return me as u32
+            }
             Some((axis, boundary, _)) => {
                 let mut left = 0;
                 for i in 0..order.len() {
@@ -168,9 +206,17 @@ pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
         };
         let mid = if mid == 0 || mid == order.len() {
             // no useful area split (or too deep): halve along the widest centroid axis
-            let axis = if extent.x >= extent.y && extent.x >= extent.z { 0 } else if extent.y >= extent.z { 1 } else { 2 };
+            let axis = if extent.x >= extent.y && extent.x >= extent.z {
+                0
+            } else if extent.y >= extent.z {
+                1
+            } else {
+                2
+            };
             let mid = order.len() / 2;
-            order.select_nth_unstable_by(mid, |a, b| input.centroids[*a as usize][axis].total_cmp(&input.centroids[*b as usize][axis]));
+            order.select_nth_unstable_by(mid, |a, b| {
+                input.centroids[*a as usize][axis].total_cmp(&input.centroids[*b as usize][axis])
+            });
             mid
         } else {
             mid
@@ -183,7 +229,16 @@ pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
         me as u32
     }
     if !triangles.is_empty() {
-        build(&mut nodes, &mut order, 0, 0, &Input { boxes: &boxes, centroids: &centroids });
+        build(
+            &mut nodes,
+            &mut order,
+            0,
+            0,
+            &Input {
+                boxes: &boxes,
+                centroids: &centroids,
+            },
+        );
     }
     (nodes, order)
 }
@@ -202,16 +257,34 @@ fn luminance(c: [f32; 3]) -> f32 {
 }
 
 /// Path-trace one view with `spp` samples per pixel.
-pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 2], spp: u32, seed: u32, progress: bool) -> Result<Reference> {
+pub fn render(
+    ctx: Arc<GpuContext>,
+    scene: &Scene,
+    camera: &Camera,
+    size: [u32; 2],
+    spp: u32,
+    seed: u32,
+    progress: bool,
+) -> Result<Reference> {
     if spp == 0 {
-        return Err(VlfError::Parameter { name: "spp", message: "at least 1 sample per pixel".into() });
+        return Err(VlfError::Parameter {
+            name: "spp",
+            message: "at least 1 sample per pixel".into(),
+        });
     }
     let started = std::time::Instant::now();
     // the light field's own preparation: same normalisation, faces, twins and materials
     let prepared = PreparedScene::new(scene, 1.0)?;
     let faces = crate::propagate::gpu_faces(&prepared, &vec![NO_FACE; prepared.faces.len()]);
-    let front: Vec<&crate::prepare::PreparedTriangle> = prepared.triangles.iter().filter(|t| !prepared.faces[t.face as usize].is_back).collect();
-    let corners: Vec<[Vec3; 3]> = front.iter().map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3())).collect();
+    let front: Vec<&crate::prepare::PreparedTriangle> = prepared
+        .triangles
+        .iter()
+        .filter(|t| !prepared.faces[t.face as usize].is_back)
+        .collect();
+    let corners: Vec<[Vec3; 3]> = front
+        .iter()
+        .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
+        .collect();
     let (nodes, order) = build_bvh(&corners);
     let triangles: Vec<GpuTriangle> = order
         .iter()
@@ -252,7 +325,12 @@ pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 
         .iter()
         .map(|f| {
             let m = &scene.materials[f.material as usize];
-            [m.diffuse_texture.unwrap_or(NO_FACE), m.emission_texture.unwrap_or(NO_FACE), 0, 0]
+            [
+                m.diffuse_texture.unwrap_or(NO_FACE),
+                m.emission_texture.unwrap_or(NO_FACE),
+                0,
+                0,
+            ]
         })
         .collect();
     let [width, height] = size;
@@ -272,25 +350,64 @@ pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 
         mapped_at_creation: false,
     });
     let buffers = [
-        ctx.buffer_init(&ledger, "triangles", bytemuck::cast_slice(&triangles), STORAGE),
+        ctx.buffer_init(
+            &ledger,
+            "triangles",
+            bytemuck::cast_slice(&triangles),
+            STORAGE,
+        ),
         ctx.buffer_init(&ledger, "bvh", bytemuck::cast_slice(&nodes), STORAGE),
         ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
-        ctx.buffer_init(&ledger, "face textures", bytemuck::cast_slice(&face_textures), STORAGE),
-        ctx.buffer_init(&ledger, "texture info", bytemuck::cast_slice(&texture_info), STORAGE),
+        ctx.buffer_init(
+            &ledger,
+            "face textures",
+            bytemuck::cast_slice(&face_textures),
+            STORAGE,
+        ),
+        ctx.buffer_init(
+            &ledger,
+            "texture info",
+            bytemuck::cast_slice(&texture_info),
+            STORAGE,
+        ),
         ctx.buffer_init(&ledger, "texels", bytemuck::cast_slice(&texels), STORAGE),
         ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&lights), STORAGE),
         ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE),
     ];
     use Binding::*;
-    let layout = bind_group_layout(device, wgpu::ShaderStages::COMPUTE, &[Uniform, Storage, Storage, Storage, Storage, Storage, Storage, Storage, StorageReadWrite]);
+    let layout = bind_group_layout(
+        device,
+        wgpu::ShaderStages::COMPUTE,
+        &[
+            Uniform,
+            Storage,
+            Storage,
+            Storage,
+            Storage,
+            Storage,
+            Storage,
+            Storage,
+            StorageReadWrite,
+        ],
+    );
     let module = shaders::module(device, "reference.wgsl")?;
     let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
     let mut all: Vec<&wgpu::Buffer> = vec![&params_buffer];
     all.extend(buffers.iter());
     let bind_group = ctx.bind_group(&layout, &all);
 
-    let bar = if progress { indicatif::ProgressBar::new(passes as u64) } else { indicatif::ProgressBar::hidden() };
-    bar.set_style(indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} passes ({msg})").unwrap().progress_chars("=> "));
+    let bar = if progress {
+        indicatif::ProgressBar::new(passes as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} passes ({msg})",
+        )
+        .unwrap()
+        .progress_chars("=> "),
+    );
     bar.set_message(format!("{spp} spp at {width}x{height}"));
     for pass_index in 0..passes {
         let params = GpuTraceParams {
@@ -306,7 +423,8 @@ pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 
             light_weight_total: total.max(1e-30),
             _pad: [0; 3],
         };
-        ctx.queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
+        ctx.queue
+            .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
@@ -330,8 +448,16 @@ pub fn render(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, size: [u32; 
         variance.push([v[0], v[1], v[2], 1.0]);
     }
     Ok(Reference {
-        mean: Frame { width, height, pixels: mean },
-        variance: Frame { width, height, pixels: variance },
+        mean: Frame {
+            width,
+            height,
+            pixels: mean,
+        },
+        variance: Frame {
+            width,
+            height,
+            pixels: variance,
+        },
         spp,
         seconds: started.elapsed().as_secs_f64(),
     })

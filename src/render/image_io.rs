@@ -18,19 +18,34 @@ pub fn srgb_encode(x: f32) -> f32 {
 /// Linear value of an 8-bit sRGB-encoded component.
 pub fn srgb_decode(c: u8) -> f32 {
     let x = c as f32 / 255.0;
-    if x <= 0.04045 { x / 12.92 } else { ((x + 0.055) / 1.055).powf(2.4) }
+    if x <= 0.04045 {
+        x / 12.92
+    } else {
+        ((x + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 /// The display image of a frame: exposure, clamp, sRGB encoding, 8 bits per channel.
 pub fn display_image(frame: &Frame, exposure: f32) -> image::RgbImage {
     let c = |v: f32| (srgb_encode(v * exposure) * 255.0 + 0.5) as u8;
-    let bytes = frame.pixels.iter().flat_map(|p| [c(p[0]), c(p[1]), c(p[2])]).collect();
-    image::RgbImage::from_raw(frame.width, frame.height, bytes).expect("one pixel per texel of the frame")
+    let bytes = frame
+        .pixels
+        .iter()
+        .flat_map(|p| [c(p[0]), c(p[1]), c(p[2])])
+        .collect();
+    image::RgbImage::from_raw(frame.width, frame.height, bytes)
+        .expect("one pixel per texel of the frame")
 }
 
 fn temporary_beside(path: &Path) -> std::path::PathBuf {
-    let name = path.file_name().map(|n| n.to_string_lossy().to_string()).unwrap_or_default();
-    let ext = path.extension().map(|e| e.to_string_lossy().to_string()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_default();
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_string())
+        .unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp-{}.{ext}", std::process::id()))
 }
 
@@ -43,14 +58,21 @@ fn finish_atomic(tmp: &Path, path: &Path) -> Result<()> {
 
 /// Write `.exr` (linear) or `.png` (tonemapped with `exposure`), by extension.
 pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
     }
     let tmp = temporary_beside(path);
     let image_err = |message: String| {
         let _ = std::fs::remove_file(&tmp);
-        VlfError::Image { path: path.to_path_buf(), message }
+        VlfError::Image {
+            path: path.to_path_buf(),
+            message,
+        }
     };
     match ext.as_str() {
         "exr" => {
@@ -62,12 +84,16 @@ pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
             .map_err(|e| image_err(e.to_string()))?;
         }
         "png" => {
-            display_image(frame, exposure).save_with_format(&tmp, image::ImageFormat::Png).map_err(|e| image_err(e.to_string()))?;
+            display_image(frame, exposure)
+                .save_with_format(&tmp, image::ImageFormat::Png)
+                .map_err(|e| image_err(e.to_string()))?;
         }
         other => {
             return Err(VlfError::Image {
                 path: path.to_path_buf(),
-                message: format!("unknown image type {other:?}: use .exr (linear radiance) or .png (tonemapped)"),
+                message: format!(
+                    "unknown image type {other:?}: use .exr (linear radiance) or .png (tonemapped)"
+                ),
             })
         }
     }
@@ -79,23 +105,51 @@ pub fn read_exr(path: &Path) -> Result<Frame> {
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
-        |resolution, _| (resolution.width(), vec![[0.0f32; 4]; resolution.width() * resolution.height()]),
+        |resolution, _| {
+            (
+                resolution.width(),
+                vec![[0.0f32; 4]; resolution.width() * resolution.height()],
+            )
+        },
         |(w, pixels): &mut (usize, Vec<[f32; 4]>), pos, (r, g, b, a): (f32, f32, f32, f32)| {
             pixels[pos.y() * *w + pos.x()] = [r, g, b, a];
         },
     )
-    .map_err(|e| VlfError::Image { path: path.to_path_buf(), message: e.to_string() })?;
+    .map_err(|e| VlfError::Image {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let size = image.layer_data.size;
-    Ok(Frame { width: size.width() as u32, height: size.height() as u32, pixels: image.layer_data.channel_data.pixels.1 })
+    Ok(Frame {
+        width: size.width() as u32,
+        height: size.height() as u32,
+        pixels: image.layer_data.channel_data.pixels.1,
+    })
 }
 
 /// Read an image for comparison: EXR as linear radiance; PNG is decoded from sRGB to linear.
 pub fn read_image(path: &Path) -> Result<Frame> {
-    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase()).unwrap_or_default();
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .unwrap_or_default();
     if ext == "exr" {
         return read_exr(path);
     }
-    let img = image::open(path).map_err(|e| VlfError::Image { path: path.to_path_buf(), message: format!("cannot read: {e}") })?.to_rgb8();
-    let pixels = img.pixels().map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0]).collect();
-    Ok(Frame { width: img.width(), height: img.height(), pixels })
+    let img = image::open(path)
+        .map_err(|e| VlfError::Image {
+            path: path.to_path_buf(),
+            message: format!("cannot read: {e}"),
+        })?
+        .to_rgb8();
+    let pixels = img
+        .pixels()
+        .map(|p| [srgb_decode(p[0]), srgb_decode(p[1]), srgb_decode(p[2]), 1.0])
+        .collect();
+    Ok(Frame {
+        width: img.width(),
+        height: img.height(),
+        pixels,
+    })
 }

@@ -34,10 +34,20 @@ pub struct Frame {
 }
 
 /// A plain 2D texture (render targets, per-eye images, overlays).
-pub fn texture_2d(device: &wgpu::Device, label: &str, [width, height]: [u32; 2], format: wgpu::TextureFormat, usage: wgpu::TextureUsages) -> wgpu::Texture {
+pub fn texture_2d(
+    device: &wgpu::Device,
+    label: &str,
+    [width, height]: [u32; 2],
+    format: wgpu::TextureFormat,
+    usage: wgpu::TextureUsages,
+) -> wgpu::Texture {
     device.create_texture(&wgpu::TextureDescriptor {
         label: Some(label),
-        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        size: wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
@@ -56,7 +66,12 @@ pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height
     // the scene lies in the unit sphere: depth range from the eye's distance to it
     let far = eye.length() + 2.0;
     let near = (far * 1e-4).max(1e-4);
-    let proj = Mat4::perspective_rh(camera.fov_y_deg.to_radians(), width as f32 / height as f32, near, far);
+    let proj = Mat4::perspective_rh(
+        camera.fov_y_deg.to_radians(),
+        width as f32 / height as f32,
+        near,
+        far,
+    );
     proj * view
 }
 
@@ -97,21 +112,39 @@ pub struct Renderer {
 }
 
 impl Renderer {
-    pub fn new(resident: &ResidentLightField, lf: &LightField, ledger: &MemoryLedger) -> Result<Renderer> {
+    pub fn new(
+        resident: &ResidentLightField,
+        lf: &LightField,
+        ledger: &MemoryLedger,
+    ) -> Result<Renderer> {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let module = shaders::module(device, "render.wgsl")?;
         let cs = wgpu::ShaderStages::COMPUTE;
         use Binding::*;
         // view, faces, triangles, BVH, image, four pages of radiance, ray-casting triangles
-        let resolve_layout = bind_group_layout(device, cs, &[Uniform, Storage, Storage, Storage, ImageWrite, Storage, Storage, Storage, Storage, Storage]);
+        let resolve_layout = bind_group_layout(
+            device,
+            cs,
+            &[
+                Uniform, Storage, Storage, Storage, ImageWrite, Storage, Storage, Storage, Storage,
+                Storage,
+            ],
+        );
         // a diffuse-only light field binds no view-dependent path at all
-        let tile_layout = resident.tiles.as_ref().map(|_| bind_group_layout(device, cs, &[Storage; 9]));
+        let tile_layout = resident
+            .tiles
+            .as_ref()
+            .map(|_| bind_group_layout(device, cs, &[Storage; 9]));
         let mut resolve_layouts = vec![&resolve_layout];
         if let Some(t) = &tile_layout {
             resolve_layouts.push(t);
         }
-        let entry = if tile_layout.is_some() { "resolve_mixed" } else { "resolve_diffuse" };
+        let entry = if tile_layout.is_some() {
+            "resolve_mixed"
+        } else {
+            "resolve_diffuse"
+        };
         let resolve_pipeline = ctx.compute_pipeline(&module, entry, &resolve_layouts);
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
@@ -122,8 +155,15 @@ impl Renderer {
         let (triangles, nodes) = ray_casting_mesh(&lf.render_vertices);
         // `VLF_EXHAUSTIVE_TRIANGLES` (a test hook) moves the threshold: the tests render one
         // scene both ways and compare
-        let threshold = std::env::var("VLF_EXHAUSTIVE_TRIANGLES").ok().and_then(|v| v.parse::<usize>().ok()).unwrap_or(EXHAUSTIVE_TRIANGLES);
-        let exhaustive_triangles = if triangles.len() <= threshold { triangles.len() as u32 } else { 0 };
+        let threshold = std::env::var("VLF_EXHAUSTIVE_TRIANGLES")
+            .ok()
+            .and_then(|v| v.parse::<usize>().ok())
+            .unwrap_or(EXHAUSTIVE_TRIANGLES);
+        let exhaustive_triangles = if triangles.len() <= threshold {
+            triangles.len() as u32
+        } else {
+            0
+        };
         let storage = |label, bytes: &[u8]| {
             ledger.record(label, bytes.len() as u64);
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -132,10 +172,13 @@ impl Renderer {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
-        let maps: Vec<GpuRayTriangle> = triangles.iter().map(|t| {
-            let a = Vec3::from(t.v0);
-            GpuRayTriangle::new(a, a + Vec3::from(t.e1), a + Vec3::from(t.e2))
-        }).collect();
+        let maps: Vec<GpuRayTriangle> = triangles
+            .iter()
+            .map(|t| {
+                let a = Vec3::from(t.v0);
+                GpuRayTriangle::new(a, a + Vec3::from(t.e1), a + Vec3::from(t.e2))
+            })
+            .collect();
         let ray_triangles = storage("render mesh: triangle maps", bytemuck::cast_slice(&maps));
         let triangles = storage("render mesh: triangles", bytemuck::cast_slice(&triangles));
         let nodes = storage("render mesh: BVH", bytemuck::cast_slice(&nodes));
@@ -143,7 +186,20 @@ impl Renderer {
             (Some(l), Some(t)) => {
                 // four page bindings; pages a light field does not have repeat page 0
                 let page = |p: usize| t.radiance.get(p).unwrap_or(&t.radiance[0]);
-                Some(ctx.bind_group(l, &[&t.directions, &t.geodesic_points, &t.geodesic_index, &t.rects, &t.index, page(0), page(1), page(2), page(3)]))
+                Some(ctx.bind_group(
+                    l,
+                    &[
+                        &t.directions,
+                        &t.geodesic_points,
+                        &t.geodesic_index,
+                        &t.rects,
+                        &t.index,
+                        page(0),
+                        page(1),
+                        page(2),
+                        page(3),
+                    ],
+                ))
             }
             _ => None,
         };
@@ -159,7 +215,10 @@ impl Renderer {
             grid_resolution: p.grid_resolution,
             exhaustive_triangles,
             tile_page_cells: resident.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
-            tile_cell_count: resident.tiles.as_ref().map_or(0, |t| t.pages.total_cells as u32),
+            tile_cell_count: resident
+                .tiles
+                .as_ref()
+                .map_or(0, |t| t.pages.total_cells as u32),
             texel_page_cells: resident.texel_pages.page_cells,
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
@@ -185,7 +244,10 @@ impl Renderer {
     /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre).
     pub fn set_samples_per_pixel(&mut self, n: u32) -> Result<()> {
         if !(1..=MAX_SAMPLES).contains(&n) {
-            return Err(VlfError::Parameter { name: "aa", message: format!("{n} eye rays per pixel: use 1 (off) to {MAX_SAMPLES}") });
+            return Err(VlfError::Parameter {
+                name: "aa",
+                message: format!("{n} eye rays per pixel: use 1 (off) to {MAX_SAMPLES}"),
+            });
         }
         self.view_template.samples_per_pixel = n;
         Ok(())
@@ -204,30 +266,76 @@ impl Renderer {
     pub fn view_targets(&self, width: u32, height: u32) -> ViewTargets {
         let device = &self.ctx.device;
         use wgpu::TextureUsages as U;
-        let image = texture_2d(device, "image", [width, height], COLOR_FORMAT, U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC);
+        let image = texture_2d(
+            device,
+            "image",
+            [width, height],
+            COLOR_FORMAT,
+            U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
+        );
         let image_view = image.create_view(&Default::default());
         let page = |p: usize| self.radiance.get(p).unwrap_or(&self.radiance[0]);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),
             layout: &self.resolve_layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: self.view_buffer.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: self.faces.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 2, resource: self.triangles.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 3, resource: self.nodes.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 4, resource: wgpu::BindingResource::TextureView(&image_view) },
-                wgpu::BindGroupEntry { binding: 5, resource: page(0).as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 6, resource: page(1).as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 7, resource: page(2).as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 8, resource: page(3).as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 9, resource: self.ray_triangles.as_entire_binding() },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.view_buffer.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.faces.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: self.triangles.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: self.nodes.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: wgpu::BindingResource::TextureView(&image_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: page(0).as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 6,
+                    resource: page(1).as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: page(2).as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: page(3).as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 9,
+                    resource: self.ray_triangles.as_entire_binding(),
+                },
             ],
         });
-        ViewTargets { width, height, image, image_view, resolve_bind_group }
+        ViewTargets {
+            width,
+            height,
+            image,
+            image_view,
+            resolve_bind_group,
+        }
     }
 
     fn target(&mut self, width: u32, height: u32) -> &Target {
-        if self.target.as_ref().is_none_or(|t| t.targets.width != width || t.targets.height != height) {
+        if self
+            .target
+            .as_ref()
+            .is_none_or(|t| t.targets.width != width || t.targets.height != height)
+        {
             let padded_row = (width * 16).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
             let readback = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("frame readback"),
@@ -235,18 +343,31 @@ impl Renderer {
                 usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
                 mapped_at_creation: false,
             });
-            self.target = Some(Target { targets: self.view_targets(width, height), readback, padded_row });
+            self.target = Some(Target {
+                targets: self.view_targets(width, height),
+                readback,
+                padded_row,
+            });
         }
         self.target.as_ref().unwrap()
     }
 
-    fn encode_frame(&mut self, encoder: &mut wgpu::CommandEncoder, timestamps: Option<&mut Timestamps>) {
+    fn encode_frame(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<&mut Timestamps>,
+    ) {
         let target = self.target.as_ref().expect("target sized");
         self.encode_view(encoder, &target.targets, timestamps);
     }
 
     /// Draw the view last set with `set_view_matrix` into `targets`: one compute pass.
-    pub fn encode_view(&self, encoder: &mut wgpu::CommandEncoder, targets: &ViewTargets, timestamps: Option<&mut Timestamps>) {
+    pub fn encode_view(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        targets: &ViewTargets,
+        timestamps: Option<&mut Timestamps>,
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("view"),
             timestamp_writes: timestamps.and_then(|t| t.compute_writes()),
@@ -261,7 +382,10 @@ impl Renderer {
 
     fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
         let eye = self.normalisation.to_unit(camera.eye).as_vec3();
-        self.set_view_matrix(view_projection(camera, &self.normalisation, width, height), eye);
+        self.set_view_matrix(
+            view_projection(camera, &self.normalisation, width, height),
+            eye,
+        );
     }
 
     /// Any view: a view-projection and the eye, both in the light field's normalised space
@@ -273,12 +397,20 @@ impl Renderer {
             eye: eye.into(),
             ..self.view_template
         };
-        self.ctx.queue.write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
+        self.ctx
+            .queue
+            .write_buffer(&self.view_buffer, 0, bytemuck::bytes_of(&view));
     }
 
     /// Render the view last set with `set_view_matrix`, timed with GPU timestamps where the
     /// adapter has them (milliseconds).
-    pub fn render_matrix(&mut self, view_proj: Mat4, eye: Vec3, width: u32, height: u32) -> Result<(Frame, Option<f64>)> {
+    pub fn render_matrix(
+        &mut self,
+        view_proj: Mat4,
+        eye: Vec3,
+        width: u32,
+        height: u32,
+    ) -> Result<(Frame, Option<f64>)> {
         self.set_view_matrix(view_proj, eye);
         self.target(width, height);
         let mut ts = Timestamps::new(&self.ctx, 1);
@@ -294,7 +426,14 @@ impl Renderer {
 
     /// Encode and submit one view without waiting (views of one frame queue up back to back,
     /// as in a CAVE); its GPU time lands in `timestamps`.
-    pub fn submit_matrix(&mut self, view_proj: Mat4, eye: Vec3, width: u32, height: u32, timestamps: Option<&mut Timestamps>) {
+    pub fn submit_matrix(
+        &mut self,
+        view_proj: Mat4,
+        eye: Vec3,
+        width: u32,
+        height: u32,
+        timestamps: Option<&mut Timestamps>,
+    ) {
         self.set_view_matrix(view_proj, eye);
         self.target(width, height);
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
@@ -302,30 +441,52 @@ impl Renderer {
         self.ctx.queue.submit([encoder.finish()]);
     }
 
-    fn read_target(&mut self, mut encoder: wgpu::CommandEncoder, width: u32, height: u32) -> Result<Frame> {
+    fn read_target(
+        &mut self,
+        mut encoder: wgpu::CommandEncoder,
+        width: u32,
+        height: u32,
+    ) -> Result<Frame> {
         let t = self.target.as_ref().unwrap();
         encoder.copy_texture_to_buffer(
             t.targets.image.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
                 buffer: &t.readback,
-                layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(t.padded_row), rows_per_image: Some(height) },
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(t.padded_row),
+                    rows_per_image: Some(height),
+                },
             },
-            wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
         );
         self.ctx.queue.submit([encoder.finish()]);
-        let raw: Vec<[f32; 4]> = self.ctx.read_buffer(&t.readback, t.padded_row as u64 * height as u64)?;
+        let raw: Vec<[f32; 4]> = self
+            .ctx
+            .read_buffer(&t.readback, t.padded_row as u64 * height as u64)?;
         let stride = (t.padded_row / 16) as usize;
         let mut pixels = Vec::with_capacity((width * height) as usize);
         for row in 0..height as usize {
             pixels.extend_from_slice(&raw[row * stride..row * stride + width as usize]);
         }
-        Ok(Frame { width, height, pixels })
+        Ok(Frame {
+            width,
+            height,
+            pixels,
+        })
     }
 
     /// Render one view and read it back.
     pub fn render(&mut self, camera: &Camera, width: u32, height: u32) -> Result<Frame> {
         if width == 0 || height == 0 || width > 16384 || height > 16384 {
-            return Err(VlfError::Parameter { name: "size", message: format!("{width}x{height} must be 1..16384 each way") });
+            return Err(VlfError::Parameter {
+                name: "size",
+                message: format!("{width}x{height} must be 1..16384 each way"),
+            });
         }
         self.set_view(camera, width, height);
         self.target(width, height);
@@ -338,7 +499,13 @@ impl Renderer {
     /// (or wall-clock milliseconds per submitted frame when the adapter has none).
     /// Render with `ssaa` x `ssaa` samples per pixel on a regular grid, box-filtered over the
     /// pixel (for comparisons with the path tracer, whose samples cover the pixel too).
-    pub fn render_antialiased(&mut self, camera: &Camera, width: u32, height: u32, ssaa: u32) -> Result<Frame> {
+    pub fn render_antialiased(
+        &mut self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        ssaa: u32,
+    ) -> Result<Frame> {
         if ssaa <= 1 {
             return self.render(camera, width, height);
         }
@@ -351,7 +518,13 @@ impl Renderer {
         self.tile_bind_group.is_some()
     }
 
-    pub fn time_frames(&mut self, camera: &Camera, width: u32, height: u32, frames: u32) -> Result<(Vec<f64>, bool)> {
+    pub fn time_frames(
+        &mut self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        frames: u32,
+    ) -> Result<(Vec<f64>, bool)> {
         self.set_view(camera, width, height);
         self.target(width, height);
         const BATCH: u32 = 64;
@@ -392,8 +565,16 @@ impl Renderer {
 /// work for every pixel, and on an H200 cheaper than the BVH for meshes this small.
 pub const EXHAUSTIVE_TRIANGLES: usize = 256;
 
-fn ray_casting_mesh(vertices: &[RenderVertex]) -> (Vec<crate::reference::GpuTriangle>, Vec<crate::reference::GpuBvhNode>) {
-    let corners: Vec<[Vec3; 3]> = vertices.chunks_exact(3).map(|t| [0, 1, 2].map(|k| Vec3::from(t[k].position))).collect();
+fn ray_casting_mesh(
+    vertices: &[RenderVertex],
+) -> (
+    Vec<crate::reference::GpuTriangle>,
+    Vec<crate::reference::GpuBvhNode>,
+) {
+    let corners: Vec<[Vec3; 3]> = vertices
+        .chunks_exact(3)
+        .map(|t| [0, 1, 2].map(|k| Vec3::from(t[k].position)))
+        .collect();
     let (nodes, order) = crate::reference::build_bvh(&corners);
     let triangles = order
         .iter()
@@ -425,5 +606,9 @@ pub fn downsample(frame: &Frame, factor: u32) -> Frame {
             }
         }
     }
-    Frame { width: w, height: h, pixels }
+    Frame {
+        width: w,
+        height: h,
+        pixels,
+    }
 }

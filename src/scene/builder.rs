@@ -13,7 +13,14 @@ pub struct QuadMesh {
 impl QuadMesh {
     /// A rectangle `size` centred at `c`, facing `normal` (counter-clockwise seen from the
     /// front); `spin` rotates it in its plane.
-    pub fn quad(&mut self, material: &str, c: DVec3, normal: DVec3, size: [f64; 2], spin: f64) -> &mut Self {
+    pub fn quad(
+        &mut self,
+        material: &str,
+        c: DVec3,
+        normal: DVec3,
+        size: [f64; 2],
+        spin: f64,
+    ) -> &mut Self {
         let n = normal.normalize();
         let helper = if n.x.abs() < 0.6 { DVec3::X } else { DVec3::Y };
         let t1 = (helper - n * n.dot(helper)).normalize();

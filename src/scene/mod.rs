@@ -87,7 +87,12 @@ impl Texture {
             let yi = (yi as i64).rem_euclid(self.height as i64) as usize;
             self.texels[yi * self.width as usize + xi]
         };
-        let (a, b, c, d) = (at(x0, y0), at(x0 + 1.0, y0), at(x0, y0 + 1.0), at(x0 + 1.0, y0 + 1.0));
+        let (a, b, c, d) = (
+            at(x0, y0),
+            at(x0 + 1.0, y0),
+            at(x0, y0 + 1.0),
+            at(x0 + 1.0, y0 + 1.0),
+        );
         std::array::from_fn(|k| {
             (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
         })
@@ -123,8 +128,10 @@ pub struct Scene {
 impl SceneFile {
     /// Parse and validate `scene.toml` text; `path` names the file in errors.
     pub fn parse(text: &str, path: &Path) -> Result<SceneFile> {
-        let file: SceneFile =
-            toml::from_str(text).map_err(|e| VlfError::SceneToml { path: path.to_path_buf(), message: toml_message(&e) })?;
+        let file: SceneFile = toml::from_str(text).map_err(|e| VlfError::SceneToml {
+            path: path.to_path_buf(),
+            message: toml_message(&e),
+        })?;
         file.validate(path)?;
         Ok(file)
     }
@@ -144,7 +151,11 @@ impl Scene {
                     message: format!(
                         "[materials.{name}] overrides a material that {} does not use; it has: {}",
                         mesh_path.display(),
-                        mesh.materials.iter().map(|m| m.name.as_str()).collect::<Vec<_>>().join(", ")
+                        mesh.materials
+                            .iter()
+                            .map(|m| m.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
                     ),
                 });
             }
@@ -163,7 +174,10 @@ impl Scene {
             triangles: mesh.triangles,
             materials: mesh.materials,
             textures: mesh.textures,
-            sky: file.sky.map(|s| s.radiance).filter(|r| r.iter().any(|&c| c > 0.0)),
+            sky: file
+                .sky
+                .map(|s| s.radiance)
+                .filter(|r| r.iter().any(|&c| c > 0.0)),
             cameras: file.camera,
             warnings: mesh.warnings,
             hash,
@@ -176,10 +190,20 @@ impl Scene {
                 name: "(default)".into(),
                 available: "no [[camera]] entries; add one to scene.toml".into(),
             }),
-            Some(n) => self.cameras.iter().find(|c| c.name == n).ok_or_else(|| VlfError::UnknownCamera {
-                name: n.into(),
-                available: self.cameras.iter().map(|c| c.name.as_str()).collect::<Vec<_>>().join(", "),
-            }),
+            Some(n) => {
+                self.cameras
+                    .iter()
+                    .find(|c| c.name == n)
+                    .ok_or_else(|| VlfError::UnknownCamera {
+                        name: n.into(),
+                        available: self
+                            .cameras
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    })
+            }
         }
     }
 }
@@ -191,7 +215,10 @@ fn toml_message(e: &toml::de::Error) -> String {
 
 impl SceneFile {
     fn validate(&self, path: &Path) -> Result<()> {
-        let err = |message: String| VlfError::SceneToml { path: path.to_path_buf(), message };
+        let err = |message: String| VlfError::SceneToml {
+            path: path.to_path_buf(),
+            message,
+        };
         if let Some(sky) = &self.sky {
             check_color(&sky.radiance, false).map_err(|m| err(format!("sky.radiance: {m}")))?;
         }
@@ -214,10 +241,16 @@ impl SceneFile {
                 return Err(err(format!("{at}.up: parallel to the viewing direction")));
             }
             if !(c.fov_y_deg > 0.0 && c.fov_y_deg < 180.0) {
-                return Err(err(format!("{at}.fov_y_deg: {} is not between 0 and 180", c.fov_y_deg)));
+                return Err(err(format!(
+                    "{at}.fov_y_deg: {} is not between 0 and 180",
+                    c.fov_y_deg
+                )));
             }
             if c.size[0] == 0 || c.size[1] == 0 || c.size[0] > 16384 || c.size[1] > 16384 {
-                return Err(err(format!("{at}.size: {:?} must be 1..16384 pixels each way", c.size)));
+                return Err(err(format!(
+                    "{at}.size: {:?} must be 1..16384 pixels each way",
+                    c.size
+                )));
             }
         }
         for (name, m) in &self.materials {
@@ -245,7 +278,9 @@ pub fn check_color(c: &[f32; 3], reflectance: bool) -> std::result::Result<(), S
         return Err(format!("{c:?} has a negative component"));
     }
     if reflectance && c.iter().any(|&x| x > 1.0) {
-        return Err(format!("{c:?} exceeds 1: a surface cannot reflect more light than it receives"));
+        return Err(format!(
+            "{c:?} exceeds 1: a surface cannot reflect more light than it receives"
+        ));
     }
     Ok(())
 }

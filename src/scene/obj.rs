@@ -21,14 +21,21 @@ pub struct ImportedMesh {
 const DEGENERATE_AREA: f64 = 1e-14;
 
 pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
-    let mesh_err = |message: String| VlfError::Mesh { path: path.to_path_buf(), message };
+    let mesh_err = |message: String| VlfError::Mesh {
+        path: path.to_path_buf(),
+        message,
+    };
     let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
     prescan(&text).map_err(mesh_err)?;
 
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let source_files = std::cell::RefCell::new(vec![path.to_path_buf()]);
     let mtl_missing: std::cell::RefCell<Option<String>> = Default::default();
-    let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: true,
+        ..Default::default()
+    };
     let mut reader = std::io::BufReader::new(text.as_bytes());
     let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
         let full = dir.join(mtl);
@@ -36,14 +43,18 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             Ok(t) => {
                 // tobj panics on a colour line with fewer than three numbers: catch it first
                 if let Err(e) = prescan_mtl(&t) {
-                    *mtl_missing.borrow_mut() = Some(format!("material library {}: {e}", full.display()));
+                    *mtl_missing.borrow_mut() =
+                        Some(format!("material library {}: {e}", full.display()));
                     return Err(tobj::LoadError::MaterialParseError);
                 }
                 source_files.borrow_mut().push(full);
                 tobj::load_mtl_buf(&mut std::io::BufReader::new(t.as_bytes()))
             }
             Err(e) => {
-                *mtl_missing.borrow_mut() = Some(format!("material library {} (named by mtllib): {e}", full.display()));
+                *mtl_missing.borrow_mut() = Some(format!(
+                    "material library {} (named by mtllib): {e}",
+                    full.display()
+                ));
                 Err(tobj::LoadError::OpenFileFailed)
             }
         }
@@ -53,8 +64,12 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     if let Some(m) = mtl_missing.into_inner() {
         return Err(mesh_err(format!("cannot use {m}")));
     }
-    let materials = materials.map_err(|e| mesh_err(format!("cannot parse its material library: {e}")))?;
-    let mtl_path = source_files.get(1).cloned().unwrap_or_else(|| path.to_path_buf());
+    let materials =
+        materials.map_err(|e| mesh_err(format!("cannot parse its material library: {e}")))?;
+    let mtl_path = source_files
+        .get(1)
+        .cloned()
+        .unwrap_or_else(|| path.to_path_buf());
 
     let mut warnings = Vec::new();
     let mut out_materials: Vec<Material> = Vec::new();
@@ -63,11 +78,23 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         let mut material = convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?;
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
         material.diffuse_texture = match &m.diffuse_texture {
-            Some(t) => Some(load_texture(&mtl_dir.join(t), &m.name, "map_Kd", &mtl_path, &mut textures)?),
+            Some(t) => Some(load_texture(
+                &mtl_dir.join(t),
+                &m.name,
+                "map_Kd",
+                &mtl_path,
+                &mut textures,
+            )?),
             None => None,
         };
         material.emission_texture = match m.unknown_param.get("map_Ke") {
-            Some(t) => Some(load_texture(&mtl_dir.join(t.trim()), &m.name, "map_Ke", &mtl_path, &mut textures)?),
+            Some(t) => Some(load_texture(
+                &mtl_dir.join(t.trim()),
+                &m.name,
+                "map_Ke",
+                &mtl_path,
+                &mut textures,
+            )?),
             None => None,
         };
         out_materials.push(material);
@@ -115,7 +142,11 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             local.push(id);
         }
         for tri in mesh.indices.chunks(3) {
-            let v = [local[tri[0] as usize], local[tri[1] as usize], local[tri[2] as usize]];
+            let v = [
+                local[tri[0] as usize],
+                local[tri[1] as usize],
+                local[tri[2] as usize],
+            ];
             let [a, b, c] = v.map(|i| glam::DVec3::from(positions[i as usize].map(|x| x as f64)));
             if (b - a).cross(c - a).length() * 0.5 <= min_area {
                 dropped_degenerate += 1;
@@ -134,7 +165,11 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
                     [mesh.texcoords[2 * i], mesh.texcoords[2 * i + 1]]
                 })
             });
-            triangles.push(Triangle { vertices: v, material, uv });
+            triangles.push(Triangle {
+                vertices: v,
+                material,
+                uv,
+            });
         }
     }
     if uses_default {
@@ -153,7 +188,10 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         });
     }
     if dropped_degenerate > 0 {
-        warnings.push(format!("{}: dropped {dropped_degenerate} zero-area triangle(s)", path.display()));
+        warnings.push(format!(
+            "{}: dropped {dropped_degenerate} zero-area triangle(s)",
+            path.display()
+        ));
     }
     if dropped_duplicate > 0 {
         warnings.push(format!(
@@ -162,12 +200,21 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         ));
     }
     if triangles.is_empty() {
-        return Err(mesh_err("the mesh has no triangles with area: nothing to light".into()));
+        return Err(mesh_err(
+            "the mesh has no triangles with area: nothing to light".into(),
+        ));
     }
     for t in &textures {
         source_files.push(t.path.clone());
     }
-    Ok(ImportedMesh { positions, triangles, materials: out_materials, textures, warnings, source_files })
+    Ok(ImportedMesh {
+        positions,
+        triangles,
+        materials: out_materials,
+        textures,
+        warnings,
+        source_files,
+    })
 }
 
 fn convert_material(
@@ -176,7 +223,11 @@ fn convert_material(
     mtl_path: &Path,
     warnings: &mut Vec<String>,
 ) -> Result<Material> {
-    let err = |message: String| VlfError::Material { path: mtl_path.to_path_buf(), material: m.name.clone(), message };
+    let err = |message: String| VlfError::Material {
+        path: mtl_path.to_path_buf(),
+        material: m.name.clone(),
+        message,
+    };
     let kd = m.diffuse.unwrap_or([0.0; 3]);
     let ks = m.specular.unwrap_or([0.0; 3]);
     let ke = m.emissive.unwrap_or([0.0; 3]);
@@ -201,13 +252,20 @@ fn convert_material(
             )));
         }
     }
-    for (what, tex) in [("map_Ks", &m.specular_texture), ("map_bump", &m.normal_texture), ("map_d", &m.dissolve_texture)] {
+    for (what, tex) in [
+        ("map_Ks", &m.specular_texture),
+        ("map_bump", &m.normal_texture),
+        ("map_d", &m.dissolve_texture),
+    ] {
         if let Some(t) = tex {
             warnings.push(format!("material {:?}: {what} {t} cannot be represented (only map_Kd and map_Ke are) and is ignored", m.name));
         }
     }
     if m.dissolve.is_some_and(|d| d < 1.0) {
-        warnings.push(format!("material {:?}: transparency (d < 1) cannot be represented; treated as opaque", m.name));
+        warnings.push(format!(
+            "material {:?}: transparency (d < 1) cannot be represented; treated as opaque",
+            m.name
+        ));
     }
     Ok(material)
 }
@@ -220,7 +278,11 @@ fn prescan_mtl(text: &str) -> std::result::Result<(), String> {
         if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) = words.next() {
             let numbers: Vec<&str> = words.collect();
             if numbers.len() < 3 || numbers[..3].iter().any(|w| w.parse::<f32>().is_err()) {
-                return Err(format!("line {}: {key} needs three numbers (r g b), found {:?}", index + 1, numbers.join(" ")));
+                return Err(format!(
+                    "line {}: {key} needs three numbers (r g b), found {:?}",
+                    index + 1,
+                    numbers.join(" ")
+                ));
             }
         }
     }
@@ -255,13 +317,16 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
             Some("f") => {
                 let corners: Vec<&str> = words.collect();
                 if corners.len() < 3 {
-                    return Err(format!("line {line_no}: a face needs at least 3 corners, found {}", corners.len()));
+                    return Err(format!(
+                        "line {line_no}: a face needs at least 3 corners, found {}",
+                        corners.len()
+                    ));
                 }
                 for corner in corners {
                     let first = corner.split('/').next().unwrap_or("");
-                    let i: i64 = first
-                        .parse()
-                        .map_err(|_| format!("line {line_no}: face corner {corner:?} is not a vertex index"))?;
+                    let i: i64 = first.parse().map_err(|_| {
+                        format!("line {line_no}: face corner {corner:?} is not a vertex index")
+                    })?;
                     let resolved = if i < 0 { vertex_count + 1 + i } else { i };
                     if i == 0 || resolved < 1 || resolved > vertex_count {
                         return Err(format!(
@@ -277,20 +342,43 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
 }
 
 /// Load a texture once (by path), decoding sRGB to linear. Errors name the material and file.
-fn load_texture(path: &Path, material: &str, key: &str, mtl_path: &Path, textures: &mut Vec<Texture>) -> Result<u32> {
+fn load_texture(
+    path: &Path,
+    material: &str,
+    key: &str,
+    mtl_path: &Path,
+    textures: &mut Vec<Texture>,
+) -> Result<u32> {
     if let Some(i) = textures.iter().position(|t| t.path == path) {
         return Ok(i as u32);
     }
-    let err = |message: String| VlfError::Material { path: mtl_path.to_path_buf(), material: material.to_string(), message };
+    let err = |message: String| VlfError::Material {
+        path: mtl_path.to_path_buf(),
+        material: material.to_string(),
+        message,
+    };
     let image = image::ImageReader::open(path)
         .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
         .with_guessed_format()
         .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
         .decode()
-        .map_err(|e| err(format!("{key} {}: not a readable PNG or JPEG image: {e}", path.display())))?
+        .map_err(|e| {
+            err(format!(
+                "{key} {}: not a readable PNG or JPEG image: {e}",
+                path.display()
+            ))
+        })?
         .to_rgb8();
     let decode = crate::render::image_io::srgb_decode;
-    let texels = image.pixels().map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect();
-    textures.push(Texture { path: path.to_path_buf(), width: image.width(), height: image.height(), texels });
+    let texels = image
+        .pixels()
+        .map(|p| [decode(p[0]), decode(p[1]), decode(p[2])])
+        .collect();
+    textures.push(Texture {
+        path: path.to_path_buf(),
+        width: image.width(),
+        height: image.height(),
+        texels,
+    });
     Ok(textures.len() as u32 - 1)
 }

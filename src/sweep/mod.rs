@@ -52,19 +52,44 @@ impl SweepRow {
     pub fn csv(&self) -> String {
         format!(
             "{},{},{},{},{:e},{},{},{:.6},{:.6},{:.6},{:.6e},{:.6e},{:.6e},{:.6}",
-            self.method, self.directions, self.grid, self.texel_density, self.tolerance, self.perturb, self.spp,
-            self.propagation_s, self.render_s, self.total_s, self.mse, self.rel_mse, self.display_mse, self.flip
+            self.method,
+            self.directions,
+            self.grid,
+            self.texel_density,
+            self.tolerance,
+            self.perturb,
+            self.spp,
+            self.propagation_s,
+            self.render_s,
+            self.total_s,
+            self.mse,
+            self.rel_mse,
+            self.display_mse,
+            self.flip
         )
     }
 }
 
-fn frame_seconds(renderer: &mut Renderer, camera: &Camera, w: u32, h: u32, ssaa: u32) -> Result<f64> {
+fn frame_seconds(
+    renderer: &mut Renderer,
+    camera: &Camera,
+    w: u32,
+    h: u32,
+    ssaa: u32,
+) -> Result<f64> {
     let (ms, _) = renderer.time_frames(camera, w * ssaa, h * ssaa, 20)?;
     Ok(crate::bench::Distribution::of(&ms).median / 1e3)
 }
 
 /// Run the sweep. `progress` reports each run on stderr.
-pub fn run(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, reference: &Frame, grid: &SweepGrid, progress: bool) -> Result<Vec<SweepRow>> {
+pub fn run(
+    ctx: Arc<GpuContext>,
+    scene: &Scene,
+    camera: &Camera,
+    reference: &Frame,
+    grid: &SweepGrid,
+    progress: bool,
+) -> Result<Vec<SweepRow>> {
     let (w, h) = (reference.width, reference.height);
     let mut rows = Vec::new();
     let combos: Vec<(u32, u32, f64, f64, u32)> = grid
@@ -98,29 +123,70 @@ pub fn run(ctx: Arc<GpuContext>, scene: &Scene, camera: &Camera, reference: &Fra
         let image = renderer.render_antialiased(camera, w, h, grid.ssaa)?;
         let c = compare(&image, reference)?;
         let render_s = frame_seconds(&mut renderer, camera, w, h, grid.ssaa)?;
-        let propagation_s = report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
+        let propagation_s =
+            report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
         if progress {
             eprintln!(
                 "[{}/{total_runs}] light field {} dirs, grid {grid_res}, {density} texels/unit, tol {tolerance:.0e}, perturb {perturb}: {:.3} s, relMSE {:.3e}",
                 i + 1, report.directions, propagation_s + render_s, c.rel_mse
             );
         }
-        rows.push(row("light field", report.directions, grid_res, density, tolerance, perturb, 0, propagation_s, render_s, &c));
+        rows.push(row(
+            "light field",
+            report.directions,
+            grid_res,
+            density,
+            tolerance,
+            perturb,
+            0,
+            propagation_s,
+            render_s,
+            &c,
+        ));
     }
     for (i, &spp) in grid.spp.iter().enumerate() {
         // a seed other than the reference's: independent noise
-        let r = crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, false)?;
+        let r =
+            crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, false)?;
         let c = compare(&r.mean, reference)?;
         if progress {
-            eprintln!("[{}/{total_runs}] path tracer {} spp: {:.3} s, relMSE {:.3e}", combos.len() + i + 1, r.spp, r.seconds, c.rel_mse);
+            eprintln!(
+                "[{}/{total_runs}] path tracer {} spp: {:.3} s, relMSE {:.3e}",
+                combos.len() + i + 1,
+                r.spp,
+                r.seconds,
+                c.rel_mse
+            );
         }
-        rows.push(row("path tracer", 0, 0, 0.0, 0.0, 0, r.spp, 0.0, r.seconds, &c));
+        rows.push(row(
+            "path tracer",
+            0,
+            0,
+            0.0,
+            0.0,
+            0,
+            r.spp,
+            0.0,
+            r.seconds,
+            &c,
+        ));
     }
     Ok(rows)
 }
 
 #[allow(clippy::too_many_arguments)]
-fn row(method: &str, directions: u32, grid: u32, texel_density: f64, tolerance: f64, perturb: u32, spp: u32, propagation_s: f64, render_s: f64, c: &Comparison) -> SweepRow {
+fn row(
+    method: &str,
+    directions: u32,
+    grid: u32,
+    texel_density: f64,
+    tolerance: f64,
+    perturb: u32,
+    spp: u32,
+    propagation_s: f64,
+    render_s: f64,
+    c: &Comparison,
+) -> SweepRow {
     SweepRow {
         method: method.into(),
         directions,
@@ -144,13 +210,20 @@ pub fn chart(rows: &[SweepRow], scene: &str, path: &std::path::Path) -> Result<(
     let series = |method: &'static str, color| plot::Series {
         name: method,
         color,
-        points: rows.iter().filter(|r| r.method == method).map(|r| (r.total_s, r.rel_mse)).collect(),
+        points: rows
+            .iter()
+            .filter(|r| r.method == method)
+            .map(|r| (r.total_s, r.rel_mse))
+            .collect(),
     };
     plot::error_vs_time(
         path,
         &format!("{scene}: error against run time"),
         "relMSE against the reference",
-        &[series("light field", plotters::style::RGBColor(200, 60, 40)), series("path tracer", plotters::style::RGBColor(40, 90, 200))],
+        &[
+            series("light field", plotters::style::RGBColor(200, 60, 40)),
+            series("path tracer", plotters::style::RGBColor(40, 90, 200)),
+        ],
     )
 }
 
@@ -198,7 +271,8 @@ pub fn walkthrough(
     progress: bool,
 ) -> Result<(Vec<WalkRow>, f64, u32)> {
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, progress)?;
-    let propagation_s = report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
+    let propagation_s =
+        report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
     // path tracer speed: seconds per sample per pixel at this size
     let calibration = crate::reference::render(ctx.clone(), scene, &path[0], size, 16, 99, false)?;
@@ -206,16 +280,46 @@ pub fn walkthrough(
     let spp = ((budget_ms / per_spp_ms).floor() as u32).max(1);
     let mut rows = Vec::new();
     for (i, cam) in path.iter().enumerate() {
-        let reference = crate::reference::render(ctx.clone(), scene, cam, size, reference_spp, 5000 + i as u32, false)?;
+        let reference = crate::reference::render(
+            ctx.clone(),
+            scene,
+            cam,
+            size,
+            reference_spp,
+            5000 + i as u32,
+            false,
+        )?;
         let image = renderer.render(cam, size[0], size[1])?;
         let (ms, _) = renderer.time_frames(cam, size[0], size[1], 10)?;
         let c = compare(&image, &reference.mean)?;
-        rows.push(WalkRow { frame: i as u32, method: "light field".into(), spp: 0, frame_ms: crate::bench::Distribution::of(&ms).median, rel_mse: c.rel_mse, flip: c.flip_mean });
-        let pt = crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, false)?;
+        rows.push(WalkRow {
+            frame: i as u32,
+            method: "light field".into(),
+            spp: 0,
+            frame_ms: crate::bench::Distribution::of(&ms).median,
+            rel_mse: c.rel_mse,
+            flip: c.flip_mean,
+        });
+        let pt =
+            crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, false)?;
         let c = compare(&pt.mean, &reference.mean)?;
-        rows.push(WalkRow { frame: i as u32, method: "path tracer".into(), spp: pt.spp, frame_ms: pt.seconds * 1e3, rel_mse: c.rel_mse, flip: c.flip_mean });
+        rows.push(WalkRow {
+            frame: i as u32,
+            method: "path tracer".into(),
+            spp: pt.spp,
+            frame_ms: pt.seconds * 1e3,
+            rel_mse: c.rel_mse,
+            flip: c.flip_mean,
+        });
         if progress {
-            eprintln!("frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}", i + 1, path.len(), rows[rows.len() - 2].rel_mse, pt.spp, c.rel_mse);
+            eprintln!(
+                "frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}",
+                i + 1,
+                path.len(),
+                rows[rows.len() - 2].rel_mse,
+                pt.spp,
+                c.rel_mse
+            );
         }
     }
     Ok((rows, propagation_s, spp))

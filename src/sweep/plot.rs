@@ -9,12 +9,19 @@ use std::path::Path;
 fn register_font() {
     static ONCE: std::sync::Once = std::sync::Once::new();
     ONCE.call_once(|| {
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular());
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
     });
 }
 
 fn plot_err(path: &Path, e: impl std::fmt::Display) -> VlfError {
-    VlfError::Image { path: path.to_path_buf(), message: format!("cannot draw the chart: {e}") }
+    VlfError::Image {
+        path: path.to_path_buf(),
+        message: format!("cannot draw the chart: {e}"),
+    }
 }
 
 /// One series of (time, error) points.
@@ -50,12 +57,18 @@ fn tick(v: f64) -> String {
         format!("{v:.1e}")
     } else {
         let s = format!("{v:.digits$}");
-        if s.contains('.') { s.trim_end_matches('0').trim_end_matches('.').to_string() } else { s }
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
     }
 }
 
 fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values.filter(|v| *v > 0.0 && v.is_finite()).fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
+    let (lo, hi) = values
+        .filter(|v| *v > 0.0 && v.is_finite())
+        .fold((f64::INFINITY, 0.0f64), |(l, h), v| (l.min(v), h.max(v)));
     if lo > hi {
         return (1e-3, 1.0);
     }
@@ -75,7 +88,11 @@ fn log_log_scatter<'a, DB: DrawingBackend + 'a>(
     series: &[Series],
     dot: u32,
 ) -> Result<(LogChart<'a, DB>, (f64, f64))> {
-    let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    let all: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
     let (x0, x1) = range(all.iter().map(|p| p.0));
     let (y0, y1) = range(all.iter().map(|p| p.1));
     let mut builder = ChartBuilder::on(area);
@@ -101,7 +118,12 @@ fn log_log_scatter<'a, DB: DrawingBackend + 'a>(
     for s in series {
         let color = s.color;
         chart
-            .draw_series(s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(move |p| Circle::new(*p, dot, color.filled())))
+            .draw_series(
+                s.points
+                    .iter()
+                    .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+                    .map(move |p| Circle::new(*p, dot, color.filled())),
+            )
             .map_err(|e| plot_err(path, e))?
             .label(s.name)
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
@@ -112,7 +134,11 @@ fn log_log_scatter<'a, DB: DrawingBackend + 'a>(
 /// Error against time, log-log, with the Pareto front over all series.
 pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series]) -> Result<()> {
     register_font();
-    let all: Vec<(f64, f64)> = series.iter().flat_map(|s| s.points.iter().copied()).filter(|p| p.0 > 0.0 && p.1 > 0.0).collect();
+    let all: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|s| s.points.iter().copied())
+        .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+        .collect();
     let root = BitMapBackend::new(path, (1000, 700)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
     let x_desc = "time (s): propagation + one frame for the light field, the whole image for the path tracer";
@@ -123,7 +149,13 @@ pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series])
         .map_err(|e| plot_err(path, e))?
         .label("Pareto front (both methods)")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    chart.draw_series(front.iter().map(|p| Circle::new(*p, 8, BLACK.stroke_width(2)))).map_err(|e| plot_err(path, e))?;
+    chart
+        .draw_series(
+            front
+                .iter()
+                .map(|p| Circle::new(*p, 8, BLACK.stroke_width(2))),
+        )
+        .map_err(|e| plot_err(path, e))?;
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.9))
@@ -138,7 +170,12 @@ pub fn error_vs_time(path: &Path, title: &str, y_label: &str, series: &[Series])
 /// Error per frame of a walkthrough, one line per method.
 pub fn error_per_frame(path: &Path, title: &str, y_label: &str, series: &[Series]) -> Result<()> {
     register_font();
-    let frames = series.iter().map(|s| s.points.len()).max().unwrap_or(1).max(2) as f64;
+    let frames = series
+        .iter()
+        .map(|s| s.points.len())
+        .max()
+        .unwrap_or(1)
+        .max(2) as f64;
     let (y0, y1) = range(series.iter().flat_map(|s| s.points.iter().map(|p| p.1)));
     let root = BitMapBackend::new(path, (1000, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
@@ -164,9 +201,17 @@ pub fn error_per_frame(path: &Path, title: &str, y_label: &str, series: &[Series
             .draw_series(LineSeries::new(s.points.clone(), color.stroke_width(2)))
             .map_err(|e| plot_err(path, e))?
             .label(s.name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
     }
-    chart.configure_series_labels().background_style(WHITE.mix(0.9)).border_style(BLACK).label_font(("sans-serif", 16)).draw().map_err(|e| plot_err(path, e))?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 16))
+        .draw()
+        .map_err(|e| plot_err(path, e))?;
     root.present().map_err(|e| plot_err(path, e))?;
     Ok(())
 }
@@ -180,21 +225,40 @@ pub fn log_log(path: &Path, title: &str, panels: [Panel; 2]) -> Result<()> {
     register_font();
     let root = BitMapBackend::new(path, (1400, 620)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| plot_err(path, e))?;
-    let root = root.titled(title, ("sans-serif", 24)).map_err(|e| plot_err(path, e))?;
+    let root = root
+        .titled(title, ("sans-serif", 24))
+        .map_err(|e| plot_err(path, e))?;
     let areas = root.split_evenly((1, 2));
     for (area, (x_desc, y_desc, series, slope)) in areas.iter().zip(panels) {
         let (mut chart, (x0, x1)) = log_log_scatter(area, path, None, x_desc, y_desc, &series, 6)?;
         // the fit belongs to the first series
-        let fitted: Vec<(f64, f64)> = series.first().map(|s| s.points.iter().copied().filter(|p| p.0 > 0.0 && p.1 > 0.0).collect()).unwrap_or_default();
+        let fitted: Vec<(f64, f64)> = series
+            .first()
+            .map(|s| {
+                s.points
+                    .iter()
+                    .copied()
+                    .filter(|p| p.0 > 0.0 && p.1 > 0.0)
+                    .collect()
+            })
+            .unwrap_or_default();
         if let (Some(k), false) = (slope, fitted.is_empty()) {
             let n = fitted.len() as f64;
-            let (mx, my) = (fitted.iter().map(|p| p.0.ln()).sum::<f64>() / n, fitted.iter().map(|p| p.1.ln()).sum::<f64>() / n);
-            let line: Vec<(f64, f64)> = [x0, x1].iter().map(|&x| (x, (my + k * (x.ln() - mx)).exp())).collect();
+            let (mx, my) = (
+                fitted.iter().map(|p| p.0.ln()).sum::<f64>() / n,
+                fitted.iter().map(|p| p.1.ln()).sum::<f64>() / n,
+            );
+            let line: Vec<(f64, f64)> = [x0, x1]
+                .iter()
+                .map(|&x| (x, (my + k * (x.ln() - mx)).exp()))
+                .collect();
             chart
                 .draw_series(LineSeries::new(line, BLACK.stroke_width(2)))
                 .map_err(|e| plot_err(path, e))?
                 .label(format!("fitted slope {k:.2}"))
-                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2))
+                });
         }
         chart
             .configure_series_labels()

@@ -12,7 +12,12 @@ pub use session::{XrOptions, XrReport};
 
 /// Makes the light field on the device the runtime chose: propagates a scene into it or loads a
 /// `.vlf` onto it.
-pub type MakeLightField<'a> = dyn FnMut(&std::sync::Arc<crate::gpu::GpuContext>) -> Result<(crate::lightfield::LightField, crate::lightfield::ResidentLightField)> + 'a;
+pub type MakeLightField<'a> = dyn FnMut(
+        &std::sync::Arc<crate::gpu::GpuContext>,
+    ) -> Result<(
+        crate::lightfield::LightField,
+        crate::lightfield::ResidentLightField,
+    )> + 'a;
 
 use super::tracking::Pose;
 use crate::error::{Result, VlfError};
@@ -38,7 +43,12 @@ pub fn projection_from_fov(fov: Fov, near: f32, far: f32) -> Mat4 {
     Mat4::from_cols(
         Vec4::new(2.0 / width, 0.0, 0.0, 0.0),
         Vec4::new(0.0, 2.0 / height, 0.0, 0.0),
-        Vec4::new((right + left) / width, (up + down) / height, far / (near - far), -1.0),
+        Vec4::new(
+            (right + left) / width,
+            (up + down) / height,
+            far / (near - far),
+            -1.0,
+        ),
         Vec4::new(0.0, 0.0, near * far / (near - far), 0.0),
     )
 }
@@ -61,20 +71,36 @@ pub fn view_from_pose(pose: XrPose) -> Mat4 {
 /// The pose whose view matrix this is (rigid transforms only).
 pub fn pose_from_view(view: Mat4) -> XrPose {
     let (_, rotation, translation) = view.inverse().to_scale_rotation_translation();
-    XrPose { orientation: rotation.to_array(), position: translation.into() }
+    XrPose {
+        orientation: rotation.to_array(),
+        position: translation.into(),
+    }
 }
 
 /// One eye's view-projection and position in the light field's normalised space: the stage is
 /// placed in the scene by `room` (navigation), then normalised.
-pub fn eye_view(pose: XrPose, fov: Fov, room: &Pose, norm: &crate::prepare::Normalisation, near: f32) -> (Mat4, Vec3) {
-    let world_from_stage = Mat4::from_rotation_translation(Quat::from_rotation_y(room.room_yaw_deg.to_radians()), room.room_position);
+pub fn eye_view(
+    pose: XrPose,
+    fov: Fov,
+    room: &Pose,
+    norm: &crate::prepare::Normalisation,
+    near: f32,
+) -> (Mat4, Vec3) {
+    let world_from_stage = Mat4::from_rotation_translation(
+        Quat::from_rotation_y(room.room_yaw_deg.to_radians()),
+        room.room_position,
+    );
     let origin = norm.to_unit([0.0; 3]).as_vec3();
     let scale = norm.to_unit([1.0, 0.0, 0.0]).as_vec3().x - origin.x;
-    let unit_from_world = Mat4::from_scale_rotation_translation(Vec3::splat(scale), Quat::IDENTITY, origin);
+    let unit_from_world =
+        Mat4::from_scale_rotation_translation(Vec3::splat(scale), Quat::IDENTITY, origin);
     let eye_from_unit = view_from_pose(pose) * (unit_from_world * world_from_stage).inverse();
     let eye = (unit_from_world * world_from_stage).transform_point3(Vec3::from(pose.position));
     let near_unit = near * scale;
-    (projection_from_fov(fov, near_unit, near_unit * 1e4) * eye_from_unit, eye)
+    (
+        projection_from_fov(fov, near_unit, near_unit * 1e4) * eye_from_unit,
+        eye,
+    )
 }
 
 const INSTALL: &str = "install an OpenXR runtime: Monado (https://monado.freedesktop.org, e.g. the monado-service package) or SteamVR; select it with XR_RUNTIME_JSON=/path/to/its runtime.json (Monado: openxr_monado.json) or make it the active runtime (~/.config/openxr/1/active_runtime.json)";
@@ -111,26 +137,46 @@ pub struct XrRuntime {
 }
 
 /// Find a runtime with Vulkan (XR_KHR_vulkan_enable2) and a head-mounted display.
-pub fn find_runtime(entry: &openxr::Entry) -> Result<(openxr::Instance, openxr::SystemId, XrRuntime)> {
+pub fn find_runtime(
+    entry: &openxr::Entry,
+) -> Result<(openxr::Instance, openxr::SystemId, XrRuntime)> {
     let selected = match std::env::var_os("XR_RUNTIME_JSON") {
         Some(v) => format!("XR_RUNTIME_JSON={}", Path::new(&v).display()),
         None => "XR_RUNTIME_JSON is not set and no active runtime was found".into(),
     };
-    let no_runtime = |what: String| VlfError::Display(format!("the OpenXR loader found no usable runtime ({selected}): {what}. To run `vlf xr`, {INSTALL}"));
-    let available = entry.enumerate_extensions().map_err(|e| no_runtime(e.to_string()))?;
+    let no_runtime = |what: String| {
+        VlfError::Display(format!("the OpenXR loader found no usable runtime ({selected}): {what}. To run `vlf xr`, {INSTALL}"))
+    };
+    let available = entry
+        .enumerate_extensions()
+        .map_err(|e| no_runtime(e.to_string()))?;
     if !available.khr_vulkan_enable2 {
-        return Err(no_runtime("it does not offer XR_KHR_vulkan_enable2 (Vulkan), which vlf renders with".into()));
+        return Err(no_runtime(
+            "it does not offer XR_KHR_vulkan_enable2 (Vulkan), which vlf renders with".into(),
+        ));
     }
     let mut extensions = openxr::ExtensionSet::default();
     extensions.khr_vulkan_enable2 = true;
     extensions.khr_convert_timespec_time = available.khr_convert_timespec_time;
-    let app = openxr::ApplicationInfo { application_name: "vlf", application_version: 1, engine_name: "vlf", engine_version: 1, api_version: openxr::Version::new(1, 0, 0) };
-    let instance = entry.create_instance(&app, &extensions, &[]).map_err(|e| no_runtime(e.to_string()))?;
-    let props = instance.properties().map_err(|e| no_runtime(e.to_string()))?;
+    let app = openxr::ApplicationInfo {
+        application_name: "vlf",
+        application_version: 1,
+        engine_name: "vlf",
+        engine_version: 1,
+        api_version: openxr::Version::new(1, 0, 0),
+    };
+    let instance = entry
+        .create_instance(&app, &extensions, &[])
+        .map_err(|e| no_runtime(e.to_string()))?;
+    let props = instance
+        .properties()
+        .map_err(|e| no_runtime(e.to_string()))?;
     let system = instance
         .system(openxr::FormFactor::HEAD_MOUNTED_DISPLAY)
         .map_err(|e| VlfError::Display(format!("the OpenXR runtime {} has no headset ({e}): connect one, or start the runtime's simulated headset", props.runtime_name)))?;
-    let system_props = instance.system_properties(system).map_err(|e| no_runtime(e.to_string()))?;
+    let system_props = instance
+        .system_properties(system)
+        .map_err(|e| no_runtime(e.to_string()))?;
     let runtime = XrRuntime {
         runtime: format!("{} {}", props.runtime_name, props.runtime_version),
         system: system_props.system_name,

@@ -86,10 +86,16 @@ impl XrReport {
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms
         ));
         if let Some(late) = self.late_frames {
-            s.push_str(&format!("{late} frames submitted after their predicted display time\n"));
+            s.push_str(&format!(
+                "{late} frames submitted after their predicted display time\n"
+            ));
         }
         if !self.missed_after_frames.is_empty() {
-            let list: Vec<String> = self.missed_after_frames.iter().map(|f| f.to_string()).collect();
+            let list: Vec<String> = self
+                .missed_after_frames
+                .iter()
+                .map(|f| f.to_string())
+                .collect();
             s.push_str(&format!("missed after frame(s): {}\n", list.join(", ")));
         }
         s.push_str("eye    pixels      GPU p50 ms  p99 ms   max ms   p99/p50\n");
@@ -97,15 +103,31 @@ impl XrReport {
             match &e.gpu_ms {
                 Some(d) => s.push_str(&format!(
                     "{:<6} {:>4}x{:<6} {:>9.3} {:>8.3} {:>8.3} {:>8.3}\n",
-                    e.eye, e.pixels[0], e.pixels[1], d.median, d.p99, d.max, d.p99 / d.median.max(1e-12)
+                    e.eye,
+                    e.pixels[0],
+                    e.pixels[1],
+                    d.median,
+                    d.p99,
+                    d.max,
+                    d.p99 / d.median.max(1e-12)
                 )),
-                None => s.push_str(&format!("{:<6} {:>4}x{:<6} (no GPU timestamps on this adapter)\n", e.eye, e.pixels[0], e.pixels[1])),
+                None => s.push_str(&format!(
+                    "{:<6} {:>4}x{:<6} (no GPU timestamps on this adapter)\n",
+                    e.eye, e.pixels[0], e.pixels[1]
+                )),
             }
         }
         if let Some(c) = &self.cpu_frame_ms {
-            s.push_str(&format!("CPU frame (begin to end): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n", c.median, c.p99, c.max));
+            s.push_str(&format!(
+                "CPU frame (begin to end): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n",
+                c.median, c.p99, c.max
+            ));
         }
-        s.push_str(&format!("session states: {}\nended: {}\n", self.states.join(" -> "), self.ended));
+        s.push_str(&format!(
+            "session states: {}\nended: {}\n",
+            self.states.join(" -> "),
+            self.ended
+        ));
         if let Some(p) = &self.screenshot {
             s.push_str(&format!("screenshot (left eye): {p}\n"));
         }
@@ -143,52 +165,118 @@ struct Controls {
 
 fn controls(instance: &xr::Instance) -> Result<Controls> {
     let err = xr_error("action set");
-    let set = instance.create_action_set("navigation", "Navigation", 0).map_err(&err)?;
-    let walk = set.create_action::<xr::Vector2f>("walk", "Walk (left thumbstick)", &[]).map_err(&err)?;
-    let turn = set.create_action::<xr::Vector2f>("turn", "Turn and rise (right thumbstick)", &[]).map_err(&err)?;
-    let reset = set.create_action::<bool>("reset", "Back to the start", &[]).map_err(&err)?;
-    let fly = set.create_action::<bool>("fly", "Toggle flying", &[]).map_err(&err)?;
+    let set = instance
+        .create_action_set("navigation", "Navigation", 0)
+        .map_err(&err)?;
+    let walk = set
+        .create_action::<xr::Vector2f>("walk", "Walk (left thumbstick)", &[])
+        .map_err(&err)?;
+    let turn = set
+        .create_action::<xr::Vector2f>("turn", "Turn and rise (right thumbstick)", &[])
+        .map_err(&err)?;
+    let reset = set
+        .create_action::<bool>("reset", "Back to the start", &[])
+        .map_err(&err)?;
+    let fly = set
+        .create_action::<bool>("fly", "Toggle flying", &[])
+        .map_err(&err)?;
     let path = |p: &str| instance.string_to_path(p).map_err(xr_error("path"));
     // (profile, walk, turn, reset, fly): thumbsticks where the controller has them, the
     // trackpad on Vive wands
     let suggestions = [
-        ("/interaction_profiles/oculus/touch_controller", "thumbstick", "thumbstick", "/user/hand/left/input/x/click", "/user/hand/right/input/a/click"),
-        ("/interaction_profiles/valve/index_controller", "thumbstick", "thumbstick", "/user/hand/left/input/a/click", "/user/hand/right/input/a/click"),
-        ("/interaction_profiles/microsoft/motion_controller", "thumbstick", "thumbstick", "/user/hand/left/input/menu/click", "/user/hand/right/input/menu/click"),
-        ("/interaction_profiles/htc/vive_controller", "trackpad", "trackpad", "/user/hand/left/input/menu/click", "/user/hand/right/input/menu/click"),
+        (
+            "/interaction_profiles/oculus/touch_controller",
+            "thumbstick",
+            "thumbstick",
+            "/user/hand/left/input/x/click",
+            "/user/hand/right/input/a/click",
+        ),
+        (
+            "/interaction_profiles/valve/index_controller",
+            "thumbstick",
+            "thumbstick",
+            "/user/hand/left/input/a/click",
+            "/user/hand/right/input/a/click",
+        ),
+        (
+            "/interaction_profiles/microsoft/motion_controller",
+            "thumbstick",
+            "thumbstick",
+            "/user/hand/left/input/menu/click",
+            "/user/hand/right/input/menu/click",
+        ),
+        (
+            "/interaction_profiles/htc/vive_controller",
+            "trackpad",
+            "trackpad",
+            "/user/hand/left/input/menu/click",
+            "/user/hand/right/input/menu/click",
+        ),
     ];
     let mut profiles = Vec::new();
     for (profile, walk_input, turn_input, reset_input, fly_input) in suggestions {
         let bindings = [
             xr::Binding::new(&walk, path(&format!("/user/hand/left/input/{walk_input}"))?),
-            xr::Binding::new(&turn, path(&format!("/user/hand/right/input/{turn_input}"))?),
+            xr::Binding::new(
+                &turn,
+                path(&format!("/user/hand/right/input/{turn_input}"))?,
+            ),
             xr::Binding::new(&reset, path(reset_input)?),
             xr::Binding::new(&fly, path(fly_input)?),
         ];
         // a runtime that does not know a profile refuses it; the others still work
         match instance.suggest_interaction_profile_bindings(path(profile)?, &bindings) {
-            Ok(()) => profiles.push(profile.trim_start_matches("/interaction_profiles/").to_string()),
+            Ok(()) => profiles.push(
+                profile
+                    .trim_start_matches("/interaction_profiles/")
+                    .to_string(),
+            ),
             Err(e) => log::info!("OpenXR runtime refused bindings for {profile}: {e}"),
         }
     }
     if profiles.is_empty() {
-        log::warn!("the OpenXR runtime accepted no controller bindings: navigation by thumbstick is off");
+        log::warn!(
+            "the OpenXR runtime accepted no controller bindings: navigation by thumbstick is off"
+        );
     }
-    Ok(Controls { set, walk, turn, reset, fly, profiles })
+    Ok(Controls {
+        set,
+        walk,
+        turn,
+        reset,
+        fly,
+        profiles,
+    })
 }
 
 /// Where the stage stands in the world so that the head, as first tracked, is at the scene
 /// camera's eye and looks along its direction (yaw only; the floor stays level).
 fn start_room(camera: &crate::scene::Camera, views: &[xr::View]) -> Pose {
-    let head = views.iter().map(|v| Vec3::new(v.pose.position.x, v.pose.position.y, v.pose.position.z)).sum::<Vec3>() / views.len().max(1) as f32;
+    let head = views
+        .iter()
+        .map(|v| Vec3::new(v.pose.position.x, v.pose.position.y, v.pose.position.z))
+        .sum::<Vec3>()
+        / views.len().max(1) as f32;
     let o = views[0].pose.orientation;
     let head_forward = Quat::from_xyzw(o.x, o.y, o.z, o.w).normalize() * Vec3::NEG_Z;
     let yaw_of = |f: Vec3| (-f.x).atan2(-f.z);
     let camera_forward = Vec3::from(camera.target) - Vec3::from(camera.eye);
-    let yaw = if camera_forward.x.abs() + camera_forward.z.abs() > 1e-6 { yaw_of(camera_forward) } else { 0.0 };
-    let head_yaw = if head_forward.x.abs() + head_forward.z.abs() > 1e-6 { yaw_of(head_forward) } else { 0.0 };
+    let yaw = if camera_forward.x.abs() + camera_forward.z.abs() > 1e-6 {
+        yaw_of(camera_forward)
+    } else {
+        0.0
+    };
+    let head_yaw = if head_forward.x.abs() + head_forward.z.abs() > 1e-6 {
+        yaw_of(head_forward)
+    } else {
+        0.0
+    };
     let room_yaw = yaw - head_yaw;
-    Pose::new(head, Vec3::from(camera.eye) - Quat::from_rotation_y(room_yaw) * head, room_yaw.to_degrees())
+    Pose::new(
+        head,
+        Vec3::from(camera.eye) - Quat::from_rotation_y(room_yaw) * head,
+        room_yaw.to_degrees(),
+    )
 }
 
 /// Run the session until the runtime ends it (or `options.frames` have been shown). The light
@@ -202,7 +290,10 @@ pub fn run(
 ) -> Result<XrReport> {
     let vulkan = super::vulkan::create(&instance, system)?;
     let ctx = vulkan.ctx.clone();
-    eprintln!("OpenXR: {} ({}) on {}", runtime.runtime, runtime.system, ctx.summary.name);
+    eprintln!(
+        "OpenXR: {} ({}) on {}",
+        runtime.runtime, runtime.system, ctx.summary.name
+    );
     let (lf, resident) = make_light_field(&ctx)?;
     let camera = lf.camera(options.camera.as_deref())?.clone();
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
@@ -212,36 +303,72 @@ pub fn run(
     // SAFETY: the session info names the instance, device and queue the runtime created for
     // this system; they outlive the session (dropped at the end of this function, after it).
     let (session, mut frame_waiter, mut frame_stream) =
-        unsafe { instance.create_session::<xr::Vulkan>(system, &vulkan.session_info) }.map_err(xr_error("xrCreateSession"))?;
-    session.attach_action_sets(&[&controls.set]).map_err(xr_error("xrAttachSessionActionSets"))?;
-    let spaces = session.enumerate_reference_spaces().map_err(xr_error("reference spaces"))?;
-    let space_type = if spaces.contains(&xr::ReferenceSpaceType::STAGE) { xr::ReferenceSpaceType::STAGE } else { xr::ReferenceSpaceType::LOCAL };
-    let space = session.create_reference_space(space_type, xr::Posef::IDENTITY).map_err(xr_error("xrCreateReferenceSpace"))?;
-    let blend_modes = instance.enumerate_environment_blend_modes(system, VIEW_TYPE).map_err(xr_error("blend modes"))?;
-    let blend = if blend_modes.contains(&xr::EnvironmentBlendMode::OPAQUE) { xr::EnvironmentBlendMode::OPAQUE } else { blend_modes[0] };
+        unsafe { instance.create_session::<xr::Vulkan>(system, &vulkan.session_info) }
+            .map_err(xr_error("xrCreateSession"))?;
+    session
+        .attach_action_sets(&[&controls.set])
+        .map_err(xr_error("xrAttachSessionActionSets"))?;
+    let spaces = session
+        .enumerate_reference_spaces()
+        .map_err(xr_error("reference spaces"))?;
+    let space_type = if spaces.contains(&xr::ReferenceSpaceType::STAGE) {
+        xr::ReferenceSpaceType::STAGE
+    } else {
+        xr::ReferenceSpaceType::LOCAL
+    };
+    let space = session
+        .create_reference_space(space_type, xr::Posef::IDENTITY)
+        .map_err(xr_error("xrCreateReferenceSpace"))?;
+    let blend_modes = instance
+        .enumerate_environment_blend_modes(system, VIEW_TYPE)
+        .map_err(xr_error("blend modes"))?;
+    let blend = if blend_modes.contains(&xr::EnvironmentBlendMode::OPAQUE) {
+        xr::EnvironmentBlendMode::OPAQUE
+    } else {
+        blend_modes[0]
+    };
 
-    let formats = session.enumerate_swapchain_formats().map_err(xr_error("swapchain formats"))?;
+    let formats = session
+        .enumerate_swapchain_formats()
+        .map_err(xr_error("swapchain formats"))?;
     let (vk_format, format) = super::vulkan::SWAPCHAIN_FORMATS
         .iter()
         .copied()
         .find(|(vk, _)| formats.contains(&(vk.as_raw() as u32)))
         .ok_or_else(|| VlfError::Display(format!("the OpenXR runtime offers no swapchain format vlf can draw into (offered Vulkan formats {formats:?}; vlf needs RGBA8 or BGRA8, sRGB or UNORM)")))?;
     let present = present_pipeline(&ctx, format)?;
-    let overlay = crate::render::texture_2d(&ctx.device, "no overlay", [1, 1], wgpu::TextureFormat::Rgba8Unorm, wgpu::TextureUsages::TEXTURE_BINDING);
+    let overlay = crate::render::texture_2d(
+        &ctx.device,
+        "no overlay",
+        [1, 1],
+        wgpu::TextureFormat::Rgba8Unorm,
+        wgpu::TextureUsages::TEXTURE_BINDING,
+    );
     let overlay_view = overlay.create_view(&Default::default());
-    let view_configs = instance.enumerate_view_configuration_views(system, VIEW_TYPE).map_err(xr_error("view configuration"))?;
+    let view_configs = instance
+        .enumerate_view_configuration_views(system, VIEW_TYPE)
+        .map_err(xr_error("view configuration"))?;
     if view_configs.len() != 2 {
-        return Err(VlfError::Display(format!("the OpenXR headset has {} views in its primary stereo configuration, expected 2", view_configs.len())));
+        return Err(VlfError::Display(format!(
+            "the OpenXR headset has {} views in its primary stereo configuration, expected 2",
+            view_configs.len()
+        )));
     }
     let mut eyes = Vec::new();
     for (i, vc) in view_configs.iter().enumerate() {
         let name = ["left", "right"][i];
-        let scaled = |recommended: u32, max: u32| ((recommended as f32 * options.resolution_scale).round() as u32).clamp(1, max.max(1));
-        let size = [scaled(vc.recommended_image_rect_width, vc.max_image_rect_width), scaled(vc.recommended_image_rect_height, vc.max_image_rect_height)];
+        let scaled = |recommended: u32, max: u32| {
+            ((recommended as f32 * options.resolution_scale).round() as u32).clamp(1, max.max(1))
+        };
+        let size = [
+            scaled(vc.recommended_image_rect_width, vc.max_image_rect_width),
+            scaled(vc.recommended_image_rect_height, vc.max_image_rect_height),
+        ];
         let swapchain = session
             .create_swapchain(&xr::SwapchainCreateInfo {
                 create_flags: xr::SwapchainCreateFlags::EMPTY,
-                usage_flags: xr::SwapchainUsageFlags::COLOR_ATTACHMENT | xr::SwapchainUsageFlags::TRANSFER_SRC,
+                usage_flags: xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+                    | xr::SwapchainUsageFlags::TRANSFER_SRC,
                 format: vk_format.as_raw() as u32,
                 sample_count: 1,
                 width: size[0],
@@ -256,7 +383,15 @@ pub fn run(
             .map_err(xr_error("swapchain images"))?
             .into_iter()
             .enumerate()
-            .map(|(n, image)| super::vulkan::wrap_swapchain_image(&ctx, image, format, size, &format!("{name} eye swapchain image {n}")))
+            .map(|(n, image)| {
+                super::vulkan::wrap_swapchain_image(
+                    &ctx,
+                    image,
+                    format,
+                    size,
+                    &format!("{name} eye swapchain image {n}"),
+                )
+            })
             .collect::<Result<Vec<_>>>()?;
         let targets = renderer.view_targets(size[0], size[1]);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
@@ -269,9 +404,18 @@ pub fn run(
             label: Some("present"),
             layout: &present.layout,
             entries: &[
-                wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
-                wgpu::BindGroupEntry { binding: 1, resource: wgpu::BindingResource::TextureView(&targets.image_view) },
-                wgpu::BindGroupEntry { binding: 2, resource: wgpu::BindingResource::TextureView(&overlay_view) },
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(&targets.image_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(&overlay_view),
+                },
             ],
         });
         let p = GpuPresent {
@@ -283,20 +427,47 @@ pub fn run(
             _pad0: 0,
         };
         ctx.queue.write_buffer(&params, 0, bytemuck::bytes_of(&p));
-        eyes.push(Eye { name, images, swapchain, size, targets, params, bind_group });
+        eyes.push(Eye {
+            name,
+            images,
+            swapchain,
+            size,
+            targets,
+            params,
+            bind_group,
+        });
     }
     // one untimed frame before the session: the first use of every pipeline and image costs
     // more than a display period, and would otherwise be the first frame the headset shows
     // (timestamps included: their first read-back sets up more of the driver)
-    let scratch = crate::render::texture_2d(&ctx.device, "warm-up", eyes[0].size, format, wgpu::TextureUsages::RENDER_ATTACHMENT);
+    let scratch = crate::render::texture_2d(
+        &ctx.device,
+        "warm-up",
+        eyes[0].size,
+        format,
+        wgpu::TextureUsages::RENDER_ATTACHMENT,
+    );
     let scratch_view = scratch.create_view(&Default::default());
     let mut timestamps = Timestamps::new(&ctx, 2);
     for eye in &eyes {
-        let view_proj = crate::render::view_projection(&camera, &lf.meta.normalisation, eye.size[0], eye.size[1]);
-        renderer.set_view_matrix(view_proj, lf.meta.normalisation.to_unit(camera.eye).as_vec3());
+        let view_proj = crate::render::view_projection(
+            &camera,
+            &lf.meta.normalisation,
+            eye.size[0],
+            eye.size[1],
+        );
+        renderer.set_view_matrix(
+            view_proj,
+            lf.meta.normalisation.to_unit(camera.eye).as_vec3(),
+        );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
-        draw_to(&mut encoder, &scratch_view, &present.pipeline, &eye.bind_group);
+        draw_to(
+            &mut encoder,
+            &scratch_view,
+            &present.pipeline,
+            &eye.bind_group,
+        );
         ctx.queue.submit([encoder.finish()]);
     }
     ctx.wait()?;
@@ -329,14 +500,19 @@ pub fn run(
     let mut reset_was_down = false;
     let mut fly_was_down = false;
     'session: loop {
-        while let Some(event) = instance.poll_event(&mut event_buffer).map_err(xr_error("xrPollEvent"))? {
+        while let Some(event) = instance
+            .poll_event(&mut event_buffer)
+            .map_err(xr_error("xrPollEvent"))?
+        {
             match event {
                 xr::Event::SessionStateChanged(e) => {
                     let state = e.state();
                     states.push(format!("{state:?}").to_lowercase());
                     match state {
                         xr::SessionState::READY => {
-                            session.begin(VIEW_TYPE).map_err(xr_error("xrBeginSession"))?;
+                            session
+                                .begin(VIEW_TYPE)
+                                .map_err(xr_error("xrBeginSession"))?;
                             running = true;
                         }
                         xr::SessionState::STOPPING => {
@@ -344,10 +520,16 @@ pub fn run(
                             running = false;
                         }
                         xr::SessionState::EXITING => {
-                            if exit_requested && interrupted.load(std::sync::atomic::Ordering::Relaxed) {
-                                ended = format!("cleanly, interrupted (Ctrl-C) after {frames} frames");
+                            if exit_requested
+                                && interrupted.load(std::sync::atomic::Ordering::Relaxed)
+                            {
+                                ended =
+                                    format!("cleanly, interrupted (Ctrl-C) after {frames} frames");
                             } else if exit_requested {
-                                ended = format!("cleanly, after the {} frames asked for", options.frames.unwrap_or(frames));
+                                ended = format!(
+                                    "cleanly, after the {} frames asked for",
+                                    options.frames.unwrap_or(frames)
+                                );
                             } else {
                                 ended = "cleanly, the runtime or the user ended the session".into();
                             }
@@ -371,7 +553,10 @@ pub fn run(
         }
         if !running {
             if waiting_since.elapsed() > Duration::from_secs(5) {
-                eprintln!("waiting for the OpenXR runtime to make the session ready (states so far: {})", states.join(" -> "));
+                eprintln!(
+                    "waiting for the OpenXR runtime to make the session ready (states so far: {})",
+                    states.join(" -> ")
+                );
                 waiting_since = Instant::now();
             }
             std::thread::sleep(Duration::from_millis(5));
@@ -390,20 +575,38 @@ pub fn run(
                 }
             }
         }
-        let dt = last_display_time.map(|l| ((display_time - l) as f64 * 1e-9) as f32).unwrap_or(0.0).clamp(0.0, 0.1);
+        let dt = last_display_time
+            .map(|l| ((display_time - l) as f64 * 1e-9) as f32)
+            .unwrap_or(0.0)
+            .clamp(0.0, 0.1);
         last_display_time = Some(display_time);
         let begun = Instant::now();
         frame_stream.begin().map_err(xr_error("xrBeginFrame"))?;
         if !frame_state.should_render {
             skipped += 1;
-            frame_stream.end(frame_state.predicted_display_time, blend, &[]).map_err(xr_error("xrEndFrame"))?;
+            frame_stream
+                .end(frame_state.predicted_display_time, blend, &[])
+                .map_err(xr_error("xrEndFrame"))?;
             continue;
         }
-        session.sync_actions(&[xr::ActiveActionSet::new(&controls.set)]).map_err(xr_error("xrSyncActions"))?;
-        let stick = |a: &xr::Action<xr::Vector2f>| a.state(&session, xr::Path::NULL).map(|s| if s.is_active { s.current_state } else { xr::Vector2f::default() });
+        session
+            .sync_actions(&[xr::ActiveActionSet::new(&controls.set)])
+            .map_err(xr_error("xrSyncActions"))?;
+        let stick = |a: &xr::Action<xr::Vector2f>| {
+            a.state(&session, xr::Path::NULL).map(|s| {
+                if s.is_active {
+                    s.current_state
+                } else {
+                    xr::Vector2f::default()
+                }
+            })
+        };
         let walk = stick(&controls.walk).map_err(xr_error("thumbstick"))?;
         let turn = stick(&controls.turn).map_err(xr_error("thumbstick"))?;
-        let button = |a: &xr::Action<bool>| a.state(&session, xr::Path::NULL).map(|s| s.is_active && s.current_state);
+        let button = |a: &xr::Action<bool>| {
+            a.state(&session, xr::Path::NULL)
+                .map(|s| s.is_active && s.current_state)
+        };
         let reset_down = button(&controls.reset).map_err(xr_error("button"))?;
         let fly_down = button(&controls.fly).map_err(xr_error("button"))?;
         if reset_down && !reset_was_down {
@@ -415,26 +618,57 @@ pub fn run(
         (reset_was_down, fly_was_down) = (reset_down, fly_down);
         let dead = |v: f32| if v.abs() < 0.15 { 0.0 } else { v };
 
-        let (_, views) = session.locate_views(VIEW_TYPE, frame_state.predicted_display_time, &space).map_err(xr_error("xrLocateViews"))?;
+        let (_, views) = session
+            .locate_views(VIEW_TYPE, frame_state.predicted_display_time, &space)
+            .map_err(xr_error("xrLocateViews"))?;
         let base = *room.get_or_insert_with(|| start_room(&camera, &views));
-        navigator.step(dt, &navigation, [dead(walk.x), -dead(walk.y), dead(turn.x), -dead(turn.y)], base.room_yaw_deg);
+        navigator.step(
+            dt,
+            &navigation,
+            [dead(walk.x), -dead(walk.y), dead(turn.x), -dead(turn.y)],
+            base.room_yaw_deg,
+        );
         let pose = navigator.apply(base);
         let timed = options.frames.is_none_or(|n| frames < n);
-        let mut timestamps = if timed { Timestamps::new(&ctx, 2) } else { None };
+        let mut timestamps = if timed {
+            Timestamps::new(&ctx, 2)
+        } else {
+            None
+        };
         let capture = options.screenshot.is_some() && frames + 1 == options.screenshot_frame;
         let mut readback = None;
         for (eye, view) in eyes.iter_mut().zip(&views) {
             let xr_pose = XrPose {
-                orientation: [view.pose.orientation.x, view.pose.orientation.y, view.pose.orientation.z, view.pose.orientation.w],
-                position: [view.pose.position.x, view.pose.position.y, view.pose.position.z],
+                orientation: [
+                    view.pose.orientation.x,
+                    view.pose.orientation.y,
+                    view.pose.orientation.z,
+                    view.pose.orientation.w,
+                ],
+                position: [
+                    view.pose.position.x,
+                    view.pose.position.y,
+                    view.pose.position.z,
+                ],
             };
-            let fov = Fov { angle_left: view.fov.angle_left, angle_right: view.fov.angle_right, angle_up: view.fov.angle_up, angle_down: view.fov.angle_down };
-            let (view_proj, eye_position) = eye_view(xr_pose, fov, &pose, &lf.meta.normalisation, NEAR);
+            let fov = Fov {
+                angle_left: view.fov.angle_left,
+                angle_right: view.fov.angle_right,
+                angle_up: view.fov.angle_up,
+                angle_down: view.fov.angle_down,
+            };
+            let (view_proj, eye_position) =
+                eye_view(xr_pose, fov, &pose, &lf.meta.normalisation, NEAR);
             renderer.set_view_matrix(view_proj, eye_position);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
-            let index = eye.swapchain.acquire_image().map_err(xr_error("xrAcquireSwapchainImage"))?;
-            eye.swapchain.wait_image(xr::Duration::INFINITE).map_err(xr_error("xrWaitSwapchainImage"))?;
+            let index = eye
+                .swapchain
+                .acquire_image()
+                .map_err(xr_error("xrAcquireSwapchainImage"))?;
+            eye.swapchain
+                .wait_image(xr::Duration::INFINITE)
+                .map_err(xr_error("xrWaitSwapchainImage"))?;
             let texture = &eye.images[index as usize];
             let view = texture.create_view(&Default::default());
             draw_to(&mut encoder, &view, &present.pipeline, &eye.bind_group);
@@ -445,24 +679,41 @@ pub fn run(
                 drop(present_pass(&mut encoder, &view, wgpu::LoadOp::Load));
             }
             ctx.queue.submit([encoder.finish()]);
-            eye.swapchain.release_image().map_err(xr_error("xrReleaseSwapchainImage"))?;
+            eye.swapchain
+                .release_image()
+                .map_err(xr_error("xrReleaseSwapchainImage"))?;
         }
         let projection_views: Vec<xr::CompositionLayerProjectionView<xr::Vulkan>> = eyes
             .iter()
             .zip(&views)
             .map(|(eye, view)| {
-                xr::CompositionLayerProjectionView::new().pose(view.pose).fov(view.fov).sub_image(
-                    xr::SwapchainSubImage::new().swapchain(&eye.swapchain).image_array_index(0).image_rect(xr::Rect2Di {
-                        offset: xr::Offset2Di { x: 0, y: 0 },
-                        extent: xr::Extent2Di { width: eye.size[0] as i32, height: eye.size[1] as i32 },
-                    }),
-                )
+                xr::CompositionLayerProjectionView::new()
+                    .pose(view.pose)
+                    .fov(view.fov)
+                    .sub_image(
+                        xr::SwapchainSubImage::new()
+                            .swapchain(&eye.swapchain)
+                            .image_array_index(0)
+                            .image_rect(xr::Rect2Di {
+                                offset: xr::Offset2Di { x: 0, y: 0 },
+                                extent: xr::Extent2Di {
+                                    width: eye.size[0] as i32,
+                                    height: eye.size[1] as i32,
+                                },
+                            }),
+                    )
             })
             .collect();
-        let layer = xr::CompositionLayerProjection::new().space(&space).views(&projection_views);
-        frame_stream.end(frame_state.predicted_display_time, blend, &[&layer]).map_err(xr_error("xrEndFrame"))?;
+        let layer = xr::CompositionLayerProjection::new()
+            .space(&space)
+            .views(&projection_views);
+        frame_stream
+            .end(frame_state.predicted_display_time, blend, &[&layer])
+            .map_err(xr_error("xrEndFrame"))?;
         if runtime.clock {
-            let now = instance.now().map_err(xr_error("xrConvertTimespecTimeToTimeKHR"))?;
+            let now = instance
+                .now()
+                .map_err(xr_error("xrConvertTimespecTimeToTimeKHR"))?;
             if timed && now.as_nanos() > display_time {
                 late += 1;
             }
@@ -480,10 +731,20 @@ pub fn run(
         }
         if let (Some((buffer, padded_row)), Some(path)) = (readback, options.screenshot.as_ref()) {
             // encoding and writing the PNG would hold up the next frame: a thread does it
-            let bytes: Vec<u8> = ctx.read_buffer(&buffer, padded_row as u64 * eyes[0].size[1] as u64)?;
+            let bytes: Vec<u8> =
+                ctx.read_buffer(&buffer, padded_row as u64 * eyes[0].size[1] as u64)?;
             let (size, path) = (eyes[0].size, path.clone());
-            screenshot_writer = Some(std::thread::spawn(move || write_screenshot(&bytes, padded_row, size, format, &path)));
-            screenshot_written = Some(options.screenshot.as_ref().expect("checked").display().to_string());
+            screenshot_writer = Some(std::thread::spawn(move || {
+                write_screenshot(&bytes, padded_row, size, format, &path)
+            }));
+            screenshot_written = Some(
+                options
+                    .screenshot
+                    .as_ref()
+                    .expect("checked")
+                    .display()
+                    .to_string(),
+            );
         }
         let enough = options.frames.is_some_and(|n| frames >= n);
         let stop = interrupted.load(std::sync::atomic::Ordering::Relaxed);
@@ -491,12 +752,16 @@ pub fn run(
             if stop {
                 eprintln!("interrupted: ending the OpenXR session");
             }
-            session.request_exit().map_err(xr_error("xrRequestExitSession"))?;
+            session
+                .request_exit()
+                .map_err(xr_error("xrRequestExitSession"))?;
             exit_requested = true;
         }
     }
     if let Some(writer) = screenshot_writer {
-        writer.join().map_err(|_| VlfError::Display("the screenshot writer failed".into()))??;
+        writer
+            .join()
+            .map_err(|_| VlfError::Display("the screenshot writer failed".into()))??;
     }
     if let (Some(path), None, false) = (&options.screenshot, &screenshot_written, lost) {
         return Err(VlfError::Display(format!(
@@ -556,11 +821,14 @@ pub fn run(
 /// Set by Ctrl-C: the session is asked to end (the runtime then stops it), so the report is
 /// still printed. Installed once per process.
 fn interrupt_flag() -> Arc<std::sync::atomic::AtomicBool> {
-    static FLAG: std::sync::OnceLock<Arc<std::sync::atomic::AtomicBool>> = std::sync::OnceLock::new();
+    static FLAG: std::sync::OnceLock<Arc<std::sync::atomic::AtomicBool>> =
+        std::sync::OnceLock::new();
     FLAG.get_or_init(|| {
         let flag = Arc::new(std::sync::atomic::AtomicBool::new(false));
         let setter = flag.clone();
-        if let Err(e) = ctrlc::set_handler(move || setter.store(true, std::sync::atomic::Ordering::Relaxed)) {
+        if let Err(e) =
+            ctrlc::set_handler(move || setter.store(true, std::sync::atomic::Ordering::Relaxed))
+        {
             log::warn!("Ctrl-C will not end the OpenXR session cleanly: {e}");
         }
         flag
@@ -569,15 +837,26 @@ fn interrupt_flag() -> Arc<std::sync::atomic::AtomicBool> {
 }
 
 /// The eye's offscreen image onto a swapchain image, cleared first.
-fn draw_to(encoder: &mut wgpu::CommandEncoder, view: &wgpu::TextureView, pipeline: &wgpu::RenderPipeline, bind_group: &wgpu::BindGroup) {
+fn draw_to(
+    encoder: &mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    pipeline: &wgpu::RenderPipeline,
+    bind_group: &wgpu::BindGroup,
+) {
     let mut pass = present_pass(encoder, view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
     pass.set_pipeline(pipeline);
     pass.set_bind_group(0, bind_group, &[]);
     pass.draw(0..3, 0..1);
 }
 
-fn copy_to_buffer(ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture, [width, height]: [u32; 2]) -> (wgpu::Buffer, u32) {
-    let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+fn copy_to_buffer(
+    ctx: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    [width, height]: [u32; 2],
+) -> (wgpu::Buffer, u32) {
+    let padded_row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("left eye screenshot"),
         size: padded_row as u64 * height as u64,
@@ -588,16 +867,33 @@ fn copy_to_buffer(ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder, texture:
         texture.as_image_copy(),
         wgpu::TexelCopyBufferInfo {
             buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(padded_row), rows_per_image: Some(height) },
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(height),
+            },
         },
-        wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
     );
     (buffer, padded_row)
 }
 
 /// The swapchain image as the runtime got it (8-bit, sRGB-encoded) to PNG, written atomically.
-fn write_screenshot(bytes: &[u8], padded_row: u32, [width, height]: [u32; 2], format: wgpu::TextureFormat, path: &std::path::Path) -> Result<()> {
-    let bgra = matches!(format, wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb);
+fn write_screenshot(
+    bytes: &[u8],
+    padded_row: u32,
+    [width, height]: [u32; 2],
+    format: wgpu::TextureFormat,
+    path: &std::path::Path,
+) -> Result<()> {
+    let bgra = matches!(
+        format,
+        wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+    );
     let mut rgba = Vec::with_capacity((width * height * 4) as usize);
     for row in bytes.chunks_exact(padded_row as usize) {
         for px in row[..(width * 4) as usize].chunks_exact(4) {
@@ -606,7 +902,13 @@ fn write_screenshot(bytes: &[u8], padded_row: u32, [width, height]: [u32; 2], fo
         }
     }
     let mut png = Vec::new();
-    image::ImageEncoder::write_image(image::codecs::png::PngEncoder::new(&mut png), &rgba, width, height, image::ExtendedColorType::Rgba8)
-        .map_err(|e| VlfError::Display(format!("{}: cannot encode PNG: {e}", path.display())))?;
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut png),
+        &rgba,
+        width,
+        height,
+        image::ExtendedColorType::Rgba8,
+    )
+    .map_err(|e| VlfError::Display(format!("{}: cannot encode PNG: {e}", path.display())))?;
     crate::lightfield::file::write_atomic(path, &png)
 }

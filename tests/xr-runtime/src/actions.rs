@@ -5,7 +5,11 @@ use openxr_sys as xr;
 
 // ---- paths and actions ----------------------------------------------------------------------
 
-pub(crate) unsafe extern "system" fn string_to_path(instance: xr::Instance, string: *const c_char, path: *mut xr::Path) -> xr::Result {
+pub(crate) unsafe extern "system" fn string_to_path(
+    instance: xr::Instance,
+    string: *const c_char,
+    path: *mut xr::Path,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
@@ -25,17 +29,35 @@ pub(crate) unsafe extern "system" fn string_to_path(instance: xr::Instance, stri
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn path_to_string(instance: xr::Instance, path: xr::Path, capacity: u32, count: *mut u32, buffer: *mut c_char) -> xr::Result {
+pub(crate) unsafe extern "system" fn path_to_string(
+    instance: xr::Instance,
+    path: xr::Path,
+    capacity: u32,
+    count: *mut u32,
+    buffer: *mut c_char,
+) -> xr::Result {
     let rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
-    let Some(s) = rt.paths.get(path.into_raw() as usize).filter(|_| path.into_raw() != 0) else { return xr::Result::ERROR_PATH_INVALID };
+    let Some(s) = rt
+        .paths
+        .get(path.into_raw() as usize)
+        .filter(|_| path.into_raw() != 0)
+    else {
+        return xr::Result::ERROR_PATH_INVALID;
+    };
     let bytes: Vec<u8> = s.bytes().chain(std::iter::once(0)).collect();
-    two_call(capacity, count, buffer, bytes.len(), |i, c| *c = bytes[i] as c_char)
+    two_call(capacity, count, buffer, bytes.len(), |i, c| {
+        *c = bytes[i] as c_char
+    })
 }
 
-pub(crate) unsafe extern "system" fn create_action_set(instance: xr::Instance, info: *const xr::ActionSetCreateInfo, set: *mut xr::ActionSet) -> xr::Result {
+pub(crate) unsafe extern "system" fn create_action_set(
+    instance: xr::Instance,
+    info: *const xr::ActionSetCreateInfo,
+    set: *mut xr::ActionSet,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
@@ -59,7 +81,11 @@ pub(crate) unsafe extern "system" fn destroy_action_set(set: xr::ActionSet) -> x
     }
 }
 
-pub(crate) unsafe extern "system" fn create_action(set: xr::ActionSet, info: *const xr::ActionCreateInfo, action: *mut xr::Action) -> xr::Result {
+pub(crate) unsafe extern "system" fn create_action(
+    set: xr::ActionSet,
+    info: *const xr::ActionCreateInfo,
+    action: *mut xr::Action,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.action_sets.contains_key(&set.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;
@@ -68,7 +94,8 @@ pub(crate) unsafe extern "system" fn create_action(set: xr::ActionSet, info: *co
         return xr::Result::ERROR_ACTIONSETS_ALREADY_ATTACHED;
     }
     let h = rt.handle();
-    rt.actions.insert(h, (set.into_raw(), (*info).action_type, Vec::new()));
+    rt.actions
+        .insert(h, (set.into_raw(), (*info).action_type, Vec::new()));
     *action = xr::Action::from_raw(h);
     xr::Result::SUCCESS
 }
@@ -80,20 +107,31 @@ pub(crate) unsafe extern "system" fn destroy_action(action: xr::Action) -> xr::R
     }
 }
 
-pub(crate) unsafe extern "system" fn suggest_interaction_profile_bindings(instance: xr::Instance, info: *const xr::InteractionProfileSuggestedBinding) -> xr::Result {
+pub(crate) unsafe extern "system" fn suggest_interaction_profile_bindings(
+    instance: xr::Instance,
+    info: *const xr::InteractionProfileSuggestedBinding,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     let info = &*info;
-    let Some(profile) = rt.paths.get(info.interaction_profile.into_raw() as usize).cloned() else { return xr::Result::ERROR_PATH_INVALID };
+    let Some(profile) = rt
+        .paths
+        .get(info.interaction_profile.into_raw() as usize)
+        .cloned()
+    else {
+        return xr::Result::ERROR_PATH_INVALID;
+    };
     if !profile.starts_with("/interaction_profiles/") {
         return xr::Result::ERROR_PATH_UNSUPPORTED;
     }
     let mut bindings = Vec::new();
     for i in 0..info.count_suggested_bindings as usize {
         let b = &*info.suggested_bindings.add(i);
-        let Some(path) = rt.paths.get(b.binding.into_raw() as usize).cloned() else { return xr::Result::ERROR_PATH_INVALID };
+        let Some(path) = rt.paths.get(b.binding.into_raw() as usize).cloned() else {
+            return xr::Result::ERROR_PATH_INVALID;
+        };
         if !path.starts_with("/user/hand/") {
             return xr::Result::ERROR_PATH_UNSUPPORTED;
         }
@@ -113,9 +151,14 @@ pub(crate) unsafe extern "system" fn suggest_interaction_profile_bindings(instan
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn attach_session_action_sets(session: xr::Session, _info: *const xr::SessionActionSetsAttachInfo) -> xr::Result {
+pub(crate) unsafe extern "system" fn attach_session_action_sets(
+    session: xr::Session,
+    _info: *const xr::SessionActionSetsAttachInfo,
+) -> xr::Result {
     let mut rt = runtime();
-    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if s.attached {
         return xr::Result::ERROR_ACTIONSETS_ALREADY_ATTACHED;
     }
@@ -123,9 +166,14 @@ pub(crate) unsafe extern "system" fn attach_session_action_sets(session: xr::Ses
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn sync_actions(session: xr::Session, _info: *const xr::ActionsSyncInfo) -> xr::Result {
+pub(crate) unsafe extern "system" fn sync_actions(
+    session: xr::Session,
+    _info: *const xr::ActionsSyncInfo,
+) -> xr::Result {
     let rt = runtime();
-    let Some(s) = rt.sessions.get(&session.into_raw()) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get(&session.into_raw()) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if !s.attached {
         return xr::Result::ERROR_ACTIONSET_NOT_ATTACHED;
     }
@@ -135,13 +183,24 @@ pub(crate) unsafe extern "system" fn sync_actions(session: xr::Session, _info: *
     xr::Result::SUCCESS
 }
 
-pub(crate) fn bound_value(rt: &Runtime, action: xr::Action, ty: xr::ActionType) -> Result<Option<[f32; 2]>, xr::Result> {
-    let Some((_, action_type, bindings)) = rt.actions.get(&action.into_raw()) else { return Err(xr::Result::ERROR_HANDLE_INVALID) };
+pub(crate) fn bound_value(
+    rt: &Runtime,
+    action: xr::Action,
+    ty: xr::ActionType,
+) -> Result<Option<[f32; 2]>, xr::Result> {
+    let Some((_, action_type, bindings)) = rt.actions.get(&action.into_raw()) else {
+        return Err(xr::Result::ERROR_HANDLE_INVALID);
+    };
     if *action_type != ty {
         return Err(xr::Result::ERROR_ACTION_TYPE_MISMATCH);
     }
-    let focused = rt.sessions.values().any(|s| s.state == xr::SessionState::FOCUSED);
-    let Some(binding) = bindings.first().filter(|_| focused) else { return Ok(None) };
+    let focused = rt
+        .sessions
+        .values()
+        .any(|s| s.state == xr::SessionState::FOCUSED);
+    let Some(binding) = bindings.first().filter(|_| focused) else {
+        return Ok(None);
+    };
     let value = if binding == "/user/hand/left/input/thumbstick" {
         env_pair("VLF_TEST_XR_LEFT_STICK", [0.0, 0.0])
     } else if binding == "/user/hand/right/input/thumbstick" {
@@ -152,7 +211,11 @@ pub(crate) fn bound_value(rt: &Runtime, action: xr::Action, ty: xr::ActionType) 
     Ok(Some(value))
 }
 
-pub(crate) unsafe extern "system" fn get_action_state_vector2f(session: xr::Session, info: *const xr::ActionStateGetInfo, state: *mut xr::ActionStateVector2f) -> xr::Result {
+pub(crate) unsafe extern "system" fn get_action_state_vector2f(
+    session: xr::Session,
+    info: *const xr::ActionStateGetInfo,
+    state: *mut xr::ActionStateVector2f,
+) -> xr::Result {
     let rt = runtime();
     if !rt.sessions.contains_key(&session.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;
@@ -171,7 +234,11 @@ pub(crate) unsafe extern "system" fn get_action_state_vector2f(session: xr::Sess
     }
 }
 
-pub(crate) unsafe extern "system" fn get_action_state_boolean(session: xr::Session, info: *const xr::ActionStateGetInfo, state: *mut xr::ActionStateBoolean) -> xr::Result {
+pub(crate) unsafe extern "system" fn get_action_state_boolean(
+    session: xr::Session,
+    info: *const xr::ActionStateGetInfo,
+    state: *mut xr::ActionStateBoolean,
+) -> xr::Result {
     let rt = runtime();
     if !rt.sessions.contains_key(&session.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;

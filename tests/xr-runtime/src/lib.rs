@@ -32,14 +32,14 @@ mod vulkan;
 
 use actions::*;
 use ash::vk;
-use session::*;
-use vulkan::*;
 use openxr_sys as xr;
 use openxr_sys::pfn;
+use session::*;
 use std::collections::{HashMap, VecDeque};
 use std::ffi::{c_char, CStr};
 use std::sync::{LazyLock, Mutex, MutexGuard};
 use std::time::Duration;
+use vulkan::*;
 
 pub(crate) const RUNTIME_NAME: &str = "vlf headless test runtime";
 pub(crate) const SYSTEM_NAME: &str = "vlf simulated headset";
@@ -48,7 +48,12 @@ pub(crate) const PERIOD_NS: i64 = 11_111_111;
 pub(crate) const VULKAN_EXTENSION: &str = "XR_KHR_vulkan_enable2";
 pub(crate) const CLOCK_EXTENSION: &str = "XR_KHR_convert_timespec_time";
 pub(crate) const PROFILE: &str = "/interaction_profiles/oculus/touch_controller";
-pub(crate) const SWAPCHAIN_FORMATS: [vk::Format; 4] = [vk::Format::R8G8B8A8_SRGB, vk::Format::B8G8R8A8_SRGB, vk::Format::R8G8B8A8_UNORM, vk::Format::B8G8R8A8_UNORM];
+pub(crate) const SWAPCHAIN_FORMATS: [vk::Format; 4] = [
+    vk::Format::R8G8B8A8_SRGB,
+    vk::Format::B8G8R8A8_SRGB,
+    vk::Format::R8G8B8A8_UNORM,
+    vk::Format::B8G8R8A8_UNORM,
+];
 
 pub(crate) struct Vulkan {
     pub(crate) instance: ash::Instance,
@@ -90,7 +95,10 @@ pub(crate) struct Counters {
 
 /// XrTime of this runtime: CLOCK_MONOTONIC in nanoseconds, so timespec conversion is exact.
 pub(crate) fn monotonic_ns() -> i64 {
-    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
     // SAFETY: clock_gettime writes the timespec it is given.
     unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut t) };
     t.tv_sec * 1_000_000_000 + t.tv_nsec
@@ -152,7 +160,9 @@ impl Runtime {
         if let Some(s) = self.sessions.get_mut(&session) {
             s.state = state;
         }
-        self.counters.states.push(format!("{state:?}").to_lowercase());
+        self.counters
+            .states
+            .push(format!("{state:?}").to_lowercase());
         self.events.push_back((session, state));
     }
     pub(crate) fn instance_ok(&self, instance: xr::Instance) -> bool {
@@ -184,7 +194,13 @@ pub(crate) unsafe fn read_str(src: &[c_char]) -> String {
 }
 
 /// The two-call idiom: report the count, fill when there is room.
-pub(crate) unsafe fn two_call<T>(capacity: u32, count: *mut u32, out: *mut T, n: usize, mut fill: impl FnMut(usize, &mut T)) -> xr::Result {
+pub(crate) unsafe fn two_call<T>(
+    capacity: u32,
+    count: *mut u32,
+    out: *mut T,
+    n: usize,
+    mut fill: impl FnMut(usize, &mut T),
+) -> xr::Result {
     if count.is_null() {
         return xr::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -204,7 +220,10 @@ pub(crate) unsafe fn two_call<T>(capacity: u32, count: *mut u32, out: *mut T, n:
 // ---- loader negotiation, instance, system --------------------------------------------------
 
 #[no_mangle]
-pub unsafe extern "system" fn xrNegotiateLoaderRuntimeInterface(info: *const xr::NegotiateLoaderInfo, request: *mut xr::NegotiateRuntimeRequest) -> xr::Result {
+pub unsafe extern "system" fn xrNegotiateLoaderRuntimeInterface(
+    info: *const xr::NegotiateLoaderInfo,
+    request: *mut xr::NegotiateRuntimeRequest,
+) -> xr::Result {
     if info.is_null() || request.is_null() || (*info).min_interface_version > 1 {
         return xr::Result::ERROR_INITIALIZATION_FAILED;
     }
@@ -223,12 +242,22 @@ macro_rules! proc_table {
     };
 }
 
-unsafe extern "system" fn get_instance_proc_addr(instance: xr::Instance, name: *const c_char, function: *mut Option<pfn::VoidFunction>) -> xr::Result {
+unsafe extern "system" fn get_instance_proc_addr(
+    instance: xr::Instance,
+    name: *const c_char,
+    function: *mut Option<pfn::VoidFunction>,
+) -> xr::Result {
     if name.is_null() || function.is_null() {
         return xr::Result::ERROR_VALIDATION_FAILURE;
     }
     let name = CStr::from_ptr(name).to_str().unwrap_or("");
-    let global = matches!(name, "xrEnumerateInstanceExtensionProperties" | "xrEnumerateApiLayerProperties" | "xrCreateInstance" | "xrGetInstanceProcAddr");
+    let global = matches!(
+        name,
+        "xrEnumerateInstanceExtensionProperties"
+            | "xrEnumerateApiLayerProperties"
+            | "xrCreateInstance"
+            | "xrGetInstanceProcAddr"
+    );
     if instance == xr::Instance::NULL && !global {
         *function = None;
         return xr::Result::ERROR_HANDLE_INVALID;
@@ -289,7 +318,10 @@ unsafe extern "system" fn get_instance_proc_addr(instance: xr::Instance, name: *
     // Extension functions it does not offer are reported missing, as the loader expects.
     *function = match f {
         Some(f) => Some(f),
-        None if CORE_1_0.contains(&name) => Some(std::mem::transmute::<unsafe extern "system" fn() -> xr::Result, pfn::VoidFunction>(unsupported)),
+        None if CORE_1_0.contains(&name) => Some(std::mem::transmute::<
+            unsafe extern "system" fn() -> xr::Result,
+            pfn::VoidFunction,
+        >(unsupported)),
         None => None,
     };
     if (*function).is_some() {
@@ -321,7 +353,12 @@ pub(crate) const CORE_1_0: [&str; 12] = [
     "xrStopHapticFeedback",
 ];
 
-unsafe extern "system" fn enumerate_instance_extension_properties(layer: *const c_char, capacity: u32, count: *mut u32, out: *mut xr::ExtensionProperties) -> xr::Result {
+unsafe extern "system" fn enumerate_instance_extension_properties(
+    layer: *const c_char,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut xr::ExtensionProperties,
+) -> xr::Result {
     if !layer.is_null() {
         return xr::Result::ERROR_API_LAYER_NOT_PRESENT;
     }
@@ -332,17 +369,27 @@ unsafe extern "system" fn enumerate_instance_extension_properties(layer: *const 
     })
 }
 
-unsafe extern "system" fn enumerate_api_layer_properties(capacity: u32, count: *mut u32, out: *mut xr::ApiLayerProperties) -> xr::Result {
+unsafe extern "system" fn enumerate_api_layer_properties(
+    capacity: u32,
+    count: *mut u32,
+    out: *mut xr::ApiLayerProperties,
+) -> xr::Result {
     two_call(capacity, count, out, 0, |_, _| {})
 }
 
-unsafe extern "system" fn create_instance(info: *const xr::InstanceCreateInfo, instance: *mut xr::Instance) -> xr::Result {
+unsafe extern "system" fn create_instance(
+    info: *const xr::InstanceCreateInfo,
+    instance: *mut xr::Instance,
+) -> xr::Result {
     let mut rt = runtime();
     if info.is_null() || instance.is_null() {
         return xr::Result::ERROR_VALIDATION_FAILURE;
     }
     if rt.instance.is_some() {
-        return rt.violation("a second XrInstance while one exists", xr::Result::ERROR_LIMIT_REACHED);
+        return rt.violation(
+            "a second XrInstance while one exists",
+            xr::Result::ERROR_LIMIT_REACHED,
+        );
     }
     let info = &*info;
     for i in 0..info.enabled_extension_count as usize {
@@ -366,13 +413,19 @@ unsafe extern "system" fn destroy_instance(instance: xr::Instance) -> xr::Result
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     if !rt.sessions.is_empty() {
-        rt.violation("xrDestroyInstance with a session still alive", xr::Result::ERROR_VALIDATION_FAILURE);
+        rt.violation(
+            "xrDestroyInstance with a session still alive",
+            xr::Result::ERROR_VALIDATION_FAILURE,
+        );
     }
     rt.instance = None;
     xr::Result::SUCCESS
 }
 
-unsafe extern "system" fn get_instance_properties(instance: xr::Instance, props: *mut xr::InstanceProperties) -> xr::Result {
+unsafe extern "system" fn get_instance_properties(
+    instance: xr::Instance,
+    props: *mut xr::InstanceProperties,
+) -> xr::Result {
     if !runtime().instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
@@ -381,13 +434,24 @@ unsafe extern "system" fn get_instance_properties(instance: xr::Instance, props:
     xr::Result::SUCCESS
 }
 
-unsafe extern "system" fn result_to_string(_instance: xr::Instance, value: xr::Result, buffer: *mut c_char) -> xr::Result {
+unsafe extern "system" fn result_to_string(
+    _instance: xr::Instance,
+    value: xr::Result,
+    buffer: *mut c_char,
+) -> xr::Result {
     let text = format!("{value:?}");
-    write_str(std::slice::from_raw_parts_mut(buffer, xr::MAX_RESULT_STRING_SIZE), &text);
+    write_str(
+        std::slice::from_raw_parts_mut(buffer, xr::MAX_RESULT_STRING_SIZE),
+        &text,
+    );
     xr::Result::SUCCESS
 }
 
-unsafe extern "system" fn get_system(instance: xr::Instance, info: *const xr::SystemGetInfo, system: *mut xr::SystemId) -> xr::Result {
+unsafe extern "system" fn get_system(
+    instance: xr::Instance,
+    info: *const xr::SystemGetInfo,
+    system: *mut xr::SystemId,
+) -> xr::Result {
     if !runtime().instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
@@ -398,7 +462,11 @@ unsafe extern "system" fn get_system(instance: xr::Instance, info: *const xr::Sy
     xr::Result::SUCCESS
 }
 
-unsafe extern "system" fn get_system_properties(_instance: xr::Instance, system: xr::SystemId, props: *mut xr::SystemProperties) -> xr::Result {
+unsafe extern "system" fn get_system_properties(
+    _instance: xr::Instance,
+    system: xr::SystemId,
+    props: *mut xr::SystemProperties,
+) -> xr::Result {
     if system.into_raw() != SYSTEM_ID {
         return xr::Result::ERROR_SYSTEM_INVALID;
     }
@@ -406,13 +474,28 @@ unsafe extern "system" fn get_system_properties(_instance: xr::Instance, system:
     p.system_id = system;
     p.vendor_id = 0;
     write_str(&mut p.system_name, SYSTEM_NAME);
-    p.graphics_properties = xr::SystemGraphicsProperties { max_swapchain_image_height: 4096, max_swapchain_image_width: 4096, max_layer_count: 16 };
-    p.tracking_properties = xr::SystemTrackingProperties { orientation_tracking: xr::TRUE, position_tracking: xr::TRUE };
+    p.graphics_properties = xr::SystemGraphicsProperties {
+        max_swapchain_image_height: 4096,
+        max_swapchain_image_width: 4096,
+        max_layer_count: 16,
+    };
+    p.tracking_properties = xr::SystemTrackingProperties {
+        orientation_tracking: xr::TRUE,
+        position_tracking: xr::TRUE,
+    };
     xr::Result::SUCCESS
 }
 
-unsafe extern "system" fn enumerate_view_configurations(_i: xr::Instance, _s: xr::SystemId, capacity: u32, count: *mut u32, out: *mut xr::ViewConfigurationType) -> xr::Result {
-    two_call(capacity, count, out, 1, |_, v| *v = xr::ViewConfigurationType::PRIMARY_STEREO)
+unsafe extern "system" fn enumerate_view_configurations(
+    _i: xr::Instance,
+    _s: xr::SystemId,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut xr::ViewConfigurationType,
+) -> xr::Result {
+    two_call(capacity, count, out, 1, |_, v| {
+        *v = xr::ViewConfigurationType::PRIMARY_STEREO
+    })
 }
 
 unsafe extern "system" fn enumerate_view_configuration_views(
@@ -445,15 +528,22 @@ unsafe extern "system" fn enumerate_environment_blend_modes(
     count: *mut u32,
     out: *mut xr::EnvironmentBlendMode,
 ) -> xr::Result {
-    two_call(capacity, count, out, 1, |_, v| *v = xr::EnvironmentBlendMode::OPAQUE)
+    two_call(capacity, count, out, 1, |_, v| {
+        *v = xr::EnvironmentBlendMode::OPAQUE
+    })
 }
 
-unsafe extern "system" fn poll_event(instance: xr::Instance, buffer: *mut xr::EventDataBuffer) -> xr::Result {
+unsafe extern "system" fn poll_event(
+    instance: xr::Instance,
+    buffer: *mut xr::EventDataBuffer,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
-    let Some((session, state)) = rt.events.pop_front() else { return xr::Result::EVENT_UNAVAILABLE };
+    let Some((session, state)) = rt.events.pop_front() else {
+        return xr::Result::EVENT_UNAVAILABLE;
+    };
     let time = xr::Time::from_nanos(rt.now());
     let event = buffer as *mut xr::EventDataSessionStateChanged;
     event.write(xr::EventDataSessionStateChanged {

@@ -7,29 +7,54 @@ use openxr_sys as xr;
 
 // ---- session and its states ------------------------------------------------------------------
 
-pub(crate) unsafe extern "system" fn create_session(instance: xr::Instance, info: *const xr::SessionCreateInfo, session: *mut xr::Session) -> xr::Result {
+pub(crate) unsafe extern "system" fn create_session(
+    instance: xr::Instance,
+    info: *const xr::SessionCreateInfo,
+    session: *mut xr::Session,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     if !rt.requirements_queried {
-        return rt.violation("xrCreateSession before xrGetVulkanGraphicsRequirements2KHR", xr::Result::ERROR_GRAPHICS_REQUIREMENTS_CALL_MISSING);
+        return rt.violation(
+            "xrCreateSession before xrGetVulkanGraphicsRequirements2KHR",
+            xr::Result::ERROR_GRAPHICS_REQUIREMENTS_CALL_MISSING,
+        );
     }
     let binding = (*info).next as *const xr::GraphicsBindingVulkanKHR;
     if binding.is_null() || (*binding).ty != xr::GraphicsBindingVulkanKHR::TYPE {
-        return rt.violation("xrCreateSession without XrGraphicsBindingVulkanKHR", xr::Result::ERROR_GRAPHICS_DEVICE_INVALID);
+        return rt.violation(
+            "xrCreateSession without XrGraphicsBindingVulkanKHR",
+            xr::Result::ERROR_GRAPHICS_DEVICE_INVALID,
+        );
     }
     let binding = &*binding;
     let Some(device) = rt.vulkan.as_ref().and_then(|v| v.device.clone()) else {
-        return rt.violation("xrCreateSession before xrCreateVulkanDeviceKHR", xr::Result::ERROR_GRAPHICS_DEVICE_INVALID);
+        return rt.violation(
+            "xrCreateSession before xrCreateVulkanDeviceKHR",
+            xr::Result::ERROR_GRAPHICS_DEVICE_INVALID,
+        );
     };
     if binding.device as u64 != device.handle().as_raw() {
-        return rt.violation("XrGraphicsBindingVulkanKHR names a device the runtime did not create", xr::Result::ERROR_GRAPHICS_DEVICE_INVALID);
+        return rt.violation(
+            "XrGraphicsBindingVulkanKHR names a device the runtime did not create",
+            xr::Result::ERROR_GRAPHICS_DEVICE_INVALID,
+        );
     }
     let h = rt.handle();
     rt.sessions.insert(
         h,
-        Session { state: xr::SessionState::IDLE, running: false, exit_requested: false, device, waited: None, begun: false, last_display_index: 0, attached: false },
+        Session {
+            state: xr::SessionState::IDLE,
+            running: false,
+            exit_requested: false,
+            device,
+            waited: None,
+            begun: false,
+            last_display_index: 0,
+            attached: false,
+        },
     );
     rt.set_state(h, xr::SessionState::IDLE);
     rt.set_state(h, xr::SessionState::READY);
@@ -38,7 +63,9 @@ pub(crate) unsafe extern "system" fn create_session(instance: xr::Instance, info
 }
 
 pub(crate) fn write_report(rt: &Runtime) {
-    let Some(path) = std::env::var_os("VLF_TEST_XR_REPORT") else { return };
+    let Some(path) = std::env::var_os("VLF_TEST_XR_REPORT") else {
+        return;
+    };
     let c = &rt.counters;
     let text = format!(
         "frames_waited={}\nframes_ended={}\nlayers_checked={}\nimages_released={}\nstates={}\nviolation={}\n",
@@ -58,7 +85,12 @@ pub(crate) unsafe extern "system" fn destroy_session(session: xr::Session) -> xr
     if !rt.sessions.contains_key(&h) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
-    let chains: Vec<u64> = rt.swapchains.iter().filter(|(_, s)| s.session == h).map(|(k, _)| *k).collect();
+    let chains: Vec<u64> = rt
+        .swapchains
+        .iter()
+        .filter(|(_, s)| s.session == h)
+        .map(|(k, _)| *k)
+        .collect();
     for k in chains {
         // the application should have destroyed them; a runtime cleans up anyway
         if let Some(s) = rt.swapchains.remove(&k) {
@@ -71,9 +103,14 @@ pub(crate) unsafe extern "system" fn destroy_session(session: xr::Session) -> xr
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn begin_session(session: xr::Session, info: *const xr::SessionBeginInfo) -> xr::Result {
+pub(crate) unsafe extern "system" fn begin_session(
+    session: xr::Session,
+    info: *const xr::SessionBeginInfo,
+) -> xr::Result {
     let mut rt = runtime();
-    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if (*info).primary_view_configuration_type != xr::ViewConfigurationType::PRIMARY_STEREO {
         return xr::Result::ERROR_VIEW_CONFIGURATION_TYPE_UNSUPPORTED;
     }
@@ -81,7 +118,10 @@ pub(crate) unsafe extern "system" fn begin_session(session: xr::Session, info: *
         return xr::Result::ERROR_SESSION_RUNNING;
     }
     if s.state != xr::SessionState::READY {
-        return rt.violation("xrBeginSession before the session was READY", xr::Result::ERROR_SESSION_NOT_READY);
+        return rt.violation(
+            "xrBeginSession before the session was READY",
+            xr::Result::ERROR_SESSION_NOT_READY,
+        );
     }
     s.running = true;
     xr::Result::SUCCESS
@@ -101,7 +141,9 @@ pub(crate) fn stop(rt: &mut Runtime, h: u64) {
 pub(crate) unsafe extern "system" fn request_exit_session(session: xr::Session) -> xr::Result {
     let mut rt = runtime();
     let h = session.into_raw();
-    let Some(s) = rt.sessions.get_mut(&h) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get_mut(&h) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if !s.running {
         return xr::Result::ERROR_SESSION_NOT_RUNNING;
     }
@@ -115,12 +157,17 @@ pub(crate) unsafe extern "system" fn request_exit_session(session: xr::Session) 
 pub(crate) unsafe extern "system" fn end_session(session: xr::Session) -> xr::Result {
     let mut rt = runtime();
     let h = session.into_raw();
-    let Some(s) = rt.sessions.get_mut(&h) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get_mut(&h) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if !s.running {
         return xr::Result::ERROR_SESSION_NOT_RUNNING;
     }
     if s.state != xr::SessionState::STOPPING {
-        return rt.violation("xrEndSession before the session was STOPPING", xr::Result::ERROR_SESSION_NOT_STOPPING);
+        return rt.violation(
+            "xrEndSession before the session was STOPPING",
+            xr::Result::ERROR_SESSION_NOT_STOPPING,
+        );
     }
     s.running = false;
     rt.set_state(h, xr::SessionState::IDLE);
@@ -130,21 +177,40 @@ pub(crate) unsafe extern "system" fn end_session(session: xr::Session) -> xr::Re
 
 // ---- spaces and views -----------------------------------------------------------------------
 
-pub(crate) unsafe extern "system" fn enumerate_reference_spaces(session: xr::Session, capacity: u32, count: *mut u32, out: *mut xr::ReferenceSpaceType) -> xr::Result {
+pub(crate) unsafe extern "system" fn enumerate_reference_spaces(
+    session: xr::Session,
+    capacity: u32,
+    count: *mut u32,
+    out: *mut xr::ReferenceSpaceType,
+) -> xr::Result {
     if !runtime().sessions.contains_key(&session.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
-    let spaces = [xr::ReferenceSpaceType::VIEW, xr::ReferenceSpaceType::LOCAL, xr::ReferenceSpaceType::STAGE];
+    let spaces = [
+        xr::ReferenceSpaceType::VIEW,
+        xr::ReferenceSpaceType::LOCAL,
+        xr::ReferenceSpaceType::STAGE,
+    ];
     two_call(capacity, count, out, spaces.len(), |i, v| *v = spaces[i])
 }
 
-pub(crate) unsafe extern "system" fn create_reference_space(session: xr::Session, info: *const xr::ReferenceSpaceCreateInfo, space: *mut xr::Space) -> xr::Result {
+pub(crate) unsafe extern "system" fn create_reference_space(
+    session: xr::Session,
+    info: *const xr::ReferenceSpaceCreateInfo,
+    space: *mut xr::Space,
+) -> xr::Result {
     let mut rt = runtime();
     if !rt.sessions.contains_key(&session.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     let ty = (*info).reference_space_type;
-    if ![xr::ReferenceSpaceType::VIEW, xr::ReferenceSpaceType::LOCAL, xr::ReferenceSpaceType::STAGE].contains(&ty) {
+    if ![
+        xr::ReferenceSpaceType::VIEW,
+        xr::ReferenceSpaceType::LOCAL,
+        xr::ReferenceSpaceType::STAGE,
+    ]
+    .contains(&ty)
+    {
         return xr::Result::ERROR_REFERENCE_SPACE_UNSUPPORTED;
     }
     let h = rt.handle();
@@ -180,7 +246,9 @@ pub(crate) unsafe extern "system" fn locate_views(
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     let info = &*info;
-    let Some(space) = rt.spaces.get(&info.space.into_raw()).copied() else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(space) = rt.spaces.get(&info.space.into_raw()).copied() else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if info.display_time.as_nanos() <= 0 {
         return xr::Result::ERROR_TIME_INVALID;
     }
@@ -190,8 +258,17 @@ pub(crate) unsafe extern "system" fn locate_views(
         xr::ReferenceSpaceType::VIEW => position = [0.0; 3],
         _ => {}
     }
-    let yaw = if space == xr::ReferenceSpaceType::VIEW { 0.0 } else { yaw };
-    let orientation = xr::Quaternionf { x: 0.0, y: (yaw / 2.0).sin(), z: 0.0, w: (yaw / 2.0).cos() };
+    let yaw = if space == xr::ReferenceSpaceType::VIEW {
+        0.0
+    } else {
+        yaw
+    };
+    let orientation = xr::Quaternionf {
+        x: 0.0,
+        y: (yaw / 2.0).sin(),
+        z: 0.0,
+        w: (yaw / 2.0).cos(),
+    };
     (*state).view_state_flags = xr::ViewStateFlags::ORIENTATION_VALID
         | xr::ViewStateFlags::POSITION_VALID
         | xr::ViewStateFlags::ORIENTATION_TRACKED
@@ -201,7 +278,11 @@ pub(crate) unsafe extern "system" fn locate_views(
         let offset = 0.032 * side;
         v.pose = xr::Posef {
             orientation,
-            position: xr::Vector3f { x: position[0] + offset * yaw.cos(), y: position[1], z: position[2] - offset * yaw.sin() },
+            position: xr::Vector3f {
+                x: position[0] + offset * yaw.cos(),
+                y: position[1],
+                z: position[2] - offset * yaw.sin(),
+            },
         };
         // wider towards the temple than towards the nose, as in real headsets
         let (outer, inner) = (0.942, 0.698);
@@ -216,17 +297,27 @@ pub(crate) unsafe extern "system" fn locate_views(
 
 // ---- the frame loop -------------------------------------------------------------------------
 
-pub(crate) unsafe extern "system" fn wait_frame(session: xr::Session, _info: *const xr::FrameWaitInfo, state: *mut xr::FrameState) -> xr::Result {
+pub(crate) unsafe extern "system" fn wait_frame(
+    session: xr::Session,
+    _info: *const xr::FrameWaitInfo,
+    state: *mut xr::FrameState,
+) -> xr::Result {
     let h = session.into_raw();
     let index = {
         let mut rt = runtime();
-        let Some(s) = rt.sessions.get_mut(&h) else { return xr::Result::ERROR_HANDLE_INVALID };
+        let Some(s) = rt.sessions.get_mut(&h) else {
+            return xr::Result::ERROR_HANDLE_INVALID;
+        };
         if !s.running {
             return xr::Result::ERROR_SESSION_NOT_RUNNING;
         }
         // the next refresh after now, and never the same one twice
         let lockstep = std::env::var_os("VLF_TEST_XR_LOCKSTEP").is_some();
-        let index = if lockstep && s.last_display_index > 0 { s.last_display_index + 1 } else { (monotonic_ns() / PERIOD_NS + 1).max(s.last_display_index + 1) };
+        let index = if lockstep && s.last_display_index > 0 {
+            s.last_display_index + 1
+        } else {
+            (monotonic_ns() / PERIOD_NS + 1).max(s.last_display_index + 1)
+        };
         s.last_display_index = index;
         s.waited = Some(index);
         index
@@ -242,18 +333,29 @@ pub(crate) unsafe extern "system" fn wait_frame(session: xr::Session, _info: *co
     if rt.sessions[&h].state == xr::SessionState::READY {
         rt.set_state(h, xr::SessionState::SYNCHRONIZED);
     }
-    let render = matches!(rt.sessions[&h].state, xr::SessionState::VISIBLE | xr::SessionState::FOCUSED);
+    let render = matches!(
+        rt.sessions[&h].state,
+        xr::SessionState::VISIBLE | xr::SessionState::FOCUSED
+    );
     (*state).predicted_display_time = xr::Time::from_nanos(index * PERIOD_NS + PERIOD_NS);
     (*state).predicted_display_period = xr::Duration::from_nanos(PERIOD_NS);
     (*state).should_render = render.into();
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn begin_frame(session: xr::Session, _info: *const xr::FrameBeginInfo) -> xr::Result {
+pub(crate) unsafe extern "system" fn begin_frame(
+    session: xr::Session,
+    _info: *const xr::FrameBeginInfo,
+) -> xr::Result {
     let mut rt = runtime();
-    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get_mut(&session.into_raw()) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if s.waited.is_none() {
-        return rt.violation("xrBeginFrame without xrWaitFrame", xr::Result::ERROR_CALL_ORDER_INVALID);
+        return rt.violation(
+            "xrBeginFrame without xrWaitFrame",
+            xr::Result::ERROR_CALL_ORDER_INVALID,
+        );
     }
     let discarded = s.begun;
     s.begun = true;
@@ -264,7 +366,11 @@ pub(crate) unsafe extern "system" fn begin_frame(session: xr::Session, _info: *c
     }
 }
 
-pub(crate) unsafe extern "system" fn convert_timespec_time_to_time(instance: xr::Instance, timespec: *const libc::timespec, time: *mut xr::Time) -> xr::Result {
+pub(crate) unsafe extern "system" fn convert_timespec_time_to_time(
+    instance: xr::Instance,
+    timespec: *const libc::timespec,
+    time: *mut xr::Time,
+) -> xr::Result {
     if !runtime().instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
@@ -273,38 +379,66 @@ pub(crate) unsafe extern "system" fn convert_timespec_time_to_time(instance: xr:
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe extern "system" fn convert_time_to_timespec_time(instance: xr::Instance, time: xr::Time, timespec: *mut libc::timespec) -> xr::Result {
+pub(crate) unsafe extern "system" fn convert_time_to_timespec_time(
+    instance: xr::Instance,
+    time: xr::Time,
+    timespec: *mut libc::timespec,
+) -> xr::Result {
     if !runtime().instance_ok(instance) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
     let ns = time.as_nanos();
-    *timespec = libc::timespec { tv_sec: ns.div_euclid(1_000_000_000), tv_nsec: ns.rem_euclid(1_000_000_000) };
+    *timespec = libc::timespec {
+        tv_sec: ns.div_euclid(1_000_000_000),
+        tv_nsec: ns.rem_euclid(1_000_000_000),
+    };
     xr::Result::SUCCESS
 }
 
-pub(crate) unsafe fn check_layer(rt: &Runtime, layer: *const xr::CompositionLayerBaseHeader) -> Result<(), String> {
+pub(crate) unsafe fn check_layer(
+    rt: &Runtime,
+    layer: *const xr::CompositionLayerBaseHeader,
+) -> Result<(), String> {
     if (*layer).ty != xr::CompositionLayerProjection::TYPE {
-        return Err(format!("layer of type {:?}: this runtime composes projection layers only", (*layer).ty));
+        return Err(format!(
+            "layer of type {:?}: this runtime composes projection layers only",
+            (*layer).ty
+        ));
     }
     let projection = &*(layer as *const xr::CompositionLayerProjection);
     if !rt.spaces.contains_key(&projection.space.into_raw()) {
         return Err("projection layer in an unknown space".into());
     }
     if projection.view_count != 2 {
-        return Err(format!("projection layer with {} views, the stereo configuration has 2", projection.view_count));
+        return Err(format!(
+            "projection layer with {} views, the stereo configuration has 2",
+            projection.view_count
+        ));
     }
     for i in 0..2 {
         let view = &*projection.views.add(i);
         if view.ty != xr::CompositionLayerProjectionView::TYPE {
             return Err(format!("projection view {i}: wrong structure type"));
         }
-        let Some(chain) = rt.swapchains.get(&view.sub_image.swapchain.into_raw()) else { return Err(format!("projection view {i}: unknown swapchain")) };
+        let Some(chain) = rt.swapchains.get(&view.sub_image.swapchain.into_raw()) else {
+            return Err(format!("projection view {i}: unknown swapchain"));
+        };
         if !chain.released_since_end || !chain.acquired.is_empty() {
-            return Err(format!("projection view {i}: its swapchain has no released image this frame"));
+            return Err(format!(
+                "projection view {i}: its swapchain has no released image this frame"
+            ));
         }
         let r = view.sub_image.image_rect;
-        if r.offset.x < 0 || r.offset.y < 0 || r.extent.width <= 0 || r.extent.height <= 0 || (r.offset.x + r.extent.width) as u32 > chain.size[0] || (r.offset.y + r.extent.height) as u32 > chain.size[1] {
-            return Err(format!("projection view {i}: image rect outside the swapchain"));
+        if r.offset.x < 0
+            || r.offset.y < 0
+            || r.extent.width <= 0
+            || r.extent.height <= 0
+            || (r.offset.x + r.extent.width) as u32 > chain.size[0]
+            || (r.offset.y + r.extent.height) as u32 > chain.size[1]
+        {
+            return Err(format!(
+                "projection view {i}: image rect outside the swapchain"
+            ));
         }
         let f = view.fov;
         if !(f.angle_left < f.angle_right && f.angle_down < f.angle_up) {
@@ -313,23 +447,36 @@ pub(crate) unsafe fn check_layer(rt: &Runtime, layer: *const xr::CompositionLaye
         let q = view.pose.orientation;
         let norm = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
         if (norm - 1.0).abs() > 1e-3 {
-            return Err(format!("projection view {i}: orientation not a unit quaternion"));
+            return Err(format!(
+                "projection view {i}: orientation not a unit quaternion"
+            ));
         }
     }
     Ok(())
 }
 
-pub(crate) unsafe extern "system" fn end_frame(session: xr::Session, info: *const xr::FrameEndInfo) -> xr::Result {
+pub(crate) unsafe extern "system" fn end_frame(
+    session: xr::Session,
+    info: *const xr::FrameEndInfo,
+) -> xr::Result {
     let mut rt = runtime();
     let h = session.into_raw();
-    let Some(s) = rt.sessions.get(&h) else { return xr::Result::ERROR_HANDLE_INVALID };
+    let Some(s) = rt.sessions.get(&h) else {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
     if !s.begun {
-        return rt.violation("xrEndFrame without xrBeginFrame", xr::Result::ERROR_CALL_ORDER_INVALID);
+        return rt.violation(
+            "xrEndFrame without xrBeginFrame",
+            xr::Result::ERROR_CALL_ORDER_INVALID,
+        );
     }
     let info = &*info;
     let expected = s.waited.map(|i| i * PERIOD_NS + PERIOD_NS).unwrap_or(0);
     if info.display_time.as_nanos() != expected {
-        return rt.violation("xrEndFrame with a display time other than xrWaitFrame's prediction", xr::Result::ERROR_TIME_INVALID);
+        return rt.violation(
+            "xrEndFrame with a display time other than xrWaitFrame's prediction",
+            xr::Result::ERROR_TIME_INVALID,
+        );
     }
     if info.environment_blend_mode != xr::EnvironmentBlendMode::OPAQUE {
         return xr::Result::ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED;
@@ -352,13 +499,20 @@ pub(crate) unsafe extern "system" fn end_frame(session: xr::Session, info: *cons
         rt.set_state(h, xr::SessionState::VISIBLE);
         rt.set_state(h, xr::SessionState::FOCUSED);
     }
-    let lose_after = std::env::var("VLF_TEST_XR_LOSE_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
+    let lose_after = std::env::var("VLF_TEST_XR_LOSE_AFTER")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok());
     if lose_after == Some(rt.counters.frames_ended) {
         rt.set_state(h, xr::SessionState::LOSS_PENDING);
     }
-    let end_after = std::env::var("VLF_TEST_XR_END_AFTER").ok().and_then(|v| v.parse::<u64>().ok());
+    let end_after = std::env::var("VLF_TEST_XR_END_AFTER")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok());
     if end_after.is_some_and(|n| rt.counters.frames_ended >= n) && !exit_requested {
-        rt.sessions.get_mut(&h).expect("checked above").exit_requested = true;
+        rt.sessions
+            .get_mut(&h)
+            .expect("checked above")
+            .exit_requested = true;
         stop(&mut rt, h);
     }
     xr::Result::SUCCESS
