@@ -1,9 +1,9 @@
 // The reference path tracer, driven by src/reference/mod.rs: same scene semantics as the light
-// field (DESIGN.md section 6): one-sided faces unless two-sided (the back of a one-sided face
-// absorbs), diffuse / mirror / mixed, area emitters from the front side, uniform sky,
-// textures. Next-event estimation on the emitters with multiple importance sampling (power
-// heuristic) against cosine sampling, unbounded depth with Russian roulette, seeded per pixel
-// and sample so that a run repeats bit for bit. Each pass adds `samples_per_pass` samples per
+// field (ARCHITECTURE.md, "Scene files: the contract"): one-sided faces unless two-sided (the back
+// of a one-sided face absorbs), diffuse / mirror / mixed, area emitters from the front side,
+// uniform sky, textures. Next-event estimation on the emitters with multiple importance sampling
+// (power heuristic) against cosine sampling, unbounded depth with Russian roulette, seeded per
+// pixel and sample so that a run repeats bit for bit. Each pass adds `samples_per_pass` samples per
 // pixel to running sums of radiance and of its square.
 #include "common/types.wgsl"
 #include "common/bvh.wgsl"

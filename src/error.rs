@@ -55,6 +55,12 @@ pub enum VlfError {
     #[error("display: {0}")]
     Display(String),
 
+    #[error("export to {target}: {message}")]
+    Export {
+        target: &'static str,
+        message: String,
+    },
+
     #[error("camera {name:?} not found; the scene has: {available}")]
     UnknownCamera { name: String, available: String },
 }

@@ -8,6 +8,7 @@
 pub mod bench;
 pub mod display;
 pub mod error;
+pub mod export;
 pub mod generate;
 pub mod gpu;
 pub mod lightfield;

@@ -20,6 +20,12 @@ struct Cli {
     command: Option<Command>,
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum ExportFormat {
+    /// Mitsuba 3 XML + PLY (tools/mitsuba/reference.py, which shares no code with vlf)
+    Mitsuba,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Propagate a scene into a light field file (.vlf)
@@ -233,6 +239,20 @@ enum Command {
         /// (tools/mitsuba/edges.py writes such a mask)
         #[arg(long)]
         mask: Option<PathBuf>,
+    },
+    /// Write the scene for another renderer, e.g. `vlf export mitsuba scene.toml -o DIR`: a
+    /// standalone Mitsuba 3 scene (DIR/<camera>.xml per camera), for an independent ground truth
+    Export {
+        /// The renderer: mitsuba
+        #[arg(value_enum)]
+        format: ExportFormat,
+        scene: PathBuf,
+        /// The folder to write (created if missing)
+        #[arg(short, long)]
+        output: PathBuf,
+        /// The Python that runs the exporter (needs numpy and mitsuba: `pip install mitsuba numpy`)
+        #[arg(long, default_value = "python3")]
+        python: String,
     },
     /// Propagate the built-in Cornell box and write PNG + EXR into out/
     Demo {
@@ -793,6 +813,24 @@ fn run(cli: Cli) -> Result<()> {
                 if !json {
                     println!("difference: {}", path.display());
                 }
+            }
+        }
+        Command::Export {
+            format: ExportFormat::Mitsuba,
+            scene,
+            output,
+            python,
+        } => {
+            let export = vlf::export::mitsuba(&scene, &output, &python)?;
+            for note in &export.notes {
+                eprintln!("{note}");
+            }
+            for xml in &export.cameras {
+                println!(
+                    "{}   (render: mitsuba {} -D spp=1024 -o out.exr)",
+                    xml.display(),
+                    xml.display()
+                );
             }
         }
         Command::Bench {

@@ -1,9 +1,17 @@
 #!/usr/bin/env bash
 # Makes sure the tests can run: a wgpu adapter (a real GPU's Vulkan driver, or else Mesa's
 # software Vulkan, lavapipe), a virtual display and a screenshot tool for the windowed CAVE
-# test (Xvfb, ImageMagick's import), and libudev for gamepads (gilrs). Installs what is
-# missing with apt-get.
+# test (Xvfb, ImageMagick's import), libudev for gamepads (gilrs), and Mitsuba 3 + numpy for
+# the independent reference (tests/mitsuba.rs). Installs what is missing with apt-get and pip.
 set -euo pipefail
+# Python packages first: they do not depend on the system packages below
+if ! python3 -c 'import mitsuba, numpy' 2>/dev/null; then
+  command -v python3 >/dev/null || { echo "tools/setup.sh: no python3 (3.11 or newer is needed for tests/mitsuba.rs)" >&2; exit 1; }
+  echo "tools/setup.sh: installing Mitsuba 3 and numpy with pip" >&2
+  python3 -m pip install -q mitsuba numpy 2>/dev/null \
+    || python3 -m pip install -q --break-system-packages mitsuba numpy \
+    || { echo "tools/setup.sh: pip could not install mitsuba numpy; install them for $(command -v python3)" >&2; exit 1; }
+fi
 have_icd() {
   local icd found=""
   for icd in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json /usr/local/share/vulkan/icd.d/*.json; do

@@ -1,9 +1,9 @@
-//! The direction set of DESIGN.md section 2: a geodesic sphere (icosahedron faces subdivided
-//! with frequency n, 10n^2+2 points), of which one point of each antipodal pair stands for the
-//! bidirectional pair (+w, -w): 5n^2+1 directions over a hemisphere. Each carries the area of
-//! its spherical Voronoi cell, and any unit vector finds the spherical triangle that contains
-//! it, with barycentric weights, exactly (central projection maps the flat sub-triangles of an
-//! icosahedron face onto the spherical ones).
+//! The direction set (ARCHITECTURE.md, "Directions and grids"): a geodesic sphere (icosahedron
+//! faces subdivided with frequency n, 10n^2+2 points), of which one point of each antipodal pair
+//! stands for the bidirectional pair (+w, -w): 5n^2+1 directions over a hemisphere. Each carries
+//! the area of its spherical Voronoi cell, and any unit vector finds the spherical triangle that
+//! contains it, with barycentric weights, exactly (central projection maps the flat sub-triangles
+//! of an icosahedron face onto the spherical ones).
 
 use glam::DVec3;
 use std::collections::HashMap;

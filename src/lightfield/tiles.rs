@@ -1,6 +1,6 @@
-//! Sparse storage for non-diffuse (mirror) radiance, DESIGN.md section 3: for each direction
-//! and each non-diffuse face, only the m x m-cell tiles that the face's projection overlaps
-//! (widened by a cell and a half, so bilinear lookups across cells always find their
+//! Sparse storage for non-diffuse (mirror) radiance (ARCHITECTURE.md, "Mirror tiles"): for each
+//! direction and each non-diffuse face, only the m x m-cell tiles that the face's projection
+//! overlaps (widened by a cell and a half, so bilinear lookups across cells always find their
 //! neighbours). A (direction, face) -> tile rectangle table and a per-rectangle index give each
 //! tile's slot; slot s holds cells [s*m^2, (s+1)*m^2). A diffuse-only scene has no tiles at all.
 

@@ -1,5 +1,6 @@
-//! The scene contract of DESIGN.md section 6: `scene.toml` (this module) plus an OBJ/MTL mesh
-//! (`obj.rs`). Loading validates everything and yields a [`Scene`] in world units (metres).
+//! The scene contract (ARCHITECTURE.md, "Scene files: the contract"): `scene.toml` (this module)
+//! plus an OBJ/MTL mesh (`obj.rs`). Loading validates everything and yields a [`Scene`] in world
+//! units (metres).
 
 pub mod builder;
 pub mod obj;

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Independent Mitsuba 3 path-traced reference for vlf scenes (DESIGN.md section 6).
+"""Independent Mitsuba 3 path-traced reference for vlf scenes (ARCHITECTURE.md, "Scene files: the contract").
 
 Shares no code with vlf: scene.toml, OBJ and MTL are parsed here. The scene is written out
 as a standalone Mitsuba XML scene (PLY meshes, one per material; textures premultiplied by
@@ -24,7 +24,10 @@ import tomllib
 import zlib
 from pathlib import Path
 
-import numpy as np
+try:
+    import numpy as np
+except ImportError:
+    sys.exit("error: numpy is not installed for this Python (" + sys.executable + "): pip install mitsuba numpy")
 
 
 def _pick_llvm():
@@ -624,7 +627,10 @@ def main(argv=None):
     if not a.output and not a.export:
         ap.error("give -o OUT.exr and/or --export DIR")
 
-    import mitsuba as mi
+    try:
+        import mitsuba as mi
+    except ImportError:
+        sys.exit("error: Mitsuba 3 is not installed for this Python (" + sys.executable + "): pip install mitsuba numpy")
     mi.set_variant(a.variant)
     scene = load_scene_toml(a.scene)
     built = build(scene)
@@ -669,4 +675,6 @@ if __name__ == "__main__":
     try:
         sys.exit(main())
     except SceneError as e:
+        sys.exit(f"error: {e}")
+    except (OSError, tomllib.TOMLDecodeError) as e:
         sys.exit(f"error: {e}")
