@@ -44,6 +44,9 @@ pub struct CaveReport {
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
     pub constant_frame_time: Option<bool>,
+    /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
+    /// drawn from it (timed frames; None without live tracking or without a new pose)
+    pub tracking_latency_ms: Option<Distribution>,
     pub images: Vec<String>,
 }
 
@@ -91,6 +94,8 @@ pub fn run(
 
     let mut all_gpu = Vec::new();
     let mut cpu = Vec::new();
+    // live tracking: milliseconds from a pose's arrival to the submission of its frame
+    let mut latency = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
     let mut projector_images: Vec<(String, Frame)> = Vec::new();
     let pairs = views.len()
@@ -105,7 +110,7 @@ pub fn run(
         } else {
             0.0
         };
-        let pose = poses.at(t);
+        let (pose, fresh) = poses.at_fresh(t);
         let wand = poses.wand_at(&config.tracking, t);
         let last_frame = f + 1 == total_frames;
         let started = std::time::Instant::now();
@@ -157,6 +162,9 @@ pub fn run(
         }
         if last_frame {
             break;
+        }
+        if let Some(arrived) = fresh {
+            latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
         resident.ctx.wait()?;
         cpu.push(started.elapsed().as_secs_f64() * 1e3);
@@ -227,6 +235,7 @@ pub fn run(
         all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
         cpu_frame_ms: Distribution::of(&cpu),
         outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
+        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
         images,
     })
 }
@@ -334,6 +343,9 @@ impl CaveReport {
             "  CPU frame time: median {:.3} ms, p99 {:.3} ms\n",
             self.cpu_frame_ms.median, self.cpu_frame_ms.p99
         ));
+        if let Some(d) = &self.tracking_latency_ms {
+            s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
+        }
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
             s.push_str(&format!(
                 "  constant per-eye frame time: {} (worst p99/p50 {w:.3}; limit {CONSTANT_FRAME_TIME:.2})\n",
