@@ -656,42 +656,7 @@ impl App<'_> {
                 Draw::Shown,
             );
         }
-        let present = self.present.as_ref().expect("windows open");
-        let mut outputs = Vec::new();
-        for w in &mut self.windows {
-            let Some(texture) = next_texture(&ctx, w)? else {
-                continue;
-            };
-            let (width, height) = (w.config.width as f32, w.config.height as f32);
-            for p in &w.parts {
-                let (origin, size) = viewport(w.stereo, p.part, width, height);
-                let params = GpuPresent {
-                    viewport_origin: origin,
-                    viewport_size: size,
-                    exposure: self.options.exposure,
-                    encode_srgb: (!present.surface_is_srgb) as u32,
-                    show_overlay: (self.status.is_some() && p.part < 2) as u32,
-                    _pad0: 0,
-                };
-                ctx.queue
-                    .write_buffer(&p.params, 0, bytemuck::bytes_of(&params));
-            }
-            let view = texture.texture.create_view(&Default::default());
-            let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            {
-                let mut pass =
-                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
-                pass.set_pipeline(&present.pipeline);
-                for p in &w.parts {
-                    let (origin, size) = viewport(w.stereo, p.part, width, height);
-                    pass.set_viewport(origin[0], origin[1], size[0], size[1], 0.0, 1.0);
-                    pass.set_bind_group(0, &p.bind_group, &[]);
-                    pass.draw(0..3, 0..1);
-                }
-            }
-            ctx.queue.submit([encoder.finish()]);
-            outputs.push(texture);
-        }
+        let outputs = self.draw_windows(&ctx)?;
         if let (Some(arrived), true) = (fresh, timed) {
             self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
@@ -726,6 +691,48 @@ impl App<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Each window's parts drawn from the views' images onto its next surface texture, and
+    /// submitted; the textures to present (a window without one this frame is left out).
+    fn draw_windows(&mut self, ctx: &GpuContext) -> Result<Vec<wgpu::SurfaceTexture>> {
+        let present = self.present.as_ref().expect("windows open");
+        let mut outputs = Vec::new();
+        for w in &mut self.windows {
+            let Some(texture) = next_texture(ctx, w)? else {
+                continue;
+            };
+            let (width, height) = (w.config.width as f32, w.config.height as f32);
+            for p in &w.parts {
+                let (origin, size) = viewport(w.stereo, p.part, width, height);
+                let params = GpuPresent {
+                    viewport_origin: origin,
+                    viewport_size: size,
+                    exposure: self.options.exposure,
+                    encode_srgb: (!present.surface_is_srgb) as u32,
+                    show_overlay: (self.status.is_some() && p.part < 2) as u32,
+                    _pad0: 0,
+                };
+                ctx.queue
+                    .write_buffer(&p.params, 0, bytemuck::bytes_of(&params));
+            }
+            let view = texture.texture.create_view(&Default::default());
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass =
+                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+                pass.set_pipeline(&present.pipeline);
+                for p in &w.parts {
+                    let (origin, size) = viewport(w.stereo, p.part, width, height);
+                    pass.set_viewport(origin[0], origin[1], size[0], size[1], 0.0, 1.0);
+                    pass.set_bind_group(0, &p.bind_group, &[]);
+                    pass.draw(0..3, 0..1);
+                }
+            }
+            ctx.queue.submit([encoder.finish()]);
+            outputs.push(texture);
+        }
+        Ok(outputs)
     }
 
     fn report(&self) -> WindowReport {
