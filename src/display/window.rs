@@ -1,8 +1,10 @@
 //! `vlf cave` with windows: one window per wall (two for a wall whose eyes go to separate
-//! outputs), fullscreen on its monitor when configured, all drawn from one device and one
-//! light field and presented together every frame. Each eye is rendered offscreen at the
-//! wall's pixel size and put on the window by `shaders/present.wgsl` (exposure, sRGB, and a
-//! status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
+//! outputs; one per projector, and per eye, for a wall driven by projectors), fullscreen on its
+//! monitor when configured, all drawn from one device and one light field and presented
+//! together every frame. Each wall and eye is rendered offscreen once a frame at the wall's
+//! pixel size, its outputs drawn from it by the pass `--headless` uses (`post.rs`'s `Outputs`:
+//! each projector's warp and blend, the wand's ray), and put on the windows by
+//! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
 use super::live::{LiveState, TrackingStatus};
