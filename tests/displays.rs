@@ -1,6 +1,7 @@
 //! Display configurations and off-axis projection: shipped configs parse, the frustum is
 //! symmetric on a wall's axis, points on a wall land on the expected pixel, lines stay
-//! continuous across a seam, bad configs name the key, and a headless CAVE run writes its views.
+//! continuous across a seam, bad configs name the key, a headless CAVE run writes its views, and
+//! with live tracking reports the latency from a pose's arrival to its frame.
 
 mod common;
 use common::*;
@@ -197,6 +198,91 @@ fn headless_cave_renders_every_wall_and_eye() {
         "the front wall shows the box"
     );
     assert!(out.join("overview.png").exists());
+    assert!(
+        report.tracking_latency_ms.is_none(),
+        "a static head has no tracking latency"
+    );
+}
+
+/// Headless with live OSC tracking streaming head poses: the report (and its JSON) gives the
+/// latency from a pose's arrival to the submission of the frame drawn from it.
+#[test]
+fn headless_cave_reports_the_live_tracking_latency() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let text = format!(
+        r#"name = "live"
+[tracking]
+source = "osc"
+port = {port}
+[[wall]]
+name = "front"
+lower_left = [-1.1, 0.0, 1.1]
+lower_right = [1.1, 0.0, 1.1]
+upper_left = [-1.1, 2.2, 1.1]
+pixels = [64, 64]
+output = {{ monitor = 0 }}
+"#
+    );
+    let path = dir.path().join("live.toml");
+    std::fs::write(&path, text).unwrap();
+    let display = DisplayConfig::load(&path).unwrap();
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let params = vlf::propagate::PropagationParams {
+        geodesic_frequency: 3,
+        grid_resolution: 32,
+        tile_size: 8,
+        texel_density: 8.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    // the tracker streams head poses all through the run
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let stop_sender = stop.clone();
+    let sender = std::thread::spawn(move || {
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        let packet = rosc::encoder::encode(&rosc::OscPacket::Message(rosc::OscMessage {
+            addr: "/vlf/head".into(),
+            args: [0.0f32, 1.0, 3.0]
+                .into_iter()
+                .map(rosc::OscType::Float)
+                .collect(),
+        }))
+        .unwrap();
+        while !stop_sender.load(std::sync::atomic::Ordering::Relaxed) {
+            let _ = socket.send_to(&packet, ("127.0.0.1", port));
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+    });
+    let out = dir.path().join("out");
+    let report = vlf::display::headless::run(&lf, &resident, &display, &path, 40, &out, false);
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    sender.join().unwrap();
+    let report = report.unwrap();
+    let latency = report
+        .tracking_latency_ms
+        .as_ref()
+        .expect("a live source's latency in the report");
+    println!("{}", report.table());
+    assert!(
+        latency.samples >= 5 && latency.median > 0.0 && latency.p99 < 1000.0,
+        "{latency:?}"
+    );
+    assert!(report
+        .table()
+        .contains("tracking latency (pose received -> frame submitted)"));
+    let json = serde_json::to_value(&report).unwrap();
+    assert!(json["tracking_latency_ms"]["median"].as_f64().unwrap() > 0.0);
 }
 
 #[test]

@@ -4,6 +4,7 @@
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
 //! queries, of the output passes, and CPU time per frame).
 
+use super::post::{Draw, Outputs};
 use super::tracking::PoseSource;
 use super::DisplayConfig;
 use crate::bench::Distribution;
@@ -43,6 +44,9 @@ pub struct CaveReport {
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
     pub constant_frame_time: Option<bool>,
+    /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
+    /// drawn from it (timed frames; None without live tracking or without a new pose)
+    pub tracking_latency_ms: Option<Distribution>,
     pub images: Vec<String>,
 }
 
@@ -80,11 +84,18 @@ pub fn run(
         .collect();
     let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
     let specs = super::warp::load_outputs(config, config_path)?;
-    let mut post = Post::new(&resident.ctx, &renderer, config, &specs, &poses)?;
+    // the pass after rendering (`post.rs`), when needed: one wall image per wall
+    let wand = poses.may_have_wand(&config.tracking);
+    let walls: Vec<usize> = (0..config.walls.len()).collect();
+    let post = Outputs::needed(config, &specs, wand)
+        .then(|| Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, true))
+        .transpose()?;
     let mut post_gpu = Vec::new();
 
     let mut all_gpu = Vec::new();
     let mut cpu = Vec::new();
+    // live tracking: milliseconds from a pose's arrival to the submission of its frame
+    let mut latency = Vec::new();
     let mut last: Vec<Frame> = Vec::new();
     let mut projector_images: Vec<(String, Frame)> = Vec::new();
     let pairs = views.len()
@@ -99,7 +110,7 @@ pub fn run(
         } else {
             0.0
         };
-        let pose = poses.at(t);
+        let (pose, fresh) = poses.at_fresh(t);
         let wand = poses.wand_at(&config.tracking, t);
         let last_frame = f + 1 == total_frames;
         let started = std::time::Instant::now();
@@ -117,10 +128,18 @@ pub fn run(
                 wand.as_ref(),
                 &lf.meta.normalisation,
             );
-            match post.as_mut() {
+            match post.as_ref() {
                 Some(p) if last_frame => {
-                    let (frame, projectors) =
-                        p.draw(&mut renderer, wall_index, view_proj, eye, overlay.as_ref())?;
+                    let view = (view_proj, eye);
+                    p.encode(
+                        &mut renderer,
+                        wall_index,
+                        view,
+                        overlay.as_ref(),
+                        None,
+                        Draw::Everything,
+                    );
+                    let (frame, projectors) = p.read(wall_index)?;
                     last.push(frame);
                     projector_images.extend(
                         projectors.into_iter().map(|(name, image)| {
@@ -128,13 +147,13 @@ pub fn run(
                         }),
                     );
                 }
-                Some(p) => p.submit(
+                Some(p) => p.encode(
                     &mut renderer,
                     wall_index,
-                    view_proj,
-                    eye,
+                    (view_proj, eye),
                     overlay.as_ref(),
                     timestamps.as_mut(),
+                    Draw::Timed,
                 ),
                 // the images to keep: drawn and read back one by one (not timed)
                 None if last_frame => last.push(renderer.render_matrix(view_proj, eye, w, h)?.0),
@@ -143,6 +162,9 @@ pub fn run(
         }
         if last_frame {
             break;
+        }
+        if let Some(arrived) = fresh {
+            latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
         resident.ctx.wait()?;
         cpu.push(started.elapsed().as_secs_f64() * 1e3);
@@ -213,149 +235,9 @@ pub fn run(
         all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
         cpu_frame_ms: Distribution::of(&cpu),
         outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
+        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
         images,
     })
-}
-
-/// The pass after rendering (`post.rs`), when a wall has projectors or a wand may be tracked:
-/// each view is rendered into a wall image kept on the GPU, then its outputs are drawn from it
-/// (the projectors' outputs, or the whole wall when it has none), wand ray included.
-struct Post {
-    ctx: std::sync::Arc<crate::gpu::GpuContext>,
-    pass: super::post::PostPass,
-    /// per wall: the whole wall's output, then its projectors' outputs
-    outputs: Vec<(super::post::Output, Vec<super::post::Output>)>,
-    /// per wall: the wall image the views are rendered into
-    targets: Vec<crate::render::ViewTargets>,
-}
-
-impl Post {
-    fn new(
-        ctx: &std::sync::Arc<crate::gpu::GpuContext>,
-        renderer: &Renderer,
-        config: &DisplayConfig,
-        specs: &[Vec<super::warp::OutputSpec>],
-        poses: &PoseSource,
-    ) -> Result<Option<Post>> {
-        let wand = config.wand_ray.show && poses.may_have_wand(&config.tracking);
-        if !wand && specs.iter().all(|s| s.is_empty()) {
-            return Ok(None);
-        }
-        let pass = super::post::PostPass::new(ctx)?;
-        let outputs = config
-            .walls
-            .iter()
-            .zip(specs)
-            .map(|(wall, s)| {
-                (
-                    pass.output(ctx, &super::post::wall_output(wall)),
-                    s.iter().map(|o| pass.output(ctx, o)).collect(),
-                )
-            })
-            .collect();
-        let targets = config
-            .walls
-            .iter()
-            .map(|w| renderer.view_targets(w.eye_pixels()[0], w.eye_pixels()[1]))
-            .collect();
-        Ok(Some(Post {
-            ctx: ctx.clone(),
-            pass,
-            outputs,
-            targets,
-        }))
-    }
-
-    /// Output passes timed per view of `wall`: its projectors, or the whole wall.
-    fn timed_outputs(&self, wall: usize) -> usize {
-        self.outputs[wall].1.len().max(1)
-    }
-
-    fn encode(
-        &self,
-        renderer: &mut Renderer,
-        wall: usize,
-        view_proj: glam::Mat4,
-        eye: glam::Vec3,
-        wand: Option<&super::post::WandOverlay>,
-        mut timestamps: Option<&mut crate::gpu::Timestamps>,
-        everything: bool,
-    ) {
-        renderer.set_view_matrix(view_proj, eye);
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        let target = &self.targets[wall];
-        renderer.encode_view(&mut encoder, target, timestamps.as_deref_mut());
-        let (whole, projectors) = &self.outputs[wall];
-        let size = [target.width, target.height];
-        if everything || projectors.is_empty() {
-            self.pass.encode(
-                &self.ctx,
-                &mut encoder,
-                &target.image_view,
-                size,
-                whole,
-                wand,
-                if everything {
-                    None
-                } else {
-                    timestamps.as_deref_mut()
-                },
-            );
-        }
-        for p in projectors {
-            self.pass.encode(
-                &self.ctx,
-                &mut encoder,
-                &target.image_view,
-                size,
-                p,
-                wand,
-                if everything {
-                    None
-                } else {
-                    timestamps.as_deref_mut()
-                },
-            );
-        }
-        self.ctx.queue.submit([encoder.finish()]);
-    }
-
-    fn submit(
-        &self,
-        renderer: &mut Renderer,
-        wall: usize,
-        view_proj: glam::Mat4,
-        eye: glam::Vec3,
-        wand: Option<&super::post::WandOverlay>,
-        timestamps: Option<&mut crate::gpu::Timestamps>,
-    ) {
-        self.encode(renderer, wall, view_proj, eye, wand, timestamps, false);
-    }
-
-    /// Draw one view and read back the whole wall's image and each projector's (named).
-    fn draw(
-        &self,
-        renderer: &mut Renderer,
-        wall: usize,
-        view_proj: glam::Mat4,
-        eye: glam::Vec3,
-        wand: Option<&super::post::WandOverlay>,
-    ) -> Result<(Frame, Vec<(String, Frame)>)> {
-        self.encode(renderer, wall, view_proj, eye, wand, None, true);
-        let (whole, projectors) = &self.outputs[wall];
-        let frame = super::post::read_texture(&self.ctx, &whole.image)?;
-        let images = projectors
-            .iter()
-            .map(|p| {
-                Ok((
-                    p.name.clone(),
-                    super::post::read_texture(&self.ctx, &p.image)?,
-                ))
-            })
-            .collect::<Result<Vec<_>>>()?;
-        self.ctx.check_errors()?;
-        Ok((frame, images))
-    }
 }
 
 /// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
@@ -461,6 +343,9 @@ impl CaveReport {
             "  CPU frame time: median {:.3} ms, p99 {:.3} ms\n",
             self.cpu_frame_ms.median, self.cpu_frame_ms.p99
         ));
+        if let Some(d) = &self.tracking_latency_ms {
+            s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
+        }
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
             s.push_str(&format!(
                 "  constant per-eye frame time: {} (worst p99/p50 {w:.3}; limit {CONSTANT_FRAME_TIME:.2})\n",

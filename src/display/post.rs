@@ -2,7 +2,9 @@
 //! for a projector (`warp.rs`: bilinear in the warp grid, a bilinear fetch), the tracked
 //! wand's ray drawn over it (the distance from each pixel's eye ray to the wand's segment, in
 //! the light field's space, through the wall's view-projection), times the blend mask. Every
-//! pixel does the same work, so an output costs the same whatever it shows.
+//! pixel does the same work, so an output costs the same whatever it shows. `Outputs` holds a
+//! display's wall images and the outputs drawn from them, for `vlf cave --headless`
+//! (`headless.rs`) and its windows (`window.rs`) alike: the same pass, the same warps and masks.
 
 use super::live::WandPose;
 use super::tracking::Pose;
@@ -10,10 +12,11 @@ use super::warp::{Grid, OutputSpec};
 use super::{DisplayConfig, Wall};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, Timestamps};
-use crate::render::{texture_2d, Frame, COLOR_FORMAT};
+use crate::render::{texture_2d, Frame, Renderer, ViewTargets, COLOR_FORMAT};
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 /// `[wand_ray]`: the ray drawn from the tracked wand along where it points.
@@ -470,5 +473,151 @@ pub fn wall_output(wall: &Wall) -> OutputSpec {
         pixels: wall.eye_pixels(),
         grid: Grid::identity(),
         mask: None,
+    }
+}
+
+/// Which outputs `Outputs::encode` draws after rendering a view, and whether they are timed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Draw {
+    /// the outputs shown (the wall's projectors, or the whole wall when it has none), each timed
+    Timed,
+    /// the outputs shown, untimed (only the rendering is timed)
+    Shown,
+    /// the whole wall's output and every projector's, untimed: to read them all back
+    Everything,
+}
+
+/// One wall image (a wall seen by one eye, or a wall's views one after another) and the
+/// outputs drawn from it.
+pub struct Slot {
+    pub wall: usize,
+    pub target: ViewTargets,
+    /// the whole wall: the identity warp, no mask (the wand's ray only); None without the pass
+    whole: Option<Output>,
+    /// the wall's projectors, in configuration order
+    projectors: Vec<Output>,
+}
+
+/// A display's wall images and their outputs. With the pass, each view is rendered into its
+/// slot's wall image on the GPU and its outputs are drawn from it (the projectors', or the
+/// whole wall's when it has none), wand ray included; without it (no wall has projectors and
+/// no wand may be tracked) the wall image is what is shown.
+pub struct Outputs {
+    ctx: Arc<GpuContext>,
+    pass: Option<PostPass>,
+    slots: Vec<Slot>,
+}
+
+impl Outputs {
+    /// Whether a display needs the pass: a wall with projectors, or a wand that may be tracked.
+    pub fn needed(config: &DisplayConfig, specs: &[Vec<OutputSpec>], wand: bool) -> bool {
+        (wand && config.wand_ray.show) || specs.iter().any(|s| !s.is_empty())
+    }
+
+    /// One slot per entry of `walls` (wall indices, repeated as needed), each with the wall's
+    /// outputs from `specs` (`warp::load_outputs`) when `post` (see `needed`).
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        renderer: &Renderer,
+        config: &DisplayConfig,
+        specs: &[Vec<OutputSpec>],
+        walls: &[usize],
+        post: bool,
+    ) -> Result<Outputs> {
+        let pass = post.then(|| PostPass::new(ctx)).transpose()?;
+        let slots = walls
+            .iter()
+            .map(|&wall| {
+                let w = &config.walls[wall];
+                let [width, height] = w.eye_pixels();
+                Slot {
+                    wall,
+                    target: renderer.view_targets(width, height),
+                    whole: pass.as_ref().map(|p| p.output(ctx, &wall_output(w))),
+                    projectors: pass.as_ref().map_or(Vec::new(), |p| {
+                        specs[wall].iter().map(|o| p.output(ctx, o)).collect()
+                    }),
+                }
+            })
+            .collect();
+        Ok(Outputs {
+            ctx: ctx.clone(),
+            pass,
+            slots,
+        })
+    }
+
+    /// Output passes timed per view in `slot` with `Draw::Timed`.
+    pub fn timed_outputs(&self, slot: usize) -> usize {
+        match self.pass {
+            Some(_) => self.slots[slot].projectors.len().max(1),
+            None => 0,
+        }
+    }
+
+    /// The image shown for `projector` of `slot`'s wall (None: the whole wall): after the pass,
+    /// its output; without the pass, the wall image itself.
+    pub fn shown(&self, slot: usize, projector: Option<usize>) -> &wgpu::TextureView {
+        let s = &self.slots[slot];
+        match (projector, &s.whole) {
+            (Some(p), _) => &s.projectors[p].image_view,
+            (None, Some(whole)) => &whole.image_view,
+            (None, None) => &s.target.image_view,
+        }
+    }
+
+    /// Render one view (`view`: its view-projection and eye) into `slot`'s wall image and draw
+    /// the outputs that `draw` names from it; submitted at once (the slot's outputs' parameters
+    /// are written in queue order). `timestamps` times the rendering, and with `Draw::Timed`
+    /// each output pass after it.
+    pub fn encode(
+        &self,
+        renderer: &mut Renderer,
+        slot: usize,
+        view: (Mat4, Vec3),
+        wand: Option<&WandOverlay>,
+        mut timestamps: Option<&mut Timestamps>,
+        draw: Draw,
+    ) {
+        renderer.set_view_matrix(view.0, view.1);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        let s = &self.slots[slot];
+        renderer.encode_view(&mut encoder, &s.target, timestamps.as_deref_mut());
+        if let (Some(pass), Some(whole)) = (&self.pass, &s.whole) {
+            let size = [s.target.width, s.target.height];
+            let everything = draw == Draw::Everything;
+            let whole = (everything || s.projectors.is_empty()).then_some(whole);
+            for output in whole.into_iter().chain(&s.projectors) {
+                let t = match draw {
+                    Draw::Timed => timestamps.as_deref_mut(),
+                    Draw::Shown | Draw::Everything => None,
+                };
+                pass.encode(
+                    &self.ctx,
+                    &mut encoder,
+                    &s.target.image_view,
+                    size,
+                    output,
+                    wand,
+                    t,
+                );
+            }
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// Read back `slot`'s whole wall image (after the pass: its whole-wall output, so draw with
+    /// `Draw::Everything` first) and each projector's output, named.
+    pub fn read(&self, slot: usize) -> Result<(Frame, Vec<(String, Frame)>)> {
+        let s = &self.slots[slot];
+        let whole = s.whole.as_ref().map_or(&s.target.image, |w| &w.image);
+        let frame = read_texture(&self.ctx, whole)?;
+        let images = s
+            .projectors
+            .iter()
+            .map(|p| Ok((p.name.clone(), read_texture(&self.ctx, &p.image)?)))
+            .collect::<Result<Vec<_>>>()?;
+        self.ctx.check_errors()?;
+        Ok((frame, images))
     }
 }

@@ -304,6 +304,19 @@ impl PoseSource {
         }
     }
 
+    /// The pose at `t` and, for live tracking, when it arrived if no frame has been drawn from
+    /// it yet (`LiveTracker::take_fresh`): for the latency from a pose's arrival to its frame.
+    pub fn at_fresh(&self, t: f32) -> (Pose, Option<std::time::Instant>) {
+        match self {
+            PoseSource::Live(tracker) => {
+                let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
+                let pose = tracker.latest().0;
+                (pose, tracker.take_fresh())
+            }
+            other => (other.at(t), None),
+        }
+    }
+
     pub fn at(&self, t: f32) -> Pose {
         match self {
             PoseSource::Static(p) => *p,

@@ -1,11 +1,14 @@
 //! `vlf cave` with windows: one window per wall (two for a wall whose eyes go to separate
-//! outputs), fullscreen on its monitor when configured, all drawn from one device and one
-//! light field and presented together every frame. Each eye is rendered offscreen at the
-//! wall's pixel size and put on the window by `shaders/present.wgsl` (exposure, sRGB, and a
-//! status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
+//! outputs; one per projector, and per eye, for a wall driven by projectors), fullscreen on its
+//! monitor when configured, all drawn from one device and one light field and presented
+//! together every frame. Each wall and eye is rendered offscreen once a frame at the wall's
+//! pixel size, its outputs drawn from it by the pass `--headless` uses (`post.rs`'s `Outputs`:
+//! each projector's warp and blend, the wand's ray), and put on the windows by
+//! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
 use super::live::{LiveState, TrackingStatus};
+use super::post::{Draw, Outputs};
 use super::tracking::{Pose, PoseSource};
 use super::{DisplayConfig, MonitorRef, Stereo};
 use crate::bench::Distribution;
@@ -49,16 +52,18 @@ pub struct WindowReport {
     pub tracking_latency_ms: Option<Distribution>,
 }
 
-/// One eye's offscreen image and the bindings that put it on its window.
-struct EyeImage {
+/// A wall seen by one eye: rendered once a frame into its slot of `App::outputs` (same
+/// index), whose outputs (the wall's projectors, or the whole wall) the windows show.
+struct View {
     wall: usize,
     eye: &'static str,
     side: f32,
+}
+
+/// One eye's part of a window and the bindings that put its image there.
+struct WindowPart {
     /// which part of the window: 0 whole, 1 left/top half, 2 right/bottom half
     part: u8,
-    targets: crate::render::ViewTargets,
-    /// the wall image with the wand's ray drawn over it (`post.rs`), when a wand may be tracked
-    wand_output: Option<super::post::Output>,
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -68,7 +73,16 @@ struct WallWindow {
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     stereo: Stereo,
-    eyes: Vec<EyeImage>,
+    parts: Vec<WindowPart>,
+}
+
+/// Where a window goes: its title and size, its monitor's shift from the wall's monitor index
+/// and its x offset from the wall's window position.
+struct Placement {
+    title: String,
+    pixels: [u32; 2],
+    shift: u32,
+    x_offset: i32,
 }
 
 /// Navigation added to the tracked pose: the room moved and turned in the world.
@@ -157,9 +171,6 @@ pub fn run(
             "no display to open windows on (neither DISPLAY nor WAYLAND_DISPLAY is set); run with --headless to render every wall and eye to files, or start a virtual display (Xvfb :99 & export DISPLAY=:99)".into(),
         ));
     }
-    if config.walls.iter().any(|w| !w.projectors.is_empty()) {
-        log::warn!("{}: projector warp and blend are applied by --headless only so far; the windows show each wall's image unwarped", config_path.display());
-    }
     let event_loop = EventLoop::new().map_err(|e| {
         VlfError::Display(format!(
             "cannot open the windowing system: {e}; run with --headless instead"
@@ -167,23 +178,28 @@ pub fn run(
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let poses = PoseSource::from_config(config, config_path)?;
-    let wand_pass = if config.wand_ray.show && poses.may_have_wand(&config.tracking) {
-        Some(super::post::PostPass::new(&resident.ctx)?)
-    } else {
-        None
-    };
+    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+    renderer.set_samples_per_pixel(config.antialiasing)?;
+    // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
+    let views: Vec<View> = (config.walls.iter().enumerate())
+        .flat_map(|(wall, w)| {
+            (w.eyes().into_iter()).map(move |(eye, side)| View { wall, eye, side })
+        })
+        .collect();
+    let specs = super::warp::load_outputs(config, config_path)?;
+    let walls: Vec<usize> = views.iter().map(|v| v.wall).collect();
+    let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
+    let outputs = Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, post)?;
     let mut app = App {
         lf,
         resident,
         config,
         poses,
-        wand_pass,
         options,
-        renderer: {
-            let mut r = Renderer::new(resident, lf, &MemoryLedger::default())?;
-            r.set_samples_per_pixel(config.antialiasing)?;
-            r
-        },
+        renderer,
+        gpu: vec![Vec::new(); views.len()],
+        views,
+        outputs,
         windows: Vec::new(),
         present: None,
         overlay: None,
@@ -195,7 +211,6 @@ pub fn run(
         started: Instant::now(),
         last_frame: Instant::now(),
         frames: 0,
-        gpu: Vec::new(),
         cpu: Vec::new(),
         status_messages: Vec::new(),
         latency: Vec::new(),
@@ -224,8 +239,10 @@ struct App<'a> {
     poses: PoseSource,
     options: WindowOptions,
     renderer: Renderer,
-    /// the pass that draws the wand's ray, when the tracking may give a wand
-    wand_pass: Option<super::post::PostPass>,
+    /// every wall and eye, in `outputs`' slot order
+    views: Vec<View>,
+    /// the wall images and the outputs drawn from them (`post.rs`, shared with headless)
+    outputs: Outputs,
     windows: Vec<WallWindow>,
     present: Option<PresentPipeline>,
     overlay: Option<(wgpu::Texture, wgpu::TextureView)>,
@@ -235,7 +252,7 @@ struct App<'a> {
     started: Instant,
     last_frame: Instant,
     frames: u32,
-    /// GPU milliseconds per view (in window, eye order) per timed frame
+    /// GPU milliseconds per view (in `views` order) per timed frame
     gpu: Vec<Vec<f64>>,
     cpu: Vec<f64>,
     status_messages: Vec<String>,
@@ -266,124 +283,173 @@ impl App<'_> {
         self.config
             .check_outputs(&names)
             .map_err(VlfError::Display)?;
-        let ctx = self.ctx().clone();
         for (wall_index, wall) in self.config.walls.iter().enumerate() {
-            // a wall whose eyes go to separate outputs gets two windows: the right eye on the
-            // next monitor, or beside the left window
-            let outputs: Vec<(&'static str, f32, u32)> = match wall.stereo {
-                Stereo::Separate => vec![("left", -1.0, 0), ("right", 1.0, 1)],
-                _ => vec![("", 0.0, 0)],
+            // a wall whose eyes go to separate outputs gets a window per eye; one driven by
+            // projectors a window per projector (per eye): each shows what headless writes as
+            // <wall>-<eye>-<projector>.png, on the next monitor or beside the previous window
+            let groups: Vec<(&'static str, Vec<(&'static str, u8)>)> = match wall.stereo {
+                Stereo::Mono => vec![("", vec![("mono", 0)])],
+                Stereo::Separate => {
+                    vec![("left", vec![("left", 0)]), ("right", vec![("right", 0)])]
+                }
+                Stereo::SideBySide | Stereo::TopBottom => {
+                    vec![("", vec![("left", 1), ("right", 2)])]
+                }
             };
-            for (suffix, _, shift) in outputs {
-                let title = if suffix.is_empty() {
-                    format!("vlf: {}", wall.name)
-                } else {
-                    format!("vlf: {} ({suffix} eye)", wall.name)
-                };
-                let monitor = match &wall.output.monitor {
-                    Some(MonitorRef::Index(n)) => monitors
-                        .get((*n + shift) as usize)
-                        .or(monitors.get(*n as usize))
-                        .cloned(),
-                    Some(MonitorRef::Name(name)) => monitors
-                        .iter()
-                        .zip(&names)
-                        .find(|(_, n)| *n == name)
-                        .map(|(m, _)| m.clone()),
-                    None => None,
-                };
-                let mut attributes = Window::default_attributes()
-                    .with_title(title)
-                    .with_inner_size(winit::dpi::PhysicalSize::new(
-                        wall.pixels[0],
-                        wall.pixels[1],
-                    ));
-                let origin = monitor
-                    .as_ref()
-                    .map(|m| m.position())
-                    .unwrap_or(winit::dpi::PhysicalPosition::new(0, 0));
-                if let Some([x, y]) = wall.output.window {
-                    let x = x + shift as i32 * wall.pixels[0] as i32;
-                    attributes = attributes.with_position(winit::dpi::PhysicalPosition::new(
-                        origin.x + x,
-                        origin.y + y,
-                    ));
-                } else {
-                    attributes = attributes.with_position(origin);
-                }
-                if wall.output.fullscreen {
-                    attributes =
-                        attributes.with_fullscreen(Some(Fullscreen::Borderless(monitor.clone())));
-                }
-                let window = Arc::new(event_loop.create_window(attributes).map_err(|e| {
-                    VlfError::Display(format!("wall {:?}: cannot open a window: {e}", wall.name))
-                })?);
-                let surface = ctx.instance.create_surface(window.clone()).map_err(|e| {
-                    VlfError::Display(format!(
-                        "wall {:?}: no GPU surface for its window: {e}",
-                        wall.name
-                    ))
-                })?;
-                if !ctx.adapter.is_surface_supported(&surface) {
-                    return Err(VlfError::Display(format!(
-                        "the adapter {} cannot present to wall {:?}'s window",
-                        ctx.summary.name, wall.name
-                    )));
-                }
-                let caps = surface.get_capabilities(&ctx.adapter);
-                let format = caps
-                    .formats
-                    .iter()
-                    .copied()
-                    .find(|f| f.is_srgb())
-                    .or(caps.formats.first().copied())
-                    .ok_or_else(|| {
-                        VlfError::Display(format!(
-                            "wall {:?}: the window's surface offers no format",
-                            wall.name
-                        ))
-                    })?;
-                let size = window.inner_size();
-                let surface_config = wgpu::SurfaceConfiguration {
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                    format,
-                    width: size.width.max(1),
-                    height: size.height.max(1),
-                    present_mode: wgpu::PresentMode::AutoVsync,
-                    desired_maximum_frame_latency: 2,
-                    alpha_mode: caps.alpha_modes[0],
-                    view_formats: vec![],
-                    color_space: wgpu::SurfaceColorSpace::Auto,
-                };
-                surface.configure(&ctx.device, &surface_config);
-                if self.present.is_none() {
-                    self.present = Some(present_pipeline(&ctx, format)?);
-                }
-                let eyes: Vec<(&'static str, f32, u8)> = match wall.stereo {
-                    Stereo::Mono => vec![("mono", 0.0, 0)],
-                    Stereo::Separate => {
-                        vec![(suffix, if suffix == "left" { -1.0 } else { 1.0 }, 0)]
-                    }
-                    Stereo::SideBySide | Stereo::TopBottom => {
-                        vec![("left", -1.0, 1), ("right", 1.0, 2)]
-                    }
-                };
-                let eyes = eyes
+            let outputs: Vec<(Option<usize>, [u32; 2])> = if wall.projectors.is_empty() {
+                vec![(None, wall.pixels)]
+            } else {
+                (wall.projectors.iter().enumerate())
+                    .map(|(k, p)| (Some(k), p.pixels))
+                    .collect()
+            };
+            let mut shift = 0;
+            let mut x_offset = 0;
+            for (suffix, eyes) in groups {
+                for &(projector, pixels) in &outputs {
+                    let qualifiers: Vec<String> = [
+                        (!suffix.is_empty()).then(|| format!("{suffix} eye")),
+                        projector.map(|k| format!("projector {}", wall.projectors[k].name)),
+                    ]
                     .into_iter()
-                    .map(|(eye, side, part)| self.eye_image(wall_index, eye, side, part))
-                    .collect::<Result<Vec<_>>>()?;
-                self.windows.push(WallWindow {
-                    window,
-                    surface,
-                    config: surface_config,
-                    stereo: wall.stereo,
-                    eyes,
-                });
+                    .flatten()
+                    .collect();
+                    let title = match qualifiers.is_empty() {
+                        true => format!("vlf: {}", wall.name),
+                        false => format!("vlf: {} ({})", wall.name, qualifiers.join(", ")),
+                    };
+                    let place = Placement {
+                        title,
+                        pixels,
+                        shift,
+                        x_offset,
+                    };
+                    let (window, surface, surface_config) =
+                        self.create_window(event_loop, &monitors, &names, wall_index, place)?;
+                    let parts = eyes
+                        .iter()
+                        .map(|&(eye, part)| {
+                            let slot = self.slot_of(wall_index, eye);
+                            self.window_part(slot, projector, part)
+                        })
+                        .collect::<Result<Vec<_>>>()?;
+                    self.windows.push(WallWindow {
+                        window,
+                        surface,
+                        config: surface_config,
+                        stereo: wall.stereo,
+                        parts,
+                    });
+                    shift += 1;
+                    x_offset += pixels[0] as i32;
+                }
             }
         }
-        let views: usize = self.windows.iter().map(|w| w.eyes.len()).sum();
-        self.gpu = vec![Vec::new(); views];
         Ok(())
+    }
+
+    /// The slot (view) of `wall` seen by `eye`.
+    fn slot_of(&self, wall: usize, eye: &str) -> usize {
+        self.views
+            .iter()
+            .position(|v| v.wall == wall && v.eye == eye)
+            .expect("a view per wall and eye")
+    }
+
+    /// One window of a wall, placed on its monitor (index + `shift` when there is one) or at
+    /// its window position (+ `x_offset`), with its surface configured.
+    fn create_window(
+        &mut self,
+        event_loop: &ActiveEventLoop,
+        monitors: &[winit::monitor::MonitorHandle],
+        names: &[String],
+        wall_index: usize,
+        place: Placement,
+    ) -> Result<(
+        Arc<Window>,
+        wgpu::Surface<'static>,
+        wgpu::SurfaceConfiguration,
+    )> {
+        let ctx = self.ctx().clone();
+        let wall = &self.config.walls[wall_index];
+        let monitor = match &wall.output.monitor {
+            Some(MonitorRef::Index(n)) => monitors
+                .get((*n + place.shift) as usize)
+                .or(monitors.get(*n as usize))
+                .cloned(),
+            Some(MonitorRef::Name(name)) => monitors
+                .iter()
+                .zip(names)
+                .find(|(_, n)| *n == name)
+                .map(|(m, _)| m.clone()),
+            None => None,
+        };
+        let mut attributes = Window::default_attributes()
+            .with_title(place.title)
+            .with_inner_size(winit::dpi::PhysicalSize::new(
+                place.pixels[0],
+                place.pixels[1],
+            ));
+        let origin = monitor
+            .as_ref()
+            .map(|m| m.position())
+            .unwrap_or(winit::dpi::PhysicalPosition::new(0, 0));
+        if let Some([x, y]) = wall.output.window {
+            attributes = attributes.with_position(winit::dpi::PhysicalPosition::new(
+                origin.x + x + place.x_offset,
+                origin.y + y,
+            ));
+        } else {
+            attributes = attributes.with_position(origin);
+        }
+        if wall.output.fullscreen {
+            attributes = attributes.with_fullscreen(Some(Fullscreen::Borderless(monitor.clone())));
+        }
+        let window = Arc::new(event_loop.create_window(attributes).map_err(|e| {
+            VlfError::Display(format!("wall {:?}: cannot open a window: {e}", wall.name))
+        })?);
+        let surface = ctx.instance.create_surface(window.clone()).map_err(|e| {
+            VlfError::Display(format!(
+                "wall {:?}: no GPU surface for its window: {e}",
+                wall.name
+            ))
+        })?;
+        if !ctx.adapter.is_surface_supported(&surface) {
+            return Err(VlfError::Display(format!(
+                "the adapter {} cannot present to wall {:?}'s window",
+                ctx.summary.name, wall.name
+            )));
+        }
+        let caps = surface.get_capabilities(&ctx.adapter);
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| f.is_srgb())
+            .or(caps.formats.first().copied())
+            .ok_or_else(|| {
+                VlfError::Display(format!(
+                    "wall {:?}: the window's surface offers no format",
+                    wall.name
+                ))
+            })?;
+        let size = window.inner_size();
+        let surface_config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            present_mode: wgpu::PresentMode::AutoVsync,
+            desired_maximum_frame_latency: 2,
+            alpha_mode: caps.alpha_modes[0],
+            view_formats: vec![],
+            color_space: wgpu::SurfaceColorSpace::Auto,
+        };
+        surface.configure(&ctx.device, &surface_config);
+        if self.present.is_none() {
+            self.present = Some(present_pipeline(&ctx, format)?);
+        }
+        Ok((window, surface, surface_config))
     }
 
     fn overlay_view(&mut self) -> &wgpu::TextureView {
@@ -402,23 +468,14 @@ impl App<'_> {
         &self.overlay.as_ref().unwrap().1
     }
 
-    fn eye_image(
+    /// One eye's part of a window: it shows `projector`'s output of `slot` (None: the wall).
+    fn window_part(
         &mut self,
-        wall: usize,
-        eye: &'static str,
-        side: f32,
+        slot: usize,
+        projector: Option<usize>,
         part: u8,
-    ) -> Result<EyeImage> {
-        let [w, h] = self.config.walls[wall].eye_pixels();
+    ) -> Result<WindowPart> {
         let ctx = self.ctx().clone();
-        let targets = self.renderer.view_targets(w, h);
-        let wand_output = self
-            .wand_pass
-            .as_ref()
-            .map(|pass| pass.output(&ctx, &super::post::wall_output(&self.config.walls[wall])));
-        let shown = wand_output
-            .as_ref()
-            .map_or(&targets.image_view, |o| &o.image_view);
         let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("present parameters"),
             size: std::mem::size_of::<GpuPresent>() as u64,
@@ -441,7 +498,9 @@ impl App<'_> {
                 },
                 wgpu::BindGroupEntry {
                     binding: 1,
-                    resource: wgpu::BindingResource::TextureView(shown),
+                    resource: wgpu::BindingResource::TextureView(
+                        self.outputs.shown(slot, projector),
+                    ),
                 },
                 wgpu::BindGroupEntry {
                     binding: 2,
@@ -449,13 +508,8 @@ impl App<'_> {
                 },
             ],
         });
-        Ok(EyeImage {
-            wall,
-            eye,
-            side,
+        Ok(WindowPart {
             part,
-            targets,
-            wand_output,
             params,
             bind_group,
         })
@@ -581,98 +635,30 @@ impl App<'_> {
         self.set_status(status);
 
         let timed = self.options.frames.is_none_or(|n| self.frames < n);
-        let views: usize = self.windows.iter().map(|w| w.eyes.len()).sum();
         let ctx = self.ctx().clone();
         let mut timestamps = if timed {
-            Timestamps::new(&ctx, views as u32)
+            Timestamps::new(&ctx, self.views.len() as u32)
         } else {
             None
         };
         let started = Instant::now();
-        let present = self.present.as_ref().expect("windows open");
-        let mut outputs = Vec::new();
-        for w in &mut self.windows {
-            let texture = match w.surface.get_current_texture() {
-                wgpu::CurrentSurfaceTexture::Success(t)
-                | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-                wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-                    let size = w.window.inner_size();
-                    w.config.width = size.width.max(1);
-                    w.config.height = size.height.max(1);
-                    w.surface.configure(&ctx.device, &w.config);
-                    continue;
-                }
-                wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => {
-                    continue
-                }
-                wgpu::CurrentSurfaceTexture::Validation => {
-                    return Err(VlfError::Display(
-                        "the window's surface failed validation".into(),
-                    ))
-                }
-            };
-            let (width, height) = (w.config.width as f32, w.config.height as f32);
-            for eye in &w.eyes {
-                let wall = &self.config.walls[eye.wall];
-                let (view_proj, eye_position) = super::wall_view(
-                    self.config,
-                    wall,
-                    eye.side,
-                    &pose,
-                    &self.lf.meta.normalisation,
-                );
-                self.renderer.set_view_matrix(view_proj, eye_position);
-                let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                self.renderer
-                    .encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
-                if let (Some(pass), Some(output)) = (&self.wand_pass, &eye.wand_output) {
-                    let overlay = super::post::wand_overlay(
-                        self.config,
-                        wall,
-                        eye.side,
-                        &pose,
-                        wand.as_ref(),
-                        &self.lf.meta.normalisation,
-                    );
-                    pass.encode(
-                        &ctx,
-                        &mut encoder,
-                        &eye.targets.image_view,
-                        [eye.targets.width, eye.targets.height],
-                        output,
-                        overlay.as_ref(),
-                        None,
-                    );
-                }
-                ctx.queue.submit([encoder.finish()]);
-                let (origin, size) = viewport(w.stereo, eye.part, width, height);
-                let params = GpuPresent {
-                    viewport_origin: origin,
-                    viewport_size: size,
-                    exposure: self.options.exposure,
-                    encode_srgb: (!present.surface_is_srgb) as u32,
-                    show_overlay: (self.status.is_some() && eye.part < 2) as u32,
-                    _pad0: 0,
-                };
-                ctx.queue
-                    .write_buffer(&eye.params, 0, bytemuck::bytes_of(&params));
-            }
-            let view = texture.texture.create_view(&Default::default());
-            let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            {
-                let mut pass =
-                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
-                pass.set_pipeline(&present.pipeline);
-                for eye in &w.eyes {
-                    let (origin, size) = viewport(w.stereo, eye.part, width, height);
-                    pass.set_viewport(origin[0], origin[1], size[0], size[1], 0.0, 1.0);
-                    pass.set_bind_group(0, &eye.bind_group, &[]);
-                    pass.draw(0..3, 0..1);
-                }
-            }
-            ctx.queue.submit([encoder.finish()]);
-            outputs.push(texture);
+        // every view rendered, and its outputs drawn, once; then each window shows its parts
+        for (slot, v) in self.views.iter().enumerate() {
+            let wall = &self.config.walls[v.wall];
+            let norm = &self.lf.meta.normalisation;
+            let view = super::wall_view(self.config, wall, v.side, &pose, norm);
+            let overlay =
+                super::post::wand_overlay(self.config, wall, v.side, &pose, wand.as_ref(), norm);
+            self.outputs.encode(
+                &mut self.renderer,
+                slot,
+                view,
+                overlay.as_ref(),
+                timestamps.as_mut(),
+                Draw::Shown,
+            );
         }
+        let outputs = self.draw_windows(&ctx)?;
         if let (Some(arrived), true) = (fresh, timed) {
             self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
@@ -709,26 +695,65 @@ impl App<'_> {
         Ok(())
     }
 
+    /// Each window's parts drawn from the views' images onto its next surface texture, and
+    /// submitted; the textures to present (a window without one this frame is left out).
+    fn draw_windows(&mut self, ctx: &GpuContext) -> Result<Vec<wgpu::SurfaceTexture>> {
+        let present = self.present.as_ref().expect("windows open");
+        let mut outputs = Vec::new();
+        for w in &mut self.windows {
+            let Some(texture) = next_texture(ctx, w)? else {
+                continue;
+            };
+            let (width, height) = (w.config.width as f32, w.config.height as f32);
+            for p in &w.parts {
+                let (origin, size) = viewport(w.stereo, p.part, width, height);
+                let params = GpuPresent {
+                    viewport_origin: origin,
+                    viewport_size: size,
+                    exposure: self.options.exposure,
+                    encode_srgb: (!present.surface_is_srgb) as u32,
+                    show_overlay: (self.status.is_some() && p.part < 2) as u32,
+                    _pad0: 0,
+                };
+                ctx.queue
+                    .write_buffer(&p.params, 0, bytemuck::bytes_of(&params));
+            }
+            let view = texture.texture.create_view(&Default::default());
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            {
+                let mut pass =
+                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+                pass.set_pipeline(&present.pipeline);
+                for p in &w.parts {
+                    let (origin, size) = viewport(w.stereo, p.part, width, height);
+                    pass.set_viewport(origin[0], origin[1], size[0], size[1], 0.0, 1.0);
+                    pass.set_bind_group(0, &p.bind_group, &[]);
+                    pass.draw(0..3, 0..1);
+                }
+            }
+            ctx.queue.submit([encoder.finish()]);
+            outputs.push(texture);
+        }
+        Ok(outputs)
+    }
+
     fn report(&self) -> WindowReport {
-        let mut views = Vec::new();
-        let mut v = 0;
-        for w in &self.windows {
-            for eye in &w.eyes {
+        let views = (self.views.iter().enumerate())
+            .map(|(v, view)| {
                 let d = self
                     .gpu
                     .get(v)
                     .filter(|s| !s.is_empty())
                     .map(|s| Distribution::of(s));
-                views.push(super::headless::ViewTiming {
-                    wall: self.config.walls[eye.wall].name.clone(),
-                    eye: eye.eye.into(),
-                    pixels: self.config.walls[eye.wall].eye_pixels(),
+                super::headless::ViewTiming {
+                    wall: self.config.walls[view.wall].name.clone(),
+                    eye: view.eye.into(),
+                    pixels: self.config.walls[view.wall].eye_pixels(),
                     p99_over_p50: d.as_ref().map(|d| d.p99 / d.median.max(1e-12)),
                     gpu_ms: d,
-                });
-                v += 1;
-            }
-        }
+                }
+            })
+            .collect();
         WindowReport {
             display: self.config.name.clone(),
             adapter: self.resident.ctx.summary.name.clone(),
@@ -740,6 +765,27 @@ impl App<'_> {
             tracking_latency_ms: (!self.latency.is_empty())
                 .then(|| Distribution::of(&self.latency)),
         }
+    }
+}
+
+/// The window's next surface texture; None when there is none this frame (the surface is
+/// reconfigured when it went out of date).
+fn next_texture(ctx: &GpuContext, w: &mut WallWindow) -> Result<Option<wgpu::SurfaceTexture>> {
+    match w.surface.get_current_texture() {
+        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+            Ok(Some(t))
+        }
+        wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+            let size = w.window.inner_size();
+            w.config.width = size.width.max(1);
+            w.config.height = size.height.max(1);
+            w.surface.configure(&ctx.device, &w.config);
+            Ok(None)
+        }
+        wgpu::CurrentSurfaceTexture::Timeout | wgpu::CurrentSurfaceTexture::Occluded => Ok(None),
+        wgpu::CurrentSurfaceTexture::Validation => Err(VlfError::Display(
+            "the window's surface failed validation".into(),
+        )),
     }
 }
 
