@@ -5,7 +5,7 @@
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
@@ -374,22 +374,7 @@ pub fn render(
         ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&lights), STORAGE),
         ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE),
     ];
-    use Binding::*;
-    let layout = bind_group_layout(
-        device,
-        wgpu::ShaderStages::COMPUTE,
-        &[
-            Uniform,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            StorageReadWrite,
-        ],
-    );
+    let layout = reflect::layout(device, "reference.wgsl", 0)?;
     let module = shaders::module(device, "reference.wgsl")?;
     let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
     let mut all: Vec<&wgpu::Buffer> = vec![&params_buffer];
