@@ -3,7 +3,7 @@
 //! layouts reflect from its WGSL.
 
 use vlf::gpu::shaders;
-use vlf::gpu::types::mirrored_structs;
+use vlf::mirrored::mirrored_structs;
 
 #[test]
 fn every_shader_parses_and_validates() {

@@ -369,7 +369,7 @@ fn load_texture(
             ))
         })?
         .to_rgb8();
-    let decode = crate::render::image_io::srgb_decode;
+    let decode = crate::color::srgb_decode;
     let texels = image
         .pixels()
         .map(|p| [decode(p[0]), decode(p[1]), decode(p[2])])

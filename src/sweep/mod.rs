@@ -78,7 +78,7 @@ fn frame_seconds(
     ssaa: u32,
 ) -> Result<f64> {
     let (ms, _) = renderer.time_frames(camera, w * ssaa, h * ssaa, 20)?;
-    Ok(crate::bench::Distribution::of(&ms).median / 1e3)
+    Ok(crate::stats::Distribution::of(&ms).median / 1e3)
 }
 
 /// Run the sweep. `progress` reports each run on stderr.
@@ -296,7 +296,7 @@ pub fn walkthrough(
             frame: i as u32,
             method: "light field".into(),
             spp: 0,
-            frame_ms: crate::bench::Distribution::of(&ms).median,
+            frame_ms: crate::stats::Distribution::of(&ms).median,
             rel_mse: c.rel_mse,
             flip: c.flip_mean,
         });
