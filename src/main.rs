@@ -617,12 +617,13 @@ fn run(cli: Cli) -> Result<()> {
             let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
             image_io::write_image(&r.mean, &output, 1.0)?;
             println!(
-                "{} ({}x{}, {} spp, seed {seed}, {:.2} s)",
+                "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
                 output.display(),
                 size[0],
                 size[1],
                 r.spp,
-                r.seconds
+                r.seconds,
+                r.setup_seconds
             );
             if let Some(path) = variance {
                 image_io::write_image(&r.variance, &path, 1.0)?;

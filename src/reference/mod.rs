@@ -249,7 +249,10 @@ pub struct Reference {
     /// per-pixel variance of the mean estimate
     pub variance: Frame,
     pub spp: u32,
+    /// tracing the samples and reading the image back: what each further frame would cost
     pub seconds: f64,
+    /// the one-off part before it: scene preparation, BVH, buffers, pipeline
+    pub setup_seconds: f64,
 }
 
 fn luminance(c: [f32; 3]) -> f32 {
@@ -394,6 +397,8 @@ pub fn render(
         .progress_chars("=> "),
     );
     bar.set_message(format!("{spp} spp at {width}x{height}"));
+    let setup_seconds = started.elapsed().as_secs_f64();
+    let tracing = std::time::Instant::now();
     for pass_index in 0..passes {
         let params = GpuTraceParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
@@ -444,6 +449,7 @@ pub fn render(
             pixels: variance,
         },
         spp,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds: tracing.elapsed().as_secs_f64(),
+        setup_seconds,
     })
 }
