@@ -384,7 +384,7 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
 // cone from x' through M's edges, in closed form; visibility from shadow rays along both legs
 // (x -> the point on the mirror -> the emitter), per pair. These paths would otherwise reach the
 // texels through the mirror tiles' fixed directions (a caustic that aliases like direct light
-// did); the first iteration after this one leaves mirror senders out of the texels' gather.
+// did); mirror_light adds them in the second iteration, whose gather leaves mirror senders out.
 fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x27d4eb2fu)), unit_float(hash(seed + 0x165667b1u)));
@@ -470,9 +470,72 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (grid.flags & GRID_FLAG_SKY) != 0u {
         sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
     }
-    var mirrored = vec3<f32>(0.0);
-    if direct.mirror_count > 0u {
-        mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
+    next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
+}
+
+// Irradiance at x (normal n) from unit radiance on every mirror front that x sees: pi times the
+// mirrors' cosine-weighted share of x's hemisphere. Each mirror triangle clipped to the
+// hemisphere in closed form, times its visibility from shadow rays (a ratio, as for emitters).
+fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x3c6ef372u)), unit_float(hash(seed + 0x7f4a7c15u)));
+    let count = max(1u, direct.emitter_samples / max(direct.mirror_count, 1u));
+    let origin = x + n * RAY_OFFSET;
+    var sum = 0.0;
+    for (var m = 0u; m < direct.mirror_count; m++) {
+        let mt = mirrors[m];
+        let nm = faces[mt.face].normal;
+        if mt.face == skip || dot(nm, x - mt.v0) <= 0.0 {
+            continue;
+        }
+        let a = mt.v0 - x;
+        let poly = clip_to_hemisphere(a, a + mt.e1, a + mt.e2, n);
+        let f = polygon_irradiance(poly, n);
+        if f <= 0.0 {
+            continue;
+        }
+        let areas = polygon_area(poly);
+        var seen = 0.0;
+        var expected = 0.0;
+        for (var k = 0u; k < count; k++) {
+            let p = polygon_point(poly, areas, hammersley(k, count, shift));
+            let r2 = dot(p, p);
+            let dir = p / sqrt(r2);
+            let g = max(dot(n, dir), 0.0) * max(-dot(nm, dir), 0.0) / r2;
+            expected += g;
+            seen += g * visible(origin, x + p, skip);
+        }
+        sum += f * select(0.0, seen / expected, expected > 0.0);
     }
-    next[in_page] = vec4<f32>(f.albedo * (e + mirrored + sky), sky.x + sky.y + sky.z);
+    return sum;
+}
+
+// The second iteration's texels, after their gather (which left mirror senders out and put pi x
+// their share of the quadrature weight in w): what the emitters' first reflections in the
+// mirrors deliver (virtual emitters, closed form), and the gathered rest rescaled from the
+// discrete directions' share of the hemisphere to the exact share the mirrors leave. The two
+// parts then split the hemisphere the same way, as the plain gather's do: a uniformly lit scene
+// stays uniform (the closed box of emitting mirrors and walls comes out exact), where the
+// directions' share alone would leave its aliasing in every later bounce.
+@compute @workgroup_size(64)
+fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    if in_page >= texel_page.cells {
+        return;
+    }
+    let texel = texel_page.base + in_page;
+    let point = texel_point(texel);
+    let face_id = bitcast<u32>(point.w);
+    if face_id == NO_FACE {
+        next[in_page] = vec4<f32>(0.0);
+        return;
+    }
+    let f = faces[face_id];
+    let seed = hash(texel);
+    let gathered = next[in_page];
+    let discrete = clamp(gathered.w / PI, 0.0, 1.0);
+    let exact = clamp(mirror_share(point.xyz, f.normal, seed, face_id) / PI, 0.0, 1.0);
+    // where the directions saw mirrors alone, the rest's mean radiance is unknown: keep it
+    let scale = select(1.0, (1.0 - exact) / (1.0 - discrete), discrete < 0.999);
+    let mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
+    next[in_page] = vec4<f32>(gathered.xyz * scale + f.albedo * mirrored, 0.0);
 }
