@@ -88,45 +88,17 @@ fn hammersley(k: u32, n: u32, shift: vec2<f32>) -> vec2<f32> {
     return fract(vec2<f32>((f32(k) + 0.5) / f32(n), radical_inverse(k)) + shift);
 }
 
+// A convex polygon relative to the receiver: a triangle clipped by up to five planes (the
+// receiver's hemisphere; for a virtual emitter also the mirror's plane and the three sides of
+// the window through the mirror triangle) has at most 8 corners.
 struct Polygon {
-    p: array<vec3<f32>, 4>,
-    count: u32,
-}
-
-// The triangle (relative to the receiver) clipped to the receiver's hemisphere (Sutherland-
-// Hodgman against the plane through it with normal n): 0, 3 or 4 corners.
-fn clip_to_hemisphere(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>) -> Polygon {
-    var out: Polygon;
-    out.count = 0u;
-    let corners = array<vec3<f32>, 3>(a, b, c);
-    for (var k = 0u; k < 3u; k++) {
-        let p = corners[k];
-        let q = corners[(k + 1u) % 3u];
-        let dp = dot(n, p);
-        let dq = dot(n, q);
-        if dp > 0.0 && out.count < 4u {
-            out.p[out.count] = p;
-            out.count += 1u;
-        }
-        if (dp > 0.0) != (dq > 0.0) && out.count < 4u {
-            out.p[out.count] = p + (q - p) * (dp / (dp - dq));
-            out.count += 1u;
-        }
-    }
-    if out.count < 3u {
-        out.count = 0u;
-    }
-    return out;
-}
-
-// A polygon of up to 8 corners (clipping a triangle by four planes).
-struct Poly8 {
     p: array<vec3<f32>, 8>,
     count: u32,
 }
 
-fn clip_to_plane(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
-    var poly: Poly8;
+// The triangle (a, b, c) clipped to the side of the plane through `at` that n points to.
+fn clip_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec3<f32>) -> Polygon {
+    var poly: Polygon;
     poly.p[0] = a;
     poly.p[1] = b;
     poly.p[2] = c;
@@ -134,9 +106,10 @@ fn clip_to_plane(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec
     return clip_polygon(poly, n, at);
 }
 
-// Keep the part of the polygon on the side of the plane (through `at`) that n points to.
-fn clip_polygon(poly: Poly8, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
-    var out: Poly8;
+// Keep the part of the polygon on the side of the plane (through `at`) that n points to
+// (Sutherland-Hodgman); fewer than 3 corners left: empty.
+fn clip_polygon(poly: Polygon, n: vec3<f32>, at: vec3<f32>) -> Polygon {
+    var out: Polygon;
     out.count = 0u;
     for (var k = 0u; k < poly.count; k++) {
         let p = poly.p[k];
@@ -158,45 +131,6 @@ fn clip_polygon(poly: Poly8, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
     return out;
 }
 
-fn polygon_irradiance_any(poly: Poly8, n: vec3<f32>) -> f32 {
-    var sum = 0.0;
-    for (var k = 0u; k < poly.count; k++) {
-        let a = normalize(poly.p[k]);
-        let b = normalize(poly.p[(k + 1u) % poly.count]);
-        let c = cross(a, b);
-        let len = length(c);
-        if len > 1e-12 {
-            sum += atan2(len, dot(a, b)) * dot(n, c / len);
-        }
-    }
-    return abs(sum) * 0.5;
-}
-
-// A point of a convex polygon for uniform u: a fan triangle by area, then uniform in it.
-fn polygon_fan_point(poly: Poly8, u: vec2<f32>) -> vec3<f32> {
-    var total = 0.0;
-    for (var k = 1u; k + 1u < poly.count; k++) {
-        total += length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-    }
-    var target_area = u.x * total;
-    var s = 0.0;
-    var k = 1u;
-    for (; k + 2u < poly.count; k++) {
-        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-        if target_area < area {
-            s = target_area / max(area, 1e-20);
-            break;
-        }
-        target_area -= area;
-    }
-    if k + 2u >= poly.count {
-        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-        s = clamp(target_area / max(area, 1e-20), 0.0, 1.0);
-    }
-    let r = sqrt(s);
-    return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
-}
-
 // Irradiance at the origin (normal n) from a polygon of unit radiance above its horizon:
 // Lambert's formula, half the sum over edges of the edge's angle times n . the edge's normal.
 fn polygon_irradiance(poly: Polygon, n: vec3<f32>) -> f32 {
@@ -213,33 +147,38 @@ fn polygon_irradiance(poly: Polygon, n: vec3<f32>) -> f32 {
     return abs(sum) * 0.5;
 }
 
-fn polygon_area(poly: Polygon) -> vec2<f32> {
-    if poly.count < 3u {
-        return vec2<f32>(0.0);
-    }
-    let first = 0.5 * length(cross(poly.p[1] - poly.p[0], poly.p[2] - poly.p[0]));
-    var second = 0.0;
-    if poly.count == 4u {
-        second = 0.5 * length(cross(poly.p[2] - poly.p[0], poly.p[3] - poly.p[0]));
-    }
-    return vec2<f32>(first, second);
+// Twice the area of the fan triangle (p0, pk, pk+1).
+fn fan_area2(poly: Polygon, k: u32) -> f32 {
+    return length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
 }
 
-// A point of the polygon (its one or two triangles), uniform in area for uniform `u`.
-fn polygon_point(poly: Polygon, areas: vec2<f32>, u: vec2<f32>) -> vec3<f32> {
-    let split = areas.x / (areas.x + areas.y);
-    var s = u.x;
-    var c = poly.p[2];
-    var b = poly.p[1];
-    if s >= split {
-        s = (s - split) / max(1.0 - split, 1e-12);
-        b = poly.p[2];
-        c = poly.p[3];
-    } else {
-        s = s / max(split, 1e-12);
+fn polygon_area(poly: Polygon) -> f32 {
+    var total = 0.0;
+    for (var k = 1u; k + 1u < poly.count; k++) {
+        total += fan_area2(poly, k);
     }
-    let r = sqrt(clamp(s, 0.0, 1.0));
-    return poly.p[0] * (1.0 - r) + b * (r * (1.0 - u.y)) + c * (r * u.y);
+    return 0.5 * total;
+}
+
+// A point of the convex polygon, uniform in area for uniform u: a fan triangle by area (u.x
+// picks it and, rescaled, the point in it), then uniform in that triangle.
+fn polygon_point(poly: Polygon, u: vec2<f32>) -> vec3<f32> {
+    var target_area = u.x * 2.0 * polygon_area(poly);
+    var s = 0.0;
+    var k = 1u;
+    for (; k + 2u < poly.count; k++) {
+        let area = fan_area2(poly, k);
+        if target_area < area {
+            s = target_area / max(area, 1e-20);
+            break;
+        }
+        target_area -= area;
+    }
+    if k + 2u >= poly.count {
+        s = clamp(target_area / max(fan_area2(poly, k), 1e-20), 0.0, 1.0);
+    }
+    let r = sqrt(s);
+    return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
 }
 
 fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
@@ -251,7 +190,7 @@ fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
         return none;
     }
     let a = e.v0 - x;
-    return clip_to_hemisphere(a, a + e.e1, a + e.e2, n);
+    return clip_triangle(a, a + e.e1, a + e.e2, n, vec3<f32>(0.0));
 }
 
 fn emitted_radiance(e: Emitter, point: vec3<f32>) -> vec3<f32> {
@@ -317,12 +256,12 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
             unsampled += unoccluded;
             continue;
         }
-        let areas = polygon_area(poly);
+        let area = polygon_area(poly);
         let normal = faces[e.face].normal;
         var seen = vec3<f32>(0.0);
         var expected = vec3<f32>(0.0);
         for (var k = 0u; k < count; k++) {
-            let p = polygon_point(poly, areas, hammersley(k, count, shift));
+            let p = polygon_point(poly, hammersley(k, count, shift));
             let r2 = dot(p, p);
             let dir = p / sqrt(r2);
             let g = max(dot(n, dir), 0.0) * max(-dot(normal, dir), 0.0) / r2;
@@ -332,7 +271,7 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
         let ratio = select(vec3<f32>(0.0), seen / expected, expected > vec3<f32>(0.0));
         irradiance += unoccluded * ratio;
         // over all rays: weighted by area per ray, so that emitters count by their irradiance
-        let scale = (areas.x + areas.y) / f32(count);
+        let scale = area / f32(count);
         seen_all += seen * scale;
         expected_all += expected * scale;
     }
@@ -416,12 +355,12 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
             if dot(en, xr - e.v0) <= 0.0 {
                 continue;
             }
-            var poly = clip_to_plane(e.v0 - xr, e.v0 + e.e1 - xr, e.v0 + e.e2 - xr, nr, vec3<f32>(0.0));
+            var poly = clip_triangle(e.v0 - xr, e.v0 + e.e1 - xr, e.v0 + e.e2 - xr, nr, vec3<f32>(0.0));
             poly = clip_polygon(poly, nm, mt.v0 - xr);
             poly = clip_polygon(poly, w0, vec3<f32>(0.0));
             poly = clip_polygon(poly, w1, vec3<f32>(0.0));
             poly = clip_polygon(poly, w2, vec3<f32>(0.0));
-            let f = polygon_irradiance_any(poly, nr);
+            let f = polygon_irradiance(poly, nr);
             if f <= 0.0 {
                 continue;
             }
@@ -429,7 +368,7 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
             var seen = 0.0;
             var expected = 0.0;
             for (var k = 0u; k < count; k++) {
-                let p = polygon_fan_point(poly, hammersley(k, count, shift));
+                let p = polygon_point(poly, hammersley(k, count, shift));
                 let r2 = dot(p, p);
                 let dir = p / sqrt(r2);
                 let g = max(dot(nr, dir), 0.0) * max(-dot(en, dir), 0.0) / r2;
@@ -488,16 +427,15 @@ fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
             continue;
         }
         let a = mt.v0 - x;
-        let poly = clip_to_hemisphere(a, a + mt.e1, a + mt.e2, n);
+        let poly = clip_triangle(a, a + mt.e1, a + mt.e2, n, vec3<f32>(0.0));
         let f = polygon_irradiance(poly, n);
         if f <= 0.0 {
             continue;
         }
-        let areas = polygon_area(poly);
         var seen = 0.0;
         var expected = 0.0;
         for (var k = 0u; k < count; k++) {
-            let p = polygon_point(poly, areas, hammersley(k, count, shift));
+            let p = polygon_point(poly, hammersley(k, count, shift));
             let r2 = dot(p, p);
             let dir = p / sqrt(r2);
             let g = max(dot(n, dir), 0.0) * max(-dot(nm, dir), 0.0) / r2;
