@@ -226,9 +226,11 @@ fn gather_texel(texel: u32) -> vec4<f32> {
             }
         } else {
             irradiance += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
-            let s = faces[sender];
-            if mirror_senders_out && s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
-                mirror_weight += weight;
+            if mirror_senders_out {
+                let s = faces[sender];
+                if s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
+                    mirror_weight += weight;
+                }
             }
         }
     }
