@@ -12,8 +12,9 @@
 // - the sky: cosine-weighted stratified shadow rays over the texel's hemisphere.
 // Every sample pattern is fixed per texel (a hash of its index rotates it), so the result is
 // bit-for-bit repeatable. It replaces the first iteration's gather for texels only; mirror tile
-// cells still receive the emitters through the light field, so emitter -> mirror -> diffuse
-// paths stay in the transport.
+// cells still receive the emitters through the light field (they carry mirror -> mirror
+// chains). With mirrors (mirror_direct), emitter -> mirror -> texel paths come in the second
+// iteration from mirror_light, in closed form, instead of through the mirror tiles.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
@@ -453,7 +454,9 @@ fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
 // discrete directions' share of the hemisphere to the exact share the mirrors leave. The two
 // parts then split the hemisphere the same way, as the plain gather's do: a uniformly lit scene
 // stays uniform (the closed box of emitting mirrors and walls comes out exact), where the
-// directions' share alone would leave its aliasing in every later bounce.
+// directions' share alone would leave its aliasing in every later bounce. On a mixed surface
+// (mirror and diffuse parts) the gathered diffuse part of mirror senders is rescaled with the
+// rest: exact where both shares agree, otherwise off by their difference times that part.
 @compute @workgroup_size(64)
 fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let in_page = gid.x + gid.y * groups.x * 64u;
