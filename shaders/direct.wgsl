@@ -413,18 +413,20 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
 }
 
-// Irradiance at x (normal n) from unit radiance on every mirror front that x sees: pi times the
-// mirrors' cosine-weighted share of x's hemisphere. Each mirror triangle clipped to the
-// hemisphere in closed form, times its visibility from shadow rays (a ratio, as for emitters).
-fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
+// What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance
+// from their diffuse parts' unshot radiance (mixed surfaces), w the irradiance that unit radiance
+// on them would give (pi times their cosine-weighted share of x's hemisphere). Each mirror
+// triangle clipped to the hemisphere in closed form, times the ratio over shadow rays to points
+// on it of (visibility x radiance) and of visibility, as for emitters.
+fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec4<f32> {
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x3c6ef372u)), unit_float(hash(seed + 0x7f4a7c15u)));
     let count = max(1u, direct.emitter_samples / max(direct.mirror_count, 1u));
     let origin = x + n * RAY_OFFSET;
-    var sum = 0.0;
+    var sum = vec4<f32>(0.0);
     for (var m = 0u; m < direct.mirror_count; m++) {
         let mt = mirrors[m];
-        let nm = faces[mt.face].normal;
-        if mt.face == skip || dot(nm, x - mt.v0) <= 0.0 {
+        let mf = faces[mt.face];
+        if mt.face == skip || dot(mf.normal, x - mt.v0) <= 0.0 {
             continue;
         }
         let a = mt.v0 - x;
@@ -433,17 +435,25 @@ fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
         if f <= 0.0 {
             continue;
         }
-        var seen = 0.0;
+        let diffuse = any(mf.albedo > vec3<f32>(0.0));
+        var seen = vec4<f32>(0.0);
         var expected = 0.0;
         for (var k = 0u; k < count; k++) {
             let p = polygon_point(poly, hammersley(k, count, shift));
             let r2 = dot(p, p);
             let dir = p / sqrt(r2);
-            let g = max(dot(n, dir), 0.0) * max(-dot(nm, dir), 0.0) / r2;
+            let g = max(dot(n, dir), 0.0) * max(-dot(mf.normal, dir), 0.0) / r2;
             expected += g;
-            seen += g * visible(origin, x + p, skip);
+            let v = g * visible(origin, x + p, skip);
+            var radiance = vec3<f32>(0.0);
+            if diffuse && v > 0.0 {
+                let taps = atlas_taps(mf, x + p, grid.atlas_width);
+                radiance = (unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+                    + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w) / PI;
+            }
+            seen += vec4<f32>(radiance, 1.0) * v;
         }
-        sum += f * select(0.0, seen / expected, expected > 0.0);
+        sum += f * select(vec4<f32>(0.0), seen / expected, expected > 0.0);
     }
     return sum;
 }
@@ -454,9 +464,9 @@ fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> f32 {
 // discrete directions' share of the hemisphere to the exact share the mirrors leave. The two
 // parts then split the hemisphere the same way, as the plain gather's do: a uniformly lit scene
 // stays uniform (the closed box of emitting mirrors and walls comes out exact), where the
-// directions' share alone would leave its aliasing in every later bounce. On a mixed surface
-// (mirror and diffuse parts) the gathered diffuse part of mirror senders is rescaled with the
-// rest: exact where both shares agree, otherwise off by their difference times that part.
+// directions' share alone would leave its aliasing in every later bounce. The diffuse part of
+// mixed surfaces (mirror and diffuse parts) comes with the mirrors' share (mirror_share), not
+// through the gather, which left those senders out whole.
 @compute @workgroup_size(64)
 fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let in_page = gid.x + gid.y * groups.x * 64u;
@@ -474,9 +484,10 @@ fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let seed = hash(texel);
     let gathered = next[in_page];
     let discrete = clamp(gathered.w / PI, 0.0, 1.0);
-    let exact = clamp(mirror_share(point.xyz, f.normal, seed, face_id) / PI, 0.0, 1.0);
+    let share = mirror_share(point.xyz, f.normal, seed, face_id);
+    let exact = clamp(share.w / PI, 0.0, 1.0);
     // where the directions saw mirrors alone, the rest's mean radiance is unknown: keep it
     let scale = select(1.0, (1.0 - exact) / (1.0 - discrete), discrete < 0.999);
     let mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
-    next[in_page] = vec4<f32>(gathered.xyz * scale + f.albedo * mirrored, 0.0);
+    next[in_page] = vec4<f32>(gathered.xyz * scale + f.albedo * (mirrored + share.xyz), 0.0);
 }

@@ -185,8 +185,8 @@ fn sender_radiance(sender: u32, x: vec3<f32>, dir_index: u32, travel: vec3<f32>)
 }
 
 // Next unshot radiosity of one texel (rgb) and the sky's share of its irradiance (w); with
-// GRID_FLAG_NO_MIRROR_SENDERS (never in the sky's iteration) w is instead pi x the share of the
-// quadrature weight whose sender has a mirror part.
+// GRID_FLAG_NO_MIRROR_SENDERS (never in the sky's iteration) senders with a mirror part are left
+// out and w is instead pi x their share of the quadrature weight.
 fn gather_texel(texel: u32) -> vec4<f32> {
     let point = texel_point(texel);
     let face_id = bitcast<u32>(point.w);
@@ -202,7 +202,8 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     // the quadrature exact for uniform light (pi / sum over all directions when none is dropped)
     var weight_sum = 0.0;
     // with GRID_FLAG_NO_MIRROR_SENDERS: the weight of the directions whose sender has a mirror
-    // part, which direct.wgsl's mirror_light trades for the mirrors' exact solid angle
+    // part (left out, both parts), which direct.wgsl's mirror_light trades for the mirrors'
+    // exact solid angle
     let mirror_senders_out = (grid.flags & GRID_FLAG_NO_MIRROR_SENDERS) != 0u;
     var mirror_weight = 0.0;
     for (var i = 0u; i < grid.direction_count; i++) {
@@ -225,13 +226,14 @@ fn gather_texel(texel: u32) -> vec4<f32> {
                 sky_irradiance += grid.sky * weight;
             }
         } else {
-            irradiance += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
             if mirror_senders_out {
                 let s = faces[sender];
                 if s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
                     mirror_weight += weight;
+                    continue;
                 }
             }
+            irradiance += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
         }
     }
 
