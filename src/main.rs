@@ -384,9 +384,14 @@ struct ParamArgs {
     /// 0 sends direct light through the fixed directions as the paper does
     #[arg(long)]
     direct_samples: Option<u32>,
-    /// Direct light also through planar mirrors (virtual emitters; experimental, off by default)
-    #[arg(long)]
+    /// Direct light also through planar mirrors: emitters seen in them as virtual emitters (on
+    /// by default where direct light is on; for settings files that turn it off)
+    #[arg(long, conflicts_with = "no_mirror_direct")]
     mirror_direct: bool,
+    /// Mirrors' first reflections of the emitters through the mirror tiles' fixed directions
+    /// instead of as virtual emitters
+    #[arg(long)]
+    no_mirror_direct: bool,
 }
 
 impl ParamArgs {
@@ -445,8 +450,8 @@ impl ParamArgs {
         if let Some(d) = self.direct_samples {
             p.direct_samples = d;
         }
-        if self.mirror_direct {
-            p.mirror_direct = true;
+        if self.mirror_direct || self.no_mirror_direct {
+            p.mirror_direct = self.mirror_direct;
         }
         Ok(p)
     }

@@ -52,6 +52,9 @@ pub struct PropagationReport {
     pub mirror_rendering: Option<crate::lightfield::MirrorChains>,
     /// emitter triangles whose light reaches the texels directly (0: through the directions)
     pub direct_emitters: u32,
+    /// mirror triangles whose virtual emitters reach the texels in closed form (0: no mirror,
+    /// or mirror_direct off: then through the mirror tiles)
+    pub direct_mirrors: u32,
     pub sky: bool,
     pub warnings: Vec<String>,
 }
@@ -172,8 +175,18 @@ impl PropagationReport {
         rows.push((
             "direct light".into(),
             if self.params.direct_samples > 0 {
+                let mirrors = if self.direct_mirrors > 0 {
+                    format!(
+                        "; mirrors' virtual emitters included ({} mirror triangle(s))",
+                        self.direct_mirrors
+                    )
+                } else if self.non_diffuse_elements > 0 {
+                    "; mirrors' virtual emitters not included (through the mirror tiles)".into()
+                } else {
+                    String::new()
+                };
                 format!(
-                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility)",
+                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility){mirrors}",
                     self.direct_emitters, self.params.direct_samples
                 )
             } else {

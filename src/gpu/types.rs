@@ -85,8 +85,9 @@ pub struct GpuPageRange {
 pub const GRID_FLAG_SKY: u32 = 1;
 pub const GRID_FLAG_ACCUMULATE: u32 = 2;
 pub const GRID_FLAG_BATCHED: u32 = 4;
-/// the texels' gather leaves mirror senders out (their first reflections of the emitters and the
-/// sky came with direct light)
+/// the second iteration's texel gather leaves mirror senders out (their first reflections of the
+/// sky came with direct light; of the emitters, `mirror_light` in direct.wgsl adds them next)
+/// and puts pi x their share of its quadrature weight in w
 pub const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).

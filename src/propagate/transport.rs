@@ -777,8 +777,8 @@ impl Propagator {
         if batched {
             self.normalize_batches();
         }
-        if self.iteration == 0 && self.direct.is_some() {
-            self.encode_direct();
+        if self.iteration <= 1 && self.direct.is_some() {
+            self.encode_direct(self.iteration == 1);
         }
         if let Some((albedo, pipe, layout)) = &self.texture {
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
@@ -880,9 +880,13 @@ impl Propagator {
     }
 
     /// The first iteration's texels take their direct light from `shaders/direct.wgsl`
-    /// (overwriting what the gather found through the fixed directions: emitters and sky).
-    fn encode_direct(&self) {
+    /// (overwriting what the gather found through the fixed directions: emitters and sky); with
+    /// `mirrors`, the second iteration's texels add the emitters seen in mirrors to their gather.
+    fn encode_direct(&self, mirrors: bool) {
         let Some(direct) = &self.direct else { return };
+        if mirrors && direct.mirror_count == 0 {
+            return;
+        }
         let (bg0, bg1) = self.texel_bind_groups();
         let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
             .iter()
@@ -895,7 +899,7 @@ impl Propagator {
                 label: Some("direct light"),
                 timestamp_writes: None,
             });
-            direct.encode(&mut pass, &bg0, &pages);
+            direct.encode(&mut pass, &bg0, &pages, mirrors);
         }
         self.ctx.queue.submit([encoder.finish()]);
     }
