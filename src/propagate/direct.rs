@@ -85,6 +85,8 @@ pub struct DirectLight {
     pipeline: wgpu::ComputePipeline,
     /// the second iteration's pass over the texels (`mirror_light`), when there are mirrors
     mirror_pipeline: Option<wgpu::ComputePipeline>,
+    /// marks the texels inside closed geometry (`texel_validity`), run once on the totals
+    validity_pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     pub emitter_count: u32,
     /// mirror triangles: when there are any, the second iteration's texel gather leaves mirror
@@ -182,6 +184,8 @@ impl DirectLight {
         );
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
+        let validity_pipeline =
+            ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);
         let mirror_pipeline = (!mirrors.is_empty())
             .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
         let bind_group = ctx.bind_group(
@@ -197,6 +201,7 @@ impl DirectLight {
         Ok(DirectLight {
             pipeline,
             mirror_pipeline,
+            validity_pipeline,
             bind_group,
             emitter_count: emitters.len() as u32,
             mirror_count: mirrors.len() as u32,
@@ -218,6 +223,27 @@ impl DirectLight {
             (None, true) => return,
             (_, false) => &self.pipeline,
         };
+        self.dispatch(pipeline, pass, bg0, pages);
+    }
+
+    /// Record the validity marks (`texel_validity`): `pages` bind each page's total radiance
+    /// where the other passes bind `next`; it sets w of every texel (1 visible, 0 inside).
+    pub fn encode_validity(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
+        self.dispatch(&self.validity_pipeline, pass, bg0, pages);
+    }
+
+    fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
         pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bg0, &[]);
         pass.set_bind_group(2, &self.bind_group, &[]);
