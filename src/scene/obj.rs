@@ -15,10 +15,13 @@ pub struct ImportedMesh {
     pub warnings: Vec<String>,
     /// The OBJ and every material library it loaded, for the scene hash.
     pub source_files: Vec<PathBuf>,
+    /// cameras the mesh file defines (glTF; none from an OBJ)
+    pub cameras: Vec<super::Camera>,
+    pub texture_memory: super::texels::TextureMemory,
 }
 
 /// Triangles whose area is below this fraction of the scene's squared extent are dropped.
-const DEGENERATE_AREA: f64 = 1e-14;
+pub(crate) const DEGENERATE_AREA: f64 = 1e-14;
 
 pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
     let mesh_err = |message: String| VlfError::Mesh {
@@ -207,6 +210,11 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     for t in &textures {
         source_files.push(t.path.clone());
     }
+    let full: u64 = textures
+        .iter()
+        .map(|t| t.width as u64 * t.height as u64 * 12)
+        .sum();
+    let texture_memory = super::texels::TextureMemory::of(&textures, full, 0);
     Ok(ImportedMesh {
         positions,
         triangles,
@@ -214,6 +222,8 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         textures,
         warnings,
         source_files,
+        cameras: Vec::new(),
+        texture_memory,
     })
 }
 
