@@ -87,3 +87,270 @@ fn textured_room_as_glb_by_pygltflib_gives_the_obj_light_field() {
     let obj = Scene::load(&repo_path("scenes/textured-room/scene.toml")).unwrap();
     assert_same_light_field(&obj, &gltf);
 }
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let p = dir.join(name);
+    std::fs::write(&p, bytes).unwrap();
+    p
+}
+
+#[test]
+fn hierarchy_primitives_materials_and_cameras_are_imported() {
+    let dir = tempfile::tempdir().unwrap();
+    let nodes = serde_json::json!([
+        {"name": "root", "translation": [0.0, 1.0, 0.0], "children": [1, 2, 3, 4]},
+        {"mesh": 0, "scale": [2.0, 2.0, 2.0]},
+        {"mesh": 1, "translation": [0.0, 0.5, 0.0], "rotation": [1.0, 0.0, 0.0, 0.0]},
+        {"mesh": 2, "translation": [5.0, 0.0, 0.0]},
+        {"camera": 0, "translation": [0.5, 1.0, 4.0]}
+    ]);
+    let extra = serde_json::json!({
+        "cameras": [{"name": "cam", "type": "perspective", "perspective": {"yfov": 0.8, "aspectRatio": 2.0, "znear": 0.1}}],
+        "extensionsUsed": ["KHR_materials_emissive_strength"]
+    });
+    let path = write(
+        dir.path(),
+        "m.glb",
+        &gltf_model(gltf_basic_materials(), nodes, extra),
+    );
+    let s = Scene::load(&path).unwrap();
+    // floor: 2 triangles; light: 2; strip: 2; fan: 2; the point primitive is skipped
+    assert_eq!(s.triangles.len(), 8, "{:?}", s.warnings);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("skipped 1 point/line primitive")),
+        "{:?}",
+        s.warnings
+    );
+    // the floor scaled by 2 and lifted by 1
+    assert!(s.positions.contains(&[2.0, 1.0, 2.0]), "{:?}", s.positions);
+    // the light: rotated 180 degrees about x (winding reversed by the rotation itself, not flipped)
+    let lamp = s.materials.iter().position(|m| m.name == "lamp").unwrap();
+    let m = &s.materials[lamp];
+    assert_eq!(m.emission, [8.0, 4.0, 2.0]);
+    assert!(m.two_sided);
+    assert_eq!(s.materials[0].diffuse, [0.5, 0.6, 0.7]);
+    assert_eq!(s.materials[0].mirror, [0.0; 3]);
+    let cam = s.camera(Some("cam")).unwrap();
+    assert_eq!(cam.eye, [0.5, 2.0, 4.0]);
+    assert_eq!(cam.target, [0.5, 2.0, 3.0]);
+    assert_eq!(cam.size, [1536, 768]);
+    assert!((cam.fov_y_deg - 0.8f32.to_degrees()).abs() < 1e-4);
+    // faces of the floor carry the texture coordinates, v flipped
+    let floor = s
+        .triangles
+        .iter()
+        .find(|t| t.material == 0 && t.uv.is_some());
+    assert!(
+        floor.is_none(),
+        "an untextured material carries no coordinates"
+    );
+}
+
+#[test]
+fn material_rules_and_their_warnings() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = {
+        let mut b = Vec::new();
+        let img = image::RgbImage::from_pixel(4, 4, image::Rgb([255, 128, 0]));
+        img.write_to(&mut std::io::Cursor::new(&mut b), image::ImageFormat::Png)
+            .unwrap();
+        b
+    };
+    write(dir.path(), "orange image.png", &png);
+    let materials = serde_json::json!([
+        {"name": "floor", "alphaMode": "MASK", "normalTexture": {"index": 0},
+         "pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.9,
+            "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0], "scale": [2.0, 2.0]}}}}},
+        {"name": "chrome", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.9, 0.9, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.05,
+            "baseColorTexture": {"index": 0}}}
+    ]);
+    let nodes = serde_json::json!([{"children": [1, 2, 3]}, {"mesh": 0}, {"mesh": 1},
+        {"extensions": {"KHR_lights_punctual": {"light": 0}}}]);
+    let extra = serde_json::json!({
+        "images": [{"uri": "orange%20image.png"}],
+        "textures": [{"source": 0}],
+        "extensionsUsed": ["KHR_texture_transform", "KHR_lights_punctual"],
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "name": "bulb"}]}}
+    });
+    let path = write(dir.path(), "m.glb", &gltf_model(materials, nodes, extra));
+    let s = Scene::load(&path).unwrap();
+    let w = s.warnings.join("\n");
+    assert!(w.contains("glTF material \"floor\": approximated: metallic 1 roughness 0.9: a rough metal, taken as diffuse of the base colour; alpha MASK (cutoff 0.5) treated as opaque; normal map ignored"), "{w}");
+    assert!(
+        w.contains("KHR_lights_punctual light(s) \"bulb\" cannot be represented"),
+        "{w}"
+    );
+    assert!(w.contains("glTF material \"chrome\": approximated: metallic 1 roughness 0.05: an ideal mirror of the base colour (times its texture's mean)"), "{w}");
+    let floor = &s.materials[0];
+    assert_eq!(floor.diffuse, [0.8; 3]);
+    assert_eq!(floor.diffuse_texture, Some(0));
+    let chrome = &s.materials[1];
+    assert_eq!(chrome.diffuse, [0.0; 3]);
+    let orange = vlf::render::image_io::srgb_decode(128);
+    assert!(
+        (chrome.mirror[0] - 0.9).abs() < 1e-5
+            && (chrome.mirror[1] - 0.9 * orange).abs() < 1e-5
+            && chrome.mirror[2] == 0.0,
+        "{:?}",
+        chrome.mirror
+    );
+    // KHR_texture_transform: u' = 2u + 0.5, v' = 2v; then v flipped for the scene
+    let t = s
+        .triangles
+        .iter()
+        .find(|t| t.material == 0 && t.uv.is_some())
+        .unwrap();
+    let p = s.positions[t.vertices[2] as usize];
+    let expect_u = 2.0 * p[0] + 0.5;
+    let expect_v = 1.0 - 2.0 * p[2];
+    assert_eq!(t.uv.unwrap()[2], [expect_u, expect_v], "corner {p:?}");
+    // the framing camera, as the model has none
+    assert_eq!(s.cameras.len(), 1);
+    assert_eq!(s.cameras[0].name, "view");
+    assert_eq!(
+        s.textures.len(),
+        1,
+        "the mirror's texture is averaged, not kept"
+    );
+}
+
+fn simple_nodes() -> serde_json::Value {
+    serde_json::json!([{"children": [1, 2]}, {"mesh": 0}, {"mesh": 1}])
+}
+
+fn load_err(path: &Path) -> String {
+    Scene::load(path).unwrap_err().to_string()
+}
+
+#[test]
+fn bad_gltf_files_get_errors_naming_file_and_fault() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = gltf_model(
+        gltf_basic_materials(),
+        simple_nodes(),
+        serde_json::json!({}),
+    );
+    let ok = write(dir.path(), "ok.glb", &good);
+    assert!(Scene::load(&ok).is_ok());
+    // truncated
+    let p = write(dir.path(), "cut.glb", &good[..good.len() - 40]);
+    let e = load_err(&p);
+    assert!(e.contains("cut.glb") && e.contains("binary glTF"), "{e}");
+    // broken JSON
+    let p = write(
+        dir.path(),
+        "broken.gltf",
+        b"{\"asset\": {\"version\": \"2.0\"}, \"meshes\": [",
+    );
+    let e = load_err(&p);
+    assert!(
+        e.contains("broken.gltf") && e.contains("not valid glTF JSON"),
+        "{e}"
+    );
+    // an accessor reaching past its buffer view
+    let mut json: serde_json::Value = {
+        let len = u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize;
+        serde_json::from_slice(&good[20..20 + len]).unwrap()
+    };
+    let bin_at = 20 + u32::from_le_bytes(good[12..16].try_into().unwrap()) as usize + 8;
+    let bin = good[bin_at..].to_vec();
+    json["accessors"][0]["count"] = serde_json::json!(9);
+    let p = write(dir.path(), "overrun.glb", &glb(&json, &bin));
+    let e = load_err(&p);
+    assert!(
+        e.contains("overrun.glb")
+            && e.contains("mesh 0 primitive 0: POSITION (accessor 0)")
+            && e.contains("overrun its buffer view"),
+        "{e}"
+    );
+    // an index past the vertices
+    json["accessors"][0]["count"] = serde_json::json!(2);
+    let p = write(dir.path(), "index.glb", &glb(&json, &bin));
+    let e = load_err(&p);
+    assert!(
+        e.contains("index.glb") && e.contains("index 2 is out of range (2 vertices)"),
+        "{e}"
+    );
+    // an index to an accessor that is not there
+    json["accessors"][0]["count"] = serde_json::json!(8);
+    json["meshes"][0]["primitives"][0]["indices"] = serde_json::json!(42);
+    let p = write(dir.path(), "ref.glb", &glb(&json, &bin));
+    let e = load_err(&p);
+    assert!(
+        e.contains("ref.glb") && e.contains("not a valid glTF 2.0 file") && e.contains("indices"),
+        "{e}"
+    );
+    // a missing image, and a missing buffer file
+    json["meshes"][0]["primitives"][0]["indices"] = serde_json::json!(2);
+    json["images"] = serde_json::json!([{"uri": "gone.png"}]);
+    json["textures"] = serde_json::json!([{"source": 0}]);
+    json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] =
+        serde_json::json!({"index": 0});
+    let p = write(dir.path(), "noimage.glb", &glb(&json, &bin));
+    let e = load_err(&p);
+    assert!(
+        e.contains("noimage.glb")
+            && e.contains("image 0")
+            && e.contains("gone.png")
+            && e.contains("cannot read"),
+        "{e}"
+    );
+    json["buffers"][0]["uri"] = serde_json::json!("gone.bin");
+    let p = write(
+        dir.path(),
+        "nobuffer.gltf",
+        &serde_json::to_vec(&json).unwrap(),
+    );
+    let e = load_err(&p);
+    assert!(
+        e.contains("nobuffer.gltf") && e.contains("buffer 0") && e.contains("gone.bin"),
+        "{e}"
+    );
+    // a required extension vlf cannot read
+    json["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    json["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+    let p = write(
+        dir.path(),
+        "draco.gltf",
+        &serde_json::to_vec(&json).unwrap(),
+    );
+    let e = load_err(&p);
+    assert!(
+        e.contains("draco.gltf") && e.contains("KHR_draco_mesh_compression"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_scene_toml_can_name_a_gltf_and_override_its_materials() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "m.glb",
+        &gltf_model(
+            gltf_basic_materials(),
+            simple_nodes(),
+            serde_json::json!({}),
+        ),
+    );
+    write(dir.path(), "scene.toml", b"name = \"t\"\nmesh = \"m.glb\"\n[sky]\nradiance = [1, 1, 1]\n[materials.floor]\nmirror = [0.5, 0.5, 0.5]\ndiffuse = [0.2, 0.2, 0.2]\n");
+    for path in [dir.path().join("scene.toml"), dir.path().join("m.glb")] {
+        let s = Scene::load(&path).unwrap();
+        assert_eq!(s.name, "t");
+        assert_eq!(s.sky, Some([1.0; 3]));
+        assert_eq!(s.materials[0].mirror, [0.5; 3]);
+        assert_eq!(s.cameras[0].name, "view");
+    }
+    write(
+        dir.path(),
+        "scene.toml",
+        b"name = \"t\"\nmesh = \"m.glb\"\n[materials.nosuch]\ntwo_sided = true\n",
+    );
+    let e = load_err(&dir.path().join("scene.toml"));
+    assert!(
+        e.contains("scene.toml") && e.contains("nosuch") && e.contains("floor, lamp"),
+        "{e}"
+    );
+}

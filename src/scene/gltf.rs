@@ -37,6 +37,8 @@ const READ_EXTENSIONS: [&str; 5] = [
 /// Node instances walked at most (a hierarchy that shares subtrees can multiply them).
 const MAX_INSTANCES: usize = 1 << 20;
 const MAX_DEPTH: usize = 256;
+/// Elements at most in an accessor without a buffer view (zeros, but for sparse values).
+const MAX_ZERO_ELEMENTS: usize = 1 << 24;
 
 /// A triangle as read, in world coordinates, before welding.
 struct RawTriangle {
@@ -62,7 +64,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         message,
     };
     let bytes = std::fs::read(path).map_err(|e| VlfError::io(path, e))?;
-    let gltf = ::gltf::Gltf::from_slice(&bytes).map_err(|e| err(gltf_message(&e)))?;
+    let gltf = parse(&bytes).map_err(err)?;
     let doc = &gltf.document;
     for ext in doc.extensions_required() {
         if !READ_EXTENSIONS.contains(&ext) {
@@ -156,6 +158,33 @@ fn default_material() -> Material {
         diffuse_texture: None,
         emission_texture: None,
     }
+}
+
+/// Parse and validate. The crate's validation indexes the POSITION accessor before checking
+/// that it exists (gltf-json 1.4 panics there): that index is checked first.
+fn parse(bytes: &[u8]) -> std::result::Result<::gltf::Gltf, String> {
+    let raw = ::gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_message(&e))?;
+    let json = raw.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let position = ::gltf::json::validation::Checked::Valid(::gltf::Semantic::Positions);
+            if let Some(i) = prim.attributes.get(&position) {
+                if i.value() >= json.accessors.len() {
+                    return Err(format!(
+                        "not a valid glTF 2.0 file: meshes[{m}].primitives[{p}].attributes[\"POSITION\"]: accessor {} does not exist ({} accessors)",
+                        i.value(),
+                        json.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    let document =
+        ::gltf::Document::from_json(raw.document.into_json()).map_err(|e| gltf_message(&e))?;
+    Ok(::gltf::Gltf {
+        document,
+        blob: raw.blob,
+    })
 }
 
 /// The crate's errors, made readable: validation errors list their JSON paths.
@@ -607,12 +636,20 @@ fn read_accessor(
     }
     let comp = a.data_type().size();
     let count = a.count();
-    let mut out = vec![
-        0.0f32;
-        count
-            .checked_mul(dims)
-            .ok_or(format!("{at}: count too large"))?
-    ];
+    // the data must be there before anything is allocated for it
+    let room = match a.view() {
+        Some(view) => view_bytes(&view, buffers)
+            .map_err(|m| format!("{at}: {m}"))?
+            .len(),
+        None => MAX_ZERO_ELEMENTS * comp * dims,
+    };
+    if count.saturating_mul(comp * dims) > room + comp * dims {
+        return Err(format!(
+            "{at}: {count} elements of {} bytes do not fit in the {room} bytes of its buffer view",
+            comp * dims
+        ));
+    }
+    let mut out = vec![0.0f32; count * dims];
     if let Some(view) = a.view() {
         let stride = view.stride().unwrap_or(comp * dims);
         let bytes = view_bytes(&view, buffers).map_err(|m| format!("{at}: {m}"))?;
