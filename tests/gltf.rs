@@ -354,3 +354,112 @@ fn a_scene_toml_can_name_a_gltf_and_override_its_materials() {
         "{e}"
     );
 }
+
+/// 120 panels, each with its own 4096 x 4096 texture: kept whole that is 24 GB of linear RGB;
+/// resolved to texel density on the way in it is a few MB, and the scene propagates.
+#[test]
+fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
+    const N: usize = 120;
+    let dir = tempfile::tempdir().unwrap();
+    let png = {
+        let img = image::RgbImage::from_fn(4096, 4096, |x, y| {
+            if (x / 512 + y / 512) % 2 == 0 {
+                image::Rgb([230, 200, 120])
+            } else {
+                image::Rgb([40, 60, 90])
+            }
+        });
+        let mut b = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut b), image::ImageFormat::Png)
+            .unwrap();
+        b
+    };
+    // a floor of 12 x 10 panels (each its own material and image) under a light
+    let (mut pos, mut uv, mut idx) = (Vec::<f32>::new(), Vec::<f32>::new(), Vec::<u32>::new());
+    let mut prims = Vec::new();
+    let mut materials = Vec::new();
+    let mut images = Vec::new();
+    for k in 0..N {
+        let (x, z) = ((k % 12) as f32 * 0.25, (k / 12) as f32 * 0.25);
+        let first = (pos.len() / 3) as u32;
+        for (dx, dz) in [(0.0, 0.0), (0.0, 0.25), (0.25, 0.25), (0.25, 0.0)] {
+            pos.extend([x + dx, 0.0, z + dz]);
+            uv.extend([dx * 4.0, dz * 4.0]);
+        }
+        idx.extend([first, first + 1, first + 2, first, first + 2, first + 3]);
+        prims.push(serde_json::json!({"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": k + 2, "material": k}));
+        materials.push(serde_json::json!({"name": format!("panel{k}"), "pbrMetallicRoughness": {"baseColorTexture": {"index": k}, "metallicFactor": 0.0}}));
+        images.push(serde_json::json!({"uri": format!("t{k}.png")}));
+        std::fs::write(dir.path().join(format!("t{k}.png")), &png).unwrap();
+    }
+    let first = (pos.len() / 3) as u32;
+    for (x, z) in [(1.0, 1.0), (2.0, 1.0), (2.0, 1.5), (1.0, 1.5)] {
+        pos.extend([x, 1.5, z]);
+        uv.extend([0.0, 0.0]);
+    }
+    idx.extend([first, first + 1, first + 2, first, first + 2, first + 3]);
+    prims.push(serde_json::json!({"attributes": {"POSITION": 0}, "indices": N + 2, "material": N}));
+    materials.push(
+        serde_json::json!({"name": "light", "emissiveFactor": [1.0, 1.0, 1.0],
+        "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 5.0}}}),
+    );
+    let mut bin: Vec<u8> = pos.iter().flat_map(|x| x.to_le_bytes()).collect();
+    let uv_at = bin.len();
+    bin.extend(uv.iter().flat_map(|x| x.to_le_bytes()));
+    let idx_at = bin.len();
+    bin.extend(idx.iter().flat_map(|x| x.to_le_bytes()));
+    let vertices = pos.len() / 3;
+    let mut accessors = vec![
+        serde_json::json!({"bufferView": 0, "componentType": 5126, "count": vertices, "type": "VEC3", "min": [0.0, 0.0, 0.0], "max": [3.0, 1.5, 2.5]}),
+        serde_json::json!({"bufferView": 1, "componentType": 5126, "count": vertices, "type": "VEC2"}),
+    ];
+    for k in 0..=N {
+        accessors.push(serde_json::json!({"bufferView": 2, "byteOffset": k * 24, "componentType": 5125, "count": 6, "type": "SCALAR"}));
+    }
+    let json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_materials_emissive_strength"],
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": uv_at},
+            {"buffer": 0, "byteOffset": uv_at, "byteLength": idx_at - uv_at},
+            {"buffer": 0, "byteOffset": idx_at, "byteLength": bin.len() - idx_at}
+        ],
+        "accessors": accessors,
+        "meshes": [{"primitives": prims}],
+        "materials": materials,
+        "images": images,
+        "textures": (0..N).map(|k| serde_json::json!({"source": k})).collect::<Vec<_>>(),
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}]
+    });
+    let path = write(dir.path(), "many.glb", &glb(&json, &bin));
+    let t0 = std::time::Instant::now();
+    let scene = Scene::load(&path).unwrap();
+    eprintln!(
+        "loaded {} textures in {:.1} s: {:?}",
+        scene.textures.len(),
+        t0.elapsed().as_secs_f64(),
+        scene.texture_memory
+    );
+    let m = scene.texture_memory;
+    assert_eq!(m.textures as usize, N);
+    assert_eq!(m.reduced as usize, N);
+    assert_eq!(m.full_bytes, N as u64 * 4096 * 4096 * 12);
+    assert!(m.kept_bytes < 64 << 20, "{m:?}");
+    // still at least TEXTURE_TEXELS_PER_UNIT texels per unit length of the normalised scene
+    let scale = vlf::prepare::normalise(&scene.positions).scale;
+    let texels_per_unit = scene.textures[0].width as f64 / (0.25 * scale);
+    assert!(
+        texels_per_unit >= vlf::scene::texels::TEXTURE_TEXELS_PER_UNIT,
+        "{texels_per_unit}"
+    );
+    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    assert_eq!(report.host_textures, m);
+    assert!(report.texture_bytes > 0);
+    assert!(
+        report.table().contains("reduced to texel density"),
+        "{}",
+        report.table()
+    );
+}
