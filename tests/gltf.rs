@@ -463,3 +463,31 @@ fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
         report.table()
     );
 }
+
+/// `vlf generate --format gltf` writes the scene its OBJ is: the same light field.
+#[test]
+fn generated_classroom_as_gltf_gives_the_obj_light_field() {
+    use vlf::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};
+    let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let options = GenerateOptions {
+        kind: SceneKind::Classroom,
+        size: 1000,
+        mirrors: true,
+    };
+    let obj = generate_as(&options, a.path(), MeshFormat::Obj).unwrap();
+    let gltf = generate_as(&options, b.path(), MeshFormat::Gltf).unwrap();
+    assert!(b.path().join("scene.gltf").exists() && b.path().join("scene.bin").exists());
+    let (so, sg) = (
+        Scene::load(&obj.scene).unwrap(),
+        Scene::load(&gltf.scene).unwrap(),
+    );
+    assert_eq!(
+        sg.materials
+            .iter()
+            .find(|m| m.name == "mirror")
+            .unwrap()
+            .mirror,
+        [0.85; 3]
+    );
+    assert_same_light_field(&so, &sg);
+}
