@@ -4,7 +4,7 @@
 //! decoded on its own and box-filtered (in linear light) to that resolution before the next one
 //! is read, so a model with a hundred 4K images holds megabytes, not gigabytes.
 
-use super::Texture;
+use super::{Material, Texture, Triangle};
 use std::path::PathBuf;
 
 /// Texels per unit length of the normalised scene that imported textures keep at least (per
@@ -116,4 +116,40 @@ pub fn mean(t: &Texture) -> [f32; 3] {
     }
     let n = t.texels.len().max(1) as f64;
     sum.map(|s| (s / n) as f32)
+}
+
+/// Per texture (of `count`), the area it covers, from the triangles whose material names it as
+/// diffuse or emission texture.
+pub fn uses(
+    positions: &[[f32; 3]],
+    triangles: &[Triangle],
+    materials: &[Material],
+    count: usize,
+) -> Vec<TextureUse> {
+    let scale = crate::prepare::normalise(positions).scale;
+    let mut out = vec![TextureUse::default(); count];
+    for t in triangles {
+        let (Some(uv), Some(m)) = (t.uv, materials.get(t.material as usize)) else {
+            continue;
+        };
+        let [a, b, c] = t
+            .vertices
+            .map(|i| glam::DVec3::from(positions[i as usize].map(|x| x as f64)));
+        let surface = (b - a).cross(c - a).length() * 0.5 * scale * scale;
+        let (e1, e2) = (
+            [uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]],
+            [uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]],
+        );
+        let uv_area = ((e1[0] * e2[1] - e1[1] * e2[0]) as f64).abs() * 0.5;
+        for i in [m.diffuse_texture, m.emission_texture]
+            .into_iter()
+            .flatten()
+        {
+            if let Some(u) = out.get_mut(i as usize) {
+                u.surface_area += surface;
+                u.uv_area += uv_area;
+            }
+        }
+    }
+    out
 }
