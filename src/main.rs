@@ -30,6 +30,7 @@ enum ExportFormat {
 enum Command {
     /// Propagate a scene into a light field file (.vlf)
     Propagate {
+        /// scene.toml or a glTF model (.gltf/.glb)
         scene: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
@@ -47,7 +48,7 @@ enum Command {
     },
     /// Render a view from a scene (propagating first) or from a .vlf file
     Render {
-        /// scene.toml or file.vlf
+        /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
         input: PathBuf,
         #[arg(long)]
         camera: Option<String>,
