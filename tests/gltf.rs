@@ -57,6 +57,11 @@ fn assert_same_light_field(a: &Scene, b: &Scene) {
             worst = worst.max((x[c] - y[c]).abs());
         }
     }
+    eprintln!(
+        "{}: {} texels, largest difference {worst}",
+        b.name,
+        la.total.len()
+    );
     assert!(worst <= 1e-5, "largest texel difference {worst}");
 }
 
