@@ -30,6 +30,7 @@ enum ExportFormat {
 enum Command {
     /// Propagate a scene into a light field file (.vlf)
     Propagate {
+        /// scene.toml or a glTF model (.gltf/.glb)
         scene: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
@@ -47,7 +48,7 @@ enum Command {
     },
     /// Render a view from a scene (propagating first) or from a .vlf file
     Render {
-        /// scene.toml or file.vlf
+        /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
         input: PathBuf,
         #[arg(long)]
         camera: Option<String>,
@@ -205,7 +206,7 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
-    /// Write a procedural scene (scene.toml + OBJ + MTL) that scales to a million triangles
+    /// Write a procedural scene (scene.toml + OBJ + MTL, or glTF) that scales to a million triangles
     Generate {
         kind: vlf::generate::SceneKind,
         /// About this many triangles (classroom) or faces (gallery)
@@ -214,6 +215,9 @@ enum Command {
         /// The mirror variant (a mirror wall in the classroom, mirrors along the gallery)
         #[arg(long)]
         mirrors: bool,
+        /// The mesh as OBJ + MTL or as glTF 2.0 (.gltf + .bin)
+        #[arg(long, value_enum, default_value = "obj")]
+        format: vlf::generate::MeshFormat,
         #[arg(short, long)]
         out: PathBuf,
     },
@@ -743,15 +747,17 @@ fn run(cli: Cli) -> Result<()> {
             kind,
             size,
             mirrors,
+            format,
             out,
         } => {
-            let g = vlf::generate::generate(
+            let g = vlf::generate::generate_as(
                 &vlf::generate::GenerateOptions {
                     kind,
                     size,
                     mirrors,
                 },
                 &out,
+                format,
             )?;
             println!(
                 "{}: {} triangles, {} faces ({})",

@@ -27,6 +27,8 @@ pub struct PropagationReport {
     pub tile_bytes: u64,
     /// per-texel texture factors on the GPU (none in an untextured scene)
     pub texture_bytes: u64,
+    /// the scene's textures on the host: kept (resolved to texel density) and at full size
+    pub host_textures: crate::scene::texels::TextureMemory,
     pub layers: u64,
     pub visibility_kept_resident: bool,
     /// directions are gathered in this many batches (1: all lists resident)
@@ -115,7 +117,15 @@ impl PropagationReport {
                 if self.texture_bytes == 0 {
                     "none: nothing allocated".into()
                 } else {
-                    human_bytes(self.texture_bytes)
+                    let h = &self.host_textures;
+                    format!(
+                        "{} on the GPU; {} image(s), {} on the host ({} at full size, {} reduced to texel density)",
+                        human_bytes(self.texture_bytes),
+                        h.textures,
+                        human_bytes(h.kept_bytes),
+                        human_bytes(h.full_bytes),
+                        h.reduced
+                    )
                 },
             ),
             (

@@ -715,6 +715,7 @@ pub fn propagate_with(
         non_diffuse_elements,
         tile_bytes,
         texture_bytes,
+        host_textures: scene.texture_memory,
         layers,
         visibility_kept_resident: batch_plan.resident(),
         direction_batches: batch_plan.batches,
