@@ -4,9 +4,9 @@
 
 use crate::error::Result;
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger};
+use crate::propagate::report::PropagationReport;
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
-use crate::report::PropagationReport;
 use crate::scene::Scene;
 use serde::Serialize;
 use std::sync::Arc;

@@ -6,6 +6,7 @@
 //! shared GPU helpers; [`bench`] and [`report`] measure and tell.
 
 pub mod bench;
+pub mod bvh;
 pub mod color;
 pub mod display;
 pub mod error;
@@ -15,11 +16,11 @@ pub mod gpu;
 pub mod lightfield;
 pub mod metrics;
 pub mod mirrored;
+pub mod params;
 pub mod prepare;
 pub mod propagate;
 pub mod reference;
 pub mod render;
-pub mod report;
 pub mod scene;
 pub mod stats;
 pub mod stress;

@@ -477,6 +477,7 @@ fn parse_mebibytes(s: &str) -> std::result::Result<u64, String> {
         "t" | "tb" | "tib" => value * 1024.0 * 1024.0,
         other => return Err(format!("{s:?}: unknown unit {other:?}; use MiB or GiB")),
     };
+    #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must be refused too
     if !(mib >= 1.0) {
         return Err(format!("{s:?}: a memory budget must be at least 1 MiB"));
     }
@@ -713,7 +714,7 @@ fn run(cli: Cli) -> Result<()> {
                 bail!("--seconds {s}: must be a number of seconds >= 0");
             }
             let display = vlf::display::DisplayConfig::load(&config)?;
-            vlf::display::live::track(
+            vlf::display::tracking::track(
                 &display,
                 &config,
                 seconds.map(std::time::Duration::from_secs_f64),

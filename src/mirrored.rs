@@ -2,9 +2,10 @@
 //! tests/shaders.rs can check them member by member against naga's layout of the WGSL. It sits
 //! above the modules that own the structs (gpu, display, reference) and nothing depends on it.
 
+use crate::bvh::{GpuBvhNode, GpuTriangle};
 use crate::display::post::GpuWarp;
 use crate::gpu::types::*;
-use crate::reference::{GpuBvhNode, GpuTraceParams, GpuTriangle};
+use crate::reference::GpuTraceParams;
 
 /// A Rust struct that mirrors a WGSL struct: its size and each field's offset, for the test
 /// that checks them member by member against naga's layout of the WGSL (tests/shaders.rs).

@@ -701,7 +701,7 @@ fn beyond_budget(ctx: &Arc<GpuContext>) -> Outcome {
 }
 
 /// The buffers of one kind the propagator allocated (one ledger entry per page).
-fn pages_allocated(report: &crate::report::PropagationReport, name: &str) -> u64 {
+fn pages_allocated(report: &crate::propagate::report::PropagationReport, name: &str) -> u64 {
     report
         .propagation_memory
         .iter()

@@ -58,9 +58,7 @@ fn trace(
     let inv = dir.recip();
     let mut best: Option<(f32, u32)> = None;
     let t_max = |best: Option<(f32, u32)>| best.map_or(f32::INFINITY, |b| b.0);
-    let Some(root) = box_entry(&nodes[0], origin, inv, f32::INFINITY) else {
-        return None;
-    };
+    let root = box_entry(&nodes[0], origin, inv, f32::INFINITY)?;
     let mut stack = vec![(0u32, root)];
     while let Some((index, entry)) = stack.pop() {
         if entry >= t_max(best) {

@@ -6,8 +6,9 @@ use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
+use vlf::propagate::cpu::{self, specular as cpu_specular};
 use vlf::propagate::transport::Propagator;
-use vlf::propagate::{cpu, cpu_specular, gpu_directions, initial_radiance, PropagationParams};
+use vlf::propagate::{gpu_directions, initial_radiance, PropagationParams};
 use vlf::scene::Scene;
 
 fn tiny_scene(dir: &std::path::Path) -> Scene {

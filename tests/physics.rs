@@ -51,8 +51,8 @@ fn worst_deviation(prepared: &PreparedScene, total: &[[f32; 4]], expected: f64) 
         if p[3].to_bits() == u32::MAX {
             continue;
         }
-        for c in 0..3 {
-            worst = worst.max((total[i][c] as f64 - expected).abs() / expected);
+        for v in &total[i][..3] {
+            worst = worst.max((*v as f64 - expected).abs() / expected);
         }
     }
     worst
@@ -244,9 +244,9 @@ fn a_floor_under_a_uniform_sky_reflects_rho_times_the_sky() {
     let (lf, _, report) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
     assert!(report.sky && report.converged);
     let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
-    for c in 0..3 {
+    for (c, s) in sky.iter().enumerate() {
         let l = face_mean(&prepared, &lf.total, |_| true, c);
-        let expected = (rho * sky[c]) as f64;
+        let expected = (rho * s) as f64;
         assert!(
             (l - expected).abs() / expected < 0.01,
             "channel {c}: {l} vs {expected}"

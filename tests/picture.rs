@@ -369,7 +369,7 @@ fn an_antialiased_edge_pixel_shows_the_covered_fraction() {
     );
     let (lf, resident) = propagate_and_renderer(&path);
     // the square's corners as QuadMesh::quad places them, projected
-    let (s, c) = (spin as f64).sin_cos();
+    let (s, c) = spin.sin_cos();
     let n = DVec3::Z;
     let helper = DVec3::X;
     let a0 = (helper - n * n.dot(helper)).normalize();

@@ -22,11 +22,7 @@ fn small() -> PropagationParams {
     }
 }
 
-fn texels_of<'a>(
-    lf: &'a vlf::lightfield::LightField,
-    scene: &Scene,
-    material: &str,
-) -> Vec<[f32; 4]> {
+fn texels_of(lf: &vlf::lightfield::LightField, scene: &Scene, material: &str) -> Vec<[f32; 4]> {
     let m = scene
         .materials
         .iter()

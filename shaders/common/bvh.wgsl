@@ -1,4 +1,4 @@
-// Ray casting through a bounding volume hierarchy (src/reference/mod.rs::build_bvh), shared
+// Ray casting through a bounding volume hierarchy (src/bvh.rs::build_bvh), shared
 // by the reference path tracer (reference.wgsl) and the renderer's primary rays (render.wgsl).
 // The including file binds `triangles: array<Triangle>` and `nodes: array<BvhNode>`.
 

@@ -6,7 +6,7 @@
 //! looking along the tracker's forward axis, expressed in the room's convention). It also says
 //! which sensor or body is the head and which the wand.
 
-use super::tracking::{head_rotation_from_angles, Pose};
+use super::pose::{head_rotation_from_angles, Pose};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 

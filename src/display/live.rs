@@ -8,7 +8,7 @@
 //! and the log once).
 
 use super::calibration::RoomFromTracker;
-use super::tracking::Pose;
+use super::pose::Pose;
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{Receiver, Sender};
 use glam::{Quat, Vec3};
@@ -29,12 +29,7 @@ pub enum TrackingStatus {
     Waiting,
 }
 
-/// A tracked wand in the room: position (metres) and orientation (identity points along -z).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct WandPose {
-    pub position: Vec3,
-    pub rotation: Quat,
-}
+pub use super::pose::WandPose;
 
 /// Everything a live source has said so far, in the room.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -364,94 +359,4 @@ pub fn describe(t: f64, state: &LiveState) -> String {
         state.joystick[1]
     ));
     line
-}
-
-/// `vlf track`: print the configured live source's states as they arrive (every one, in
-/// order) until `seconds` have passed (None: until the process is stopped), and when it goes
-/// quiet or comes back. A static or scripted head is printed once. Returns the states printed.
-pub fn track(
-    config: &super::DisplayConfig,
-    config_path: &std::path::Path,
-    seconds: Option<Duration>,
-    out: &mut dyn std::io::Write,
-) -> Result<u64> {
-    let write = |out: &mut dyn std::io::Write, line: String| {
-        writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e))
-    };
-    let source = super::tracking::PoseSource::from_config(config, config_path)?;
-    let super::tracking::PoseSource::Live(tracker) = source else {
-        write(
-            out,
-            format!(
-                "{}: tracking is not live ({}); the head:",
-                config.name,
-                config_path.display()
-            ),
-        )?;
-        write(out, describe(0.0, &LiveState::new(source.at(0.0))))?;
-        return Ok(1);
-    };
-    let mut tracker = tracker.into_inner().unwrap_or_else(|e| e.into_inner());
-    write(
-        out,
-        format!(
-            "{}: listening for {} (room metres after calibration)",
-            config.name, tracker.name
-        ),
-    )?;
-    let started = Instant::now();
-    let mut printed = 0;
-    let mut quiet = false;
-    while seconds.is_none_or(|s| started.elapsed() < s) {
-        let wait = seconds.map_or(Duration::from_millis(100), |s| {
-            s.saturating_sub(started.elapsed())
-                .min(Duration::from_millis(100))
-        });
-        match tracker.next(wait) {
-            Some(sample) => {
-                if quiet {
-                    write(
-                        out,
-                        format!(
-                            "{:8.3} s  live again",
-                            sample.received.duration_since(started).as_secs_f64()
-                        ),
-                    )?;
-                    quiet = false;
-                }
-                write(
-                    out,
-                    describe(
-                        sample.received.duration_since(started).as_secs_f64(),
-                        &sample.state,
-                    ),
-                )?;
-                printed += 1;
-            }
-            None => {
-                if let (TrackingStatus::Quiet(d), false) = (tracker.status(), quiet) {
-                    write(
-                        out,
-                        format!(
-                            "{:8.3} s  quiet for {:.1} s: holding the last pose",
-                            started.elapsed().as_secs_f64(),
-                            d.as_secs_f64()
-                        ),
-                    )?;
-                    quiet = true;
-                }
-            }
-        }
-    }
-    if printed == 0 {
-        write(
-            out,
-            format!(
-                "nothing arrived from {} in {:.1} s",
-                tracker.name,
-                started.elapsed().as_secs_f64()
-            ),
-        )?;
-    }
-    Ok(printed)
 }

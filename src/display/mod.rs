@@ -11,6 +11,7 @@ pub mod dtrack;
 pub mod headless;
 pub mod live;
 pub mod osc;
+pub mod pose;
 pub mod post;
 pub mod projection;
 pub mod tracking;

@@ -1,89 +1,13 @@
 //! Head tracking: a static head, a scripted path of keyframed head and navigation poses
 //! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
-use super::live::WandPose;
+pub use super::pose::{head_rotation, head_rotation_from_angles, Pose, WandPose};
 use super::{DisplayConfig, TrackingConfig};
 use crate::error::{Result, VlfError};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-
-/// Where the viewer is at one moment: the tracked head (position in room metres and
-/// orientation in the room), and where the room stands in the world (navigation).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pose {
-    pub head: Vec3,
-    /// Room from head: the identity looks along the room's -z with +x to the right and +y up
-    /// (the OpenXR convention).
-    pub head_rotation: Quat,
-    pub room_position: Vec3,
-    pub room_yaw_deg: f32,
-}
-
-impl Pose {
-    /// A pose whose head looks along the room's -z.
-    pub fn new(head: Vec3, room_position: Vec3, room_yaw_deg: f32) -> Pose {
-        Pose {
-            head,
-            head_rotation: Quat::IDENTITY,
-            room_position,
-            room_yaw_deg,
-        }
-    }
-    pub fn room_to_world(&self, p: Vec3) -> Vec3 {
-        self.room_position + Quat::from_rotation_y(self.room_yaw_deg.to_radians()) * p
-    }
-    /// The head's right axis in the world: the direction from the left eye to the right.
-    pub fn right(&self) -> Vec3 {
-        Quat::from_rotation_y(self.room_yaw_deg.to_radians()) * self.head_rotation * Vec3::X
-    }
-    /// One eye in room metres (`side` -1 left, +1 right, 0 between the eyes): `eye_offset` (head
-    /// frame, metres) from the tracked point to the eyes' centre, then half the interpupillary
-    /// distance along the head's right axis.
-    pub fn eye(&self, eye_offset: Vec3, eye_separation: f32, side: f32) -> Vec3 {
-        self.head + self.head_rotation * (eye_offset + Vec3::X * side * eye_separation * 0.5)
-    }
-}
-
-/// A head orientation from angles in degrees: yaw about the room's up axis (positive turns
-/// left), then pitch about the head's right axis (positive looks up), then roll about the
-/// line of sight (positive tilts the head to the left).
-pub fn head_rotation_from_angles(yaw_deg: f32, pitch_deg: f32, roll_deg: f32) -> Quat {
-    Quat::from_rotation_y(yaw_deg.to_radians())
-        * Quat::from_rotation_x(pitch_deg.to_radians())
-        * Quat::from_rotation_z(roll_deg.to_radians())
-}
-
-/// A head orientation given in a configuration either as angles (`<key>_yaw_deg`, `_pitch_deg`,
-/// `_roll_deg`, each 0 when left out) or as a quaternion `<key>_orientation = [x, y, z, w]`
-/// (normalised here); `at` names the keys' table in errors.
-pub fn head_rotation(
-    angles: [Option<f32>; 3],
-    quaternion: Option<[f32; 4]>,
-    at: &str,
-) -> std::result::Result<Quat, String> {
-    match quaternion {
-        Some(_) if angles.iter().any(Option::is_some) => {
-            Err(format!("{at}head_orientation: give the head's orientation either as a quaternion or as head_yaw_deg/head_pitch_deg/head_roll_deg, not both"))
-        }
-        Some(q) => {
-            let q = Quat::from_array(q);
-            if !q.is_finite() || q.length() < 1e-3 {
-                return Err(format!("{at}head_orientation: {:?} is not a rotation (a finite quaternion [x, y, z, w] of non-zero length)", q.to_array()));
-            }
-            Ok(q.normalize())
-        }
-        None => {
-            let [yaw, pitch, roll] = angles.map(|a| a.unwrap_or(0.0));
-            for (name, a) in [("head_yaw_deg", yaw), ("head_pitch_deg", pitch), ("head_roll_deg", roll)] {
-                if !a.is_finite() {
-                    return Err(format!("{at}{name}: must be a finite number of degrees"));
-                }
-            }
-            Ok(head_rotation_from_angles(yaw, pitch, roll))
-        }
-    }
-}
+use std::time::{Duration, Instant};
 
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -324,4 +248,97 @@ impl PoseSource {
             PoseSource::Live(tracker) => tracker.lock().unwrap().latest().0,
         }
     }
+}
+
+/// `vlf track`: print the configured live source's states as they arrive (every one, in
+/// order) until `seconds` have passed (None: until the process is stopped), and when it goes
+/// quiet or comes back. A static or scripted head is printed once. Returns the states printed.
+pub fn track(
+    config: &super::DisplayConfig,
+    config_path: &std::path::Path,
+    seconds: Option<Duration>,
+    out: &mut dyn std::io::Write,
+) -> Result<u64> {
+    let write = |out: &mut dyn std::io::Write, line: String| {
+        writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e))
+    };
+    let source = PoseSource::from_config(config, config_path)?;
+    let PoseSource::Live(tracker) = source else {
+        write(
+            out,
+            format!(
+                "{}: tracking is not live ({}); the head:",
+                config.name,
+                config_path.display()
+            ),
+        )?;
+        write(
+            out,
+            super::live::describe(0.0, &super::live::LiveState::new(source.at(0.0))),
+        )?;
+        return Ok(1);
+    };
+    let mut tracker = tracker.into_inner().unwrap_or_else(|e| e.into_inner());
+    write(
+        out,
+        format!(
+            "{}: listening for {} (room metres after calibration)",
+            config.name, tracker.name
+        ),
+    )?;
+    let started = Instant::now();
+    let mut printed = 0;
+    let mut quiet = false;
+    while seconds.is_none_or(|s| started.elapsed() < s) {
+        let wait = seconds.map_or(Duration::from_millis(100), |s| {
+            s.saturating_sub(started.elapsed())
+                .min(Duration::from_millis(100))
+        });
+        match tracker.next(wait) {
+            Some(sample) => {
+                if quiet {
+                    write(
+                        out,
+                        format!(
+                            "{:8.3} s  live again",
+                            sample.received.duration_since(started).as_secs_f64()
+                        ),
+                    )?;
+                    quiet = false;
+                }
+                write(
+                    out,
+                    super::live::describe(
+                        sample.received.duration_since(started).as_secs_f64(),
+                        &sample.state,
+                    ),
+                )?;
+                printed += 1;
+            }
+            None => {
+                if let (super::live::TrackingStatus::Quiet(d), false) = (tracker.status(), quiet) {
+                    write(
+                        out,
+                        format!(
+                            "{:8.3} s  quiet for {:.1} s: holding the last pose",
+                            started.elapsed().as_secs_f64(),
+                            d.as_secs_f64()
+                        ),
+                    )?;
+                    quiet = true;
+                }
+            }
+        }
+    }
+    if printed == 0 {
+        write(
+            out,
+            format!(
+                "nothing arrived from {} in {:.1} s",
+                tracker.name,
+                started.elapsed().as_secs_f64()
+            ),
+        )?;
+    }
+    Ok(printed)
 }

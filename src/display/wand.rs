@@ -3,8 +3,7 @@
 //! about the viewer's head, and a button resets. In walk mode (`[navigation] fly = false`,
 //! G toggles) the motion stays horizontal, so the head keeps its height.
 
-use super::live::WandPose;
-use super::tracking::Pose;
+use super::pose::{Pose, WandPose};
 use super::Navigation;
 use glam::{Quat, Vec3};
 

@@ -853,20 +853,17 @@ impl ApplicationHandler for App<'_> {
                 self.navigator.dragging = state == ElementState::Pressed;
                 self.navigator.last_cursor_x = None;
             }
-            WindowEvent::CursorMoved { position, .. } => {
-                if self.navigator.dragging {
-                    if let Some(last) = self.navigator.last_cursor_x {
-                        // a full window width of drag turns the room by 90 degrees
-                        let width = self
-                            .windows
-                            .iter()
-                            .find(|w| w.window.id() == window_id)
-                            .map_or(1000.0, |w| w.config.width as f64);
-                        self.navigator.mouse_turn_deg -=
-                            ((position.x - last) / width * 90.0) as f32;
-                    }
-                    self.navigator.last_cursor_x = Some(position.x);
+            WindowEvent::CursorMoved { position, .. } if self.navigator.dragging => {
+                if let Some(last) = self.navigator.last_cursor_x {
+                    // a full window width of drag turns the room by 90 degrees
+                    let width = self
+                        .windows
+                        .iter()
+                        .find(|w| w.window.id() == window_id)
+                        .map_or(1000.0, |w| w.config.width as f64);
+                    self.navigator.mouse_turn_deg -= ((position.x - last) / width * 90.0) as f32;
                 }
+                self.navigator.last_cursor_x = Some(position.x);
             }
             _ => {}
         }
@@ -1020,7 +1017,7 @@ fn rasterise_status(text: &str) -> Vec<u8> {
             let c = coverage[i];
             let v = (255.0 * c) as u8;
             pixels[i * 4..i * 4 + 4].copy_from_slice(&[
-                v.max(0),
+                v,
                 v,
                 (255.0 * c * 0.6) as u8,
                 (150.0 + 105.0 * c) as u8,

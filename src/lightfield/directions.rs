@@ -360,6 +360,26 @@ fn solve3(a: DVec3, b: DVec3, c: DVec3, d: DVec3) -> DVec3 {
     DVec3::new(d.dot(b.cross(c)), a.dot(d.cross(c)), a.dot(b.cross(d))) / det
 }
 
+/// The direction set packed for the GPU (`GpuDirection`: w, its solid angle, and the grid axes u, v).
+pub fn gpu_directions(
+    directions: &[crate::lightfield::directions::Direction],
+) -> Vec<crate::gpu::types::GpuDirection> {
+    directions
+        .iter()
+        .map(|d| {
+            let (u, v) = d.frame();
+            crate::gpu::types::GpuDirection {
+                w: [d.w.x as f32, d.w.y as f32, d.w.z as f32],
+                solid_angle: d.solid_angle as f32,
+                u: [u.x as f32, u.y as f32, u.z as f32],
+                _pad0: 0.0,
+                v: [v.x as f32, v.y as f32, v.z as f32],
+                _pad1: 0.0,
+            }
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

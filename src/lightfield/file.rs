@@ -220,7 +220,7 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
         None
     } else {
         let directions = meta.direction_count.max(1) as usize;
-        if rects.len() % directions != 0 {
+        if !rects.len().is_multiple_of(directions) {
             return Err(format!(
                 "{} tile rectangles do not divide among {directions} directions",
                 rects.len()

@@ -10,8 +10,8 @@ pub mod tiles;
 
 use crate::gpu::types::{GpuFace, RenderVertex};
 use crate::gpu::{GpuContext, MemoryLedger, STORAGE};
+use crate::params::PropagationParams;
 use crate::prepare::{Normalisation, PreparedScene};
-use crate::propagate::PropagationParams;
 use crate::scene::Camera;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
@@ -205,7 +205,7 @@ impl LightField {
                     tiles::TilePages::plan(t.total.len() as u64, cells_per_tile, max_binding)?;
                 let set = directions::DirectionSet::geodesic(self.meta.params.geodesic_frequency);
                 let (points, index) = set.gpu_tables();
-                let dirs = crate::propagate::gpu_directions(&set.directions);
+                let dirs = directions::gpu_directions(&set.directions);
                 Some(ResidentTiles {
                     rects: ctx.buffer_init(
                         &ledger,

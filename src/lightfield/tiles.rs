@@ -153,7 +153,9 @@ impl TileLayout {
             .unwrap_or(1)
             .min(16);
         let chunk = directions.len().div_ceil(threads);
-        let per_direction: Vec<Vec<(u32, [u32; 4], Vec<bool>)>> = crossbeam::thread::scope(|s| {
+        // per direction: (face slot, tile rectangle, which tiles of it are covered)
+        type Rects = Vec<(u32, [u32; 4], Vec<bool>)>;
+        let per_direction: Vec<Rects> = crossbeam::thread::scope(|s| {
             let handles: Vec<_> = directions
                 .chunks(chunk)
                 .map(|dirs| {

@@ -4,15 +4,15 @@
 //! (`atlas.rs`).
 
 pub mod atlas;
+pub mod packing;
 
 use crate::error::{Result, VlfError};
+pub use crate::scene::normalise::{normalise, Normalisation, NORMALISED_RADIUS};
 use crate::scene::{Material, Scene};
 use glam::DVec3;
 
 /// Triangles whose normals differ by less than this from a chart's first triangle join it.
 pub const PLANAR_ANGLE_DEG: f64 = 2.0;
-/// The scene is scaled so that it fits in a sphere of this radius (grids cover [-1, 1]^2).
-pub const NORMALISED_RADIUS: f64 = 0.99;
 
 /// A planar face: a chart of the atlas, one material, one normal.
 #[derive(Clone, Debug)]
@@ -39,19 +39,6 @@ pub struct PreparedTriangle {
     pub vertices: [u32; 3],
     pub face: u32,
     pub uv: Option<[[f32; 2]; 3]>,
-}
-
-/// Maps world (metres) to the normalised space the light field lives in.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize, PartialEq)]
-pub struct Normalisation {
-    pub center: [f64; 3],
-    pub scale: f64,
-}
-
-impl Normalisation {
-    pub fn to_unit(&self, p: [f32; 3]) -> DVec3 {
-        (DVec3::from(p.map(|x| x as f64)) - DVec3::from(self.center)) * self.scale
-    }
 }
 
 pub struct PreparedScene {
@@ -151,27 +138,6 @@ impl PreparedScene {
 
     pub fn material_of(&self, face: usize) -> &Material {
         &self.materials[self.faces[face].material as usize]
-    }
-}
-
-/// The centre and scale that fit the positions into the sphere of [`NORMALISED_RADIUS`].
-pub fn normalise(positions: &[[f32; 3]]) -> Normalisation {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for p in positions {
-        let p = DVec3::from(p.map(|x| x as f64));
-        lo = lo.min(p);
-        hi = hi.max(p);
-    }
-    let center = (lo + hi) * 0.5;
-    let radius = positions
-        .iter()
-        .map(|p| (DVec3::from(p.map(|x| x as f64)) - center).length())
-        .fold(0.0, f64::max)
-        .max(1e-12);
-    Normalisation {
-        center: center.into(),
-        scale: NORMALISED_RADIUS / radius,
     }
 }
 

@@ -68,7 +68,7 @@ impl Checkpoint {
         let meta: CheckpointMeta = serde_json::from_slice(s[0])
             .map_err(|e| err(format!("section META is not valid: {e}")))?;
         let vec = |b: &[u8], name: &str| -> Result<Vec<[f32; 4]>> {
-            if b.len() % 16 != 0 {
+            if !b.len().is_multiple_of(16) {
                 return Err(err(format!("section {name} is not whole texels")));
             }
             Ok(b.chunks_exact(16)

@@ -9,11 +9,11 @@
 //! belongs to, so that every iteration's texels and tiles hold paths of the same length. That
 //! iteration's texel gather leaves mirror senders out.
 
+use crate::bvh::{build_bvh, GpuBvhNode, GpuTriangle};
 use crate::error::Result;
 use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
 use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
-use crate::reference::{build_bvh, GpuBvhNode, GpuTriangle};
 use glam::Vec3;
 
 /// The emitting triangles of a scene, with each face's mean emitted radiance (over its texels:
@@ -31,8 +31,8 @@ pub fn emitters(
             continue;
         }
         let s = &mut stats[face as usize];
-        for k in 0..3 {
-            s.0[k] += value[k] as f64 / std::f64::consts::PI;
+        for (sum, v) in s.0.iter_mut().zip(value) {
+            *sum += *v as f64 / std::f64::consts::PI;
         }
         s.1 += 1;
         let sum = (value[0] + value[1] + value[2]) / std::f32::consts::PI;

@@ -5,247 +5,19 @@
 
 pub mod checkpoint;
 pub mod cpu;
-pub mod cpu_specular;
 pub mod direct;
+pub mod report;
 pub mod transport;
 pub mod visibility;
 
 use crate::error::{Result, VlfError};
-use crate::gpu::types::{GpuDirection, GpuFace, FACE_EMITTER, NO_FACE};
+use crate::gpu::types::{GpuFace, NO_FACE};
 use crate::lightfield::directions::DirectionSet;
 use crate::prepare::PreparedScene;
-use serde::{Deserialize, Serialize};
 
-/// Everything that decides the light field's accuracy and cost.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PropagationParams {
-    /// Geodesic frequency n: 5n^2+1 directions over the hemisphere.
-    pub geodesic_frequency: u32,
-    /// Cells per side of each direction's grid (N).
-    pub grid_resolution: u32,
-    /// Cells per side of a tile (m); N/m must be integral. Tiles hold non-diffuse elements,
-    /// which a diffuse-only scene does not allocate.
-    pub tile_size: u32,
-    /// Diffuse texels per unit length of the normalised scene.
-    pub texel_density: f64,
-    /// Stop when unshot power / emitted power falls below this.
-    pub tolerance: f64,
-    pub max_iterations: u32,
-    /// K perturbed ("virtual") direction sets per fixed direction, used during transport only:
-    /// memory unchanged, time about x K. 1 = the fixed directions alone.
-    #[serde(default = "one")]
-    pub perturb: u32,
-    /// Stop early and add the geometric tail once the unshot power decays by a stable ratio
-    /// (the ambient term, per element): stiff scenes converge in a few iterations.
-    #[serde(default = "yes")]
-    pub accelerate: bool,
-    /// GPU memory the propagation may use, in MiB. When the visibility lists of every
-    /// direction do not fit (in it, or in one binding), directions are processed in batches
-    /// whose lists are rebuilt every iteration. None: the adapter's binding limits alone decide.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub memory_budget_mib: Option<u64>,
-    /// Shadow rays per texel for direct light (`shaders/direct.wgsl`), toward the emitters and
-    /// again toward the sky. 0: direct light comes through the fixed directions like every
-    /// other bounce (the paper's method, and light fields saved before this setting existed).
-    #[serde(default)]
-    pub direct_samples: u32,
-    /// Where direct light is on: also through planar mirrors (emitters seen in them as virtual
-    /// emitters, in closed form, in the second iteration; sky rays followed through one
-    /// reflection) instead of through the mirror tiles' fixed directions, whose caustics alias.
-    /// On by default (a file without the key included): exact for a mirror alone and in the
-    /// closed box of emitting mirrors and walls (tests/picture.rs, tests/mirrors.rs).
-    #[serde(default = "yes")]
-    pub mirror_direct: bool,
-}
-
-fn yes() -> bool {
-    true
-}
-
-fn one() -> u32 {
-    1
-}
-
-impl Default for PropagationParams {
-    fn default() -> Self {
-        PropagationParams {
-            geodesic_frequency: 20,
-            grid_resolution: 256,
-            tile_size: 8,
-            texel_density: 96.0,
-            tolerance: 1e-3,
-            max_iterations: 200,
-            perturb: 1,
-            accelerate: true,
-            memory_budget_mib: None,
-            direct_samples: 256,
-            mirror_direct: true,
-        }
-    }
-}
-
-impl PropagationParams {
-    /// Lighter settings that finish in about a minute on a software adapter with 2 cores.
-    pub fn software() -> Self {
-        PropagationParams {
-            geodesic_frequency: 14,
-            grid_resolution: 96,
-            tile_size: 8,
-            texel_density: 40.0,
-            direct_samples: 64,
-            ..Self::default()
-        }
-    }
-
-    /// Smallest geodesic frequency giving at least `count` directions.
-    pub fn frequency_for_directions(count: u32) -> u32 {
-        let mut n = 1;
-        while 5 * n * n + 1 < count {
-            n += 1;
-        }
-        n
-    }
-
-    /// Settings from a TOML file (see `config/propagation/`); unknown keys are refused.
-    pub fn from_toml_file(path: &std::path::Path) -> Result<PropagationParams> {
-        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        let params: PropagationParams = toml::from_str(&text).map_err(|e| VlfError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string().trim_end().to_string(),
-        })?;
-        params.validate().map_err(|e| VlfError::Config {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        Ok(params)
-    }
-
-    pub fn direction_count(&self) -> u32 {
-        5 * self.geodesic_frequency * self.geodesic_frequency + 1
-    }
-
-    pub fn validate(&self) -> Result<()> {
-        let bad = |name: &'static str, message: String| Err(VlfError::Parameter { name, message });
-        if self.geodesic_frequency == 0 || self.geodesic_frequency > 100 {
-            return bad(
-                "directions",
-                format!(
-                    "geodesic frequency {} must be 1..=100",
-                    self.geodesic_frequency
-                ),
-            );
-        }
-        if !(4..=1024).contains(&self.grid_resolution) {
-            return bad(
-                "grid",
-                format!("{} cells per side must be 4..=1024", self.grid_resolution),
-            );
-        }
-        if self.tile_size == 0 || !self.grid_resolution.is_multiple_of(self.tile_size) {
-            return bad(
-                "tile",
-                format!(
-                    "tile size {} must divide the grid resolution {}",
-                    self.tile_size, self.grid_resolution
-                ),
-            );
-        }
-        if !(self.texel_density.is_finite() && self.texel_density > 0.0) {
-            return bad(
-                "texel-density",
-                format!("{} must be a positive number", self.texel_density),
-            );
-        }
-        if !(self.tolerance.is_finite() && self.tolerance > 0.0 && self.tolerance < 1.0) {
-            return bad("tolerance", format!("{} must be in (0, 1)", self.tolerance));
-        }
-        if self.direct_samples > 65536 {
-            return bad(
-                "direct-samples",
-                format!(
-                    "{} shadow rays per texel: at most 65536",
-                    self.direct_samples
-                ),
-            );
-        }
-        if self.max_iterations == 0 {
-            return bad("max-iterations", "must be at least 1".into());
-        }
-        if self.memory_budget_mib == Some(0) {
-            return bad("memory-budget", "must be more than 0 MiB".into());
-        }
-        if !(1..=64).contains(&self.perturb) {
-            return bad(
-                "perturb",
-                format!("{} perturbed sets: use 1 (none) to 64", self.perturb),
-            );
-        }
-        Ok(())
-    }
-}
-
-/// Does face f have a mirror part (and so tiles)?
-pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
-    (0..prepared.faces.len())
-        .map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0))
-        .collect()
-}
-
-/// GPU face records for a prepared scene; `tile_slot[f]` is face f's index
-/// among the non-diffuse faces (NO_FACE for diffuse-only faces).
-pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
-    let density = prepared.texel_density as f32;
-    prepared
-        .faces
-        .iter()
-        .enumerate()
-        .map(|(fi, f)| {
-            let m = prepared.material_of(fi);
-            let emissive = m.emission.iter().any(|&e| e > 0.0) && !f.is_back;
-            let v3 = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
-            GpuFace {
-                normal: v3(f.normal),
-                plane_offset: f.plane_offset as f32,
-                origin: v3(f.origin),
-                texel_density: density,
-                axis_a: v3(f.axis_a),
-                _pad0: 0.0,
-                axis_b: v3(f.axis_b),
-                flags: if emissive { FACE_EMITTER } else { 0 },
-                albedo: m.diffuse,
-                atlas_x: f.atlas.x,
-                emission: if f.is_back { [0.0; 3] } else { m.emission },
-                atlas_y: f.atlas.y,
-                atlas_w: f.atlas.w,
-                atlas_h: f.atlas.h,
-                twin: f.twin.unwrap_or(NO_FACE),
-                tile_slot: tile_slot[fi],
-                mirror: m.mirror,
-                _pad: 0.0,
-            }
-        })
-        .collect()
-}
-
-pub fn gpu_directions(
-    directions: &[crate::lightfield::directions::Direction],
-) -> Vec<GpuDirection> {
-    directions
-        .iter()
-        .map(|d| {
-            let (u, v) = d.frame();
-            GpuDirection {
-                w: [d.w.x as f32, d.w.y as f32, d.w.z as f32],
-                solid_angle: d.solid_angle as f32,
-                u: [u.x as f32, u.y as f32, u.z as f32],
-                _pad0: 0.0,
-                v: [v.x as f32, v.y as f32, v.z as f32],
-                _pad1: 0.0,
-            }
-        })
-        .collect()
-}
+pub use crate::lightfield::directions::gpu_directions;
+pub use crate::params::PropagationParams;
+pub use crate::prepare::packing::{gpu_faces, non_diffuse_faces};
 
 /// Initial state: emitters hold unshot radiosity pi*Le and show Le.
 pub fn initial_radiance(
@@ -439,7 +211,7 @@ pub const DEPTH_EPSILON: f32 = 2e-5;
 type Propagated = (
     crate::lightfield::LightField,
     crate::lightfield::ResidentLightField,
-    crate::report::PropagationReport,
+    report::PropagationReport,
 );
 
 /// Propagate a scene to convergence. `progress` shows a bar on the terminal.
@@ -567,7 +339,10 @@ pub fn propagate_with(
         warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
         residual = 0.0;
     } else {
-        while prop.iteration < params.max_iterations && !(residual < params.tolerance) {
+        // written so that a NaN residual keeps iterating (and is caught by the iteration's checks)
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let unconverged = |residual: f64| !(residual < params.tolerance);
+        while prop.iteration < params.max_iterations && unconverged(residual) {
             let stats = prop.iterate()?;
             residual = stats.residual;
             let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
@@ -673,7 +448,7 @@ pub fn propagate_with(
         .map(|(_, b)| b)
         .sum();
     let propagation_memory_bytes = prop.memory_bytes();
-    let propagation_memory = crate::report::memory_items(prop.ledger.entries());
+    let propagation_memory = report::memory_items(prop.ledger.entries());
     let iterations = prop.iteration;
     let layers = layers.max(prop.largest_batch_layers);
     let render_vertices = crate::lightfield::render_vertices(&prepared);
@@ -704,7 +479,7 @@ pub fn propagate_with(
         total,
         tiles,
     };
-    let report = crate::report::PropagationReport {
+    let report = report::PropagationReport {
         scene: scene.name.clone(),
         adapter: ctx.summary.clone(),
         params: params.clone(),
@@ -736,7 +511,7 @@ pub fn propagate_with(
         mirror_rendering: Some(mirror_chains),
         direct_emitters,
         direct_mirrors,
-        render_memory: crate::report::memory_items(resident.ledger.entries()),
+        render_memory: report::memory_items(resident.ledger.entries()),
         sky: scene.sky.is_some(),
         warnings,
     };

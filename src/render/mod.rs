@@ -558,20 +558,17 @@ pub const EXHAUSTIVE_TRIANGLES: usize = 256;
 
 fn ray_casting_mesh(
     vertices: &[RenderVertex],
-) -> (
-    Vec<crate::reference::GpuTriangle>,
-    Vec<crate::reference::GpuBvhNode>,
-) {
+) -> (Vec<crate::bvh::GpuTriangle>, Vec<crate::bvh::GpuBvhNode>) {
     let corners: Vec<[Vec3; 3]> = vertices
         .chunks_exact(3)
         .map(|t| [0, 1, 2].map(|k| Vec3::from(t[k].position)))
         .collect();
-    let (nodes, order) = crate::reference::build_bvh(&corners);
+    let (nodes, order) = crate::bvh::build_bvh(&corners);
     let triangles = order
         .iter()
         .map(|&i| {
             let [a, b, c] = corners[i as usize];
-            crate::reference::GpuTriangle {
+            crate::bvh::GpuTriangle {
                 v0: a.into(),
                 face: vertices[i as usize * 3].face,
                 e1: (b - a).into(),

@@ -882,7 +882,7 @@ fn texture_uses(
     positions: &[[f32; 3]],
     triangles: &[Triangle],
 ) -> Vec<(usize, TextureUse)> {
-    let scale = crate::prepare::normalise(positions).scale;
+    let scale = crate::scene::normalise::normalise(positions).scale;
     let mut per_material = vec![TextureUse::default(); plans.len() + 1];
     for t in triangles {
         let Some(uv) = t.uv else { continue };

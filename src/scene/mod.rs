@@ -5,6 +5,7 @@
 
 pub mod builder;
 pub mod gltf;
+pub mod normalise;
 pub mod obj;
 pub mod texels;
 
@@ -283,9 +284,9 @@ impl Scene {
 /// A camera that frames the whole model: from the front (+z), a little above and to the side,
 /// 60 degrees vertically, the bounding sphere filling the view.
 pub fn framing_camera(positions: &[[f32; 3]]) -> Camera {
-    let n = crate::prepare::normalise(positions);
+    let n = normalise::normalise(positions);
     let centre = glam::DVec3::from(n.center);
-    let radius = crate::prepare::NORMALISED_RADIUS / n.scale;
+    let radius = normalise::NORMALISED_RADIUS / n.scale;
     let direction = glam::DVec3::new(0.35, 0.3, 1.0).normalize();
     let eye = centre + direction * radius / (30f64.to_radians().sin()) * 1.05;
     Camera {

@@ -126,7 +126,7 @@ pub fn uses(
     materials: &[Material],
     count: usize,
 ) -> Vec<TextureUse> {
-    let scale = crate::prepare::normalise(positions).scale;
+    let scale = crate::scene::normalise::normalise(positions).scale;
     let mut out = vec![TextureUse::default(); count];
     for t in triangles {
         let (Some(uv), Some(m)) = (t.uv, materials.get(t.material as usize)) else {

@@ -4,7 +4,7 @@
 //! directions around a mirrored direction come from `DirectionSet::lookup`, the f64 twin of
 //! the shader's geodesic lookup. Tests compare it with the GPU on tiny scenes.
 
-use super::cpu::{v3, GatherInputs};
+use super::{v3, GatherInputs};
 use crate::gpu::types::{GpuDirection, GpuFace, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use crate::lightfield::directions::DirectionSet;
 use glam::{Vec2, Vec3};

@@ -1,7 +1,9 @@
 //! CPU twin of `shaders/visibility.wgsl` and `shaders/propagate.wgsl`, written to read like
 //! them (same names, same f32 arithmetic, same order), for tiny scenes only. Tests compare it
 //! with the GPU: layer lists must be equal and gathered radiosity equal within 1e-5. The mirror
-//! parts (`shaders/specular.wgsl`, `common/tiles.wgsl`) have their twin in `cpu_specular.rs`.
+//! parts (`shaders/specular.wgsl`, `common/tiles.wgsl`) have their twin in `cpu/specular.rs`.
+
+pub mod specular;
 
 use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use glam::{Vec2, Vec3};
@@ -177,7 +179,7 @@ pub struct GatherInputs<'a> {
     pub texel_points: &'a [[f32; 4]],
     pub unshot: &'a [[f32; 4]],
     /// the mirror tiles, for scenes with mirrors (sender_specular, gather_tile)
-    pub tiles: Option<&'a super::cpu_specular::TileInputs<'a>>,
+    pub tiles: Option<&'a specular::TileInputs<'a>>,
 }
 
 impl GatherInputs<'_> {

@@ -1,9 +1,9 @@
 //! The propagation summary, after the paper's Table 1: what was propagated, what it cost in
 //! time and GPU memory. Printed as a table and written as JSON.
 
+use super::transport::IterationStats;
 use crate::gpu::{human_bytes, AdapterSummary};
-use crate::propagate::transport::IterationStats;
-use crate::propagate::PropagationParams;
+use crate::params::PropagationParams;
 use serde::Serialize;
 
 #[derive(Clone, Debug, Serialize)]
@@ -42,7 +42,7 @@ pub struct PropagationReport {
     pub final_residual: f64,
     pub converged: bool,
     /// with acceleration: the tail that was added, and what plain shooting would have needed
-    pub tail: Option<crate::propagate::Tail>,
+    pub tail: Option<super::Tail>,
     pub plain_iterations_estimate: Option<u32>,
     pub per_iteration: Vec<IterationStats>,
     pub propagation_memory_bytes: u64,

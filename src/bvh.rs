@@ -1,0 +1,220 @@
+//! The bounding volume hierarchy over a scene's triangles, built on the CPU (binned surface area
+//! heuristic) and traversed on the GPU by `shaders/common/bvh.wgsl`: the eye rays of the
+//! renderer, the shadow rays of direct light and the paths of the reference path tracer all
+//! cast through it. It sits below all three, so none depends on another for ray casting.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Mirrors WGSL `Triangle` (shaders/common/bvh.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuTriangle {
+    pub v0: [f32; 3],
+    pub face: u32,
+    pub e1: [f32; 3],
+    pub _pad0: u32,
+    pub e2: [f32; 3],
+    pub _pad1: u32,
+    pub uv01: [f32; 4],
+    pub uv2: [f32; 4],
+}
+
+/// Mirrors WGSL `BvhNode` (shaders/common/bvh.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuBvhNode {
+    pub lo: [f32; 3],
+    pub index: u32,
+    pub hi: [f32; 3],
+    pub count: u32,
+}
+
+const LEAF_SIZE: usize = 4;
+/// A leaf never holds more than this many triangles, whatever the cost model says.
+const MAX_LEAF_SIZE: usize = 16;
+/// Below this depth splits follow the surface area heuristic; deeper, median splits, which
+/// halve every level: 32 + log2(triangles) stays within the GPU's 64-entry traversal stack.
+const SAH_DEPTH: u32 = 32;
+const SAH_BINS: usize = 16;
+
+#[derive(Clone, Copy)]
+struct Bounds {
+    lo: Vec3,
+    hi: Vec3,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds {
+        lo: Vec3::splat(f32::INFINITY),
+        hi: Vec3::splat(f32::NEG_INFINITY),
+    };
+    fn grow(&mut self, other: Bounds) {
+        self.lo = self.lo.min(other.lo);
+        self.hi = self.hi.max(other.hi);
+    }
+    fn area(&self) -> f32 {
+        let d = (self.hi - self.lo).max(Vec3::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+}
+
+/// The best surface-area split of `order` into bins along one of the three axes: (axis, the
+/// centroid coordinate below which a triangle goes left, cost) where the cost counts one unit
+/// per triangle tested, in proportion to the probability of reaching each child.
+fn sah_split(
+    order: &[u32],
+    boxes: &[Bounds],
+    centroids: &[Vec3],
+    clo: Vec3,
+    chi: Vec3,
+    parent_area: f32,
+) -> Option<(usize, f32, f32)> {
+    let mut best: Option<(usize, f32, f32)> = None;
+    for axis in 0..3 {
+        let (lo, hi) = (clo[axis], chi[axis]);
+        if hi <= lo {
+            continue;
+        }
+        let scale = SAH_BINS as f32 / (hi - lo);
+        let bin_of = |c: f32| (((c - lo) * scale) as usize).min(SAH_BINS - 1);
+        let mut bins = [(Bounds::EMPTY, 0usize); SAH_BINS];
+        for &t in order {
+            let b = &mut bins[bin_of(centroids[t as usize][axis])];
+            b.0.grow(boxes[t as usize]);
+            b.1 += 1;
+        }
+        // sweep from the right, then from the left: cost of every boundary between bins
+        let mut right_area = [0.0f32; SAH_BINS];
+        let mut right_count = [0usize; SAH_BINS];
+        let (mut acc, mut n) = (Bounds::EMPTY, 0);
+        for i in (1..SAH_BINS).rev() {
+            acc.grow(bins[i].0);
+            n += bins[i].1;
+            right_area[i] = acc.area();
+            right_count[i] = n;
+        }
+        let (mut acc, mut n) = (Bounds::EMPTY, 0);
+        for i in 1..SAH_BINS {
+            acc.grow(bins[i - 1].0);
+            n += bins[i - 1].1;
+            if n == 0 || right_count[i] == 0 {
+                continue;
+            }
+            let cost = 1.0
+                + (acc.area() * n as f32 + right_area[i] * right_count[i] as f32)
+                    / parent_area.max(1e-30);
+            if best.is_none_or(|b| cost < b.2) {
+                best = Some((axis, lo + i as f32 / scale, cost));
+            }
+        }
+    }
+    best
+}
+
+/// A bounding volume hierarchy over `triangles`: binned surface-area-heuristic splits (median
+/// splits past depth SAH_DEPTH); returns the nodes and the triangle order the leaves refer to.
+/// The left child of an internal node is the node after it; `index` holds the right child.
+pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
+    let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
+    let centroids: Vec<Vec3> = triangles
+        .iter()
+        .map(|t| (t[0] + t[1] + t[2]) / 3.0)
+        .collect();
+    let boxes: Vec<Bounds> = triangles
+        .iter()
+        .map(|t| Bounds {
+            lo: t[0].min(t[1]).min(t[2]),
+            hi: t[0].max(t[1]).max(t[2]),
+        })
+        .collect();
+    let mut nodes = Vec::with_capacity(triangles.len() * 2 / LEAF_SIZE + 1);
+    struct Input<'a> {
+        boxes: &'a [Bounds],
+        centroids: &'a [Vec3],
+    }
+    fn build(
+        nodes: &mut Vec<GpuBvhNode>,
+        order: &mut [u32],
+        first: usize,
+        depth: u32,
+        input: &Input,
+    ) -> u32 {
+        let mut bounds = Bounds::EMPTY;
+        let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for &t in order.iter() {
+            bounds.grow(input.boxes[t as usize]);
+            clo = clo.min(input.centroids[t as usize]);
+            chi = chi.max(input.centroids[t as usize]);
+        }
+        let me = nodes.len();
+        nodes.push(GpuBvhNode {
+            lo: bounds.lo.into(),
+            hi: bounds.hi.into(),
+            index: first as u32,
+            count: order.len() as u32,
+        });
+        let extent = chi - clo;
+        if order.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
+            return me as u32;
+        }
+        let by_sah = if depth < SAH_DEPTH {
+            sah_split(order, input.boxes, input.centroids, clo, chi, bounds.area())
+        } else {
+            None
+        };
+        let mid = match by_sah {
+            // a leaf is cheaper than any split: keep it, if it is small enough
+            Some((_, _, cost)) if cost >= order.len() as f32 && order.len() <= MAX_LEAF_SIZE => {
+                return me as u32
+            }
+            Some((axis, boundary, _)) => {
+                let mut left = 0;
+                for i in 0..order.len() {
+                    if input.centroids[order[i] as usize][axis] < boundary {
+                        order.swap(i, left);
+                        left += 1;
+                    }
+                }
+                left
+            }
+            None => 0,
+        };
+        let mid = if mid == 0 || mid == order.len() {
+            // no useful area split (or too deep): halve along the widest centroid axis
+            let axis = if extent.x >= extent.y && extent.x >= extent.z {
+                0
+            } else if extent.y >= extent.z {
+                1
+            } else {
+                2
+            };
+            let mid = order.len() / 2;
+            order.select_nth_unstable_by(mid, |a, b| {
+                input.centroids[*a as usize][axis].total_cmp(&input.centroids[*b as usize][axis])
+            });
+            mid
+        } else {
+            mid
+        };
+        let (left, right) = order.split_at_mut(mid);
+        build(nodes, left, first, depth + 1, input);
+        let r = build(nodes, right, first + mid, depth + 1, input);
+        nodes[me].index = r;
+        nodes[me].count = 0;
+        me as u32
+    }
+    if !triangles.is_empty() {
+        build(
+            &mut nodes,
+            &mut order,
+            0,
+            0,
+            &Input {
+                boxes: &boxes,
+                centroids: &centroids,
+            },
+        );
+    }
+    (nodes, order)
+}

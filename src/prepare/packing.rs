@@ -1,0 +1,48 @@
+//! The prepared scene packed for the GPU: one `GpuFace` record per face (plane, chart, material,
+//! twin, tile slot), shared by propagation, the renderer and the reference path tracer.
+
+use super::PreparedScene;
+use crate::gpu::types::{GpuFace, FACE_EMITTER, NO_FACE};
+
+/// Does face f have a mirror part (and so tiles)?
+pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
+    (0..prepared.faces.len())
+        .map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0))
+        .collect()
+}
+
+/// GPU face records for a prepared scene; `tile_slot[f]` is face f's index
+/// among the non-diffuse faces (NO_FACE for diffuse-only faces).
+pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
+    let density = prepared.texel_density as f32;
+    prepared
+        .faces
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            let m = prepared.material_of(fi);
+            let emissive = m.emission.iter().any(|&e| e > 0.0) && !f.is_back;
+            let v3 = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
+            GpuFace {
+                normal: v3(f.normal),
+                plane_offset: f.plane_offset as f32,
+                origin: v3(f.origin),
+                texel_density: density,
+                axis_a: v3(f.axis_a),
+                _pad0: 0.0,
+                axis_b: v3(f.axis_b),
+                flags: if emissive { FACE_EMITTER } else { 0 },
+                albedo: m.diffuse,
+                atlas_x: f.atlas.x,
+                emission: if f.is_back { [0.0; 3] } else { m.emission },
+                atlas_y: f.atlas.y,
+                atlas_w: f.atlas.w,
+                atlas_h: f.atlas.h,
+                twin: f.twin.unwrap_or(NO_FACE),
+                tile_slot: tile_slot[fi],
+                mirror: m.mirror,
+                _pad: 0.0,
+            }
+        })
+        .collect()
+}
