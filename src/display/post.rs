@@ -184,45 +184,8 @@ impl PostPass {
     pub fn new(ctx: &GpuContext) -> Result<PostPass> {
         let device = &ctx.device;
         let module = crate::gpu::shaders::module(device, "warp.wgsl")?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let buffer = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: cs,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("warp"),
-            entries: &[
-                buffer(0, wgpu::BufferBindingType::Uniform),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: cs,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                buffer(2, wgpu::BufferBindingType::Storage { read_only: true }),
-                buffer(3, wgpu::BufferBindingType::Storage { read_only: true }),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: cs,
-                    ty: wgpu::BindingType::StorageTexture {
-                        access: wgpu::StorageTextureAccess::WriteOnly,
-                        format: COLOR_FORMAT,
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                    },
-                    count: None,
-                },
-            ],
-        });
+        // params, the wall image, the warp grid, the mask, the output: as warp.wgsl declares them
+        let layout = crate::gpu::reflect::layout(device, "warp.wgsl", 0)?;
         let pipeline = ctx.compute_pipeline(&module, "warp", &[&layout]);
         Ok(PostPass { pipeline, layout })
     }

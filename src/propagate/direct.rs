@@ -12,7 +12,7 @@
 use crate::bvh::{build_bvh, GpuBvhNode, GpuTriangle};
 use crate::error::Result;
 use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
 use glam::Vec3;
 
@@ -176,12 +176,7 @@ impl DirectLight {
             bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes),
             STORAGE,
         );
-        use Binding::*;
-        let layout2 = bind_group_layout(
-            device,
-            wgpu::ShaderStages::COMPUTE,
-            &[Uniform, Storage, Storage, Storage, Storage],
-        );
+        let layout2 = reflect::layout(device, "direct.wgsl", 2)?;
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
         let validity_pipeline =

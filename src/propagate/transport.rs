@@ -17,9 +17,7 @@ use crate::gpu::types::{
     GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
     GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_SKY,
 };
-use crate::gpu::{
-    bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE,
-};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
 use crate::lightfield::tiles::{TileLayout, TilePages};
 use crate::lightfield::ResidentLightField;
@@ -405,42 +403,11 @@ impl Propagator {
             })
             .collect();
 
-        use Binding::*;
-        let cs = wgpu::ShaderStages::COMPUTE;
         // grid, directions, faces, cell offsets, counts, layers, four pages of texel points
-        let layout0 = bind_group_layout(
-            device,
-            cs,
-            &[
-                Uniform, Storage, Storage, Storage, Storage, Storage, Storage, Storage, Storage,
-                Storage,
-            ],
-        );
+        let layout0 = reflect::layout(device, "propagate.wgsl", 0)?;
         // four pages of unshot, the page of next written, its range, the batches' weight sums
-        let layout1 = bind_group_layout(
-            device,
-            cs,
-            &[
-                Storage,
-                Storage,
-                Storage,
-                Storage,
-                StorageReadWrite,
-                Uniform,
-                StorageReadWrite,
-            ],
-        );
-        let accumulate_layout = bind_group_layout(
-            device,
-            cs,
-            &[
-                Uniform,
-                Storage,
-                StorageReadWrite,
-                Storage,
-                StorageReadWrite,
-            ],
-        );
+        let layout1 = reflect::layout(device, "propagate.wgsl", 1)?;
+        let accumulate_layout = reflect::layout(device, "accumulate.wgsl", 0)?;
         let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
         let accumulate_pipe =
             ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
@@ -453,24 +420,7 @@ impl Propagator {
         } else {
             let module = shaders::module(device, "specular.wgsl")?;
             // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
-            let layout2 = bind_group_layout(
-                device,
-                cs,
-                &[
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    Storage,
-                    StorageReadWrite,
-                    Uniform,
-                ],
-            );
+            let layout2 = reflect::layout(device, "specular.wgsl", 2)?;
             let gather =
                 ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
             let gather_tiles =
@@ -574,7 +524,7 @@ impl Propagator {
                     bytemuck::cast_slice(albedo),
                     std::mem::size_of_val(&albedo[0]),
                 );
-                let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
+                let layout = reflect::layout(device, "texture.wgsl", 0)?;
                 let module = shaders::module(device, "texture.wgsl")?;
                 let pipe = ctx.compute_pipeline(&module, "modulate", &[&layout]);
                 Some((buffer, pipe, layout))
@@ -596,7 +546,7 @@ impl Propagator {
                 elements * 4,
                 STORAGE,
             );
-            let layout = bind_group_layout(device, cs, &[Uniform, StorageReadWrite, Storage]);
+            let layout = reflect::layout(device, "normalize.wgsl", 0)?;
             let module = shaders::module(device, "normalize.wgsl")?;
             (
                 buffer,
