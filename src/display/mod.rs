@@ -3,10 +3,14 @@
 //! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
 //! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`), projector warp and blend (`warp.rs`) applied with the wand
 //! ray by one GPU pass per output (`post.rs`), and headless rendering of every view
-//! (`headless.rs`).
+//! (`headless.rs`); several processes driving one CAVE under MPI with a frame lock
+//! (`cluster.rs`, `cluster_mpi.rs` with the `mpi` feature).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
+pub mod cluster;
+#[cfg(feature = "mpi")]
+mod cluster_mpi;
 pub mod dtrack;
 pub mod headless;
 pub mod live;
@@ -50,6 +54,9 @@ pub struct DisplayConfig {
     pub wand_ray: post::WandRay,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
+    /// several processes, one CAVE (`mpirun`; `cluster.rs`): walls per rank, lost-rank timeout
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<cluster::ClusterConfig>,
 }
 
 fn default_ipd() -> f32 {
@@ -323,6 +330,9 @@ pub struct Wall {
     /// none: the wall image goes to the output as it is
     #[serde(default, rename = "projector", skip_serializing_if = "Vec::is_empty")]
     pub projectors: Vec<warp::Projector>,
+    /// a cluster rank drawing only one eye of this wall (`cluster::local_config`)
+    #[serde(skip)]
+    pub only_eye: Option<&'static str>,
 }
 
 fn mono() -> Stereo {
@@ -339,10 +349,13 @@ impl Wall {
     }
     /// The eyes drawn on this wall: ("mono", 0) or ("left", -1) and ("right", +1).
     pub fn eyes(&self) -> Vec<(&'static str, f32)> {
-        match self.stereo {
+        let all = match self.stereo {
             Stereo::Mono => vec![("mono", 0.0)],
             _ => vec![("left", -1.0), ("right", 1.0)],
-        }
+        };
+        (all.into_iter())
+            .filter(|e| self.only_eye.is_none_or(|only| only == e.0))
+            .collect()
     }
     /// Pixel size of one eye's image.
     pub fn eye_pixels(&self) -> [u32; 2] {
@@ -451,6 +464,9 @@ impl DisplayConfig {
             if device.is_empty() {
                 return Err("tracking.device: name the VRPN device (as in Tracker0@host)".into());
             }
+        }
+        if let Some(c) = &self.cluster {
+            c.validate(self)?;
         }
         if self.navigation.wand_reset_button >= 64 {
             return Err(format!(
