@@ -77,7 +77,11 @@ struct Watch {
     swap_ms: Vec<f64>,
     cpu_ms: Vec<f64>,
     display: String,
+    adapter: String,
+    timeout_s: f64,
     json: Option<std::path::PathBuf>,
+    /// the run's end is being handled (a lost rank reported): SIGTERM then ends quietly
+    ending: bool,
 }
 
 /// One rank's end of the frame lock.
@@ -360,6 +364,7 @@ pub fn run(run: &CaveRun, make: &mut MakeLightField) -> Result<()> {
         host: host.clone(),
         display: display.as_ref().map_or(String::new(), |d| d.name.clone()),
         json: run.json.clone(),
+        timeout_s: cluster.timeout_s,
         ..Default::default()
     }));
     spawn_watcher(sigterm, watch.clone());
@@ -427,6 +432,7 @@ fn draw(
     let _ = std::io::stdout().flush();
     let ctx = GpuContext::new()?;
     *adapter = ctx.summary.name.clone();
+    link.watch.lock().unwrap_or_else(|e| e.into_inner()).adapter = adapter.clone();
     let (lf, resident) = light_field(link, &ctx, make, plan.receive_light_field)?;
     if run.headless {
         let out = run.out.join(format!("rank{}", link.rank));
@@ -757,6 +763,7 @@ fn fail(
     }
     let _ = std::io::stderr().flush();
     let mine = link.rank_report(Vec::new(), own.then(|| e.to_string()));
+    link.watch.lock().unwrap_or_else(|e| e.into_inner()).ending = true;
     if link.leader() {
         if own {
             link.lost.push(LostRank {
@@ -814,6 +821,10 @@ fn spawn_watcher(set: libc::sigset_t, watch: Arc<Mutex<Watch>>) {
         // SAFETY: waits on the set blocked in every thread
         unsafe { libc::sigwait(&set, &mut signal) };
         let w = watch.lock().unwrap_or_else(|e| e.into_inner());
+        if w.ending {
+            // SAFETY: ends the process at once; what happened is printed already
+            unsafe { libc::_exit(1) };
+        }
         let gone: Vec<u32> = (w.peers.iter().enumerate())
             .filter(|(r, (host, pid))| *r as u32 != w.rank && *host == w.host && !alive(*pid))
             .map(|(r, _)| r as u32)
@@ -854,10 +865,10 @@ fn spawn_watcher(set: libc::sigset_t, watch: Arc<Mutex<Watch>>) {
         if w.rank == 0 {
             let mut report = ClusterReport {
                 display: w.display.clone(),
-                adapter: String::new(),
-                mode: "ended by mpirun (rank 0's part only)".into(),
+                adapter: w.adapter.clone(),
+                mode: "ended by mpirun: rank 0's part only".into(),
                 ranks: w.size,
-                timeout_s: 0.0,
+                timeout_s: w.timeout_s,
                 same_frames_and_poses: false,
                 check: String::new(),
                 lost,
