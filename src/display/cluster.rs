@@ -365,6 +365,8 @@ pub struct RankReport {
     pub cpu_frame_ms: Option<Stats>,
     /// milliseconds waiting at the swap barrier for the other ranks
     pub swap_wait_ms: Option<Stats>,
+    /// milliseconds from one present to the next: the cluster's frame time
+    pub frame_ms: Option<Stats>,
     /// frames presented (after the swap barrier): [frame number, pose digest] each
     pub shown: Vec<[u64; 2]>,
     /// this rank's own failure, if it had one
@@ -454,7 +456,11 @@ impl ClusterReport {
                     format!("    {name}: p50 {:.3} ms, p99 {:.3} ms\n", d.p50, d.p99)
                 })
             };
-            s.push_str(&line("CPU frame time", &r.cpu_frame_ms));
+            s.push_str(&line("frame time (present to present)", &r.frame_ms));
+            s.push_str(&line(
+                "CPU frame time (state received to drawn)",
+                &r.cpu_frame_ms,
+            ));
             s.push_str(&line("waiting at the swap barrier", &r.swap_wait_ms));
             if let Some(e) = &r.error {
                 s.push_str(&format!("    failed: {e}\n"));

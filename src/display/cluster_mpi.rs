@@ -76,6 +76,9 @@ struct Watch {
     shown: Vec<[u64; 2]>,
     swap_ms: Vec<f64>,
     cpu_ms: Vec<f64>,
+    /// present to present, milliseconds
+    frame_ms: Vec<f64>,
+    last_present: Option<Instant>,
     display: String,
     adapter: String,
     timeout_s: f64,
@@ -268,12 +271,19 @@ impl FrameLock for Link {
                 Some(_) => {}
             }
         }
-        self.started = true;
+        // the first frame (shader compilation, every rank getting ready) is not timed
+        let timed = std::mem::replace(&mut self.started, true);
         let digest = self.current.map_or(0, |s| s.pose_digest());
         let mut w = self.watch.lock().unwrap_or_else(|e| e.into_inner());
-        w.swap_ms.push(t0.elapsed().as_secs_f64() * 1e3);
-        w.cpu_ms.push(cpu_ms);
+        if timed {
+            w.swap_ms.push(t0.elapsed().as_secs_f64() * 1e3);
+            w.cpu_ms.push(cpu_ms);
+        }
         w.shown.push([frame, digest as u64]);
+        let now = Instant::now();
+        if let Some(last) = w.last_present.replace(now) {
+            w.frame_ms.push((now - last).as_secs_f64() * 1e3);
+        }
         Ok(())
     }
 }
@@ -339,6 +349,7 @@ impl Link {
             views,
             cpu_frame_ms: Stats::of(&w.cpu_ms),
             swap_wait_ms: Stats::of(&w.swap_ms),
+            frame_ms: Stats::of(&w.frame_ms),
             shown: w.shown.clone(),
             error,
         }
@@ -878,6 +889,7 @@ fn spawn_watcher(set: libc::sigset_t, watch: Arc<Mutex<Watch>>) {
                     pid: std::process::id(),
                     cpu_frame_ms: Stats::of(&w.cpu_ms),
                     swap_wait_ms: Stats::of(&w.swap_ms),
+                    frame_ms: Stats::of(&w.frame_ms),
                     shown: w.shown.clone(),
                     ..Default::default()
                 }],
