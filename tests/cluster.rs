@@ -355,8 +355,13 @@ fn lose_rank_2(signal: &str) -> (f64, String) {
         );
         std::thread::sleep(Duration::from_millis(100));
     }
-    let _ = Command::new("kill").args(["-KILL", pid]).status();
-    (t.elapsed().as_secs_f64(), read())
+    let _ = Command::new("kill")
+        .args(["-KILL", pid])
+        .stderr(Stdio::null())
+        .status();
+    let seconds = t.elapsed().as_secs_f64();
+    eprintln!("rank 2 sent {signal}: the run ended {seconds:.2} s later");
+    (seconds, read())
 }
 
 #[cfg(feature = "mpi")]
@@ -453,4 +458,74 @@ fn xvfb() -> (KillOnDrop, String) {
         }
     }
     panic!("Xvfb did not start");
+}
+
+/// Bad `[cluster]` settings are refused naming the key (no mpirun needed).
+#[test]
+fn cluster_config_errors_name_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(write_config(dir.path(), 64)).unwrap();
+    let parse = |from: &str, to: &str| {
+        let changed = text.replacen(from, to, 1);
+        assert_ne!(changed, text, "{from}");
+        vlf::display::DisplayConfig::parse(&changed, Path::new("three.toml"))
+    };
+    let err = |from: &str, to: &str| parse(from, to).unwrap_err().to_string();
+    let e = err(r#"walls = ["left"]"#, r#"walls = ["back"]"#);
+    assert!(
+        e.contains("cluster.node[2].walls") && e.contains("no wall named \"back\""),
+        "{e}"
+    );
+    let e = err(r#"walls = ["left"]"#, r#"walls = ["left:left"]"#);
+    assert!(
+        e.contains("cluster.node[2].walls") && e.contains("separate"),
+        "{e}"
+    );
+    let e = err(r#"walls = ["left"]"#, r#"walls = ["front"]"#);
+    assert!(e.contains("already drawn by another node"), "{e}");
+    let e = err("rank = 2\n", "rank = 2\nhost = \"x\"\n");
+    assert!(
+        e.contains("cluster.node[2]") && e.contains("either rank"),
+        "{e}"
+    );
+    let e = err("timeout_s = 5", "timeout_s = -1");
+    assert!(e.contains("cluster.timeout_s"), "{e}");
+    let e = err("[[cluster.node]]\nrank = 0\nwalls = [\"floor\"]\n", "");
+    assert!(
+        e.contains("wall \"floor\"") && e.contains("drawn by no node"),
+        "{e}"
+    );
+    // ranks and hosts are checked against the run
+    let config = vlf::display::DisplayConfig::parse(&text, Path::new("three.toml")).unwrap();
+    let cluster = config.cluster.clone().unwrap();
+    let hosts = |n: usize| vec!["a".to_string(); n];
+    let e = cluster.assign(&config, &hosts(2)).unwrap_err();
+    assert!(
+        e.contains("cluster.node[2].rank") && e.contains("-np 2"),
+        "{e}"
+    );
+    assert_eq!(
+        cluster.assign(&config, &hosts(3)).unwrap()[1],
+        vec![(0, None)]
+    );
+    let by_host = parse("rank = 1\n", "host = \"b\"\n").unwrap();
+    let e = (by_host.cluster.clone().unwrap())
+        .assign(&by_host, &hosts(3))
+        .unwrap_err();
+    assert!(
+        e.contains("cluster.node[1].host") && e.contains("no rank left on host \"b\""),
+        "{e}"
+    );
+    // no nodes: the walls split in order
+    let plain = parse("[[cluster.node]]", "[[unused]]");
+    assert!(plain.is_err()); // unknown keys are refused
+    let mut none = config.clone();
+    none.cluster.as_mut().unwrap().nodes.clear();
+    let plan = none
+        .cluster
+        .clone()
+        .unwrap()
+        .assign(&none, &hosts(2))
+        .unwrap();
+    assert_eq!(plan, vec![vec![(0, None), (1, None)], vec![(2, None)]]);
 }
