@@ -285,7 +285,7 @@ fn three_ranks_in_windows_under_xvfb_present_the_same_frames() {
         ("XDG_RUNTIME_DIR", tmp.to_str().unwrap()),
     ];
     let (ok, log) = finish(mpirun(&config, &vlf, &args, &env), Duration::from_secs(600));
-    assert!(ok, "{log}");
+    assert!(ok, "on {display}: {log}");
     assert!(!log.contains("sends the light field"), "{log}");
     let report = check_report(&json, 8);
     assert_eq!(report["mode"], "windows");
@@ -295,20 +295,29 @@ fn three_ranks_in_windows_under_xvfb_present_the_same_frames() {
 /// seconds until mpirun ended and everything printed.
 #[cfg(feature = "mpi")]
 fn lose_rank_2(signal: &str) -> (f64, String) {
+    lose_rank_2_by(signal, None)
+}
+
+/// `lose_rank_2`, headless; or with `display` (Xvfb), in windows, and `action` "close" closes
+/// rank 2's window (xdotool) instead of signalling it.
+#[cfg(feature = "mpi")]
+fn lose_rank_2_by(action: &str, display: Option<&str>) -> (f64, String) {
     let dir = tempfile::tempdir().unwrap();
     let config = write_config(dir.path(), 64);
     let out = dir.path().join("out");
-    let mut args = vec![
-        "--headless",
-        "--frames",
-        "100000",
-        "--out",
-        out.to_str().unwrap(),
-    ];
+    let mut args = vec!["--frames", "100000", "--out", out.to_str().unwrap()];
+    if display.is_none() {
+        args.push("--headless");
+    }
     args.extend(LIGHT);
     let log_path = dir.path().join("log");
     let log = std::fs::File::create(&log_path).unwrap();
-    let mut c = mpirun(&config, &cornell(), &args, &[]);
+    let tmp = std::env::temp_dir();
+    let env: Vec<(&str, &str)> = match display {
+        Some(d) => vec![("DISPLAY", d), ("XDG_RUNTIME_DIR", tmp.to_str().unwrap())],
+        None => Vec::new(),
+    };
+    let mut c = mpirun(&config, &cornell(), &args, &env);
     c.stdout(log.try_clone().unwrap()).stderr(log);
     let mut child = KillOnDrop(c.spawn().expect("mpirun starts"));
     let read = || std::fs::read_to_string(&log_path).unwrap_or_default();
@@ -339,11 +348,20 @@ fn lose_rank_2(signal: &str) -> (f64, String) {
         .next()
         .unwrap();
     let t = Instant::now();
-    assert!(Command::new("kill")
-        .args([signal, pid])
-        .status()
-        .unwrap()
-        .success());
+    let done = match (action, display) {
+        ("close", Some(d)) => {
+            let found = Command::new("xdotool")
+                .args(["search", "--name", "vlf: left"])
+                .env("DISPLAY", d)
+                .output()
+                .unwrap();
+            let window = String::from_utf8_lossy(&found.stdout).trim().to_string();
+            let close = ["windowclose", window.lines().next().unwrap_or("")];
+            (Command::new("xdotool").args(close).env("DISPLAY", d)).status()
+        }
+        _ => Command::new("kill").args([action, pid]).status(),
+    };
+    assert!(done.unwrap().success());
     loop {
         if child.0.try_wait().unwrap().is_some() {
             break;
@@ -360,7 +378,7 @@ fn lose_rank_2(signal: &str) -> (f64, String) {
         .stderr(Stdio::null())
         .status();
     let seconds = t.elapsed().as_secs_f64();
-    eprintln!("rank 2 sent {signal}: the run ended {seconds:.2} s later");
+    eprintln!("rank 2 {action}: the run ended {seconds:.2} s later");
     (seconds, read())
 }
 
@@ -406,6 +424,26 @@ fn a_hung_rank_is_lost_after_the_timeout() {
     );
 }
 
+#[cfg(feature = "mpi")]
+#[test]
+fn a_rank_losing_its_window_ends_the_run_naming_it() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    require("xdotool", "sudo apt-get install xdotool");
+    let (_xvfb, display) = xvfb();
+    let (seconds, log) = lose_rank_2_by("close", Some(&display));
+    for rank in [0, 1] {
+        let said = log.lines().any(|l| {
+            l.starts_with(&format!("vlf cluster rank {rank} ")) && l.contains("lost rank 2")
+        });
+        assert!(said, "rank {rank} did not name rank 2:\n{log}");
+    }
+    assert!(
+        log.contains("LOST rank 2") && log.contains("cluster report"),
+        "{log}"
+    );
+    assert!(seconds < TIMEOUT_S + 8.0, "took {seconds} s");
+}
+
 /// Without the `mpi` feature the cluster tests cannot run: fail, saying how to run them.
 #[cfg(not(feature = "mpi"))]
 #[test]
@@ -429,9 +467,14 @@ fn cluster_tests_need_the_mpi_feature() {
 #[cfg(feature = "mpi")]
 fn xvfb() -> (KillOnDrop, String) {
     require("Xvfb", "sudo apt-get install xvfb");
+    // a new number each call: a killed server leaves its socket and lock behind
+    static CALLS: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let call = CALLS.fetch_add(20, std::sync::atomic::Ordering::Relaxed);
     for n in 0..20 {
-        let number = 500 + (std::process::id() + n) % 400;
-        if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
+        let number = 500 + (std::process::id() + call + n) % 400;
+        if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists()
+            || Path::new(&format!("/tmp/.X{number}-lock")).exists()
+        {
             continue;
         }
         let display = format!(":{number}");
@@ -448,11 +491,16 @@ fn xvfb() -> (KillOnDrop, String) {
             .stderr(Stdio::null())
             .spawn()
             .expect("Xvfb starts");
-        let guard = KillOnDrop(child);
+        let mut guard = KillOnDrop(child);
         let deadline = Instant::now() + Duration::from_secs(10);
         while Instant::now() < deadline {
+            // ours, still running (not another server's socket, ours refused as "in use")
             if Path::new(&format!("/tmp/.X11-unix/X{number}")).exists() {
-                return (guard, display);
+                std::thread::sleep(Duration::from_millis(300));
+                if guard.0.try_wait().unwrap().is_none() {
+                    return (guard, display);
+                }
+                break;
             }
             std::thread::sleep(Duration::from_millis(50));
         }

@@ -103,6 +103,8 @@ struct Link {
     quit_seen: bool,
     /// rank 0: the ranks it sends the light field to
     receivers: Vec<i32>,
+    /// rank 0 went silent (not: it reported a loss or its own failure)
+    leader_gone: bool,
     watch: Arc<Mutex<Watch>>,
 }
 
@@ -192,6 +194,7 @@ impl Link {
     /// Record `rank` lost; the error to return.
     fn lose(&mut self, rank: i32, reason: String) -> VlfError {
         let e = cluster_err(format!("lost rank {rank}: {reason}"));
+        self.leader_gone |= rank == 0;
         self.lost.push(LostRank {
             rank: rank as u32,
             reason,
@@ -392,6 +395,7 @@ pub fn run(run: &CaveRun, make: &mut MakeLightField) -> Result<()> {
         frame_began: Instant::now(),
         quit_seen: false,
         receivers: Vec::new(),
+        leader_gone: false,
         watch,
     };
     let mut adapter = String::new();
@@ -789,7 +793,7 @@ fn fail(
         let _ = gather(link, mine, cluster, adapter, run);
         abort(link, 1);
     }
-    if link.lost.iter().any(|l| l.rank == 0) {
+    if link.leader_gone {
         std::process::exit(1);
     }
     if own {
