@@ -10,8 +10,9 @@
 # into BENCHMARKS.md's section. Needs a vlf built with `--features mpi` and Open MPI's mpirun.
 #   tools/gpu-cluster.sh VLF_BINARY OUT_DIR
 set -uo pipefail
-vlf=$1; out=$2
-mkdir -p "$out"
+mkdir -p "$2"
+vlf=$(realpath "$1"); out=$(cd "$2" && pwd)
+frames=${FRAMES:-300}   # FRAMES=3 for a smoke test
 cd "$(dirname "$0")/.."
 if ! command -v mpirun >/dev/null; then
   echo "tools/gpu-cluster.sh: ABSENT: no mpirun on this machine (Open MPI is not installed: apt-get install openmpi-bin libopenmpi-dev); no cluster measurement" | tee "$out/cluster.log" >&2
@@ -28,10 +29,10 @@ git rev-parse --short HEAD > "$out/commit.txt" 2>/dev/null || echo "?" > "$out/c
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 "$vlf" propagate scenes/cornell-mirror/scene.toml -o /tmp/mirror.vlf 2>&1 | grep -E "iterations|propagation  " | tee -a "$out/cluster.log"
 # one process first (the baseline), then the cluster
-"$vlf" cave config/displays/cave-4wall.toml --scene /tmp/mirror.vlf --headless --frames 300 \
+"$vlf" cave config/displays/cave-4wall.toml --scene /tmp/mirror.vlf --headless --frames "$frames" \
   --out /tmp/cave-1process --json "$out/cave-1process.json" 2>&1 | grep -v XDG | tee -a "$out/cluster.log"
 timeout 900 mpirun -np 2 --oversubscribe "$vlf" cave config/displays/cave-4wall.toml --scene /tmp/mirror.vlf \
-  --headless --frames 300 --out /tmp/cave-cluster --json "$out/cluster-2ranks.json" 2>&1 | grep -v XDG | tee -a "$out/cluster.log"
+  --headless --frames "$frames" --out /tmp/cave-cluster --json "$out/cluster-2ranks.json" 2>&1 | grep -v XDG | tee -a "$out/cluster.log"
 rc=${PIPESTATUS[0]}
 echo "mpirun exit status $rc" | tee -a "$out/cluster.log"
 [ -f "$out/cluster-2ranks.json" ] || { echo "tools/gpu-cluster.sh: no cluster report written" >&2; exit 1; }
