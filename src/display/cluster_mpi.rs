@@ -867,14 +867,14 @@ fn spawn_watcher(set: libc::sigset_t, watch: Arc<Mutex<Watch>>) {
             .map(|l| format!("rank {} ({})", l.rank, l.reason))
             .collect();
         eprintln!(
-            "vlf cluster rank {} ({}): mpirun is ending the job at frame {}: lost {}",
+            "vlf cluster rank {} ({}): mpirun is ending the job at frame {}: {}",
             w.rank,
             w.host,
             w.frame,
             if names.is_empty() {
-                "a rank on another host (mpirun names it)".to_string()
+                "no rank seen lost from here (interrupted, or a rank on another host ended: mpirun names it)".to_string()
             } else {
-                names.join(", ")
+                format!("lost {}", names.join(", "))
             }
         );
         if w.rank == 0 {
