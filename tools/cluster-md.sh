@@ -7,8 +7,9 @@ import json, os, sys
 d = sys.argv[1]
 read = lambda name: open(os.path.join(d, name)).read().strip() if os.path.exists(os.path.join(d, name)) else "?"
 r = json.load(open(os.path.join(d, "cluster-2ranks.json")))
-print("### CAVE cluster: 2 MPI ranks, frame lock\n")
-print(f"`tools/gpu-cluster.sh` on **{read('gpu.txt')}**, commit {read('commit.txt')}: `mpirun -np 2 vlf cave config/displays/cave-4wall.toml --headless --frames 300` "
+frames = len(r["per_rank"][0]["shown"]) if r["per_rank"] else 0
+print(f"### CAVE cluster: {r['ranks']} MPI ranks, frame lock\n")
+print(f"`tools/gpu-cluster.sh` on **{read('gpu.txt')}**, commit {read('commit.txt')}: `mpirun -np 2 vlf cave config/displays/cave-4wall.toml --headless --frames {frames}` "
       f"(8 views of 1920x1200, Cornell-mirror at default settings loaded from one .vlf by both ranks; front and left walls on rank 0, right and floor on rank 1). "
       f"**Both ranks share the one GPU** (a 2-GPU machine was not available), so the frame time is two processes' work on one GPU, not a node per wall. "
       f"Frame time is present to present on each rank; the swap barrier wait is the time a rank waits for the other before presenting; GPU time per view from timestamp queries. "
