@@ -233,6 +233,29 @@ pub fn run_locked(
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
+    let (timings, worst) = view_timings(config, &views, &gpu);
+    Ok(CaveReport {
+        worst_p99_over_p50: worst,
+        constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
+        display: config.name.clone(),
+        adapter: resident.ctx.summary.name.clone(),
+        frames: frames.max(1),
+        views_per_frame: views.len(),
+        views: timings,
+        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
+        cpu_frame_ms: Distribution::of(&cpu),
+        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
+        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
+        images,
+    })
+}
+
+/// Each view's GPU time, and the largest p99/p50 among them.
+fn view_timings(
+    config: &DisplayConfig,
+    views: &[(usize, &'static str, f32)],
+    gpu: &[Vec<f64>],
+) -> (Vec<ViewTiming>, Option<f64>) {
     let timings: Vec<ViewTiming> = views
         .iter()
         .enumerate()
@@ -251,20 +274,7 @@ pub fn run_locked(
         .iter()
         .filter_map(|v: &ViewTiming| v.p99_over_p50)
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
-    Ok(CaveReport {
-        worst_p99_over_p50: worst,
-        constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
-        display: config.name.clone(),
-        adapter: resident.ctx.summary.name.clone(),
-        frames: frames.max(1),
-        views_per_frame: views.len(),
-        views: timings,
-        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
-        cpu_frame_ms: Distribution::of(&cpu),
-        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
-        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
-        images,
-    })
+    (timings, worst)
 }
 
 /// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
