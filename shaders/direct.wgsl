@@ -12,8 +12,9 @@
 // - the sky: cosine-weighted stratified shadow rays over the texel's hemisphere.
 // Every sample pattern is fixed per texel (a hash of its index rotates it), so the result is
 // bit-for-bit repeatable. It replaces the first iteration's gather for texels only; mirror tile
-// cells still receive the emitters through the light field, so emitter -> mirror -> diffuse
-// paths stay in the transport.
+// cells still receive the emitters through the light field (they carry mirror -> mirror
+// chains). With mirrors (mirror_direct), emitter -> mirror -> texel paths come in the second
+// iteration from mirror_light, in closed form, instead of through the mirror tiles.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
@@ -88,45 +89,17 @@ fn hammersley(k: u32, n: u32, shift: vec2<f32>) -> vec2<f32> {
     return fract(vec2<f32>((f32(k) + 0.5) / f32(n), radical_inverse(k)) + shift);
 }
 
+// A convex polygon relative to the receiver: a triangle clipped by up to five planes (the
+// receiver's hemisphere; for a virtual emitter also the mirror's plane and the three sides of
+// the window through the mirror triangle) has at most 8 corners.
 struct Polygon {
-    p: array<vec3<f32>, 4>,
-    count: u32,
-}
-
-// The triangle (relative to the receiver) clipped to the receiver's hemisphere (Sutherland-
-// Hodgman against the plane through it with normal n): 0, 3 or 4 corners.
-fn clip_to_hemisphere(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>) -> Polygon {
-    var out: Polygon;
-    out.count = 0u;
-    let corners = array<vec3<f32>, 3>(a, b, c);
-    for (var k = 0u; k < 3u; k++) {
-        let p = corners[k];
-        let q = corners[(k + 1u) % 3u];
-        let dp = dot(n, p);
-        let dq = dot(n, q);
-        if dp > 0.0 && out.count < 4u {
-            out.p[out.count] = p;
-            out.count += 1u;
-        }
-        if (dp > 0.0) != (dq > 0.0) && out.count < 4u {
-            out.p[out.count] = p + (q - p) * (dp / (dp - dq));
-            out.count += 1u;
-        }
-    }
-    if out.count < 3u {
-        out.count = 0u;
-    }
-    return out;
-}
-
-// A polygon of up to 8 corners (clipping a triangle by four planes).
-struct Poly8 {
     p: array<vec3<f32>, 8>,
     count: u32,
 }
 
-fn clip_to_plane(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
-    var poly: Poly8;
+// The triangle (a, b, c) clipped to the side of the plane through `at` that n points to.
+fn clip_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec3<f32>) -> Polygon {
+    var poly: Polygon;
     poly.p[0] = a;
     poly.p[1] = b;
     poly.p[2] = c;
@@ -134,9 +107,10 @@ fn clip_to_plane(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, n: vec3<f32>, at: vec
     return clip_polygon(poly, n, at);
 }
 
-// Keep the part of the polygon on the side of the plane (through `at`) that n points to.
-fn clip_polygon(poly: Poly8, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
-    var out: Poly8;
+// Keep the part of the polygon on the side of the plane (through `at`) that n points to
+// (Sutherland-Hodgman); fewer than 3 corners left: empty.
+fn clip_polygon(poly: Polygon, n: vec3<f32>, at: vec3<f32>) -> Polygon {
+    var out: Polygon;
     out.count = 0u;
     for (var k = 0u; k < poly.count; k++) {
         let p = poly.p[k];
@@ -158,45 +132,6 @@ fn clip_polygon(poly: Poly8, n: vec3<f32>, at: vec3<f32>) -> Poly8 {
     return out;
 }
 
-fn polygon_irradiance_any(poly: Poly8, n: vec3<f32>) -> f32 {
-    var sum = 0.0;
-    for (var k = 0u; k < poly.count; k++) {
-        let a = normalize(poly.p[k]);
-        let b = normalize(poly.p[(k + 1u) % poly.count]);
-        let c = cross(a, b);
-        let len = length(c);
-        if len > 1e-12 {
-            sum += atan2(len, dot(a, b)) * dot(n, c / len);
-        }
-    }
-    return abs(sum) * 0.5;
-}
-
-// A point of a convex polygon for uniform u: a fan triangle by area, then uniform in it.
-fn polygon_fan_point(poly: Poly8, u: vec2<f32>) -> vec3<f32> {
-    var total = 0.0;
-    for (var k = 1u; k + 1u < poly.count; k++) {
-        total += length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-    }
-    var target_area = u.x * total;
-    var s = 0.0;
-    var k = 1u;
-    for (; k + 2u < poly.count; k++) {
-        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-        if target_area < area {
-            s = target_area / max(area, 1e-20);
-            break;
-        }
-        target_area -= area;
-    }
-    if k + 2u >= poly.count {
-        let area = length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
-        s = clamp(target_area / max(area, 1e-20), 0.0, 1.0);
-    }
-    let r = sqrt(s);
-    return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
-}
-
 // Irradiance at the origin (normal n) from a polygon of unit radiance above its horizon:
 // Lambert's formula, half the sum over edges of the edge's angle times n . the edge's normal.
 fn polygon_irradiance(poly: Polygon, n: vec3<f32>) -> f32 {
@@ -213,33 +148,38 @@ fn polygon_irradiance(poly: Polygon, n: vec3<f32>) -> f32 {
     return abs(sum) * 0.5;
 }
 
-fn polygon_area(poly: Polygon) -> vec2<f32> {
-    if poly.count < 3u {
-        return vec2<f32>(0.0);
-    }
-    let first = 0.5 * length(cross(poly.p[1] - poly.p[0], poly.p[2] - poly.p[0]));
-    var second = 0.0;
-    if poly.count == 4u {
-        second = 0.5 * length(cross(poly.p[2] - poly.p[0], poly.p[3] - poly.p[0]));
-    }
-    return vec2<f32>(first, second);
+// Twice the area of the fan triangle (p0, pk, pk+1).
+fn fan_area2(poly: Polygon, k: u32) -> f32 {
+    return length(cross(poly.p[k] - poly.p[0], poly.p[k + 1u] - poly.p[0]));
 }
 
-// A point of the polygon (its one or two triangles), uniform in area for uniform `u`.
-fn polygon_point(poly: Polygon, areas: vec2<f32>, u: vec2<f32>) -> vec3<f32> {
-    let split = areas.x / (areas.x + areas.y);
-    var s = u.x;
-    var c = poly.p[2];
-    var b = poly.p[1];
-    if s >= split {
-        s = (s - split) / max(1.0 - split, 1e-12);
-        b = poly.p[2];
-        c = poly.p[3];
-    } else {
-        s = s / max(split, 1e-12);
+fn polygon_area(poly: Polygon) -> f32 {
+    var total = 0.0;
+    for (var k = 1u; k + 1u < poly.count; k++) {
+        total += fan_area2(poly, k);
     }
-    let r = sqrt(clamp(s, 0.0, 1.0));
-    return poly.p[0] * (1.0 - r) + b * (r * (1.0 - u.y)) + c * (r * u.y);
+    return 0.5 * total;
+}
+
+// A point of the convex polygon, uniform in area for uniform u: a fan triangle by area (u.x
+// picks it and, rescaled, the point in it), then uniform in that triangle.
+fn polygon_point(poly: Polygon, u: vec2<f32>) -> vec3<f32> {
+    var target_area = u.x * 2.0 * polygon_area(poly);
+    var s = 0.0;
+    var k = 1u;
+    for (; k + 2u < poly.count; k++) {
+        let area = fan_area2(poly, k);
+        if target_area < area {
+            s = target_area / max(area, 1e-20);
+            break;
+        }
+        target_area -= area;
+    }
+    if k + 2u >= poly.count {
+        s = clamp(target_area / max(fan_area2(poly, k), 1e-20), 0.0, 1.0);
+    }
+    let r = sqrt(s);
+    return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
 }
 
 fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
@@ -251,7 +191,7 @@ fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
         return none;
     }
     let a = e.v0 - x;
-    return clip_to_hemisphere(a, a + e.e1, a + e.e2, n);
+    return clip_triangle(a, a + e.e1, a + e.e2, n, vec3<f32>(0.0));
 }
 
 fn emitted_radiance(e: Emitter, point: vec3<f32>) -> vec3<f32> {
@@ -317,12 +257,12 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
             unsampled += unoccluded;
             continue;
         }
-        let areas = polygon_area(poly);
+        let area = polygon_area(poly);
         let normal = faces[e.face].normal;
         var seen = vec3<f32>(0.0);
         var expected = vec3<f32>(0.0);
         for (var k = 0u; k < count; k++) {
-            let p = polygon_point(poly, areas, hammersley(k, count, shift));
+            let p = polygon_point(poly, hammersley(k, count, shift));
             let r2 = dot(p, p);
             let dir = p / sqrt(r2);
             let g = max(dot(n, dir), 0.0) * max(-dot(normal, dir), 0.0) / r2;
@@ -332,7 +272,7 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
         let ratio = select(vec3<f32>(0.0), seen / expected, expected > vec3<f32>(0.0));
         irradiance += unoccluded * ratio;
         // over all rays: weighted by area per ray, so that emitters count by their irradiance
-        let scale = (areas.x + areas.y) / f32(count);
+        let scale = area / f32(count);
         seen_all += seen * scale;
         expected_all += expected * scale;
     }
@@ -384,7 +324,7 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
 // cone from x' through M's edges, in closed form; visibility from shadow rays along both legs
 // (x -> the point on the mirror -> the emitter), per pair. These paths would otherwise reach the
 // texels through the mirror tiles' fixed directions (a caustic that aliases like direct light
-// did); the first iteration after this one leaves mirror senders out of the texels' gather.
+// did); mirror_light adds them in the second iteration, whose gather leaves mirror senders out.
 fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x27d4eb2fu)), unit_float(hash(seed + 0x165667b1u)));
@@ -416,12 +356,12 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
             if dot(en, xr - e.v0) <= 0.0 {
                 continue;
             }
-            var poly = clip_to_plane(e.v0 - xr, e.v0 + e.e1 - xr, e.v0 + e.e2 - xr, nr, vec3<f32>(0.0));
+            var poly = clip_triangle(e.v0 - xr, e.v0 + e.e1 - xr, e.v0 + e.e2 - xr, nr, vec3<f32>(0.0));
             poly = clip_polygon(poly, nm, mt.v0 - xr);
             poly = clip_polygon(poly, w0, vec3<f32>(0.0));
             poly = clip_polygon(poly, w1, vec3<f32>(0.0));
             poly = clip_polygon(poly, w2, vec3<f32>(0.0));
-            let f = polygon_irradiance_any(poly, nr);
+            let f = polygon_irradiance(poly, nr);
             if f <= 0.0 {
                 continue;
             }
@@ -429,7 +369,7 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
             var seen = 0.0;
             var expected = 0.0;
             for (var k = 0u; k < count; k++) {
-                let p = polygon_fan_point(poly, hammersley(k, count, shift));
+                let p = polygon_point(poly, hammersley(k, count, shift));
                 let r2 = dot(p, p);
                 let dir = p / sqrt(r2);
                 let g = max(dot(nr, dir), 0.0) * max(-dot(en, dir), 0.0) / r2;
@@ -470,9 +410,128 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (grid.flags & GRID_FLAG_SKY) != 0u {
         sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
     }
-    var mirrored = vec3<f32>(0.0);
-    if direct.mirror_count > 0u {
-        mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
+    next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
+}
+
+// What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance
+// from their diffuse parts' unshot radiance (mixed surfaces), w the irradiance that unit radiance
+// on them would give (pi times their cosine-weighted share of x's hemisphere). Each mirror
+// triangle clipped to the hemisphere in closed form, times the ratio over shadow rays to points
+// on it of (visibility x radiance) and of visibility, as for emitters.
+fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec4<f32> {
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x3c6ef372u)), unit_float(hash(seed + 0x7f4a7c15u)));
+    let count = max(1u, direct.emitter_samples / max(direct.mirror_count, 1u));
+    let origin = x + n * RAY_OFFSET;
+    var sum = vec4<f32>(0.0);
+    for (var m = 0u; m < direct.mirror_count; m++) {
+        let mt = mirrors[m];
+        let mf = faces[mt.face];
+        if mt.face == skip || dot(mf.normal, x - mt.v0) <= 0.0 {
+            continue;
+        }
+        let a = mt.v0 - x;
+        let poly = clip_triangle(a, a + mt.e1, a + mt.e2, n, vec3<f32>(0.0));
+        let f = polygon_irradiance(poly, n);
+        if f <= 0.0 {
+            continue;
+        }
+        let diffuse = any(mf.albedo > vec3<f32>(0.0));
+        var seen = vec4<f32>(0.0);
+        var expected = 0.0;
+        for (var k = 0u; k < count; k++) {
+            let p = polygon_point(poly, hammersley(k, count, shift));
+            let r2 = dot(p, p);
+            let dir = p / sqrt(r2);
+            let g = max(dot(n, dir), 0.0) * max(-dot(mf.normal, dir), 0.0) / r2;
+            expected += g;
+            let v = g * visible(origin, x + p, skip);
+            var radiance = vec3<f32>(0.0);
+            if diffuse && v > 0.0 {
+                let taps = atlas_taps(mf, x + p, grid.atlas_width);
+                radiance = (unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+                    + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w) / PI;
+            }
+            seen += vec4<f32>(radiance, 1.0) * v;
+        }
+        sum += f * select(vec4<f32>(0.0), seen / expected, expected > 0.0);
     }
-    next[in_page] = vec4<f32>(f.albedo * (e + mirrored + sky), sky.x + sky.y + sky.z);
+    return sum;
+}
+
+// The second iteration's texels, after their gather (which left mirror senders out and put pi x
+// their share of the quadrature weight in w): what the emitters' first reflections in the
+// mirrors deliver (virtual emitters, closed form), and the gathered rest rescaled from the
+// discrete directions' share of the hemisphere to the exact share the mirrors leave. The two
+// parts then split the hemisphere the same way, as the plain gather's do: a uniformly lit scene
+// stays uniform (the closed box of emitting mirrors and walls comes out exact), where the
+// directions' share alone would leave its aliasing in every later bounce. The diffuse part of
+// mixed surfaces (mirror and diffuse parts) comes with the mirrors' share (mirror_share), not
+// through the gather, which left those senders out whole.
+@compute @workgroup_size(64)
+fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    if in_page >= texel_page.cells {
+        return;
+    }
+    let texel = texel_page.base + in_page;
+    let point = texel_point(texel);
+    let face_id = bitcast<u32>(point.w);
+    if face_id == NO_FACE {
+        next[in_page] = vec4<f32>(0.0);
+        return;
+    }
+    let f = faces[face_id];
+    let seed = hash(texel);
+    let gathered = next[in_page];
+    let discrete = clamp(gathered.w / PI, 0.0, 1.0);
+    let share = mirror_share(point.xyz, f.normal, seed, face_id);
+    let exact = clamp(share.w / PI, 0.0, 1.0);
+    // where the directions saw mirrors alone, the rest's mean radiance is unknown: keep it
+    let scale = select(1.0, (1.0 - exact) / (1.0 - discrete), discrete < 0.999);
+    let mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
+    next[in_page] = vec4<f32>(gathered.xyz * scale + f.albedo * (mirrored + share.xyz), 0.0);
+}
+
+// Which texels lie inside closed geometry, such as the part of a floor under a box that stands
+// on it: from there most of the hemisphere meets the back of one-sided faces. Nothing can see
+// such a texel, but the renderer's bilinear lookup next to the contact line would blend its
+// darkness into the visible texels beside it (a dark, texel-stepped seam along the foot of
+// every box, magnified in a mirror). Run once, with group 1's `next` bound to the page's total
+// radiance: w = 1 for a texel the renderer may interpolate, 0 for one it leaves out. A fixed
+// pattern of cosine-distributed rays, so the marks repeat bit for bit.
+const VALIDITY_RAYS: u32 = 16u;
+
+@compute @workgroup_size(64)
+fn texel_validity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    if in_page >= texel_page.cells {
+        return;
+    }
+    let point = texel_point(texel_page.base + in_page);
+    let face_id = bitcast<u32>(point.w);
+    if face_id == NO_FACE {
+        return;
+    }
+    let n = faces[face_id].normal;
+    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
+    let a = normalize(cross(n, t));
+    let b = cross(n, a);
+    let origin = point.xyz + n * RAY_OFFSET;
+    var inside = 0u;
+    for (var k = 0u; k < VALIDITY_RAYS; k++) {
+        let u = hammersley(k, VALIDITY_RAYS, vec2<f32>(0.5));
+        let r = sqrt(u.x);
+        let phi = 2.0 * PI * u.y;
+        let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
+        let hit = trace_skipping(origin, dir, 4.0, false, face_id, 0.0);
+        if hit.tri != NO_FACE {
+            let f = faces[triangles[hit.tri].face];
+            // the back of a one-sided face (a two-sided surface's back is its twin's front)
+            if dot(f.normal, dir) > 0.0 && f.twin == NO_FACE {
+                inside += 1u;
+            }
+        }
+    }
+    let valid = select(1.0, 0.0, inside * 4u >= VALIDITY_RAYS * 3u);
+    next[in_page] = vec4<f32>(next[in_page].xyz, valid);
 }

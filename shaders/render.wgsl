@@ -85,10 +85,20 @@ fn tile_cells_total() -> u32 {
     return view.tile_cell_count;
 }
 
+// Bilinear in the atlas over the texels marked visible (w = 1, propagate's texel_validity):
+// a texel inside closed geometry (under a box standing on the floor) drops out and the others
+// take its weight, so no dark seam runs along the foot of the box. A light field without marks
+// (w = 0 everywhere: the paper's settings, older files) interpolates all four.
 fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
     let taps = atlas_taps(f, p, view.atlas_width);
-    return radiance(taps.index.x).xyz * taps.weight.x + radiance(taps.index.y).xyz * taps.weight.y
-        + radiance(taps.index.z).xyz * taps.weight.z + radiance(taps.index.w).xyz * taps.weight.w;
+    let r0 = radiance(taps.index.x);
+    let r1 = radiance(taps.index.y);
+    let r2 = radiance(taps.index.z);
+    let r3 = radiance(taps.index.w);
+    let marked = taps.weight * vec4<f32>(r0.w, r1.w, r2.w, r3.w);
+    let sum = marked.x + marked.y + marked.z + marked.w;
+    let w = select(taps.weight, marked / sum, sum > 1e-6);
+    return r0.xyz * w.x + r1.xyz * w.y + r2.xyz * w.z + r3.xyz * w.w;
 }
 
 // The mirror part leaving p along out_dir: three fixed directions around it, from the tiles.

@@ -37,12 +37,8 @@ fn tile_cells_total() -> u32 {
     return grid.tile_cell_count;
 }
 
-// set by gather_mixed: this thread gathers for a texel (not for a tile cell)
-var<private> gathering_texel: bool;
-
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
-    let left_out = gathering_texel && (grid.flags & GRID_FLAG_NO_MIRROR_SENDERS) != 0u;
-    if s.tile_slot == NO_FACE || left_out {
+    if s.tile_slot == NO_FACE {
         return vec3<f32>(0.0);
     }
     let d = tile_directions[dir_index];
@@ -51,7 +47,6 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
 
 @compute @workgroup_size(64)
 fn gather_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    gathering_texel = true;
     gather_and_store(gid.x + gid.y * groups.x * 64u);
 }
 

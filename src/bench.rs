@@ -8,36 +8,10 @@ use crate::propagate::PropagationParams;
 use crate::render::Renderer;
 use crate::report::PropagationReport;
 use crate::scene::Scene;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::sync::Arc;
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Distribution {
-    pub samples: usize,
-    pub median: f64,
-    pub p95: f64,
-    pub p99: f64,
-    pub min: f64,
-    pub max: f64,
-    pub mean: f64,
-}
-
-impl Distribution {
-    pub fn of(values: &[f64]) -> Distribution {
-        let mut v = values.to_vec();
-        v.sort_by(|a, b| a.total_cmp(b));
-        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
-        Distribution {
-            samples: v.len(),
-            median: at(0.5),
-            p95: at(0.95),
-            p99: at(0.99),
-            min: v[0],
-            max: v[v.len() - 1],
-            mean: v.iter().sum::<f64>() / v.len() as f64,
-        }
-    }
-}
+pub use crate::stats::Distribution;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {

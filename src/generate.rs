@@ -10,6 +10,16 @@
 
 use crate::error::{Result, VlfError};
 use glam::DVec3;
+
+mod gltf;
+
+/// How `vlf generate` writes the mesh: OBJ + MTL, or glTF 2.0 (.gltf + .bin).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+pub enum MeshFormat {
+    #[default]
+    Obj,
+    Gltf,
+}
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -179,6 +189,11 @@ const MTL: &str = "newmtl wall\nKd 0.72 0.70 0.66\n\nnewmtl floor\nKd 0.45 0.33 
 
 /// Write the scene into `dir` (created), refusing to overwrite a different scene's files.
 pub fn generate(options: &GenerateOptions, dir: &Path) -> Result<Generated> {
+    generate_as(options, dir, MeshFormat::Obj)
+}
+
+/// [`generate`], the mesh written in `format`.
+pub fn generate_as(options: &GenerateOptions, dir: &Path, format: MeshFormat) -> Result<Generated> {
     if options.size == 0 {
         return Err(VlfError::Parameter {
             name: "size",
@@ -193,9 +208,22 @@ pub fn generate(options: &GenerateOptions, dir: &Path) -> Result<Generated> {
     let write = |name: &str, text: &str| {
         crate::lightfield::file::write_atomic(&dir.join(name), text.as_bytes())
     };
-    write("scene.obj", &mesh.obj)?;
-    write("scene.mtl", MTL)?;
-    write("scene.toml", &toml)?;
+    match format {
+        MeshFormat::Obj => {
+            write("scene.obj", &mesh.obj)?;
+            write("scene.mtl", MTL)?;
+            write("scene.toml", &toml)?;
+        }
+        MeshFormat::Gltf => {
+            let (json, bin) = gltf::from_obj(&mesh.obj, MTL, "scene.bin")?;
+            crate::lightfield::file::write_atomic(&dir.join("scene.bin"), &bin)?;
+            write("scene.gltf", &json)?;
+            write(
+                "scene.toml",
+                &toml.replace("mesh = \"scene.obj\"", "mesh = \"scene.gltf\""),
+            )?;
+        }
+    }
     Ok(Generated {
         scene: dir.join("scene.toml"),
         triangles: mesh.triangles,

@@ -6,6 +6,7 @@
 //! shared GPU helpers; [`bench`] and [`report`] measure and tell.
 
 pub mod bench;
+pub mod color;
 pub mod display;
 pub mod error;
 pub mod export;
@@ -13,12 +14,14 @@ pub mod generate;
 pub mod gpu;
 pub mod lightfield;
 pub mod metrics;
+pub mod mirrored;
 pub mod prepare;
 pub mod propagate;
 pub mod reference;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod stats;
 pub mod stress;
 pub mod suite;
 pub mod sweep;

@@ -30,6 +30,7 @@ enum ExportFormat {
 enum Command {
     /// Propagate a scene into a light field file (.vlf)
     Propagate {
+        /// scene.toml or a glTF model (.gltf/.glb)
         scene: PathBuf,
         #[arg(short, long)]
         output: PathBuf,
@@ -47,7 +48,7 @@ enum Command {
     },
     /// Render a view from a scene (propagating first) or from a .vlf file
     Render {
-        /// scene.toml or file.vlf
+        /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
         input: PathBuf,
         #[arg(long)]
         camera: Option<String>,
@@ -205,7 +206,7 @@ enum Command {
         #[command(flatten)]
         params: ParamArgs,
     },
-    /// Write a procedural scene (scene.toml + OBJ + MTL) that scales to a million triangles
+    /// Write a procedural scene (scene.toml + OBJ + MTL, or glTF) that scales to a million triangles
     Generate {
         kind: vlf::generate::SceneKind,
         /// About this many triangles (classroom) or faces (gallery)
@@ -214,6 +215,9 @@ enum Command {
         /// The mirror variant (a mirror wall in the classroom, mirrors along the gallery)
         #[arg(long)]
         mirrors: bool,
+        /// The mesh as OBJ + MTL or as glTF 2.0 (.gltf + .bin)
+        #[arg(long, value_enum, default_value = "obj")]
+        format: vlf::generate::MeshFormat,
         #[arg(short, long)]
         out: PathBuf,
     },
@@ -384,9 +388,14 @@ struct ParamArgs {
     /// 0 sends direct light through the fixed directions as the paper does
     #[arg(long)]
     direct_samples: Option<u32>,
-    /// Direct light also through planar mirrors (virtual emitters; experimental, off by default)
-    #[arg(long)]
+    /// Direct light also through planar mirrors: emitters seen in them as virtual emitters (on
+    /// by default where direct light is on; for settings files that turn it off)
+    #[arg(long, conflicts_with = "no_mirror_direct")]
     mirror_direct: bool,
+    /// Mirrors' first reflections of the emitters through the mirror tiles' fixed directions
+    /// instead of as virtual emitters
+    #[arg(long)]
+    no_mirror_direct: bool,
 }
 
 impl ParamArgs {
@@ -445,8 +454,8 @@ impl ParamArgs {
         if let Some(d) = self.direct_samples {
             p.direct_samples = d;
         }
-        if self.mirror_direct {
-            p.mirror_direct = true;
+        if self.mirror_direct || self.no_mirror_direct {
+            p.mirror_direct = self.mirror_direct;
         }
         Ok(p)
     }
@@ -617,12 +626,13 @@ fn run(cli: Cli) -> Result<()> {
             let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
             image_io::write_image(&r.mean, &output, 1.0)?;
             println!(
-                "{} ({}x{}, {} spp, seed {seed}, {:.2} s)",
+                "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
                 output.display(),
                 size[0],
                 size[1],
                 r.spp,
-                r.seconds
+                r.seconds,
+                r.setup_seconds
             );
             if let Some(path) = variance {
                 image_io::write_image(&r.variance, &path, 1.0)?;
@@ -737,15 +747,17 @@ fn run(cli: Cli) -> Result<()> {
             kind,
             size,
             mirrors,
+            format,
             out,
         } => {
-            let g = vlf::generate::generate(
+            let g = vlf::generate::generate_as(
                 &vlf::generate::GenerateOptions {
                     kind,
                     size,
                     mirrors,
                 },
                 &out,
+                format,
             )?;
             println!(
                 "{}: {} triangles, {} faces ({})",

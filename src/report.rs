@@ -27,6 +27,8 @@ pub struct PropagationReport {
     pub tile_bytes: u64,
     /// per-texel texture factors on the GPU (none in an untextured scene)
     pub texture_bytes: u64,
+    /// the scene's textures on the host: kept (resolved to texel density) and at full size
+    pub host_textures: crate::scene::texels::TextureMemory,
     pub layers: u64,
     pub visibility_kept_resident: bool,
     /// directions are gathered in this many batches (1: all lists resident)
@@ -52,6 +54,9 @@ pub struct PropagationReport {
     pub mirror_rendering: Option<crate::lightfield::MirrorChains>,
     /// emitter triangles whose light reaches the texels directly (0: through the directions)
     pub direct_emitters: u32,
+    /// mirror triangles whose virtual emitters reach the texels in closed form (0: no mirror,
+    /// or mirror_direct off: then through the mirror tiles)
+    pub direct_mirrors: u32,
     pub sky: bool,
     pub warnings: Vec<String>,
 }
@@ -112,7 +117,15 @@ impl PropagationReport {
                 if self.texture_bytes == 0 {
                     "none: nothing allocated".into()
                 } else {
-                    human_bytes(self.texture_bytes)
+                    let h = &self.host_textures;
+                    format!(
+                        "{} on the GPU; {} image(s), {} on the host ({} at full size, {} reduced to texel density)",
+                        human_bytes(self.texture_bytes),
+                        h.textures,
+                        human_bytes(h.kept_bytes),
+                        human_bytes(h.full_bytes),
+                        h.reduced
+                    )
                 },
             ),
             (
@@ -172,8 +185,18 @@ impl PropagationReport {
         rows.push((
             "direct light".into(),
             if self.params.direct_samples > 0 {
+                let mirrors = if self.direct_mirrors > 0 {
+                    format!(
+                        "; mirrors' virtual emitters included ({} mirror triangle(s))",
+                        self.direct_mirrors
+                    )
+                } else if self.non_diffuse_elements > 0 {
+                    "; mirrors' virtual emitters not included (through the mirror tiles)".into()
+                } else {
+                    String::new()
+                };
                 format!(
-                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility)",
+                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility){mirrors}",
                     self.direct_emitters, self.params.direct_samples
                 )
             } else {

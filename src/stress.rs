@@ -104,7 +104,7 @@ fn small() -> PropagationParams {
         accelerate: true,
         memory_budget_mib: None,
         direct_samples: 64,
-        mirror_direct: false,
+        mirror_direct: true,
     }
 }
 

@@ -5,13 +5,13 @@
 //! modelled memory traffic against the device's peak, render time per view at 1024x768 and
 //! 1920x1080, one 8-view CAVE frame, memory; then the targets, checked, and a log-log chart.
 
-use crate::bench::Distribution;
 use crate::error::Result;
 use crate::generate::{GenerateOptions, SceneKind};
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger, Timestamps};
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
 use crate::scene::{Camera, Scene};
+use crate::stats::Distribution;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

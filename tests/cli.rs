@@ -432,3 +432,37 @@ fn quality_presets_and_the_software_adapters_lighter_settings() {
         "the choices are listed: {err}"
     );
 }
+
+#[test]
+fn mirrors_virtual_emitters_are_on_by_default_and_the_summary_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let propagate = |args: &[&str]| {
+        let out = vlf()
+            .arg("propagate")
+            .arg(repo_path("scenes/cornell-mirror/scene.toml"))
+            .arg("-o")
+            .arg(dir.path().join("x.vlf"))
+            .args(SMALL)
+            .args(["--max-iterations", "2", "--direct-samples", "4"])
+            .args(args)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+        let err = String::from_utf8_lossy(&out.stderr).into_owned();
+        (out.status.success(), stdout, err)
+    };
+    let (ok, stdout, err) = propagate(&[]);
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("mirrors' virtual emitters included"),
+        "{stdout}"
+    );
+    let (ok, stdout, err) = propagate(&["--no-mirror-direct"]);
+    assert!(ok, "{err}");
+    assert!(
+        stdout.contains("mirrors' virtual emitters not included"),
+        "{stdout}"
+    );
+    let (ok, _, err) = propagate(&["--mirror-direct", "--no-mirror-direct"]);
+    assert!(!ok && err.contains("cannot be used with"), "{err}");
+}

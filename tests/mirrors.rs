@@ -11,6 +11,10 @@ use vlf::render::Renderer;
 use vlf::scene::{Camera, Scene};
 
 fn params(n: u32, grid: u32, density: f64) -> PropagationParams {
+    params_with(n, grid, density, false)
+}
+
+fn params_with(n: u32, grid: u32, density: f64, mirror_direct: bool) -> PropagationParams {
     PropagationParams {
         geodesic_frequency: n,
         grid_resolution: grid,
@@ -22,13 +26,33 @@ fn params(n: u32, grid: u32, density: f64) -> PropagationParams {
         accelerate: true,
         memory_budget_mib: None,
         direct_samples: 16,
-        mirror_direct: false,
+        mirror_direct,
     }
 }
 
 #[test]
 fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
-    // every wall emits Le and reflects rho (three as mirrors, three diffusely): L = Le / (1 - rho)
+    closed_box(false, 0.0, 0.01, 0.01);
+}
+
+#[test]
+fn closed_box_with_virtual_emitters_conserves_energy() {
+    // measured on lavapipe: texels 3.2e-6, pixels 7.2e-7 (single precision; 1.4% before the
+    // virtual emitters moved to the second iteration with the mirrors' exact share)
+    closed_box(true, 0.0, 1e-5, 2e-6);
+}
+
+#[test]
+fn closed_box_of_mixed_and_diffuse_walls_with_virtual_emitters_conserves_energy() {
+    // the mirror walls reflect half of rho diffusely: measured on lavapipe texels 3.3e-6, pixels
+    // 6.0e-7 (2.1% when the gather still brought those walls' diffuse part)
+    closed_box(true, 0.25, 1e-5, 2e-6);
+}
+
+/// Every wall emits Le and reflects rho (three as mirrors, three diffusely): L = Le / (1 - rho).
+/// The mirror walls reflect `mixed` of rho diffusely and the rest as mirrors. `texel_bound` and
+/// `pixel_bound`: the worst relative error allowed.
+fn closed_box(mirror_direct: bool, mixed: f32, texel_bound: f32, pixel_bound: f32) {
     let ctx = gpu();
     let dir = tempfile::tempdir().unwrap();
     let (le, rho) = (1.0f32, 0.5f32);
@@ -58,11 +82,15 @@ fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
                 ke: [le; 3],
             },
         ],
-        &format!("[materials.mirror]\nmirror = [{rho}, {rho}, {rho}]\n"),
+        &format!(
+            "[materials.mirror]\nmirror = [{m}, {m}, {m}]\ndiffuse = [{mixed}, {mixed}, {mixed}]\n",
+            m = rho - mixed
+        ),
     );
     let scene = Scene::load(&path).unwrap();
     let (lf, resident, report) =
-        vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
+        vlf::propagate::propagate(ctx, &scene, &params_with(4, 32, 8.0, mirror_direct), false)
+            .unwrap();
     assert!(report.converged && report.non_diffuse_elements > 0);
     let expected = le / (1.0 - rho);
     // the diffuse walls' texels
@@ -76,9 +104,9 @@ fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
                     worst = worst.max((v[0] - expected).abs() / expected);
                 }
             }
-            eprintln!("diffuse face {i}: worst texel off by {:.2}%", worst * 100.0);
+            eprintln!("diffuse face {i}: worst texel off by {worst:.2e}");
             assert!(
-                worst < 0.01,
+                worst < texel_bound,
                 "diffuse face {i}: off by {:.2}%",
                 worst * 100.0
             );
@@ -107,12 +135,9 @@ fn closed_box_of_mirrors_and_diffuse_walls_conserves_energy() {
         for p in &frame.pixels {
             worst = worst.max((p[1] - expected).abs() / expected);
         }
-        eprintln!(
-            "looking at {target:?}: worst pixel off by {:.2}%",
-            worst * 100.0
-        );
+        eprintln!("looking at {target:?}: worst pixel off by {worst:.2e}");
         assert!(
-            worst < 0.01,
+            worst < pixel_bound,
             "looking at {target:?}: a pixel is off by {:.2}% from {expected}",
             worst * 100.0
         );

@@ -244,3 +244,95 @@ fn a_floor_shadowed_by_an_occluder_matches_the_closed_form_in_umbra_penumbra_and
         "ignoring the occluder would be only {blind:.2e} off: the scene does not test visibility"
     );
 }
+
+#[test]
+fn texels_under_a_box_standing_on_the_floor_are_marked_and_no_others() {
+    // the renderer leaves marked texels (w = 0 in the totals) out of its bilinear lookups, so
+    // the floor under a box must be marked and the visible floor, walls and box must not be
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
+    obj.quad(
+        "light",
+        DVec3::new(0.0, 0.9, 0.0),
+        -DVec3::Y,
+        [0.3, 0.3],
+        0.0,
+    );
+    let (c, h) = (DVec3::new(0.23, 0.2, -0.11), 0.2);
+    obj.cube("box", c, h, false);
+    let mat = |name, kd: f32, ke: f32| Mat {
+        name,
+        kd: [kd; 3],
+        ke: [ke; 3],
+    };
+    let materials = [
+        mat("floor", 0.5, 0.0),
+        mat("light", 0.0, 10.0),
+        mat("box", 0.5, 0.0),
+    ];
+    let path = write_scene(dir.path(), &obj, &materials, "");
+    let scene = Scene::load(&path).unwrap();
+    let p = params();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
+    let floor = prepared
+        .materials
+        .iter()
+        .position(|m| m.name == "floor")
+        .unwrap() as u32;
+    // the box's footprint in normalised space
+    let n = &prepared.normalisation;
+    let to_normalised = |v: DVec3| n.to_unit(v.as_vec3().into());
+    let (lo, hi) = (
+        to_normalised(c - DVec3::splat(h)),
+        to_normalised(c + DVec3::splat(h)),
+    );
+    let texel = 1.0 / p.texel_density;
+    let (mut under, mut outside, mut wrong) = (0, 0, Vec::new());
+    for (i, point) in prepared.atlas.points.iter().enumerate() {
+        let face = point[3].to_bits();
+        if face == vlf::gpu::types::NO_FACE {
+            continue;
+        }
+        let x = DVec3::new(point[0] as f64, point[1] as f64, point[2] as f64);
+        let w = lf.total[i][3];
+        if prepared.faces[face as usize].material != floor {
+            // box faces and the emitter are visible; the box's bottom lies in the floor's plane
+            // (its rays start just below the floor and escape: either mark would do, nobody
+            // sees it)
+            let bottom = (x.y - lo.y).abs() < 1e-6;
+            if !bottom && w != 1.0 {
+                wrong.push(format!("texel {i} at {x:?} (box or light): w {w}"));
+            }
+            continue;
+        }
+        let inside = x.x > lo.x && x.x < hi.x && x.z > lo.z && x.z < hi.z;
+        let clear =
+            x.x < lo.x - texel || x.x > hi.x + texel || x.z < lo.z - texel || x.z > hi.z + texel;
+        if inside {
+            under += 1;
+            if w != 0.0 {
+                wrong.push(format!("floor texel {i} under the box at {x:?}: w {w}"));
+            }
+        } else if clear {
+            outside += 1;
+            if w != 1.0 {
+                wrong.push(format!("floor texel {i} in the open at {x:?}: w {w}"));
+            }
+        }
+    }
+    eprintln!(
+        "{under} floor texels under the box, {outside} in the open, {} wrong",
+        wrong.len()
+    );
+    assert!(
+        under > 20 && outside > 500,
+        "the scene does not test the marks"
+    );
+    assert!(
+        wrong.is_empty(),
+        "{}",
+        wrong[..wrong.len().min(10)].join("\n")
+    );
+}

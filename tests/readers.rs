@@ -1,5 +1,5 @@
 //! Property tests over the readers of untrusted input (the fuzz targets' twins, in plain
-//! `cargo test`): scene TOML, OBJ and .vlf bytes, random and mutated, give Ok or an error
+//! `cargo test`): scene TOML, OBJ, glTF (.glb, .gltf) and .vlf bytes, random and mutated, give Ok or an error
 //! naming the file, never a panic; every damage to a .vlf is caught.
 
 mod common;
@@ -134,6 +134,81 @@ proptest! {
         if let Err(e) = Scene::load(&dir.path().join("scene.toml")) {
             let e = e.to_string();
             prop_assert!(e.contains("m.obj") || e.contains("m.mtl"), "{}", e);
+        }
+    }
+}
+
+fn valid_glb() -> Vec<u8> {
+    gltf_model(
+        gltf_basic_materials(),
+        serde_json::json!([{"children": [1, 2, 3]}, {"mesh": 0}, {"mesh": 1}, {"mesh": 2}]),
+        serde_json::json!({}),
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn a_mutated_glb_is_ok_or_a_named_error(cut in 0usize..2000, at in 0usize..2000, byte in any::<u8>()) {
+        let mut bytes = valid_glb();
+        let at = at % bytes.len();
+        bytes[at] = byte;
+        bytes.truncate(cut.max(1).min(bytes.len()));
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.glb"), &bytes).unwrap();
+        if let Err(e) = Scene::load(&dir.path().join("m.glb")) {
+            prop_assert!(e.to_string().contains("m.glb"), "{}", e);
+        }
+    }
+
+    #[test]
+    fn random_bytes_as_glb_or_gltf_are_ok_or_a_named_error(bytes in proptest::collection::vec(any::<u8>(), 0..256), json in "\\PC{0,200}") {
+        let dir = tempfile::tempdir().unwrap();
+        let mut glb = b"glTF\x02\0\0\0".to_vec();
+        glb.extend(&bytes);
+        std::fs::write(dir.path().join("m.glb"), &glb).unwrap();
+        if let Err(e) = Scene::load(&dir.path().join("m.glb")) {
+            prop_assert!(e.to_string().contains("m.glb"), "{}", e);
+        }
+        std::fs::write(dir.path().join("m.gltf"), json).unwrap();
+        if let Err(e) = Scene::load(&dir.path().join("m.gltf")) {
+            prop_assert!(e.to_string().contains("m.gltf"), "{}", e);
+        }
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 128, ..ProptestConfig::default() })]
+
+    /// Numbers in the JSON changed at random (offsets, counts, strides, indices, modes).
+    #[test]
+    fn a_gltf_with_random_numbers_is_ok_or_a_named_error(which in 0usize..64, value in prop_oneof![Just(-1i64), 0i64..20, Just(4096), Just(u32::MAX as i64)]) {
+        let bytes = valid_glb();
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let text = String::from_utf8(bytes[20..20 + len].to_vec()).unwrap();
+        let bin = bytes[20 + len + 8..].to_vec();
+        // the which-th number in the JSON text becomes value
+        let mut out = String::new();
+        let mut seen = 0;
+        let mut chars = text.char_indices().peekable();
+        while let Some((_, c)) = chars.next() {
+            if c.is_ascii_digit() && !out.ends_with(|p: char| p.is_ascii_alphanumeric() || p == '.' || p == '_') {
+                let mut n = c.to_string();
+                while let Some(&(_, d)) = chars.peek() {
+                    if d.is_ascii_digit() || d == '.' { n.push(d); chars.next(); } else { break; }
+                }
+                out.push_str(&if seen == which { value.to_string() } else { n });
+                seen += 1;
+            } else {
+                out.push(c);
+            }
+        }
+        let json: serde_json::Value = match serde_json::from_str(&out) { Ok(j) => j, Err(_) => return Ok(()) };
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.glb"), glb(&json, &bin)).unwrap();
+        if let Err(e) = Scene::load(&dir.path().join("m.glb")) {
+            prop_assert!(e.to_string().contains("m.glb"), "{}", e);
         }
     }
 }

@@ -1,8 +1,9 @@
-//! Every WGSL stage parses and validates with naga (errors name the file and line), and every
-//! GPU struct has the same size in Rust and WGSL.
+//! Every WGSL stage parses and validates with naga (errors name the file and line), every GPU
+//! struct has the same size and field offsets in Rust and WGSL, and every stage's bind group
+//! layouts reflect from its WGSL.
 
 use vlf::gpu::shaders;
-use vlf::gpu::types::mirrored_structs;
+use vlf::mirrored::mirrored_structs;
 
 #[test]
 fn every_shader_parses_and_validates() {
@@ -74,20 +75,86 @@ fn an_error_names_the_original_file_and_line() {
 }
 
 #[test]
-fn rust_and_wgsl_struct_sizes_agree() {
-    for (rust, wgsl, size, stage) in mirrored_structs() {
-        let module = shaders::expand(stage).unwrap().validate().unwrap();
+fn rust_and_wgsl_structs_agree_field_by_field() {
+    // every named WGSL member has a Rust field of the same name at the same offset; fields
+    // either side lacks are padding (named `_...`); sizes agree
+    let mut problems = Vec::new();
+    for m in mirrored_structs() {
+        let module = shaders::expand(m.stage).unwrap().validate().unwrap();
         let mut layouter = naga::proc::Layouter::default();
         layouter.update(module.to_ctx()).unwrap();
-        let (handle, _) = module
+        let (handle, ty) = module
             .types
             .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(wgsl))
-            .unwrap_or_else(|| panic!("WGSL struct {wgsl} not found"));
+            .find(|(_, t)| t.name.as_deref() == Some(m.wgsl))
+            .unwrap_or_else(|| panic!("WGSL struct {} not found in {}", m.wgsl, m.stage));
         let wgsl_size = layouter[handle].size as usize;
-        assert_eq!(
-            size, wgsl_size,
-            "{rust} is {size} bytes in Rust but {wgsl} is {wgsl_size} in WGSL"
+        if m.size != wgsl_size {
+            problems.push(format!(
+                "{} is {} bytes in Rust, {} is {wgsl_size} in WGSL",
+                m.rust, m.size, m.wgsl
+            ));
+        }
+        let naga::TypeInner::Struct { members, .. } = &ty.inner else {
+            panic!("{} is not a struct", m.wgsl)
+        };
+        for member in members {
+            let name = member.name.as_deref().unwrap_or("?");
+            if name.starts_with('_') {
+                continue; // padding: the sizes and the named members' offsets pin it down
+            }
+            match m.fields.iter().find(|(f, _)| *f == name) {
+                Some((_, offset)) if *offset == member.offset as usize => {}
+                Some((_, offset)) => problems.push(format!(
+                    "{}.{name} at byte {offset} in Rust, {}.{name} at {} in WGSL",
+                    m.rust, m.wgsl, member.offset
+                )),
+                None => problems.push(format!("{}.{name} has no Rust field in {}", m.wgsl, m.rust)),
+            }
+        }
+        for (field, _) in &m.fields {
+            if !field.starts_with('_') && !members.iter().any(|x| x.name.as_deref() == Some(field))
+            {
+                problems.push(format!(
+                    "{}.{field} has no WGSL member in {}",
+                    m.rust, m.wgsl
+                ));
+            }
+        }
+    }
+    assert!(
+        problems.is_empty(),
+        "Rust/WGSL layouts differ:\n{}",
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn every_stage_reflects_its_bind_groups() {
+    // the layouts the pipelines are built with come from naga; every stage has a group 0
+    for stage in shaders::STAGES {
+        let entries =
+            vlf::gpu::reflect::layout_entries(stage, 0).unwrap_or_else(|e| panic!("{stage}: {e}"));
+        let bindings: Vec<u32> = entries.iter().map(|e| e.binding).collect();
+        assert!(
+            bindings.windows(2).all(|w| w[0] < w[1]),
+            "{stage}: bindings {bindings:?}"
         );
     }
+    // a known case: render.wgsl's group 0 starts with the View uniform and writes the image
+    let render = vlf::gpu::reflect::layout_entries("render.wgsl", 0).unwrap();
+    assert!(matches!(
+        render[0].ty,
+        wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            ..
+        }
+    ));
+    assert!(render.iter().any(|e| matches!(
+        e.ty,
+        wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            ..
+        }
+    )));
 }

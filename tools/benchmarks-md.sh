@@ -26,7 +26,7 @@ only the face table, the converged radiance atlas and the render mesh.
 
 `tools/gpu-bench.sh` runs the suite twice and reports the second run: on a fresh machine the
 first also pays the driver's shader compilation in its setup times (up to 0.5 s a scene; kept
-in docs/results/suite-h200-cold.json).
+in docs/results/h100/bench/suite-cold.json).
 
 HEAD
 if [ -f "$dir/suite.json" ]; then

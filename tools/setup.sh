@@ -3,8 +3,8 @@
 # software Vulkan, lavapipe), a virtual display and a screenshot tool for the windowed CAVE
 # test (Xvfb, ImageMagick's import), libudev for gamepads (gilrs), Open MPI and libclang for the
 # CAVE cluster (`--features mpi`: mpirun, the MPI headers, bindgen's libclang; tests/cluster.rs),
-# and Mitsuba 3 + numpy for the independent reference (tests/mitsuba.rs). Installs what is
-# missing with apt-get and pip.
+# Mitsuba 3 + numpy for the independent reference (tests/mitsuba.rs), pygltflib for
+# tests/gltf.rs. Installs what is missing with apt-get and pip.
 set -euo pipefail
 # Python packages first: they do not depend on the system packages below
 if ! python3 -c 'import mitsuba, numpy' 2>/dev/null; then
@@ -13,6 +13,13 @@ if ! python3 -c 'import mitsuba, numpy' 2>/dev/null; then
   python3 -m pip install -q mitsuba numpy 2>/dev/null \
     || python3 -m pip install -q --break-system-packages mitsuba numpy \
     || { echo "tools/setup.sh: pip could not install mitsuba numpy; install them for $(command -v python3)" >&2; exit 1; }
+fi
+# pygltflib: the independent glTF writer of tests/gltf.rs (tools/obj2gltf.py)
+if ! python3 -c 'import pygltflib' 2>/dev/null; then
+  echo "tools/setup.sh: installing pygltflib with pip" >&2
+  python3 -m pip install -q pygltflib 2>/dev/null \
+    || python3 -m pip install -q --break-system-packages pygltflib \
+    || { echo "tools/setup.sh: pip could not install pygltflib; install it for $(command -v python3)" >&2; exit 1; }
 fi
 have_icd() {
   local icd found=""

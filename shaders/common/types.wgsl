@@ -12,8 +12,9 @@ const GRID_FLAG_ACCUMULATE: u32 = 2u;
 // directions come in batches: add raw sums to `next` and the quadrature weights used to
 // `weight_sums`; normalize.wgsl divides once every batch has been gathered
 const GRID_FLAG_BATCHED: u32 = 4u;
-// the texels' gather leaves mirror senders out: what mirrors first reflect of the emitters and
-// the sky reached the texels with direct light (direct.wgsl)
+// the second iteration's texel gather leaves mirror senders out (what mirrors first reflect of
+// the sky came with direct light; of the emitters, direct.wgsl's mirror_light adds it next) and
+// puts pi x their share of its quadrature weight in w
 const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8u;
 
 // mirrors gpu::types::GpuDirection

@@ -184,7 +184,9 @@ fn sender_radiance(sender: u32, x: vec3<f32>, dir_index: u32, travel: vec3<f32>)
     return b / PI + sender_specular(s, xs, dir_index, travel);
 }
 
-// Next unshot radiosity of one texel (rgb) and the sky's share of its irradiance (w).
+// Next unshot radiosity of one texel (rgb) and the sky's share of its irradiance (w); with
+// GRID_FLAG_NO_MIRROR_SENDERS (never in the sky's iteration) senders with a mirror part are left
+// out and w is instead pi x their share of the quadrature weight.
 fn gather_texel(texel: u32) -> vec4<f32> {
     let point = texel_point(texel);
     let face_id = bitcast<u32>(point.w);
@@ -199,6 +201,11 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     // the cosine quadrature's weights over the directions used: normalising by their sum makes
     // the quadrature exact for uniform light (pi / sum over all directions when none is dropped)
     var weight_sum = 0.0;
+    // with GRID_FLAG_NO_MIRROR_SENDERS: the weight of the directions whose sender has a mirror
+    // part (left out, both parts), which direct.wgsl's mirror_light trades for the mirrors'
+    // exact solid angle
+    let mirror_senders_out = (grid.flags & GRID_FLAG_NO_MIRROR_SENDERS) != 0u;
+    var mirror_weight = 0.0;
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];
         let cos_w = dot(f.normal, d.w);
@@ -219,18 +226,26 @@ fn gather_texel(texel: u32) -> vec4<f32> {
                 sky_irradiance += grid.sky * weight;
             }
         } else {
+            if mirror_senders_out {
+                let s = faces[sender];
+                if s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
+                    mirror_weight += weight;
+                    continue;
+                }
+            }
             irradiance += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
         }
     }
+
     if (grid.flags & GRID_FLAG_BATCHED) != 0u {
         // raw sums: normalize.wgsl divides by the weights of every batch together
         weight_sums[texel] += weight_sum * grid.direction_weight;
-        let sky_raw = sky_irradiance.x + sky_irradiance.y + sky_irradiance.z;
+        let sky_raw = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out);
         return vec4<f32>(f.albedo * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
     }
     let norm = select(0.0, PI / weight_sum, weight_sum > 0.0);
     let e = (irradiance + sky_irradiance) * norm;
-    let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
+    let sky_share = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out) * norm;
     return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
 }
 

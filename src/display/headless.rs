@@ -8,12 +8,12 @@ use super::cluster::{FrameLock, FrameState};
 use super::post::{Draw, Outputs};
 use super::tracking::PoseSource;
 use super::DisplayConfig;
-use crate::bench::Distribution;
 use crate::error::{Result, VlfError};
 use crate::gpu::MemoryLedger;
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
+use crate::stats::Distribution;
 use serde::Serialize;
 use std::path::Path;
 

@@ -1,6 +1,7 @@
 //! The GPU device and the small helpers every stage uses: buffers with a memory ledger,
 //! bind group layouts, compute pipelines, read-back and timestamp queries.
 
+pub mod reflect;
 pub mod shaders;
 pub mod types;
 

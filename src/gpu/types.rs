@@ -85,8 +85,9 @@ pub struct GpuPageRange {
 pub const GRID_FLAG_SKY: u32 = 1;
 pub const GRID_FLAG_ACCUMULATE: u32 = 2;
 pub const GRID_FLAG_BATCHED: u32 = 4;
-/// the texels' gather leaves mirror senders out (their first reflections of the emitters and the
-/// sky came with direct light)
+/// the second iteration's texel gather leaves mirror senders out (their first reflections of the
+/// sky came with direct light; of the emitters, `mirror_light` in direct.wgsl adds them next)
+/// and puts pi x their share of its quadrature weight in w
 pub const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
@@ -124,85 +125,13 @@ pub struct GpuView {
     pub _pad0: u32,
 }
 
-/// Render vertex: position in normalised scene space and the face it belongs to.
-/// Matches the vertex layout of `vs_main` in `shaders/render.wgsl`.
+/// Render vertex: position in normalised scene space and the face it belongs to: the render
+/// mesh stored in `.vlf`, turned into ray-casting triangles by `render::ray_casting_mesh`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct RenderVertex {
     pub position: [f32; 3],
     pub face: u32,
-}
-
-/// Every mirrored pair: (Rust name, WGSL name, Rust size, the stage that declares it).
-pub fn mirrored_structs() -> [(&'static str, &'static str, usize, &'static str); 11] {
-    [
-        (
-            "GpuAccumulate",
-            "AccumulateParams",
-            std::mem::size_of::<GpuAccumulate>(),
-            "accumulate.wgsl",
-        ),
-        (
-            "GpuDirection",
-            "Direction",
-            std::mem::size_of::<GpuDirection>(),
-            "render.wgsl",
-        ),
-        (
-            "GpuFace",
-            "Face",
-            std::mem::size_of::<GpuFace>(),
-            "render.wgsl",
-        ),
-        (
-            "GpuGrid",
-            "GridParams",
-            std::mem::size_of::<GpuGrid>(),
-            "render.wgsl",
-        ),
-        (
-            "GpuView",
-            "View",
-            std::mem::size_of::<GpuView>(),
-            "render.wgsl",
-        ),
-        (
-            "GpuPresent",
-            "PresentParams",
-            std::mem::size_of::<GpuPresent>(),
-            "present.wgsl",
-        ),
-        (
-            "GpuPageRange",
-            "PageRange",
-            std::mem::size_of::<GpuPageRange>(),
-            "specular.wgsl",
-        ),
-        (
-            "GpuRayTriangle",
-            "RayTriangle",
-            std::mem::size_of::<GpuRayTriangle>(),
-            "render.wgsl",
-        ),
-        (
-            "GpuEmitter",
-            "Emitter",
-            std::mem::size_of::<GpuEmitter>(),
-            "direct.wgsl",
-        ),
-        (
-            "GpuMirrorTriangle",
-            "MirrorTriangle",
-            std::mem::size_of::<GpuMirrorTriangle>(),
-            "direct.wgsl",
-        ),
-        (
-            "GpuDirectParams",
-            "DirectParams",
-            std::mem::size_of::<GpuDirectParams>(),
-            "direct.wgsl",
-        ),
-    ]
 }
 
 /// Mirrors WGSL `PresentParams` (shaders/present.wgsl).

@@ -154,7 +154,8 @@ impl PreparedScene {
     }
 }
 
-fn normalise(positions: &[[f32; 3]]) -> Normalisation {
+/// The centre and scale that fit the positions into the sphere of [`NORMALISED_RADIUS`].
+pub fn normalise(positions: &[[f32; 3]]) -> Normalisation {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for p in positions {

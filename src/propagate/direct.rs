@@ -3,9 +3,11 @@
 //! (stratified shadow rays), replacing the first iteration's gather for texels. Direct light is
 //! the sharpest part of the solution: through the fixed directions a small emitter aliases into
 //! a ripple on every wall, here it does not depend on them. Mirror tile cells still receive the
-//! emitters through the light field (they carry mirror -> mirror chains); what a mirror first
-//! reflects of the emitters (virtual emitters) and of the sky reaches the texels here too, and
-//! the next iteration's texel gather leaves mirror senders out.
+//! emitters through the light field (they carry mirror -> mirror chains). What a mirror first
+//! reflects of the sky reaches the texels here too; what it first reflects of the emitters
+//! (virtual emitters) reaches them in the second iteration (`mirror_light`), the bounce it
+//! belongs to, so that every iteration's texels and tiles hold paths of the same length. That
+//! iteration's texel gather leaves mirror senders out.
 
 use crate::error::Result;
 use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
@@ -81,10 +83,14 @@ pub fn mirror_triangles(prepared: &PreparedScene, faces: &[GpuFace]) -> Vec<GpuM
 /// The direct-light stage: its pipeline, emitters, and the scene's BVH for shadow rays.
 pub struct DirectLight {
     pipeline: wgpu::ComputePipeline,
+    /// the second iteration's pass over the texels (`mirror_light`), when there are mirrors
+    mirror_pipeline: Option<wgpu::ComputePipeline>,
+    /// marks the texels inside closed geometry (`texel_validity`), run once on the totals
+    validity_pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     pub emitter_count: u32,
-    /// mirror triangles: when there are any, the next iteration's texel gather leaves mirror
-    /// senders out
+    /// mirror triangles: when there are any, the second iteration's texel gather leaves mirror
+    /// senders out and `mirror_light` adds what they first reflect of the emitters
     pub mirror_count: u32,
 }
 
@@ -178,6 +184,10 @@ impl DirectLight {
         );
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
+        let validity_pipeline =
+            ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);
+        let mirror_pipeline = (!mirrors.is_empty())
+            .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
         let bind_group = ctx.bind_group(
             &layout2,
             &[
@@ -190,20 +200,51 @@ impl DirectLight {
         );
         Ok(DirectLight {
             pipeline,
+            mirror_pipeline,
+            validity_pipeline,
             bind_group,
             emitter_count: emitters.len() as u32,
             mirror_count: mirrors.len() as u32,
         })
     }
 
-    /// Record the pass: one thread per texel of each page, writing the page's `next`.
+    /// Record the pass: one thread per texel of each page, writing the page's `next`. `mirrors`:
+    /// the second iteration's pass (virtual emitters), which reads what the gather left there;
+    /// otherwise the first iteration's (emitters and sky), which replaces it.
     pub fn encode(
         &self,
         pass: &mut wgpu::ComputePass,
         bg0: &wgpu::BindGroup,
         pages: &[(&wgpu::BindGroup, u32)],
+        mirrors: bool,
     ) {
-        pass.set_pipeline(&self.pipeline);
+        let pipeline = match (&self.mirror_pipeline, mirrors) {
+            (Some(p), true) => p,
+            (None, true) => return,
+            (_, false) => &self.pipeline,
+        };
+        self.dispatch(pipeline, pass, bg0, pages);
+    }
+
+    /// Record the validity marks (`texel_validity`): `pages` bind each page's total radiance
+    /// where the other passes bind `next`; it sets w of every texel (1 visible, 0 inside).
+    pub fn encode_validity(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
+        self.dispatch(&self.validity_pipeline, pass, bg0, pages);
+    }
+
+    fn dispatch(
+        &self,
+        pipeline: &wgpu::ComputePipeline,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, bg0, &[]);
         pass.set_bind_group(2, &self.bind_group, &[]);
         for &(bg1, count) in pages {

@@ -50,11 +50,12 @@ pub struct PropagationParams {
     /// other bounce (the paper's method, and light fields saved before this setting existed).
     #[serde(default)]
     pub direct_samples: u32,
-    /// Direct light also through planar mirrors (emitters seen in them as virtual emitters, sky
-    /// rays followed through one reflection) instead of through the mirror tiles. Off by
-    /// default: exact for a mirror alone (tests/picture.rs), but a closed box of emitting
-    /// mirrors and walls still comes out 1.3% off at 181 directions.
-    #[serde(default)]
+    /// Where direct light is on: also through planar mirrors (emitters seen in them as virtual
+    /// emitters, in closed form, in the second iteration; sky rays followed through one
+    /// reflection) instead of through the mirror tiles' fixed directions, whose caustics alias.
+    /// On by default (a file without the key included): exact for a mirror alone and in the
+    /// closed box of emitting mirrors and walls (tests/picture.rs, tests/mirrors.rs).
+    #[serde(default = "yes")]
     pub mirror_direct: bool,
 }
 
@@ -79,7 +80,7 @@ impl Default for PropagationParams {
             accelerate: true,
             memory_budget_mib: None,
             direct_samples: 256,
-            mirror_direct: false,
+            mirror_direct: true,
         }
     }
 }
@@ -678,6 +679,7 @@ pub fn propagate_with(
     let render_vertices = crate::lightfield::render_vertices(&prepared);
     let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
     let direct_emitters = prop.direct.as_ref().map_or(0, |d| d.emitter_count);
+    let direct_mirrors = prop.direct.as_ref().map_or(0, |d| d.mirror_count);
     let resident = prop.into_resident(mirror_chains.tiles_needed);
     resident
         .ledger
@@ -713,6 +715,7 @@ pub fn propagate_with(
         non_diffuse_elements,
         tile_bytes,
         texture_bytes,
+        host_textures: scene.texture_memory,
         layers,
         visibility_kept_resident: batch_plan.resident(),
         direction_batches: batch_plan.batches,
@@ -732,6 +735,7 @@ pub fn propagate_with(
         render_memory_bytes: resident.ledger.total(),
         mirror_rendering: Some(mirror_chains),
         direct_emitters,
+        direct_mirrors,
         render_memory: crate::report::memory_items(resident.ledger.entries()),
         sky: scene.sky.is_some(),
         warnings,

@@ -777,8 +777,11 @@ impl Propagator {
         if batched {
             self.normalize_batches();
         }
-        if self.iteration == 0 && self.direct.is_some() {
-            self.encode_direct();
+        if self.iteration <= 1 && self.direct.is_some() {
+            self.encode_direct(self.iteration == 1);
+        }
+        if self.iteration == 0 {
+            self.encode_validity();
         }
         if let Some((albedo, pipe, layout)) = &self.texture {
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
@@ -833,6 +836,16 @@ impl Propagator {
     /// The scene bind group (group 0) and one texel-page bind group (group 1) per page: all
     /// pages' unshot to read, this page's next to write.
     fn texel_bind_groups(&self) -> (wgpu::BindGroup, Vec<wgpu::BindGroup>) {
+        let current = self.current;
+        self.texel_bind_groups_writing(|page| &page.state.radiance[1 - current])
+    }
+
+    /// The scene group and, per texel page, the page group with `target` bound as its output
+    /// (`next`): the next radiance for the gathers, the totals for the validity marks.
+    fn texel_bind_groups_writing(
+        &self,
+        target: impl Fn(&Page) -> &wgpu::Buffer,
+    ) -> (wgpu::BindGroup, Vec<wgpu::BindGroup>) {
         let ctx = &self.ctx;
         let vis = self
             .visibility
@@ -869,7 +882,7 @@ impl Propagator {
                         unshot(1),
                         unshot(2),
                         unshot(3),
-                        &page.state.radiance[1 - current],
+                        target(page),
                         &page.page_uniform,
                         &self.weight_sums,
                     ],
@@ -880,9 +893,13 @@ impl Propagator {
     }
 
     /// The first iteration's texels take their direct light from `shaders/direct.wgsl`
-    /// (overwriting what the gather found through the fixed directions: emitters and sky).
-    fn encode_direct(&self) {
+    /// (overwriting what the gather found through the fixed directions: emitters and sky); with
+    /// `mirrors`, the second iteration's texels add the emitters seen in mirrors to their gather.
+    fn encode_direct(&self, mirrors: bool) {
         let Some(direct) = &self.direct else { return };
+        if mirrors && direct.mirror_count == 0 {
+            return;
+        }
         let (bg0, bg1) = self.texel_bind_groups();
         let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
             .iter()
@@ -895,7 +912,29 @@ impl Propagator {
                 label: Some("direct light"),
                 timestamp_writes: None,
             });
-            direct.encode(&mut pass, &bg0, &pages);
+            direct.encode(&mut pass, &bg0, &pages, mirrors);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// Mark the texels inside closed geometry in w of their totals (`texel_validity`), for the
+    /// renderer's lookups; without direct light (the paper's settings) nothing is marked and
+    /// the renderer interpolates every texel.
+    fn encode_validity(&self) {
+        let Some(direct) = &self.direct else { return };
+        let (bg0, bg1) = self.texel_bind_groups_writing(|page| &page.state.total);
+        let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
+            .iter()
+            .zip(&self.texels)
+            .map(|(bg, page)| (bg, page.state.count))
+            .collect();
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("texel validity"),
+                timestamp_writes: None,
+            });
+            direct.encode_validity(&mut pass, &bg0, &pages);
         }
         self.ctx.queue.submit([encoder.finish()]);
     }

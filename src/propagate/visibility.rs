@@ -4,9 +4,7 @@
 
 use crate::error::Result;
 use crate::gpu::types::GpuGrid;
-use crate::gpu::{
-    bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps, STORAGE,
-};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use wgpu::util::DeviceExt;
 
 /// Buffers describing the scene, shared by visibility and transport.
@@ -51,22 +49,8 @@ impl VisibilityPipelines {
     pub fn new(ctx: &GpuContext) -> Result<VisibilityPipelines> {
         let device = &ctx.device;
         let module = shaders::module(device, "visibility.wgsl")?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        use Binding::*;
-        let layout0 = bind_group_layout(
-            device,
-            cs,
-            &[
-                Uniform,
-                Storage,
-                Storage,
-                Storage,
-                StorageReadWrite,
-                StorageReadWrite,
-                StorageReadWrite,
-            ],
-        );
-        let layout1 = bind_group_layout(device, cs, &[StorageReadWrite]);
+        let layout0 = reflect::layout(device, "visibility.wgsl", 0)?;
+        let layout1 = reflect::layout(device, "visibility.wgsl", 1)?;
         // count_layers shares its traversal with fill_layers, so its layout names the layers
         // binding too; a placeholder stands in until the real size is known.
         let placeholder =

@@ -5,7 +5,7 @@
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, STORAGE};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
@@ -249,7 +249,10 @@ pub struct Reference {
     /// per-pixel variance of the mean estimate
     pub variance: Frame,
     pub spp: u32,
+    /// tracing the samples and reading the image back: what each further frame would cost
     pub seconds: f64,
+    /// the one-off part before it: scene preparation, BVH, buffers, pipeline
+    pub setup_seconds: f64,
 }
 
 fn luminance(c: [f32; 3]) -> f32 {
@@ -374,22 +377,7 @@ pub fn render(
         ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&lights), STORAGE),
         ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE),
     ];
-    use Binding::*;
-    let layout = bind_group_layout(
-        device,
-        wgpu::ShaderStages::COMPUTE,
-        &[
-            Uniform,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            Storage,
-            StorageReadWrite,
-        ],
-    );
+    let layout = reflect::layout(device, "reference.wgsl", 0)?;
     let module = shaders::module(device, "reference.wgsl")?;
     let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
     let mut all: Vec<&wgpu::Buffer> = vec![&params_buffer];
@@ -409,6 +397,8 @@ pub fn render(
         .progress_chars("=> "),
     );
     bar.set_message(format!("{spp} spp at {width}x{height}"));
+    let setup_seconds = started.elapsed().as_secs_f64();
+    let tracing = std::time::Instant::now();
     for pass_index in 0..passes {
         let params = GpuTraceParams {
             inv_view_proj: vp.inverse().to_cols_array_2d(),
@@ -459,6 +449,7 @@ pub fn render(
             pixels: variance,
         },
         spp,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds: tracing.elapsed().as_secs_f64(),
+        setup_seconds,
     })
 }

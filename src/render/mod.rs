@@ -6,7 +6,7 @@ pub mod image_io;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
-use crate::gpu::{bind_group_layout, shaders, Binding, GpuContext, MemoryLedger, Timestamps};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::prepare::Normalisation;
 use crate::scene::Camera;
@@ -120,22 +120,13 @@ impl Renderer {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let module = shaders::module(device, "render.wgsl")?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        use Binding::*;
-        // view, faces, triangles, BVH, image, four pages of radiance, ray-casting triangles
-        let resolve_layout = bind_group_layout(
-            device,
-            cs,
-            &[
-                Uniform, Storage, Storage, Storage, ImageWrite, Storage, Storage, Storage, Storage,
-                Storage,
-            ],
-        );
+        // view, faces, triangles, BVH, image, the radiance pages, ray-casting triangles
+        let resolve_layout = reflect::layout(device, "render.wgsl", 0)?;
         // a diffuse-only light field binds no view-dependent path at all
-        let tile_layout = resident
-            .tiles
-            .as_ref()
-            .map(|_| bind_group_layout(device, cs, &[Storage; 9]));
+        let tile_layout = match resident.tiles {
+            Some(_) => Some(reflect::layout(device, "render.wgsl", 1)?),
+            None => None,
+        };
         let mut resolve_layouts = vec![&resolve_layout];
         if let Some(t) = &tile_layout {
             resolve_layouts.push(t);

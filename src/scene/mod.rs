@@ -1,9 +1,12 @@
 //! The scene contract (ARCHITECTURE.md, "Scene files: the contract"): `scene.toml` (this module)
-//! plus an OBJ/MTL mesh (`obj.rs`). Loading validates everything and yields a [`Scene`] in world
-//! units (metres).
+//! plus an OBJ/MTL mesh (`obj.rs`) or a glTF 2.0 model (`gltf.rs`); a `.gltf`/`.glb` also loads
+//! directly, with an optional scene.toml beside it. Loading validates everything and yields a
+//! [`Scene`] in world units (metres); textures are resolved to texel density (`texels.rs`).
 
 pub mod builder;
+pub mod gltf;
 pub mod obj;
+pub mod texels;
 
 use crate::error::{Result, VlfError};
 use serde::{Deserialize, Serialize};
@@ -122,8 +125,17 @@ pub struct Scene {
     pub cameras: Vec<Camera>,
     /// Things the importer could not represent or had to repair, for the user and the report.
     pub warnings: Vec<String>,
-    /// SHA-256 over scene.toml, the mesh and its material library.
+    /// SHA-256 over scene.toml, the mesh and its material library (or buffers and images).
     pub hash: String,
+    /// the textures' host memory, kept and at full resolution
+    pub texture_memory: texels::TextureMemory,
+}
+
+/// True for a path naming a glTF model (`.gltf` or `.glb`).
+pub fn is_gltf(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
 impl SceneFile {
@@ -139,12 +151,61 @@ impl SceneFile {
 }
 
 impl Scene {
+    /// Load `scene.toml`, or a `.gltf`/`.glb` model directly ([`Scene::load_model`]).
     pub fn load(path: &Path) -> Result<Scene> {
+        if is_gltf(path) {
+            return Scene::load_model(path);
+        }
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
         let file = SceneFile::parse(&text, path)?;
+        Scene::from_file(path, &text, file)
+    }
+
+    /// A glTF model on its own: a scene.toml beside it whose `mesh` names it supplies the sky,
+    /// cameras and overrides; without one the model's name, no sky, and the model's cameras
+    /// (or one that frames the model).
+    pub fn load_model(model: &Path) -> Result<Scene> {
+        let dir = model.parent().unwrap_or(Path::new("."));
+        let beside = dir.join("scene.toml");
+        let mut note = None;
+        if beside.is_file() {
+            let text = std::fs::read_to_string(&beside).map_err(|e| VlfError::io(&beside, e))?;
+            let file = SceneFile::parse(&text, &beside)?;
+            if dir.join(&file.mesh).file_name() == model.file_name() {
+                return Scene::from_file(&beside, &text, file);
+            }
+            note = Some(format!(
+                "{}: not used for {} (its mesh is {})",
+                beside.display(),
+                model.display(),
+                file.mesh.display()
+            ));
+        }
+        let name = model
+            .file_stem()
+            .map_or("model".into(), |s| s.to_string_lossy().into_owned());
+        let file = SceneFile {
+            name,
+            mesh: PathBuf::from(model.file_name().unwrap_or_default()),
+            sky: None,
+            camera: Vec::new(),
+            materials: BTreeMap::new(),
+        };
+        let mut scene = Scene::from_file(&model.with_file_name("(none)"), "", file)?;
+        scene.source = model.to_path_buf();
+        scene.warnings.extend(note);
+        Ok(scene)
+    }
+
+    fn from_file(path: &Path, text: &str, file: SceneFile) -> Result<Scene> {
         let dir = path.parent().unwrap_or(Path::new("."));
         let mesh_path = dir.join(&file.mesh);
-        let mesh = obj::import(&mesh_path, &file.materials)?;
+        let gltf = is_gltf(&mesh_path);
+        let mesh = if gltf {
+            gltf::import(&mesh_path, &file.materials)?
+        } else {
+            obj::import(&mesh_path, &file.materials)?
+        };
         for name in file.materials.keys() {
             if !mesh.materials.iter().any(|m| &m.name == name) {
                 return Err(VlfError::SceneToml {
@@ -168,6 +229,15 @@ impl Scene {
             hasher.update(std::fs::read(f).map_err(|e| VlfError::io(f, e))?);
         }
         let hash = format!("{:x}", hasher.finalize());
+        let mut cameras = file.camera;
+        for c in mesh.cameras {
+            if !cameras.iter().any(|k| k.name == c.name) {
+                cameras.push(c);
+            }
+        }
+        if cameras.is_empty() && gltf {
+            cameras.push(framing_camera(&mesh.positions));
+        }
         Ok(Scene {
             name: file.name,
             source: path.to_path_buf(),
@@ -179,9 +249,10 @@ impl Scene {
                 .sky
                 .map(|s| s.radiance)
                 .filter(|r| r.iter().any(|&c| c > 0.0)),
-            cameras: file.camera,
+            cameras,
             warnings: mesh.warnings,
             hash,
+            texture_memory: mesh.texture_memory,
         })
     }
 
@@ -206,6 +277,24 @@ impl Scene {
                     })
             }
         }
+    }
+}
+
+/// A camera that frames the whole model: from the front (+z), a little above and to the side,
+/// 60 degrees vertically, the bounding sphere filling the view.
+pub fn framing_camera(positions: &[[f32; 3]]) -> Camera {
+    let n = crate::prepare::normalise(positions);
+    let centre = glam::DVec3::from(n.center);
+    let radius = crate::prepare::NORMALISED_RADIUS / n.scale;
+    let direction = glam::DVec3::new(0.35, 0.3, 1.0).normalize();
+    let eye = centre + direction * radius / (30f64.to_radians().sin()) * 1.05;
+    Camera {
+        name: "view".into(),
+        eye: eye.as_vec3().to_array(),
+        target: centre.as_vec3().to_array(),
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: 60.0,
+        size: [1024, 768],
     }
 }
 

@@ -15,10 +15,13 @@ pub struct ImportedMesh {
     pub warnings: Vec<String>,
     /// The OBJ and every material library it loaded, for the scene hash.
     pub source_files: Vec<PathBuf>,
+    /// cameras the mesh file defines (glTF; none from an OBJ)
+    pub cameras: Vec<super::Camera>,
+    pub texture_memory: super::texels::TextureMemory,
 }
 
 /// Triangles whose area is below this fraction of the scene's squared extent are dropped.
-const DEGENERATE_AREA: f64 = 1e-14;
+pub(crate) const DEGENERATE_AREA: f64 = 1e-14;
 
 pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
     let mesh_err = |message: String| VlfError::Mesh {
@@ -73,30 +76,19 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
 
     let mut warnings = Vec::new();
     let mut out_materials: Vec<Material> = Vec::new();
-    let mut textures: Vec<Texture> = Vec::new();
+    // textures are read once the geometry says how finely they are needed (texels.rs)
+    let mut requests: Vec<TextureRequest> = Vec::new();
     for m in &materials {
         let mut material = convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?;
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
-        material.diffuse_texture = match &m.diffuse_texture {
-            Some(t) => Some(load_texture(
-                &mtl_dir.join(t),
-                &m.name,
-                "map_Kd",
-                &mtl_path,
-                &mut textures,
-            )?),
-            None => None,
-        };
-        material.emission_texture = match m.unknown_param.get("map_Ke") {
-            Some(t) => Some(load_texture(
-                &mtl_dir.join(t.trim()),
-                &m.name,
-                "map_Ke",
-                &mtl_path,
-                &mut textures,
-            )?),
-            None => None,
-        };
+        material.diffuse_texture = m
+            .diffuse_texture
+            .as_ref()
+            .map(|t| request(&mut requests, mtl_dir.join(t), &m.name, "map_Kd"));
+        material.emission_texture = m
+            .unknown_param
+            .get("map_Ke")
+            .map(|t| request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_Ke"));
         out_materials.push(material);
     }
     let default_material = out_materials.len() as u32;
@@ -204,9 +196,17 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             "the mesh has no triangles with area: nothing to light".into(),
         ));
     }
-    for t in &textures {
+    let uses = super::texels::uses(&positions, &triangles, &out_materials, requests.len());
+    let mut textures: Vec<Texture> = Vec::new();
+    let (mut full, mut reduced) = (0u64, 0u32);
+    for (r, usage) in requests.iter().zip(uses) {
+        let (t, whole) = load_texture(r, usage, &mtl_path)?;
+        full += whole;
+        reduced += u32::from(t.width as u64 * t.height as u64 * 12 < whole);
         source_files.push(t.path.clone());
+        textures.push(t);
     }
+    let texture_memory = super::texels::TextureMemory::of(&textures, full, reduced);
     Ok(ImportedMesh {
         positions,
         triangles,
@@ -214,6 +214,8 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         textures,
         warnings,
         source_files,
+        cameras: Vec::new(),
+        texture_memory,
     })
 }
 
@@ -341,44 +343,49 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// Load a texture once (by path), decoding sRGB to linear. Errors name the material and file.
-fn load_texture(
-    path: &Path,
+/// A texture a material names: read after the geometry.
+struct TextureRequest {
+    path: PathBuf,
+    material: String,
+    key: &'static str,
+}
+
+/// The texture's index, naming each file once.
+fn request(
+    requests: &mut Vec<TextureRequest>,
+    path: PathBuf,
     material: &str,
-    key: &str,
-    mtl_path: &Path,
-    textures: &mut Vec<Texture>,
-) -> Result<u32> {
-    if let Some(i) = textures.iter().position(|t| t.path == path) {
-        return Ok(i as u32);
+    key: &'static str,
+) -> u32 {
+    if let Some(i) = requests.iter().position(|r| r.path == path) {
+        return i as u32;
     }
+    requests.push(TextureRequest {
+        path,
+        material: material.to_string(),
+        key,
+    });
+    requests.len() as u32 - 1
+}
+
+/// Read a texture, decoding sRGB to linear at texel density. Errors name the material and file.
+fn load_texture(
+    r: &TextureRequest,
+    usage: super::texels::TextureUse,
+    mtl_path: &Path,
+) -> Result<(Texture, u64)> {
+    let (path, key) = (&r.path, r.key);
     let err = |message: String| VlfError::Material {
         path: mtl_path.to_path_buf(),
-        material: material.to_string(),
+        material: r.material.clone(),
         message,
     };
-    let image = image::ImageReader::open(path)
-        .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
-        .with_guessed_format()
-        .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?
-        .decode()
-        .map_err(|e| {
-            err(format!(
-                "{key} {}: not a readable PNG or JPEG image: {e}",
-                path.display()
-            ))
-        })?
-        .to_rgb8();
-    let decode = crate::render::image_io::srgb_decode;
-    let texels = image
-        .pixels()
-        .map(|p| [decode(p[0]), decode(p[1]), decode(p[2])])
-        .collect();
-    textures.push(Texture {
-        path: path.to_path_buf(),
-        width: image.width(),
-        height: image.height(),
-        texels,
-    });
-    Ok(textures.len() as u32 - 1)
+    let bytes = std::fs::read(path)
+        .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?;
+    super::texels::decode(&bytes, path.clone(), usage).map_err(|e| {
+        err(format!(
+            "{key} {}: not a readable PNG or JPEG image: {e}",
+            path.display()
+        ))
+    })
 }

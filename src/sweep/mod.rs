@@ -35,7 +35,8 @@ pub struct SweepRow {
     pub tolerance: f64,
     pub perturb: u32,
     pub spp: u32,
-    /// light field: setup + visibility + propagation; path tracer: 0
+    /// the one-off part: for the light field setup + visibility + propagation, for the path
+    /// tracer its preparation (scene, BVH, buffers, pipeline)
     pub propagation_s: f64,
     /// light field: one frame at the comparison size; path tracer: the whole image
     pub render_s: f64,
@@ -78,7 +79,7 @@ fn frame_seconds(
     ssaa: u32,
 ) -> Result<f64> {
     let (ms, _) = renderer.time_frames(camera, w * ssaa, h * ssaa, 20)?;
-    Ok(crate::bench::Distribution::of(&ms).median / 1e3)
+    Ok(crate::stats::Distribution::of(&ms).median / 1e3)
 }
 
 /// Run the sweep. `progress` reports each run on stderr.
@@ -151,10 +152,11 @@ pub fn run(
         let c = compare(&r.mean, reference)?;
         if progress {
             eprintln!(
-                "[{}/{total_runs}] path tracer {} spp: {:.3} s, relMSE {:.3e}",
+                "[{}/{total_runs}] path tracer {} spp: {:.3} s (+ {:.3} s setup), relMSE {:.3e}",
                 combos.len() + i + 1,
                 r.spp,
                 r.seconds,
+                r.setup_seconds,
                 c.rel_mse
             );
         }
@@ -166,7 +168,7 @@ pub fn run(
             0.0,
             0,
             r.spp,
-            0.0,
+            r.setup_seconds,
             r.seconds,
             &c,
         ));
@@ -251,6 +253,8 @@ pub struct WalkRow {
     pub frame: u32,
     pub method: String,
     pub spp: u32,
+    /// the frame's own time: the light field's render, the path tracer's tracing (its one-off
+    /// scene preparation and BVH build are not a per-frame cost and are left out)
     pub frame_ms: f64,
     pub rel_mse: f64,
     pub flip: f64,
@@ -296,7 +300,7 @@ pub fn walkthrough(
             frame: i as u32,
             method: "light field".into(),
             spp: 0,
-            frame_ms: crate::bench::Distribution::of(&ms).median,
+            frame_ms: crate::stats::Distribution::of(&ms).median,
             rel_mse: c.rel_mse,
             flip: c.flip_mean,
         });

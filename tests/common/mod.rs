@@ -72,3 +72,102 @@ pub fn face_mean(
     }
     sum / weight
 }
+
+/// A binary glTF from its JSON and BIN chunk.
+pub fn glb(json: &serde_json::Value, bin: &[u8]) -> Vec<u8> {
+    let mut j = serde_json::to_vec(json).unwrap();
+    while !j.len().is_multiple_of(4) {
+        j.push(b' ');
+    }
+    let mut b = bin.to_vec();
+    while !b.len().is_multiple_of(4) {
+        b.push(0);
+    }
+    let total = 12 + 8 + j.len() + 8 + b.len();
+    let mut out = Vec::new();
+    out.extend(b"glTF");
+    out.extend(2u32.to_le_bytes());
+    out.extend((total as u32).to_le_bytes());
+    out.extend((j.len() as u32).to_le_bytes());
+    out.extend(0x4E4F534Au32.to_le_bytes());
+    out.extend(j);
+    out.extend((b.len() as u32).to_le_bytes());
+    out.extend(0x004E4942u32.to_le_bytes());
+    out.extend(b);
+    out
+}
+
+/// A glTF (binary) model for the tests: a floor (1 x 1 at y = 0, facing up) and a light above it (facing down), as a list, a strip
+/// and a fan, plus a point primitive; materials and nodes from the caller.
+pub fn gltf_model(
+    materials: serde_json::Value,
+    nodes: serde_json::Value,
+    extra: serde_json::Value,
+) -> Vec<u8> {
+    let pos: [[f32; 3]; 8] = [
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [0.25, 1.0, 0.25],
+        [0.75, 1.0, 0.25],
+        [0.75, 1.0, 0.75],
+        [0.25, 1.0, 0.75],
+    ];
+    let uv: [[f32; 2]; 8] = [
+        [0.0, 0.0],
+        [0.0, 1.0],
+        [1.0, 1.0],
+        [1.0, 0.0],
+        [0.0; 2],
+        [0.0; 2],
+        [0.0; 2],
+        [0.0; 2],
+    ];
+    let idx: [u16; 20] = [0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7, 4, 5, 7, 6, 4, 5, 6, 7];
+    let mut bin: Vec<u8> = pos.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+    bin.extend(uv.iter().flatten().flat_map(|x| x.to_le_bytes()));
+    bin.extend(idx.iter().flat_map(|x| x.to_le_bytes()));
+    let mut json = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 96},
+            {"buffer": 0, "byteOffset": 96, "byteLength": 64},
+            {"buffer": 0, "byteOffset": 160, "byteLength": 40}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3", "min": [0,0,0], "max": [1,1,1]},
+            {"bufferView": 1, "componentType": 5126, "count": 8, "type": "VEC2"},
+            {"bufferView": 2, "byteOffset": 0, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 2, "byteOffset": 12, "componentType": 5123, "count": 6, "type": "SCALAR"},
+            {"bufferView": 2, "byteOffset": 24, "componentType": 5123, "count": 4, "type": "SCALAR"},
+            {"bufferView": 2, "byteOffset": 32, "componentType": 5123, "count": 4, "type": "SCALAR"}
+        ],
+        "meshes": [
+            {"name": "floor", "primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}]},
+            {"name": "light", "primitives": [{"attributes": {"POSITION": 0}, "indices": 3, "material": 1}]},
+            {"name": "strip", "primitives": [
+                {"attributes": {"POSITION": 0}, "indices": 4, "mode": 5, "material": 0},
+                {"attributes": {"POSITION": 0}, "indices": 5, "mode": 6, "material": 0},
+                {"attributes": {"POSITION": 0}, "mode": 0}
+            ]}
+        ],
+        "materials": materials,
+        "nodes": nodes,
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    for (k, v) in extra.as_object().unwrap() {
+        json[k] = v.clone();
+    }
+    glb(&json, &bin)
+}
+
+pub fn gltf_basic_materials() -> serde_json::Value {
+    serde_json::json!([
+        {"name": "floor", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.6, 0.7, 1.0], "metallicFactor": 0.0}},
+        {"name": "lamp", "emissiveFactor": [1.0, 0.5, 0.25], "doubleSided": true,
+         "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}}
+    ])
+}

@@ -6,7 +6,6 @@
 //! `shaders/present.wgsl`.
 
 use super::{eye_view, Fov, XrPose, XrRuntime};
-use crate::bench::Distribution;
 use crate::display::headless::ViewTiming;
 use crate::display::tracking::Pose;
 use crate::display::window::{present_pass, present_pipeline, Navigator};
@@ -14,6 +13,7 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
 use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
 use crate::render::{Renderer, ViewTargets};
+use crate::stats::Distribution;
 use glam::{Quat, Vec3};
 use openxr as xr;
 use std::path::PathBuf;

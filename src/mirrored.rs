@@ -1,0 +1,90 @@
+//! Every Rust struct that mirrors a WGSL struct, listed with its fields' offsets so that
+//! tests/shaders.rs can check them member by member against naga's layout of the WGSL. It sits
+//! above the modules that own the structs (gpu, display, reference) and nothing depends on it.
+
+use crate::display::post::GpuWarp;
+use crate::gpu::types::*;
+use crate::reference::{GpuBvhNode, GpuTraceParams, GpuTriangle};
+
+/// A Rust struct that mirrors a WGSL struct: its size and each field's offset, for the test
+/// that checks them member by member against naga's layout of the WGSL (tests/shaders.rs).
+pub struct MirroredStruct {
+    pub rust: &'static str,
+    pub wgsl: &'static str,
+    /// a stage whose expanded source declares the WGSL struct
+    pub stage: &'static str,
+    pub size: usize,
+    /// (name, byte offset) of every Rust field, in declaration order
+    pub fields: Vec<(&'static str, usize)>,
+}
+
+/// Lists a mirrored struct's fields; the destructuring pattern makes the compiler refuse a
+/// list that misses one, so a field added in Rust cannot escape the offset check.
+macro_rules! mirrored {
+    ($rust:ident => $wgsl:literal in $stage:literal { $($field:ident),* $(,)? }) => {{
+        #[allow(unused)]
+        fn complete(v: $rust) {
+            let $rust { $($field: _),* } = v;
+        }
+        MirroredStruct {
+            rust: stringify!($rust),
+            wgsl: $wgsl,
+            stage: $stage,
+            size: std::mem::size_of::<$rust>(),
+            fields: vec![$((stringify!($field), std::mem::offset_of!($rust, $field))),*],
+        }
+    }};
+}
+
+/// Every Rust struct that mirrors a WGSL one (uniforms and storage elements of every stage).
+pub fn mirrored_structs() -> Vec<MirroredStruct> {
+    vec![
+        mirrored!(GpuAccumulate => "AccumulateParams" in "accumulate.wgsl" {
+            count, scale, weight_offset, _pad1
+        }),
+        mirrored!(GpuDirection => "Direction" in "render.wgsl" {
+            w, solid_angle, u, _pad0, v, _pad1
+        }),
+        mirrored!(GpuFace => "Face" in "render.wgsl" {
+            normal, plane_offset, origin, texel_density, axis_a, _pad0, axis_b, flags, albedo,
+            atlas_x, emission, atlas_y, atlas_w, atlas_h, twin, tile_slot, mirror, _pad
+        }),
+        mirrored!(GpuGrid => "GridParams" in "render.wgsl" {
+            resolution, direction_count, triangle_count, triangle_base, texel_count,
+            atlas_width, iteration, flags, sky, cell_size, depth_epsilon, geodesic_frequency,
+            tile_size, tile_face_count, direction_weight, tile_cell_count, first_direction,
+            tile_page_cells, texel_page_cells, _pad1, _pad2, _pad3
+        }),
+        mirrored!(GpuView => "View" in "render.wgsl" {
+            view_proj, inv_view_proj, sky, eye, cell_size, atlas_width, geodesic_frequency,
+            tile_size, tile_face_count, grid_resolution, exhaustive_triangles, tile_page_cells,
+            tile_cell_count, texel_page_cells, samples_per_pixel, mirror_bounces, _pad0
+        }),
+        mirrored!(GpuPresent => "PresentParams" in "present.wgsl" {
+            viewport_origin, viewport_size, exposure, encode_srgb, show_overlay, _pad0
+        }),
+        mirrored!(GpuPageRange => "PageRange" in "specular.wgsl" { base, cells, _pad0, _pad1 }),
+        mirrored!(GpuRayTriangle => "RayTriangle" in "render.wgsl" { u, v, w }),
+        mirrored!(GpuEmitter => "Emitter" in "direct.wgsl" {
+            v0, face, e1, textured, e2, _pad0, radiance
+        }),
+        mirrored!(GpuMirrorTriangle => "MirrorTriangle" in "direct.wgsl" {
+            v0, face, e1, _pad0, e2, _pad1
+        }),
+        mirrored!(GpuDirectParams => "DirectParams" in "direct.wgsl" {
+            emitter_count, emitter_samples, sky_samples, mirror_count
+        }),
+        mirrored!(GpuWarp => "WarpParams" in "warp.wgsl" {
+            inv_view_proj, eye, wand_origin, wand_direction, wand_colour, source_size,
+            output_size, grid_size, use_mask, _pad0
+        }),
+        mirrored!(GpuTraceParams => "TraceParams" in "reference.wgsl" {
+            inv_view_proj, eye, width, sky, height, samples_per_pass, pass_index, seed,
+            light_count, light_weight_total, _pad
+        }),
+        mirrored!(GpuTriangle => "Triangle" in "reference.wgsl" {
+            v0, face, e1, _pad0, e2, _pad1, uv01, uv2
+        }),
+        mirrored!(GpuBvhNode => "BvhNode" in "reference.wgsl" { lo, index, hi, count }),
+    ]
+}

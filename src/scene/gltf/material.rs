@@ -1,0 +1,267 @@
+//! glTF materials to the light field's: what a metallic-roughness material becomes, by the rules
+//! README "glTF models" states. The light field holds a diffuse reflectance (with a texture), an
+//! ideal mirror reflectance (one colour per material) and an emitted radiance (with a texture):
+//! - metallic >= 0.5 and roughness <= 0.2: an ideal mirror of the base colour (factor times
+//!   the texture's mean), no diffuse;
+//! - everything else (rough metals, dielectrics): diffuse of the base colour (factor x texture);
+//! - emission: emissiveFactor x emissiveTexture x KHR_materials_emissive_strength;
+//! - doubleSided: two-sided;
+//!
+//! and what cannot be represented (alpha, transmission, normal and occlusion maps, the
+//! metallic-roughness texture, clamped wrapping) is named in one warning per material.
+
+use super::super::{check_color, Material, MaterialOverride};
+use crate::error::{Result, VlfError};
+use std::collections::{BTreeMap, HashMap};
+use std::path::Path;
+
+/// A metal at least this metallic ...
+pub const MIRROR_METALLIC: f32 = 0.5;
+/// ... and at most this rough is an ideal mirror.
+pub const MIRROR_ROUGHNESS: f32 = 0.2;
+
+/// `KHR_texture_transform` as a 2x3 matrix on texture coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform(pub [[f32; 3]; 2]);
+
+impl UvTransform {
+    pub const IDENTITY: UvTransform = UvTransform([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]);
+
+    fn of(info: &::gltf::texture::Info) -> UvTransform {
+        let Some(t) = info.texture_transform() else {
+            return UvTransform::IDENTITY;
+        };
+        // T * R * S, as the extension defines it
+        let ([ox, oy], r, [sx, sy]) = (t.offset(), t.rotation(), t.scale());
+        let (s, c) = r.sin_cos();
+        UvTransform([[c * sx, s * sy, ox], [-s * sx, c * sy, oy]])
+    }
+
+    pub fn apply(&self, [u, v]: [f32; 2]) -> [f32; 2] {
+        if *self == UvTransform::IDENTITY {
+            return [u, v];
+        }
+        let m = &self.0;
+        [
+            m[0][0] * u + m[0][1] * v + m[0][2],
+            m[1][0] * u + m[1][1] * v + m[1][2],
+        ]
+    }
+}
+
+/// A material as planned before its images are read.
+pub struct Plan {
+    pub name: String,
+    material: Material,
+    diffuse_image: Option<usize>,
+    emission_image: Option<usize>,
+    /// the base colour texture of a mirror: its mean multiplies the mirror colour
+    mirror_image: Option<usize>,
+    uv_set: Option<u32>,
+    pub uv_transform: UvTransform,
+    notes: Vec<String>,
+}
+
+impl Plan {
+    /// The texture-coordinate set the triangles carry (the base colour's, else the emissive's).
+    pub fn uv_set(&self) -> Option<u32> {
+        self.uv_set
+    }
+
+    /// The images this material lays on its surfaces.
+    pub fn images(&self) -> Vec<usize> {
+        [self.diffuse_image, self.emission_image]
+            .into_iter()
+            .flatten()
+            .collect()
+    }
+
+    /// The base colour image of a mirror, whose mean colour it reflects.
+    pub fn mirror_image(&self) -> Option<usize> {
+        self.mirror_image
+    }
+}
+
+fn image_of(info: &::gltf::texture::Info) -> usize {
+    info.texture().source().index()
+}
+
+/// Every material of the document, in its order, with the scene.toml overrides applied.
+pub fn plan_all(
+    doc: &::gltf::Document,
+    overrides: &BTreeMap<String, MaterialOverride>,
+    path: &Path,
+) -> Result<Vec<Plan>> {
+    let mut names = HashMap::new();
+    let mut plans = Vec::new();
+    for m in doc.materials() {
+        let index = m.index().unwrap_or(plans.len());
+        let base = m
+            .name()
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("material{index}"));
+        let count = names.entry(base.clone()).or_insert(0);
+        *count += 1;
+        let name = if *count > 1 {
+            format!("{base}#{index}")
+        } else {
+            base
+        };
+        plans.push(plan(&m, name, overrides, path)?);
+    }
+    Ok(plans)
+}
+
+fn plan(
+    m: &::gltf::Material,
+    name: String,
+    overrides: &BTreeMap<String, MaterialOverride>,
+    path: &Path,
+) -> Result<Plan> {
+    let err = |message: String| VlfError::Material {
+        path: path.to_path_buf(),
+        material: name.clone(),
+        message,
+    };
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _] = pbr.base_color_factor();
+    let base = [r, g, b];
+    check_color(&base, true).map_err(|e| err(format!("baseColorFactor {e}")))?;
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    let emission = m.emissive_factor().map(|e| e * strength);
+    check_color(&emission, false)
+        .map_err(|e| err(format!("emissiveFactor x emissive_strength {e}")))?;
+    let mut notes = Vec::new();
+    let mirror = metallic >= MIRROR_METALLIC && roughness <= MIRROR_ROUGHNESS;
+    let base_tex = pbr.base_color_texture();
+    let emit_tex = m.emissive_texture();
+    if mirror {
+        notes.push(format!(
+            "metallic {metallic} roughness {roughness}: an ideal mirror of the base colour{}",
+            if base_tex.is_some() {
+                " (times its texture's mean)"
+            } else {
+                ""
+            }
+        ));
+    } else if metallic > 0.0 {
+        notes.push(format!(
+            "metallic {metallic} roughness {roughness}: a rough metal, taken as diffuse of the base colour"
+        ));
+    }
+    describe_losses(m, &mut notes);
+    // the triangles carry one set of texture coordinates: the base colour's decides
+    let diffuse_info = base_tex.as_ref().filter(|_| !mirror);
+    let coords = diffuse_info.or(emit_tex.as_ref());
+    let uv_set = coords.map(|i| {
+        i.texture_transform()
+            .and_then(|t| t.tex_coord())
+            .unwrap_or(i.tex_coord())
+    });
+    let uv_transform = coords.map_or(UvTransform::IDENTITY, UvTransform::of);
+    if let (Some(d), Some(e)) = (diffuse_info, emit_tex.as_ref()) {
+        if UvTransform::of(d) != UvTransform::of(e) || d.tex_coord() != e.tex_coord() {
+            notes.push("emissive texture read with the base colour texture's coordinates".into());
+        }
+    }
+    for info in [base_tex.as_ref(), emit_tex.as_ref()].into_iter().flatten() {
+        use ::gltf::texture::WrappingMode::Repeat;
+        let s = info.texture().sampler();
+        if s.wrap_s() != Repeat || s.wrap_t() != Repeat {
+            notes.push("clamped or mirrored texture wrapping treated as repeat".into());
+            break;
+        }
+    }
+    let o = overrides.get(&name).cloned().unwrap_or_default();
+    let material = Material {
+        name: name.clone(),
+        diffuse: o.diffuse.unwrap_or(if mirror { [0.0; 3] } else { base }),
+        mirror: o.mirror.unwrap_or(if mirror { base } else { [0.0; 3] }),
+        emission: o.emission.unwrap_or(emission),
+        two_sided: o.two_sided.unwrap_or(m.double_sided()),
+        diffuse_texture: None,
+        emission_texture: None,
+    };
+    for c in 0..3 {
+        if material.diffuse[c] + material.mirror[c] > 1.0 + 1e-6 {
+            return Err(err(format!(
+                "diffuse {:?} + mirror {:?} exceeds 1 in channel {c}: the surface would create energy",
+                material.diffuse, material.mirror
+            )));
+        }
+    }
+    Ok(Plan {
+        name,
+        diffuse_image: diffuse_info.map(image_of),
+        emission_image: emit_tex.as_ref().map(image_of),
+        mirror_image: base_tex.as_ref().filter(|_| mirror).map(image_of),
+        material,
+        uv_set,
+        uv_transform,
+        notes,
+    })
+}
+
+/// What the material has that the light field drops.
+fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
+    use ::gltf::material::AlphaMode;
+    match m.alpha_mode() {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask => notes.push(format!(
+            "alpha MASK (cutoff {}) treated as opaque",
+            m.alpha_cutoff().unwrap_or(0.5)
+        )),
+        AlphaMode::Blend => notes.push("alpha BLEND treated as opaque".into()),
+    }
+    if let Some(t) = m.transmission() {
+        if t.transmission_factor() > 0.0 {
+            notes.push(format!(
+                "transmission {} treated as opaque",
+                t.transmission_factor()
+            ));
+        }
+    }
+    if m.pbr_metallic_roughness()
+        .metallic_roughness_texture()
+        .is_some()
+    {
+        notes.push("metallic-roughness texture ignored (its factors decide)".into());
+    }
+    if m.normal_texture().is_some() {
+        notes.push("normal map ignored".into());
+    }
+    if m.occlusion_texture().is_some() {
+        notes.push("occlusion map ignored (the light field computes occlusion)".into());
+    }
+}
+
+/// The materials, with their textures attached once the images are read, and one warning per
+/// material that was approximated.
+pub fn finish(
+    plans: &[Plan],
+    texture_of_image: &HashMap<usize, u32>,
+    mirror_means: &HashMap<usize, [f32; 3]>,
+    warnings: &mut Vec<String>,
+) -> Vec<Material> {
+    plans
+        .iter()
+        .map(|p| {
+            let mut m = p.material.clone();
+            let tex = |i: Option<usize>| i.and_then(|i| texture_of_image.get(&i).copied());
+            m.diffuse_texture = tex(p.diffuse_image);
+            m.emission_texture = tex(p.emission_image);
+            if let Some(mean) = p.mirror_image.and_then(|i| mirror_means.get(&i)) {
+                m.mirror = std::array::from_fn(|c| m.mirror[c] * mean[c]);
+            }
+            if !p.notes.is_empty() {
+                warnings.push(format!(
+                    "glTF material {:?}: approximated: {}",
+                    p.name,
+                    p.notes.join("; ")
+                ));
+            }
+            m
+        })
+        .collect()
+}
