@@ -911,7 +911,7 @@ fn cave(
                 light_field_for(ctx, scene, None, params)
                     .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
             };
-            return Ok(vlf::display::cluster::run(&run, &mut make)?);
+            return Ok(vlf::display::run_cluster(&run, &mut make)?);
         }
     }
     let display = vlf::display::DisplayConfig::load(config)?;

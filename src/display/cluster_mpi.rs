@@ -13,6 +13,7 @@
 //! rank 0's partial report before exiting.
 
 use super::cluster::*;
+use super::framelock::{FrameLock, FrameState};
 use super::{headless, window, DisplayConfig};
 use crate::error::{Result, VlfError};
 use crate::gpu::GpuContext;

@@ -4,7 +4,7 @@
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
 //! queries, of the output passes, and CPU time per frame).
 
-use super::cluster::{FrameLock, FrameState};
+use super::framelock::{FrameLock, FrameState};
 use super::post::{Draw, Outputs};
 use super::tracking::PoseSource;
 use super::DisplayConfig;

@@ -4,7 +4,7 @@
 //! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`), projector warp and blend (`warp.rs`) applied with the wand
 //! ray by one GPU pass per output (`post.rs`), and headless rendering of every view
 //! (`headless.rs`); several processes driving one CAVE under MPI with a frame lock
-//! (`cluster.rs`, `cluster_mpi.rs` with the `mpi` feature).
+//! (`cluster.rs`, `framelock.rs`, `cluster_mpi.rs` with the `mpi` feature).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
@@ -12,6 +12,7 @@ pub mod cluster;
 #[cfg(feature = "mpi")]
 mod cluster_mpi;
 pub mod dtrack;
+pub mod framelock;
 pub mod headless;
 pub mod live;
 pub mod osc;
@@ -496,6 +497,19 @@ impl DisplayConfig {
         }
         Ok(())
     }
+}
+
+/// Run this process as one rank of a CAVE cluster (under mpirun; `cluster.rs`): rank 0 prints
+/// the cluster report (and writes it as JSON); a lost rank ends every process with a message.
+#[cfg(feature = "mpi")]
+pub fn run_cluster(run: &cluster::CaveRun, make: &mut cluster::MakeLightField) -> Result<()> {
+    cluster_mpi::run(run, make)
+}
+
+/// Without the `mpi` feature a cluster run is refused, saying how to build with it.
+#[cfg(not(feature = "mpi"))]
+pub fn run_cluster(_run: &cluster::CaveRun, _make: &mut cluster::MakeLightField) -> Result<()> {
+    Err(VlfError::Cluster(cluster::NO_MPI.into()))
 }
 
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection

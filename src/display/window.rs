@@ -7,7 +7,7 @@
 //! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
-use super::cluster::{FrameLock, FrameState};
+use super::framelock::{FrameLock, FrameState};
 use super::live::{LiveState, TrackingStatus};
 use super::post::{Draw, Outputs};
 use super::tracking::{Pose, PoseSource};
