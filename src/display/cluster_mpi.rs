@@ -400,7 +400,17 @@ pub fn run(run: &CaveRun, make: &mut MakeLightField) -> Result<()> {
         watch,
     };
     let mut adapter = String::new();
-    let drawn = display.and_then(|d| draw(&mut link, run, &d, &cluster, make, &mut adapter));
+    // a panic (a window system gone from under winit) is this rank's failure like an error:
+    // reported to rank 0 at once, not left to unwind into MPI_Finalize
+    let drawn = display.and_then(|d| {
+        let draw = || draw(&mut link, run, &d, &cluster, make, &mut adapter);
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(draw)).unwrap_or_else(|p| {
+            let what = (p.downcast_ref::<String>().cloned())
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_default();
+            Err(cluster_err(format!("panicked: {what}")))
+        })
+    });
     match drawn {
         Ok(views) => finish(&mut link, run, views, &cluster, adapter),
         Err(e) => fail(&mut link, run, e, &cluster, adapter),
