@@ -486,6 +486,8 @@ fn xvfb() -> (KillOnDrop, String) {
                 "800x400x24",
                 "-nolisten",
                 "tcp",
+                // three ranks connect at once: a server reset between two would refuse one
+                "-noreset",
             ])
             .stdout(Stdio::null())
             .stderr(Stdio::null())
