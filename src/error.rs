@@ -55,6 +55,10 @@ pub enum VlfError {
     #[error("display: {0}")]
     Display(String),
 
+    /// a CAVE cluster under MPI: a lost rank, a refused launch (`display/cluster.rs`)
+    #[error("cluster: {0}")]
+    Cluster(String),
+
     #[error("export to {target}: {message}")]
     Export {
         target: &'static str,

@@ -894,6 +894,27 @@ fn cave(
     json: Option<PathBuf>,
     params: &ParamArgs,
 ) -> Result<()> {
+    // under mpirun: one rank of a CAVE cluster (`display/cluster.rs`)
+    if let Some(ranks) = vlf::display::cluster::launched_size() {
+        if ranks > 1 || cfg!(feature = "mpi") {
+            let run = vlf::display::cluster::CaveRun {
+                config: config.to_path_buf(),
+                scene: scene.to_path_buf(),
+                headless,
+                frames,
+                hold: std::time::Duration::from_secs_f64(hold_seconds.max(0.0)),
+                exposure,
+                out: out.to_path_buf(),
+                exr,
+                json,
+            };
+            let mut make = |ctx: &std::sync::Arc<GpuContext>| {
+                light_field_for(ctx, scene, None, params)
+                    .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
+            };
+            return Ok(vlf::display::run_cluster(&run, &mut make)?);
+        }
+    }
     let display = vlf::display::DisplayConfig::load(config)?;
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;

@@ -76,6 +76,10 @@ for v in r["views"]:
 print()
 PY
 done
+# the CAVE as a 2-rank MPI cluster (tools/gpu-cluster.sh), if present
+if [ -f "$dir/cluster-2ranks.json" ]; then
+  bash "$(dirname "$0")/cluster-md.sh" "$dir"
+fi
 xr_dir=${3:-docs/results/xr-h200}
 if compgen -G "$xr_dir/xr-*.json" > /dev/null; then
   bash "$(dirname "$0")/xr-md.sh" "$xr_dir"

@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Makes sure the tests can run: a wgpu adapter (a real GPU's Vulkan driver, or else Mesa's
 # software Vulkan, lavapipe), a virtual display and a screenshot tool for the windowed CAVE
-# test (Xvfb, ImageMagick's import), libudev for gamepads (gilrs), and Mitsuba 3 + numpy for
-# the independent reference (tests/mitsuba.rs), pygltflib for tests/gltf.rs. Installs what is missing with apt-get and pip.
+# test (Xvfb, ImageMagick's import), libudev for gamepads (gilrs), Open MPI and libclang for the
+# CAVE cluster (`--features mpi`: mpirun, the MPI headers, bindgen's libclang; tests/cluster.rs),
+# Mitsuba 3 + numpy for the independent reference (tests/mitsuba.rs), pygltflib for
+# tests/gltf.rs. Installs what is missing with apt-get and pip.
 set -euo pipefail
 # Python packages first: they do not depend on the system packages below
 if ! python3 -c 'import mitsuba, numpy' 2>/dev/null; then
@@ -36,6 +38,9 @@ command -v import >/dev/null || missing+=(imagemagick)
 command -v xdotool >/dev/null || missing+=(xdotool)
 [ -e /usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1 ] || [ -e /usr/lib/libopenxr_loader.so.1 ] || missing+=(libopenxr-loader1)
 { command -v pkg-config >/dev/null && pkg-config --exists libudev; } || missing+=(pkg-config libudev-dev)
+# the CAVE cluster (--features mpi): Open MPI's mpirun and mpicc/headers, libclang for bindgen
+{ command -v mpirun >/dev/null && command -v mpicc >/dev/null; } || missing+=(openmpi-bin libopenmpi-dev)
+{ ldconfig -p 2>/dev/null | grep -q 'libclang[-.0-9]*\.so'; } || missing+=(libclang-dev)
 if [ ${#missing[@]} = 0 ]; then
   exit 0
 fi

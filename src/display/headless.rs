@@ -4,6 +4,7 @@
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
 //! queries, of the output passes, and CPU time per frame).
 
+use super::framelock::{FrameLock, FrameState};
 use super::post::{Draw, Outputs};
 use super::tracking::PoseSource;
 use super::DisplayConfig;
@@ -16,7 +17,7 @@ use crate::stats::Distribution;
 use serde::Serialize;
 use std::path::Path;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct ViewTiming {
     pub wall: String,
     pub eye: String,
@@ -63,6 +64,19 @@ pub fn run(
     frames: u32,
     out: &Path,
     exr: bool,
+) -> Result<CaveReport> {
+    run_locked(lf, resident, config, config_path, (frames, out, exr), None)
+}
+
+/// `run` as one rank of a cluster (`cluster.rs`): each frame's pose comes from `lock.share`,
+/// and `lock.swap` waits for every rank once the frame is drawn.
+pub fn run_locked(
+    lf: &LightField,
+    resident: &ResidentLightField,
+    config: &DisplayConfig,
+    config_path: &Path,
+    (frames, out, exr): (u32, &Path, bool),
+    mut lock: Option<&mut dyn FrameLock>,
 ) -> Result<CaveReport> {
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = PoseSource::from_config(config, config_path)?;
@@ -112,6 +126,13 @@ pub fn run(
         };
         let (pose, fresh) = poses.at_fresh(t);
         let wand = poses.wand_at(&config.tracking, t);
+        let (pose, wand) = match lock.as_deref_mut() {
+            Some(l) => {
+                let s = l.share(FrameState::new(f as u64, &pose, wand.as_ref(), 1.0))?;
+                (s.pose(), s.wand())
+            }
+            None => (pose, wand),
+        };
         let last_frame = f + 1 == total_frames;
         let started = std::time::Instant::now();
         last.clear();
@@ -161,6 +182,9 @@ pub fn run(
             }
         }
         if last_frame {
+            if let Some(l) = lock.as_deref_mut() {
+                l.swap()?;
+            }
             break;
         }
         if let Some(arrived) = fresh {
@@ -168,6 +192,9 @@ pub fn run(
         }
         resident.ctx.wait()?;
         cpu.push(started.elapsed().as_secs_f64() * 1e3);
+        if let Some(l) = lock.as_deref_mut() {
+            l.swap()?;
+        }
         if let Some(ts) = timestamps.as_mut() {
             let ms = ts.read_ms(&resident.ctx)?;
             // per view: its render, then (with outputs) each output's pass
@@ -206,6 +233,29 @@ pub fn run(
     let overview = out.join("overview.png");
     write_overview(config, &views, &last, &overview)?;
     images.push(overview.display().to_string());
+    let (timings, worst) = view_timings(config, &views, &gpu);
+    Ok(CaveReport {
+        worst_p99_over_p50: worst,
+        constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
+        display: config.name.clone(),
+        adapter: resident.ctx.summary.name.clone(),
+        frames: frames.max(1),
+        views_per_frame: views.len(),
+        views: timings,
+        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
+        cpu_frame_ms: Distribution::of(&cpu),
+        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
+        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
+        images,
+    })
+}
+
+/// Each view's GPU time, and the largest p99/p50 among them.
+fn view_timings(
+    config: &DisplayConfig,
+    views: &[(usize, &'static str, f32)],
+    gpu: &[Vec<f64>],
+) -> (Vec<ViewTiming>, Option<f64>) {
     let timings: Vec<ViewTiming> = views
         .iter()
         .enumerate()
@@ -224,20 +274,7 @@ pub fn run(
         .iter()
         .filter_map(|v: &ViewTiming| v.p99_over_p50)
         .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
-    Ok(CaveReport {
-        worst_p99_over_p50: worst,
-        constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
-        display: config.name.clone(),
-        adapter: resident.ctx.summary.name.clone(),
-        frames: frames.max(1),
-        views_per_frame: views.len(),
-        views: timings,
-        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
-        cpu_frame_ms: Distribution::of(&cpu),
-        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
-        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
-        images,
-    })
+    (timings, worst)
 }
 
 /// Write each named image as `out/<name>.png` (and `.exr`); the paths written.

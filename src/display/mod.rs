@@ -3,11 +3,16 @@
 //! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
 //! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`), projector warp and blend (`warp.rs`) applied with the wand
 //! ray by one GPU pass per output (`post.rs`), and headless rendering of every view
-//! (`headless.rs`).
+//! (`headless.rs`); several processes driving one CAVE under MPI with a frame lock
+//! (`cluster.rs`, `framelock.rs`, `cluster_mpi.rs` with the `mpi` feature).
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod calibration;
+pub mod cluster;
+#[cfg(feature = "mpi")]
+mod cluster_mpi;
 pub mod dtrack;
+pub mod framelock;
 pub mod headless;
 pub mod live;
 pub mod osc;
@@ -51,6 +56,9 @@ pub struct DisplayConfig {
     pub wand_ray: post::WandRay,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
+    /// several processes, one CAVE (`mpirun`; `cluster.rs`): walls per rank, lost-rank timeout
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cluster: Option<cluster::ClusterConfig>,
 }
 
 fn default_ipd() -> f32 {
@@ -324,6 +332,9 @@ pub struct Wall {
     /// none: the wall image goes to the output as it is
     #[serde(default, rename = "projector", skip_serializing_if = "Vec::is_empty")]
     pub projectors: Vec<warp::Projector>,
+    /// a cluster rank drawing only one eye of this wall (`cluster::local_config`)
+    #[serde(skip)]
+    pub only_eye: Option<&'static str>,
 }
 
 fn mono() -> Stereo {
@@ -340,10 +351,13 @@ impl Wall {
     }
     /// The eyes drawn on this wall: ("mono", 0) or ("left", -1) and ("right", +1).
     pub fn eyes(&self) -> Vec<(&'static str, f32)> {
-        match self.stereo {
+        let all = match self.stereo {
             Stereo::Mono => vec![("mono", 0.0)],
             _ => vec![("left", -1.0), ("right", 1.0)],
-        }
+        };
+        (all.into_iter())
+            .filter(|e| self.only_eye.is_none_or(|only| only == e.0))
+            .collect()
     }
     /// Pixel size of one eye's image.
     pub fn eye_pixels(&self) -> [u32; 2] {
@@ -453,6 +467,9 @@ impl DisplayConfig {
                 return Err("tracking.device: name the VRPN device (as in Tracker0@host)".into());
             }
         }
+        if let Some(c) = &self.cluster {
+            c.validate(self)?;
+        }
         if self.navigation.wand_reset_button >= 64 {
             return Err(format!(
                 "navigation.wand_reset_button: {} is not a button (0 to 63)",
@@ -481,6 +498,19 @@ impl DisplayConfig {
         }
         Ok(())
     }
+}
+
+/// Run this process as one rank of a CAVE cluster (under mpirun; `cluster.rs`): rank 0 prints
+/// the cluster report (and writes it as JSON); a lost rank ends every process with a message.
+#[cfg(feature = "mpi")]
+pub fn run_cluster(run: &cluster::CaveRun, make: &mut cluster::MakeLightField) -> Result<()> {
+    cluster_mpi::run(run, make)
+}
+
+/// Without the `mpi` feature a cluster run is refused, saying how to build with it.
+#[cfg(not(feature = "mpi"))]
+pub fn run_cluster(_run: &cluster::CaveRun, _make: &mut cluster::MakeLightField) -> Result<()> {
+    Err(VlfError::Cluster(cluster::NO_MPI.into()))
 }
 
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection

@@ -7,6 +7,7 @@
 //! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
 //! Esc quits cleanly and prints the frame-time report.
 
+use super::framelock::{FrameLock, FrameState};
 use super::live::{LiveState, TrackingStatus};
 use super::post::{Draw, Outputs};
 use super::tracking::{Pose, PoseSource};
@@ -166,6 +167,20 @@ pub fn run(
     config_path: &Path,
     options: WindowOptions,
 ) -> Result<WindowReport> {
+    run_locked(lf, resident, config, config_path, options, None)
+}
+
+/// `run` as one rank of a cluster (`cluster.rs`): each frame's pose and exposure come from
+/// `lock.share`, every rank waits at `lock.swap` before presenting; only rank 0 takes input
+/// and decides when to stop (the others stop when its state says so).
+pub fn run_locked<'a>(
+    lf: &'a LightField,
+    resident: &'a ResidentLightField,
+    config: &'a DisplayConfig,
+    config_path: &Path,
+    options: WindowOptions,
+    lock: Option<&'a mut dyn FrameLock>,
+) -> Result<WindowReport> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(VlfError::Display(
             "no display to open windows on (neither DISPLAY nor WAYLAND_DISPLAY is set); run with --headless to render every wall and eye to files, or start a virtual display (Xvfb :99 & export DISPLAY=:99)".into(),
@@ -216,6 +231,8 @@ pub fn run(
         latency: Vec::new(),
         error: None,
         printed_done: false,
+        lock,
+        shown: 0,
     };
     event_loop
         .run_app(&mut app)
@@ -260,6 +277,10 @@ struct App<'a> {
     latency: Vec<f64>,
     error: Option<VlfError>,
     printed_done: bool,
+    /// a cluster's frame lock (`cluster.rs`); None alone
+    lock: Option<&'a mut dyn FrameLock>,
+    /// frames drawn (the frame number shared with a cluster)
+    shown: u64,
 }
 
 impl App<'_> {
@@ -287,7 +308,7 @@ impl App<'_> {
             // a wall whose eyes go to separate outputs gets a window per eye; one driven by
             // projectors a window per projector (per eye): each shows what headless writes as
             // <wall>-<eye>-<projector>.png, on the next monitor or beside the previous window
-            let groups: Vec<(&'static str, Vec<(&'static str, u8)>)> = match wall.stereo {
+            let mut groups: Vec<(&'static str, Vec<(&'static str, u8)>)> = match wall.stereo {
                 Stereo::Mono => vec![("", vec![("mono", 0)])],
                 Stereo::Separate => {
                     vec![("left", vec![("left", 0)]), ("right", vec![("right", 0)])]
@@ -296,6 +317,9 @@ impl App<'_> {
                     vec![("", vec![("left", 1), ("right", 2)])]
                 }
             };
+            // a cluster rank drawing one eye of the wall (`Wall::only_eye`) opens its window only
+            let drawn = wall.eyes();
+            groups.retain(|(_, eyes)| eyes.iter().all(|e| drawn.iter().any(|d| d.0 == e.0)));
             let outputs: Vec<(Option<usize>, [u32; 2])> = if wall.projectors.is_empty() {
                 vec![(None, wall.pixels)]
             } else {
@@ -621,7 +645,18 @@ impl App<'_> {
         };
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
-        let pose = self.navigator.apply(base);
+        let mut pose = self.navigator.apply(base);
+        let mut wand = wand;
+        if let Some(lock) = self.lock.as_deref_mut() {
+            let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
+            let s = lock.share(s)?;
+            if s.is_quit() {
+                event_loop.exit();
+                return Ok(());
+            }
+            (pose, wand, self.options.exposure) = (s.pose(), s.wand(), s.exposure);
+        }
+        self.shown += 1;
         let status = match (tracking, &self.config.tracking) {
             (Some(TrackingStatus::Quiet(d)), _) => Some(format!(
                 "tracking quiet {:.0} s: holding the last pose",
@@ -662,7 +697,12 @@ impl App<'_> {
         if let (Some(arrived), true) = (fresh, timed) {
             self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
-        // every window's frame is ready before any is shown: the walls change together
+        // every window's frame is ready before any is shown: the walls change together (and
+        // in a cluster, every rank's: drawn, then the swap barrier)
+        if let Some(lock) = self.lock.as_deref_mut() {
+            ctx.wait()?;
+            lock.swap()?;
+        }
         for texture in outputs {
             ctx.queue.present(texture);
         }
@@ -678,7 +718,8 @@ impl App<'_> {
             }
             self.frames += 1;
         }
-        if let Some(n) = self.options.frames {
+        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
+        if let (Some(n), false) = (self.options.frames, follower) {
             if self.frames >= n {
                 if !self.printed_done {
                     println!("presented {n} frames on {} window(s)", self.windows.len());
@@ -815,7 +856,13 @@ impl ApplicationHandler for App<'_> {
         window_id: WindowId,
         event: WindowEvent,
     ) {
+        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         match event {
+            // a cluster rank other than 0 losing its window loses its part of the CAVE
+            WindowEvent::CloseRequested if follower => self.fail(
+                event_loop,
+                VlfError::Display("a window of this rank was closed".into()),
+            ),
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
                 let ctx = self.ctx().clone();
@@ -825,6 +872,8 @@ impl ApplicationHandler for App<'_> {
                     w.surface.configure(&ctx.device, &w.config);
                 }
             }
+            // input belongs to rank 0 in a cluster
+            WindowEvent::KeyboardInput { .. } | WindowEvent::MouseInput { .. } if follower => {}
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else {
                     return;

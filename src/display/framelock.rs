@@ -1,0 +1,79 @@
+//! The frame lock between the drawing loops and a cluster (`cluster.rs`): the state rank 0
+//! broadcasts every frame (`FrameState`: frame number, head, wand, navigation, exposure) and
+//! what the headless and windowed loops call (`FrameLock`: share the state at the start of a
+//! frame, then a swap barrier just before present).
+
+use super::live::WandPose;
+use super::tracking::Pose;
+use crate::error::Result;
+use glam::{Quat, Vec3};
+
+/// What every rank draws a frame from, as rank 0 broadcasts it (88 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct FrameState {
+    pub frame: u64,
+    pub head: [f32; 3],
+    pub head_rotation: [f32; 4],
+    pub room_position: [f32; 3],
+    pub room_yaw_deg: f32,
+    pub wand_position: [f32; 3],
+    pub wand_rotation: [f32; 4],
+    pub exposure: f32,
+    /// bit 0: the run ends (nothing to draw); bit 1: a wand is tracked
+    pub flags: u32,
+}
+
+const QUIT: u32 = 1;
+const HAS_WAND: u32 = 2;
+
+impl FrameState {
+    pub fn new(frame: u64, pose: &Pose, wand: Option<&WandPose>, exposure: f32) -> FrameState {
+        FrameState {
+            frame,
+            head: pose.head.into(),
+            head_rotation: pose.head_rotation.to_array(),
+            room_position: pose.room_position.into(),
+            room_yaw_deg: pose.room_yaw_deg,
+            wand_position: wand.map_or([0.0; 3], |w| w.position.into()),
+            wand_rotation: wand.map_or([0.0, 0.0, 0.0, 1.0], |w| w.rotation.to_array()),
+            exposure,
+            flags: if wand.is_some() { HAS_WAND } else { 0 },
+        }
+    }
+    pub fn quit(frame: u64) -> FrameState {
+        FrameState {
+            flags: QUIT,
+            ..FrameState::new(frame, &Pose::new(Vec3::ZERO, Vec3::ZERO, 0.0), None, 1.0)
+        }
+    }
+    pub fn is_quit(&self) -> bool {
+        self.flags & QUIT != 0
+    }
+    pub fn pose(&self) -> Pose {
+        Pose {
+            head: Vec3::from(self.head),
+            head_rotation: Quat::from_array(self.head_rotation),
+            room_position: Vec3::from(self.room_position),
+            room_yaw_deg: self.room_yaw_deg,
+        }
+    }
+    pub fn wand(&self) -> Option<WandPose> {
+        (self.flags & HAS_WAND != 0).then(|| WandPose {
+            position: Vec3::from(self.wand_position),
+            rotation: Quat::from_array(self.wand_rotation),
+        })
+    }
+    /// CRC-32 of everything but the frame number: equal poses, wands and exposure.
+    pub fn pose_digest(&self) -> u32 {
+        crc32fast::hash(&bytemuck::bytes_of(self)[8..])
+    }
+}
+
+/// The frame lock the drawing loops call: `share` at the start of every frame (rank 0 gives
+/// its state, every rank gets rank 0's), `swap` when the frame is drawn, just before present.
+pub trait FrameLock {
+    fn is_leader(&self) -> bool;
+    fn share(&mut self, state: FrameState) -> Result<FrameState>;
+    fn swap(&mut self) -> Result<()>;
+}
