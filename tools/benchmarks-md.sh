@@ -76,9 +76,12 @@ for v in r["views"]:
 print()
 PY
 done
-# the CAVE as a 2-rank MPI cluster (tools/gpu-cluster.sh), if present
-if [ -f "$dir/cluster-2ranks.json" ]; then
-  bash "$(dirname "$0")/cluster-md.sh" "$dir"
+# the CAVE as a 2-rank MPI cluster (tools/gpu-cluster.sh), if present: in DIR itself or in its
+# sibling cluster/ (docs/results/h100/cluster beside docs/results/h100/bench)
+cluster_dir=$dir
+[ -f "$cluster_dir/cluster-2ranks.json" ] || cluster_dir=$(dirname "$dir")/cluster
+if [ -f "$cluster_dir/cluster-2ranks.json" ]; then
+  bash "$(dirname "$0")/cluster-md.sh" "$cluster_dir"
 fi
 xr_dir=${3:-docs/results/xr-h200}
 if compgen -G "$xr_dir/xr-*.json" > /dev/null; then
