@@ -158,3 +158,39 @@ fn every_stage_reflects_its_bind_groups() {
         }
     )));
 }
+
+#[test]
+fn paged_arrays_have_as_many_bindings_as_rust_plans_pages() {
+    // an array that can outgrow one binding is declared as pages `name_0 .. name_{n-1}`; Rust
+    // plans at most MAX_TILE_PAGES pages (lightfield::tiles), so every such family must have
+    // exactly that many bindings in every stage that declares it
+    let pages = vlf::lightfield::tiles::MAX_TILE_PAGES as usize;
+    let mut families_seen = 0;
+    for stage in shaders::STAGES {
+        let module = shaders::expand(stage).unwrap().validate().unwrap();
+        let mut families: std::collections::BTreeMap<String, Vec<usize>> = Default::default();
+        for (_, var) in module.global_variables.iter() {
+            let (Some(name), Some(_)) = (&var.name, &var.binding) else {
+                continue;
+            };
+            if let Some((family, index)) = name.rsplit_once('_') {
+                if let Ok(i) = index.parse::<usize>() {
+                    families.entry(family.to_string()).or_default().push(i);
+                }
+            }
+        }
+        for (family, mut indices) in families {
+            indices.sort();
+            families_seen += 1;
+            assert_eq!(
+                indices,
+                (0..pages).collect::<Vec<_>>(),
+                "{stage}: the pages of `{family}` are {indices:?}, Rust plans {pages}"
+            );
+        }
+    }
+    assert!(
+        families_seen >= 3,
+        "no paged arrays found: the check checks nothing"
+    );
+}

@@ -959,33 +959,8 @@ pub(crate) fn present_pipeline(
 ) -> Result<PresentPipeline> {
     let device = &ctx.device;
     let module = crate::gpu::shaders::module(device, "present.wgsl")?;
-    let texture = |binding, filterable| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    };
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("present"),
-        entries: &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            },
-            texture(1, false),
-            texture(2, true),
-        ],
-    });
+    // params, the eye's image, the status overlay: as present.wgsl declares them
+    let layout = crate::gpu::reflect::layout(device, "present.wgsl", 0)?;
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some("present"),
         bind_group_layouts: &[Some(&layout)],

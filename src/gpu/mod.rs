@@ -257,62 +257,6 @@ impl GpuContext {
     }
 }
 
-/// How a shader binds a buffer.
-#[derive(Clone, Copy, Debug)]
-pub enum Binding {
-    Uniform,
-    Storage,
-    StorageReadWrite,
-    /// a 2D texture of u32 read with textureLoad
-    TextureUint,
-    /// a 2D rgba32float storage texture, written
-    ImageWrite,
-}
-
-/// A bind group layout with one entry per binding, numbered from 0.
-pub fn bind_group_layout(
-    device: &wgpu::Device,
-    visibility: wgpu::ShaderStages,
-    bindings: &[Binding],
-) -> wgpu::BindGroupLayout {
-    let entries: Vec<wgpu::BindGroupLayoutEntry> = bindings
-        .iter()
-        .enumerate()
-        .map(|(i, b)| wgpu::BindGroupLayoutEntry {
-            binding: i as u32,
-            visibility,
-            ty: match b {
-                Binding::TextureUint => wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Uint,
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                Binding::ImageWrite => wgpu::BindingType::StorageTexture {
-                    access: wgpu::StorageTextureAccess::WriteOnly,
-                    format: wgpu::TextureFormat::Rgba32Float,
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                },
-                buffer => wgpu::BindingType::Buffer {
-                    ty: match buffer {
-                        Binding::Uniform => wgpu::BufferBindingType::Uniform,
-                        Binding::StorageReadWrite => {
-                            wgpu::BufferBindingType::Storage { read_only: false }
-                        }
-                        _ => wgpu::BufferBindingType::Storage { read_only: true },
-                    },
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-            },
-            count: None,
-        })
-        .collect();
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: None,
-        entries: &entries,
-    })
-}
-
 /// Named GPU allocations, so that reports can say what memory each stage used.
 #[derive(Clone, Default)]
 pub struct MemoryLedger {
