@@ -194,3 +194,18 @@ fn paged_arrays_have_as_many_bindings_as_rust_plans_pages() {
         "no paged arrays found: the check checks nothing"
     );
 }
+
+#[test]
+fn every_stage_file_is_listed_as_a_stage() {
+    // files outside shaders/common/ have entry points and must be compiled and validated
+    let mut missing = Vec::new();
+    for (name, _) in shaders::SOURCES {
+        if !name.starts_with("common/") && !shaders::STAGES.contains(name) {
+            missing.push(*name);
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "not in gpu::shaders::STAGES: {missing:?}"
+    );
+}
