@@ -846,33 +846,43 @@ impl Propagator {
     /// (overwriting what the gather found through the fixed directions: emitters and sky); with
     /// `mirrors`, the second iteration's texels add the emitters seen in mirrors to their gather.
     fn encode_direct(&self, mirrors: bool) {
-        let Some(direct) = &self.direct else { return };
-        if mirrors && direct.mirror_count == 0 {
+        if mirrors && self.direct.as_ref().is_some_and(|d| d.mirror_count == 0) {
             return;
         }
-        let (bg0, bg1) = self.texel_bind_groups();
-        let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
-            .iter()
-            .zip(&self.texels)
-            .map(|(bg, page)| (bg, page.state.count))
-            .collect();
-        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("direct light"),
-                timestamp_writes: None,
-            });
-            direct.encode(&mut pass, &bg0, &pages, mirrors);
-        }
-        self.ctx.queue.submit([encoder.finish()]);
+        let current = self.current;
+        self.encode_direct_stage(
+            "direct light",
+            |page| &page.state.radiance[1 - current],
+            |d, pass, bg0, pages| d.encode(pass, bg0, pages, mirrors),
+        );
     }
 
     /// Mark the texels inside closed geometry in w of their totals (`texel_validity`), for the
     /// renderer's lookups; without direct light (the paper's settings) nothing is marked and
     /// the renderer interpolates every texel.
     fn encode_validity(&self) {
+        self.encode_direct_stage(
+            "texel validity",
+            |page| &page.state.total,
+            |d, pass, bg0, pages| d.encode_validity(pass, bg0, pages),
+        );
+    }
+
+    /// One pass of the direct-light stage over every texel page, with `target` bound as each
+    /// page's output; nothing without direct light.
+    fn encode_direct_stage(
+        &self,
+        label: &str,
+        target: impl Fn(&Page) -> &wgpu::Buffer,
+        record: impl FnOnce(
+            &super::direct::DirectLight,
+            &mut wgpu::ComputePass,
+            &wgpu::BindGroup,
+            &[(&wgpu::BindGroup, u32)],
+        ),
+    ) {
         let Some(direct) = &self.direct else { return };
-        let (bg0, bg1) = self.texel_bind_groups_writing(|page| &page.state.total);
+        let (bg0, bg1) = self.texel_bind_groups_writing(target);
         let pages: Vec<(&wgpu::BindGroup, u32)> = bg1
             .iter()
             .zip(&self.texels)
@@ -881,10 +891,10 @@ impl Propagator {
         let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("texel validity"),
+                label: Some(label),
                 timestamp_writes: None,
             });
-            direct.encode_validity(&mut pass, &bg0, &pages);
+            record(direct, &mut pass, &bg0, &pages);
         }
         self.ctx.queue.submit([encoder.finish()]);
     }
