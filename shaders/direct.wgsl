@@ -280,6 +280,20 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
     return irradiance + unsampled * ratio_all;
 }
 
+// An orthonormal frame around n: columns (a, b, n), a and b spanning the tangent plane.
+fn hemisphere_frame(n: vec3<f32>) -> mat3x3<f32> {
+    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
+    let a = normalize(cross(n, t));
+    return mat3x3<f32>(a, cross(n, a), n);
+}
+
+// The cosine-distributed direction of the unit square's point u in that frame.
+fn cosine_direction(frame: mat3x3<f32>, u: vec2<f32>) -> vec3<f32> {
+    let r = sqrt(u.x);
+    let phi = 2.0 * PI * u.y;
+    return frame[0] * (r * cos(phi)) + frame[1] * (r * sin(phi)) + frame[2] * sqrt(max(1.0 - u.x, 0.0));
+}
+
 // Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance (rgb: a ray
 // that meets a mirror first goes on, reflected, with the mirror's reflectance).
 fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
@@ -288,17 +302,13 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x85ebca6bu)), unit_float(hash(seed + 0xc2b2ae35u)));
-    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
-    let a = normalize(cross(n, t));
-    let b = cross(n, a);
+    let frame = hemisphere_frame(n);
     let origin = x + n * RAY_OFFSET;
     let follow_mirrors = direct.mirror_count > 0u;
     var open = vec3<f32>(0.0);
     for (var k = 0u; k < samples; k++) {
         let u = hammersley(k, samples, shift);
-        let r = sqrt(u.x);
-        let phi = 2.0 * PI * u.y;
-        let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
+        let dir = cosine_direction(frame, u);
         // the scene lies in the unit sphere: a ray that leaves it sees the sky
         let hit = trace_skipping(origin, dir, 4.0, !follow_mirrors, skip, SHADOW_GROW);
         if hit.tri == NO_FACE {
@@ -513,16 +523,12 @@ fn texel_validity(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_wo
         return;
     }
     let n = faces[face_id].normal;
-    let t = select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(n.x) > 0.5);
-    let a = normalize(cross(n, t));
-    let b = cross(n, a);
+    let frame = hemisphere_frame(n);
     let origin = point.xyz + n * RAY_OFFSET;
     var inside = 0u;
     for (var k = 0u; k < VALIDITY_RAYS; k++) {
         let u = hammersley(k, VALIDITY_RAYS, vec2<f32>(0.5));
-        let r = sqrt(u.x);
-        let phi = 2.0 * PI * u.y;
-        let dir = a * (r * cos(phi)) + b * (r * sin(phi)) + n * sqrt(max(1.0 - u.x, 0.0));
+        let dir = cosine_direction(frame, u);
         let hit = trace_skipping(origin, dir, 4.0, false, face_id, 0.0);
         if hit.tri != NO_FACE {
             let f = faces[triangles[hit.tri].face];
