@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{gpu, write_scene, Mat, ObjBuilder};
+use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::{DVec2, DVec3};
 use vlf::prepare::PreparedScene;
 use vlf::propagate::PropagationParams;
@@ -28,20 +28,6 @@ fn params() -> PropagationParams {
         direct_samples: 256,
         mirror_direct: false,
     }
-}
-
-/// Irradiance at x (normal +y) from a convex polygon of unit radiance above x's horizon.
-fn polygon_irradiance(x: DVec3, corners: &[DVec3]) -> f64 {
-    let mut sum = 0.0;
-    for k in 0..corners.len() {
-        let a = (corners[k] - x).normalize();
-        let b = (corners[(k + 1) % corners.len()] - x).normalize();
-        let c = a.cross(b);
-        if c.length() > 0.0 {
-            sum += c.length().atan2(a.dot(b)) * DVec3::Y.dot(c.normalize());
-        }
-    }
-    sum.abs() * 0.5
 }
 
 /// Sutherland-Hodgman: the part of convex `subject` inside convex `clip` (both counter-clockwise
@@ -74,32 +60,6 @@ fn clip_convex(subject: &[DVec2], clip: &[DVec2]) -> Vec<DVec2> {
         }
     }
     out
-}
-
-/// The corners of the face made of material `material`, in order around their centre.
-fn face_corners(prepared: &PreparedScene, material: u32) -> Vec<DVec3> {
-    let face = (0..prepared.faces.len())
-        .find(|&f| prepared.faces[f].material == material)
-        .unwrap();
-    let mut corners: Vec<DVec3> = Vec::new();
-    for t in prepared
-        .triangles
-        .iter()
-        .filter(|t| t.face as usize == face)
-    {
-        for v in t.vertices {
-            let q = prepared.positions[v as usize];
-            if !corners.iter().any(|c| c.distance(q) < 1e-9) {
-                corners.push(q);
-            }
-        }
-    }
-    let centre = corners.iter().sum::<DVec3>() / corners.len() as f64;
-    corners.sort_by(|p, q| {
-        let angle = |v: &DVec3| (v.z - centre.z).atan2(v.x - centre.x);
-        angle(p).total_cmp(&angle(q))
-    });
-    corners
 }
 
 struct Texel {
@@ -152,8 +112,8 @@ fn occluded_floor() -> Vec<Texel> {
             .unwrap() as u32
     };
     let (floor, light, blocker) = (material("floor"), material("light"), material("blocker"));
-    let emitter = face_corners(&prepared, light);
-    let occluder = face_corners(&prepared, blocker);
+    let emitter = face_corners(&prepared, light, DVec3::Y);
+    let occluder = face_corners(&prepared, blocker, DVec3::Y);
     let plane = emitter[0].y;
     let flat = |v: DVec3| DVec2::new(v.x, v.z);
     let emitter_2d: Vec<DVec2> = emitter.iter().map(|&v| flat(v)).collect();
@@ -174,9 +134,9 @@ fn occluded_floor() -> Vec<Texel> {
             .map(|q| DVec3::new(q.x, plane, q.y))
             .collect();
         let k = rho / std::f64::consts::PI * le as f64;
-        let full = k * polygon_irradiance(x, &emitter);
+        let full = k * polygon_irradiance(x, DVec3::Y, &emitter);
         let blocked = if hidden.len() >= 3 {
-            k * polygon_irradiance(x, &hidden)
+            k * polygon_irradiance(x, DVec3::Y, &hidden)
         } else {
             0.0
         };

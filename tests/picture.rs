@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::{gpu, write_scene, Mat, ObjBuilder};
+use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use vlf::prepare::PreparedScene;
 use vlf::propagate::PropagationParams;
@@ -32,18 +32,6 @@ fn params(direct_samples: u32) -> PropagationParams {
         direct_samples,
         mirror_direct: false,
     }
-}
-
-/// Irradiance at x (normal n) from a convex polygon of unit radiance wholly above x's horizon.
-fn polygon_irradiance(x: DVec3, n: DVec3, corners: &[DVec3]) -> f64 {
-    let mut sum = 0.0;
-    for k in 0..corners.len() {
-        let a = (corners[k] - x).normalize();
-        let b = (corners[(k + 1) % corners.len()] - x).normalize();
-        let c = a.cross(b);
-        sum += c.length().atan2(a.dot(b)) * n.dot(c.normalize());
-    }
-    sum.abs() * 0.5
 }
 
 /// Largest relative error of the floor's texels against the closed form, over texels that get
@@ -86,34 +74,9 @@ fn floor_error(direct_samples: u32) -> f64 {
         .iter()
         .position(|m| m.emission[0] > 0.0)
         .unwrap() as u32;
-    let light_face = (0..prepared.faces.len())
-        .find(|&f| prepared.faces[f].material == light)
-        .unwrap();
     // the emitter's corners in normalised space (irradiance does not change with scale)
-    let mut corners: Vec<DVec3> = Vec::new();
-    for t in prepared
-        .triangles
-        .iter()
-        .filter(|t| t.face as usize == light_face)
-    {
-        for v in t.vertices {
-            let q = prepared.positions[v as usize];
-            if !corners.iter().any(|c| c.distance(q) < 1e-9) {
-                corners.push(q);
-            }
-        }
-    }
+    let corners = face_corners(&prepared, light, DVec3::Y);
     assert_eq!(corners.len(), 4);
-    // order the corners around their centre
-    let centre = corners.iter().sum::<DVec3>() / 4.0;
-    let (a, b) = (
-        (corners[0] - centre).normalize(),
-        DVec3::Y.cross((corners[0] - centre).normalize()),
-    );
-    corners.sort_by(|p, q| {
-        let angle = |v: &DVec3| (*v - centre).dot(b).atan2((*v - centre).dot(a));
-        angle(p).total_cmp(&angle(q))
-    });
     let mut rows: Vec<(f64, f64)> = Vec::new();
     for (i, point) in prepared.atlas.points.iter().enumerate() {
         let face = point[3].to_bits();
@@ -455,9 +418,6 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;
     let (floor, light) = (material("floor"), material("light"));
-    let light_face = (0..prepared.faces.len())
-        .find(|&f| prepared.faces[f].material == light)
-        .unwrap();
     let mirror_y = prepared
         .faces
         .iter()
@@ -466,27 +426,10 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
         .plane_offset
         .abs();
     // the emitter's corners mirrored in the ceiling's plane (normalised space)
-    let mut corners: Vec<DVec3> = Vec::new();
-    for t in prepared
-        .triangles
-        .iter()
-        .filter(|t| t.face as usize == light_face)
-    {
-        for v in t.vertices {
-            let q = prepared.positions[v as usize];
-            let q = DVec3::new(q.x, 2.0 * mirror_y - q.y, q.z);
-            if !corners.iter().any(|c| c.distance(q) < 1e-9) {
-                corners.push(q);
-            }
-        }
-    }
-    let centre = corners.iter().sum::<DVec3>() / corners.len() as f64;
-    let a = (corners[0] - centre).normalize();
-    let b = DVec3::Y.cross(a);
-    corners.sort_by(|p, q| {
-        ((*p - centre).dot(b).atan2((*p - centre).dot(a)))
-            .total_cmp(&(*q - centre).dot(b).atan2((*q - centre).dot(a)))
-    });
+    let corners: Vec<DVec3> = face_corners(&prepared, light, DVec3::Y)
+        .into_iter()
+        .map(|q| DVec3::new(q.x, 2.0 * mirror_y - q.y, q.z))
+        .collect();
     let mut worst = 0.0f64;
     for (i, point) in prepared.atlas.points.iter().enumerate() {
         let face = point[3].to_bits();

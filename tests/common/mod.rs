@@ -171,3 +171,51 @@ pub fn gltf_basic_materials() -> serde_json::Value {
          "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 8.0}}}
     ])
 }
+
+/// Irradiance at x (normal n) from a convex polygon of unit radiance wholly above x's horizon:
+/// Lambert's formula, in f64 (the closed form the direct-light tests compare with).
+pub fn polygon_irradiance(x: glam::DVec3, n: glam::DVec3, corners: &[glam::DVec3]) -> f64 {
+    let mut sum = 0.0;
+    for k in 0..corners.len() {
+        let a = (corners[k] - x).normalize();
+        let b = (corners[(k + 1) % corners.len()] - x).normalize();
+        let c = a.cross(b);
+        if c.length() > 0.0 {
+            sum += c.length().atan2(a.dot(b)) * n.dot(c.normalize());
+        }
+    }
+    sum.abs() * 0.5
+}
+
+/// The distinct corners of the (planar, convex) face made of material `material`, in normalised
+/// space, in order around their centre; `normal` is the face's plane normal.
+pub fn face_corners(
+    prepared: &vlf::prepare::PreparedScene,
+    material: u32,
+    normal: glam::DVec3,
+) -> Vec<glam::DVec3> {
+    let face = (0..prepared.faces.len())
+        .find(|&f| prepared.faces[f].material == material)
+        .expect("a face of that material");
+    let mut corners: Vec<glam::DVec3> = Vec::new();
+    for t in prepared
+        .triangles
+        .iter()
+        .filter(|t| t.face as usize == face)
+    {
+        for v in t.vertices {
+            let q = prepared.positions[v as usize];
+            if !corners.iter().any(|c| c.distance(q) < 1e-9) {
+                corners.push(q);
+            }
+        }
+    }
+    let centre = corners.iter().sum::<glam::DVec3>() / corners.len() as f64;
+    let a = (corners[0] - centre).normalize();
+    let b = normal.cross(a);
+    corners.sort_by(|p, q| {
+        let angle = |v: &glam::DVec3| (*v - centre).dot(b).atan2((*v - centre).dot(a));
+        angle(p).total_cmp(&angle(q))
+    });
+    corners
+}
