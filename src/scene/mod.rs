@@ -70,6 +70,21 @@ pub struct Material {
     pub emission_texture: Option<u32>,
 }
 
+impl Material {
+    /// Why the material would create energy (diffuse + mirror above 1 in a channel), if it would:
+    /// every importer refuses such a material with this message.
+    pub fn energy_error(&self) -> Option<String> {
+        (0..3)
+            .find(|&c| self.diffuse[c] + self.mirror[c] > 1.0 + 1e-6)
+            .map(|c| {
+                format!(
+                    "diffuse {:?} + mirror {:?} exceeds 1 in channel {c}: the surface would create energy",
+                    self.diffuse, self.mirror
+                )
+            })
+    }
+}
+
 /// A texture in linear RGB (decoded from sRGB), row-major from the top-left texel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {

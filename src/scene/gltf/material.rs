@@ -183,13 +183,8 @@ fn plan(
         diffuse_texture: None,
         emission_texture: None,
     };
-    for c in 0..3 {
-        if material.diffuse[c] + material.mirror[c] > 1.0 + 1e-6 {
-            return Err(err(format!(
-                "diffuse {:?} + mirror {:?} exceeds 1 in channel {c}: the surface would create energy",
-                material.diffuse, material.mirror
-            )));
-        }
+    if let Some(message) = material.energy_error() {
+        return Err(err(message));
     }
     Ok(Plan {
         name,
