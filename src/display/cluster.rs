@@ -7,8 +7,7 @@
 
 use super::headless::ViewTiming;
 use super::{DisplayConfig, Stereo};
-use crate::bench::Distribution;
-use crate::error::Result;
+use crate::stats::Distribution;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -220,13 +219,7 @@ pub struct CaveRun {
     pub json: Option<PathBuf>,
 }
 
-/// Makes the light field on a GPU context (`main.rs`: loads a .vlf or propagates a scene).
-pub type MakeLightField<'a> = dyn FnMut(
-        &std::sync::Arc<crate::gpu::GpuContext>,
-    ) -> Result<(
-        crate::lightfield::LightField,
-        crate::lightfield::ResidentLightField,
-    )> + 'a;
+pub use super::MakeLightField;
 
 /// The number of ranks when launched by mpirun (Open MPI, MPICH/PMI or PMIx), else None.
 pub fn launched_size() -> Option<u32> {

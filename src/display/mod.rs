@@ -500,6 +500,15 @@ impl DisplayConfig {
     }
 }
 
+/// Makes the light field on a GPU context chosen elsewhere (the headset runtime's device, each
+/// cluster rank's): loads a `.vlf` onto it or propagates a scene into it (`main.rs`).
+pub type MakeLightField<'a> = dyn FnMut(
+        &std::sync::Arc<crate::gpu::GpuContext>,
+    ) -> Result<(
+        crate::lightfield::LightField,
+        crate::lightfield::ResidentLightField,
+    )> + 'a;
+
 /// Run this process as one rank of a CAVE cluster (under mpirun; `cluster.rs`): rank 0 prints
 /// the cluster report (and writes it as JSON); a lost rank ends every process with a message.
 #[cfg(feature = "mpi")]

@@ -10,14 +10,7 @@ pub mod vulkan;
 
 pub use session::{XrOptions, XrReport};
 
-/// Makes the light field on the device the runtime chose: propagates a scene into it or loads a
-/// `.vlf` onto it.
-pub type MakeLightField<'a> = dyn FnMut(
-        &std::sync::Arc<crate::gpu::GpuContext>,
-    ) -> Result<(
-        crate::lightfield::LightField,
-        crate::lightfield::ResidentLightField,
-    )> + 'a;
+pub use super::MakeLightField;
 
 use super::tracking::Pose;
 use crate::error::{Result, VlfError};
