@@ -53,9 +53,8 @@ def edges():
             names += [(m, None) for m in re.findall(r"(?:^|[,{\s])([a-z_]+)::", group)]
         names += PATH.findall(text)
         for dep_top, dep_sub in names:
-            if dep_top != top and (SRC / dep_top).exists() or (SRC / f"{dep_top}.rs").exists():
-                if dep_top != top:
-                    top_edges.add((top, dep_top))
+            if dep_top != top and ((SRC / dep_top).is_dir() or (SRC / f"{dep_top}.rs").exists()):
+                top_edges.add((top, dep_top))
             if dep_top == top and sibling and dep_sub and dep_sub != sibling:
                 if (SRC / top / f"{dep_sub}.rs").exists() or (SRC / top / dep_sub).is_dir():
                     sib_edges.add((f"{top}::{sibling}", f"{top}::{dep_sub}"))
