@@ -4,29 +4,21 @@
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
 //! queries, of the output passes, and CPU time per frame).
 
+use super::frame::{frame_limits, worst_ratio, FrameTimes, Limit, Pass, ViewLabel};
+pub use super::frame::{ViewTiming, CONSTANT_FRAME_TIME};
 use super::framelock::{FrameLock, FrameState};
+use super::live::WandPose;
 use super::post::{Draw, Outputs};
-use super::tracking::PoseSource;
+use super::tracking::{Pose, PoseSource};
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
-use crate::gpu::MemoryLedger;
+use crate::gpu::{MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
 use crate::stats::Distribution;
 use serde::Serialize;
 use std::path::Path;
-
-#[derive(Clone, Debug, Serialize, serde::Deserialize)]
-pub struct ViewTiming {
-    pub wall: String,
-    pub eye: String,
-    pub pixels: [u32; 2],
-    /// GPU milliseconds per frame (timestamp queries); None without them
-    pub gpu_ms: Option<Distribution>,
-    /// p99 / p50 of the GPU time: 1.0 is a perfectly constant frame time
-    pub p99_over_p50: Option<f64>,
-}
 
 #[derive(Clone, Debug, Serialize)]
 pub struct CaveReport {
@@ -45,6 +37,9 @@ pub struct CaveReport {
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
     pub constant_frame_time: Option<bool>,
+    /// every limit the frames are judged by (per-view and frame p99/p50, max/median, the
+    /// display's frame budget), met or not
+    pub limits: Vec<Limit>,
     /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
     /// drawn from it (timed frames; None without live tracking or without a new pose)
     pub tracking_latency_ms: Option<Distribution>,
@@ -52,7 +47,6 @@ pub struct CaveReport {
 }
 
 /// Per-eye GPU time p99/p50 at or under this counts as a constant frame time.
-pub const CONSTANT_FRAME_TIME: f64 = 1.10;
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
 /// last frame is drawn again view by view and read back, its images going to `out`.
@@ -68,6 +62,163 @@ pub fn run(
     run_locked(lf, resident, config, config_path, (frames, out, exr), None)
 }
 
+/// One view of a frame: (wall index, eye name, eye offset).
+type View = (usize, &'static str, f32);
+
+/// Every wall's eyes, in wall order.
+fn views_of(config: &DisplayConfig) -> Vec<View> {
+    config
+        .walls
+        .iter()
+        .enumerate()
+        .flat_map(|(i, w)| {
+            w.eyes()
+                .into_iter()
+                .map(move |(name, side)| (i, name, side))
+        })
+        .collect()
+}
+
+fn labels(config: &DisplayConfig, views: &[View]) -> Vec<ViewLabel> {
+    views
+        .iter()
+        .map(|&(wall, eye, _)| ViewLabel {
+            wall: config.walls[wall].name.clone(),
+            eye,
+            pixels: config.walls[wall].eye_pixels(),
+        })
+        .collect()
+}
+
+/// What the last frame leaves: every view's image, and each projector's output.
+#[derive(Default)]
+struct Kept {
+    views: Vec<Frame>,
+    projectors: Vec<(String, Frame)>,
+}
+
+/// The renderer and the passes after it, drawing the views of one frame.
+struct Drawer<'a> {
+    config: &'a DisplayConfig,
+    lf: &'a LightField,
+    renderer: Renderer,
+    post: Option<Outputs>,
+    views: Vec<View>,
+}
+
+impl Drawer<'_> {
+    /// What the frame's timestamp pairs time, in order: each view's render, then (with
+    /// outputs) each of its outputs' passes.
+    fn passes(&self) -> Vec<Pass> {
+        let mut passes = Vec::new();
+        for (v, view) in self.views.iter().enumerate() {
+            passes.push(Pass::View(v));
+            let outputs = self.post.as_ref().map_or(0, |p| p.timed_outputs(view.0));
+            passes.extend(std::iter::repeat_n(Pass::Output, outputs));
+        }
+        passes
+    }
+
+    /// Submit every view of a timed frame, back to back.
+    fn submit_timed(
+        &mut self,
+        pose: &Pose,
+        wand: Option<&WandPose>,
+        mut ts: Option<&mut Timestamps>,
+    ) {
+        for &(wall_index, _, side) in &self.views {
+            let wall = &self.config.walls[wall_index];
+            let norm = &self.lf.meta.normalisation;
+            let view = super::wall_view(self.config, wall, side, pose, norm);
+            match self.post.as_ref() {
+                Some(p) => {
+                    let overlay =
+                        super::post::wand_overlay(self.config, wall, side, pose, wand, norm);
+                    p.encode(
+                        &mut self.renderer,
+                        wall_index,
+                        view,
+                        overlay.as_ref(),
+                        ts.as_deref_mut(),
+                        Draw::Timed,
+                    )
+                }
+                None => {
+                    let [w, h] = wall.eye_pixels();
+                    self.renderer
+                        .submit_matrix(view.0, view.1, w, h, ts.as_deref_mut())
+                }
+            }
+        }
+    }
+
+    /// Draw every view of the last frame again, one by one, and read the images back (not
+    /// timed).
+    fn draw_kept(&mut self, pose: &Pose, wand: Option<&WandPose>) -> Result<Kept> {
+        let mut kept = Kept::default();
+        for &(wall_index, eye_name, side) in &self.views {
+            let wall = &self.config.walls[wall_index];
+            let norm = &self.lf.meta.normalisation;
+            let view = super::wall_view(self.config, wall, side, pose, norm);
+            match self.post.as_ref() {
+                Some(p) => {
+                    let overlay =
+                        super::post::wand_overlay(self.config, wall, side, pose, wand, norm);
+                    p.encode(
+                        &mut self.renderer,
+                        wall_index,
+                        view,
+                        overlay.as_ref(),
+                        None,
+                        Draw::Everything,
+                    );
+                    let (frame, projectors) = p.read(wall_index)?;
+                    kept.views.push(frame);
+                    kept.projectors.extend(
+                        projectors.into_iter().map(|(name, image)| {
+                            (format!("{}-{eye_name}-{name}", wall.name), image)
+                        }),
+                    );
+                }
+                None => {
+                    let [w, h] = wall.eye_pixels();
+                    kept.views
+                        .push(self.renderer.render_matrix(view.0, view.1, w, h)?.0);
+                }
+            }
+        }
+        Ok(kept)
+    }
+}
+
+/// The pose of frame `f` of `total` (spread evenly over a scripted walk), shared through the
+/// cluster's lock when there is one; and when a live pose arrived.
+fn frame_pose<'l>(
+    poses: &PoseSource,
+    config: &DisplayConfig,
+    (f, total): (u32, u32),
+    lock: Option<&mut (dyn FrameLock + 'l)>,
+) -> Result<(Pose, Option<WandPose>, Option<std::time::Instant>)> {
+    let duration = match poses {
+        PoseSource::Scripted(s) => s.duration(),
+        PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
+    };
+    let t = if total > 1 {
+        duration * f as f32 / (total - 1) as f32
+    } else {
+        0.0
+    };
+    let (pose, fresh) = poses.at_fresh(t);
+    let wand = poses.wand_at(&config.tracking, t);
+    Ok(match lock {
+        Some(l) => {
+            let s = l.share(FrameState::new(f as u64, &pose, wand.as_ref(), 1.0))?;
+            (s.pose(), s.wand(), fresh)
+        }
+        None => (pose, wand, fresh),
+    })
+}
+
 /// `run` as one rank of a cluster (`cluster.rs`): each frame's pose comes from `lock.share`,
 /// and `lock.swap` waits for every rank once the frame is drawn.
 pub fn run_locked(
@@ -80,23 +231,9 @@ pub fn run_locked(
 ) -> Result<CaveReport> {
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = PoseSource::from_config(config, config_path)?;
-    let duration = match &poses {
-        PoseSource::Scripted(s) => s.duration(),
-        PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
-    };
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
-    let views: Vec<(usize, &'static str, f32)> = config
-        .walls
-        .iter()
-        .enumerate()
-        .flat_map(|(i, w)| {
-            w.eyes()
-                .into_iter()
-                .map(move |(name, side)| (i, name, side))
-        })
-        .collect();
-    let mut gpu: Vec<Vec<f64>> = vec![Vec::new(); views.len()];
+    let views = views_of(config);
     let specs = super::warp::load_outputs(config, config_path)?;
     // the pass after rendering (`post.rs`), when needed: one wall image per wall
     let wand = poses.may_have_wand(&config.tracking);
@@ -104,177 +241,92 @@ pub fn run_locked(
     let post = Outputs::needed(config, &specs, wand)
         .then(|| Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, true))
         .transpose()?;
-    let mut post_gpu = Vec::new();
-
-    let mut all_gpu = Vec::new();
-    let mut cpu = Vec::new();
+    let mut drawer = Drawer {
+        config,
+        lf,
+        renderer,
+        post,
+        views,
+    };
+    let passes = drawer.passes();
+    let mut times = FrameTimes::new(labels(config, &drawer.views));
     // live tracking: milliseconds from a pose's arrival to the submission of its frame
     let mut latency = Vec::new();
-    let mut last: Vec<Frame> = Vec::new();
-    let mut projector_images: Vec<(String, Frame)> = Vec::new();
-    let pairs = views.len()
-        + post
-            .as_ref()
-            .map_or(0, |p| views.iter().map(|v| p.timed_outputs(v.0)).sum());
-    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, pairs as u32);
-    let total_frames = frames.max(1);
-    for f in 0..total_frames {
-        let t = if total_frames > 1 {
-            duration * f as f32 / (total_frames - 1) as f32
-        } else {
-            0.0
-        };
-        let (pose, fresh) = poses.at_fresh(t);
-        let wand = poses.wand_at(&config.tracking, t);
-        let (pose, wand) = match lock.as_deref_mut() {
-            Some(l) => {
-                let s = l.share(FrameState::new(f as u64, &pose, wand.as_ref(), 1.0))?;
-                (s.pose(), s.wand())
-            }
-            None => (pose, wand),
-        };
-        let last_frame = f + 1 == total_frames;
-        let started = std::time::Instant::now();
-        last.clear();
-        for &(wall_index, eye_name, side) in &views {
-            let wall = &config.walls[wall_index];
-            let (view_proj, eye) =
-                super::wall_view(config, wall, side, &pose, &lf.meta.normalisation);
-            let [w, h] = wall.eye_pixels();
-            let overlay = super::post::wand_overlay(
-                config,
-                wall,
-                side,
-                &pose,
-                wand.as_ref(),
-                &lf.meta.normalisation,
-            );
-            match post.as_ref() {
-                Some(p) if last_frame => {
-                    let view = (view_proj, eye);
-                    p.encode(
-                        &mut renderer,
-                        wall_index,
-                        view,
-                        overlay.as_ref(),
-                        None,
-                        Draw::Everything,
-                    );
-                    let (frame, projectors) = p.read(wall_index)?;
-                    last.push(frame);
-                    projector_images.extend(
-                        projectors.into_iter().map(|(name, image)| {
-                            (format!("{}-{eye_name}-{name}", wall.name), image)
-                        }),
-                    );
-                }
-                Some(p) => p.encode(
-                    &mut renderer,
-                    wall_index,
-                    (view_proj, eye),
-                    overlay.as_ref(),
-                    timestamps.as_mut(),
-                    Draw::Timed,
-                ),
-                // the images to keep: drawn and read back one by one (not timed)
-                None if last_frame => last.push(renderer.render_matrix(view_proj, eye, w, h)?.0),
-                None => renderer.submit_matrix(view_proj, eye, w, h, timestamps.as_mut()),
-            }
-        }
-        if last_frame {
+    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, passes.len() as u32);
+    let total = frames.max(1);
+    let mut kept = Kept::default();
+    for f in 0..total {
+        let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        if f + 1 == total {
+            kept = drawer.draw_kept(&pose, wand.as_ref())?;
             if let Some(l) = lock.as_deref_mut() {
                 l.swap()?;
             }
             break;
         }
+        let started = std::time::Instant::now();
+        drawer.submit_timed(&pose, wand.as_ref(), timestamps.as_mut());
         if let Some(arrived) = fresh {
             latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
         resident.ctx.wait()?;
-        cpu.push(started.elapsed().as_secs_f64() * 1e3);
+        times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
         if let Some(l) = lock.as_deref_mut() {
             l.swap()?;
         }
         if let Some(ts) = timestamps.as_mut() {
-            let ms = ts.read_ms(&resident.ctx)?;
-            // per view: its render, then (with outputs) each output's pass
-            let mut it = ms.into_iter();
-            let mut post_ms = 0.0;
-            for (v, view) in views.iter().enumerate() {
-                gpu[v].push(it.next().unwrap_or(0.0));
-                for _ in 0..post.as_ref().map_or(0, |p| p.timed_outputs(view.0)) {
-                    post_ms += it.next().unwrap_or(0.0);
-                }
-            }
-            all_gpu.push(gpu.iter().filter_map(|g| g.last()).sum::<f64>() + post_ms);
-            if post.is_some() {
-                post_gpu.push(post_ms);
-            }
+            times.push_gpu(&ts.read_ms(&resident.ctx)?, &passes);
         }
     }
-    if cpu.is_empty() {
-        cpu.push(0.0);
+    if times.frames_timed() == 0 {
+        times.push_cpu(0.0);
     }
-    let named = last
-        .iter()
-        .zip(&views)
-        .map(|(image, &(wall_index, eye, _))| {
-            (format!("{}-{eye}", config.walls[wall_index].name), image)
-        });
-    let mut images = write_images(
-        named.chain(
-            projector_images
-                .iter()
-                .map(|(name, image)| (name.clone(), image)),
-        ),
-        out,
-        exr,
-    )?;
-    let overview = out.join("overview.png");
-    write_overview(config, &views, &last, &overview)?;
-    images.push(overview.display().to_string());
-    let (timings, worst) = view_timings(config, &views, &gpu);
+    let images = write_kept(config, &drawer.views, &kept, out, exr)?;
+    let views = times.views();
+    let worst = worst_ratio(&views);
+    let cpu_frame_ms = times.cpu_ms().expect("one frame at least");
+    let limits = frame_limits(&views, Some(&cpu_frame_ms), config.frame_budget_ms());
     Ok(CaveReport {
         worst_p99_over_p50: worst,
         constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
+        limits,
         display: config.name.clone(),
         adapter: resident.ctx.summary.name.clone(),
-        frames: frames.max(1),
-        views_per_frame: views.len(),
-        views: timings,
-        all_views_gpu_ms: (!all_gpu.is_empty()).then(|| Distribution::of(&all_gpu)),
-        cpu_frame_ms: Distribution::of(&cpu),
-        outputs_gpu_ms: (!post_gpu.is_empty()).then(|| Distribution::of(&post_gpu)),
+        frames: total,
+        views_per_frame: drawer.views.len(),
+        views,
+        all_views_gpu_ms: times.frame_gpu_ms(),
+        cpu_frame_ms,
+        outputs_gpu_ms: times.output_gpu_ms(),
         tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
         images,
     })
 }
 
-/// Each view's GPU time, and the largest p99/p50 among them.
-fn view_timings(
+/// The last frame's images (`<wall>-<eye>.png`, each projector's output) and the overview.
+fn write_kept(
     config: &DisplayConfig,
-    views: &[(usize, &'static str, f32)],
-    gpu: &[Vec<f64>],
-) -> (Vec<ViewTiming>, Option<f64>) {
-    let timings: Vec<ViewTiming> = views
+    views: &[View],
+    kept: &Kept,
+    out: &Path,
+    exr: bool,
+) -> Result<Vec<String>> {
+    let named = kept
+        .views
         .iter()
-        .enumerate()
-        .map(|(v, &(wall_index, eye, _))| {
-            let d = (!gpu[v].is_empty()).then(|| Distribution::of(&gpu[v]));
-            ViewTiming {
-                wall: config.walls[wall_index].name.clone(),
-                eye: eye.into(),
-                pixels: config.walls[wall_index].eye_pixels(),
-                p99_over_p50: d.as_ref().map(|d| d.p99 / d.median.max(1e-12)),
-                gpu_ms: d,
-            }
-        })
-        .collect();
-    let worst = timings
+        .zip(views)
+        .map(|(image, &(wall_index, eye, _))| {
+            (format!("{}-{eye}", config.walls[wall_index].name), image)
+        });
+    let projectors = kept
+        .projectors
         .iter()
-        .filter_map(|v: &ViewTiming| v.p99_over_p50)
-        .fold(None, |m: Option<f64>, r| Some(m.map_or(r, |m| m.max(r))));
-    (timings, worst)
+        .map(|(name, image)| (name.clone(), image));
+    let mut images = write_images(named.chain(projectors), out, exr)?;
+    let overview = out.join("overview.png");
+    write_overview(config, views, &kept.views, &overview)?;
+    images.push(overview.display().to_string());
+    Ok(images)
 }
 
 /// Write each named image as `out/<name>.png` (and `.exr`); the paths written.
@@ -298,7 +350,7 @@ fn write_images<'a>(
 /// ceiling above; any other wall follows in a row. Left (or mono) eye.
 fn write_overview(
     config: &DisplayConfig,
-    views: &[(usize, &'static str, f32)],
+    views: &[View],
     images: &[Frame],
     path: &Path,
 ) -> Result<()> {
@@ -356,13 +408,7 @@ impl CaveReport {
             self.display, self.adapter, self.frames, self.views_per_frame
         );
         for v in &self.views {
-            match &v.gpu_ms {
-                Some(d) => s.push_str(&format!(
-                    "  {:<10} {:<6} {}x{}  GPU p50 {:.3} ms  p95 {:.3}  p99 {:.3}  max {:.3}  (p99/p50 {:.3})\n",
-                    v.wall, v.eye, v.pixels[0], v.pixels[1], d.median, d.p95, d.p99, d.max, v.p99_over_p50.unwrap_or(0.0)
-                )),
-                None => s.push_str(&format!("  {:<10} {:<6} {}x{}  (no GPU timestamps on this adapter)\n", v.wall, v.eye, v.pixels[0], v.pixels[1])),
-            }
+            s.push_str(&v.row());
         }
         if let Some(d) = &self.all_views_gpu_ms {
             s.push_str(&format!(
@@ -389,6 +435,7 @@ impl CaveReport {
                 if ok { "yes" } else { "NO" }
             ));
         }
+        s.push_str(&Limit::lines(&self.limits));
         s
     }
 }

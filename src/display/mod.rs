@@ -12,6 +12,7 @@ pub mod cluster;
 #[cfg(feature = "mpi")]
 mod cluster_mpi;
 pub mod dtrack;
+pub mod frame;
 pub mod framelock;
 pub mod headless;
 pub mod live;
@@ -51,6 +52,10 @@ pub struct DisplayConfig {
     /// antialiasing: eye rays per pixel of every wall (1 = off)
     #[serde(default = "default_antialiasing")]
     pub antialiasing: u32,
+    /// the projectors' refresh rate, Hz: every frame must be drawn within one period (the
+    /// reports check it; left out, no frame budget is checked)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refresh_hz: Option<f32>,
     /// the tracked wand's ray, drawn on every wall (`post.rs`)
     #[serde(default)]
     pub wand_ray: post::WandRay,
@@ -370,6 +375,11 @@ impl Wall {
 }
 
 impl DisplayConfig {
+    /// One refresh period in milliseconds, where `refresh_hz` is given.
+    pub fn frame_budget_ms(&self) -> Option<f64> {
+        self.refresh_hz.map(|hz| 1000.0 / hz as f64)
+    }
+
     /// Read and check a configuration, and the warp and blend files it names.
     pub fn load(path: &Path) -> Result<DisplayConfig> {
         let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
@@ -399,6 +409,11 @@ impl DisplayConfig {
                 "antialiasing: {} eye rays per pixel: use 1 (off) to {}",
                 self.antialiasing,
                 crate::render::MAX_SAMPLES
+            ));
+        }
+        if let Some(hz) = self.refresh_hz.filter(|hz| !(hz.is_finite() && *hz >= 1.0)) {
+            return Err(format!(
+                "refresh_hz: {hz} is not a refresh rate: give the projectors' rate in Hz (e.g. 120)"
             ));
         }
         if !(self.eye_separation.is_finite() && (0.0..0.2).contains(&self.eye_separation)) {

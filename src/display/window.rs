@@ -781,18 +781,13 @@ impl App<'_> {
     fn report(&self) -> WindowReport {
         let views = (self.views.iter().enumerate())
             .map(|(v, view)| {
-                let d = self
-                    .gpu
-                    .get(v)
-                    .filter(|s| !s.is_empty())
-                    .map(|s| Distribution::of(s));
-                super::headless::ViewTiming {
-                    wall: self.config.walls[view.wall].name.clone(),
-                    eye: view.eye.into(),
-                    pixels: self.config.walls[view.wall].eye_pixels(),
-                    p99_over_p50: d.as_ref().map(|d| d.p99 / d.median.max(1e-12)),
-                    gpu_ms: d,
-                }
+                let wall = &self.config.walls[view.wall];
+                let label = super::frame::ViewLabel {
+                    wall: wall.name.clone(),
+                    eye: view.eye,
+                    pixels: wall.eye_pixels(),
+                };
+                super::frame::ViewTiming::of(&label, self.gpu.get(v).map_or(&[][..], |s| s))
             })
             .collect();
         WindowReport {

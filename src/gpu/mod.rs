@@ -398,6 +398,22 @@ impl Timestamps {
         })
     }
 
+    /// Resolve every pair written so far into `readback` (a buffer of at least 16 bytes a
+    /// pair) from within `encoder`, and start over: the number of pairs it will hold.
+    pub fn resolve_into(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        readback: &wgpu::Buffer,
+    ) -> u32 {
+        let used = self.used;
+        if used > 0 {
+            encoder.resolve_query_set(&self.query_set, 0..used, &self.resolve, 0);
+            encoder.copy_buffer_to_buffer(&self.resolve, 0, readback, 0, used as u64 * 8);
+        }
+        self.used = 0;
+        used / 2
+    }
+
     /// Resolve every pair written so far into milliseconds and start over.
     pub fn read_ms(&mut self, ctx: &GpuContext) -> Result<Vec<f64>> {
         if self.used == 0 {

@@ -787,14 +787,12 @@ pub fn run(
             .iter()
             .zip(&gpu)
             .map(|(eye, series)| {
-                let d = (!series.is_empty()).then(|| Distribution::of(series));
-                ViewTiming {
+                let label = crate::display::frame::ViewLabel {
                     wall: "headset".into(),
-                    eye: eye.name.into(),
+                    eye: eye.name,
                     pixels: eye.size,
-                    p99_over_p50: d.as_ref().map(|d| d.p99 / d.median.max(1e-12)),
-                    gpu_ms: d,
-                }
+                };
+                ViewTiming::of(&label, series)
             })
             .collect(),
         cpu_frame_ms: (!cpu.is_empty()).then(|| Distribution::of(&cpu)),

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Runs on the lent NVIDIA machine: frame pacing of the 4-wall stereo CAVE (8 views of 1920x1200,
+# headless) on the scripted walks of config/paths/ through the generated 100K- and 1M-triangle
+# classrooms with a mirror and through the mirror gallery (frames spread evenly over each walk).
+# Reports (JSON + table) and the last frame's overview into OUT_DIR/pacing.tar.
+# With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
+# (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes.
+#   tools/gpu-pacing.sh VLF_BINARY OUT_DIR [FRAMES]
+set -uo pipefail
+vlf=$1; out=$2; frames=${3:-300}; work=$(mktemp -d)
+quiet() { grep -v XDG_RUNTIME_DIR; }
+"$vlf" generate classroom --size 100000 --mirrors -o $work/classroom-100k | quiet | tail -1
+"$vlf" generate classroom --size 1000000 --mirrors -o $work/classroom-1m | quiet | tail -1
+"$vlf" generate gallery --mirrors -o $work/gallery | quiet | tail -1
+for scene in classroom-100k classroom-1m gallery; do
+  "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
+  # the walk CAVE (config/displays/cave-4wall-walk.toml) on this scene's path
+  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene.toml
+  "$vlf" cave $work/cave-$scene.toml --scene $work/$scene.vlf --headless --frames $frames --out $work/out-$scene \
+    --json $work/cave-$scene.json 2>&1 | quiet | tee $work/cave-$scene.txt | tail -16
+  cp $work/out-$scene/overview.png $work/cave-$scene-overview.png
+  if [ -n "${XR_RUNTIME_LIBRARY:-}" ]; then
+    manifest=$work/runtime.json
+    printf '{"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": "%s"}}\n' "$(realpath "$XR_RUNTIME_LIBRARY")" > $manifest
+    XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene-runtime.txt \
+      "$vlf" xr --scene $work/$scene.vlf --frames 900 --json $work/xr-$scene.json 2>&1 | quiet | tee $work/xr-$scene.txt | tail -12
+  fi
+done
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt
+echo "${VLF_COMMIT:-unknown}" > $work/commit.txt
+date -u +%Y-%m-%dT%H:%M:%SZ > $work/date.txt
+(cd $work && tar cf "$out/pacing.tar" gpu.txt commit.txt date.txt cave-*.json cave-*.txt cave-*-overview.png $(cd $work && ls xr-* 2>/dev/null))
