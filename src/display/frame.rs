@@ -288,9 +288,9 @@ impl InFlight {
         })
     }
 
-    /// Start a frame: the times of the frames the GPU has finished, oldest first, and the
-    /// queries for this frame. Notes whether the previous frame was still on the GPU.
-    pub fn begin(&mut self, ctx: &GpuContext) -> Result<(Vec<Vec<f64>>, &mut Timestamps)> {
+    /// Start a frame: the times of the frames the GPU has finished, oldest first (this frame's
+    /// queries are `timestamps`). Notes whether the previous frame was still on the GPU.
+    pub fn begin(&mut self, ctx: &GpuContext) -> Result<Vec<Vec<f64>>> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
         let previous = (self.next + self.slots.len() - 1) % self.slots.len();
         match self.slots[previous].state.load(Ordering::Acquire) {
@@ -303,8 +303,12 @@ impl InFlight {
                 ctx.wait()?;
             }
         }
-        let done = self.collect(ctx);
-        Ok((done, &mut self.slots[self.next].timestamps))
+        Ok(self.collect(ctx))
+    }
+
+    /// The queries of the frame begun.
+    pub fn timestamps(&mut self) -> &mut Timestamps {
+        &mut self.slots[self.next].timestamps
     }
 
     /// After the frame's last pass: copy its timestamps to the slot's read-back buffer.

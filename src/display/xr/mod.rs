@@ -5,10 +5,14 @@
 //! projection, OpenXR poses to the renderer's views. `vulkan` builds wgpu on the Vulkan
 //! instance and device the runtime creates; `session` runs the frame loop.
 
+mod controls;
+mod eyes;
+pub mod report;
 pub mod session;
 pub mod vulkan;
 
-pub use session::{XrOptions, XrReport};
+pub use report::XrReport;
+pub use session::XrOptions;
 
 pub use super::MakeLightField;
 

@@ -1,0 +1,144 @@
+//! Putting a view's linear image on a colour target (a window's surface, a headset's swapchain
+//! image): the pipeline of `shaders/present.wgsl` (scaled to the viewport, exposed, sRGB
+//! encoded unless the target does it, the status overlay), one binding per image shown, and the
+//! render pass that draws it. Shared by the windowed CAVE and the headset.
+
+use crate::error::Result;
+use crate::gpu::types::GpuPresent;
+use crate::gpu::GpuContext;
+
+pub(crate) struct PresentPipeline {
+    pub(crate) pipeline: wgpu::RenderPipeline,
+    pub(crate) layout: wgpu::BindGroupLayout,
+    pub(crate) surface_is_srgb: bool,
+}
+
+/// A render pass onto one colour target (a window's surface, a headset's swapchain image),
+/// stored at the end.
+pub(crate) fn present_pass<'e>(
+    encoder: &'e mut wgpu::CommandEncoder,
+    view: &wgpu::TextureView,
+    load: wgpu::LoadOp<wgpu::Color>,
+) -> wgpu::RenderPass<'e> {
+    encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("present"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    })
+}
+
+pub(crate) fn present_pipeline(
+    ctx: &GpuContext,
+    format: wgpu::TextureFormat,
+) -> Result<PresentPipeline> {
+    let device = &ctx.device;
+    let module = crate::gpu::shaders::module(device, "present.wgsl")?;
+    // params, the eye's image, the status overlay: as present.wgsl declares them
+    let layout = crate::gpu::reflect::layout(device, "present.wgsl", 0)?;
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("present"),
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some("present"),
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_fullscreen"),
+            compilation_options: Default::default(),
+            buffers: &[],
+        },
+        primitive: Default::default(),
+        depth_stencil: None,
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_present"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    Ok(PresentPipeline {
+        pipeline,
+        layout,
+        surface_is_srgb: format.is_srgb(),
+    })
+}
+
+/// One image as a target shows it: its parameters (viewport, exposure, encoding) and the bind
+/// group of the present pipeline that reads it.
+pub(crate) struct PresentBinding {
+    pub(crate) params: wgpu::Buffer,
+    pub(crate) bind_group: wgpu::BindGroup,
+}
+
+impl PresentBinding {
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        present: &PresentPipeline,
+        image: &wgpu::TextureView,
+        overlay: &wgpu::TextureView,
+    ) -> PresentBinding {
+        let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("present parameters"),
+            size: std::mem::size_of::<GpuPresent>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("present"),
+            layout: &present.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(image),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: wgpu::BindingResource::TextureView(overlay),
+                },
+            ],
+        });
+        PresentBinding { params, bind_group }
+    }
+
+    pub(crate) fn set(&self, ctx: &GpuContext, params: &GpuPresent) {
+        ctx.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+    }
+
+    /// Clear `target` and draw the image over all of it.
+    pub(crate) fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        present: &PresentPipeline,
+    ) {
+        let mut pass = present_pass(encoder, target, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+        pass.set_pipeline(&present.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}

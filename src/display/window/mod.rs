@@ -1,0 +1,396 @@
+//! `vlf cave` with windows: one window per wall (two for a wall whose eyes go to separate
+//! outputs; one per projector, and per eye, for a wall driven by projectors), fullscreen on its
+//! monitor when configured, all drawn from one device and one light field and presented
+//! together every frame. Each wall and eye is rendered offscreen once a frame at the wall's
+//! pixel size, its outputs drawn from it by the pass `--headless` uses (`post.rs`'s `Outputs`:
+//! each projector's warp and blend, the wand's ray), and put on the windows by
+//! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
+//! Esc quits cleanly and prints the frame-time report.
+
+mod input;
+mod report;
+mod status;
+mod surfaces;
+
+pub use report::WindowReport;
+
+use super::frame::{FrameTimes, Pass, ViewLabel};
+use super::framelock::{FrameLock, FrameState};
+use super::live::TrackingStatus;
+use super::navigator::Navigator;
+use super::post::{Draw, Outputs};
+use super::present::PresentPipeline;
+use super::tracking::PoseSource;
+use super::DisplayConfig;
+use crate::error::{Result, VlfError};
+use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::render::Renderer;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use surfaces::WallWindow;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::WindowId;
+
+pub struct WindowOptions {
+    /// stop after this many frames (None: until Esc or the windows close)
+    pub frames: Option<u32>,
+    /// after `frames`, keep the windows up (drawing, not timed) this long: for screenshots
+    pub hold: Duration,
+    pub exposure: f32,
+}
+
+/// A wall seen by one eye: rendered once a frame into its slot of `App::outputs` (same
+/// index), whose outputs (the wall's projectors, or the whole wall) the windows show.
+struct View {
+    wall: usize,
+    eye: &'static str,
+    side: f32,
+}
+
+/// The report's name for each view.
+fn labels(config: &DisplayConfig, views: &[View]) -> Vec<ViewLabel> {
+    (views.iter())
+        .map(|v| ViewLabel {
+            wall: config.walls[v.wall].name.clone(),
+            eye: v.eye,
+            pixels: config.walls[v.wall].eye_pixels(),
+        })
+        .collect()
+}
+
+/// Open the windows and run the frame loop until Esc, closed windows or `options.frames`.
+pub fn run(
+    lf: &LightField,
+    resident: &ResidentLightField,
+    config: &DisplayConfig,
+    config_path: &Path,
+    options: WindowOptions,
+) -> Result<WindowReport> {
+    run_locked(lf, resident, config, config_path, options, None)
+}
+
+/// `run` as one rank of a cluster (`cluster.rs`): each frame's pose and exposure come from
+/// `lock.share`, every rank waits at `lock.swap` before presenting; only rank 0 takes input
+/// and decides when to stop (the others stop when its state says so).
+pub fn run_locked<'a>(
+    lf: &'a LightField,
+    resident: &'a ResidentLightField,
+    config: &'a DisplayConfig,
+    config_path: &Path,
+    options: WindowOptions,
+    lock: Option<&'a mut dyn FrameLock>,
+) -> Result<WindowReport> {
+    if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
+        return Err(VlfError::Display(
+            "no display to open windows on (neither DISPLAY nor WAYLAND_DISPLAY is set); run with --headless to render every wall and eye to files, or start a virtual display (Xvfb :99 & export DISPLAY=:99)".into(),
+        ));
+    }
+    let event_loop = EventLoop::new().map_err(|e| {
+        VlfError::Display(format!(
+            "cannot open the windowing system: {e}; run with --headless instead"
+        ))
+    })?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let poses = PoseSource::from_config(config, config_path)?;
+    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+    renderer.set_samples_per_pixel(config.antialiasing)?;
+    // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
+    let views: Vec<View> = (config.walls.iter().enumerate())
+        .flat_map(|(wall, w)| {
+            (w.eyes().into_iter()).map(move |(eye, side)| View { wall, eye, side })
+        })
+        .collect();
+    let specs = super::warp::load_outputs(config, config_path)?;
+    let walls: Vec<usize> = views.iter().map(|v| v.wall).collect();
+    let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
+    let outputs = Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, post)?;
+    let mut app = App {
+        lf,
+        resident,
+        config,
+        poses,
+        options,
+        renderer,
+        times: FrameTimes::new(labels(config, &views)),
+        views,
+        outputs,
+        windows: Vec::new(),
+        present: None,
+        overlay: None,
+        status: None,
+        navigator: Navigator::default(),
+        gamepads: gilrs::Gilrs::new()
+            .map_err(|e| log::warn!("gamepads unavailable: {e}"))
+            .ok(),
+        started: Instant::now(),
+        last_frame: Instant::now(),
+        frames: 0,
+        status_messages: Vec::new(),
+        latency: Vec::new(),
+        error: None,
+        printed_done: false,
+        lock,
+        shown: 0,
+    };
+    event_loop
+        .run_app(&mut app)
+        .map_err(|e| VlfError::Display(format!("the window loop failed: {e}")))?;
+    if let Some(e) = app.error.take() {
+        return Err(e);
+    }
+    Ok(app.report())
+}
+
+struct App<'a> {
+    lf: &'a LightField,
+    resident: &'a ResidentLightField,
+    config: &'a DisplayConfig,
+    poses: PoseSource,
+    options: WindowOptions,
+    renderer: Renderer,
+    /// every wall and eye, in `outputs`' slot order
+    views: Vec<View>,
+    /// the wall images and the outputs drawn from them (`post.rs`, shared with headless)
+    outputs: Outputs,
+    windows: Vec<WallWindow>,
+    present: Option<PresentPipeline>,
+    overlay: Option<(wgpu::Texture, wgpu::TextureView)>,
+    status: Option<String>,
+    navigator: Navigator,
+    gamepads: Option<gilrs::Gilrs>,
+    started: Instant,
+    last_frame: Instant,
+    frames: u32,
+    /// every timed frame's GPU time per view (in `views` order) and CPU time
+    times: FrameTimes,
+    status_messages: Vec<String>,
+    /// milliseconds from a live pose's arrival to the frame drawn from it
+    latency: Vec<f64>,
+    error: Option<VlfError>,
+    printed_done: bool,
+    /// a cluster's frame lock (`cluster.rs`); None alone
+    lock: Option<&'a mut dyn FrameLock>,
+    /// frames drawn (the frame number shared with a cluster)
+    shown: u64,
+}
+
+impl App<'_> {
+    fn ctx(&self) -> &Arc<GpuContext> {
+        &self.resident.ctx
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: VlfError) {
+        self.error = Some(e);
+        event_loop.exit();
+    }
+
+    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f32().min(0.1);
+        self.last_frame = now;
+        let pad = self.poll_gamepads();
+        let (base, tracking, fresh, wand) = match &self.poses {
+            PoseSource::Scripted(s) => {
+                let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
+                (s.at(t), None, None, s.wand_at(t))
+            }
+            PoseSource::Live(tracker) => {
+                let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
+                let (state, status) = tracker.latest_state();
+                self.navigator.wand(
+                    &state,
+                    status == TrackingStatus::Live,
+                    &self.config.navigation,
+                    dt,
+                );
+                (state.pose, Some(status), tracker.take_fresh(), state.wand)
+            }
+            other => (
+                other.at(0.0),
+                None,
+                None,
+                other.wand_at(&self.config.tracking, 0.0),
+            ),
+        };
+        self.navigator
+            .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
+        let mut pose = self.navigator.apply(base);
+        let mut wand = wand;
+        if let Some(lock) = self.lock.as_deref_mut() {
+            let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
+            let s = lock.share(s)?;
+            if s.is_quit() {
+                event_loop.exit();
+                return Ok(());
+            }
+            (pose, wand, self.options.exposure) = (s.pose(), s.wand(), s.exposure);
+        }
+        self.shown += 1;
+        let status = match (tracking, &self.config.tracking) {
+            (Some(TrackingStatus::Quiet(d)), _) => Some(format!(
+                "tracking quiet {:.0} s: holding the last pose",
+                d.as_secs_f32().floor()
+            )),
+            (Some(TrackingStatus::Waiting), tracking) => tracking
+                .live()
+                .map(|s| format!("tracking: waiting for {} on {}", s.protocol, s.address)),
+            _ => None,
+        };
+        self.set_status(status);
+
+        let timed = self.options.frames.is_none_or(|n| self.frames < n);
+        let ctx = self.ctx().clone();
+        let mut timestamps = if timed {
+            Timestamps::new(&ctx, self.views.len() as u32)
+        } else {
+            None
+        };
+        let started = Instant::now();
+        // every view rendered, and its outputs drawn, once; then each window shows its parts
+        for (slot, v) in self.views.iter().enumerate() {
+            let wall = &self.config.walls[v.wall];
+            let norm = &self.lf.meta.normalisation;
+            let view = super::wall_view(self.config, wall, v.side, &pose, norm);
+            let overlay =
+                super::post::wand_overlay(self.config, wall, v.side, &pose, wand.as_ref(), norm);
+            self.outputs.encode(
+                &mut self.renderer,
+                slot,
+                view,
+                overlay.as_ref(),
+                timestamps.as_mut(),
+                Draw::Shown,
+            );
+        }
+        let outputs = self.draw_windows(&ctx)?;
+        if let (Some(arrived), true) = (fresh, timed) {
+            self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
+        }
+        // every window's frame is ready before any is shown: the walls change together (and
+        // in a cluster, every rank's: drawn, then the swap barrier)
+        if let Some(lock) = self.lock.as_deref_mut() {
+            ctx.wait()?;
+            lock.swap()?;
+        }
+        for texture in outputs {
+            ctx.queue.present(texture);
+        }
+        ctx.wait()?;
+        if timed {
+            self.times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
+            if let Some(t) = timestamps.as_mut() {
+                let passes: Vec<Pass> = (0..self.views.len()).map(Pass::View).collect();
+                self.times.push_gpu(&t.read_ms(&ctx)?, &passes);
+            }
+            self.frames += 1;
+        }
+        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
+        if let (Some(n), false) = (self.options.frames, follower) {
+            if self.frames >= n {
+                if !self.printed_done {
+                    println!("presented {n} frames on {} window(s)", self.windows.len());
+                    use std::io::Write;
+                    let _ = std::io::stdout().flush();
+                    self.printed_done = true;
+                    self.started = Instant::now();
+                }
+                if self.started.elapsed() >= self.options.hold {
+                    event_loop.exit();
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl ApplicationHandler for App<'_> {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.windows.is_empty() && self.error.is_none() {
+            if let Err(e) = self.open_windows(event_loop) {
+                self.fail(event_loop, e);
+            }
+        }
+    }
+
+    fn window_event(
+        &mut self,
+        event_loop: &ActiveEventLoop,
+        window_id: WindowId,
+        event: WindowEvent,
+    ) {
+        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
+        match event {
+            // a cluster rank other than 0 losing its window loses its part of the CAVE
+            WindowEvent::CloseRequested if follower => self.fail(
+                event_loop,
+                VlfError::Display("a window of this rank was closed".into()),
+            ),
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => {
+                let ctx = self.ctx().clone();
+                if let Some(w) = self.windows.iter_mut().find(|w| w.window.id() == window_id) {
+                    w.config.width = size.width.max(1);
+                    w.config.height = size.height.max(1);
+                    w.surface.configure(&ctx.device, &w.config);
+                }
+            }
+            // input belongs to rank 0 in a cluster
+            WindowEvent::KeyboardInput { .. } | WindowEvent::MouseInput { .. } if follower => {}
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else {
+                    return;
+                };
+                match (code, event.state) {
+                    (KeyCode::Escape, ElementState::Pressed) => event_loop.exit(),
+                    (KeyCode::Home | KeyCode::Backspace, ElementState::Pressed) => {
+                        self.navigator.reset()
+                    }
+                    (KeyCode::KeyG, ElementState::Pressed) => {
+                        self.navigator.fly = !self.navigator.fly
+                    }
+                    (code, ElementState::Pressed) => {
+                        self.navigator.keys.insert(code);
+                    }
+                    (code, ElementState::Released) => {
+                        self.navigator.keys.remove(&code);
+                    }
+                }
+            }
+            WindowEvent::MouseInput {
+                state,
+                button: MouseButton::Left,
+                ..
+            } => {
+                self.navigator.dragging = state == ElementState::Pressed;
+                self.navigator.last_cursor_x = None;
+            }
+            WindowEvent::CursorMoved { position, .. } if self.navigator.dragging => {
+                if let Some(last) = self.navigator.last_cursor_x {
+                    // a full window width of drag turns the room by 90 degrees
+                    let width = self
+                        .windows
+                        .iter()
+                        .find(|w| w.window.id() == window_id)
+                        .map_or(1000.0, |w| w.config.width as f64);
+                    self.navigator.mouse_turn_deg -= ((position.x - last) / width * 90.0) as f32;
+                }
+                self.navigator.last_cursor_x = Some(position.x);
+            }
+            _ => {}
+        }
+    }
+
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
+        if self.windows.is_empty() || self.error.is_some() {
+            return;
+        }
+        if let Err(e) = self.frame(event_loop) {
+            self.fail(event_loop, e);
+        }
+    }
+}
