@@ -34,6 +34,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/bvh.wgsl"),
     ),
     (
+        "common/bvh_packet.wgsl",
+        include_str!("../../shaders/common/bvh_packet.wgsl"),
+    ),
+    (
         "visibility.wgsl",
         include_str!("../../shaders/visibility.wgsl"),
     ),
