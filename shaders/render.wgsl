@@ -6,9 +6,7 @@
 // - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
 //   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
 //   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
-//   child first: logarithmic, though no longer exactly equal per pixel). A pixel's eye rays
-//   go through the BVH together, four at a time (common/bvh_packet.wgsl), and so do the
-//   reflections of its sample pairs: each node and triangle is read once for all. No rasteriser: its
+//   child first: logarithmic, though no longer exactly equal per pixel). No rasteriser: its
 //   cost grows with how many surfaces overlap a pixel, and it is scarce on compute GPUs such
 //   as the H100/H200;
 // - one bilinear lookup in the diffuse atlas for the diffuse part (and emission);
@@ -27,7 +25,6 @@
 #include "common/tile_pages.wgsl"
 #include "common/tiles.wgsl"
 #include "common/bvh.wgsl"
-#include "common/bvh_packet.wgsl"
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -135,8 +132,26 @@ struct Surface {
     point: vec3<f32>,
 }
 
-// What the ray from `origin` along `ray` shows, given the hit it found.
-fn surface_of(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    if view.exhaustive_triangles > 0u {
+        // a small mesh: every ray tests every triangle, the same work for every ray
+        // two triangles a step: their tests are independent, which keeps the GPU's pipes full
+        let n = view.exhaustive_triangles;
+        for (var i = 0u; i < n; i += 2u) {
+            let j = min(i + 1u, n - 1u);
+            let ti = ray_triangle(origin, ray, ray_triangles[i]);
+            let tj = ray_triangle(origin, ray, ray_triangles[j]);
+            let found_i = ti > 1e-5 && closer(ti, i, hit);
+            hit.t = select(hit.t, ti, found_i);
+            hit.tri = select(hit.tri, i, found_i);
+            let found_j = tj > 1e-5 && closer(tj, j, hit);
+            hit.t = select(hit.t, tj, found_j);
+            hit.tri = select(hit.tri, j, found_j);
+        }
+    } else {
+        hit = trace(origin, ray, 1e30, false);
+    }
     var out: Surface;
     var id = SKY;
     if hit.tri != NO_FACE {
@@ -153,34 +168,6 @@ fn surface_of(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     return out;
 }
 
-// What each of up to four rays meets first (common/bvh_packet.wgsl): the same surfaces as
-// a single ray would find, for one read of each node and triangle.
-fn cast_packet(rays: Rays) -> array<Surface, 4> {
-    var hits: array<Hit, 4>;
-    if view.exhaustive_triangles > 0u {
-        for (var k = 0u; k < PACKET; k++) {
-            hits[k] = Hit(1e30, NO_FACE, 0.0, 0.0);
-        }
-        // a small mesh: every ray tests every triangle, in order: the same work for every ray
-        for (var i = 0u; i < view.exhaustive_triangles; i++) {
-            let tri = ray_triangles[i];
-            for (var k = 0u; k < PACKET; k++) {
-                let t = ray_triangle(rays.origin[k], rays.dir[k], tri);
-                let found = k < rays.count && t > 1e-5 && closer(t, i, hits[k]);
-                hits[k].t = select(hits[k].t, t, found);
-                hits[k].tri = select(hits[k].tri, i, found);
-            }
-        }
-    } else {
-        hits = trace_packet(rays);
-    }
-    var out: array<Surface, 4>;
-    for (var k = 0u; k < PACKET; k++) {
-        out[k] = surface_of(hits[k], rays.origin[k], rays.dir[k]);
-    }
-    return out;
-}
-
 // One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
 // chain ends: the last surface, its direction of travel and the weight still carried (for the
 // tiles, in resolve_mixed).
@@ -192,6 +179,29 @@ struct Path {
     face: u32,
     point: vec3<f32>,
     ray: vec3<f32>,
+}
+
+fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
+    var s = cast_ray(origin, ray_in);
+    var ray = ray_in;
+    var f = faces[s.face];
+    var path: Path;
+    path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
+    var weight = f.mirror * s.seen;
+    path.throughput = vec3<f32>(s.seen);
+    for (var b = 0u; b < view.mirror_bounces; b++) {
+        // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
+        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
+        s = cast_ray(s.point + f.normal * 1e-5, ray);
+        f = faces[s.face];
+        path.radiance += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.throughput = weight * s.seen;
+        weight *= f.mirror * s.seen;
+    }
+    path.face = s.face;
+    path.point = s.point;
+    path.ray = ray;
+    return path;
 }
 
 // The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
@@ -211,48 +221,21 @@ fn sample_offset(k: u32, n: u32) -> vec2<f32> {
     return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
 }
 
-// The eye rays of samples first .. first + 3 of pixel `pixel` (n in all); a lane past the last
-// sample repeats it.
-fn eye_rays(pixel: vec2<u32>, first: u32, n: u32, size: vec2<u32>) -> Rays {
-    var rays: Rays;
-    rays.count = min(PACKET, n - first);
-    for (var j = 0u; j < PACKET; j++) {
-        let r = eye_ray(pixel, sample_offset(min(first + j, n - 1u), n), size);
-        rays.origin[j] = r[0];
-        rays.dir[j] = r[1];
-    }
-    return rays;
-}
-
-// Radiance arriving at each surface `first[k]` (met by `rays_in[k]`) along its mirror
-// reflection, through up to view.mirror_bounces reflections: every one traced, whatever it
-// carries; the rays of a packet reflect together.
-fn reflected(first: array<Surface, 4>, rays_in: array<vec3<f32>, 4>, count: u32) -> array<vec3<f32>, 4> {
+// Radiance arriving at surface `s` (met by `ray`) along its mirror reflection, through up to
+// view.mirror_bounces reflections: every one traced, whatever it carries.
+fn reflected(first: Surface, ray_in: vec3<f32>) -> vec3<f32> {
     var s = first;
-    var ray = rays_in;
-    var n: array<vec3<f32>, 4>;
-    var weight: array<vec3<f32>, 4>;
-    var sum: array<vec3<f32>, 4>;
-    for (var k = 0u; k < PACKET; k++) {
-        n[k] = faces[s[k].face].normal;
-        weight[k] = vec3<f32>(1.0);
-        sum[k] = vec3<f32>(0.0);
-    }
+    var ray = ray_in;
+    var n = faces[s.face].normal;
+    var weight = vec3<f32>(1.0);
+    var sum = vec3<f32>(0.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
-        var rays: Rays;
-        rays.count = count;
-        for (var k = 0u; k < PACKET; k++) {
-            ray[k] = ray[k] - 2.0 * dot(ray[k], n[k]) * n[k];
-            rays.origin[k] = s[k].point + n[k] * 1e-5;
-            rays.dir[k] = ray[k];
-        }
-        s = cast_packet(rays);
-        for (var k = 0u; k < PACKET; k++) {
-            let f = faces[s[k].face];
-            sum[k] += weight[k] * (diffuse_part(f, s[k].point) * s[k].seen + s[k].background);
-            weight[k] *= f.mirror * s[k].seen;
-            n[k] = f.normal;
-        }
+        ray = ray - 2.0 * dot(ray, n) * n;
+        s = cast_ray(s.point + n * 1e-5, ray);
+        let f = faces[s.face];
+        sum += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        weight *= f.mirror * s.seen;
+        n = f.normal;
     }
     return sum;
 }
@@ -260,8 +243,7 @@ fn reflected(first: array<Surface, 4>, rays_in: array<vec3<f32>, 4>, count: u32)
 // Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
 // from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
 // a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
-// reflections per pixel (the reflection is what a mirror makes expensive). Four eye rays (two
-// pairs) and their two reflections are cast as packets.
+// reflections per pixel (the reflection is what a mirror makes expensive).
 @compute @workgroup_size(8, 8)
 fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     let size = textureDimensions(image);
@@ -270,89 +252,31 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
-    for (var k0 = 0u; k0 < n; k0 += PACKET) {
-        // pairs (k0, k0 + 1) and (k0 + 2, k0 + 3); an odd count's last pair repeats its ray
-        // with weight 0
-        let pairs = min(2u, (n - k0 + 1u) / 2u);
-        var eye = eye_rays(gid.xy, k0, n, size);
-        eye.count = 2u * pairs;
-        let s = cast_packet(eye);
-        var d: array<vec3<f32>, 4>;
-        var reflect_from: array<Surface, 4>;
-        var reflect_ray: array<vec3<f32>, 4>;
-        var carried: array<vec3<f32>, 2>;
-        for (var p = 0u; p < 2u; p++) {
-            let a = 2u * p;
-            let b = a + 1u;
-            let w1 = select(0.0, 1.0, k0 + b < n);
-            let f0 = faces[s[a].face];
-            let f1 = faces[s[b].face];
-            let m0 = f0.mirror * s[a].seen;
-            let m1 = f1.mirror * s[b].seen * w1;
-            d[a] = diffuse_part(f0, s[a].point) * s[a].seen + s[a].background;
-            d[b] = (diffuse_part(f1, s[b].point) * s[b].seen + s[b].background) * w1;
-            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
-            reflect_from[p] = s[a];
-            if use_second {
-                reflect_from[p] = s[b];
-            }
-            reflect_ray[p] = select(eye.dir[a], eye.dir[b], use_second);
-            carried[p] = m0 + m1;
-        }
-        reflect_from[2] = reflect_from[0];
-        reflect_from[3] = reflect_from[0];
-        reflect_ray[2] = reflect_ray[0];
-        reflect_ray[3] = reflect_ray[0];
-        var r: array<vec3<f32>, 4>;
+    for (var k = 0u; k < n; k += 2u) {
+        // an odd count's last pair repeats its ray with weight 0
+        let second = min(k + 1u, n - 1u);
+        let w1 = select(0.0, 1.0, k + 1u < n);
+        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
+        let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
+        let s0 = cast_ray(r0[0], r0[1]);
+        let s1 = cast_ray(r1[0], r1[1]);
+        let f0 = faces[s0.face];
+        let f1 = faces[s1.face];
+        let m0 = f0.mirror * s0.seen;
+        let m1 = f1.mirror * s1.seen * w1;
+        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
+        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
         if view.mirror_bounces > 0u {
-            r = reflected(reflect_from, reflect_ray, pairs);
-        }
-        for (var p = 0u; p < pairs; p++) {
-            sum += d[2u * p];
-            sum += d[2u * p + 1u];
-            if view.mirror_bounces > 0u {
-                sum += carried[p] * r[p];
+            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+            var s = s0;
+            if use_second {
+                s = s1;
             }
+            let ray = select(r0[1], r1[1], use_second);
+            sum += (m0 + m1) * reflected(s, ray);
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
-}
-
-// trace_path for up to four eye rays at once: each bounce's rays cast as one packet.
-fn trace_paths(eye: Rays) -> array<Path, 4> {
-    var s = cast_packet(eye);
-    var ray = eye.dir;
-    var f: array<Face, 4>;
-    var weight: array<vec3<f32>, 4>;
-    var path: array<Path, 4>;
-    for (var k = 0u; k < PACKET; k++) {
-        f[k] = faces[s[k].face];
-        path[k].radiance = diffuse_part(f[k], s[k].point) * s[k].seen + s[k].background;
-        weight[k] = f[k].mirror * s[k].seen;
-        path[k].throughput = vec3<f32>(s[k].seen);
-    }
-    for (var b = 0u; b < view.mirror_bounces; b++) {
-        var rays: Rays;
-        rays.count = eye.count;
-        for (var k = 0u; k < PACKET; k++) {
-            ray[k] = ray[k] - 2.0 * dot(ray[k], f[k].normal) * f[k].normal;
-            rays.origin[k] = s[k].point + f[k].normal * 1e-5;
-            rays.dir[k] = ray[k];
-        }
-        s = cast_packet(rays);
-        for (var k = 0u; k < PACKET; k++) {
-            f[k] = faces[s[k].face];
-            path[k].radiance += weight[k] * (diffuse_part(f[k], s[k].point) * s[k].seen + s[k].background);
-            path[k].throughput = weight[k] * s[k].seen;
-            weight[k] *= f[k].mirror * s[k].seen;
-        }
-    }
-    for (var k = 0u; k < PACKET; k++) {
-        path[k].face = s[k].face;
-        path[k].point = s[k].point;
-        path[k].ray = ray[k];
-    }
-    return path;
 }
 
 @compute @workgroup_size(8, 8)
@@ -363,18 +287,15 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
-    for (var k0 = 0u; k0 < n; k0 += PACKET) {
-        let eye = eye_rays(gid.xy, k0, n, size);
-        let paths = trace_paths(eye);
-        for (var j = 0u; j < eye.count; j++) {
-            let path = paths[j];
-            let f = faces[path.face];
-            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-            let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
-            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-            // the tiles hold the radiance the mirror reflects toward where the ray came from
-            sum += path.radiance + carried * view_dependent_part(f, slot, path.point, -path.ray);
-        }
+    for (var k = 0u; k < n; k++) {
+        let r = eye_ray(gid.xy, sample_offset(k, n), size);
+        let path = trace_path(r[0], r[1]);
+        let f = faces[path.face];
+        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+        let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+        // the tiles hold the radiance the mirror reflects toward where the ray came from
+        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, -path.ray);
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }

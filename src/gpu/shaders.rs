@@ -34,10 +34,6 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/bvh.wgsl"),
     ),
     (
-        "common/bvh_packet.wgsl",
-        include_str!("../../shaders/common/bvh_packet.wgsl"),
-    ),
-    (
         "visibility.wgsl",
         include_str!("../../shaders/visibility.wgsl"),
     ),
