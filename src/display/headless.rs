@@ -4,7 +4,9 @@
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
 //! queries, of the output passes, and CPU time per frame).
 
-use super::frame::{frame_limits, worst_ratio, FrameTimes, Limit, Pass, ViewLabel};
+use super::frame::{
+    frame_limits, labels, wall_views, worst_ratio, FrameTimes, Limit, Pass, WallView,
+};
 pub use super::frame::{ViewTiming, CONSTANT_FRAME_TIME};
 use super::framelock::{FrameLock, FrameState};
 use super::live::WandPose;
@@ -62,34 +64,6 @@ pub fn run(
     run_locked(lf, resident, config, config_path, (frames, out, exr), None)
 }
 
-/// One view of a frame: (wall index, eye name, eye offset).
-type View = (usize, &'static str, f32);
-
-/// Every wall's eyes, in wall order.
-fn views_of(config: &DisplayConfig) -> Vec<View> {
-    config
-        .walls
-        .iter()
-        .enumerate()
-        .flat_map(|(i, w)| {
-            w.eyes()
-                .into_iter()
-                .map(move |(name, side)| (i, name, side))
-        })
-        .collect()
-}
-
-fn labels(config: &DisplayConfig, views: &[View]) -> Vec<ViewLabel> {
-    views
-        .iter()
-        .map(|&(wall, eye, _)| ViewLabel {
-            wall: config.walls[wall].name.clone(),
-            eye,
-            pixels: config.walls[wall].eye_pixels(),
-        })
-        .collect()
-}
-
 /// What the last frame leaves: every view's image, and each projector's output.
 #[derive(Default)]
 struct Kept {
@@ -103,7 +77,7 @@ struct Drawer<'a> {
     lf: &'a LightField,
     renderer: Renderer,
     post: Option<Outputs>,
-    views: Vec<View>,
+    views: Vec<WallView>,
 }
 
 impl Drawer<'_> {
@@ -113,7 +87,7 @@ impl Drawer<'_> {
         let mut passes = Vec::new();
         for (v, view) in self.views.iter().enumerate() {
             passes.push(Pass::View(v));
-            let outputs = self.post.as_ref().map_or(0, |p| p.timed_outputs(view.0));
+            let outputs = self.post.as_ref().map_or(0, |p| p.timed_outputs(view.wall));
             passes.extend(std::iter::repeat_n(Pass::Output, outputs));
         }
         passes
@@ -126,7 +100,12 @@ impl Drawer<'_> {
         wand: Option<&WandPose>,
         mut ts: Option<&mut Timestamps>,
     ) {
-        for &(wall_index, _, side) in &self.views {
+        for &WallView {
+            wall: wall_index,
+            side,
+            ..
+        } in &self.views
+        {
             let wall = &self.config.walls[wall_index];
             let norm = &self.lf.meta.normalisation;
             let view = super::wall_view(self.config, wall, side, pose, norm);
@@ -156,7 +135,12 @@ impl Drawer<'_> {
     /// timed).
     fn draw_kept(&mut self, pose: &Pose, wand: Option<&WandPose>) -> Result<Kept> {
         let mut kept = Kept::default();
-        for &(wall_index, eye_name, side) in &self.views {
+        for &WallView {
+            wall: wall_index,
+            eye: eye_name,
+            side,
+        } in &self.views
+        {
             let wall = &self.config.walls[wall_index];
             let norm = &self.lf.meta.normalisation;
             let view = super::wall_view(self.config, wall, side, pose, norm);
@@ -233,7 +217,7 @@ pub fn run_locked(
     let poses = PoseSource::from_config(config, config_path)?;
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
-    let views = views_of(config);
+    let views = wall_views(config);
     let specs = super::warp::load_outputs(config, config_path)?;
     // the pass after rendering (`post.rs`), when needed: one wall image per wall
     let wand = poses.may_have_wand(&config.tracking);
@@ -306,18 +290,21 @@ pub fn run_locked(
 /// The last frame's images (`<wall>-<eye>.png`, each projector's output) and the overview.
 fn write_kept(
     config: &DisplayConfig,
-    views: &[View],
+    views: &[WallView],
     kept: &Kept,
     out: &Path,
     exr: bool,
 ) -> Result<Vec<String>> {
-    let named = kept
-        .views
-        .iter()
-        .zip(views)
-        .map(|(image, &(wall_index, eye, _))| {
-            (format!("{}-{eye}", config.walls[wall_index].name), image)
-        });
+    let named = kept.views.iter().zip(views).map(
+        |(
+            image,
+            &WallView {
+                wall: wall_index,
+                eye,
+                ..
+            },
+        )| { (format!("{}-{eye}", config.walls[wall_index].name), image) },
+    );
     let projectors = kept
         .projectors
         .iter()
@@ -350,7 +337,7 @@ fn write_images<'a>(
 /// ceiling above; any other wall follows in a row. Left (or mono) eye.
 fn write_overview(
     config: &DisplayConfig,
-    views: &[View],
+    views: &[WallView],
     images: &[Frame],
     path: &Path,
 ) -> Result<()> {
@@ -365,7 +352,15 @@ fn write_overview(
     };
     let mut placed = Vec::new();
     let mut extra = 0;
-    for (i, &(wall_index, eye, _)) in views.iter().enumerate() {
+    for (
+        i,
+        &WallView {
+            wall: wall_index,
+            eye,
+            ..
+        },
+    ) in views.iter().enumerate()
+    {
         if eye == "right" {
             continue;
         }

@@ -14,7 +14,7 @@ mod surfaces;
 
 pub use report::WindowReport;
 
-use super::frame::{FrameTimes, Pass, ViewLabel};
+use super::frame::{labels, wall_views, FrameTimes, Pass, WallView};
 use super::framelock::{FrameLock, FrameState};
 use super::live::TrackingStatus;
 use super::navigator::Navigator;
@@ -42,25 +42,6 @@ pub struct WindowOptions {
     /// after `frames`, keep the windows up (drawing, not timed) this long: for screenshots
     pub hold: Duration,
     pub exposure: f32,
-}
-
-/// A wall seen by one eye: rendered once a frame into its slot of `App::outputs` (same
-/// index), whose outputs (the wall's projectors, or the whole wall) the windows show.
-struct View {
-    wall: usize,
-    eye: &'static str,
-    side: f32,
-}
-
-/// The report's name for each view.
-fn labels(config: &DisplayConfig, views: &[View]) -> Vec<ViewLabel> {
-    (views.iter())
-        .map(|v| ViewLabel {
-            wall: config.walls[v.wall].name.clone(),
-            eye: v.eye,
-            pixels: config.walls[v.wall].eye_pixels(),
-        })
-        .collect()
 }
 
 /// Open the windows and run the frame loop until Esc, closed windows or `options.frames`.
@@ -100,11 +81,7 @@ pub fn run_locked<'a>(
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
     // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
-    let views: Vec<View> = (config.walls.iter().enumerate())
-        .flat_map(|(wall, w)| {
-            (w.eyes().into_iter()).map(move |(eye, side)| View { wall, eye, side })
-        })
-        .collect();
+    let views = wall_views(config);
     let specs = super::warp::load_outputs(config, config_path)?;
     let walls: Vec<usize> = views.iter().map(|v| v.wall).collect();
     let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
@@ -154,7 +131,7 @@ struct App<'a> {
     options: WindowOptions,
     renderer: Renderer,
     /// every wall and eye, in `outputs`' slot order
-    views: Vec<View>,
+    views: Vec<WallView>,
     /// the wall images and the outputs drawn from them (`post.rs`, shared with headless)
     outputs: Outputs,
     windows: Vec<WallWindow>,
