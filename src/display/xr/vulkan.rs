@@ -53,8 +53,23 @@ fn api_version(requirements: &openxr::vulkan::Requirements, loader_version: u32)
     ))
 }
 
-/// Let the runtime create the Vulkan instance and device; build wgpu on them.
-pub fn create(instance: &openxr::Instance, system: openxr::SystemId) -> Result<XrVulkan> {
+/// The Vulkan instance the runtime created for us, and the GPU it chose.
+struct RuntimeInstance {
+    entry: ash::Entry,
+    api_version: u32,
+    extensions: Vec<&'static CStr>,
+    flags: wgpu::InstanceFlags,
+    ash_instance: ash::Instance,
+    raw_instance: vk::Instance,
+    physical_device: vk::PhysicalDevice,
+    get_instance_proc_addr: openxr::sys::platform::VkGetInstanceProcAddr,
+}
+
+/// Let the runtime create the Vulkan instance (with what wgpu needs) and choose the GPU.
+fn runtime_instance(
+    instance: &openxr::Instance,
+    system: openxr::SystemId,
+) -> Result<RuntimeInstance> {
     let requirements = instance
         .graphics_requirements::<openxr::Vulkan>(system)
         .map_err(|e| vk_error("graphics requirements", e))?;
@@ -103,26 +118,39 @@ pub fn create(instance: &openxr::Instance, system: openxr::SystemId) -> Result<X
             .map_err(|e| vk_error("xrGetVulkanGraphicsDevice2KHR", e))?;
     let physical_device = vk::PhysicalDevice::from_raw(physical_device as u64);
 
-    // SAFETY: the instance was created with `extensions` at `api_version`; wgpu-hal owns it from
-    // here and destroys it last (OpenXR leaves instance and device to the application).
-    let hal_instance = unsafe {
-        hal::vulkan::Instance::from_raw(
-            entry,
-            ash_instance.clone(),
-            api_version,
-            0,
-            None,
-            extensions,
-            flags,
-            wgpu::MemoryBudgetThresholds::default(),
-            false,
-            None,
-        )
-    }
-    .map_err(|e| vk_error("wgpu on the runtime's Vulkan instance", e))?;
-    let exposed = hal_instance
-        .expose_adapter(physical_device)
-        .ok_or_else(|| VlfError::Display("the GPU the OpenXR runtime chose cannot run wgpu (its Vulkan device lacks what wgpu needs)".into()))?;
+    Ok(RuntimeInstance {
+        entry,
+        api_version,
+        extensions,
+        flags,
+        ash_instance,
+        raw_instance,
+        physical_device,
+        get_instance_proc_addr,
+    })
+}
+
+/// The device the runtime created on `vulkan`'s GPU (with what wgpu needs), opened by wgpu-hal;
+/// and its queue family.
+fn runtime_device(
+    instance: &openxr::Instance,
+    system: openxr::SystemId,
+    vulkan: &RuntimeInstance,
+    exposed: &hal::ExposedAdapter<Vulkan>,
+) -> Result<(
+    hal::OpenDevice<Vulkan>,
+    u32,
+    vk::Device,
+    wgpu::Features,
+    wgpu::Limits,
+)> {
+    let RuntimeInstance {
+        ash_instance,
+        physical_device,
+        get_instance_proc_addr,
+        ..
+    } = vulkan;
+    let (physical_device, get_instance_proc_addr) = (*physical_device, *get_instance_proc_addr);
     let features = exposed.features & wgpu::Features::TIMESTAMP_QUERY;
     let device_extensions = exposed.adapter.required_device_extensions(features);
     let mut device_features = exposed
@@ -179,7 +207,35 @@ pub fn create(instance: &openxr::Instance, system: openxr::SystemId) -> Result<X
         )
     }
     .map_err(|e| vk_error("wgpu on the runtime's Vulkan device", e))?;
+    Ok((open, family_index, raw_device, features, limits))
+}
 
+/// Let the runtime create the Vulkan instance and device; build wgpu on them.
+pub fn create(instance: &openxr::Instance, system: openxr::SystemId) -> Result<XrVulkan> {
+    let vulkan = runtime_instance(instance, system)?;
+    let (raw_instance, physical_device) = (vulkan.raw_instance, vulkan.physical_device);
+    // SAFETY: the instance was created with `extensions` at `api_version`; wgpu-hal owns it from
+    // here and destroys it last (OpenXR leaves instance and device to the application).
+    let hal_instance = unsafe {
+        hal::vulkan::Instance::from_raw(
+            vulkan.entry.clone(),
+            vulkan.ash_instance.clone(),
+            vulkan.api_version,
+            0,
+            None,
+            vulkan.extensions.clone(),
+            vulkan.flags,
+            wgpu::MemoryBudgetThresholds::default(),
+            false,
+            None,
+        )
+    }
+    .map_err(|e| vk_error("wgpu on the runtime's Vulkan instance", e))?;
+    let exposed = hal_instance
+        .expose_adapter(physical_device)
+        .ok_or_else(|| VlfError::Display("the GPU the OpenXR runtime chose cannot run wgpu (its Vulkan device lacks what wgpu needs)".into()))?;
+    let (open, family_index, raw_device, features, limits) =
+        runtime_device(instance, system, &vulkan, &exposed)?;
     // SAFETY: every handle above came from this instance; wgpu takes ownership of all of them.
     let wgpu_instance = unsafe { wgpu::Instance::from_hal::<Vulkan>(hal_instance) };
     let adapter = unsafe { wgpu_instance.create_adapter_from_hal(exposed) };
