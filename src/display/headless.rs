@@ -48,8 +48,6 @@ pub struct CaveReport {
     pub images: Vec<String>,
 }
 
-/// Per-eye GPU time p99/p50 at or under this counts as a constant frame time.
-
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
 /// last frame is drawn again view by view and read back, its images going to `out`.
 pub fn run(
