@@ -59,7 +59,9 @@ def functions(path):
         m = FN.match(line)
         if not m:
             continue
-        depth, opened = 0, False
+        # `nest`: brackets and parentheses, so that the `;` of an array type in the
+        # signature (`[f32; 3]`) is not taken for the end of a bodiless declaration
+        depth, opened, nest = 0, False, 0
         for j in range(k, len(lines)):
             for ch in lines[j]:
                 if ch == "{":
@@ -67,7 +69,11 @@ def functions(path):
                     opened = True
                 elif ch == "}":
                     depth -= 1
-                elif ch == ";" and not opened and depth == 0:
+                elif ch in "([":
+                    nest += 1
+                elif ch in ")]":
+                    nest -= 1
+                elif ch == ";" and not opened and depth == 0 and nest == 0:
                     break  # a declaration without a body
             else:
                 if opened and depth == 0:

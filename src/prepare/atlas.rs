@@ -49,48 +49,14 @@ impl Atlas {
         materials: &[Material],
         textures: &[Texture],
     ) -> Result<Atlas> {
-        let mut by_face: Vec<Vec<[DVec3; 3]>> = vec![Vec::new(); faces.len()];
-        let mut uv_by_face: Vec<Vec<Option<[[f32; 2]; 3]>>> = vec![Vec::new(); faces.len()];
-        for t in triangles {
-            by_face[t.face as usize].push(t.vertices.map(|i| positions[i as usize]));
-            uv_by_face[t.face as usize].push(t.uv);
-        }
-        let has_uv = |f: usize| uv_by_face[f].iter().all(|u| u.is_some());
-        let albedo_textured = (0..faces.len()).any(|f| {
-            has_uv(f)
-                && materials[faces[f].material as usize]
-                    .diffuse_texture
-                    .is_some()
-        });
-        let emission_textured = (0..faces.len()).any(|f| {
-            has_uv(f)
-                && materials[faces[f].material as usize]
-                    .emission_texture
-                    .is_some()
-        });
-        // chart rectangles in face coordinates
-        let mut local_min = Vec::with_capacity(faces.len());
-        for (f, tris) in faces.iter_mut().zip(&by_face) {
-            let mut lo = DVec2::splat(f64::INFINITY);
-            let mut hi = DVec2::splat(f64::NEG_INFINITY);
-            for p in tris.iter().flatten() {
-                let q = DVec2::new(f.axis_a.dot(*p), f.axis_b.dot(*p));
-                lo = lo.min(q);
-                hi = hi.max(q);
-            }
-            let size = ((hi - lo) * density).ceil().max(DVec2::ONE);
-            let w = size.x as u64 + 2 * PADDING as u64;
-            let h = size.y as u64 + 2 * PADDING as u64;
-            if w > 1 << 15 || h > 1 << 15 {
-                return Err(VlfError::Parameter {
-                    name: "texel-density",
-                    message: format!("a face would need {w} x {h} texels; lower the texel density"),
-                });
-            }
-            f.atlas.w = w as u32;
-            f.atlas.h = h as u32;
-            local_min.push(lo - DVec2::splat(PADDING as f64 / density));
-        }
+        let by_face = FaceTriangles::of(faces.len(), positions, triangles);
+        let textured = |map: fn(&Material) -> Option<u32>| {
+            (0..faces.len())
+                .any(|f| by_face.has_uv(f) && map(&materials[faces[f].material as usize]).is_some())
+        };
+        let albedo_textured = textured(|m| m.diffuse_texture);
+        let emission_textured = textured(|m| m.emission_texture);
+        let local_min = size_charts(faces, &by_face.corners, density)?;
         let (width, height) = pack_shelves(faces);
         let texels = width as u64 * height as u64;
         if texels > u32::MAX as u64 / 2 {
@@ -99,72 +65,138 @@ impl Atlas {
                 message: format!("the atlas would hold {texels} texels; lower the texel density"),
             });
         }
-        let mut points = vec![[0.0, 0.0, 0.0, f32::from_bits(NO_FACE)]; texels as usize];
-        let mut texture_albedo = albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]);
-        let mut texture_emission = emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]);
-        let mut coverage = vec![0.0f32; texels as usize];
-        let mut charted_texels = 0u64;
+        let mut atlas = Atlas {
+            width,
+            height,
+            points: vec![[0.0, 0.0, 0.0, f32::from_bits(NO_FACE)]; texels as usize],
+            coverage: vec![0.0f32; texels as usize],
+            charted_texels: 0,
+            texture_albedo: albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
+            texture_emission: emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
+        };
         for (fi, f) in faces.iter_mut().enumerate() {
             let lo = local_min[fi];
             // origin: the plane point whose face coordinates are `lo`
             f.origin = f.normal * f.plane_offset + f.axis_a * lo.x + f.axis_b * lo.y;
-            let tris2: Vec<[DVec2; 3]> = by_face[fi]
-                .iter()
-                .map(|t| {
-                    t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin)))
-                })
-                .collect();
-            let bounds: Vec<(DVec2, DVec2)> = tris2
-                .iter()
-                .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
-                .collect();
-            let r = f.atlas;
-            charted_texels += r.w as u64 * r.h as u64;
+            atlas.charted_texels += f.atlas.w as u64 * f.atlas.h as u64;
             let material = &materials[f.material as usize];
-            let uvs = &uv_by_face[fi];
-            let texture =
-                |which: Option<u32>| which.filter(|_| has_uv(fi)).map(|t| &textures[t as usize]);
-            let (albedo_map, emission_map) = (
+            let texture = |which: Option<u32>| {
+                which
+                    .filter(|_| by_face.has_uv(fi))
+                    .map(|t| &textures[t as usize])
+            };
+            let maps = [
                 texture(material.diffuse_texture),
                 texture(material.emission_texture),
-            );
-            for j in 0..r.h {
-                for i in 0..r.w {
-                    let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
-                    let (sample, cover, tri) = sample_texel(&tris2, &bounds, centre, 0.5 / density);
-                    let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
-                    let idx = ((r.y + j) * width + r.x + i) as usize;
-                    if albedo_map.is_some() || emission_map.is_some() {
-                        let uv = interpolate_uv(&tris2[tri], uvs[tri].unwrap(), sample);
-                        if let (Some(map), Some(out)) = (albedo_map, texture_albedo.as_mut()) {
-                            let c = map.sample(uv);
-                            out[idx] = [c[0], c[1], c[2], 1.0];
-                        }
-                        if let (Some(map), Some(out)) = (emission_map, texture_emission.as_mut()) {
+            ];
+            atlas.fill_chart(fi, f, &by_face, density, maps);
+        }
+        Ok(atlas)
+    }
+
+    /// Sample point, coverage and texture factors of every texel of face `fi`'s chart.
+    /// `maps`: the face's map_Kd and map_Ke (when it has both map and texture coordinates).
+    fn fill_chart(
+        &mut self,
+        fi: usize,
+        f: &PlanarFace,
+        by_face: &FaceTriangles,
+        density: f64,
+        maps: [Option<&Texture>; 2],
+    ) {
+        let tris2: Vec<[DVec2; 3]> = by_face.corners[fi]
+            .iter()
+            .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
+            .collect();
+        let bounds: Vec<(DVec2, DVec2)> = tris2
+            .iter()
+            .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+            .collect();
+        let r = f.atlas;
+        let uvs = &by_face.uvs[fi];
+        for j in 0..r.h {
+            for i in 0..r.w {
+                let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
+                let (sample, cover, tri) = sample_texel(&tris2, &bounds, centre, 0.5 / density);
+                let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
+                let idx = ((r.y + j) * self.width + r.x + i) as usize;
+                if maps.iter().any(Option::is_some) {
+                    let uv = interpolate_uv(&tris2[tri], uvs[tri].unwrap(), sample);
+                    let outs = [&mut self.texture_albedo, &mut self.texture_emission];
+                    for (map, out) in maps.iter().zip(outs) {
+                        if let (Some(map), Some(out)) = (map, out.as_mut()) {
                             let c = map.sample(uv);
                             out[idx] = [c[0], c[1], c[2], 1.0];
                         }
                     }
-                    points[idx] = [
-                        p.x as f32,
-                        p.y as f32,
-                        p.z as f32,
-                        f32::from_bits(fi as u32),
-                    ];
-                    coverage[idx] = cover as f32;
                 }
+                self.points[idx] = [
+                    p.x as f32,
+                    p.y as f32,
+                    p.z as f32,
+                    f32::from_bits(fi as u32),
+                ];
+                self.coverage[idx] = cover as f32;
             }
         }
-        Ok(Atlas {
-            width,
-            height,
-            points,
-            coverage,
-            charted_texels,
-            texture_albedo,
-            texture_emission,
-        })
     }
+}
+
+/// Each face's triangles: corners and texture coordinates (None where a triangle has none).
+struct FaceTriangles {
+    corners: Vec<Vec<[DVec3; 3]>>,
+    uvs: Vec<Vec<Option<[[f32; 2]; 3]>>>,
+}
+
+impl FaceTriangles {
+    fn of(faces: usize, positions: &[DVec3], triangles: &[PreparedTriangle]) -> FaceTriangles {
+        let mut by_face = FaceTriangles {
+            corners: vec![Vec::new(); faces],
+            uvs: vec![Vec::new(); faces],
+        };
+        for t in triangles {
+            by_face.corners[t.face as usize].push(t.vertices.map(|i| positions[i as usize]));
+            by_face.uvs[t.face as usize].push(t.uv);
+        }
+        by_face
+    }
+
+    /// Whether every triangle of face `f` has texture coordinates.
+    fn has_uv(&self, f: usize) -> bool {
+        self.uvs[f].iter().all(|u| u.is_some())
+    }
+}
+
+/// Sets each face's chart size (its extent at `density`, padding included) and returns the
+/// face coordinates of each chart's corner. A chart over 2^15 texels a side is an error.
+fn size_charts(
+    faces: &mut [PlanarFace],
+    corners: &[Vec<[DVec3; 3]>],
+    density: f64,
+) -> Result<Vec<DVec2>> {
+    let mut local_min = Vec::with_capacity(faces.len());
+    for (f, tris) in faces.iter_mut().zip(corners) {
+        let mut lo = DVec2::splat(f64::INFINITY);
+        let mut hi = DVec2::splat(f64::NEG_INFINITY);
+        for p in tris.iter().flatten() {
+            let q = DVec2::new(f.axis_a.dot(*p), f.axis_b.dot(*p));
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        let size = ((hi - lo) * density).ceil().max(DVec2::ONE);
+        let w = size.x as u64 + 2 * PADDING as u64;
+        let h = size.y as u64 + 2 * PADDING as u64;
+        if w > 1 << 15 || h > 1 << 15 {
+            return Err(VlfError::Parameter {
+                name: "texel-density",
+                message: format!("a face would need {w} x {h} texels; lower the texel density"),
+            });
+        }
+        f.atlas.w = w as u32;
+        f.atlas.h = h as u32;
+        local_min.push(lo - DVec2::splat(PADDING as f64 / density));
+    }
+    Ok(local_min)
 }
 
 /// Shelf packing, tallest first. Returns the atlas size and sets each face's rectangle.

@@ -63,7 +63,18 @@ pub struct PropagationReport {
 
 impl PropagationReport {
     pub fn table(&self) -> String {
-        let mut rows: Vec<(String, String)> = vec![
+        let mut rows = self.size_rows();
+        rows.extend(self.cost_rows());
+        rows.extend(self.light_rows());
+        let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
+        rows.iter()
+            .map(|(k, v)| format!("  {k:<width$}  {v}\n"))
+            .collect()
+    }
+
+    /// What was propagated: scene, adapter, directions, grid, elements, textures, layers.
+    fn size_rows(&self) -> Vec<(String, String)> {
+        vec![
             ("scene".into(), self.scene.clone()),
             (
                 "adapter".into(),
@@ -72,20 +83,7 @@ impl PropagationReport {
                     self.adapter.name, self.adapter.backend, self.adapter.driver_info
                 ),
             ),
-            (
-                "directions".into(),
-                if self.params.perturb > 1 {
-                    format!(
-                        "{} (geodesic n={}), {} perturbed sets in transport",
-                        self.directions, self.params.geodesic_frequency, self.params.perturb
-                    )
-                } else {
-                    format!(
-                        "{} (geodesic n={})",
-                        self.directions, self.params.geodesic_frequency
-                    )
-                },
-            ),
+            ("directions".into(), self.directions_text()),
             (
                 "grid / tile".into(),
                 format!(
@@ -112,33 +110,14 @@ impl PropagationReport {
                     human_bytes(self.tile_bytes)
                 ),
             ),
-            (
-                "textures".into(),
-                if self.texture_bytes == 0 {
-                    "none: nothing allocated".into()
-                } else {
-                    let h = &self.host_textures;
-                    format!(
-                        "{} on the GPU; {} image(s), {} on the host ({} at full size, {} reduced to texel density)",
-                        human_bytes(self.texture_bytes),
-                        h.textures,
-                        human_bytes(h.kept_bytes),
-                        human_bytes(h.full_bytes),
-                        h.reduced
-                    )
-                },
-            ),
-            (
-                "visibility layers".into(),
-                if self.visibility_kept_resident {
-                    format!("{} (kept resident for all iterations)", self.layers)
-                } else {
-                    format!(
-                        "{} in the largest batch: {} batches of {} directions, rebuilt every iteration",
-                        self.layers, self.direction_batches, self.directions_per_batch
-                    )
-                },
-            ),
+            ("textures".into(), self.textures_text()),
+            ("visibility layers".into(), self.layers_text()),
+        ]
+    }
+
+    /// What it cost: time per stage, iterations, residual, GPU memory.
+    fn cost_rows(&self) -> Vec<(String, String)> {
+        vec![
             ("setup".into(), format!("{:.3} s", self.setup_seconds)),
             (
                 "visibility".into(),
@@ -181,28 +160,13 @@ impl PropagationReport {
                 "GPU memory, rendering".into(),
                 human_bytes(self.render_memory_bytes),
             ),
-        ];
-        rows.push((
-            "direct light".into(),
-            if self.params.direct_samples > 0 {
-                let mirrors = if self.direct_mirrors > 0 {
-                    format!(
-                        "; mirrors' virtual emitters included ({} mirror triangle(s))",
-                        self.direct_mirrors
-                    )
-                } else if self.non_diffuse_elements > 0 {
-                    "; mirrors' virtual emitters not included (through the mirror tiles)".into()
-                } else {
-                    String::new()
-                };
-                format!(
-                    "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility){mirrors}",
-                    self.direct_emitters, self.params.direct_samples
-                )
-            } else {
-                "through the fixed directions (--direct-samples 0)".into()
-            },
-        ));
+        ]
+    }
+
+    /// How light reaches the texels and the eye: direct light, mirrors when rendering, sky
+    /// (the last two only when there is something to say).
+    fn light_rows(&self) -> Vec<(String, String)> {
+        let mut rows = vec![("direct light".into(), self.direct_light_text())];
         if let Some(m) = self.mirror_rendering.filter(|m| m.bounces > 0) {
             let tiles = if m.tiles_needed {
                 "mirror tiles kept: mirrors face each other"
@@ -217,10 +181,67 @@ impl PropagationReport {
         if !self.sky {
             rows.push(("sky".into(), "none (black): nothing allocated".into()));
         }
-        let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
-        rows.iter()
-            .map(|(k, v)| format!("  {k:<width$}  {v}\n"))
-            .collect()
+        rows
+    }
+
+    fn directions_text(&self) -> String {
+        if self.params.perturb > 1 {
+            format!(
+                "{} (geodesic n={}), {} perturbed sets in transport",
+                self.directions, self.params.geodesic_frequency, self.params.perturb
+            )
+        } else {
+            format!(
+                "{} (geodesic n={})",
+                self.directions, self.params.geodesic_frequency
+            )
+        }
+    }
+
+    fn textures_text(&self) -> String {
+        if self.texture_bytes == 0 {
+            return "none: nothing allocated".into();
+        }
+        let h = &self.host_textures;
+        format!(
+            "{} on the GPU; {} image(s), {} on the host ({} at full size, {} reduced to texel density)",
+            human_bytes(self.texture_bytes),
+            h.textures,
+            human_bytes(h.kept_bytes),
+            human_bytes(h.full_bytes),
+            h.reduced
+        )
+    }
+
+    fn layers_text(&self) -> String {
+        if self.visibility_kept_resident {
+            format!("{} (kept resident for all iterations)", self.layers)
+        } else {
+            format!(
+                "{} in the largest batch: {} batches of {} directions, rebuilt every iteration",
+                self.layers, self.direction_batches, self.directions_per_batch
+            )
+        }
+    }
+
+    fn direct_light_text(&self) -> String {
+        if self.params.direct_samples == 0 {
+            return "through the fixed directions (--direct-samples 0)".into();
+        }
+        let mirrors = if self.direct_mirrors > 0 {
+            format!(
+                "; mirrors' virtual emitters included ({} mirror triangle(s))",
+                self.direct_mirrors
+            )
+        } else if self.non_diffuse_elements > 0 {
+            "; mirrors' virtual emitters not included (through the mirror tiles)".into()
+        } else {
+            String::new()
+        };
+        format!(
+            "{} emitter triangle(s), {} shadow rays per texel (closed form x visibility){mirrors}",
+            self.direct_emitters, self.params.direct_samples
+        )
     }
 }
 

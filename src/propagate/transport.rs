@@ -54,34 +54,13 @@ impl ElementState {
         count: u32,
         scale: f32,
     ) -> ElementState {
-        let (ax, ay) = dispatch_2d(count.div_ceil(256));
-        let params = GpuAccumulate {
-            count,
-            scale,
-            ..Default::default()
-        };
         let bytes = count as u64 * 16;
-        ElementState {
-            radiance: [
-                ctx.buffer_zeroed(ledger, &format!("{what}: unshot"), bytes, STORAGE),
-                ctx.buffer_zeroed(ledger, &format!("{what}: next"), bytes, STORAGE),
-            ],
-            total: ctx.buffer_zeroed(ledger, &format!("{what}: total"), bytes, STORAGE),
-            partials: ctx.buffer_zeroed(
-                ledger,
-                &format!("{what}: power sums"),
-                (ax * ay) as u64 * 8,
-                STORAGE,
-            ),
-            partial_count: ax * ay,
-            params: ctx.buffer_init(
-                ledger,
-                &format!("{what}: accumulate parameters"),
-                bytemuck::bytes_of(&params),
-                wgpu::BufferUsages::UNIFORM,
-            ),
-            count,
-        }
+        let radiance = [
+            ctx.buffer_zeroed(ledger, &format!("{what}: unshot"), bytes, STORAGE),
+            ctx.buffer_zeroed(ledger, &format!("{what}: next"), bytes, STORAGE),
+        ];
+        let total = ctx.buffer_zeroed(ledger, &format!("{what}: total"), bytes, STORAGE);
+        Self::around(ctx, ledger, what, count, scale, radiance, total)
     }
 
     fn new(
@@ -93,6 +72,34 @@ impl ElementState {
         scale: f32,
     ) -> ElementState {
         let count = unshot.len() as u32;
+        let radiance = [
+            ctx.buffer_init(
+                ledger,
+                &format!("{what}: unshot"),
+                bytemuck::cast_slice(unshot),
+                STORAGE,
+            ),
+            ctx.buffer_zeroed(ledger, &format!("{what}: next"), count as u64 * 16, STORAGE),
+        ];
+        let total = ctx.buffer_init(
+            ledger,
+            &format!("{what}: total"),
+            bytemuck::cast_slice(total),
+            STORAGE,
+        );
+        Self::around(ctx, ledger, what, count, scale, radiance, total)
+    }
+
+    /// The state around its radiance buffers: the power sums and the accumulate uniform.
+    fn around(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        what: &str,
+        count: u32,
+        scale: f32,
+        radiance: [wgpu::Buffer; 2],
+        total: wgpu::Buffer,
+    ) -> ElementState {
         let (ax, ay) = dispatch_2d(count.div_ceil(256));
         let params = GpuAccumulate {
             count,
@@ -100,21 +107,8 @@ impl ElementState {
             ..Default::default()
         };
         ElementState {
-            radiance: [
-                ctx.buffer_init(
-                    ledger,
-                    &format!("{what}: unshot"),
-                    bytemuck::cast_slice(unshot),
-                    STORAGE,
-                ),
-                ctx.buffer_zeroed(ledger, &format!("{what}: next"), count as u64 * 16, STORAGE),
-            ],
-            total: ctx.buffer_init(
-                ledger,
-                &format!("{what}: total"),
-                bytemuck::cast_slice(total),
-                STORAGE,
-            ),
+            radiance,
+            total,
             partials: ctx.buffer_zeroed(
                 ledger,
                 &format!("{what}: power sums"),
@@ -142,6 +136,33 @@ struct Page {
     page_uniform: wgpu::Buffer,
 }
 
+impl Page {
+    /// The page of `what` from element `first` on, holding `state`, with its power weights.
+    fn new(s: &Setup, what: &str, state: ElementState, weights: &[f32], first: u32) -> Page {
+        let range = GpuPageRange {
+            base: first,
+            cells: state.count,
+            ..Default::default()
+        };
+        Page {
+            power_weight: s.ctx.buffer_init(
+                s.ledger,
+                &format!("{what}: power weights"),
+                bytemuck::cast_slice(weights),
+                STORAGE,
+            ),
+            first,
+            page_uniform: s.ctx.buffer_init(
+                s.ledger,
+                &format!("{what}: page"),
+                bytemuck::bytes_of(&range),
+                wgpu::BufferUsages::UNIFORM,
+            ),
+            state,
+        }
+    }
+}
+
 /// The mirror tiles of a scene with non-diffuse faces.
 struct Tiles {
     layout: TileLayout,
@@ -166,11 +187,7 @@ pub struct Propagator {
     texel_pages: TilePages,
     tiles: Option<Tiles>,
     /// map_Kd factors per texel (per page) and their pass; None for an untextured scene
-    texture: Option<(
-        Vec<wgpu::Buffer>,
-        wgpu::ComputePipeline,
-        wgpu::BindGroupLayout,
-    )>,
+    texture: Option<TextureStage>,
     /// the K direction sets (only kept when K > 1, or with batches)
     direction_sets: Vec<Vec<GpuDirection>>,
     /// (first direction, count) per batch; one batch keeps the lists resident
@@ -198,41 +215,53 @@ pub struct Propagator {
     pub direct: Option<super::direct::DirectLight>,
 }
 
+/// map_Kd factors per texel page, the pass multiplying next by them, its layout.
+type TextureStage = (
+    Vec<wgpu::Buffer>,
+    wgpu::ComputePipeline,
+    wgpu::BindGroupLayout,
+);
+
 fn dispatch_2d(groups: u32) -> (u32, u32) {
     let x = groups.clamp(1, 65535);
     (x, groups.div_ceil(x).max(1))
 }
 
-impl Propagator {
-    pub fn new(
-        ctx: Arc<GpuContext>,
-        prepared: &PreparedScene,
-        params: &PropagationParams,
-        directions: &DirectionSet,
-        sky: Option<[f32; 3]>,
-        plan: Option<&BatchPlan>,
-    ) -> Result<Propagator> {
-        let ledger = MemoryLedger::default();
-        let device = &ctx.device;
-        let fixed = gpu_directions(&directions.directions);
-        let non_diffuse = non_diffuse_faces(prepared);
-        let layout = if non_diffuse.iter().any(|&n| n) {
-            let mut tris: Vec<Vec<[glam::DVec3; 3]>> = vec![Vec::new(); prepared.faces.len()];
-            for t in &prepared.triangles {
-                tris[t.face as usize].push(t.vertices.map(|v| prepared.positions[v as usize]));
-            }
-            let normals: Vec<glam::DVec3> = prepared.faces.iter().map(|f| f.normal).collect();
-            TileLayout::build(
-                &fixed,
-                &normals,
-                &tris,
-                &non_diffuse,
-                params.grid_resolution,
-                params.tile_size,
-            )
-        } else {
-            TileLayout::default()
-        };
+/// What building a propagator reads: the GPU and its ledger, the scene, the settings.
+struct Setup<'a> {
+    ctx: &'a GpuContext,
+    ledger: &'a MemoryLedger,
+    prepared: &'a PreparedScene,
+    params: &'a PropagationParams,
+    directions: &'a DirectionSet,
+}
+
+/// The sizes a propagator is built to, decided before anything is allocated.
+struct Sizes {
+    fixed: Vec<GpuDirection>,
+    layout: TileLayout,
+    faces: Vec<GpuFace>,
+    texel_pages: TilePages,
+    tile_cells: u64,
+    tile_pages: TilePages,
+    plan: BatchPlan,
+    grid: GpuGrid,
+}
+
+/// The largest buffer one storage binding can hold.
+fn max_binding(ctx: &GpuContext) -> u64 {
+    let limits = ctx.limits();
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
+impl Setup<'_> {
+    /// Tile layout, faces, pages and the batch plan (`plan`, else one that fits the budget).
+    fn sizes(&self, sky: Option<[f32; 3]>, plan: Option<&BatchPlan>) -> Result<Sizes> {
+        let (prepared, params) = (self.prepared, self.params);
+        let fixed = gpu_directions(&self.directions.directions);
+        let layout = self.mirror_tile_layout(&fixed);
         let tile_slot = if layout.face_slot.is_empty() {
             vec![crate::gpu::types::NO_FACE; prepared.faces.len()]
         } else {
@@ -240,58 +269,20 @@ impl Propagator {
         };
         let faces = gpu_faces(prepared, &tile_slot);
         let texel_count = prepared.atlas.texel_count() as u32;
-        let limits = ctx.limits();
-        let max_binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let max_binding = max_binding(self.ctx);
         let texel_pages = TilePages::plan_texels(texel_count as u64, max_binding)?;
-        let texel_ranges = texel_pages.ranges();
-        // a per-page copy of a per-texel array
-        let paged = |name: &str, data: &[u8], bytes_per: usize| -> Vec<wgpu::Buffer> {
-            texel_ranges
-                .iter()
-                .map(|&(first, n)| {
-                    ctx.buffer_init(
-                        &ledger,
-                        name,
-                        &data[first as usize * bytes_per..(first + n) as usize * bytes_per],
-                        STORAGE,
-                    )
-                })
-                .collect()
-        };
         let cells_per_tile = params.tile_size * params.tile_size;
         let tile_cells = layout.headers.len() as u64 * cells_per_tile as u64;
         let tile_pages = TilePages::plan(tile_cells, cells_per_tile, max_binding)?;
         // decided before anything is allocated, now that the tiles' size is known
         let plan = match plan {
             Some(p) => p.clone(),
-            None => {
-                let estimate = super::estimate_memory(prepared, directions, params);
-                // tile radiance x3 and power weights, tables; with batches, a weight sum per element
-                let tile_bytes = tile_cells * (16 * 3 + 4)
-                    + layout.headers.len() as u64 * 16
-                    + layout.index.len() as u64 * 4
-                    + layout.rects.len() as u64 * 16;
-                let batch_sums = (texel_count as u64 + tile_cells) * 4;
-                let limits = ctx.limits();
-                let max_binding = limits
-                    .max_storage_buffer_binding_size
-                    .min(limits.max_buffer_size);
-                super::plan_batches(
-                    &estimate,
-                    params,
-                    directions.len() as u32,
-                    max_binding,
-                    estimate.texel_bytes + tile_bytes + batch_sums,
-                )?
-            }
+            None => self.batch_plan(&layout, tile_cells, max_binding)?,
         };
         let k = params.perturb.max(1);
-        let batched = !plan.resident();
         let grid = GpuGrid {
             resolution: params.grid_resolution,
-            direction_count: directions.len() as u32,
+            direction_count: self.directions.len() as u32,
             triangle_count: prepared.triangles.len() as u32,
             triangle_base: 0,
             texel_count,
@@ -310,6 +301,95 @@ impl Propagator {
             texel_page_cells: texel_pages.page_cells,
             ..Default::default()
         };
+        Ok(Sizes {
+            fixed,
+            layout,
+            faces,
+            texel_pages,
+            tile_cells,
+            tile_pages,
+            plan,
+            grid,
+        })
+    }
+
+    /// The tiles of the non-diffuse faces (empty when every face is diffuse).
+    fn mirror_tile_layout(&self, fixed: &[GpuDirection]) -> TileLayout {
+        let prepared = self.prepared;
+        let non_diffuse = non_diffuse_faces(prepared);
+        if !non_diffuse.iter().any(|&n| n) {
+            return TileLayout::default();
+        }
+        let mut tris: Vec<Vec<[glam::DVec3; 3]>> = vec![Vec::new(); prepared.faces.len()];
+        for t in &prepared.triangles {
+            tris[t.face as usize].push(t.vertices.map(|v| prepared.positions[v as usize]));
+        }
+        let normals: Vec<glam::DVec3> = prepared.faces.iter().map(|f| f.normal).collect();
+        TileLayout::build(
+            fixed,
+            &normals,
+            &tris,
+            &non_diffuse,
+            self.params.grid_resolution,
+            self.params.tile_size,
+        )
+    }
+
+    /// Batches of directions whose visibility fits the memory budget beside the texels and
+    /// tiles.
+    fn batch_plan(
+        &self,
+        layout: &TileLayout,
+        tile_cells: u64,
+        max_binding: u64,
+    ) -> Result<BatchPlan> {
+        let estimate = super::estimate_memory(self.prepared, self.directions, self.params);
+        // tile radiance x3 and power weights, tables; with batches, a weight sum per element
+        let tile_bytes = tile_cells * (16 * 3 + 4)
+            + layout.headers.len() as u64 * 16
+            + layout.index.len() as u64 * 4
+            + layout.rects.len() as u64 * 16;
+        let batch_sums = (self.prepared.atlas.texel_count() as u64 + tile_cells) * 4;
+        super::plan_batches(
+            &estimate,
+            self.params,
+            self.directions.len() as u32,
+            max_binding,
+            estimate.texel_bytes + tile_bytes + batch_sums,
+        )
+    }
+
+    /// A per-page copy of a per-texel array of `bytes_per` bytes an element.
+    fn paged(
+        &self,
+        ranges: &[(u32, u32)],
+        name: &str,
+        data: &[u8],
+        bytes_per: usize,
+    ) -> Vec<wgpu::Buffer> {
+        ranges
+            .iter()
+            .map(|&(first, n)| {
+                self.ctx.buffer_init(
+                    self.ledger,
+                    name,
+                    &data[first as usize * bytes_per..(first + n) as usize * bytes_per],
+                    STORAGE,
+                )
+            })
+            .collect()
+    }
+
+    /// The scene on the GPU: grid uniform, directions (with batches, room for one batch),
+    /// faces, vertices, triangles, texel sample points.
+    fn scene_buffers(
+        &self,
+        grid: &GpuGrid,
+        directions: &[GpuDirection],
+        faces: &[GpuFace],
+        texel_ranges: &[(u32, u32)],
+    ) -> SceneBuffers {
+        let (ctx, ledger, prepared) = (self.ctx, self.ledger, self.prepared);
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let vertices: Vec<[f32; 4]> = prepared
             .positions
@@ -321,39 +401,39 @@ impl Propagator {
             .iter()
             .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
             .collect();
-        let scene = SceneBuffers {
-            grid: ctx.buffer_init(
-                &ledger,
-                "grid parameters",
-                bytemuck::bytes_of(&grid),
-                uniform,
-            ),
-            // with batches this holds one batch at a time
+        SceneBuffers {
+            grid: ctx.buffer_init(ledger, "grid parameters", bytemuck::bytes_of(grid), uniform),
             directions: ctx.buffer_init(
-                &ledger,
+                ledger,
                 "directions",
-                bytemuck::cast_slice(&fixed[..plan.batch_size as usize]),
+                bytemuck::cast_slice(directions),
                 STORAGE,
             ),
-            faces: ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
-            vertices: ctx.buffer_init(
-                &ledger,
-                "vertices",
-                bytemuck::cast_slice(&vertices),
-                STORAGE,
-            ),
+            faces: ctx.buffer_init(ledger, "faces", bytemuck::cast_slice(faces), STORAGE),
+            vertices: ctx.buffer_init(ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
             triangles: ctx.buffer_init(
-                &ledger,
+                ledger,
                 "triangles",
                 bytemuck::cast_slice(&triangles),
                 STORAGE,
             ),
-            texel_points: paged(
+            texel_points: self.paged(
+                texel_ranges,
                 "texel sample points",
                 bytemuck::cast_slice(&prepared.atlas.points),
                 16,
             ),
-        };
+        }
+    }
+
+    /// The texel pages, starting from the emitters' radiance, and the power they emit.
+    fn texel_pages(
+        &self,
+        ranges: &[(u32, u32)],
+        unshot: &[[f32; 4]],
+        total: &[[f32; 4]],
+    ) -> (Vec<Page>, f64) {
+        let prepared = self.prepared;
         // power per unit of radiosity: texel area x coverage
         let texel_area = 1.0 / (prepared.texel_density * prepared.texel_density);
         let weights: Vec<f32> = prepared
@@ -362,237 +442,277 @@ impl Propagator {
             .iter()
             .map(|&c| (c as f64 * texel_area) as f32)
             .collect();
-        let (unshot, total) = initial_radiance(prepared, &faces);
         let emitted_power = unshot
             .iter()
             .zip(&weights)
             .map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64)
             .sum();
-        let texels: Vec<Page> = texel_ranges
+        let pages = ranges
             .iter()
             .map(|&(first, n)| {
                 let r = first as usize..(first + n) as usize;
-                let range = GpuPageRange {
-                    base: first,
-                    cells: n,
-                    ..Default::default()
-                };
-                Page {
-                    state: ElementState::new(
-                        &ctx,
-                        &ledger,
-                        "texels",
-                        &unshot[r.clone()],
-                        &total[r.clone()],
-                        std::f32::consts::FRAC_1_PI,
-                    ),
-                    power_weight: ctx.buffer_init(
-                        &ledger,
-                        "texels: power weights",
-                        bytemuck::cast_slice(&weights[r]),
-                        STORAGE,
-                    ),
-                    first,
-                    page_uniform: ctx.buffer_init(
-                        &ledger,
-                        "texels: page",
-                        bytemuck::bytes_of(&range),
-                        wgpu::BufferUsages::UNIFORM,
-                    ),
-                }
+                let state = ElementState::new(
+                    self.ctx,
+                    self.ledger,
+                    "texels",
+                    &unshot[r.clone()],
+                    &total[r.clone()],
+                    std::f32::consts::FRAC_1_PI,
+                );
+                Page::new(self, "texels", state, &weights[r], first)
             })
             .collect();
+        (pages, emitted_power)
+    }
+
+    /// The gather pipeline, and the mirror tiles with theirs when some face is not diffuse.
+    /// `fixed_directions` gives the buffer of fixed directions the tiles read (made after the
+    /// tables, as the ledger lists them).
+    fn gather_stage(
+        &self,
+        layout: TileLayout,
+        page_plan: TilePages,
+        layouts: [&wgpu::BindGroupLayout; 2],
+        cell_size: f32,
+        fixed_directions: impl FnOnce() -> wgpu::Buffer,
+    ) -> Result<(wgpu::ComputePipeline, Option<Tiles>)> {
+        let (ctx, device) = (self.ctx, &self.ctx.device);
+        let [layout0, layout1] = layouts;
+        if layout.is_empty() {
+            let module = shaders::module(device, "propagate.wgsl")?;
+            return Ok((
+                ctx.compute_pipeline(&module, "gather", &[layout0, layout1]),
+                None,
+            ));
+        }
+        let module = shaders::module(device, "specular.wgsl")?;
+        // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
+        let layout2 = reflect::layout(device, "specular.wgsl", 2)?;
+        let gather = ctx.compute_pipeline(&module, "gather_mixed", &[layout0, layout1, &layout2]);
+        let gather_tiles =
+            ctx.compute_pipeline(&module, "gather_tiles", &[layout0, layout1, &layout2]);
+        let (points, index) = self.directions.gpu_tables();
+        let pages = self.tile_pages(&layout, &page_plan, cell_size as f64);
+        let tables: [(&str, &[u8]); 5] = [
+            ("tile rectangles", bytemuck::cast_slice(&layout.rects)),
+            ("tile index", bytemuck::cast_slice(&layout.index)),
+            ("tile headers", bytemuck::cast_slice(&layout.headers)),
+            ("geodesic points", bytemuck::cast_slice(&points)),
+            ("geodesic index", bytemuck::cast_slice(&index)),
+        ];
+        let tiles = Tiles {
+            pages,
+            page_plan,
+            tables: tables.map(|(name, data)| ctx.buffer_init(self.ledger, name, data, STORAGE)),
+            fixed_directions: fixed_directions(),
+            layout2,
+            gather_pipe: gather_tiles,
+            layout,
+        };
+        Ok((gather, Some(tiles)))
+    }
+
+    /// The mirror tile pages, dark at first; a cell's power weight is its area times its
+    /// direction's solid angle.
+    fn tile_pages(&self, layout: &TileLayout, plan: &TilePages, h: f64) -> Vec<Page> {
+        let cells_per_tile = self.params.tile_size * self.params.tile_size;
+        let weights: Vec<f32> = layout
+            .headers
+            .iter()
+            .flat_map(|hd| {
+                std::iter::repeat_n(
+                    (h * h * self.directions.directions[hd[0] as usize].solid_angle) as f32,
+                    cells_per_tile as usize,
+                )
+            })
+            .collect();
+        plan.ranges()
+            .into_iter()
+            .map(|(first, cells)| {
+                let state = ElementState::zeroed(self.ctx, self.ledger, "mirror tiles", cells, 1.0);
+                let r = first as usize..(first + cells) as usize;
+                Page::new(self, "mirror tiles", state, &weights[r], first)
+            })
+            .collect()
+    }
+
+    /// The pass adding next to total and summing next's power.
+    fn accumulate_pass(&self) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout)> {
+        let device = &self.ctx.device;
+        let layout = reflect::layout(device, "accumulate.wgsl", 0)?;
+        let module = shaders::module(device, "accumulate.wgsl")?;
+        let pipe = self.ctx.compute_pipeline(&module, "accumulate", &[&layout]);
+        Ok((pipe, layout))
+    }
+
+    /// The fixed directions the mirror tiles read: the scene's directions buffer when it holds
+    /// them all along, else (`separate`: perturbed sets or batches replace them there) their own.
+    fn fixed_directions(
+        &self,
+        fixed: &[GpuDirection],
+        separate: bool,
+        scene_directions: &wgpu::Buffer,
+    ) -> wgpu::Buffer {
+        if separate {
+            let data = bytemuck::cast_slice(fixed);
+            self.ctx
+                .buffer_init(self.ledger, "fixed directions", data, STORAGE)
+        } else {
+            scene_directions.clone()
+        }
+    }
+
+    /// map_Kd factors per texel page and the pass that applies them; None when untextured.
+    fn texture_stage(&self, texel_ranges: &[(u32, u32)]) -> Result<Option<TextureStage>> {
+        let Some(albedo) = &self.prepared.atlas.texture_albedo else {
+            return Ok(None);
+        };
+        let buffer = self.paged(
+            texel_ranges,
+            "texture albedo",
+            bytemuck::cast_slice(albedo),
+            std::mem::size_of_val(&albedo[0]),
+        );
+        let device = &self.ctx.device;
+        let layout = reflect::layout(device, "texture.wgsl", 0)?;
+        let module = shaders::module(device, "texture.wgsl")?;
+        let pipe = self.ctx.compute_pipeline(&module, "modulate", &[&layout]);
+        Ok(Some((buffer, pipe, layout)))
+    }
+
+    /// With batches: the quadrature weight sum per element and the pass dividing by them;
+    /// without, a placeholder to bind.
+    fn batch_weight_sums(
+        &self,
+        batched: bool,
+        elements: u64,
+    ) -> Result<(
+        wgpu::Buffer,
+        Option<(wgpu::ComputePipeline, wgpu::BindGroupLayout)>,
+    )> {
+        let ctx = self.ctx;
+        if !batched {
+            let placeholder = ctx.buffer_zeroed(
+                &MemoryLedger::default(),
+                "weight sums placeholder",
+                16,
+                STORAGE,
+            );
+            return Ok((placeholder, None));
+        }
+        let buffer = ctx.buffer_zeroed(
+            self.ledger,
+            "batches: quadrature weight sums",
+            elements * 4,
+            STORAGE,
+        );
+        let layout = reflect::layout(&ctx.device, "normalize.wgsl", 0)?;
+        let module = shaders::module(&ctx.device, "normalize.wgsl")?;
+        let pipe = ctx.compute_pipeline(&module, "normalize", &[&layout]);
+        Ok((buffer, Some((pipe, layout))))
+    }
+
+    /// The first iterations' direct light, when `params.direct_samples` asks for it.
+    fn direct_light(
+        &self,
+        sky: Option<[f32; 3]>,
+        faces: &[GpuFace],
+        unshot: &[[f32; 4]],
+        layouts: [&wgpu::BindGroupLayout; 2],
+    ) -> Result<Option<super::direct::DirectLight>> {
+        let (prepared, params) = (self.prepared, self.params);
+        if params.direct_samples == 0 {
+            return Ok(None);
+        }
+        let emitters = super::direct::emitters(prepared, faces, unshot);
+        let mirrors = if params.mirror_direct {
+            super::direct::mirror_triangles(prepared, faces)
+        } else {
+            Vec::new()
+        };
+        let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) {
+            params.direct_samples
+        } else {
+            0
+        };
+        Ok(Some(super::direct::DirectLight::new(
+            self.ctx,
+            self.ledger,
+            prepared,
+            &emitters,
+            &mirrors,
+            params.direct_samples,
+            sky_samples,
+            layouts[0],
+            layouts[1],
+        )?))
+    }
+}
+
+/// The K direction sets gathered in turn (only kept when K > 1, or with batches).
+fn direction_sets(
+    directions: &DirectionSet,
+    k: u32,
+    batched: bool,
+    fixed: &[GpuDirection],
+) -> Vec<Vec<GpuDirection>> {
+    match (k > 1, batched) {
+        (true, _) => (0..k)
+            .map(|s| gpu_directions(&directions.perturbed(s)))
+            .collect(),
+        (false, true) => vec![fixed.to_vec()],
+        (false, false) => Vec::new(),
+    }
+}
+
+impl Propagator {
+    /// Sizes first (the batch plan among them), then the GPU buffers and passes.
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        prepared: &PreparedScene,
+        params: &PropagationParams,
+        directions: &DirectionSet,
+        sky: Option<[f32; 3]>,
+        plan: Option<&BatchPlan>,
+    ) -> Result<Propagator> {
+        let ledger = MemoryLedger::default();
+        let device = &ctx.device;
+        let s = Setup {
+            ctx: &ctx,
+            ledger: &ledger,
+            prepared,
+            params,
+            directions,
+        };
+        let sizes = s.sizes(sky, plan)?;
+        let (grid, plan, tile_pages) = (sizes.grid, sizes.plan, sizes.tile_pages);
+        let k = params.perturb.max(1);
+        let batched = !plan.resident();
+        let texel_ranges = sizes.texel_pages.ranges();
+        // with batches the directions buffer holds one batch at a time
+        let batch = &sizes.fixed[..plan.batch_size as usize];
+        let scene = s.scene_buffers(&grid, batch, &sizes.faces, &texel_ranges);
+        let (unshot, total) = initial_radiance(prepared, &sizes.faces);
+        let (texels, emitted_power) = s.texel_pages(&texel_ranges, &unshot, &total);
 
         // grid, directions, faces, cell offsets, counts, layers, four pages of texel points
         let layout0 = reflect::layout(device, "propagate.wgsl", 0)?;
         // four pages of unshot, the page of next written, its range, the batches' weight sums
         let layout1 = reflect::layout(device, "propagate.wgsl", 1)?;
-        let accumulate_layout = reflect::layout(device, "accumulate.wgsl", 0)?;
-        let accumulate_module = shaders::module(device, "accumulate.wgsl")?;
-        let accumulate_pipe =
-            ctx.compute_pipeline(&accumulate_module, "accumulate", &[&accumulate_layout]);
-        let (gather_pipe, tiles) = if layout.is_empty() {
-            let module = shaders::module(device, "propagate.wgsl")?;
-            (
-                ctx.compute_pipeline(&module, "gather", &[&layout0, &layout1]),
-                None,
-            )
-        } else {
-            let module = shaders::module(device, "specular.wgsl")?;
-            // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
-            let layout2 = reflect::layout(device, "specular.wgsl", 2)?;
-            let gather =
-                ctx.compute_pipeline(&module, "gather_mixed", &[&layout0, &layout1, &layout2]);
-            let gather_tiles =
-                ctx.compute_pipeline(&module, "gather_tiles", &[&layout0, &layout1, &layout2]);
-            let (points, index) = directions.gpu_tables();
-            let h = grid.cell_size as f64;
-            let weights: Vec<f32> = layout
-                .headers
-                .iter()
-                .flat_map(|hd| {
-                    std::iter::repeat_n(
-                        (h * h * directions.directions[hd[0] as usize].solid_angle) as f32,
-                        cells_per_tile as usize,
-                    )
-                })
-                .collect();
-            let pages = tile_pages
-                .ranges()
-                .into_iter()
-                .map(|(first, cells)| {
-                    let range = GpuPageRange {
-                        base: first,
-                        cells,
-                        ..Default::default()
-                    };
-                    Page {
-                        state: ElementState::zeroed(&ctx, &ledger, "mirror tiles", cells, 1.0),
-                        power_weight: ctx.buffer_init(
-                            &ledger,
-                            "mirror tiles: power weights",
-                            bytemuck::cast_slice(
-                                &weights[first as usize..(first + cells) as usize],
-                            ),
-                            STORAGE,
-                        ),
-                        first,
-                        page_uniform: ctx.buffer_init(
-                            &ledger,
-                            "mirror tiles: page",
-                            bytemuck::bytes_of(&range),
-                            wgpu::BufferUsages::UNIFORM,
-                        ),
-                    }
-                })
-                .collect();
-            let tiles = Tiles {
-                pages,
-                page_plan: tile_pages,
-                tables: [
-                    ctx.buffer_init(
-                        &ledger,
-                        "tile rectangles",
-                        bytemuck::cast_slice(&layout.rects),
-                        STORAGE,
-                    ),
-                    ctx.buffer_init(
-                        &ledger,
-                        "tile index",
-                        bytemuck::cast_slice(&layout.index),
-                        STORAGE,
-                    ),
-                    ctx.buffer_init(
-                        &ledger,
-                        "tile headers",
-                        bytemuck::cast_slice(&layout.headers),
-                        STORAGE,
-                    ),
-                    ctx.buffer_init(
-                        &ledger,
-                        "geodesic points",
-                        bytemuck::cast_slice(&points),
-                        STORAGE,
-                    ),
-                    ctx.buffer_init(
-                        &ledger,
-                        "geodesic index",
-                        bytemuck::cast_slice(&index),
-                        STORAGE,
-                    ),
-                ],
-                fixed_directions: if k > 1 || batched {
-                    ctx.buffer_init(
-                        &ledger,
-                        "fixed directions",
-                        bytemuck::cast_slice(&fixed),
-                        STORAGE,
-                    )
-                } else {
-                    scene.directions.clone()
-                },
-                layout2,
-                gather_pipe: gather_tiles,
-                layout,
-            };
-            (gather, Some(tiles))
-        };
-        let texture = match &prepared.atlas.texture_albedo {
-            Some(albedo) => {
-                let buffer = paged(
-                    "texture albedo",
-                    bytemuck::cast_slice(albedo),
-                    std::mem::size_of_val(&albedo[0]),
-                );
-                let layout = reflect::layout(device, "texture.wgsl", 0)?;
-                let module = shaders::module(device, "texture.wgsl")?;
-                let pipe = ctx.compute_pipeline(&module, "modulate", &[&layout]);
-                Some((buffer, pipe, layout))
-            }
-            None => None,
-        };
-        let direction_sets = match (k > 1, batched) {
-            (true, _) => (0..k)
-                .map(|s| gpu_directions(&directions.perturbed(s)))
-                .collect(),
-            (false, true) => vec![fixed.clone()],
-            (false, false) => Vec::new(),
-        };
-        let (weight_sums, normalize) = if batched {
-            let elements = texel_count as u64 + tile_cells;
-            let buffer = ctx.buffer_zeroed(
-                &ledger,
-                "batches: quadrature weight sums",
-                elements * 4,
-                STORAGE,
-            );
-            let layout = reflect::layout(device, "normalize.wgsl", 0)?;
-            let module = shaders::module(device, "normalize.wgsl")?;
-            (
-                buffer,
-                Some((
-                    ctx.compute_pipeline(&module, "normalize", &[&layout]),
-                    layout,
-                )),
-            )
-        } else {
-            (
-                ctx.buffer_zeroed(
-                    &MemoryLedger::default(),
-                    "weight sums placeholder",
-                    16,
-                    STORAGE,
-                ),
-                None,
-            )
-        };
+        let (accumulate_pipe, accumulate_layout) = s.accumulate_pass()?;
+        let separate = k > 1 || batched;
+        let (gather_pipe, tiles) = s.gather_stage(
+            sizes.layout,
+            tile_pages,
+            [&layout0, &layout1],
+            grid.cell_size,
+            || s.fixed_directions(&sizes.fixed, separate, &scene.directions),
+        )?;
+        let texture = s.texture_stage(&texel_ranges)?;
+        let (weight_sums, normalize) =
+            s.batch_weight_sums(batched, grid.texel_count as u64 + sizes.tile_cells)?;
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
-        let direct = if params.direct_samples > 0 {
-            let emitters = super::direct::emitters(prepared, &faces, &unshot);
-            let mirrors = if params.mirror_direct {
-                super::direct::mirror_triangles(prepared, &faces)
-            } else {
-                Vec::new()
-            };
-            let sky_samples = if sky.is_some_and(|s| s.iter().any(|&v| v > 0.0)) {
-                params.direct_samples
-            } else {
-                0
-            };
-            Some(super::direct::DirectLight::new(
-                &ctx,
-                &ledger,
-                prepared,
-                &emitters,
-                &mirrors,
-                params.direct_samples,
-                sky_samples,
-                &layout0,
-                &layout1,
-            )?)
-        } else {
-            None
-        };
+        let direct = s.direct_light(sky, &sizes.faces, &unshot, [&layout0, &layout1])?;
         let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
             ctx,
@@ -601,12 +721,12 @@ impl Propagator {
             scene,
             visibility: None,
             visibility_pipelines,
-            faces,
+            faces: sizes.faces,
             texels,
-            texel_pages,
+            texel_pages: sizes.texel_pages,
             tiles,
             texture,
-            direction_sets,
+            direction_sets: direction_sets(directions, k, batched, &sizes.fixed),
             batches: plan.ranges(directions.len() as u32),
             weight_sums,
             normalize,
@@ -620,7 +740,7 @@ impl Propagator {
             accumulate_layout,
             emitted_power,
             iteration: 0,
-            texel_count,
+            texel_count: grid.texel_count,
             timestamps,
             direct,
         })
@@ -654,15 +774,7 @@ impl Propagator {
         let mut gpu_ms = 0.0;
         let mut timed = self.timestamps.is_some();
         if batched {
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            for page in &self.texels {
-                encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
-            }
-            encoder.clear_buffer(&self.weight_sums, 0, None);
-            for page in self.tiles.iter().flat_map(|t| &t.pages) {
-                encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
-            }
-            self.ctx.queue.submit([encoder.finish()]);
+            self.clear_next_and_weight_sums();
         }
         let batches = self.batches.clone();
         for (n, &set) in order.iter().enumerate() {
@@ -671,48 +783,10 @@ impl Propagator {
                 grid.direction_count = count;
                 grid.first_direction = first;
                 if k > 1 || batched {
-                    let slice = &self.direction_sets[set][first as usize..(first + count) as usize];
-                    self.ctx.queue.write_buffer(
-                        &self.scene.directions,
-                        0,
-                        bytemuck::cast_slice(slice),
-                    );
-                    let previous = self.visibility.take();
-                    let mut visibility_timer = if batched {
-                        self.timestamps.take()
-                    } else {
-                        None
-                    };
-                    let vis = Visibility::build(
-                        &self.ctx,
-                        &self.visibility_pipelines,
-                        &self.ledger,
-                        &self.scene,
-                        &grid,
-                        &mut visibility_timer,
-                        previous,
-                    )?;
-                    if batched {
-                        self.timestamps = visibility_timer;
-                        gpu_ms += vis.gpu_ms.unwrap_or(0.0);
-                        self.largest_batch_layers = self.largest_batch_layers.max(vis.layer_count);
-                    }
-                    self.visibility = Some(vis);
+                    self.rebuild_visibility(set, &grid, &mut gpu_ms)?;
                 }
                 grid.iteration = self.iteration;
-                grid.flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
-                    GRID_FLAG_SKY
-                } else {
-                    0
-                };
-                if self.iteration == 1 && self.direct.as_ref().is_some_and(|d| d.mirror_count > 0) {
-                    grid.flags |= GRID_FLAG_NO_MIRROR_SENDERS;
-                }
-                if batched {
-                    grid.flags |= GRID_FLAG_BATCHED;
-                } else if n > 0 {
-                    grid.flags |= GRID_FLAG_ACCUMULATE;
-                }
+                grid.flags = self.gather_flags(&grid, n > 0);
                 self.ctx
                     .queue
                     .write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
@@ -733,27 +807,112 @@ impl Propagator {
         if self.iteration == 0 {
             self.encode_validity();
         }
-        if let Some((albedo, pipe, layout)) = &self.texture {
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(pipe);
-                for (page, albedo) in self.texels.iter().zip(albedo) {
-                    let bg = self.ctx.bind_group(
-                        layout,
-                        &[
-                            &page.state.params,
-                            &page.state.radiance[1 - self.current],
-                            albedo,
-                        ],
-                    );
-                    pass.set_bind_group(0, &bg, &[]);
-                    let (x, y) = dispatch_2d(page.state.count.div_ceil(256));
-                    pass.dispatch_workgroups(x, y, 1);
-                }
-            }
-            self.ctx.queue.submit([encoder.finish()]);
+        self.encode_texture();
+        let residual = self.finish_iteration(&mut gpu_ms)?;
+        Ok(IterationStats {
+            iteration: self.iteration,
+            residual,
+            gpu_ms: timed.then_some(gpu_ms),
+            wall_ms: started.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+
+    /// With batches each batch adds raw sums: next (texels and tiles) and the weight sums
+    /// start from zero.
+    fn clear_next_and_weight_sums(&self) {
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        for page in &self.texels {
+            encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
         }
+        encoder.clear_buffer(&self.weight_sums, 0, None);
+        for page in self.tiles.iter().flat_map(|t| &t.pages) {
+            encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// The visibility lists of direction set `set` over `grid`'s batch of directions, in the
+    /// buffers of the previous lists. With batches their GPU time joins `gpu_ms`.
+    fn rebuild_visibility(&mut self, set: usize, grid: &GpuGrid, gpu_ms: &mut f64) -> Result<()> {
+        let batched = self.normalize.is_some();
+        let (first, count) = (grid.first_direction, grid.direction_count);
+        let slice = &self.direction_sets[set][first as usize..(first + count) as usize];
+        self.ctx
+            .queue
+            .write_buffer(&self.scene.directions, 0, bytemuck::cast_slice(slice));
+        let previous = self.visibility.take();
+        let mut visibility_timer = if batched {
+            self.timestamps.take()
+        } else {
+            None
+        };
+        let vis = Visibility::build(
+            &self.ctx,
+            &self.visibility_pipelines,
+            &self.ledger,
+            &self.scene,
+            grid,
+            &mut visibility_timer,
+            previous,
+        )?;
+        if batched {
+            self.timestamps = visibility_timer;
+            *gpu_ms += vis.gpu_ms.unwrap_or(0.0);
+            self.largest_batch_layers = self.largest_batch_layers.max(vis.layer_count);
+        }
+        self.visibility = Some(vis);
+        Ok(())
+    }
+
+    /// The gather's flags this iteration: the sky shoots in the first; mirrors do not send in
+    /// the second when direct light brought their virtual emitters; batches add raw sums, a
+    /// later direction set (`accumulate`) adds to the earlier ones.
+    fn gather_flags(&self, grid: &GpuGrid, accumulate: bool) -> u32 {
+        let mut flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
+            GRID_FLAG_SKY
+        } else {
+            0
+        };
+        if self.iteration == 1 && self.direct.as_ref().is_some_and(|d| d.mirror_count > 0) {
+            flags |= GRID_FLAG_NO_MIRROR_SENDERS;
+        }
+        if self.normalize.is_some() {
+            flags |= GRID_FLAG_BATCHED;
+        } else if accumulate {
+            flags |= GRID_FLAG_ACCUMULATE;
+        }
+        flags
+    }
+
+    /// Multiply the texels' next radiance by their map_Kd factors (textured scenes only).
+    fn encode_texture(&self) {
+        let Some((albedo, pipe, layout)) = &self.texture else {
+            return;
+        };
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipe);
+            for (page, albedo) in self.texels.iter().zip(albedo) {
+                let bg = self.ctx.bind_group(
+                    layout,
+                    &[
+                        &page.state.params,
+                        &page.state.radiance[1 - self.current],
+                        albedo,
+                    ],
+                );
+                pass.set_bind_group(0, &bg, &[]);
+                let (x, y) = dispatch_2d(page.state.count.div_ceil(256));
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// Add next to the totals, swap unshot and next, count the iteration. Returns the residual:
+    /// unshot power over emitted power.
+    fn finish_iteration(&mut self, gpu_ms: &mut f64) -> Result<f64> {
         let (texel_power, texel_sky) = self.accumulate(false)?;
         let (tile_power, tile_sky) = if self.tiles.is_some() {
             self.accumulate(true)?
@@ -761,7 +920,7 @@ impl Propagator {
             (0.0, 0.0)
         };
         if let Some(t) = self.timestamps.as_mut() {
-            gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
+            *gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
         }
         if self.iteration == 0 {
             // the sky shoots once, in the first iteration: what it delivered counts as emitted
@@ -770,16 +929,10 @@ impl Propagator {
         self.current = 1 - self.current;
         self.iteration += 1;
         let unshot_power = texel_power + tile_power;
-        let residual = if self.emitted_power > 0.0 {
+        Ok(if self.emitted_power > 0.0 {
             unshot_power / self.emitted_power
         } else {
             0.0
-        };
-        Ok(IterationStats {
-            iteration: self.iteration,
-            residual,
-            gpu_ms: timed.then_some(gpu_ms),
-            wall_ms: started.elapsed().as_secs_f64() * 1e3,
         })
     }
 

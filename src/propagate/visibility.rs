@@ -91,164 +91,66 @@ impl Visibility {
         timestamps: &mut Option<Timestamps>,
         reuse: Option<Visibility>,
     ) -> Result<Visibility> {
-        let device = &ctx.device;
         let cells = grid.resolution as u64 * grid.resolution as u64 * grid.direction_count as u64;
         ctx.check_binding(
             "the per-cell tables (directions x grid^2 x 4 bytes)",
             cells * 4,
             "use fewer directions or a coarser grid",
         )?;
-        let VisibilityPipelines {
-            layout0,
-            layout1,
-            count_pipe,
-            scan_cells,
-            scan_dirs,
-            fill_pipe,
-            sort_pipe,
-            placeholder_bg,
-        } = pipelines;
-
-        let (cell_count, cell_offset, direction_base, old_layers) = match reuse {
-            Some(v) => {
-                let mut encoder = device.create_command_encoder(&Default::default());
-                encoder.clear_buffer(&v.cell_count, 0, None);
-                ctx.queue.submit([encoder.finish()]);
-                (
-                    v.cell_count,
-                    v.cell_offset,
-                    v.direction_base,
-                    Some(v.layers),
-                )
-            }
-            None => (
-                ctx.buffer_zeroed(ledger, "visibility: cell counts", cells * 4, STORAGE),
-                ctx.buffer_zeroed(ledger, "visibility: cell offsets", cells * 4, STORAGE),
-                ctx.buffer_zeroed(
-                    ledger,
-                    "visibility: direction bases",
-                    (grid.direction_count as u64 + 1) * 4,
-                    STORAGE,
-                ),
-                None,
-            ),
-        };
-
-        // One uniform per triangle chunk, differing only in triangle_base.
-        let chunks: Vec<(wgpu::BindGroup, u32)> =
-            (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
-                .map(|c| {
-                    let base = c * TRIANGLES_PER_DISPATCH;
-                    let g = GpuGrid {
-                        triangle_base: base,
-                        ..*grid
-                    };
-                    let buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                        label: Some("grid chunk"),
-                        contents: bytemuck::bytes_of(&g),
-                        usage: wgpu::BufferUsages::UNIFORM,
-                    });
-                    let bg = ctx.bind_group(
-                        layout0,
-                        &[
-                            &buf,
-                            &scene.directions,
-                            &scene.vertices,
-                            &scene.triangles,
-                            &cell_count,
-                            &cell_offset,
-                            &direction_base,
-                        ],
-                    );
-                    (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
-                })
-                .collect();
+        let p = pipelines;
+        let (tables, old_layers) = CellTables::cleared_or_new(ctx, ledger, grid, cells, reuse);
+        let chunks = tables.chunk_bind_groups(ctx, &p.layout0, scene, grid);
         let main_bg = &chunks[0].0;
         let cell_groups = groups(grid.resolution * grid.resolution, 64);
 
-        // count, then scan
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("count layers + scan"),
-                timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
-            });
-            pass.set_pipeline(count_pipe);
-            pass.set_bind_group(1, placeholder_bg, &[]);
-            for (bg, n) in &chunks {
-                pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(
-                    1,
-                    groups(*n, TRIANGLES_PER_WORKGROUP),
-                    grid.direction_count,
-                );
-            }
-            pass.set_bind_group(0, main_bg, &[]);
-            pass.set_pipeline(scan_cells);
-            pass.dispatch_workgroups(grid.direction_count, 1, 1);
-            pass.set_pipeline(scan_dirs);
-            pass.dispatch_workgroups(1, 1, 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        let total: Vec<u32> = read_tail(ctx, &direction_base, grid.direction_count as u64 * 4)?;
+        per_triangle_pass(
+            ctx,
+            "count layers + scan",
+            timestamps,
+            (&p.count_pipe, &p.placeholder_bg),
+            &chunks,
+            grid,
+            |pass| {
+                pass.set_bind_group(0, main_bg, &[]);
+                pass.set_pipeline(&p.scan_cells);
+                pass.dispatch_workgroups(grid.direction_count, 1, 1);
+                pass.set_pipeline(&p.scan_dirs);
+                pass.dispatch_workgroups(1, 1, 1);
+            },
+        );
+        let total: Vec<u32> =
+            read_tail(ctx, &tables.direction_base, grid.direction_count as u64 * 4)?;
         let layer_count = total[0] as u64;
         ctx.check_binding(
             &format!("the layer lists ({layer_count} layers x 8 bytes)"),
             layer_count * 8,
             "use fewer directions or a coarser grid",
         )?;
-        let layers = match old_layers {
-            Some(l) if l.size() >= layer_count * 8 => l,
-            Some(l) => {
-                // another direction set needs more layers: grow with headroom, free the old
-                drop(l);
-                let bytes = (layer_count * 8 + layer_count / 2)
-                    .min(ctx.limits().max_storage_buffer_binding_size)
-                    .max(layer_count * 8);
-                let grown = ctx.buffer_zeroed(
-                    &MemoryLedger::default(),
-                    "visibility: layers",
-                    bytes,
-                    STORAGE,
-                );
-                ledger.replace("visibility: layers", grown.size());
-                grown
-            }
-            None => ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE),
-        };
-        let layers_bg = ctx.bind_group(layout1, &[&layers]);
-
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("fill + sort layers"),
-                timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
-            });
-            pass.set_pipeline(fill_pipe);
-            pass.set_bind_group(1, &layers_bg, &[]);
-            for (bg, n) in &chunks {
-                pass.set_bind_group(0, bg, &[]);
-                pass.dispatch_workgroups(
-                    1,
-                    groups(*n, TRIANGLES_PER_WORKGROUP),
-                    grid.direction_count,
-                );
-            }
-            pass.set_bind_group(0, main_bg, &[]);
-            pass.set_pipeline(sort_pipe);
-            pass.dispatch_workgroups(cell_groups, grid.direction_count, 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
+        let layers = layers_buffer(ctx, ledger, old_layers, layer_count);
+        let layers_bg = ctx.bind_group(&p.layout1, &[&layers]);
+        per_triangle_pass(
+            ctx,
+            "fill + sort layers",
+            timestamps,
+            (&p.fill_pipe, &layers_bg),
+            &chunks,
+            grid,
+            |pass| {
+                pass.set_bind_group(0, main_bg, &[]);
+                pass.set_pipeline(&p.sort_pipe);
+                pass.dispatch_workgroups(cell_groups, grid.direction_count, 1);
+            },
+        );
         ctx.wait()?;
         let gpu_ms = match timestamps.as_mut() {
             Some(t) => Some(t.read_ms(ctx)?.iter().sum()),
             None => None,
         };
         Ok(Visibility {
-            cell_offset,
-            cell_count,
+            cell_offset: tables.cell_offset,
+            cell_count: tables.cell_count,
             layers,
-            direction_base,
+            direction_base: tables.direction_base,
             layer_count,
             gpu_ms,
         })
@@ -261,6 +163,159 @@ impl Visibility {
             ctx.read_buffer(&self.cell_count, cells * 4)?,
             ctx.read_buffer(&self.layers, self.layer_count * 8)?,
         ))
+    }
+}
+
+/// The per-cell tables the count and scan passes fill: layers per cell, each cell's first
+/// layer, each direction's first layer (its last entry: the total).
+struct CellTables {
+    cell_count: wgpu::Buffer,
+    cell_offset: wgpu::Buffer,
+    direction_base: wgpu::Buffer,
+}
+
+impl CellTables {
+    /// The tables of an earlier build, counts cleared, and its layers buffer; or new ones.
+    fn cleared_or_new(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        grid: &GpuGrid,
+        cells: u64,
+        reuse: Option<Visibility>,
+    ) -> (CellTables, Option<wgpu::Buffer>) {
+        match reuse {
+            Some(v) => {
+                let mut encoder = ctx.device.create_command_encoder(&Default::default());
+                encoder.clear_buffer(&v.cell_count, 0, None);
+                ctx.queue.submit([encoder.finish()]);
+                let tables = CellTables {
+                    cell_count: v.cell_count,
+                    cell_offset: v.cell_offset,
+                    direction_base: v.direction_base,
+                };
+                (tables, Some(v.layers))
+            }
+            None => {
+                let tables = CellTables {
+                    cell_count: ctx.buffer_zeroed(
+                        ledger,
+                        "visibility: cell counts",
+                        cells * 4,
+                        STORAGE,
+                    ),
+                    cell_offset: ctx.buffer_zeroed(
+                        ledger,
+                        "visibility: cell offsets",
+                        cells * 4,
+                        STORAGE,
+                    ),
+                    direction_base: ctx.buffer_zeroed(
+                        ledger,
+                        "visibility: direction bases",
+                        (grid.direction_count as u64 + 1) * 4,
+                        STORAGE,
+                    ),
+                };
+                (tables, None)
+            }
+        }
+    }
+
+    /// Group 0 per triangle chunk, with the chunk's triangle count: one uniform per chunk,
+    /// differing only in triangle_base.
+    fn chunk_bind_groups(
+        &self,
+        ctx: &GpuContext,
+        layout0: &wgpu::BindGroupLayout,
+        scene: &SceneBuffers,
+        grid: &GpuGrid,
+    ) -> Vec<(wgpu::BindGroup, u32)> {
+        (0..grid.triangle_count.div_ceil(TRIANGLES_PER_DISPATCH).max(1))
+            .map(|c| {
+                let base = c * TRIANGLES_PER_DISPATCH;
+                let g = GpuGrid {
+                    triangle_base: base,
+                    ..*grid
+                };
+                let buf = ctx
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("grid chunk"),
+                        contents: bytemuck::bytes_of(&g),
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                let bg = ctx.bind_group(
+                    layout0,
+                    &[
+                        &buf,
+                        &scene.directions,
+                        &scene.vertices,
+                        &scene.triangles,
+                        &self.cell_count,
+                        &self.cell_offset,
+                        &self.direction_base,
+                    ],
+                );
+                (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))
+            })
+            .collect()
+    }
+}
+
+/// One submitted pass: `pipeline` over every triangle chunk (count or fill, with `group1`
+/// bound), then what `finish` records (the scans, or the sort).
+fn per_triangle_pass(
+    ctx: &GpuContext,
+    label: &str,
+    timestamps: &mut Option<Timestamps>,
+    (pipeline, group1): (&wgpu::ComputePipeline, &wgpu::BindGroup),
+    chunks: &[(wgpu::BindGroup, u32)],
+    grid: &GpuGrid,
+    finish: impl FnOnce(&mut wgpu::ComputePass),
+) {
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some(label),
+            timestamp_writes: timestamps.as_mut().and_then(|t| t.compute_writes()),
+        });
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(1, group1, &[]);
+        for (bg, n) in chunks {
+            pass.set_bind_group(0, bg, &[]);
+            pass.dispatch_workgroups(1, groups(*n, TRIANGLES_PER_WORKGROUP), grid.direction_count);
+        }
+        finish(&mut pass);
+    }
+    ctx.queue.submit([encoder.finish()]);
+}
+
+/// The layers buffer for `layer_count` layers: the earlier build's when it is large enough,
+/// else a new one (grown with headroom when it replaces one, the old one freed first).
+fn layers_buffer(
+    ctx: &GpuContext,
+    ledger: &MemoryLedger,
+    old_layers: Option<wgpu::Buffer>,
+    layer_count: u64,
+) -> wgpu::Buffer {
+    match old_layers {
+        Some(l) if l.size() >= layer_count * 8 => l,
+        Some(l) => {
+            // another direction set needs more layers: grow with headroom, free the old
+            drop(l);
+            let bytes = (layer_count * 8 + layer_count / 2)
+                .min(ctx.limits().max_storage_buffer_binding_size)
+                .max(layer_count * 8);
+            let grown = ctx.buffer_zeroed(
+                &MemoryLedger::default(),
+                "visibility: layers",
+                bytes,
+                STORAGE,
+            );
+            ledger.replace("visibility: layers", grown.size());
+            grown
+        }
+        None => ctx.buffer_zeroed(ledger, "visibility: layers", layer_count * 8, STORAGE),
     }
 }
 

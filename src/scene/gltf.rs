@@ -15,6 +15,7 @@
 
 use super::obj::ImportedMesh;
 use super::texels::{self, TextureMemory, TextureUse};
+use super::weld::{TriangleFilter, Welder};
 use super::{Camera, Material, MaterialOverride, Triangle};
 use crate::error::{Result, VlfError};
 use ::gltf::accessor::{DataType, Dimensions};
@@ -129,7 +130,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     }
     let mut materials = material::finish(&plans, &texture_of_image, &mirror_means, &mut warnings);
     if triangles.iter().any(|t| t.material as usize == plans.len()) {
-        materials.push(default_material());
+        materials.push(Material::default_grey());
         warnings.push(format!(
             "{}: primitives without a material get a grey diffuse default (0.5)",
             path.display()
@@ -146,18 +147,6 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         cameras: walk.cameras,
         texture_memory,
     })
-}
-
-fn default_material() -> Material {
-    Material {
-        name: "(default)".into(),
-        diffuse: [0.5; 3],
-        mirror: [0.0; 3],
-        emission: [0.0; 3],
-        two_sided: false,
-        diffuse_texture: None,
-        emission_texture: None,
-    }
 }
 
 /// Parse and validate. The crate's validation indexes the POSITION accessor before checking
@@ -825,27 +814,12 @@ fn weld(raw: &[RawTriangle], path: &Path) -> Result<Welded> {
         .iter()
         .flat_map(|t| t.corners.iter().flatten())
         .fold(0.0f64, |m, &x| m.max(x.abs() as f64));
-    let min_area = super::obj::DEGENERATE_AREA * (extent * extent).max(1e-30);
-    let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut seen: HashSet<[u32; 3]> = HashSet::new();
+    let mut welder = Welder::default();
+    let mut filter = TriangleFilter::new(extent);
     let mut triangles = Vec::with_capacity(raw.len());
-    let (mut degenerate, mut duplicate) = (0usize, 0usize);
     for t in raw {
-        let v = t.corners.map(|p| {
-            *welded.entry(p.map(f32::to_bits)).or_insert_with(|| {
-                positions.push(p);
-                positions.len() as u32 - 1
-            })
-        });
-        let [a, b, c] = t.corners.map(|p| DVec3::from(p.map(|x| x as f64)));
-        if (b - a).cross(c - a).length() * 0.5 <= min_area {
-            degenerate += 1;
-            continue;
-        }
-        let rot = (0..3).min_by_key(|&k| v[k]).unwrap_or(0);
-        if !seen.insert([v[rot], v[(rot + 1) % 3], v[(rot + 2) % 3]]) {
-            duplicate += 1;
+        let v = t.corners.map(|p| welder.id(p));
+        if !filter.keep(v, t.corners) {
             continue;
         }
         triangles.push(Triangle {
@@ -854,26 +828,13 @@ fn weld(raw: &[RawTriangle], path: &Path) -> Result<Welded> {
             uv: t.uv,
         });
     }
-    let mut warnings = Vec::new();
-    if degenerate > 0 {
-        warnings.push(format!(
-            "{}: dropped {degenerate} zero-area triangle(s)",
-            path.display()
-        ));
-    }
-    if duplicate > 0 {
-        warnings.push(format!(
-            "{}: dropped {duplicate} duplicated triangle(s) (same corners and winding as another)",
-            path.display()
-        ));
-    }
     if triangles.is_empty() {
         return Err(VlfError::Mesh {
             path: path.to_path_buf(),
             message: "the model has no triangles with area: nothing to light".into(),
         });
     }
-    Ok((positions, triangles, warnings))
+    Ok((welder.positions, triangles, filter.warnings(path)))
 }
 
 /// Per image: the texture-coordinate and surface area it covers (in the normalised scene).

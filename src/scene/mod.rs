@@ -8,6 +8,7 @@ pub mod gltf;
 pub mod normalise;
 pub mod obj;
 pub mod texels;
+mod weld;
 
 use crate::error::{Result, VlfError};
 use serde::{Deserialize, Serialize};
@@ -71,6 +72,19 @@ pub struct Material {
 }
 
 impl Material {
+    /// What faces without a material get: grey diffuse (0.5), from every importer.
+    pub fn default_grey() -> Material {
+        Material {
+            name: "(default)".into(),
+            diffuse: [0.5; 3],
+            mirror: [0.0; 3],
+            emission: [0.0; 3],
+            two_sided: false,
+            diffuse_texture: None,
+            emission_texture: None,
+        }
+    }
+
     /// Why the material would create energy (diffuse + mirror above 1 in a channel), if it would:
     /// every importer refuses such a material with this message.
     pub fn energy_error(&self) -> Option<String> {

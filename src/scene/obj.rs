@@ -2,9 +2,10 @@
 //! would report without a line number (non-finite vertices, face indices out of range). After
 //! it, degenerate and duplicated triangles are dropped with a count in a warning.
 
+use super::weld::{TriangleFilter, Welder};
 use super::{check_color, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
-use std::collections::{BTreeMap, HashMap, HashSet};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 pub struct ImportedMesh {
@@ -20,17 +21,64 @@ pub struct ImportedMesh {
     pub texture_memory: super::texels::TextureMemory,
 }
 
-/// Triangles whose area is below this fraction of the scene's squared extent are dropped.
-pub(crate) const DEGENERATE_AREA: f64 = 1e-14;
-
 pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
-    let mesh_err = |message: String| VlfError::Mesh {
+    let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+    prescan(&text).map_err(|m| mesh_error(path, m))?;
+    let (models, materials, mut source_files) = parse(path, &text)?;
+    let mtl_path = source_files
+        .get(1)
+        .cloned()
+        .unwrap_or_else(|| path.to_path_buf());
+
+    let mut warnings = Vec::new();
+    let (mut out_materials, requests) =
+        convert_materials(&materials, overrides, &mtl_path, &mut warnings)?;
+    let geometry = weld_models(&models, &out_materials, path, &mut warnings);
+    if geometry.uses_default {
+        warnings.push(format!(
+            "{}: faces without `usemtl` get a grey diffuse default (Kd 0.5)",
+            path.display()
+        ));
+        out_materials.push(Material::default_grey());
+    }
+    warnings.extend(geometry.filter.warnings(path));
+    let (positions, triangles) = (geometry.welder.positions, geometry.triangles);
+    if triangles.is_empty() {
+        return Err(mesh_error(
+            path,
+            "the mesh has no triangles with area: nothing to light".into(),
+        ));
+    }
+    let (textures, texture_memory) = load_textures(
+        &requests,
+        &positions,
+        &triangles,
+        &out_materials,
+        &mtl_path,
+        &mut source_files,
+    )?;
+    Ok(ImportedMesh {
+        positions,
+        triangles,
+        materials: out_materials,
+        textures,
+        warnings,
+        source_files,
+        cameras: Vec::new(),
+        texture_memory,
+    })
+}
+
+fn mesh_error(path: &Path, message: String) -> VlfError {
+    VlfError::Mesh {
         path: path.to_path_buf(),
         message,
-    };
-    let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-    prescan(&text).map_err(mesh_err)?;
+    }
+}
 
+/// The OBJ's models and materials through tobj, and the files read (the OBJ, then each
+/// material library). A material library that cannot be read or parsed is an error naming it.
+fn parse(path: &Path, text: &str) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>, Vec<PathBuf>)> {
     let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
     let source_files = std::cell::RefCell::new(vec![path.to_path_buf()]);
     let mtl_missing: std::cell::RefCell<Option<String>> = Default::default();
@@ -62,24 +110,27 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             }
         }
     })
-    .map_err(|e| mesh_err(format!("cannot parse OBJ: {e}")))?;
-    let mut source_files = source_files.into_inner();
+    .map_err(|e| mesh_error(path, format!("cannot parse OBJ: {e}")))?;
     if let Some(m) = mtl_missing.into_inner() {
-        return Err(mesh_err(format!("cannot use {m}")));
+        return Err(mesh_error(path, format!("cannot use {m}")));
     }
-    let materials =
-        materials.map_err(|e| mesh_err(format!("cannot parse its material library: {e}")))?;
-    let mtl_path = source_files
-        .get(1)
-        .cloned()
-        .unwrap_or_else(|| path.to_path_buf());
+    let materials = materials
+        .map_err(|e| mesh_error(path, format!("cannot parse its material library: {e}")))?;
+    Ok((models, materials, source_files.into_inner()))
+}
 
-    let mut warnings = Vec::new();
+/// The scene's materials, and the textures they name: textures are read once the geometry
+/// says how finely they are needed (texels.rs).
+fn convert_materials(
+    materials: &[tobj::Material],
+    overrides: &BTreeMap<String, MaterialOverride>,
+    mtl_path: &Path,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<Material>, Vec<TextureRequest>)> {
     let mut out_materials: Vec<Material> = Vec::new();
-    // textures are read once the geometry says how finely they are needed (texels.rs)
     let mut requests: Vec<TextureRequest> = Vec::new();
-    for m in &materials {
-        let mut material = convert_material(m, overrides.get(&m.name), &mtl_path, &mut warnings)?;
+    for m in materials {
+        let mut material = convert_material(m, overrides.get(&m.name), mtl_path, warnings)?;
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
         material.diffuse_texture = m
             .diffuse_texture
@@ -91,64 +142,75 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
             .map(|t| request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_Ke"));
         out_materials.push(material);
     }
-    let default_material = out_materials.len() as u32;
-    let mut uses_default = false;
+    Ok((out_materials, requests))
+}
 
-    // Weld equal positions across models so that connectivity is seen across groups.
-    let mut positions: Vec<[f32; 3]> = Vec::new();
-    let mut welded: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut triangles = Vec::new();
-    let mut dropped_degenerate = 0usize;
-    let mut dropped_duplicate = 0usize;
-    let mut seen: HashSet<[u32; 3]> = HashSet::new();
+/// The models' triangles over welded positions, and whether some face has no material.
+struct Geometry {
+    welder: Welder,
+    triangles: Vec<Triangle>,
+    filter: TriangleFilter,
+    uses_default: bool,
+}
+
+/// Weld equal positions across models so that connectivity is seen across groups; faces
+/// without a material get the one after `materials` (the default, added by the caller).
+fn weld_models(
+    models: &[tobj::Model],
+    materials: &[Material],
+    path: &Path,
+    warnings: &mut Vec<String>,
+) -> Geometry {
+    let default_material = materials.len() as u32;
     let mut extent = 0.0f64;
-    for model in &models {
+    for model in models {
         for p in model.mesh.positions.chunks(3) {
             extent = extent.max(p.iter().map(|x| x.abs() as f64).fold(0.0, f64::max));
         }
     }
-    let min_area = DEGENERATE_AREA * (extent * extent).max(1e-30);
-    for model in &models {
+    let mut geometry = Geometry {
+        welder: Welder::default(),
+        triangles: Vec::new(),
+        filter: TriangleFilter::new(extent),
+        uses_default: false,
+    };
+    for model in models {
         let mesh = &model.mesh;
         let material = match mesh.material_id {
             Some(id) => id as u32,
             None => {
-                uses_default = true;
+                geometry.uses_default = true;
                 default_material
             }
         };
         let textured = mesh.material_id.is_some_and(|id| {
-            let m = &out_materials[id];
+            let m = &materials[id];
             m.diffuse_texture.is_some() || m.emission_texture.is_some()
         });
         if textured && mesh.texcoords.is_empty() {
             warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
         }
-        let mut local = Vec::with_capacity(mesh.positions.len() / 3);
-        for p in mesh.positions.chunks(3) {
-            let key = [p[0].to_bits(), p[1].to_bits(), p[2].to_bits()];
-            let id = *welded.entry(key).or_insert_with(|| {
-                positions.push([p[0], p[1], p[2]]);
-                positions.len() as u32 - 1
-            });
-            local.push(id);
-        }
+        geometry.add_mesh(mesh, material);
+    }
+    geometry
+}
+
+impl Geometry {
+    /// Weld the mesh's positions, then keep its triangles with area that repeat none kept.
+    fn add_mesh(&mut self, mesh: &tobj::Mesh, material: u32) {
+        let local: Vec<u32> = mesh
+            .positions
+            .chunks(3)
+            .map(|p| self.welder.id([p[0], p[1], p[2]]))
+            .collect();
         for tri in mesh.indices.chunks(3) {
             let v = [
                 local[tri[0] as usize],
                 local[tri[1] as usize],
                 local[tri[2] as usize],
             ];
-            let [a, b, c] = v.map(|i| glam::DVec3::from(positions[i as usize].map(|x| x as f64)));
-            if (b - a).cross(c - a).length() * 0.5 <= min_area {
-                dropped_degenerate += 1;
-                continue;
-            }
-            // the same three corners in the same winding, whichever corner comes first
-            let rot = (0..3).min_by_key(|&k| v[k]).unwrap();
-            let key = [v[rot], v[(rot + 1) % 3], v[(rot + 2) % 3]];
-            if !seen.insert(key) {
-                dropped_duplicate += 1;
+            let corners = v.map(|i| self.welder.positions[i as usize]);
+            if !self.filter.keep(v, corners) {
                 continue;
             }
             let uv = (!mesh.texcoords.is_empty()).then(|| {
@@ -157,66 +219,37 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
                     [mesh.texcoords[2 * i], mesh.texcoords[2 * i + 1]]
                 })
             });
-            triangles.push(Triangle {
+            self.triangles.push(Triangle {
                 vertices: v,
                 material,
                 uv,
             });
         }
     }
-    if uses_default {
-        warnings.push(format!(
-            "{}: faces without `usemtl` get a grey diffuse default (Kd 0.5)",
-            path.display()
-        ));
-        out_materials.push(Material {
-            name: "(default)".into(),
-            diffuse: [0.5; 3],
-            mirror: [0.0; 3],
-            emission: [0.0; 3],
-            two_sided: false,
-            diffuse_texture: None,
-            emission_texture: None,
-        });
-    }
-    if dropped_degenerate > 0 {
-        warnings.push(format!(
-            "{}: dropped {dropped_degenerate} zero-area triangle(s)",
-            path.display()
-        ));
-    }
-    if dropped_duplicate > 0 {
-        warnings.push(format!(
-            "{}: dropped {dropped_duplicate} duplicated triangle(s) (same corners and winding as another)",
-            path.display()
-        ));
-    }
-    if triangles.is_empty() {
-        return Err(mesh_err(
-            "the mesh has no triangles with area: nothing to light".into(),
-        ));
-    }
-    let uses = super::texels::uses(&positions, &triangles, &out_materials, requests.len());
+}
+
+/// Read the requested textures at the density the geometry needs; their files join
+/// `source_files`.
+fn load_textures(
+    requests: &[TextureRequest],
+    positions: &[[f32; 3]],
+    triangles: &[Triangle],
+    materials: &[Material],
+    mtl_path: &Path,
+    source_files: &mut Vec<PathBuf>,
+) -> Result<(Vec<Texture>, super::texels::TextureMemory)> {
+    let uses = super::texels::uses(positions, triangles, materials, requests.len());
     let mut textures: Vec<Texture> = Vec::new();
     let (mut full, mut reduced) = (0u64, 0u32);
     for (r, usage) in requests.iter().zip(uses) {
-        let (t, whole) = load_texture(r, usage, &mtl_path)?;
+        let (t, whole) = load_texture(r, usage, mtl_path)?;
         full += whole;
         reduced += u32::from(t.width as u64 * t.height as u64 * 12 < whole);
         source_files.push(t.path.clone());
         textures.push(t);
     }
     let texture_memory = super::texels::TextureMemory::of(&textures, full, reduced);
-    Ok(ImportedMesh {
-        positions,
-        triangles,
-        materials: out_materials,
-        textures,
-        warnings,
-        source_files,
-        cameras: Vec::new(),
-        texture_memory,
-    })
+    Ok((textures, texture_memory))
 }
 
 fn convert_material(
