@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Runs on the lent NVIDIA machine: is the behaviour of build NEW the same as build OLD's? The
+# light fields (.vlf) of Cornell, Cornell-mirror, the textured room and a generated 10K-triangle
+# classroom, byte for byte (and OLD twice on Cornell: propagation is deterministic); the
+# generator's files; and `vlf bench --suite` of both, with OLD run twice to show the noise
+# between two runs of one build (tools/suite-compare.py reads them).
+#   tools/gpu-identity.sh OLD_VLF NEW_VLF OUT_DIR
+set -uo pipefail
+old=$1; new=$2; out=$3; work=$(mktemp -d)
+quiet() { grep -v XDG_RUNTIME_DIR; }
+{
+  "$old" generate classroom --size 10000 -o $work/gen-old >/dev/null 2>&1
+  "$new" generate classroom --size 10000 -o $work/classroom-10k >/dev/null 2>&1
+  if diff -r $work/gen-old $work/classroom-10k >/dev/null; then echo "generate classroom --size 10000: same files"; else echo "generate classroom --size 10000: FILES DIFFER"; fi
+  for scene in scenes/cornell/scene.toml scenes/cornell-mirror/scene.toml scenes/textured-room/scene.toml $work/classroom-10k/scene.toml; do
+    name=$(basename "$(dirname "$scene")")
+    "$old" propagate "$scene" -o $work/$name-old.vlf 2>&1 | quiet > /dev/null
+    "$new" propagate "$scene" -o $work/$name-new.vlf 2>&1 | quiet > /dev/null
+    a=$(sha256sum < $work/$name-old.vlf | cut -c1-16); b=$(sha256sum < $work/$name-new.vlf | cut -c1-16)
+    echo "$name: old $a new $b $( [ "$a" = "$b" ] && echo identical || echo DIFFERENT ) ($(stat -c %s $work/$name-new.vlf) bytes)"
+  done
+  "$old" propagate scenes/cornell/scene.toml -o $work/again.vlf 2>&1 | quiet > /dev/null
+  cmp -s $work/again.vlf $work/cornell-old.vlf && echo "cornell, old build twice: identical" || echo "cornell, old build twice: DIFFERENT"
+} | tee "$out/identity.txt"
+# suites: a first run pays the driver's shader compilation; then old, new, old again
+"$old" bench --suite --json $work/suite-cold.json 2>&1 | quiet | tail -1
+"$old" bench --suite --json "$out/suite-old.json" 2>&1 | quiet | tail -1
+"$new" bench --suite --json "$out/suite-new.json" 2>&1 | quiet | tail -1
+"$old" bench --suite --json "$out/suite-old-again.json" 2>&1 | quiet | tail -1
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"
