@@ -208,7 +208,7 @@ enum Command {
     },
     /// Write a procedural scene (scene.toml + OBJ + MTL, or glTF) that scales to a million triangles
     Generate {
-        kind: vlf::generate::SceneKind,
+        kind: vlf::lab::generate::SceneKind,
         /// About this many triangles (classroom) or faces (gallery)
         #[arg(long, default_value_t = 10_000)]
         size: u64,
@@ -217,7 +217,7 @@ enum Command {
         mirrors: bool,
         /// The mesh as OBJ + MTL or as glTF 2.0 (.gltf + .bin)
         #[arg(long, value_enum, default_value = "obj")]
-        format: vlf::generate::MeshFormat,
+        format: vlf::lab::generate::MeshFormat,
         #[arg(short, long)]
         out: PathBuf,
     },
@@ -659,7 +659,7 @@ fn run(cli: Cli) -> Result<()> {
             out,
             config,
         } => {
-            let grid = vlf::sweep::SweepGrid {
+            let grid = vlf::lab::sweep::SweepGrid {
                 directions,
                 grid,
                 texel_density,
@@ -751,8 +751,8 @@ fn run(cli: Cli) -> Result<()> {
             format,
             out,
         } => {
-            let g = vlf::generate::generate_as(
-                &vlf::generate::GenerateOptions {
+            let g = vlf::lab::generate::generate_as(
+                &vlf::lab::generate::GenerateOptions {
                     kind,
                     size,
                     mirrors,
@@ -771,10 +771,10 @@ fn run(cli: Cli) -> Result<()> {
         Command::Stress { out, quick } => {
             let ctx = GpuContext::new()?;
             let adapter = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
-            let cases = vlf::stress::run(ctx, quick, true)?;
+            let cases = vlf::lab::stress::run(ctx, quick, true)?;
             let out = out.or_else(|| (!quick).then(|| PathBuf::from("STABILITY.md")));
             if let Some(out) = out {
-                std::fs::write(&out, vlf::stress::markdown(&cases, &adapter))
+                std::fs::write(&out, vlf::lab::stress::markdown(&cases, &adapter))
                     .with_context(|| format!("writing {}", out.display()))?;
                 println!("{}", out.display());
             }
@@ -1015,7 +1015,7 @@ fn bench(
         plot,
     } = outputs;
     if let Some(input) = from_json {
-        let report = vlf::suite::SuiteReport::load(input)?;
+        let report = vlf::lab::suite::SuiteReport::load(input)?;
         let md = report.markdown();
         match markdown {
             Some(path) => {
@@ -1037,7 +1037,7 @@ fn bench(
     }
     if let Some((quick, work)) = suite {
         let root = std::env::current_dir().context("the current folder")?;
-        let report = vlf::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
+        let report = vlf::lab::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
         let md = report.markdown();
         print!("{md}");
         if let Some(path) = json {
@@ -1056,7 +1056,7 @@ fn bench(
     }
     let scene = Scene::load(scene)?;
     let params = params.for_adapter(&ctx)?;
-    let report = vlf::bench::run(ctx, &scene, &params, size, frames, aa)?;
+    let report = vlf::lab::bench::run(ctx, &scene, &params, size, frames, aa)?;
     print!("{}", report.table());
     if let Some(path) = json {
         write_json(&path, &report)?;
@@ -1083,7 +1083,7 @@ fn sweep(
     scene: &Path,
     reference: Option<&Path>,
     camera: Option<&str>,
-    grid: vlf::sweep::SweepGrid,
+    grid: vlf::lab::sweep::SweepGrid,
     walk: Option<Walkthrough>,
     size: [u32; 2],
     out: &Path,
@@ -1104,8 +1104,8 @@ fn sweep(
             Some(path) => PropagationParams::from_toml_file(path)?,
             None => PropagationParams::default(),
         };
-        let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
-        let (rows, propagation_s, pt_spp) = vlf::sweep::walkthrough(
+        let path = vlf::lab::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
+        let (rows, propagation_s, pt_spp) = vlf::lab::sweep::walkthrough(
             ctx,
             &scene,
             &params,
@@ -1124,7 +1124,7 @@ fn sweep(
             ));
         }
         std::fs::write(&csv, text)?;
-        let series = |m: &'static str, color| vlf::sweep::plot::Series {
+        let series = |m: &'static str, color| vlf::lab::sweep::plot::Series {
             name: m,
             color,
             points: rows
@@ -1134,7 +1134,7 @@ fn sweep(
                 .collect(),
         };
         let png = out.join("walkthrough.png");
-        vlf::sweep::plot::error_per_frame(
+        vlf::lab::sweep::plot::error_per_frame(
             &png,
             &format!(
                 "{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)",
@@ -1161,16 +1161,16 @@ fn sweep(
         println!("{}\n{}", csv.display(), png.display());
     } else {
         let reference = image_io::read_image(reference.expect("clap requires it"))?;
-        let rows = vlf::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
+        let rows = vlf::lab::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
         let csv = out.join("sweep.csv");
-        let mut text = format!("{}\n", vlf::sweep::SweepRow::CSV_HEADER);
+        let mut text = format!("{}\n", vlf::lab::sweep::SweepRow::CSV_HEADER);
         for r in &rows {
             text.push_str(&r.csv());
             text.push('\n');
         }
         std::fs::write(&csv, text)?;
         let png = out.join("sweep.png");
-        vlf::sweep::chart(&rows, &scene.name, &png)?;
+        vlf::lab::sweep::chart(&rows, &scene.name, &png)?;
         println!("{}\n{}", csv.display(), png.display());
     }
     Ok(())

@@ -206,12 +206,12 @@ fn pathological_input_stays_within_the_traversal_stack() {
 #[test]
 fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let dir = tempfile::tempdir().unwrap();
-    let options = vlf::generate::GenerateOptions {
-        kind: vlf::generate::SceneKind::Classroom,
+    let options = vlf::lab::generate::GenerateOptions {
+        kind: vlf::lab::generate::SceneKind::Classroom,
         size: 1000,
         mirrors: true,
     };
-    let generated = vlf::generate::generate(&options, dir.path()).unwrap();
+    let generated = vlf::lab::generate::generate(&options, dir.path()).unwrap();
     let scene = vlf::scene::Scene::load(&generated.scene).unwrap();
     let params = vlf::propagate::PropagationParams {
         geodesic_frequency: 4,

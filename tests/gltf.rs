@@ -472,7 +472,7 @@ fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
 /// `vlf generate --format gltf` writes the scene its OBJ is: the same light field.
 #[test]
 fn generated_classroom_as_gltf_gives_the_obj_light_field() {
-    use vlf::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};
+    use vlf::lab::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let options = GenerateOptions {
         kind: SceneKind::Classroom,

@@ -6,7 +6,7 @@
 //! 1920x1080, one 8-view CAVE frame, memory; then the targets, checked, and a log-log chart.
 
 use crate::error::Result;
-use crate::generate::{GenerateOptions, SceneKind};
+use crate::lab::generate::{GenerateOptions, SceneKind};
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger, Timestamps};
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
@@ -190,7 +190,7 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     };
     for &size in sizes {
         let dir = work.join(format!("classroom-{size}"));
-        let g = crate::generate::generate(
+        let g = crate::lab::generate::generate(
             &GenerateOptions {
                 kind: SceneKind::Classroom,
                 size,
@@ -206,7 +206,7 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
         ));
     }
     let gallery = work.join("gallery-mirror");
-    let g = crate::generate::generate(
+    let g = crate::lab::generate::generate(
         &GenerateOptions {
             kind: SceneKind::Gallery,
             size: if quick { 1_000 } else { 10_000 },
@@ -411,8 +411,8 @@ pub fn run(
     Ok(SuiteReport {
         adapter: ctx.summary.clone(),
         vlf_version: env!("CARGO_PKG_VERSION").into(),
-        commit: crate::bench::commit(),
-        date_utc: crate::bench::utc_date(),
+        commit: crate::lab::bench::commit(),
+        date_utc: crate::lab::bench::utc_date(),
         peak_bandwidth_gb_s: peak,
         entries,
         cost_slope,
@@ -508,7 +508,7 @@ impl SuiteReport {
         let mut s = format!(
             "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
             self.date_utc,
-            crate::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
+            crate::lab::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
         );
         s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -563,7 +563,7 @@ impl SuiteReport {
     /// Two log-log panels: time to converge against triangles, GPU time per iteration against
     /// elements x directions with the fitted line.
     pub fn plot(&self, path: &Path) -> Result<()> {
-        use crate::sweep::plot::{log_log, Series};
+        use crate::lab::sweep::plot::{log_log, Series};
         use plotters::style::RGBColor;
         let converged = |mirror: bool| -> Vec<(f64, f64)> {
             self.entries
