@@ -19,6 +19,7 @@ pub mod metrics;
 pub mod mirrored;
 pub mod params;
 pub mod prepare;
+pub mod progress;
 pub mod propagate;
 pub mod reference;
 pub mod render;

@@ -1,7 +1,12 @@
 //! The `vlf` command line. Library errors are reported through anyhow here, and only here.
 
+mod cli {
+    pub mod progress;
+}
+
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
+use cli::progress::Bars;
 use std::path::{Path, PathBuf};
 use vlf::gpu::GpuContext;
 use vlf::lightfield::{file, LightField, ResidentLightField};
@@ -570,8 +575,13 @@ fn run(cli: Cli) -> Result<()> {
                 every: checkpoint,
                 resume,
             };
-            let (lf, _resident, rep) =
-                vlf::propagate::propagate_with(ctx, &scene, &params, true, Some(&plan))?;
+            let (lf, _resident, rep) = vlf::propagate::propagate_with(
+                ctx,
+                &scene,
+                &params,
+                &Bars::default(),
+                Some(&plan),
+            )?;
             print_warnings(&rep.warnings[scene.warnings.len()..]);
             file::save(&lf, &output)?;
             if plan.path.exists() {
@@ -624,7 +634,7 @@ fn run(cli: Cli) -> Result<()> {
             let cam = scene.camera(camera.as_deref())?.clone();
             let size = size.unwrap_or(cam.size);
             let ctx = GpuContext::new()?;
-            let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
+            let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, &Bars::default())?;
             image_io::write_image(&r.mean, &output, 1.0)?;
             println!(
                 "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
@@ -1037,7 +1047,8 @@ fn bench(
     }
     if let Some((quick, work)) = suite {
         let root = std::env::current_dir().context("the current folder")?;
-        let report = vlf::lab::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
+        let report =
+            vlf::lab::suite::run(ctx, &root, &work, quick, frames.min(100), &Bars::default())?;
         let md = report.markdown();
         print!("{md}");
         if let Some(path) = json {
@@ -1113,7 +1124,7 @@ fn sweep(
             size,
             budget_ms,
             reference_spp,
-            true,
+            &Bars::default(),
         )?;
         let csv = out.join("walkthrough.csv");
         let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
@@ -1161,7 +1172,7 @@ fn sweep(
         println!("{}\n{}", csv.display(), png.display());
     } else {
         let reference = image_io::read_image(reference.expect("clap requires it"))?;
-        let rows = vlf::lab::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
+        let rows = vlf::lab::sweep::run(ctx, &scene, &cam, &reference, &grid, &Bars::default())?;
         let csv = out.join("sweep.csv");
         let mut text = format!("{}\n", vlf::lab::sweep::SweepRow::CSV_HEADER);
         for r in &rows {
@@ -1202,7 +1213,8 @@ fn light_field_for(
     }
     let params = params.for_adapter(ctx)?;
     estimate_time(ctx, &scene, &params)?;
-    let (lf, resident, report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, true)?;
+    let (lf, resident, report) =
+        vlf::propagate::propagate(ctx.clone(), &scene, &params, &Bars::default())?;
     eprintln!(
         "propagated in {:.2} s: {} iterations, residual {:.2e}",
         report.propagation_seconds + report.visibility_seconds + report.setup_seconds,
@@ -1272,7 +1284,7 @@ fn demo(out: &Path) -> Result<()> {
         println!("adapter: {} ({})", ctx.summary.name, ctx.summary.backend);
         PropagationParams::default()
     };
-    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
+    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params, &Bars::default())?;
     println!("{}", report.table());
     if report.final_residual >= params.tolerance && report.iterations >= params.max_iterations {
         bail!("the demo did not converge");

@@ -5,6 +5,7 @@
 //! triangle as testing every triangle.
 
 use glam::Vec3;
+use vlf::progress::Silent;
 use vlf::reference::{build_bvh, GpuBvhNode};
 
 /// A tiny deterministic generator (xorshift), so failures reproduce.
@@ -229,7 +230,7 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let ctx = vlf::gpu::GpuContext::new().expect(
         "a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)",
     );
-    let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, &Silent).unwrap();
     let render = |threshold: usize| {
         std::env::set_var("VLF_EXHAUSTIVE_TRIANGLES", threshold.to_string());
         let mut renderer =

@@ -6,6 +6,7 @@
 mod common;
 use common::*;
 use vlf::lab::generate::{generate, GenerateOptions, SceneKind};
+use vlf::progress::Silent;
 
 #[test]
 fn generated_scenes_have_about_the_asked_size_and_load() {
@@ -56,7 +57,7 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
 fn quick_suite_runs_and_reports_every_scene() {
     let dir = tempfile::tempdir().unwrap();
     let root = repo_path("");
-    let report = vlf::lab::suite::run(gpu(), &root, dir.path(), true, 3, false).unwrap();
+    let report = vlf::lab::suite::run(gpu(), &root, dir.path(), true, 3, &Silent).unwrap();
     let names: Vec<&str> = report.entries.iter().map(|e| e.name.as_str()).collect();
     println!("{names:?}");
     assert!(names.len() >= 10, "{names:?}");

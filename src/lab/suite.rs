@@ -6,8 +6,9 @@
 //! 1920x1080, one 8-view CAVE frame, memory; then the targets, checked, and a log-log chart.
 
 use crate::error::Result;
-use crate::lab::generate::{GenerateOptions, SceneKind};
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger, Timestamps};
+use crate::lab::generate::{GenerateOptions, SceneKind};
+use crate::progress::{Progress, Silent};
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
 use crate::scene::{Camera, Scene};
@@ -260,7 +261,7 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
 fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) =
-        crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
+        crate::propagate::propagate(ctx.clone(), &scene, &case.params, &Silent)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
         let (a, b, c) = time_rendering(ctx, &lf, &resident, frames)?;
         (Some(a), Some(b), Some(c))
@@ -365,36 +366,25 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum::<f64>() / sxx)
 }
 
-/// Run the suite. `quick` (software adapters, tests) keeps the scenes small.
+/// Run the suite, reporting each case to `progress`. `quick` (software adapters, tests) keeps
+/// the scenes small.
 pub fn run(
     ctx: Arc<GpuContext>,
     root: &Path,
     work: &Path,
     quick: bool,
     frames: u32,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<SuiteReport> {
     let peak = peak_bandwidth(&ctx.summary.name);
     let cases = cases(root, work, quick)?;
-    let bar = if progress {
-        indicatif::ProgressBar::new(cases.len() as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
-        )
-        .unwrap()
-        .progress_chars("=> "),
-    );
+    progress.begin(cases.len() as u64, "cases", "");
     let mut entries = Vec::new();
-    for case in &cases {
-        bar.set_message(case.name.clone());
+    for (i, case) in cases.iter().enumerate() {
+        progress.advance_to(i as u64, &case.name);
         entries.push(run_case(&ctx, case, frames)?);
-        bar.inc(1);
     }
-    bar.finish_and_clear();
+    progress.finish();
     // cost per iteration against elements x directions, over the scaling runs
     let points: Vec<(f64, f64)> = entries
         .iter()

@@ -14,6 +14,7 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuFace, NO_FACE};
 use crate::lightfield::directions::DirectionSet;
 use crate::prepare::PreparedScene;
+use crate::progress::Progress;
 
 pub use crate::lightfield::directions::gpu_directions;
 pub use crate::params::PropagationParams;
@@ -208,18 +209,22 @@ pub fn plan_batches(
 /// Depth tolerance (normalised units) within which layers count as coplanar.
 pub const DEPTH_EPSILON: f32 = 2e-5;
 
+/// Steps of the propagation's progress: the fraction of the way, in log residual, from 1 to
+/// the tolerance.
+const PROGRESS_STEPS: u64 = 1000;
+
 type Propagated = (
     crate::lightfield::LightField,
     crate::lightfield::ResidentLightField,
     report::PropagationReport,
 );
 
-/// Propagate a scene to convergence. `progress` shows a bar on the terminal.
+/// Propagate a scene to convergence, reporting each iteration to `progress`.
 pub fn propagate(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Propagated> {
     propagate_with(ctx, scene, params, progress, None)
 }
@@ -229,7 +234,7 @@ pub fn propagate_with(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
-    progress: bool,
+    progress: &dyn Progress,
     plan: Option<&checkpoint::CheckpointPlan>,
 ) -> Result<Propagated> {
     use std::time::Instant;
@@ -245,17 +250,7 @@ pub fn propagate_with(
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
 
-    let bar = if progress {
-        indicatif::ProgressBar::new(1000)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {msg}")
-            .unwrap()
-            .progress_chars("=> "),
-    );
-    bar.set_message(match batch_plan.resident() {
+    let stage = match batch_plan.resident() {
         true => format!(
             "visibility: {} directions x {}^2 cells",
             directions.len(),
@@ -265,8 +260,8 @@ pub fn propagate_with(
             "{} batches of {} directions (rebuilt every iteration)",
             batch_plan.batches, batch_plan.batch_size
         ),
-    });
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    };
+    progress.begin(PROGRESS_STEPS, "", &stage);
     let t1 = Instant::now();
     // batched directions build their lists inside every iteration instead
     let (layers, visibility_gpu_ms) = match batch_plan.resident() {
@@ -346,11 +341,13 @@ pub fn propagate_with(
             let stats = prop.iterate()?;
             residual = stats.residual;
             let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
-            bar.set_position((done * 1000.0) as u64);
-            bar.set_message(format!(
-                "iteration {} residual {:.2e} (target {:.0e})",
-                stats.iteration, residual, params.tolerance
-            ));
+            progress.advance_to(
+                (done * PROGRESS_STEPS as f64) as u64,
+                &format!(
+                    "iteration {} residual {:.2e} (target {:.0e})",
+                    stats.iteration, residual, params.tolerance
+                ),
+            );
             let ratio = per_iteration
                 .last()
                 .map(|p| residual / p.residual.max(1e-300));
@@ -413,7 +410,7 @@ pub fn propagate_with(
     }
     ctx.wait()?;
     let propagation_seconds = t2.elapsed().as_secs_f64();
-    bar.finish_and_clear();
+    progress.finish();
     if residual >= params.tolerance {
         warnings.push(format!(
             "stopped at the iteration cap ({}) with residual {residual:.2e} above the tolerance {:.0e}; raise --max-iterations",

@@ -8,6 +8,7 @@ pub mod plot;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
 use crate::metrics::{compare, Comparison};
+use crate::progress::{Progress, Silent};
 use crate::propagate::PropagationParams;
 use crate::render::{Frame, Renderer};
 use crate::scene::{Camera, Scene};
@@ -82,14 +83,14 @@ fn frame_seconds(
     Ok(crate::stats::Distribution::of(&ms).median / 1e3)
 }
 
-/// Run the sweep. `progress` reports each run on stderr.
+/// Run the sweep; each run's result is a `progress` note.
 pub fn run(
     ctx: Arc<GpuContext>,
     scene: &Scene,
     camera: &Camera,
     reference: &Frame,
     grid: &SweepGrid,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Vec<SweepRow>> {
     let (w, h) = (reference.width, reference.height);
     let mut rows = Vec::new();
@@ -111,11 +112,11 @@ pub fn run(
             perturb,
             ..PropagationParams::default()
         };
-        let result = crate::propagate::propagate(ctx.clone(), scene, &params, false);
+        let result = crate::propagate::propagate(ctx.clone(), scene, &params, &Silent);
         let (lf, resident, report) = match result {
             Ok(r) => r,
             Err(e @ VlfError::GpuBudget(_)) => {
-                eprintln!("[{}/{total_runs}] light field {directions} dirs, grid {grid_res}: skipped, {e}", i + 1);
+                progress.note(&format!("[{}/{total_runs}] light field {directions} dirs, grid {grid_res}: skipped, {e}", i + 1));
                 continue;
             }
             Err(e) => return Err(e),
@@ -126,12 +127,10 @@ pub fn run(
         let render_s = frame_seconds(&mut renderer, camera, w, h, grid.ssaa)?;
         let propagation_s =
             report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
-        if progress {
-            eprintln!(
-                "[{}/{total_runs}] light field {} dirs, grid {grid_res}, {density} texels/unit, tol {tolerance:.0e}, perturb {perturb}: {:.3} s, relMSE {:.3e}",
-                i + 1, report.directions, propagation_s + render_s, c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "[{}/{total_runs}] light field {} dirs, grid {grid_res}, {density} texels/unit, tol {tolerance:.0e}, perturb {perturb}: {:.3} s, relMSE {:.3e}",
+            i + 1, report.directions, propagation_s + render_s, c.rel_mse
+        ));
         rows.push(row(
             "light field",
             report.directions,
@@ -148,18 +147,16 @@ pub fn run(
     for (i, &spp) in grid.spp.iter().enumerate() {
         // a seed other than the reference's: independent noise
         let r =
-            crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, false)?;
+            crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, &Silent)?;
         let c = compare(&r.mean, reference)?;
-        if progress {
-            eprintln!(
-                "[{}/{total_runs}] path tracer {} spp: {:.3} s (+ {:.3} s setup), relMSE {:.3e}",
-                combos.len() + i + 1,
-                r.spp,
-                r.seconds,
-                r.setup_seconds,
-                c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "[{}/{total_runs}] path tracer {} spp: {:.3} s (+ {:.3} s setup), relMSE {:.3e}",
+            combos.len() + i + 1,
+            r.spp,
+            r.seconds,
+            r.setup_seconds,
+            c.rel_mse
+        ));
         rows.push(row(
             "path tracer",
             0,
@@ -272,14 +269,15 @@ pub fn walkthrough(
     size: [u32; 2],
     budget_ms: f64,
     reference_spp: u32,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<(Vec<WalkRow>, f64, u32)> {
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, progress)?;
     let propagation_s =
         report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
     // path tracer speed: seconds per sample per pixel at this size
-    let calibration = crate::reference::render(ctx.clone(), scene, &path[0], size, 16, 99, false)?;
+    let calibration =
+        crate::reference::render(ctx.clone(), scene, &path[0], size, 16, 99, &Silent)?;
     let per_spp_ms = calibration.seconds * 1e3 / calibration.spp as f64;
     let spp = ((budget_ms / per_spp_ms).floor() as u32).max(1);
     let mut rows = Vec::new();
@@ -291,7 +289,7 @@ pub fn walkthrough(
             size,
             reference_spp,
             5000 + i as u32,
-            false,
+            &Silent,
         )?;
         let image = renderer.render(cam, size[0], size[1])?;
         let (ms, _) = renderer.time_frames(cam, size[0], size[1], 10)?;
@@ -305,7 +303,7 @@ pub fn walkthrough(
             flip: c.flip_mean,
         });
         let pt =
-            crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, false)?;
+            crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, &Silent)?;
         let c = compare(&pt.mean, &reference.mean)?;
         rows.push(WalkRow {
             frame: i as u32,
@@ -315,16 +313,14 @@ pub fn walkthrough(
             rel_mse: c.rel_mse,
             flip: c.flip_mean,
         });
-        if progress {
-            eprintln!(
-                "frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}",
-                i + 1,
-                path.len(),
-                rows[rows.len() - 2].rel_mse,
-                pt.spp,
-                c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}",
+            i + 1,
+            path.len(),
+            rows[rows.len() - 2].rel_mse,
+            pt.spp,
+            c.rel_mse
+        ));
     }
     Ok((rows, propagation_s, spp))
 }
