@@ -5,7 +5,6 @@
 //! triangle as testing every triangle.
 
 use glam::Vec3;
-use vlf::progress::Silent;
 use vlf::reference::{build_bvh, GpuBvhNode};
 
 /// A tiny deterministic generator (xorshift), so failures reproduce.
@@ -204,6 +203,7 @@ fn pathological_input_stays_within_the_traversal_stack() {
 /// The renderer's eye rays through the BVH see what testing every triangle sees: the generated
 /// classroom (about 1,100 triangles) rendered both ways on the GPU. This binary owns the
 /// `VLF_EXHAUSTIVE_TRIANGLES` hook; no other test here renders.
+#[cfg(feature = "lab")] // the classroom comes from the lab's generator
 #[test]
 fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let dir = tempfile::tempdir().unwrap();
@@ -230,7 +230,8 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let ctx = vlf::gpu::GpuContext::new().expect(
         "a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)",
     );
-    let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, &Silent).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(ctx, &scene, &params, &vlf::progress::Silent).unwrap();
     let render = |threshold: usize| {
         std::env::set_var("VLF_EXHAUSTIVE_TRIANGLES", threshold.to_string());
         let mut renderer =

@@ -471,6 +471,7 @@ fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
 }
 
 /// `vlf generate --format gltf` writes the scene its OBJ is: the same light field.
+#[cfg(feature = "lab")] // the classroom comes from the lab's generator
 #[test]
 fn generated_classroom_as_gltf_gives_the_obj_light_field() {
     use vlf::lab::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};

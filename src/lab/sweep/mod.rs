@@ -7,12 +7,14 @@ pub mod plot;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
+use crate::lightfield::file::write_atomic;
 use crate::metrics::{compare, Comparison};
 use crate::progress::{Progress, Silent};
 use crate::propagate::PropagationParams;
 use crate::render::{Frame, Renderer};
 use crate::scene::{Camera, Scene};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// What the sweep varies. The light field runs every combination.
@@ -204,26 +206,47 @@ fn row(
     }
 }
 
-/// The chart of a sweep: relMSE against total time, both methods, Pareto front.
-pub fn chart(rows: &[SweepRow], scene: &str, path: &std::path::Path) -> Result<()> {
-    let series = |method: &'static str, color| plot::Series {
-        name: method,
+/// The light field (red) and the path tracer (blue), each with its rows' `points`.
+fn method_series(points: impl Fn(&str) -> Vec<(f64, f64)>) -> [plot::Series<'static>; 2] {
+    use plotters::style::RGBColor;
+    [
+        ("light field", RGBColor(200, 60, 40)),
+        ("path tracer", RGBColor(40, 90, 200)),
+    ]
+    .map(|(name, color)| plot::Series {
+        name,
         color,
-        points: rows
-            .iter()
-            .filter(|r| r.method == method)
-            .map(|r| (r.total_s, r.rel_mse))
-            .collect(),
-    };
+        points: points(name),
+    })
+}
+
+/// The chart of a sweep: relMSE against total time, both methods, Pareto front.
+pub fn chart(rows: &[SweepRow], scene: &str, path: &Path) -> Result<()> {
     plot::error_vs_time(
         path,
         &format!("{scene}: error against run time"),
         "relMSE against the reference",
-        &[
-            series("light field", plotters::style::RGBColor(200, 60, 40)),
-            series("path tracer", plotters::style::RGBColor(40, 90, 200)),
-        ],
+        &method_series(|method| {
+            rows.iter()
+                .filter(|r| r.method == method)
+                .map(|r| (r.total_s, r.rel_mse))
+                .collect()
+        }),
     )
+}
+
+/// The sweep as OUT/sweep.csv and its chart as OUT/sweep.png; returns both paths.
+pub fn write(rows: &[SweepRow], scene: &str, out: &Path) -> Result<[PathBuf; 2]> {
+    let csv = out.join("sweep.csv");
+    let mut text = format!("{}\n", SweepRow::CSV_HEADER);
+    for r in rows {
+        text.push_str(&r.csv());
+        text.push('\n');
+    }
+    write_atomic(&csv, text.as_bytes())?;
+    let png = out.join("sweep.png");
+    chart(rows, scene, &png)?;
+    Ok([csv, png])
 }
 
 /// A scripted camera path: from the scene's first camera, `frames` views turning about the
@@ -255,6 +278,51 @@ pub struct WalkRow {
     pub frame_ms: f64,
     pub rel_mse: f64,
     pub flip: f64,
+}
+
+impl WalkRow {
+    pub const CSV_HEADER: &'static str = "frame,method,spp,frame_ms,rel_mse,flip";
+    pub fn csv(&self) -> String {
+        format!(
+            "{},{},{},{:.4},{:.6e},{:.6}",
+            self.frame, self.method, self.spp, self.frame_ms, self.rel_mse, self.flip
+        )
+    }
+}
+
+/// The walkthrough as OUT/walkthrough.csv and its relMSE per frame charted as
+/// OUT/walkthrough.png under `title`; returns both paths.
+pub fn write_walkthrough(rows: &[WalkRow], title: &str, out: &Path) -> Result<[PathBuf; 2]> {
+    let csv = out.join("walkthrough.csv");
+    let mut text = format!("{}\n", WalkRow::CSV_HEADER);
+    for r in rows {
+        text.push_str(&r.csv());
+        text.push('\n');
+    }
+    write_atomic(&csv, text.as_bytes())?;
+    let png = out.join("walkthrough.png");
+    plot::error_per_frame(
+        &png,
+        title,
+        "relMSE against the frame's reference",
+        &method_series(|method| {
+            rows.iter()
+                .filter(|r| r.method == method)
+                .map(|r| (r.frame as f64, r.rel_mse))
+                .collect()
+        }),
+    )?;
+    Ok([csv, png])
+}
+
+/// The mean relMSE of one method's frames.
+pub fn mean_rel_mse(rows: &[WalkRow], method: &str) -> f64 {
+    let v: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.method == method)
+        .map(|r| r.rel_mse)
+        .collect();
+    v.iter().sum::<f64>() / v.len() as f64
 }
 
 /// The walkthrough at a fixed per-frame budget: the light field propagates once, then draws
