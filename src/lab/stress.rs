@@ -122,6 +122,15 @@ fn finite(t: &[[f32; 4]]) -> bool {
 
 /// Every case, in the order of the table.
 pub fn specs() -> Vec<Spec> {
+    let mut v = stiff_specs();
+    v.extend(geometry_specs());
+    v.extend(input_specs());
+    v.extend(resource_specs());
+    v
+}
+
+/// Stiff scenes and a wide dynamic range.
+fn stiff_specs() -> Vec<Spec> {
     let mut v = Vec::new();
     for rho in [0.95f32, 0.99, 0.999] {
         v.push(spec(
@@ -139,6 +148,12 @@ pub fn specs() -> Vec<Spec> {
         true,
         dynamic_range,
     ));
+    v
+}
+
+/// Geometry extremes and odd scenes.
+fn geometry_specs() -> Vec<Spec> {
+    let mut v = Vec::new();
     v.push(spec(
         "faces smaller than a cell",
         "1 cm chip (Kd 0.5) in a 1 m furnace box (Le 1, Kd 0.5), 32-cell grid",
@@ -195,6 +210,12 @@ pub fn specs() -> Vec<Spec> {
         true,
         no_emitter,
     ));
+    v
+}
+
+/// Bad input: damaged scenes, display configurations and light field files.
+fn input_specs() -> Vec<Spec> {
+    let mut v = Vec::new();
     v.push(spec(
         "empty mesh",
         "an OBJ without faces",
@@ -239,19 +260,19 @@ pub fn specs() -> Vec<Spec> {
         true,
         vlf_damage,
     ));
-    v.push(spec(
-        "parameters beyond the memory budget",
-        "50001 directions, 1024^2 cells, 200 texels/unit, --memory-budget 16MiB",
-        "refused before allocating, with the estimate and a suggestion",
-        true,
-        beyond_budget,
-    ));
-    v.extend(binding_specs());
     v
 }
 
-fn binding_specs() -> Vec<Spec> {
+/// Resources: settings beyond the memory budget, buffers beyond one binding, the budget.
+fn resource_specs() -> Vec<Spec> {
     vec![
+        spec(
+            "parameters beyond the memory budget",
+            "50001 directions, 1024^2 cells, 200 texels/unit, --memory-budget 16MiB",
+            "refused before allocating, with the estimate and a suggestion",
+            true,
+            beyond_budget,
+        ),
         spec(
             "visibility beyond one binding",
             "501 directions x 512^2 cells (cell tables 501 MiB)",

@@ -103,6 +103,27 @@ struct Case {
 /// Settings label of the runs that vary elements x directions on one scene.
 const SCALING: &str = "scaling";
 
+impl Case {
+    /// A case that is rendered too, except in a quick run, where only Cornell at our settings
+    /// is (a software adapter draws slowly).
+    fn new(
+        name: &str,
+        scene: PathBuf,
+        params: PropagationParams,
+        settings: &str,
+        quick: bool,
+    ) -> Case {
+        Case {
+            render: !quick || name == "cornell",
+            name: name.into(),
+            scene,
+            params,
+            settings: settings.into(),
+        }
+    }
+}
+
+/// The suite's cases: the Cornell boxes, the scaling runs, the generated scenes.
 fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     let paper = PropagationParams::from_toml_file(&root.join("config/propagation/paper.toml"))?;
     // quick (software adapters, the test): light settings everywhere
@@ -116,42 +137,54 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     } else {
         PropagationParams::default()
     };
-    // quick: only Cornell at our settings is rendered (a software adapter draws slowly)
-    let case = |name: &str, scene: PathBuf, params: PropagationParams, settings: &str| Case {
-        render: !quick || name == "cornell",
-        name: name.into(),
-        scene,
-        params,
-        settings: settings.into(),
-    };
+    let mut out = cornell_cases(root, &paper, &ours, quick);
+    out.extend(scaling_cases(
+        &root.join("scenes/cornell/scene.toml"),
+        &ours,
+        quick,
+    ));
+    out.extend(generated_cases(work, &ours, quick)?);
+    Ok(out)
+}
+
+/// Cornell and Cornell-mirror at the paper's settings and at ours.
+fn cornell_cases(
+    root: &Path,
+    paper: &PropagationParams,
+    ours: &PropagationParams,
+    quick: bool,
+) -> Vec<Case> {
     let cornell = root.join("scenes/cornell/scene.toml");
-    let mut out = vec![
-        case(
+    let mirror = root.join("scenes/cornell-mirror/scene.toml");
+    let paper_settings = "paper: 501 dirs, 64^2, 3 iterations";
+    vec![
+        Case::new(
             "cornell (paper settings)",
             cornell.clone(),
             paper.clone(),
-            "paper: 501 dirs, 64^2, 3 iterations",
+            paper_settings,
+            quick,
         ),
-        case(
-            "cornell",
-            cornell.clone(),
-            ours.clone(),
-            "defaults, to 1e-3",
-        ),
-        case(
+        Case::new("cornell", cornell, ours.clone(), "defaults, to 1e-3", quick),
+        Case::new(
             "cornell-mirror (paper settings)",
-            root.join("scenes/cornell-mirror/scene.toml"),
-            paper,
-            "paper: 501 dirs, 64^2, 3 iterations",
+            mirror.clone(),
+            paper.clone(),
+            paper_settings,
+            quick,
         ),
-        case(
+        Case::new(
             "cornell-mirror",
-            root.join("scenes/cornell-mirror/scene.toml"),
+            mirror,
             ours.clone(),
             "defaults, to 1e-3",
+            quick,
         ),
-    ];
-    // elements x directions varied on one scene, 3 plain iterations each: the cost's slope
+    ]
+}
+
+/// Elements x directions varied on one scene, 3 plain iterations each: the cost's slope.
+fn scaling_cases(cornell: &Path, ours: &PropagationParams, quick: bool) -> Vec<Case> {
     let grid: &[(u32, f64)] = if quick {
         &[(3, 12.0), (5, 12.0), (5, 20.0)]
     } else {
@@ -164,26 +197,34 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
             (20, 136.0),
         ]
     };
-    for &(n, density) in grid {
-        let params = PropagationParams {
-            geodesic_frequency: n,
-            texel_density: density,
-            max_iterations: 3,
-            accelerate: false,
-            tolerance: 1e-9,
-            ..ours.clone()
-        };
-        out.push(Case {
-            name: format!(
-                "cornell, {} directions, {density} texels/unit",
-                params.direction_count()
-            ),
-            scene: cornell.clone(),
-            params,
-            settings: format!("{SCALING}: 3 iterations"),
-            render: false,
-        });
-    }
+    grid.iter()
+        .map(|&(n, density)| {
+            let params = PropagationParams {
+                geodesic_frequency: n,
+                texel_density: density,
+                max_iterations: 3,
+                accelerate: false,
+                tolerance: 1e-9,
+                ..ours.clone()
+            };
+            Case {
+                name: format!(
+                    "cornell, {} directions, {density} texels/unit",
+                    params.direction_count()
+                ),
+                scene: cornell.to_path_buf(),
+                params,
+                settings: format!("{SCALING}: 3 iterations"),
+                render: false,
+            }
+        })
+        .collect()
+}
+
+/// Generated scenes, written into `work`: classrooms of growing size, the mirror gallery, and
+/// the 100K classroom (quick: the 1K one) again under a memory budget.
+fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result<Vec<Case>> {
+    let mut out = Vec::new();
     let sizes: &[u64] = if quick {
         &[1_000]
     } else {
@@ -199,11 +240,12 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
             },
             &dir,
         )?;
-        out.push(case(
+        out.push(Case::new(
             &format!("classroom ~{}K triangles", size / 1000),
             g.scene,
             ours.clone(),
             "defaults, to 1e-3",
+            quick,
         ));
     }
     let gallery = work.join("gallery-mirror");
@@ -215,22 +257,24 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
         },
         &gallery,
     )?;
-    out.push(case(
+    out.push(Case::new(
         "gallery with mirrors",
         g.scene,
         ours.clone(),
         "defaults, to 1e-3",
+        quick,
     ));
     let budget_scene = work.join(format!("classroom-{}", sizes[sizes.len().min(3) - 1]));
     let budget = if quick { 3 } else { 512 };
-    out.push(case(
+    out.push(Case::new(
         &format!("same classroom, --memory-budget {budget}MiB"),
         budget_scene.join("scene.toml"),
         PropagationParams {
             memory_budget_mib: Some(budget),
-            ..ours
+            ..ours.clone()
         },
         "defaults, directions in batches",
+        quick,
     ));
     Ok(out)
 }
