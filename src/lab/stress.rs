@@ -153,64 +153,64 @@ fn stiff_specs() -> Vec<Spec> {
 
 /// Geometry extremes and odd scenes.
 fn geometry_specs() -> Vec<Spec> {
-    let mut v = Vec::new();
-    v.push(spec(
-        "faces smaller than a cell",
-        "1 cm chip (Kd 0.5) in a 1 m furnace box (Le 1, Kd 0.5), 32-cell grid",
-        "a warning with the count and area share; light arrives: every chip texel lit, mean within 20% of Kd x 2 = 1",
-        true,
-        small_faces,
-    ));
-    v.push(spec(
-        "grazing light",
-        "a floor lit by a low emitter at its edge",
-        "finite, non-negative, lit",
-        true,
-        grazing,
-    ));
-    v.push(spec(
-        "duplicated coplanar faces",
-        "a box with its floor duplicated twice",
-        "deterministic (bit-identical runs), finite",
-        true,
-        duplicated,
-    ));
-    v.push(spec(
-        "interpenetrating boxes",
-        "two overlapping closed boxes under a light and sky",
-        "converges, finite",
-        true,
-        interpenetrating,
-    ));
-    v.push(spec(
-        "open mesh, two-sided wall",
-        "a single two-sided wall lit from both sides",
-        "both sides lit, finite",
-        true,
-        two_sided,
-    ));
-    v.push(spec(
-        "millimetre detail, kilometre scene",
-        "a 1 mm square on a 1 km ground",
-        "warned as below the grid, finite",
-        true,
-        millimetre,
-    ));
-    v.push(spec(
-        "sliver",
-        "a 1e6:1 quad inside a lit box",
-        "no panic, finite",
-        true,
-        sliver,
-    ));
-    v.push(spec(
-        "no emitter",
-        "a closed box, nothing emits, no sky",
-        "a clear message, a black result",
-        true,
-        no_emitter,
-    ));
-    v
+    vec![
+        spec(
+            "faces smaller than a cell",
+            "1 cm chip (Kd 0.5) in a 1 m furnace box (Le 1, Kd 0.5), 32-cell grid",
+            "a warning with the count and area share; light arrives: every chip texel lit, mean within 20% of Kd x 2 = 1",
+            true,
+            small_faces,
+        ),
+        spec(
+            "grazing light",
+            "a floor lit by a low emitter at its edge",
+            "finite, non-negative, lit",
+            true,
+            grazing,
+        ),
+        spec(
+            "duplicated coplanar faces",
+            "a box with its floor duplicated twice",
+            "deterministic (bit-identical runs), finite",
+            true,
+            duplicated,
+        ),
+        spec(
+            "interpenetrating boxes",
+            "two overlapping closed boxes under a light and sky",
+            "converges, finite",
+            true,
+            interpenetrating,
+        ),
+        spec(
+            "open mesh, two-sided wall",
+            "a single two-sided wall lit from both sides",
+            "both sides lit, finite",
+            true,
+            two_sided,
+        ),
+        spec(
+            "millimetre detail, kilometre scene",
+            "a 1 mm square on a 1 km ground",
+            "warned as below the grid, finite",
+            true,
+            millimetre,
+        ),
+        spec(
+            "sliver",
+            "a 1e6:1 quad inside a lit box",
+            "no panic, finite",
+            true,
+            sliver,
+        ),
+        spec(
+            "no emitter",
+            "a closed box, nothing emits, no sky",
+            "a clear message, a black result",
+            true,
+            no_emitter,
+        ),
+    ]
 }
 
 /// Bad input: damaged scenes, display configurations and light field files.

@@ -500,7 +500,9 @@ impl<'a> Job<'a> {
                 .checked_sub(2)
                 .map(|i| history[i + 1].residual / history[i].residual.max(1e-300));
             run.per_iteration.push(stats);
-            if let Some(plan) = plan.filter(|p| p.every > 0 && prop.iteration % p.every == 0) {
+            if let Some(plan) =
+                plan.filter(|p| p.every > 0 && prop.iteration.is_multiple_of(p.every))
+            {
                 self.save_checkpoint(prop, &run.per_iteration, plan)?;
             }
             if run.residual < params.tolerance {
