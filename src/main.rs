@@ -551,24 +551,17 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 /// `vlf propagate`: a scene into a .vlf file, with checkpoints and a JSON report.
-fn propagate(a: PropagateArgs) -> Result<()> {
-    let PropagateArgs {
-        scene,
-        output,
-        report,
-        checkpoint,
-        resume,
-        params,
-    } = a;
-    let scene = Scene::load(&scene)?;
+fn propagate(args: PropagateArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
     print_warnings(&scene.warnings);
     let ctx = GpuContext::new()?;
-    let params = params.for_adapter(&ctx)?;
+    let params = args.params.for_adapter(&ctx)?;
     estimate_time(&ctx, &scene, &params)?;
+    let output = args.output;
     let plan = vlf::propagate::checkpoint::CheckpointPlan {
         path: PathBuf::from(format!("{}.checkpoint", output.display())),
-        every: checkpoint,
-        resume,
+        every: args.checkpoint,
+        resume: args.resume,
     };
     let (lf, _resident, rep) =
         vlf::propagate::propagate_with(ctx, &scene, &params, &Bars::default(), Some(&plan))?;
@@ -579,7 +572,7 @@ fn propagate(a: PropagateArgs) -> Result<()> {
             .with_context(|| format!("removing {}", plan.path.display()))?;
     }
     println!("{}", rep.table());
-    if let Some(path) = report {
+    if let Some(path) = args.report {
         write_json(&path, &rep)?;
         println!("report: {}", path.display());
     }
@@ -588,61 +581,44 @@ fn propagate(a: PropagateArgs) -> Result<()> {
 }
 
 /// `vlf render`: one view from a scene (propagated first) or a .vlf file.
-fn render(a: RenderArgs) -> Result<()> {
-    let RenderArgs {
-        input,
-        camera,
-        size,
-        lightfield,
-        exposure,
-        ssaa,
-        aa,
-        output,
-        params,
-    } = a;
+fn render(args: RenderArgs) -> Result<()> {
+    let ssaa = args.ssaa;
     if !(1..=16).contains(&ssaa) {
         bail!("--ssaa {ssaa}: use 1 (off) to 16");
     }
     let ctx = GpuContext::new()?;
-    let (lf, resident) = light_field_for(&ctx, &input, lightfield.as_deref(), &params)?;
-    let cam = lf.camera(camera.as_deref())?.clone();
-    let [w, h] = size.unwrap_or(cam.size);
+    let (lf, resident) =
+        light_field_for(&ctx, &args.input, args.lightfield.as_deref(), &args.params)?;
+    let cam = lf.camera(args.camera.as_deref())?.clone();
+    let [w, h] = args.size.unwrap_or(cam.size);
     let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
-    renderer.set_samples_per_pixel(aa)?;
+    renderer.set_samples_per_pixel(args.aa)?;
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
-    image_io::write_image(&frame, &output, exposure)?;
-    println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);
+    image_io::write_image(&frame, &args.output, args.exposure)?;
+    println!("{} ({w}x{h}, camera {:?})", args.output.display(), cam.name);
     Ok(())
 }
 
 /// `vlf reference`: the path tracer's image (and optionally its variance).
-fn reference(a: ReferenceArgs) -> Result<()> {
-    let ReferenceArgs {
-        scene,
-        camera,
-        size,
-        spp,
-        seed,
-        variance,
-        output,
-    } = a;
-    let scene = Scene::load(&scene)?;
+fn reference(args: ReferenceArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
     print_warnings(&scene.warnings);
-    let cam = scene.camera(camera.as_deref())?.clone();
-    let size = size.unwrap_or(cam.size);
+    let cam = scene.camera(args.camera.as_deref())?.clone();
+    let size = args.size.unwrap_or(cam.size);
+    let (spp, seed) = (args.spp, args.seed);
     let ctx = GpuContext::new()?;
     let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, &Bars::default())?;
-    image_io::write_image(&r.mean, &output, 1.0)?;
+    image_io::write_image(&r.mean, &args.output, 1.0)?;
     println!(
         "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
-        output.display(),
+        args.output.display(),
         size[0],
         size[1],
         r.spp,
         r.seconds,
         r.setup_seconds
     );
-    if let Some(path) = variance {
+    if let Some(path) = args.variance {
         image_io::write_image(&r.variance, &path, 1.0)?;
         println!("variance: {}", path.display());
     }
@@ -650,15 +626,15 @@ fn reference(a: ReferenceArgs) -> Result<()> {
 }
 
 /// `vlf track`: a display's live tracking, printed as it arrives.
-fn track(a: TrackArgs) -> Result<()> {
-    let TrackArgs { config, seconds } = a;
+fn track(args: TrackArgs) -> Result<()> {
+    let seconds = args.seconds;
     if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
         bail!("--seconds {s}: must be a number of seconds >= 0");
     }
-    let display = vlf::display::DisplayConfig::load(&config)?;
+    let display = vlf::display::DisplayConfig::load(&args.config)?;
     vlf::display::tracking::track(
         &display,
-        &config,
+        &args.config,
         seconds.map(std::time::Duration::from_secs_f64),
         &mut std::io::stdout(),
     )?;
@@ -666,17 +642,10 @@ fn track(a: TrackArgs) -> Result<()> {
 }
 
 /// `vlf compare`: an image against a reference, as a table or JSON, with a difference image.
-fn compare(a: CompareArgs) -> Result<()> {
-    let CompareArgs {
-        image,
-        reference,
-        json,
-        diff,
-        mask,
-    } = a;
-    let a = image_io::read_image(&image)?;
-    let b = image_io::read_image(&reference)?;
-    let keep = match &mask {
+fn compare(args: CompareArgs) -> Result<()> {
+    let a = image_io::read_image(&args.image)?;
+    let b = image_io::read_image(&args.reference)?;
+    let keep = match &args.mask {
         Some(path) => {
             let (w, h, keep) = vlf::metrics::read_mask(path)?;
             if (w, h) != (a.width, a.height) {
@@ -692,14 +661,14 @@ fn compare(a: CompareArgs) -> Result<()> {
         None => None,
     };
     let c = vlf::metrics::compare_where(&a, &b, keep.as_deref())?;
-    if json {
+    if args.json {
         println!("{}", serde_json::to_string_pretty(&c)?);
     } else {
         print!("{}", c.table());
     }
-    if let Some(path) = diff {
+    if let Some(path) = args.diff {
         vlf::metrics::write_difference_png(&a, &b, &path)?;
-        if !json {
+        if !args.json {
             println!("difference: {}", path.display());
         }
     }
@@ -707,14 +676,9 @@ fn compare(a: CompareArgs) -> Result<()> {
 }
 
 /// `vlf export mitsuba`: the scene as a standalone Mitsuba 3 scene.
-fn export(a: ExportArgs) -> Result<()> {
-    let ExportArgs {
-        format: ExportFormat::Mitsuba,
-        scene,
-        output,
-        python,
-    } = a;
-    let export = vlf::export::mitsuba(&scene, &output, &python)?;
+fn export(args: ExportArgs) -> Result<()> {
+    let ExportFormat::Mitsuba = args.format;
+    let export = vlf::export::mitsuba(&args.scene, &args.output, &args.python)?;
     for note in &export.notes {
         eprintln!("{note}");
     }

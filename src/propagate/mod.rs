@@ -637,21 +637,8 @@ impl<'a> Job<'a> {
         mirror_chains: crate::lightfield::MirrorChains,
     ) -> report::PropagationReport {
         let (scene, params, prepared) = (self.scene, self.params, &self.prepared);
-        let Measured {
-            batch_plan,
-            setup_seconds,
-            visibility_seconds,
-            visibility_gpu_ms,
-            layers,
-            propagation_seconds,
-            shooting:
-                Shooting {
-                    per_iteration,
-                    residual,
-                    tail,
-                },
-            warnings,
-        } = measured;
+        let (batch_plan, shooting) = (&measured.batch_plan, measured.shooting);
+        let residual = shooting.residual;
         report::PropagationReport {
             scene: scene.name.clone(),
             adapter: ctx.summary.clone(),
@@ -664,20 +651,20 @@ impl<'a> Job<'a> {
             tile_bytes: spent.tile_bytes,
             texture_bytes: spent.texture_bytes,
             host_textures: scene.texture_memory,
-            layers: layers.max(spent.largest_batch_layers),
+            layers: measured.layers.max(spent.largest_batch_layers),
             visibility_kept_resident: batch_plan.resident(),
             direction_batches: batch_plan.batches,
             directions_per_batch: batch_plan.batch_size,
-            setup_seconds,
-            visibility_seconds,
-            visibility_gpu_ms,
-            propagation_seconds,
+            setup_seconds: measured.setup_seconds,
+            visibility_seconds: measured.visibility_seconds,
+            visibility_gpu_ms: measured.visibility_gpu_ms,
+            propagation_seconds: measured.propagation_seconds,
             iterations: spent.iterations,
             final_residual: residual,
             converged: residual < params.tolerance,
-            plain_iterations_estimate: tail.as_ref().map(|t| t.plain_iterations_estimate),
-            tail,
-            per_iteration,
+            plain_iterations_estimate: shooting.tail.as_ref().map(|t| t.plain_iterations_estimate),
+            tail: shooting.tail,
+            per_iteration: shooting.per_iteration,
             propagation_memory_bytes: spent.memory_bytes,
             propagation_memory: spent.memory,
             render_memory_bytes: resident.ledger.total(),
@@ -686,7 +673,7 @@ impl<'a> Job<'a> {
             direct_mirrors: spent.direct_mirrors,
             render_memory: report::memory_items(resident.ledger.entries()),
             sky: scene.sky.is_some(),
-            warnings,
+            warnings: measured.warnings,
         }
     }
 }

@@ -235,15 +235,20 @@ pub fn chart(rows: &[SweepRow], scene: &str, path: &Path) -> Result<()> {
     )
 }
 
+/// A CSV file: the header, then one line a row.
+fn write_csv(path: &Path, header: &str, lines: impl Iterator<Item = String>) -> Result<()> {
+    let mut text = format!("{header}\n");
+    for line in lines {
+        text.push_str(&line);
+        text.push('\n');
+    }
+    write_atomic(path, text.as_bytes())
+}
+
 /// The sweep as OUT/sweep.csv and its chart as OUT/sweep.png; returns both paths.
 pub fn write(rows: &[SweepRow], scene: &str, out: &Path) -> Result<[PathBuf; 2]> {
     let csv = out.join("sweep.csv");
-    let mut text = format!("{}\n", SweepRow::CSV_HEADER);
-    for r in rows {
-        text.push_str(&r.csv());
-        text.push('\n');
-    }
-    write_atomic(&csv, text.as_bytes())?;
+    write_csv(&csv, SweepRow::CSV_HEADER, rows.iter().map(SweepRow::csv))?;
     let png = out.join("sweep.png");
     chart(rows, scene, &png)?;
     Ok([csv, png])
@@ -294,12 +299,7 @@ impl WalkRow {
 /// OUT/walkthrough.png under `title`; returns both paths.
 pub fn write_walkthrough(rows: &[WalkRow], title: &str, out: &Path) -> Result<[PathBuf; 2]> {
     let csv = out.join("walkthrough.csv");
-    let mut text = format!("{}\n", WalkRow::CSV_HEADER);
-    for r in rows {
-        text.push_str(&r.csv());
-        text.push('\n');
-    }
-    write_atomic(&csv, text.as_bytes())?;
+    write_csv(&csv, WalkRow::CSV_HEADER, rows.iter().map(WalkRow::csv))?;
     let png = out.join("walkthrough.png");
     plot::error_per_frame(
         &png,
