@@ -10,7 +10,8 @@
 //! - [`generate`]: `vlf generate`, procedural classroom and gallery scenes.
 //!
 //! The lab uses the core (scene, propagate, render, reference, metrics, ...); nothing in the
-//! core uses the lab.
+//! core uses the lab. Like the core it draws nothing itself: its runs report through
+//! [`crate::progress::Progress`].
 
 pub mod bench;
 pub mod generate;
