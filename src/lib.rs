@@ -3,28 +3,27 @@
 //! The modules follow the pipeline: [`scene`] (TOML + OBJ/MTL) -> [`prepare`] (normalise,
 //! planar faces, texel atlas) -> [`propagate`] (GPU visibility and shooting) -> [`lightfield`]
 //! (the resident result and `.vlf` files) -> [`render`] (views). [`gpu`] holds the device and
-//! shared GPU helpers; [`bench`] and [`report`] measure and tell.
+//! shared GPU helpers; `propagate::report` tells what a propagation did. `lab` (feature `lab`,
+//! on by default) holds the tools that measure it: bench, suite, stress, sweep, generate.
 
-pub mod bench;
 pub mod bvh;
 pub mod color;
 pub mod display;
 pub mod error;
 pub mod export;
-pub mod generate;
 pub mod gpu;
+#[cfg(feature = "lab")]
+pub mod lab;
 pub mod lightfield;
 pub mod metrics;
 pub mod mirrored;
 pub mod params;
 pub mod prepare;
+pub mod progress;
 pub mod propagate;
 pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod stats;
-pub mod stress;
-pub mod suite;
-pub mod sweep;
 
 pub use error::{Result, VlfError};

@@ -1,7 +1,15 @@
 //! The `vlf` command line. Library errors are reported through anyhow here, and only here.
 
+/// The binary's own modules (src/cli/): the progress bars, and the lab's subcommands.
+mod cli {
+    #[cfg(feature = "lab")]
+    pub mod lab;
+    pub mod progress;
+}
+
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
+use cli::progress::Bars;
 use std::path::{Path, PathBuf};
 use vlf::gpu::GpuContext;
 use vlf::lightfield::{file, LightField, ResidentLightField};
@@ -29,275 +37,222 @@ enum ExportFormat {
 #[derive(Subcommand)]
 enum Command {
     /// Propagate a scene into a light field file (.vlf)
-    Propagate {
-        /// scene.toml or a glTF model (.gltf/.glb)
-        scene: PathBuf,
-        #[arg(short, long)]
-        output: PathBuf,
-        /// Also write the summary as JSON
-        #[arg(long)]
-        report: Option<PathBuf>,
-        /// Save the state every N iterations to OUTPUT.checkpoint (removed when done)
-        #[arg(long, default_value_t = 0)]
-        checkpoint: u32,
-        /// Continue from OUTPUT.checkpoint if it exists (same scene and settings)
-        #[arg(long)]
-        resume: bool,
-        #[command(flatten)]
-        params: ParamArgs,
-    },
+    Propagate(PropagateArgs),
     /// Render a view from a scene (propagating first) or from a .vlf file
-    Render {
-        /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
-        input: PathBuf,
-        #[arg(long)]
-        camera: Option<String>,
-        /// Image size WxH (default: the camera's)
-        #[arg(long, value_parser = parse_size)]
-        size: Option<[u32; 2]>,
-        /// With a scene.toml: load this light field instead of propagating (must match the scene)
-        #[arg(long)]
-        lightfield: Option<PathBuf>,
-        /// Exposure multiplier for PNG output
-        #[arg(long, default_value_t = 1.0)]
-        exposure: f32,
-        /// Supersampling on top of --aa: render N x N times the pixels and box-filter them
-        #[arg(long, default_value_t = 1)]
-        ssaa: u32,
-        /// Antialiasing: N eye rays per pixel (a Hammersley set), box-filtered; 1 = off
-        #[arg(long, default_value_t = vlf::render::STILL_SAMPLES)]
-        aa: u32,
-        /// out.exr (linear radiance) or out.png (tonemapped)
-        #[arg(short, long)]
-        output: PathBuf,
-        #[command(flatten)]
-        params: ParamArgs,
-    },
+    Render(RenderArgs),
     /// Path-trace a reference image with the same scene semantics (GPU, BVH, NEE + MIS)
-    Reference {
-        scene: PathBuf,
-        #[arg(long)]
-        camera: Option<String>,
-        #[arg(long, value_parser = parse_size)]
-        size: Option<[u32; 2]>,
-        /// Samples per pixel
-        #[arg(long, default_value_t = 1024)]
-        spp: u32,
-        #[arg(long, default_value_t = 1)]
-        seed: u32,
-        /// Also write the per-pixel variance of the estimate (EXR)
-        #[arg(long)]
-        variance: Option<PathBuf>,
-        /// ref.exr (linear radiance) or ref.png
-        #[arg(short, long)]
-        output: PathBuf,
-    },
+    Reference(ReferenceArgs),
     /// Error against run time: the light field over a grid of settings and the path tracer over
     /// samples per pixel -> CSV + log-log chart with the Pareto front
-    Sweep {
-        scene: PathBuf,
-        /// The reference image (vlf reference ... -o ref.exr); its size is the comparison size
-        #[arg(long, required_unless_present = "walkthrough")]
-        reference: Option<PathBuf>,
-        #[arg(long)]
-        camera: Option<String>,
-        #[arg(long, value_delimiter = ',', default_value = "181,501,981,2001")]
-        directions: Vec<u32>,
-        #[arg(long, value_delimiter = ',', default_value = "64,128,256")]
-        grid: Vec<u32>,
-        #[arg(long, value_delimiter = ',', default_value = "32,64,96")]
-        texel_density: Vec<f64>,
-        #[arg(long, value_delimiter = ',', default_value = "1e-3")]
-        tolerance: Vec<f64>,
-        #[arg(long, value_delimiter = ',', default_value = "1")]
-        perturb: Vec<u32>,
-        #[arg(long, value_delimiter = ',', default_value = "1,4,16,64,256")]
-        spp: Vec<u32>,
-        /// Light field supersampling per pixel side (the path tracer covers each pixel too)
-        #[arg(long, default_value_t = 4)]
-        ssaa: u32,
-        /// Measure the walkthrough case: a fixed per-frame budget along a scripted camera path
-        #[arg(long)]
-        walkthrough: bool,
-        /// Walkthrough: milliseconds per frame (11.1 = 90 Hz)
-        #[arg(long, default_value_t = 11.1)]
-        budget_ms: f64,
-        #[arg(long, default_value_t = 8)]
-        frames: u32,
-        /// Walkthrough: samples per pixel of each frame's reference
-        #[arg(long, default_value_t = 1024)]
-        reference_spp: u32,
-        #[arg(long, value_parser = parse_size, default_value = "256x256")]
-        size: [u32; 2],
-        #[arg(long, default_value = "sweep")]
-        out: PathBuf,
-        /// Walkthrough: the light field's settings (default: config/propagation/default.toml's)
-        #[arg(long)]
-        config: Option<PathBuf>,
-    },
+    #[cfg(feature = "lab")]
+    Sweep(cli::lab::SweepArgs),
     /// Draw every wall and eye of a display configuration (CAVE, power wall, window): one window
     /// per wall (W/A/S/D or arrows walk, Q/E turn, R/F rise/sink in fly mode, G toggles fly,
     /// left-drag turns, Home resets, gamepad sticks; Esc quits), or offscreen with --headless
-    Cave {
-        config: PathBuf,
-        /// scene.toml (propagated first) or file.vlf
-        #[arg(long)]
-        scene: PathBuf,
-        /// Render offscreen to files instead of windows
-        #[arg(long)]
-        headless: bool,
-        /// Frames to draw (headless: default 60; windowed: until Esc unless given)
-        #[arg(long)]
-        frames: Option<u32>,
-        /// Windowed with --frames: keep the windows up this many seconds afterwards
-        #[arg(long, default_value_t = 0.0)]
-        hold_seconds: f64,
-        /// Windowed: exposure applied before display
-        #[arg(long, default_value_t = 1.0)]
-        exposure: f32,
-        #[arg(long, default_value = "cave-out")]
-        out: PathBuf,
-        /// Also write EXR (linear radiance) per wall and eye
-        #[arg(long)]
-        exr: bool,
-        /// Write the frame-time report as JSON
-        #[arg(long)]
-        json: Option<PathBuf>,
-        #[command(flatten)]
-        params: ParamArgs,
-    },
+    Cave(CaveArgs),
     /// Print a display configuration's live tracking as it arrives: head and wand poses in the
     /// room (after [tracking.calibration]), buttons and joystick
-    Track {
-        config: PathBuf,
-        /// Stop after this many seconds (default: until Ctrl-C)
-        #[arg(long)]
-        seconds: Option<f64>,
-    },
+    Track(TrackArgs),
     /// An OpenXR headset: the runtime's Vulkan device, a swapchain per eye, thumbstick navigation
-    Xr {
-        /// scene.toml (propagated first) or file.vlf
-        #[arg(long)]
-        scene: PathBuf,
-        /// End the session after this many frames (default: when the runtime or the user ends it)
-        #[arg(long)]
-        frames: Option<u32>,
-        /// Write the left eye's image of frame --screenshot-frame as PNG
-        #[arg(long)]
-        screenshot: Option<PathBuf>,
-        /// Which frame --screenshot captures (1 is the first rendered frame)
-        #[arg(long, default_value_t = 30)]
-        screenshot_frame: u32,
-        /// The scene camera the viewer starts at (default: the scene's first)
-        #[arg(long)]
-        camera: Option<String>,
-        #[arg(long, default_value_t = 1.0)]
-        exposure: f32,
-        /// Per-eye resolution relative to the runtime's recommendation (e.g. 1.4 supersamples;
-        /// clamped to the runtime's maximum)
-        #[arg(long, default_value_t = 1.0)]
-        resolution_scale: f32,
-        /// Antialiasing: N eye rays per pixel (1 = off)
-        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
-        aa: u32,
-        /// Write the frame-time report as JSON
-        #[arg(long)]
-        json: Option<PathBuf>,
-        #[command(flatten)]
-        params: ParamArgs,
-    },
+    Xr(XrArgs),
     /// Write a procedural scene (scene.toml + OBJ + MTL, or glTF) that scales to a million triangles
-    Generate {
-        kind: vlf::generate::SceneKind,
-        /// About this many triangles (classroom) or faces (gallery)
-        #[arg(long, default_value_t = 10_000)]
-        size: u64,
-        /// The mirror variant (a mirror wall in the classroom, mirrors along the gallery)
-        #[arg(long)]
-        mirrors: bool,
-        /// The mesh as OBJ + MTL or as glTF 2.0 (.gltf + .bin)
-        #[arg(long, value_enum, default_value = "obj")]
-        format: vlf::generate::MeshFormat,
-        #[arg(short, long)]
-        out: PathBuf,
-    },
+    #[cfg(feature = "lab")]
+    Generate(cli::lab::GenerateArgs),
     /// Run the stability cases and write their table (STABILITY.md)
-    Stress {
-        /// Where the table goes (default: STABILITY.md; with --quick, none unless given)
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Only the quick cases (about a minute on lavapipe); the table marks the others "not run"
-        #[arg(long)]
-        quick: bool,
-    },
+    #[cfg(feature = "lab")]
+    Stress(cli::lab::StressArgs),
     /// Compare a linear image with a reference: MSE, RMSE, relMSE, max error, display MSE, FLIP
-    Compare {
-        image: PathBuf,
-        reference: PathBuf,
-        #[arg(long)]
-        json: bool,
-        /// Write a false-colour difference image (FLIP error, magma colour map)
-        #[arg(long)]
-        diff: Option<PathBuf>,
-        /// Compare only where this PNG (same size) is white, e.g. away from geometric edges
-        /// (tools/mitsuba/edges.py writes such a mask)
-        #[arg(long)]
-        mask: Option<PathBuf>,
-    },
+    Compare(CompareArgs),
     /// Write the scene for another renderer, e.g. `vlf export mitsuba scene.toml -o DIR`: a
     /// standalone Mitsuba 3 scene (DIR/<camera>.xml per camera), for an independent ground truth
-    Export {
-        /// The renderer: mitsuba
-        #[arg(value_enum)]
-        format: ExportFormat,
-        scene: PathBuf,
-        /// The folder to write (created if missing)
-        #[arg(short, long)]
-        output: PathBuf,
-        /// The Python that runs the exporter (needs numpy and mitsuba: `pip install mitsuba numpy`)
-        #[arg(long, default_value = "python3")]
-        python: String,
-    },
+    Export(ExportArgs),
     /// Propagate the built-in Cornell box and write PNG + EXR into out/
-    Demo {
-        #[arg(long, default_value = "out")]
-        out: PathBuf,
-    },
+    Demo(DemoArgs),
     /// Measure setup, visibility, propagation and rendering
-    Bench {
-        #[arg(long, default_value = "scenes/cornell/scene.toml")]
-        scene: PathBuf,
-        /// The whole suite (Cornell, Cornell-mirror, classrooms of 1K..1M triangles, the mirror
-        /// gallery, a memory-budget run) instead of one scene
-        #[arg(long)]
-        suite: bool,
-        /// Suite: small scenes only (software adapters, quick checks)
-        #[arg(long)]
-        quick: bool,
-        /// Suite: where generated scenes go
-        #[arg(long, default_value = "target/suite-scenes")]
-        work: PathBuf,
-        /// Suite: the log-log scaling chart (PNG)
-        #[arg(long)]
-        plot: Option<PathBuf>,
-        /// Suite: do not measure; write --markdown / --plot from this earlier --json report
-        #[arg(long)]
-        from_json: Option<PathBuf>,
-        #[arg(long)]
-        json: Option<PathBuf>,
-        /// Write a Markdown section (for BENCHMARKS.md)
-        #[arg(long)]
-        markdown: Option<PathBuf>,
-        #[arg(long, default_value_t = 200)]
-        frames: u32,
-        #[arg(long, value_parser = parse_size, default_value = "1024x768")]
-        size: [u32; 2],
-        /// Antialiasing of the timed view: N eye rays per pixel (default: the real-time one)
-        #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
-        aa: u32,
-        #[command(flatten)]
-        params: ParamArgs,
-    },
+    #[cfg(feature = "lab")]
+    Bench(cli::lab::BenchArgs),
+}
+
+/// `vlf propagate`'s arguments.
+#[derive(Args)]
+struct PropagateArgs {
+    /// scene.toml or a glTF model (.gltf/.glb)
+    scene: PathBuf,
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write the summary as JSON
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Save the state every N iterations to OUTPUT.checkpoint (removed when done)
+    #[arg(long, default_value_t = 0)]
+    checkpoint: u32,
+    /// Continue from OUTPUT.checkpoint if it exists (same scene and settings)
+    #[arg(long)]
+    resume: bool,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf render`'s arguments.
+#[derive(Args)]
+struct RenderArgs {
+    /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
+    input: PathBuf,
+    #[arg(long)]
+    camera: Option<String>,
+    /// Image size WxH (default: the camera's)
+    #[arg(long, value_parser = parse_size)]
+    size: Option<[u32; 2]>,
+    /// With a scene.toml: load this light field instead of propagating (must match the scene)
+    #[arg(long)]
+    lightfield: Option<PathBuf>,
+    /// Exposure multiplier for PNG output
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Supersampling on top of --aa: render N x N times the pixels and box-filter them
+    #[arg(long, default_value_t = 1)]
+    ssaa: u32,
+    /// Antialiasing: N eye rays per pixel (a Hammersley set), box-filtered; 1 = off
+    #[arg(long, default_value_t = vlf::render::STILL_SAMPLES)]
+    aa: u32,
+    /// out.exr (linear radiance) or out.png (tonemapped)
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf reference`'s arguments.
+#[derive(Args)]
+struct ReferenceArgs {
+    scene: PathBuf,
+    #[arg(long)]
+    camera: Option<String>,
+    #[arg(long, value_parser = parse_size)]
+    size: Option<[u32; 2]>,
+    /// Samples per pixel
+    #[arg(long, default_value_t = 1024)]
+    spp: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Also write the per-pixel variance of the estimate (EXR)
+    #[arg(long)]
+    variance: Option<PathBuf>,
+    /// ref.exr (linear radiance) or ref.png
+    #[arg(short, long)]
+    output: PathBuf,
+}
+
+/// `vlf cave`'s arguments.
+#[derive(Args)]
+struct CaveArgs {
+    config: PathBuf,
+    /// scene.toml (propagated first) or file.vlf
+    #[arg(long)]
+    scene: PathBuf,
+    /// Render offscreen to files instead of windows
+    #[arg(long)]
+    headless: bool,
+    /// Frames to draw (headless: default 60; windowed: until Esc unless given)
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Windowed with --frames: keep the windows up this many seconds afterwards
+    #[arg(long, default_value_t = 0.0)]
+    hold_seconds: f64,
+    /// Windowed: exposure applied before display
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    #[arg(long, default_value = "cave-out")]
+    out: PathBuf,
+    /// Also write EXR (linear radiance) per wall and eye
+    #[arg(long)]
+    exr: bool,
+    /// Write the frame-time report as JSON
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf track`'s arguments.
+#[derive(Args)]
+struct TrackArgs {
+    config: PathBuf,
+    /// Stop after this many seconds (default: until Ctrl-C)
+    #[arg(long)]
+    seconds: Option<f64>,
+}
+
+/// `vlf xr`'s arguments.
+#[derive(Args)]
+struct XrArgs {
+    /// scene.toml (propagated first) or file.vlf
+    #[arg(long)]
+    scene: PathBuf,
+    /// End the session after this many frames (default: when the runtime or the user ends it)
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Write the left eye's image of frame --screenshot-frame as PNG
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Which frame --screenshot captures (1 is the first rendered frame)
+    #[arg(long, default_value_t = 30)]
+    screenshot_frame: u32,
+    /// The scene camera the viewer starts at (default: the scene's first)
+    #[arg(long)]
+    camera: Option<String>,
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Per-eye resolution relative to the runtime's recommendation (e.g. 1.4 supersamples;
+    /// clamped to the runtime's maximum)
+    #[arg(long, default_value_t = 1.0)]
+    resolution_scale: f32,
+    /// Antialiasing: N eye rays per pixel (1 = off)
+    #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
+    aa: u32,
+    /// Write the frame-time report as JSON
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf compare`'s arguments.
+#[derive(Args)]
+struct CompareArgs {
+    image: PathBuf,
+    reference: PathBuf,
+    #[arg(long)]
+    json: bool,
+    /// Write a false-colour difference image (FLIP error, magma colour map)
+    #[arg(long)]
+    diff: Option<PathBuf>,
+    /// Compare only where this PNG (same size) is white, e.g. away from geometric edges
+    /// (tools/mitsuba/edges.py writes such a mask)
+    #[arg(long)]
+    mask: Option<PathBuf>,
+}
+
+/// `vlf export`'s arguments.
+#[derive(Args)]
+struct ExportArgs {
+    /// The renderer: mitsuba
+    #[arg(value_enum)]
+    format: ExportFormat,
+    scene: PathBuf,
+    /// The folder to write (created if missing)
+    #[arg(short, long)]
+    output: PathBuf,
+    /// The Python that runs the exporter (needs numpy and mitsuba: `pip install mitsuba numpy`)
+    #[arg(long, default_value = "python3")]
+    python: String,
+}
+
+/// `vlf demo`'s arguments.
+#[derive(Args)]
+struct DemoArgs {
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
 }
 
 /// `--quality`: the propagation presets, shipped as config/propagation/<name>.toml.
@@ -505,10 +460,30 @@ fn parse_size(s: &str) -> std::result::Result<[u32; 2], String> {
 fn main() {
     quiet_vulkan_device_select();
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    if !cfg!(feature = "lab") {
+        refuse_lab_commands();
+    }
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
         eprintln!("error: {}", error_text(&e));
         std::process::exit(1);
+    }
+}
+
+/// The lab's subcommands, which a core build (`--no-default-features`) leaves out.
+const LAB_COMMANDS: [&str; 4] = ["bench", "generate", "stress", "sweep"];
+
+/// In a build without the lab, `vlf bench` (or another lab command) says how to get it rather
+/// than clap's bare "unrecognized subcommand".
+fn refuse_lab_commands() {
+    let asked = std::env::args().nth(1);
+    if let Some(name) = asked.filter(|a| LAB_COMMANDS.contains(&a.as_str())) {
+        eprintln!(
+            "error: `vlf {name}` is part of the lab, which this vlf was built without \
+             (--no-default-features): build it with `cargo build --release --features lab` \
+             (the lab is a default feature)"
+        );
+        std::process::exit(2);
     }
 }
 
@@ -549,351 +524,189 @@ fn error_text(e: &anyhow::Error) -> String {
 }
 
 fn run(cli: Cli) -> Result<()> {
-    match cli.command.unwrap_or(Command::Demo {
-        out: PathBuf::from("out"),
-    }) {
-        Command::Propagate {
-            scene,
-            output,
-            report,
-            checkpoint,
-            resume,
-            params,
-        } => {
-            let scene = Scene::load(&scene)?;
-            print_warnings(&scene.warnings);
-            let ctx = GpuContext::new()?;
-            let params = params.for_adapter(&ctx)?;
-            estimate_time(&ctx, &scene, &params)?;
-            let plan = vlf::propagate::checkpoint::CheckpointPlan {
-                path: PathBuf::from(format!("{}.checkpoint", output.display())),
-                every: checkpoint,
-                resume,
-            };
-            let (lf, _resident, rep) =
-                vlf::propagate::propagate_with(ctx, &scene, &params, true, Some(&plan))?;
-            print_warnings(&rep.warnings[scene.warnings.len()..]);
-            file::save(&lf, &output)?;
-            if plan.path.exists() {
-                std::fs::remove_file(&plan.path)
-                    .with_context(|| format!("removing {}", plan.path.display()))?;
-            }
-            println!("{}", rep.table());
-            if let Some(path) = report {
-                write_json(&path, &rep)?;
-                println!("report: {}", path.display());
-            }
-            println!("light field: {}", output.display());
-        }
-        Command::Render {
-            input,
-            camera,
-            size,
-            lightfield,
-            exposure,
-            ssaa,
-            aa,
-            output,
-            params,
-        } => {
-            if !(1..=16).contains(&ssaa) {
-                bail!("--ssaa {ssaa}: use 1 (off) to 16");
-            }
-            let ctx = GpuContext::new()?;
-            let (lf, resident) = light_field_for(&ctx, &input, lightfield.as_deref(), &params)?;
-            let cam = lf.camera(camera.as_deref())?.clone();
-            let [w, h] = size.unwrap_or(cam.size);
-            let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
-            renderer.set_samples_per_pixel(aa)?;
-            let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
-            image_io::write_image(&frame, &output, exposure)?;
-            println!("{} ({w}x{h}, camera {:?})", output.display(), cam.name);
-        }
-        Command::Demo { out } => demo(&out)?,
-        Command::Reference {
-            scene,
-            camera,
-            size,
-            spp,
-            seed,
-            variance,
-            output,
-        } => {
-            let scene = Scene::load(&scene)?;
-            print_warnings(&scene.warnings);
-            let cam = scene.camera(camera.as_deref())?.clone();
-            let size = size.unwrap_or(cam.size);
-            let ctx = GpuContext::new()?;
-            let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, true)?;
-            image_io::write_image(&r.mean, &output, 1.0)?;
-            println!(
-                "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
-                output.display(),
-                size[0],
-                size[1],
-                r.spp,
-                r.seconds,
-                r.setup_seconds
-            );
-            if let Some(path) = variance {
-                image_io::write_image(&r.variance, &path, 1.0)?;
-                println!("variance: {}", path.display());
-            }
-        }
-        Command::Sweep {
-            scene,
-            reference,
-            camera,
-            directions,
-            grid,
-            texel_density,
-            tolerance,
-            perturb,
-            spp,
-            ssaa,
-            walkthrough,
-            budget_ms,
-            frames,
-            reference_spp,
-            size,
-            out,
-            config,
-        } => {
-            let grid = vlf::sweep::SweepGrid {
-                directions,
-                grid,
-                texel_density,
-                tolerance,
-                perturb,
-                spp,
-                ssaa: ssaa.max(1),
-            };
-            let walk = walkthrough.then_some(Walkthrough {
-                budget_ms,
-                frames,
-                reference_spp,
-                config,
-            });
-            sweep(
-                &scene,
-                reference.as_deref(),
-                camera.as_deref(),
-                grid,
-                walk,
-                size,
-                &out,
-            )?;
-        }
-        Command::Cave {
-            config,
-            scene,
-            headless,
-            frames,
-            hold_seconds,
-            exposure,
-            out,
-            exr,
-            json,
-            params,
-        } => {
-            cave(
-                &config,
-                &scene,
-                headless,
-                frames,
-                hold_seconds,
-                exposure,
-                &out,
-                exr,
-                json,
-                &params,
-            )?;
-        }
-        Command::Track { config, seconds } => {
-            if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
-                bail!("--seconds {s}: must be a number of seconds >= 0");
-            }
-            let display = vlf::display::DisplayConfig::load(&config)?;
-            vlf::display::tracking::track(
-                &display,
-                &config,
-                seconds.map(std::time::Duration::from_secs_f64),
-                &mut std::io::stdout(),
-            )?;
-        }
-        Command::Xr {
-            scene,
-            frames,
-            screenshot,
-            screenshot_frame,
-            camera,
-            exposure,
-            resolution_scale,
-            aa,
-            json,
-            params,
-        } => {
-            let options = vlf::display::xr::XrOptions {
-                frames,
-                screenshot,
-                screenshot_frame,
-                exposure,
-                camera,
-                resolution_scale,
-                antialiasing: aa,
-            };
-            xr(&scene, options, json, &params)?;
-        }
-        Command::Generate {
-            kind,
-            size,
-            mirrors,
-            format,
-            out,
-        } => {
-            let g = vlf::generate::generate_as(
-                &vlf::generate::GenerateOptions {
-                    kind,
-                    size,
-                    mirrors,
-                },
-                &out,
-                format,
-            )?;
-            println!(
-                "{}: {} triangles, {} faces ({})",
-                g.scene.display(),
-                g.triangles,
-                g.faces,
-                g.description
-            );
-        }
-        Command::Stress { out, quick } => {
-            let ctx = GpuContext::new()?;
-            let adapter = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
-            let cases = vlf::stress::run(ctx, quick, true)?;
-            let out = out.or_else(|| (!quick).then(|| PathBuf::from("STABILITY.md")));
-            if let Some(out) = out {
-                std::fs::write(&out, vlf::stress::markdown(&cases, &adapter))
-                    .with_context(|| format!("writing {}", out.display()))?;
-                println!("{}", out.display());
-            }
-            let failed: Vec<&str> = cases
-                .iter()
-                .filter(|c| !c.pass)
-                .map(|c| c.name.as_str())
-                .collect();
-            if !failed.is_empty() {
+    let demo_default = || {
+        Command::Demo(DemoArgs {
+            out: PathBuf::from("out"),
+        })
+    };
+    match cli.command.unwrap_or_else(demo_default) {
+        Command::Propagate(a) => propagate(a),
+        Command::Render(a) => render(a),
+        Command::Reference(a) => reference(a),
+        Command::Cave(a) => cave(a),
+        Command::Track(a) => track(a),
+        Command::Xr(a) => xr(a),
+        Command::Compare(a) => compare(a),
+        Command::Export(a) => export(a),
+        Command::Demo(a) => demo(&a.out),
+        #[cfg(feature = "lab")]
+        Command::Sweep(a) => cli::lab::sweep(a),
+        #[cfg(feature = "lab")]
+        Command::Generate(a) => cli::lab::generate(a),
+        #[cfg(feature = "lab")]
+        Command::Stress(a) => cli::lab::stress(a),
+        #[cfg(feature = "lab")]
+        Command::Bench(a) => cli::lab::bench(a),
+    }
+}
+
+/// `vlf propagate`: a scene into a .vlf file, with checkpoints and a JSON report.
+fn propagate(args: PropagateArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    print_warnings(&scene.warnings);
+    let ctx = GpuContext::new()?;
+    let params = args.params.for_adapter(&ctx)?;
+    estimate_time(&ctx, &scene, &params)?;
+    let output = args.output;
+    let plan = vlf::propagate::checkpoint::CheckpointPlan {
+        path: PathBuf::from(format!("{}.checkpoint", output.display())),
+        every: args.checkpoint,
+        resume: args.resume,
+    };
+    let (lf, _resident, rep) =
+        vlf::propagate::propagate_with(ctx, &scene, &params, &Bars::default(), Some(&plan))?;
+    print_warnings(&rep.warnings[scene.warnings.len()..]);
+    file::save(&lf, &output)?;
+    if plan.path.exists() {
+        std::fs::remove_file(&plan.path)
+            .with_context(|| format!("removing {}", plan.path.display()))?;
+    }
+    println!("{}", rep.table());
+    if let Some(path) = args.report {
+        write_json(&path, &rep)?;
+        println!("report: {}", path.display());
+    }
+    println!("light field: {}", output.display());
+    Ok(())
+}
+
+/// `vlf render`: one view from a scene (propagated first) or a .vlf file.
+fn render(args: RenderArgs) -> Result<()> {
+    let ssaa = args.ssaa;
+    if !(1..=16).contains(&ssaa) {
+        bail!("--ssaa {ssaa}: use 1 (off) to 16");
+    }
+    let ctx = GpuContext::new()?;
+    let (lf, resident) =
+        light_field_for(&ctx, &args.input, args.lightfield.as_deref(), &args.params)?;
+    let cam = lf.camera(args.camera.as_deref())?.clone();
+    let [w, h] = args.size.unwrap_or(cam.size);
+    let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+    renderer.set_samples_per_pixel(args.aa)?;
+    let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
+    image_io::write_image(&frame, &args.output, args.exposure)?;
+    println!("{} ({w}x{h}, camera {:?})", args.output.display(), cam.name);
+    Ok(())
+}
+
+/// `vlf reference`: the path tracer's image (and optionally its variance).
+fn reference(args: ReferenceArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    print_warnings(&scene.warnings);
+    let cam = scene.camera(args.camera.as_deref())?.clone();
+    let size = args.size.unwrap_or(cam.size);
+    let (spp, seed) = (args.spp, args.seed);
+    let ctx = GpuContext::new()?;
+    let r = vlf::reference::render(ctx, &scene, &cam, size, spp, seed, &Bars::default())?;
+    image_io::write_image(&r.mean, &args.output, 1.0)?;
+    println!(
+        "{} ({}x{}, {} spp, seed {seed}, {:.2} s tracing after {:.2} s of setup)",
+        args.output.display(),
+        size[0],
+        size[1],
+        r.spp,
+        r.seconds,
+        r.setup_seconds
+    );
+    if let Some(path) = args.variance {
+        image_io::write_image(&r.variance, &path, 1.0)?;
+        println!("variance: {}", path.display());
+    }
+    Ok(())
+}
+
+/// `vlf track`: a display's live tracking, printed as it arrives.
+fn track(args: TrackArgs) -> Result<()> {
+    let seconds = args.seconds;
+    if let Some(s) = seconds.filter(|s| !(s.is_finite() && *s >= 0.0)) {
+        bail!("--seconds {s}: must be a number of seconds >= 0");
+    }
+    let display = vlf::display::DisplayConfig::load(&args.config)?;
+    vlf::display::tracking::track(
+        &display,
+        &args.config,
+        seconds.map(std::time::Duration::from_secs_f64),
+        &mut std::io::stdout(),
+    )?;
+    Ok(())
+}
+
+/// `vlf compare`: an image against a reference, as a table or JSON, with a difference image.
+fn compare(args: CompareArgs) -> Result<()> {
+    let a = image_io::read_image(&args.image)?;
+    let b = image_io::read_image(&args.reference)?;
+    let keep = match &args.mask {
+        Some(path) => {
+            let (w, h, keep) = vlf::metrics::read_mask(path)?;
+            if (w, h) != (a.width, a.height) {
                 bail!(
-                    "{} stability case(s) failed: {}",
-                    failed.len(),
-                    failed.join(", ")
+                    "{}: the mask is {w}x{h}, the images {}x{}",
+                    path.display(),
+                    a.width,
+                    a.height
                 );
             }
+            Some(keep)
         }
-        Command::Compare {
-            image,
-            reference,
-            json,
-            diff,
-            mask,
-        } => {
-            let a = image_io::read_image(&image)?;
-            let b = image_io::read_image(&reference)?;
-            let keep = match &mask {
-                Some(path) => {
-                    let (w, h, keep) = vlf::metrics::read_mask(path)?;
-                    if (w, h) != (a.width, a.height) {
-                        bail!(
-                            "{}: the mask is {w}x{h}, the images {}x{}",
-                            path.display(),
-                            a.width,
-                            a.height
-                        );
-                    }
-                    Some(keep)
-                }
-                None => None,
-            };
-            let c = vlf::metrics::compare_where(&a, &b, keep.as_deref())?;
-            if json {
-                println!("{}", serde_json::to_string_pretty(&c)?);
-            } else {
-                print!("{}", c.table());
-            }
-            if let Some(path) = diff {
-                vlf::metrics::write_difference_png(&a, &b, &path)?;
-                if !json {
-                    println!("difference: {}", path.display());
-                }
-            }
-        }
-        Command::Export {
-            format: ExportFormat::Mitsuba,
-            scene,
-            output,
-            python,
-        } => {
-            let export = vlf::export::mitsuba(&scene, &output, &python)?;
-            for note in &export.notes {
-                eprintln!("{note}");
-            }
-            for xml in &export.cameras {
-                println!(
-                    "{}   (render: mitsuba {} -D spp=1024 -o out.exr)",
-                    xml.display(),
-                    xml.display()
-                );
-            }
-        }
-        Command::Bench {
-            scene,
-            suite,
-            quick,
-            work,
-            plot,
-            from_json,
-            json,
-            markdown,
-            frames,
-            size,
-            aa,
-            params,
-        } => {
-            let outputs = BenchOutputs {
-                json,
-                markdown,
-                plot,
-            };
-            bench(
-                &scene,
-                suite.then_some((quick, work)),
-                from_json.as_deref(),
-                outputs,
-                frames,
-                size,
-                aa,
-                &params,
-            )?;
+        None => None,
+    };
+    let c = vlf::metrics::compare_where(&a, &b, keep.as_deref())?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&c)?);
+    } else {
+        print!("{}", c.table());
+    }
+    if let Some(path) = args.diff {
+        vlf::metrics::write_difference_png(&a, &b, &path)?;
+        if !args.json {
+            println!("difference: {}", path.display());
         }
     }
     Ok(())
 }
 
+/// `vlf export mitsuba`: the scene as a standalone Mitsuba 3 scene.
+fn export(args: ExportArgs) -> Result<()> {
+    let ExportFormat::Mitsuba = args.format;
+    let export = vlf::export::mitsuba(&args.scene, &args.output, &args.python)?;
+    for note in &export.notes {
+        eprintln!("{note}");
+    }
+    for xml in &export.cameras {
+        println!(
+            "{}   (render: mitsuba {} -D spp=1024 -o out.exr)",
+            xml.display(),
+            xml.display()
+        );
+    }
+    Ok(())
+}
+
 /// `vlf cave`: every wall and eye of a display, in windows or offscreen (`headless`).
-#[allow(clippy::too_many_arguments)]
-fn cave(
-    config: &Path,
-    scene: &Path,
-    headless: bool,
-    frames: Option<u32>,
-    hold_seconds: f64,
-    exposure: f32,
-    out: &Path,
-    exr: bool,
-    json: Option<PathBuf>,
-    params: &ParamArgs,
-) -> Result<()> {
+fn cave(a: CaveArgs) -> Result<()> {
+    let CaveArgs {
+        config,
+        scene,
+        headless,
+        frames,
+        hold_seconds,
+        exposure,
+        out,
+        exr,
+        json,
+        params,
+    } = a;
+    let (config, scene, out, params) = (config.as_path(), scene.as_path(), out.as_path(), &params);
     // under mpirun: one rank of a CAVE cluster (`display/cluster.rs`)
     if let Some(ranks) = vlf::display::cluster::launched_size() {
         if ranks > 1 || cfg!(feature = "mpi") {
@@ -956,12 +769,28 @@ fn cave(
 }
 
 /// `vlf xr`: an OpenXR headset session.
-fn xr(
-    scene: &Path,
-    options: vlf::display::xr::XrOptions,
-    json: Option<PathBuf>,
-    params: &ParamArgs,
-) -> Result<()> {
+fn xr(a: XrArgs) -> Result<()> {
+    let XrArgs {
+        scene,
+        frames,
+        screenshot,
+        screenshot_frame,
+        camera,
+        exposure,
+        resolution_scale,
+        aa,
+        json,
+        params,
+    } = a;
+    let options = vlf::display::xr::XrOptions {
+        frames,
+        screenshot,
+        screenshot_frame,
+        exposure,
+        camera,
+        resolution_scale,
+        antialiasing: aa,
+    };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {
         bail!("--resolution-scale {scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
@@ -976,7 +805,7 @@ fn xr(
         }
     }
     let mut make = |ctx: &std::sync::Arc<GpuContext>| {
-        light_field_for(ctx, scene, None, params)
+        light_field_for(ctx, &scene, None, &params)
             .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
     };
     let report = vlf::display::xr::run_headset(&mut make, &options)?;
@@ -986,192 +815,6 @@ fn xr(
     }
     if report.lost {
         bail!("{}", report.ended);
-    }
-    Ok(())
-}
-
-/// Where `vlf bench` writes.
-struct BenchOutputs {
-    json: Option<PathBuf>,
-    markdown: Option<PathBuf>,
-    plot: Option<PathBuf>,
-}
-
-/// `vlf bench`: one scene, the suite (`suite`: quick, work folder), or the tables of an earlier report.
-#[allow(clippy::too_many_arguments)]
-fn bench(
-    scene: &Path,
-    suite: Option<(bool, PathBuf)>,
-    from_json: Option<&Path>,
-    outputs: BenchOutputs,
-    frames: u32,
-    size: [u32; 2],
-    aa: u32,
-    params: &ParamArgs,
-) -> Result<()> {
-    let BenchOutputs {
-        json,
-        markdown,
-        plot,
-    } = outputs;
-    if let Some(input) = from_json {
-        let report = vlf::suite::SuiteReport::load(input)?;
-        let md = report.markdown();
-        match markdown {
-            Some(path) => {
-                std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?
-            }
-            None => print!("{md}"),
-        }
-        if let Some(path) = plot {
-            report.plot(&path)?;
-        }
-        return Ok(());
-    }
-    let ctx = GpuContext::new()?;
-    if ctx.summary.software {
-        eprintln!(
-            "note: {} is a software adapter: these timings say nothing about GPU speed",
-            ctx.summary.name
-        );
-    }
-    if let Some((quick, work)) = suite {
-        let root = std::env::current_dir().context("the current folder")?;
-        let report = vlf::suite::run(ctx, &root, &work, quick, frames.min(100), true)?;
-        let md = report.markdown();
-        print!("{md}");
-        if let Some(path) = json {
-            write_json(&path, &report)?;
-            println!("json: {}", path.display());
-        }
-        if let Some(path) = markdown {
-            std::fs::write(&path, &md).with_context(|| format!("writing {}", path.display()))?;
-            println!("markdown: {}", path.display());
-        }
-        if let Some(path) = plot {
-            report.plot(&path)?;
-            println!("chart: {}", path.display());
-        }
-        return Ok(());
-    }
-    let scene = Scene::load(scene)?;
-    let params = params.for_adapter(&ctx)?;
-    let report = vlf::bench::run(ctx, &scene, &params, size, frames, aa)?;
-    print!("{}", report.table());
-    if let Some(path) = json {
-        write_json(&path, &report)?;
-        println!("json: {}", path.display());
-    }
-    if let Some(path) = markdown {
-        std::fs::write(&path, report.markdown())
-            .with_context(|| format!("writing {}", path.display()))?;
-        println!("markdown: {}", path.display());
-    }
-    Ok(())
-}
-
-/// `vlf sweep --walkthrough`'s settings.
-struct Walkthrough {
-    budget_ms: f64,
-    frames: u32,
-    reference_spp: u32,
-    config: Option<PathBuf>,
-}
-
-/// `vlf sweep`: the grid of settings against a reference, or the walkthrough at a frame budget.
-fn sweep(
-    scene: &Path,
-    reference: Option<&Path>,
-    camera: Option<&str>,
-    grid: vlf::sweep::SweepGrid,
-    walk: Option<Walkthrough>,
-    size: [u32; 2],
-    out: &Path,
-) -> Result<()> {
-    let scene = Scene::load(scene)?;
-    print_warnings(&scene.warnings);
-    let cam = scene.camera(camera)?.clone();
-    let ctx = GpuContext::new()?;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    if let Some(Walkthrough {
-        budget_ms,
-        frames,
-        reference_spp,
-        config,
-    }) = walk
-    {
-        let params = match &config {
-            Some(path) => PropagationParams::from_toml_file(path)?,
-            None => PropagationParams::default(),
-        };
-        let path = vlf::sweep::walkthrough_path(&cam, frames.max(2), 30.0);
-        let (rows, propagation_s, pt_spp) = vlf::sweep::walkthrough(
-            ctx,
-            &scene,
-            &params,
-            &path,
-            size,
-            budget_ms,
-            reference_spp,
-            true,
-        )?;
-        let csv = out.join("walkthrough.csv");
-        let mut text = String::from("frame,method,spp,frame_ms,rel_mse,flip\n");
-        for r in &rows {
-            text.push_str(&format!(
-                "{},{},{},{:.4},{:.6e},{:.6}\n",
-                r.frame, r.method, r.spp, r.frame_ms, r.rel_mse, r.flip
-            ));
-        }
-        std::fs::write(&csv, text)?;
-        let series = |m: &'static str, color| vlf::sweep::plot::Series {
-            name: m,
-            color,
-            points: rows
-                .iter()
-                .filter(|r| r.method == m)
-                .map(|r| (r.frame as f64, r.rel_mse))
-                .collect(),
-        };
-        let png = out.join("walkthrough.png");
-        vlf::sweep::plot::error_per_frame(
-            &png,
-            &format!(
-                "{}: walkthrough at {budget_ms} ms per frame (path tracer {pt_spp} spp)",
-                scene.name
-            ),
-            "relMSE against the frame's reference",
-            &[
-                series("light field", plotters::style::RGBColor(200, 60, 40)),
-                series("path tracer", plotters::style::RGBColor(40, 90, 200)),
-            ],
-        )?;
-        let mean = |m: &str| {
-            let v: Vec<f64> = rows
-                .iter()
-                .filter(|r| r.method == m)
-                .map(|r| r.rel_mse)
-                .collect();
-            v.iter().sum::<f64>() / v.len() as f64
-        };
-        println!(
-            "walkthrough, {} frames at {}x{}, budget {budget_ms} ms: light field (one propagation of {propagation_s:.3} s) mean relMSE {:.3e}; path tracer at {pt_spp} spp mean relMSE {:.3e}",
-            path.len(), size[0], size[1], mean("light field"), mean("path tracer")
-        );
-        println!("{}\n{}", csv.display(), png.display());
-    } else {
-        let reference = image_io::read_image(reference.expect("clap requires it"))?;
-        let rows = vlf::sweep::run(ctx, &scene, &cam, &reference, &grid, true)?;
-        let csv = out.join("sweep.csv");
-        let mut text = format!("{}\n", vlf::sweep::SweepRow::CSV_HEADER);
-        for r in &rows {
-            text.push_str(&r.csv());
-            text.push('\n');
-        }
-        std::fs::write(&csv, text)?;
-        let png = out.join("sweep.png");
-        vlf::sweep::chart(&rows, &scene.name, &png)?;
-        println!("{}\n{}", csv.display(), png.display());
     }
     Ok(())
 }
@@ -1202,7 +845,8 @@ fn light_field_for(
     }
     let params = params.for_adapter(ctx)?;
     estimate_time(ctx, &scene, &params)?;
-    let (lf, resident, report) = vlf::propagate::propagate(ctx.clone(), &scene, &params, true)?;
+    let (lf, resident, report) =
+        vlf::propagate::propagate(ctx.clone(), &scene, &params, &Bars::default())?;
     eprintln!(
         "propagated in {:.2} s: {} iterations, residual {:.2e}",
         report.propagation_seconds + report.visibility_seconds + report.setup_seconds,
@@ -1272,7 +916,7 @@ fn demo(out: &Path) -> Result<()> {
         println!("adapter: {} ({})", ctx.summary.name, ctx.summary.backend);
         PropagationParams::default()
     };
-    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params, true)?;
+    let (lf, resident, report) = vlf::propagate::propagate(ctx, &scene, &params, &Bars::default())?;
     println!("{}", report.table());
     if report.final_residual >= params.tolerance && report.iterations >= params.max_iterations {
         bail!("the demo did not converge");
@@ -1316,5 +960,15 @@ mod tests {
     fn the_command_line_definition_is_consistent() {
         use clap::CommandFactory;
         super::Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn the_lab_commands_are_there_exactly_when_the_lab_is() {
+        use clap::CommandFactory;
+        let cli = super::Cli::command();
+        for name in super::LAB_COMMANDS {
+            let present = cli.find_subcommand(name).is_some();
+            assert_eq!(present, cfg!(feature = "lab"), "vlf {name}");
+        }
     }
 }

@@ -1,7 +1,8 @@
 //! The module structure stays acyclic: tools/module-cycles.py finds import cycles between the
 //! top-level modules of src/ and between the files of one module (a folder's mod.rs is their
 //! parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
-//! depend on the pipeline stages above them.
+//! depend on the pipeline stages above them. The core leaves the lab (src/lab/, feature `lab`)
+//! out: no core module names it, and its crates are not the core's.
 
 mod common;
 
@@ -21,4 +22,80 @@ fn there_are_no_import_cycles() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(stdout.contains("no import cycles"), "{stdout}");
+}
+
+/// The core (`cargo build --no-default-features`) leaves the lab's crates out: plotters, the
+/// lab's charts, comes only with the feature `lab` (src/lab/). (dejavu stays: the window HUD's
+/// font is core.)
+#[test]
+fn the_core_builds_without_the_labs_crates() {
+    let tree = |features: &[&str]| {
+        let run = Command::new(env!("CARGO"))
+            .args(["tree", "-e", "normal", "--prefix", "none", "--offline"])
+            .args(features)
+            .arg("--manifest-path")
+            .arg(repo_path("Cargo.toml"))
+            .output()
+            .expect("cargo runs");
+        assert!(
+            run.status.success(),
+            "cargo tree {features:?} failed:\n{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        String::from_utf8_lossy(&run.stdout)
+            .lines()
+            .filter_map(|l| l.split_whitespace().next().map(String::from))
+            .collect::<std::collections::BTreeSet<String>>()
+    };
+    const LAB_ONLY: [&str; 1] = ["plotters"];
+    let lab = tree(&[]);
+    for name in LAB_ONLY {
+        assert!(
+            lab.contains(name),
+            "the default build (with the lab) no longer has {name}: update LAB_ONLY"
+        );
+    }
+    let core = tree(&["--no-default-features"]);
+    for name in LAB_ONLY {
+        assert!(
+            !core.contains(name),
+            "the core (--no-default-features) depends on {name}, which only the lab may use: \
+             make it optional in Cargo.toml (`lab = [\"dep:{name}\"]`) and keep its users in \
+             src/lab/ ({} crates in the core)",
+            core.len()
+        );
+    }
+}
+
+/// No core module uses the lab: only src/lab/ itself and the binary's lab commands name it.
+#[test]
+fn no_core_module_uses_the_lab() {
+    fn visit(dir: &std::path::Path, found: &mut Vec<String>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            let rel = path.strip_prefix(repo_path("src")).unwrap().to_owned();
+            if rel.starts_with("lab") || rel == std::path::Path::new("cli/lab.rs") {
+                continue;
+            }
+            if path.is_dir() {
+                visit(&path, found);
+            } else if path.extension().is_some_and(|e| e == "rs") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                for (i, line) in text.lines().enumerate() {
+                    let code = line.split("//").next().unwrap_or("");
+                    if code.contains("crate::lab") || code.contains("vlf::lab") {
+                        found.push(format!("src/{}:{}: {}", rel.display(), i + 1, line.trim()));
+                    }
+                }
+            }
+        }
+    }
+    let mut found = Vec::new();
+    visit(&repo_path("src"), &mut found);
+    assert!(
+        found.is_empty(),
+        "the core uses the lab (feature `lab`, off in a core build); move what it needs out of \
+         src/lab/ into the core:\n{}",
+        found.join("\n")
+    );
 }

@@ -7,6 +7,7 @@ use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::transport::Propagator;
 use vlf::propagate::{BatchPlan, PropagationParams};
 use vlf::scene::Scene;
@@ -157,12 +158,12 @@ fn a_memory_budget_batches_the_directions_and_keeps_the_result() {
     let scene = room(dir.path(), false);
     // 81 directions x 256^2 cells: 42 MiB of cell tables alone
     let p = params(4, 256);
-    let (free, _, free_report) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let (free, _, free_report) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();
     let budget = PropagationParams {
         memory_budget_mib: Some(12),
         ..p.clone()
     };
-    let (tight, _, report) = vlf::propagate::propagate(gpu(), &scene, &budget, false).unwrap();
+    let (tight, _, report) = vlf::propagate::propagate(gpu(), &scene, &budget, &Silent).unwrap();
     println!(
         "free: {} batch(es), {:.1} MiB; 12 MiB budget: {} batches of {}, {:.1} MiB",
         free_report.direction_batches,
@@ -218,7 +219,7 @@ fn visibility_larger_than_one_binding_is_split_into_batches() {
     };
     let ctx = gpu();
     let cell_table = p.direction_count() as u64 * 512 * 512 * 4;
-    let (lf, _, report) = vlf::propagate::propagate(ctx.clone(), &scene, &p, false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(ctx.clone(), &scene, &p, &Silent).unwrap();
     println!(
         "{} directions x 512^2: {} batch(es) of {} (binding limit {} MiB)",
         report.directions,
@@ -256,7 +257,7 @@ fn a_budget_too_small_for_the_radiance_is_refused_before_allocating() {
         memory_budget_mib: Some(1),
         ..params(4, 32)
     };
-    let Err(err) = vlf::propagate::propagate(gpu(), &scene, &p, false) else {
+    let Err(err) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent) else {
         panic!("a 1 MiB budget was accepted")
     };
     let err = err.to_string();

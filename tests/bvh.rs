@@ -203,15 +203,16 @@ fn pathological_input_stays_within_the_traversal_stack() {
 /// The renderer's eye rays through the BVH see what testing every triangle sees: the generated
 /// classroom (about 1,100 triangles) rendered both ways on the GPU. This binary owns the
 /// `VLF_EXHAUSTIVE_TRIANGLES` hook; no other test here renders.
+#[cfg(feature = "lab")] // the classroom comes from the lab's generator
 #[test]
 fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let dir = tempfile::tempdir().unwrap();
-    let options = vlf::generate::GenerateOptions {
-        kind: vlf::generate::SceneKind::Classroom,
+    let options = vlf::lab::generate::GenerateOptions {
+        kind: vlf::lab::generate::SceneKind::Classroom,
         size: 1000,
         mirrors: true,
     };
-    let generated = vlf::generate::generate(&options, dir.path()).unwrap();
+    let generated = vlf::lab::generate::generate(&options, dir.path()).unwrap();
     let scene = vlf::scene::Scene::load(&generated.scene).unwrap();
     let params = vlf::propagate::PropagationParams {
         geodesic_frequency: 4,
@@ -229,7 +230,8 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let ctx = vlf::gpu::GpuContext::new().expect(
         "a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)",
     );
-    let (lf, resident, _) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(ctx, &scene, &params, &vlf::progress::Silent).unwrap();
     let render = |threshold: usize| {
         std::env::set_var("VLF_EXHAUSTIVE_TRIANGLES", threshold.to_string());
         let mut renderer =

@@ -9,6 +9,7 @@ use glam::Vec3;
 use std::path::Path;
 use vlf::display::projection::{off_axis, project_to_pixel};
 use vlf::display::DisplayConfig;
+use vlf::progress::Silent;
 
 fn config(rel: &str) -> std::path::PathBuf {
     repo_path("config/displays").join(rel)
@@ -178,7 +179,7 @@ fn headless_cave_renders_every_wall_and_eye() {
         direct_samples: 16,
         mirror_direct: false,
     };
-    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let out = dir.path().join("out");
     let report =
         vlf::display::headless::run(&lf, &resident, &display, &path, 3, &out, true).unwrap();
@@ -245,7 +246,7 @@ output = {{ monitor = 0 }}
         direct_samples: 16,
         mirror_direct: false,
     };
-    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the tracker streams head poses all through the run
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let stop_sender = stop.clone();

@@ -4,6 +4,7 @@
 mod common;
 use common::*;
 use glam::DVec3;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -42,7 +43,7 @@ fn no_emitter_gives_a_clear_message_and_a_black_result() {
         }],
         "",
     );
-    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert!(
         report.warnings.iter().any(|w| w.contains("no emitter")),
         "{:?}",
@@ -66,7 +67,7 @@ fn sky_only_and_one_triangle() {
         }],
         "[sky]\nradiance = [1.0, 1.0, 1.0]\n",
     );
-    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert!(report.converged && lf.total.iter().flatten().all(|x| x.is_finite()));
     assert!(
         lf.total.iter().any(|t| t[0] > 0.1),
@@ -90,7 +91,7 @@ fn sky_only_and_one_triangle() {
     )
     .unwrap();
     let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     // nothing to bounce off: it shows its own emission
     let lit: Vec<f32> = lf.total.iter().map(|t| t[0]).filter(|v| *v > 0.0).collect();
     assert!(
@@ -182,8 +183,8 @@ fn a_million_to_one_dynamic_range_leaves_the_dim_room_unaffected() {
     let both = two_rooms(dir.path(), bright, dim, true);
     let dir2 = tempfile::tempdir().unwrap();
     let alone = two_rooms(dir2.path(), bright, dim, false);
-    let (a, _, ra) = vlf::propagate::propagate(gpu(), &both, &small(), false).unwrap();
-    let (b, _, _) = vlf::propagate::propagate(gpu(), &alone, &small(), false).unwrap();
+    let (a, _, ra) = vlf::propagate::propagate(gpu(), &both, &small(), &Silent).unwrap();
+    let (b, _, _) = vlf::propagate::propagate(gpu(), &alone, &small(), &Silent).unwrap();
     assert!(ra.converged);
     assert!(
         a.total.iter().flatten().all(|x| x.is_finite() && *x >= 0.0),
@@ -260,7 +261,7 @@ fn faces_smaller_than_a_cell_are_reported_and_still_lit() {
         ],
         "",
     );
-    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert!(
         report
             .warnings
@@ -302,7 +303,7 @@ fn the_layer_estimate_matches_what_visibility_builds() {
     let prepared = vlf::prepare::PreparedScene::new(&scene, params.texel_density).unwrap();
     let directions = vlf::lightfield::directions::DirectionSet::geodesic(params.geodesic_frequency);
     let estimate = vlf::propagate::estimate_memory(&prepared, &directions, &params);
-    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let ratio = estimate.layer_bytes as f64 / (report.layers * 8) as f64;
     println!(
         "estimated {} layers, built {}",
@@ -385,8 +386,8 @@ fn duplicated_coplanar_faces_do_not_flicker_between_views_or_runs() {
             })
             .collect()
     };
-    let (a, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
-    let (b, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (a, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
+    let (b, _, _) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     let (va, vb) = (views(&a), views(&b));
     for (x, y) in va.iter().zip(&vb) {
         assert!(x.pixels == y.pixels, "two runs render differently");

@@ -7,6 +7,7 @@
 mod common;
 use common::*;
 use std::path::{Path, PathBuf};
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -48,8 +49,8 @@ fn obj2gltf(scene: &str, out: &Path, glb: bool) -> PathBuf {
 
 fn assert_same_light_field(a: &Scene, b: &Scene) {
     assert_eq!(a.triangles.len(), b.triangles.len());
-    let (la, _, _) = vlf::propagate::propagate(gpu(), a, &small(), false).unwrap();
-    let (lb, _, _) = vlf::propagate::propagate(gpu(), b, &small(), false).unwrap();
+    let (la, _, _) = vlf::propagate::propagate(gpu(), a, &small(), &Silent).unwrap();
+    let (lb, _, _) = vlf::propagate::propagate(gpu(), b, &small(), &Silent).unwrap();
     assert_eq!(la.total.len(), lb.total.len(), "atlas sizes differ");
     let mut worst = 0.0f32;
     for (x, y) in la.total.iter().zip(&lb.total) {
@@ -459,7 +460,7 @@ fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
         texels_per_unit >= vlf::scene::texels::TEXTURE_TEXELS_PER_UNIT,
         "{texels_per_unit}"
     );
-    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert_eq!(report.host_textures, m);
     assert!(report.texture_bytes > 0);
     assert!(
@@ -470,9 +471,10 @@ fn a_hundred_and_twenty_4k_textures_are_resolved_to_texel_density() {
 }
 
 /// `vlf generate --format gltf` writes the scene its OBJ is: the same light field.
+#[cfg(feature = "lab")] // the classroom comes from the lab's generator
 #[test]
 fn generated_classroom_as_gltf_gives_the_obj_light_field() {
-    use vlf::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};
+    use vlf::lab::generate::{generate_as, GenerateOptions, MeshFormat, SceneKind};
     let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
     let options = GenerateOptions {
         kind: SceneKind::Classroom,

@@ -6,6 +6,7 @@ use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::cpu::{self, specular as cpu_specular};
 use vlf::propagate::transport::Propagator;
 use vlf::propagate::{gpu_directions, initial_radiance, PropagationParams};
@@ -296,8 +297,8 @@ fn propagation_is_bit_for_bit_repeatable() {
         direct_samples: 0,
         mirror_direct: false,
     };
-    let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
-    let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
+    let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();
+    let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();
     assert_eq!(ra.iterations, rb.iterations);
     assert_eq!(ra.final_residual.to_bits(), rb.final_residual.to_bits());
     let bits = |t: &[[f32; 4]]| t.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();

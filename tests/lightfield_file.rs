@@ -3,6 +3,7 @@
 mod common;
 use common::*;
 use vlf::lightfield::{file, LightField};
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -21,7 +22,7 @@ fn small_light_field() -> (Scene, LightField) {
         direct_samples: 16,
         mirror_direct: false,
     };
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     (scene, lf)
 }
 

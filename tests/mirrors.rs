@@ -6,6 +6,7 @@ mod common;
 use common::*;
 use glam::{DVec3, Vec3};
 use vlf::gpu::MemoryLedger;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::render::Renderer;
 use vlf::scene::{Camera, Scene};
@@ -88,9 +89,13 @@ fn closed_box(mirror_direct: bool, mixed: f32, texel_bound: f32, pixel_bound: f3
         ),
     );
     let scene = Scene::load(&path).unwrap();
-    let (lf, resident, report) =
-        vlf::propagate::propagate(ctx, &scene, &params_with(4, 32, 8.0, mirror_direct), false)
-            .unwrap();
+    let (lf, resident, report) = vlf::propagate::propagate(
+        ctx,
+        &scene,
+        &params_with(4, 32, 8.0, mirror_direct),
+        &Silent,
+    )
+    .unwrap();
     assert!(report.converged && report.non_diffuse_elements > 0);
     let expected = le / (1.0 - rho);
     // the diffuse walls' texels
@@ -178,7 +183,7 @@ fn a_mirror_shows_the_emitter_where_geometry_says() {
     );
     let scene = Scene::load(&path).unwrap();
     let (lf, resident, _) =
-        vlf::propagate::propagate(ctx, &scene, &params(12, 128, 16.0), false).unwrap();
+        vlf::propagate::propagate(ctx, &scene, &params(12, 128, 16.0), &Silent).unwrap();
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger).unwrap();
     let cam = Camera {
@@ -238,7 +243,7 @@ fn cornell_mirror_renders_finite_values_and_shows_the_mirror() {
         "both scenes share the front camera"
     );
     let (lf, resident, report) =
-        vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), false).unwrap();
+        vlf::propagate::propagate(ctx, &scene, &params(4, 32, 8.0), &Silent).unwrap();
     assert!(report.non_diffuse_elements > 0 && report.tile_bytes > 0);
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger).unwrap();
@@ -269,7 +274,7 @@ fn a_diffuse_only_scene_allocates_no_tiles_and_binds_no_view_dependent_path() {
     let ctx = gpu();
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let (lf, resident, report) =
-        vlf::propagate::propagate(ctx, &scene, &params(3, 32, 8.0), false).unwrap();
+        vlf::propagate::propagate(ctx, &scene, &params(3, 32, 8.0), &Silent).unwrap();
     assert_eq!((report.non_diffuse_elements, report.tile_bytes), (0, 0));
     assert!(lf.tiles.is_none() && resident.tiles.is_none());
     assert!(!report

@@ -14,6 +14,7 @@ use common::{gpu, repo_path};
 use std::path::Path;
 use std::process::Command;
 use vlf::gpu::MemoryLedger;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::render::{image_io, Frame, Renderer};
 use vlf::scene::Scene;
@@ -97,7 +98,7 @@ fn path_tracers_agree(scene_toml: &str, camera: &str, spp: u32) {
     let (m, m_var) = mitsuba(scene_toml, camera, size, spp, dir.path());
     let scene = Scene::load(&repo_path(scene_toml)).unwrap();
     let cam = scene.camera(Some(camera)).unwrap().clone();
-    let v = vlf::reference::render(gpu(), &scene, &cam, [size, size], spp, 1, false).unwrap();
+    let v = vlf::reference::render(gpu(), &scene, &cam, [size, size], spp, 1, &Silent).unwrap();
     let c = vlf::metrics::compare(&v.mean, &m).unwrap();
     let noise = noise_rel_mse(&v.variance, &m_var, &m);
     let ratio = mean_ratio(&v.mean, &m);
@@ -143,7 +144,7 @@ fn the_light_field_agrees_with_mitsuba_on_cornell() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let cam = scene.camera(Some("front")).unwrap().clone();
     let (lf, resident, _) =
-        vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), false).unwrap();
+        vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), &Silent).unwrap();
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
     let image = renderer
         .render_antialiased(&cam, size, size, vlf::render::STILL_SAMPLES)

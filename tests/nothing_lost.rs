@@ -6,6 +6,7 @@ use common::*;
 use std::process::Command;
 use std::time::{Duration, Instant};
 use vlf::lightfield::file;
+use vlf::progress::Silent;
 use vlf::propagate::checkpoint::CheckpointPlan;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
@@ -87,7 +88,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         mirror_direct: false,
     };
     let (whole, _, whole_report) =
-        vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
+        vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();
     assert!(whole_report.iterations >= 4);
 
     let dir = tempfile::tempdir().unwrap();
@@ -105,7 +106,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         ctx.clone(),
         &scene,
         &cut,
-        false,
+        &Silent,
         Some(&CheckpointPlan {
             resume: false,
             ..plan.clone()
@@ -119,7 +120,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
     patched.meta.params = params.clone();
     patched.save(&plan.path).unwrap();
     let (resumed, _, report) =
-        vlf::propagate::propagate_with(ctx.clone(), &scene, &params, false, Some(&plan)).unwrap();
+        vlf::propagate::propagate_with(ctx.clone(), &scene, &params, &Silent, Some(&plan)).unwrap();
     assert_eq!(report.iterations, whole_report.iterations);
     assert!(report.warnings.iter().any(|w| w.contains("resumed")));
     let bits = |t: &[[f32; 4]]| t.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -134,7 +135,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         texel_density: 9.0,
         ..params
     };
-    let e = vlf::propagate::propagate_with(ctx, &scene, &other, false, Some(&plan))
+    let e = vlf::propagate::propagate_with(ctx, &scene, &other, &Silent, Some(&plan))
         .err()
         .unwrap()
         .to_string();

@@ -11,6 +11,7 @@ mod common;
 use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::{DVec2, DVec3};
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -102,7 +103,7 @@ fn occluded_floor() -> Vec<Texel> {
     let path = write_scene(dir.path(), &obj, &materials, "");
     let scene = Scene::load(&path).unwrap();
     let p = params();
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let material = |name: &str| {
         prepared
@@ -234,7 +235,7 @@ fn texels_under_a_box_standing_on_the_floor_are_marked_and_no_others() {
     let path = write_scene(dir.path(), &obj, &materials, "");
     let scene = Scene::load(&path).unwrap();
     let p = params();
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let floor = prepared
         .materials

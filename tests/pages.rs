@@ -7,6 +7,7 @@
 mod common;
 use common::*;
 use glam::DVec3;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -89,7 +90,7 @@ fn paged_mirror_tiles_give_the_one_page_result() {
             pages,
         )
     };
-    let (one, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (one, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let (one_image, one_pages) = render(&one);
     let cells = one.tiles.as_ref().unwrap().total.len();
     // pages of a third of the cells, rounded to whole tiles
@@ -97,7 +98,7 @@ fn paged_mirror_tiles_give_the_one_page_result() {
     let texel_page_bytes = (one.total.len() as u64 * 16 / 3).next_multiple_of(16);
     std::env::set_var("VLF_TILE_PAGE_BYTES", page_bytes.to_string());
     std::env::set_var("VLF_TEXEL_PAGE_BYTES", texel_page_bytes.to_string());
-    let (paged, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (paged, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let (paged_image, paged_pages) = render(&paged);
     std::env::remove_var("VLF_TILE_PAGE_BYTES");
     std::env::remove_var("VLF_TEXEL_PAGE_BYTES");

@@ -6,6 +6,7 @@ use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::transport::Propagator;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
@@ -85,13 +86,14 @@ fn furnace_matches_le_over_one_minus_rho_per_bounce_and_converged() {
             accelerate: false,
             ..params.clone()
         };
-        let (_, _, report) = vlf::propagate::propagate(ctx.clone(), &scene, &plain, false).unwrap();
+        let (_, _, report) =
+            vlf::propagate::propagate(ctx.clone(), &scene, &plain, &Silent).unwrap();
         assert!(
             report.converged,
             "rho {rho}: residual {}",
             report.final_residual
         );
-        let (lf, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &params, false).unwrap();
+        let (lf, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();
         let expected = le / (1.0 - rho);
         let worst = worst_deviation(&prepared, &lf.total, expected);
         assert!(
@@ -241,7 +243,7 @@ fn a_floor_under_a_uniform_sky_reflects_rho_times_the_sky() {
     );
     let scene = Scene::load(&path).unwrap();
     let params = small_params();
-    let (lf, _, report) = vlf::propagate::propagate(ctx, &scene, &params, false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(ctx, &scene, &params, &Silent).unwrap();
     assert!(report.sky && report.converged);
     let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
     for (c, s) in sky.iter().enumerate() {
@@ -263,8 +265,9 @@ fn perturbed_directions_keep_the_furnace_and_the_memory() {
         perturb: 3,
         ..base.clone()
     };
-    let (_, _, one) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
-    let (lf, _, three) = vlf::propagate::propagate(ctx.clone(), &scene, &perturbed, false).unwrap();
+    let (_, _, one) = vlf::propagate::propagate(ctx.clone(), &scene, &base, &Silent).unwrap();
+    let (lf, _, three) =
+        vlf::propagate::propagate(ctx.clone(), &scene, &perturbed, &Silent).unwrap();
     let prepared = PreparedScene::new(&scene, base.texel_density).unwrap();
     let worst = worst_deviation(&prepared, &lf.total, 2.0);
     assert!(
@@ -298,12 +301,12 @@ fn perturbed_directions_change_an_open_scene() {
         direct_samples: 64,
         mirror_direct: false,
     };
-    let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, false).unwrap();
+    let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, &Silent).unwrap();
     let (b, _, _) = vlf::propagate::propagate(
         ctx.clone(),
         &scene,
         &PropagationParams { perturb: 4, ..base },
-        false,
+        &Silent,
     )
     .unwrap();
     let differing = a

@@ -14,6 +14,7 @@ mod common;
 use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::render::Renderer;
 use vlf::scene::Scene;
@@ -67,7 +68,7 @@ fn floor_error(direct_samples: u32) -> f64 {
     );
     let scene = Scene::load(&path).unwrap();
     let p = params(direct_samples);
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let light = prepared
         .materials
@@ -121,7 +122,7 @@ fn propagate_and_renderer(
     vlf::lightfield::ResidentLightField,
 ) {
     let scene = Scene::load(path).unwrap();
-    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params(16), false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params(16), &Silent).unwrap();
     (lf, resident)
 }
 
@@ -414,7 +415,7 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
         mirror_direct: true,
         ..params(direct_samples)
     };
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();
     let prepared = PreparedScene::new(&scene, p.texel_density).unwrap();
     let material = |name: &str| scene.materials.iter().position(|m| m.name == name).unwrap() as u32;
     let (floor, light) = (material("floor"), material("light"));

@@ -7,6 +7,7 @@ use common::*;
 use proptest::prelude::*;
 use std::path::Path;
 use vlf::lightfield::file;
+use vlf::progress::Silent;
 use vlf::scene::{Scene, SceneFile};
 
 fn valid_toml() -> String {
@@ -94,7 +95,7 @@ fn every_damage_to_a_light_field_file_is_caught() {
         direct_samples: 16,
         mirror_direct: false,
     };
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let bytes = file::encode(&lf);
     let mut runner = proptest::test_runner::TestRunner::new(ProptestConfig {
         cases: 512,

@@ -5,6 +5,7 @@ mod common;
 use common::*;
 use glam::DVec3;
 use vlf::gpu::MemoryLedger;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::render::Renderer;
 use vlf::scene::{Camera, Scene};
@@ -35,7 +36,7 @@ fn path_tracer_furnace_matches_le_over_one_minus_rho() {
         fov_y_deg: 90.0,
         size: [64, 64],
     };
-    let r = vlf::reference::render(gpu(), &scene, &cam, [64, 64], 256, 7, false).unwrap();
+    let r = vlf::reference::render(gpu(), &scene, &cam, [64, 64], 256, 7, &Silent).unwrap();
     let expected = (le / (1.0 - rho)) as f64;
     let mean = r.mean.pixels.iter().map(|p| p[1] as f64).sum::<f64>() / r.mean.pixels.len() as f64;
     assert!(
@@ -60,9 +61,9 @@ fn path_tracer_furnace_matches_le_over_one_minus_rho() {
 fn path_tracer_is_repeatable_and_seeded() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let cam = scene.camera(Some("front")).unwrap().clone();
-    let a = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, false).unwrap();
-    let b = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, false).unwrap();
-    let c = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 2, false).unwrap();
+    let a = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, &Silent).unwrap();
+    let b = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 1, &Silent).unwrap();
+    let c = vlf::reference::render(gpu(), &scene, &cam, [32, 32], 8, 2, &Silent).unwrap();
     assert_eq!(a.mean.pixels, b.mean.pixels);
     assert_ne!(a.mean.pixels, c.mean.pixels);
 }
@@ -74,9 +75,10 @@ fn light_field_is_within_relmse_0_02_of_the_path_tracer_on_cornell() {
     // images cover each pixel the same way
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let cam = scene.camera(Some("front")).unwrap().clone();
-    let reference = vlf::reference::render(gpu(), &scene, &cam, [128, 128], 512, 1, false).unwrap();
+    let reference =
+        vlf::reference::render(gpu(), &scene, &cam, [128, 128], 512, 1, &Silent).unwrap();
     let (lf, resident, _) =
-        vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), false).unwrap();
+        vlf::propagate::propagate(gpu(), &scene, &PropagationParams::software(), &Silent).unwrap();
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
     let image = renderer.render_antialiased(&cam, 128, 128, 4).unwrap();
     let c = vlf::metrics::compare(&image, &reference.mean).unwrap();

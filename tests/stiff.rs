@@ -6,6 +6,7 @@ use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::propagate::transport::Propagator;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
@@ -47,7 +48,7 @@ fn stiff_furnaces_converge_fast_with_acceleration() {
     for rho in [0.95f32, 0.99, 0.999] {
         let dir = tempfile::tempdir().unwrap();
         let scene = furnace(dir.path(), rho);
-        let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &params(), false).unwrap();
+        let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &params(), &Silent).unwrap();
         let expected = 1.0 / (1.0 - rho as f64);
         let plain = (params().tolerance.ln() / (rho as f64).ln()).ceil() as u32;
         let mut worst = 0.0f64;

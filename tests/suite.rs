@@ -5,7 +5,8 @@
 
 mod common;
 use common::*;
-use vlf::generate::{generate, GenerateOptions, SceneKind};
+use vlf::lab::generate::{generate, GenerateOptions, SceneKind};
+use vlf::progress::Silent;
 
 #[test]
 fn generated_scenes_have_about_the_asked_size_and_load() {
@@ -56,7 +57,7 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
 fn quick_suite_runs_and_reports_every_scene() {
     let dir = tempfile::tempdir().unwrap();
     let root = repo_path("");
-    let report = vlf::suite::run(gpu(), &root, dir.path(), true, 3, false).unwrap();
+    let report = vlf::lab::suite::run(gpu(), &root, dir.path(), true, 3, &Silent).unwrap();
     let names: Vec<&str> = report.entries.iter().map(|e| e.name.as_str()).collect();
     println!("{names:?}");
     assert!(names.len() >= 10, "{names:?}");
@@ -69,7 +70,7 @@ fn quick_suite_runs_and_reports_every_scene() {
     assert_eq!(report.targets.len(), 5);
     let json = dir.path().join("suite.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report).unwrap()).unwrap();
-    let again = vlf::suite::SuiteReport::load(&json).unwrap();
+    let again = vlf::lab::suite::SuiteReport::load(&json).unwrap();
     assert_eq!(again.markdown(), report.markdown());
     let md = report.markdown();
     assert!(

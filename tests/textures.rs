@@ -3,6 +3,7 @@
 
 mod common;
 use common::*;
+use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;
 use vlf::scene::Scene;
 
@@ -47,7 +48,7 @@ fn textured_room_shows_its_textures_in_the_light_field() {
     let scene = Scene::load(&repo_path("scenes/textured-room/scene.toml")).unwrap();
     assert_eq!(scene.textures.len(), 3);
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (lf, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert!(report.texture_bytes > 0);
     // the light panel's stripes (map_Ke): warm and cool texels, as in panel.png
     let panel = texels_of(&lf, &scene, "panel");
@@ -79,7 +80,7 @@ fn textured_room_shows_its_textures_in_the_light_field() {
 fn an_untextured_scene_allocates_no_texture_storage() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     assert!(scene.textures.is_empty());
-    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), false).unwrap();
+    let (_, _, report) = vlf::propagate::propagate(gpu(), &scene, &small(), &Silent).unwrap();
     assert_eq!(report.texture_bytes, 0);
     assert!(!report
         .propagation_memory

@@ -17,6 +17,7 @@ use vlf::display::projection::project_to_pixel;
 use vlf::display::tracking::Pose;
 use vlf::display::warp::{load_outputs, Grid, OutputSpec};
 use vlf::display::DisplayConfig;
+use vlf::progress::Silent;
 use vlf::render::Frame;
 
 /// A test image whose every pixel differs: smooth ramps plus a hash, linear radiance.
@@ -608,7 +609,7 @@ fn headless_writes_every_projector_and_draws_the_wand() {
         direct_samples: 16,
         mirror_direct: false,
     };
-    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, false).unwrap();
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the shipped wall at small pixels, with a third, identity projector
     let text = std::fs::read_to_string(shipped("wall-2projectors.toml")).unwrap();
     let text = text

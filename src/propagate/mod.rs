@@ -14,6 +14,7 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuFace, NO_FACE};
 use crate::lightfield::directions::DirectionSet;
 use crate::prepare::PreparedScene;
+use crate::progress::Progress;
 
 pub use crate::lightfield::directions::gpu_directions;
 pub use crate::params::PropagationParams;
@@ -208,18 +209,22 @@ pub fn plan_batches(
 /// Depth tolerance (normalised units) within which layers count as coplanar.
 pub const DEPTH_EPSILON: f32 = 2e-5;
 
+/// Steps of the propagation's progress: the fraction of the way, in log residual, from 1 to
+/// the tolerance.
+const PROGRESS_STEPS: u64 = 1000;
+
 type Propagated = (
     crate::lightfield::LightField,
     crate::lightfield::ResidentLightField,
     report::PropagationReport,
 );
 
-/// Propagate a scene to convergence. `progress` shows a bar on the terminal.
+/// Propagate a scene to convergence, reporting each iteration to `progress`.
 pub fn propagate(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Propagated> {
     propagate_with(ctx, scene, params, progress, None)
 }
@@ -229,44 +234,30 @@ pub fn propagate_with(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
-    progress: bool,
+    progress: &dyn Progress,
     plan: Option<&checkpoint::CheckpointPlan>,
 ) -> Result<Propagated> {
     use std::time::Instant;
     params.validate()?;
     let t0 = Instant::now();
-    let prepared = PreparedScene::new(scene, params.texel_density)?;
-    let directions = DirectionSet::geodesic(params.geodesic_frequency);
-    let estimate = estimate_memory(&prepared, &directions, params);
-    check_memory(&ctx, &estimate)?;
-    let mut prop =
-        transport::Propagator::new(ctx.clone(), &prepared, params, &directions, scene.sky, None)?;
+    let job = Job::prepare(scene, params)?;
+    check_memory(
+        &ctx,
+        &estimate_memory(&job.prepared, &job.directions, params),
+    )?;
+    let mut prop = transport::Propagator::new(
+        ctx.clone(),
+        &job.prepared,
+        params,
+        &job.directions,
+        scene.sky,
+        None,
+    )?;
     let batch_plan = prop.plan.clone();
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
 
-    let bar = if progress {
-        indicatif::ProgressBar::new(1000)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {elapsed_precise} [{bar:40}] {msg}")
-            .unwrap()
-            .progress_chars("=> "),
-    );
-    bar.set_message(match batch_plan.resident() {
-        true => format!(
-            "visibility: {} directions x {}^2 cells",
-            directions.len(),
-            params.grid_resolution
-        ),
-        false => format!(
-            "{} batches of {} directions (rebuilt every iteration)",
-            batch_plan.batches, batch_plan.batch_size
-        ),
-    });
-    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    progress.begin(PROGRESS_STEPS, "", &job.first_stage(&batch_plan));
     let t1 = Instant::now();
     // batched directions build their lists inside every iteration instead
     let (layers, visibility_gpu_ms) = match batch_plan.resident() {
@@ -278,244 +269,413 @@ pub fn propagate_with(
     };
     let visibility_seconds = t1.elapsed().as_secs_f64();
 
-    let mut warnings = prepared.warnings.clone();
-    if let Some(reason) = &batch_plan.reason {
-        warnings.push(format!(
-            "visibility in {} batches of {} directions, rebuilt every iteration: {reason}",
-            batch_plan.batches, batch_plan.batch_size
-        ));
-    }
-    // faces smaller than a grid cell: no cell line may cross them, so their texels rely on the
-    // depth fallback; say how many and how much of the scene they are
-    let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
-    let total_area: f64 = prepared
-        .faces
-        .iter()
-        .filter(|f| !f.is_back)
-        .map(|f| f.area)
-        .sum();
-    let small: Vec<f64> = prepared
-        .faces
-        .iter()
-        .filter(|f| !f.is_back && f.area < cell_area)
-        .map(|f| f.area)
-        .collect();
-    if !small.is_empty() {
-        warnings.push(format!(
-            "{} face(s), {:.3}% of the surface area, are smaller than one grid cell ({} cells per side): their light arrives through the depth fallback; raise --grid to resolve them",
-            small.len(),
-            100.0 * small.iter().sum::<f64>() / total_area.max(1e-300),
-            params.grid_resolution
-        ));
-    }
+    let mut warnings = job.setup_warnings(&batch_plan);
     let t2 = Instant::now();
-    let mut per_iteration: Vec<transport::IterationStats> = Vec::new();
-    let mut residual = 1.0;
-    let mut tail: Option<Tail> = None;
-    if let Some(plan) = plan.filter(|p| p.resume && p.path.exists()) {
-        let cp = checkpoint::Checkpoint::load(&plan.path)?;
-        cp.check(&scene.hash, params, &plan.path)?;
-        prop.restore(&cp)?;
-        per_iteration = cp
-            .meta
-            .residuals
-            .iter()
-            .enumerate()
-            .map(|(i, &r)| transport::IterationStats {
-                iteration: i as u32 + 1,
-                residual: r,
-                gpu_ms: None,
-                wall_ms: 0.0,
-            })
-            .collect();
-        residual = per_iteration.last().map_or(1.0, |s| s.residual);
-        warnings.push(format!(
-            "resumed from {} at iteration {}",
-            plan.path.display(),
-            cp.meta.iteration
-        ));
-    }
-    if prop.emitted_power <= 0.0 && scene.sky.is_none() {
-        warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
-        residual = 0.0;
-    } else {
-        // written so that a NaN residual keeps iterating (and is caught by the iteration's checks)
-        #[allow(clippy::neg_cmp_op_on_partial_ord)]
-        let unconverged = |residual: f64| !(residual < params.tolerance);
-        while prop.iteration < params.max_iterations && unconverged(residual) {
-            let stats = prop.iterate()?;
-            residual = stats.residual;
-            let done = (residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
-            bar.set_position((done * 1000.0) as u64);
-            bar.set_message(format!(
-                "iteration {} residual {:.2e} (target {:.0e})",
-                stats.iteration, residual, params.tolerance
-            ));
-            let ratio = per_iteration
-                .last()
-                .map(|p| residual / p.residual.max(1e-300));
-            let previous_ratio = per_iteration
-                .len()
-                .checked_sub(2)
-                .map(|i| per_iteration[i + 1].residual / per_iteration[i].residual.max(1e-300));
-            per_iteration.push(stats);
-            if let Some(plan) = plan.filter(|p| p.every > 0 && prop.iteration % p.every == 0) {
-                checkpoint::Checkpoint {
-                    meta: checkpoint::CheckpointMeta {
-                        vlf_version: env!("CARGO_PKG_VERSION").into(),
-                        scene_hash: scene.hash.clone(),
-                        params: params.clone(),
-                        iteration: prop.iteration,
-                        emitted_power: prop.emitted_power,
-                        residuals: per_iteration.iter().map(|s| s.residual).collect(),
-                    },
-                    unshot: prop.read_unshot()?,
-                    total: prop.read_total()?,
-                    tile_unshot: prop.read_tile_unshot()?,
-                    tile_total: prop.read_tile_total()?,
-                }
-                .save(&plan.path)?;
-            }
-            if residual < params.tolerance {
-                break;
-            }
-            // the unshot state decays geometrically once its shape settles: when the decay
-            // ratio is stable enough that the tail it predicts is known to the tolerance, add
-            // that tail and stop. The tail is U r/(1-r); an error dr in r moves it by
-            // U dr/(1-r)^2, which relative to the converged total (about emitted/(1-r)) is
-            // residual * dr / (1-r).
-            if let (true, Some(r), Some(r0)) = (
-                params.accelerate && per_iteration.len() >= 3,
-                ratio,
-                previous_ratio,
-            ) {
-                if r > 0.0 && r < 0.9999 {
-                    let uncertainty = residual * (r - r0).abs() / (1.0 - r);
-                    if uncertainty < params.tolerance {
-                        prop.add_tail(r / (1.0 - r))?;
-                        tail = Some(Tail {
-                            ratio: r,
-                            factor: r / (1.0 - r),
-                            uncertainty,
-                            plain_iterations_estimate: plain_estimate(
-                                residual,
-                                r,
-                                per_iteration.len() as u32,
-                                params.tolerance,
-                            ),
-                        });
-                        residual = uncertainty;
-                        break;
-                    }
-                }
-            }
-        }
-    }
+    let shooting = job.shoot(&mut prop, progress, plan, &mut warnings)?;
     ctx.wait()?;
     let propagation_seconds = t2.elapsed().as_secs_f64();
-    bar.finish_and_clear();
-    if residual >= params.tolerance {
+    progress.finish();
+    if shooting.residual >= params.tolerance {
         warnings.push(format!(
-            "stopped at the iteration cap ({}) with residual {residual:.2e} above the tolerance {:.0e}; raise --max-iterations",
-            params.max_iterations, params.tolerance
+            "stopped at the iteration cap ({}) with residual {:.2e} above the tolerance {:.0e}; raise --max-iterations",
+            params.max_iterations, shooting.residual, params.tolerance
         ));
     }
-    let total = prop.read_total()?;
-    let faces = prop.faces.clone();
-    let tiles = match prop.tile_layout() {
-        Some(layout) => Some(crate::lightfield::TileField {
-            rects: layout.rects.clone(),
-            index: layout.index.clone(),
-            total: prop.read_tile_total()?,
-            face_count: layout.faces.len() as u32,
-        }),
-        None => None,
-    };
-    let non_diffuse_elements = tiles.as_ref().map_or(0, |t| t.total.len() as u64);
-    // everything allocated for tiles while propagating (radiance copies, weights, tables)
-    let tile_bytes: u64 = prop
-        .ledger
-        .entries()
-        .iter()
-        .filter(|(n, _)| n.contains("tile"))
-        .map(|(_, b)| b)
-        .sum();
-    let texture_bytes: u64 = prop
-        .ledger
-        .entries()
-        .iter()
-        .filter(|(n, _)| n.starts_with("texture"))
-        .map(|(_, b)| b)
-        .sum();
-    let propagation_memory_bytes = prop.memory_bytes();
-    let propagation_memory = report::memory_items(prop.ledger.entries());
-    let iterations = prop.iteration;
-    let layers = layers.max(prop.largest_batch_layers);
-    let render_vertices = crate::lightfield::render_vertices(&prepared);
-    let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
-    let direct_emitters = prop.direct.as_ref().map_or(0, |d| d.emitter_count);
-    let direct_mirrors = prop.direct.as_ref().map_or(0, |d| d.mirror_count);
-    let resident = prop.into_resident(mirror_chains.tiles_needed);
-    resident
-        .ledger
-        .record("render mesh", (render_vertices.len() * 16) as u64);
-    let lf = crate::lightfield::LightField {
-        meta: crate::lightfield::LightFieldMeta {
-            vlf_version: env!("CARGO_PKG_VERSION").into(),
-            scene_name: scene.name.clone(),
-            scene_hash: scene.hash.clone(),
-            params: params.clone(),
-            direction_count: directions.len() as u32,
-            normalisation: prepared.normalisation,
-            sky: scene.sky,
-            cameras: scene.cameras.clone(),
-            atlas_width: prepared.atlas.width,
-            atlas_height: prepared.atlas.height,
-            iterations,
-            residual,
-        },
-        faces,
-        render_vertices,
-        total,
-        tiles,
-    };
-    let report = report::PropagationReport {
-        scene: scene.name.clone(),
-        adapter: ctx.summary.clone(),
-        params: params.clone(),
-        directions: directions.len() as u32,
-        faces: prepared.faces.len() as u32,
-        triangles: prepared.triangles.len() as u32,
-        diffuse_elements: prepared.atlas.charted_texels,
-        non_diffuse_elements,
-        tile_bytes,
-        texture_bytes,
-        host_textures: scene.texture_memory,
-        layers,
-        visibility_kept_resident: batch_plan.resident(),
-        direction_batches: batch_plan.batches,
-        directions_per_batch: batch_plan.batch_size,
+    let measured = Measured {
+        batch_plan,
         setup_seconds,
         visibility_seconds,
         visibility_gpu_ms,
+        layers,
         propagation_seconds,
-        iterations,
-        final_residual: residual,
-        converged: residual < params.tolerance,
-        plain_iterations_estimate: tail.as_ref().map(|t| t.plain_iterations_estimate),
-        tail,
-        per_iteration,
-        propagation_memory_bytes,
-        propagation_memory,
-        render_memory_bytes: resident.ledger.total(),
-        mirror_rendering: Some(mirror_chains),
-        direct_emitters,
-        direct_mirrors,
-        render_memory: report::memory_items(resident.ledger.entries()),
-        sky: scene.sky.is_some(),
+        shooting,
         warnings,
     };
-    Ok((lf, resident, report))
+    job.finish(&ctx, prop, measured)
+}
+
+/// What every stage of one propagation reads: the scene, its settings, the prepared scene and
+/// the directions.
+struct Job<'a> {
+    scene: &'a crate::scene::Scene,
+    params: &'a PropagationParams,
+    prepared: PreparedScene,
+    directions: DirectionSet,
+}
+
+/// The shooting iterations' outcome.
+struct Shooting {
+    per_iteration: Vec<transport::IterationStats>,
+    /// the last residual, or the tail's uncertainty where a tail ended the iterations
+    residual: f64,
+    tail: Option<Tail>,
+}
+
+/// What the stages before the end measured, for the report.
+struct Measured {
+    batch_plan: BatchPlan,
+    setup_seconds: f64,
+    visibility_seconds: f64,
+    visibility_gpu_ms: Option<f64>,
+    /// layers of the resident visibility lists (0 when batched)
+    layers: u64,
+    propagation_seconds: f64,
+    shooting: Shooting,
+    warnings: Vec<String>,
+}
+
+/// What the propagation spent and did, read from the propagator before it becomes the resident
+/// light field.
+struct Spent {
+    non_diffuse_elements: u64,
+    /// everything allocated for tiles while propagating (radiance copies, weights, tables)
+    tile_bytes: u64,
+    texture_bytes: u64,
+    memory_bytes: u64,
+    memory: Vec<report::MemoryItem>,
+    iterations: u32,
+    largest_batch_layers: u64,
+    direct_emitters: u32,
+    direct_mirrors: u32,
+}
+
+impl Spent {
+    fn of(prop: &transport::Propagator, tiles: Option<&crate::lightfield::TileField>) -> Spent {
+        let ledger_bytes = |keep: fn(&str) -> bool| -> u64 {
+            prop.ledger
+                .entries()
+                .iter()
+                .filter(|(n, _)| keep(n))
+                .map(|(_, b)| b)
+                .sum()
+        };
+        Spent {
+            non_diffuse_elements: tiles.map_or(0, |t| t.total.len() as u64),
+            tile_bytes: ledger_bytes(|n| n.contains("tile")),
+            texture_bytes: ledger_bytes(|n| n.starts_with("texture")),
+            memory_bytes: prop.memory_bytes(),
+            memory: report::memory_items(prop.ledger.entries()),
+            iterations: prop.iteration,
+            largest_batch_layers: prop.largest_batch_layers,
+            direct_emitters: prop.direct.as_ref().map_or(0, |d| d.emitter_count),
+            direct_mirrors: prop.direct.as_ref().map_or(0, |d| d.mirror_count),
+        }
+    }
+}
+
+impl<'a> Job<'a> {
+    fn prepare(scene: &'a crate::scene::Scene, params: &'a PropagationParams) -> Result<Job<'a>> {
+        Ok(Job {
+            scene,
+            params,
+            prepared: PreparedScene::new(scene, params.texel_density)?,
+            directions: DirectionSet::geodesic(params.geodesic_frequency),
+        })
+    }
+
+    /// What the progress shows while the visibility lists are built.
+    fn first_stage(&self, batch_plan: &BatchPlan) -> String {
+        match batch_plan.resident() {
+            true => format!(
+                "visibility: {} directions x {}^2 cells",
+                self.directions.len(),
+                self.params.grid_resolution
+            ),
+            false => format!(
+                "{} batches of {} directions (rebuilt every iteration)",
+                batch_plan.batches, batch_plan.batch_size
+            ),
+        }
+    }
+
+    /// The preparation's warnings, then the batching's reason and the faces smaller than a cell.
+    fn setup_warnings(&self, batch_plan: &BatchPlan) -> Vec<String> {
+        let (prepared, params) = (&self.prepared, self.params);
+        let mut warnings = prepared.warnings.clone();
+        if let Some(reason) = &batch_plan.reason {
+            warnings.push(format!(
+                "visibility in {} batches of {} directions, rebuilt every iteration: {reason}",
+                batch_plan.batches, batch_plan.batch_size
+            ));
+        }
+        // faces smaller than a grid cell: no cell line may cross them, so their texels rely on
+        // the depth fallback; say how many and how much of the scene they are
+        let cell_area = (2.0 / params.grid_resolution as f64).powi(2);
+        let total_area: f64 = prepared
+            .faces
+            .iter()
+            .filter(|f| !f.is_back)
+            .map(|f| f.area)
+            .sum();
+        let small: Vec<f64> = prepared
+            .faces
+            .iter()
+            .filter(|f| !f.is_back && f.area < cell_area)
+            .map(|f| f.area)
+            .collect();
+        if !small.is_empty() {
+            warnings.push(format!(
+                "{} face(s), {:.3}% of the surface area, are smaller than one grid cell ({} cells per side): their light arrives through the depth fallback; raise --grid to resolve them",
+                small.len(),
+                100.0 * small.iter().sum::<f64>() / total_area.max(1e-300),
+                params.grid_resolution
+            ));
+        }
+        warnings
+    }
+
+    /// The state to start shooting from: `plan`'s checkpoint when resuming, else nothing shot.
+    fn resume(
+        &self,
+        prop: &mut transport::Propagator,
+        plan: Option<&checkpoint::CheckpointPlan>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Shooting> {
+        let mut start = Shooting {
+            per_iteration: Vec::new(),
+            residual: 1.0,
+            tail: None,
+        };
+        if let Some(plan) = plan.filter(|p| p.resume && p.path.exists()) {
+            let cp = checkpoint::Checkpoint::load(&plan.path)?;
+            cp.check(&self.scene.hash, self.params, &plan.path)?;
+            prop.restore(&cp)?;
+            start.per_iteration = cp
+                .meta
+                .residuals
+                .iter()
+                .enumerate()
+                .map(|(i, &r)| transport::IterationStats {
+                    iteration: i as u32 + 1,
+                    residual: r,
+                    gpu_ms: None,
+                    wall_ms: 0.0,
+                })
+                .collect();
+            start.residual = start.per_iteration.last().map_or(1.0, |s| s.residual);
+            warnings.push(format!(
+                "resumed from {} at iteration {}",
+                plan.path.display(),
+                cp.meta.iteration
+            ));
+        }
+        Ok(start)
+    }
+
+    /// The shooting iterations, to the tolerance, the iteration cap or a geometric tail.
+    fn shoot(
+        &self,
+        prop: &mut transport::Propagator,
+        progress: &dyn Progress,
+        plan: Option<&checkpoint::CheckpointPlan>,
+        warnings: &mut Vec<String>,
+    ) -> Result<Shooting> {
+        let params = self.params;
+        let mut run = self.resume(prop, plan, warnings)?;
+        if prop.emitted_power <= 0.0 && self.scene.sky.is_none() {
+            warnings.push("the scene has no emitter (no Ke, no emission override, no sky): the light field is black".into());
+            run.residual = 0.0;
+            return Ok(run);
+        }
+        // written so that a NaN residual keeps iterating (and is caught by the iteration's checks)
+        #[allow(clippy::neg_cmp_op_on_partial_ord)]
+        let unconverged = |residual: f64| !(residual < params.tolerance);
+        while prop.iteration < params.max_iterations && unconverged(run.residual) {
+            let stats = prop.iterate()?;
+            run.residual = stats.residual;
+            let done = (run.residual.max(1e-300).ln() / params.tolerance.ln()).clamp(0.0, 1.0);
+            progress.advance_to(
+                (done * PROGRESS_STEPS as f64) as u64,
+                &format!(
+                    "iteration {} residual {:.2e} (target {:.0e})",
+                    stats.iteration, run.residual, params.tolerance
+                ),
+            );
+            let history = &run.per_iteration;
+            let ratio = history
+                .last()
+                .map(|p| run.residual / p.residual.max(1e-300));
+            let previous_ratio = history
+                .len()
+                .checked_sub(2)
+                .map(|i| history[i + 1].residual / history[i].residual.max(1e-300));
+            run.per_iteration.push(stats);
+            if let Some(plan) =
+                plan.filter(|p| p.every > 0 && prop.iteration.is_multiple_of(p.every))
+            {
+                self.save_checkpoint(prop, &run.per_iteration, plan)?;
+            }
+            if run.residual < params.tolerance {
+                break;
+            }
+            if let Some(tail) = self.geometric_tail(prop, &run, ratio, previous_ratio)? {
+                run.residual = tail.uncertainty;
+                run.tail = Some(tail);
+                break;
+            }
+        }
+        Ok(run)
+    }
+
+    /// The propagator's state after `per_iteration`, saved to `plan`'s checkpoint.
+    fn save_checkpoint(
+        &self,
+        prop: &transport::Propagator,
+        per_iteration: &[transport::IterationStats],
+        plan: &checkpoint::CheckpointPlan,
+    ) -> Result<()> {
+        checkpoint::Checkpoint {
+            meta: checkpoint::CheckpointMeta {
+                vlf_version: env!("CARGO_PKG_VERSION").into(),
+                scene_hash: self.scene.hash.clone(),
+                params: self.params.clone(),
+                iteration: prop.iteration,
+                emitted_power: prop.emitted_power,
+                residuals: per_iteration.iter().map(|s| s.residual).collect(),
+            },
+            unshot: prop.read_unshot()?,
+            total: prop.read_total()?,
+            tile_unshot: prop.read_tile_unshot()?,
+            tile_total: prop.read_tile_total()?,
+        }
+        .save(&plan.path)
+    }
+
+    /// The geometric tail, added to the propagator's totals, once the decay ratio is stable.
+    /// The unshot state decays geometrically once its shape settles: when the decay ratio is
+    /// stable enough that the tail it predicts is known to the tolerance, add that tail and
+    /// stop. The tail is U r/(1-r); an error dr in r moves it by U dr/(1-r)^2, which relative
+    /// to the converged total (about emitted/(1-r)) is residual * dr / (1-r).
+    fn geometric_tail(
+        &self,
+        prop: &mut transport::Propagator,
+        run: &Shooting,
+        ratio: Option<f64>,
+        previous_ratio: Option<f64>,
+    ) -> Result<Option<Tail>> {
+        let params = self.params;
+        let done = run.per_iteration.len();
+        if let (true, Some(r), Some(r0)) = (params.accelerate && done >= 3, ratio, previous_ratio) {
+            if r > 0.0 && r < 0.9999 {
+                let uncertainty = run.residual * (r - r0).abs() / (1.0 - r);
+                if uncertainty < params.tolerance {
+                    prop.add_tail(r / (1.0 - r))?;
+                    return Ok(Some(Tail {
+                        ratio: r,
+                        factor: r / (1.0 - r),
+                        uncertainty,
+                        plain_iterations_estimate: plain_estimate(
+                            run.residual,
+                            r,
+                            done as u32,
+                            params.tolerance,
+                        ),
+                    }));
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// The light field and the report, from the propagator's final state.
+    fn finish(
+        &self,
+        ctx: &crate::gpu::GpuContext,
+        prop: transport::Propagator,
+        measured: Measured,
+    ) -> Result<Propagated> {
+        let total = prop.read_total()?;
+        let faces = prop.faces.clone();
+        let tiles = match prop.tile_layout() {
+            Some(layout) => Some(crate::lightfield::TileField {
+                rects: layout.rects.clone(),
+                index: layout.index.clone(),
+                total: prop.read_tile_total()?,
+                face_count: layout.faces.len() as u32,
+            }),
+            None => None,
+        };
+        let spent = Spent::of(&prop, tiles.as_ref());
+        let render_vertices = crate::lightfield::render_vertices(&self.prepared);
+        let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
+        let resident = prop.into_resident(mirror_chains.tiles_needed);
+        resident
+            .ledger
+            .record("render mesh", (render_vertices.len() * 16) as u64);
+        let (scene, params, prepared) = (self.scene, self.params, &self.prepared);
+        let lf = crate::lightfield::LightField {
+            meta: crate::lightfield::LightFieldMeta {
+                vlf_version: env!("CARGO_PKG_VERSION").into(),
+                scene_name: scene.name.clone(),
+                scene_hash: scene.hash.clone(),
+                params: params.clone(),
+                direction_count: self.directions.len() as u32,
+                normalisation: prepared.normalisation,
+                sky: scene.sky,
+                cameras: scene.cameras.clone(),
+                atlas_width: prepared.atlas.width,
+                atlas_height: prepared.atlas.height,
+                iterations: spent.iterations,
+                residual: measured.shooting.residual,
+            },
+            faces,
+            render_vertices,
+            total,
+            tiles,
+        };
+        let report = self.report(ctx, measured, spent, &resident, mirror_chains);
+        Ok((lf, resident, report))
+    }
+
+    /// The summary of the propagation (after the paper's Table 1).
+    fn report(
+        &self,
+        ctx: &crate::gpu::GpuContext,
+        measured: Measured,
+        spent: Spent,
+        resident: &crate::lightfield::ResidentLightField,
+        mirror_chains: crate::lightfield::MirrorChains,
+    ) -> report::PropagationReport {
+        let (scene, params, prepared) = (self.scene, self.params, &self.prepared);
+        let (batch_plan, shooting) = (&measured.batch_plan, measured.shooting);
+        let residual = shooting.residual;
+        report::PropagationReport {
+            scene: scene.name.clone(),
+            adapter: ctx.summary.clone(),
+            params: params.clone(),
+            directions: self.directions.len() as u32,
+            faces: prepared.faces.len() as u32,
+            triangles: prepared.triangles.len() as u32,
+            diffuse_elements: prepared.atlas.charted_texels,
+            non_diffuse_elements: spent.non_diffuse_elements,
+            tile_bytes: spent.tile_bytes,
+            texture_bytes: spent.texture_bytes,
+            host_textures: scene.texture_memory,
+            layers: measured.layers.max(spent.largest_batch_layers),
+            visibility_kept_resident: batch_plan.resident(),
+            direction_batches: batch_plan.batches,
+            directions_per_batch: batch_plan.batch_size,
+            setup_seconds: measured.setup_seconds,
+            visibility_seconds: measured.visibility_seconds,
+            visibility_gpu_ms: measured.visibility_gpu_ms,
+            propagation_seconds: measured.propagation_seconds,
+            iterations: spent.iterations,
+            final_residual: residual,
+            converged: residual < params.tolerance,
+            plain_iterations_estimate: shooting.tail.as_ref().map(|t| t.plain_iterations_estimate),
+            tail: shooting.tail,
+            per_iteration: shooting.per_iteration,
+            propagation_memory_bytes: spent.memory_bytes,
+            propagation_memory: spent.memory,
+            render_memory_bytes: resident.ledger.total(),
+            mirror_rendering: Some(mirror_chains),
+            direct_emitters: spent.direct_emitters,
+            direct_mirrors: spent.direct_mirrors,
+            render_memory: report::memory_items(resident.ledger.entries()),
+            sky: scene.sky.is_some(),
+            warnings: measured.warnings,
+        }
+    }
 }
 
 /// The geometric tail added by acceleration.

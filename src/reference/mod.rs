@@ -7,6 +7,7 @@ use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
+use crate::progress::Progress;
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
 use bytemuck::{Pod, Zeroable};
@@ -48,7 +49,7 @@ fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
-/// Path-trace one view with `spp` samples per pixel.
+/// Path-trace one view with `spp` samples per pixel, reporting its passes to `progress`.
 pub fn render(
     ctx: Arc<GpuContext>,
     scene: &Scene,
@@ -56,7 +57,7 @@ pub fn render(
     size: [u32; 2],
     spp: u32,
     seed: u32,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Reference> {
     if spp == 0 {
         return Err(VlfError::Parameter {
@@ -173,19 +174,8 @@ pub fn render(
     all.extend(buffers.iter());
     let bind_group = ctx.bind_group(&layout, &all);
 
-    let bar = if progress {
-        indicatif::ProgressBar::new(passes as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} {elapsed_precise} [{bar:40}] {pos}/{len} passes ({msg})",
-        )
-        .unwrap()
-        .progress_chars("=> "),
-    );
-    bar.set_message(format!("{spp} spp at {width}x{height}"));
+    let what = format!("{spp} spp at {width}x{height}");
+    progress.begin(passes as u64, "passes", &what);
     let setup_seconds = started.elapsed().as_secs_f64();
     let tracing = std::time::Instant::now();
     for pass_index in 0..passes {
@@ -213,9 +203,9 @@ pub fn render(
         }
         ctx.queue.submit([encoder.finish()]);
         ctx.wait()?;
-        bar.inc(1);
+        progress.advance_to(pass_index as u64 + 1, &what);
     }
-    bar.finish_and_clear();
+    progress.finish();
     let sums: Vec<[f32; 4]> = ctx.read_buffer(&buffers[7], width as u64 * height as u64 * 32)?;
     let n = spp as f32;
     let mut mean = Vec::with_capacity((width * height) as usize);

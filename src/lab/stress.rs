@@ -4,6 +4,7 @@
 
 use crate::error::{Result, VlfError};
 use crate::gpu::GpuContext;
+use crate::progress::Silent;
 use crate::propagate::PropagationParams;
 use crate::scene::Scene;
 use glam::DVec3;
@@ -121,6 +122,15 @@ fn finite(t: &[[f32; 4]]) -> bool {
 
 /// Every case, in the order of the table.
 pub fn specs() -> Vec<Spec> {
+    let mut v = stiff_specs();
+    v.extend(geometry_specs());
+    v.extend(input_specs());
+    v.extend(resource_specs());
+    v
+}
+
+/// Stiff scenes and a wide dynamic range.
+fn stiff_specs() -> Vec<Spec> {
     let mut v = Vec::new();
     for rho in [0.95f32, 0.99, 0.999] {
         v.push(spec(
@@ -138,62 +148,74 @@ pub fn specs() -> Vec<Spec> {
         true,
         dynamic_range,
     ));
-    v.push(spec(
-        "faces smaller than a cell",
-        "1 cm chip (Kd 0.5) in a 1 m furnace box (Le 1, Kd 0.5), 32-cell grid",
-        "a warning with the count and area share; light arrives: every chip texel lit, mean within 20% of Kd x 2 = 1",
-        true,
-        small_faces,
-    ));
-    v.push(spec(
-        "grazing light",
-        "a floor lit by a low emitter at its edge",
-        "finite, non-negative, lit",
-        true,
-        grazing,
-    ));
-    v.push(spec(
-        "duplicated coplanar faces",
-        "a box with its floor duplicated twice",
-        "deterministic (bit-identical runs), finite",
-        true,
-        duplicated,
-    ));
-    v.push(spec(
-        "interpenetrating boxes",
-        "two overlapping closed boxes under a light and sky",
-        "converges, finite",
-        true,
-        interpenetrating,
-    ));
-    v.push(spec(
-        "open mesh, two-sided wall",
-        "a single two-sided wall lit from both sides",
-        "both sides lit, finite",
-        true,
-        two_sided,
-    ));
-    v.push(spec(
-        "millimetre detail, kilometre scene",
-        "a 1 mm square on a 1 km ground",
-        "warned as below the grid, finite",
-        true,
-        millimetre,
-    ));
-    v.push(spec(
-        "sliver",
-        "a 1e6:1 quad inside a lit box",
-        "no panic, finite",
-        true,
-        sliver,
-    ));
-    v.push(spec(
-        "no emitter",
-        "a closed box, nothing emits, no sky",
-        "a clear message, a black result",
-        true,
-        no_emitter,
-    ));
+    v
+}
+
+/// Geometry extremes and odd scenes.
+fn geometry_specs() -> Vec<Spec> {
+    vec![
+        spec(
+            "faces smaller than a cell",
+            "1 cm chip (Kd 0.5) in a 1 m furnace box (Le 1, Kd 0.5), 32-cell grid",
+            "a warning with the count and area share; light arrives: every chip texel lit, mean within 20% of Kd x 2 = 1",
+            true,
+            small_faces,
+        ),
+        spec(
+            "grazing light",
+            "a floor lit by a low emitter at its edge",
+            "finite, non-negative, lit",
+            true,
+            grazing,
+        ),
+        spec(
+            "duplicated coplanar faces",
+            "a box with its floor duplicated twice",
+            "deterministic (bit-identical runs), finite",
+            true,
+            duplicated,
+        ),
+        spec(
+            "interpenetrating boxes",
+            "two overlapping closed boxes under a light and sky",
+            "converges, finite",
+            true,
+            interpenetrating,
+        ),
+        spec(
+            "open mesh, two-sided wall",
+            "a single two-sided wall lit from both sides",
+            "both sides lit, finite",
+            true,
+            two_sided,
+        ),
+        spec(
+            "millimetre detail, kilometre scene",
+            "a 1 mm square on a 1 km ground",
+            "warned as below the grid, finite",
+            true,
+            millimetre,
+        ),
+        spec(
+            "sliver",
+            "a 1e6:1 quad inside a lit box",
+            "no panic, finite",
+            true,
+            sliver,
+        ),
+        spec(
+            "no emitter",
+            "a closed box, nothing emits, no sky",
+            "a clear message, a black result",
+            true,
+            no_emitter,
+        ),
+    ]
+}
+
+/// Bad input: damaged scenes, display configurations and light field files.
+fn input_specs() -> Vec<Spec> {
+    let mut v = Vec::new();
     v.push(spec(
         "empty mesh",
         "an OBJ without faces",
@@ -238,19 +260,19 @@ pub fn specs() -> Vec<Spec> {
         true,
         vlf_damage,
     ));
-    v.push(spec(
-        "parameters beyond the memory budget",
-        "50001 directions, 1024^2 cells, 200 texels/unit, --memory-budget 16MiB",
-        "refused before allocating, with the estimate and a suggestion",
-        true,
-        beyond_budget,
-    ));
-    v.extend(binding_specs());
     v
 }
 
-fn binding_specs() -> Vec<Spec> {
+/// Resources: settings beyond the memory budget, buffers beyond one binding, the budget.
+fn resource_specs() -> Vec<Spec> {
     vec![
+        spec(
+            "parameters beyond the memory budget",
+            "50001 directions, 1024^2 cells, 200 texels/unit, --memory-budget 16MiB",
+            "refused before allocating, with the estimate and a suggestion",
+            true,
+            beyond_budget,
+        ),
         spec(
             "visibility beyond one binding",
             "501 directions x 512^2 cells (cell tables 501 MiB)",
@@ -337,7 +359,7 @@ fn stiff_furnace(ctx: &Arc<GpuContext>, rho: f32) -> Outcome {
         .material("w", rho, 1.0)
         .cube("w", DVec3::ZERO, 0.5, true)
         .write(dir.path(), "")?;
-    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let worst = furnace_worst(&lf.total, 1.0 / (1.0 - rho as f64));
     let plain = (small().tolerance.ln() / (rho as f64).ln()).ceil() as u32;
     Ok((
@@ -397,9 +419,9 @@ fn dynamic_range(ctx: &Arc<GpuContext>) -> Outcome {
         tolerance: 1e-5,
         ..small()
     };
-    let (a, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &params, false)?;
+    let (a, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &params, &Silent)?;
     let (b, _, _) =
-        crate::propagate::propagate(ctx.clone(), &rooms(0.0, d2.path())?, &params, false)?;
+        crate::propagate::propagate(ctx.clone(), &rooms(0.0, d2.path())?, &params, &Silent)?;
     let prepared = crate::prepare::PreparedScene::new(&scene, small().texel_density)?;
     let side = |t: &[[f32; 4]], x_sign: f64| {
         material_mean(&prepared, t, "room", 1, |p| (p[0] as f64) * x_sign > 0.1).0
@@ -430,7 +452,7 @@ fn small_faces(ctx: &Arc<GpuContext>) -> Outcome {
         .cube("w", DVec3::ZERO, 0.5, true)
         .quad("chip", DVec3::new(0.1, -0.49, 0.1), DVec3::Y, [0.01, 0.01])
         .write(dir.path(), "")?;
-    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let warned = r
         .warnings
         .iter()
@@ -455,7 +477,7 @@ fn grazing(ctx: &Arc<GpuContext>) -> Outcome {
         .quad("w", DVec3::ZERO, DVec3::Y, [2.0, 2.0])
         .quad("light", DVec3::new(-0.99, 0.02, 0.0), DVec3::X, [0.04, 0.5])
         .write(dir.path(), "")?;
-    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let lit = lf.total.iter().filter(|t| t[0] > 0.0).count();
     Ok((
         format!("{lit} lit texels, all finite"),
@@ -471,8 +493,8 @@ fn duplicated(ctx: &Arc<GpuContext>) -> Outcome {
     b.quad("w", DVec3::new(0.0, -0.5, 0.0), DVec3::Y, [1.0, 1.0])
         .quad("w", DVec3::new(0.0, -0.5, 0.0), DVec3::Y, [0.999, 0.999]);
     let scene = b.write(dir.path(), "")?;
-    let (a, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
-    let (c, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (a, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
+    let (c, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let same = a
         .total
         .iter()
@@ -498,7 +520,7 @@ fn interpenetrating(ctx: &Arc<GpuContext>) -> Outcome {
         .cube("w", DVec3::new(0.15, 0.1, 0.05), 0.3, false)
         .quad("l", DVec3::new(0.0, 0.9, 0.0), -DVec3::Y, [0.5, 0.5])
         .write(dir.path(), "[sky]\nradiance = [0.2, 0.2, 0.2]\n")?;
-    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     Ok((
         format!(
             "converged: {}, residual {:.2e}",
@@ -517,7 +539,7 @@ fn two_sided(ctx: &Arc<GpuContext>) -> Outcome {
         .quad("l", DVec3::new(-0.5, 0.0, 0.0), DVec3::X, [0.3, 0.3])
         .quad("l", DVec3::new(0.5, 0.0, 0.0), -DVec3::X, [0.3, 0.3])
         .write(dir.path(), "[materials.wall]\ntwo_sided = true\n")?;
-    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let prepared = crate::prepare::PreparedScene::new(&scene, small().texel_density)?;
     let side = |back: bool| {
         lf.total
@@ -548,7 +570,7 @@ fn millimetre(ctx: &Arc<GpuContext>) -> Outcome {
         .quad("d", DVec3::new(1.0, 0.001, 1.0), DVec3::Y, [0.001, 0.001])
         .quad("sun", DVec3::new(0.0, 100.0, 0.0), -DVec3::Y, [50.0, 50.0])
         .write(dir.path(), "")?;
-    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let warned = r
         .warnings
         .iter()
@@ -567,7 +589,7 @@ fn sliver(ctx: &Arc<GpuContext>) -> Outcome {
         .cube("w", DVec3::ZERO, 0.5, true)
         .quad("s", DVec3::new(0.0, 0.0, 0.0), DVec3::Z, [0.5, 0.5e-6])
         .write(dir.path(), "")?;
-    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, _) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     Ok((format!("finite: {}", finite(&lf.total)), finite(&lf.total)))
 }
 
@@ -577,7 +599,7 @@ fn no_emitter(ctx: &Arc<GpuContext>) -> Outcome {
         .material("w", 0.5, 0.0)
         .cube("w", DVec3::ZERO, 0.5, true)
         .write(dir.path(), "")?;
-    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), false)?;
+    let (lf, _, r) = crate::propagate::propagate(ctx.clone(), &scene, &small(), &Silent)?;
     let msg = r
         .warnings
         .iter()
@@ -652,7 +674,7 @@ fn vlf_damage(ctx: &Arc<GpuContext>) -> Outcome {
             max_iterations: 2,
             ..small()
         },
-        false,
+        &Silent,
     )?;
     let bytes = crate::lightfield::file::encode(&lf);
     let decode = |b: &[u8]| crate::lightfield::file::decode(b).err();
@@ -692,7 +714,7 @@ fn beyond_budget(ctx: &Arc<GpuContext>) -> Outcome {
         ..small()
     };
     Ok(
-        match crate::propagate::propagate(ctx.clone(), &scene, &huge, false) {
+        match crate::propagate::propagate(ctx.clone(), &scene, &huge, &Silent) {
             Err(e @ VlfError::GpuBudget(_)) => (e.to_string(), true),
             Err(e) => (e.to_string(), false),
             Ok(_) => ("ran".into(), false),
@@ -738,7 +760,7 @@ fn visibility_beyond_binding(ctx: &Arc<GpuContext>) -> Outcome {
         texel_density: 4.0,
         ..small()
     };
-    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, false)?;
+    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, &Silent)?;
     let worst = furnace_worst(&lf.total, 2.0);
     let limit = binding_limit(ctx);
     let (split, note) = split_verdict(
@@ -781,7 +803,7 @@ fn tiles_beyond_binding(ctx: &Arc<GpuContext>) -> Outcome {
         tolerance: 1e-2,
         ..small()
     };
-    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, false)?;
+    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &big, &Silent)?;
     // the diffuse walls' texels (a mirror's texels hold only its emission)
     let prepared = crate::prepare::PreparedScene::new(&scene, big.texel_density)?;
     let diffuse_face = |p: &[f32; 4]| {
@@ -826,7 +848,7 @@ fn atlas_beyond_binding(ctx: &Arc<GpuContext>) -> Outcome {
         tolerance: 1e-2,
         ..small()
     };
-    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &dense, false)?;
+    let (lf, _, report) = crate::propagate::propagate(ctx.clone(), &scene, &dense, &Silent)?;
     let worst = furnace_worst(&lf.total, 2.0);
     let limit = binding_limit(ctx);
     let bytes = lf.total.len() as u64 * 16;
@@ -854,12 +876,12 @@ fn memory_budget(ctx: &Arc<GpuContext>) -> Outcome {
         grid_resolution: 256,
         ..small()
     };
-    let (a, _, ra) = crate::propagate::propagate(ctx.clone(), &scene, &free, false)?;
+    let (a, _, ra) = crate::propagate::propagate(ctx.clone(), &scene, &free, &Silent)?;
     let budget = PropagationParams {
         memory_budget_mib: Some(8),
         ..free
     };
-    let (b, _, rb) = crate::propagate::propagate(ctx.clone(), &scene, &budget, false)?;
+    let (b, _, rb) = crate::propagate::propagate(ctx.clone(), &scene, &budget, &Silent)?;
     let worst = a
         .total
         .iter()
@@ -894,7 +916,7 @@ pub fn markdown(cases: &[Case], adapter: &str) -> String {
         ),
     };
     let mut s = format!(
-        "# Stability\n\nGenerated by {how}. Each case is run for real at small settings; a GPU is not needed (lavapipe does). `vlf stress --quick` runs the cases marked quick in src/stress.rs (about a minute on lavapipe; `cargo test --test stress` runs it and checks this table's cases against the code's).\n\n| case | input | expected | measured | pass |\n|---|---|---|---|---|\n"
+        "# Stability\n\nGenerated by {how}. Each case is run for real at small settings; a GPU is not needed (lavapipe does). `vlf stress --quick` runs the cases marked quick in src/lab/stress.rs (about a minute on lavapipe; `cargo test --test stress` runs it and checks this table's cases against the code's).\n\n| case | input | expected | measured | pass |\n|---|---|---|---|---|\n"
     );
     let cell = |t: &str| hide_temp_folders(t).replace('|', "\\|").replace('\n', " ");
     for c in cases {

@@ -313,107 +313,145 @@ fn camera(name: &str, eye: DVec3, target: DVec3, fov: f64) -> String {
     )
 }
 
-fn classroom(target_triangles: u64, mirrors: bool) -> (Mesh, String, String) {
-    const PER_SET: u64 = 11 * 6 * 2; // desk 5 boxes + chair 6 boxes, 6 sides of 2 triangles
-                                     // up to 256 desks at 1x1, then finer cuts, then as many desks as the target needs
-    let tessellation = ((target_triangles as f64 / (PER_SET * 256) as f64)
-        .sqrt()
-        .round() as u32)
-        .max(1);
-    let sets = ((target_triangles as f64 / (PER_SET as f64 * (tessellation * tessellation) as f64))
-        .round() as u64)
-        .clamp(4, 1024);
-    let columns = (sets as f64).sqrt().ceil() as u64;
-    let rows = sets.div_ceil(columns);
-    let (pitch_x, pitch_z) = (1.3, 1.6);
-    let size = DVec3::new(
-        columns as f64 * pitch_x + 2.5,
-        3.2,
-        rows as f64 * pitch_z + 4.0,
-    );
-    let mut mesh = Mesh::default();
-    header(&mut mesh);
-    room(&mut mesh, size, (rows as u32 / 2).max(2));
-    let t = tessellation;
-    let mut placed = 0;
-    for r in 0..rows {
-        for c in 0..columns {
-            if placed == sets {
-                break;
-            }
-            placed += 1;
-            let x = (c as f64 - (columns - 1) as f64 / 2.0) * pitch_x;
-            let z = -size.z / 2.0 + 3.0 + r as f64 * pitch_z;
-            // desk: top and four legs
-            mesh.cuboid(
-                "wood",
-                DVec3::new(x - 0.5, 0.72, z - 0.3),
-                DVec3::new(x + 0.5, 0.76, z + 0.3),
-                t,
-            );
-            for (lx, lz) in [(-0.46, -0.26), (0.42, -0.26), (-0.46, 0.22), (0.42, 0.22)] {
-                mesh.cuboid(
-                    "metal",
-                    DVec3::new(x + lx, 0.0, z + lz),
-                    DVec3::new(x + lx + 0.04, 0.72, z + lz + 0.04),
-                    t,
-                );
-            }
-            // chair behind it: seat, back, four legs
-            let zc = z + 0.65;
-            mesh.cuboid(
-                "wood",
-                DVec3::new(x - 0.22, 0.44, zc - 0.22),
-                DVec3::new(x + 0.22, 0.48, zc + 0.22),
-                t,
-            );
-            mesh.cuboid(
-                "wood",
-                DVec3::new(x - 0.22, 0.48, zc + 0.18),
-                DVec3::new(x + 0.22, 0.9, zc + 0.22),
-                t,
-            );
-            for (lx, lz) in [(-0.21, -0.21), (0.18, -0.21), (-0.21, 0.18), (0.18, 0.18)] {
-                mesh.cuboid(
-                    "metal",
-                    DVec3::new(x + lx, 0.0, zc + lz),
-                    DVec3::new(x + lx + 0.03, 0.44, zc + lz + 0.03),
-                    t,
+/// Where the classroom's desks go: `sets` desk-and-chair sets in `rows` x `columns`, every box
+/// side cut `t` x `t`, in a room of `size`.
+struct Classroom {
+    sets: u64,
+    columns: u64,
+    rows: u64,
+    /// desk spacing along x and z
+    pitch: (f64, f64),
+    size: DVec3,
+    t: u32,
+}
+
+impl Classroom {
+    fn for_triangles(target_triangles: u64) -> Classroom {
+        const PER_SET: u64 = 11 * 6 * 2; // desk 5 boxes + chair 6 boxes, 6 sides of 2 triangles
+                                         // up to 256 desks at 1x1, then finer cuts, then as many desks as the target needs
+        let tessellation = ((target_triangles as f64 / (PER_SET * 256) as f64)
+            .sqrt()
+            .round() as u32)
+            .max(1);
+        let sets = ((target_triangles as f64
+            / (PER_SET as f64 * (tessellation * tessellation) as f64))
+            .round() as u64)
+            .clamp(4, 1024);
+        let columns = (sets as f64).sqrt().ceil() as u64;
+        let rows = sets.div_ceil(columns);
+        let pitch = (1.3, 1.6);
+        let size = DVec3::new(
+            columns as f64 * pitch.0 + 2.5,
+            3.2,
+            rows as f64 * pitch.1 + 4.0,
+        );
+        Classroom {
+            sets,
+            columns,
+            rows,
+            pitch,
+            size,
+            t: tessellation,
+        }
+    }
+
+    /// The desks with their chairs, row by row.
+    fn furnish(&self, mesh: &mut Mesh) {
+        let places = (0..self.rows).flat_map(|r| (0..self.columns).map(move |c| (r, c)));
+        for (r, c) in places.take(self.sets as usize) {
+            let x = (c as f64 - (self.columns - 1) as f64 / 2.0) * self.pitch.0;
+            let z = -self.size.z / 2.0 + 3.0 + r as f64 * self.pitch.1;
+            desk_and_chair(mesh, x, z, self.t);
+        }
+    }
+
+    /// Ceiling lights, one per two rows and columns, facing down.
+    fn light(&self, mesh: &mut Mesh) {
+        for r in (0..self.rows).step_by(2) {
+            for c in (0..self.columns).step_by(2) {
+                let x = (c as f64 + 0.5 - self.columns as f64 / 2.0) * self.pitch.0;
+                let z = -self.size.z / 2.0 + 3.5 + r as f64 * self.pitch.1;
+                mesh.panel(
+                    "light",
+                    DVec3::new(x - 0.3, self.size.y - 0.01, z - 0.3),
+                    DVec3::X * 0.6,
+                    DVec3::Z * 0.6,
+                    1,
                 );
             }
         }
     }
-    // ceiling lights, one per two rows and columns, facing down
-    for r in (0..rows).step_by(2) {
-        for c in (0..columns).step_by(2) {
-            let x = (c as f64 + 0.5 - columns as f64 / 2.0) * pitch_x;
-            let z = -size.z / 2.0 + 3.5 + r as f64 * pitch_z;
+
+    /// The blackboard on the back wall, and the mirror variant's mirror on the front wall.
+    fn hang(&self, mesh: &mut Mesh, mirrors: bool) {
+        let size = self.size;
+        mesh.panel(
+            "board",
+            DVec3::new(-1.5, 0.9, -size.z / 2.0 + 0.01),
+            DVec3::X * 3.0,
+            DVec3::Y * 1.3,
+            1,
+        );
+        if mirrors {
             mesh.panel(
-                "light",
-                DVec3::new(x - 0.3, size.y - 0.01, z - 0.3),
-                DVec3::X * 0.6,
-                DVec3::Z * 0.6,
+                "mirror",
+                DVec3::new(size.x / 2.0 - 0.5, 0.5, size.z / 2.0 - 0.01),
+                -DVec3::X * (size.x - 1.0),
+                DVec3::Y * 2.2,
                 1,
             );
         }
     }
-    // blackboard on the back wall, and the mirror variant's mirror on the front wall
-    mesh.panel(
-        "board",
-        DVec3::new(-1.5, 0.9, -size.z / 2.0 + 0.01),
-        DVec3::X * 3.0,
-        DVec3::Y * 1.3,
-        1,
+}
+
+/// A desk (top and four legs) at (x, z) and its chair behind it (seat, back, four legs).
+fn desk_and_chair(mesh: &mut Mesh, x: f64, z: f64, t: u32) {
+    mesh.cuboid(
+        "wood",
+        DVec3::new(x - 0.5, 0.72, z - 0.3),
+        DVec3::new(x + 0.5, 0.76, z + 0.3),
+        t,
     );
-    if mirrors {
-        mesh.panel(
-            "mirror",
-            DVec3::new(size.x / 2.0 - 0.5, 0.5, size.z / 2.0 - 0.01),
-            -DVec3::X * (size.x - 1.0),
-            DVec3::Y * 2.2,
-            1,
+    for (lx, lz) in [(-0.46, -0.26), (0.42, -0.26), (-0.46, 0.22), (0.42, 0.22)] {
+        mesh.cuboid(
+            "metal",
+            DVec3::new(x + lx, 0.0, z + lz),
+            DVec3::new(x + lx + 0.04, 0.72, z + lz + 0.04),
+            t,
         );
     }
+    let zc = z + 0.65;
+    mesh.cuboid(
+        "wood",
+        DVec3::new(x - 0.22, 0.44, zc - 0.22),
+        DVec3::new(x + 0.22, 0.48, zc + 0.22),
+        t,
+    );
+    mesh.cuboid(
+        "wood",
+        DVec3::new(x - 0.22, 0.48, zc + 0.18),
+        DVec3::new(x + 0.22, 0.9, zc + 0.22),
+        t,
+    );
+    for (lx, lz) in [(-0.21, -0.21), (0.18, -0.21), (-0.21, 0.18), (0.18, 0.18)] {
+        mesh.cuboid(
+            "metal",
+            DVec3::new(x + lx, 0.0, zc + lz),
+            DVec3::new(x + lx + 0.03, 0.44, zc + lz + 0.03),
+            t,
+        );
+    }
+}
+
+fn classroom(target_triangles: u64, mirrors: bool) -> (Mesh, String, String) {
+    let room_plan = Classroom::for_triangles(target_triangles);
+    let Classroom { sets, t, size, .. } = room_plan;
+    let mut mesh = Mesh::default();
+    header(&mut mesh);
+    room(&mut mesh, size, (room_plan.rows as u32 / 2).max(2));
+    room_plan.furnish(&mut mesh);
+    room_plan.light(&mut mesh);
+    room_plan.hang(&mut mesh, mirrors);
     let mut toml = format!(
         "# Generated by `vlf generate classroom --size {target_triangles}{}`: {sets} desks with chairs, box sides cut {t}x{t}.\nname = \"classroom-{target_triangles}{}\"\nmesh = \"scene.obj\"\n\n[sky]\nradiance = [1.2, 1.25, 1.4]\n",
         if mirrors { " --mirrors" } else { "" },

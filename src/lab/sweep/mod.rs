@@ -7,11 +7,14 @@ pub mod plot;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
+use crate::lightfield::file::write_atomic;
 use crate::metrics::{compare, Comparison};
+use crate::progress::{Progress, Silent};
 use crate::propagate::PropagationParams;
 use crate::render::{Frame, Renderer};
 use crate::scene::{Camera, Scene};
 use serde::Serialize;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// What the sweep varies. The light field runs every combination.
@@ -82,14 +85,14 @@ fn frame_seconds(
     Ok(crate::stats::Distribution::of(&ms).median / 1e3)
 }
 
-/// Run the sweep. `progress` reports each run on stderr.
+/// Run the sweep; each run's result is a `progress` note.
 pub fn run(
     ctx: Arc<GpuContext>,
     scene: &Scene,
     camera: &Camera,
     reference: &Frame,
     grid: &SweepGrid,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<Vec<SweepRow>> {
     let (w, h) = (reference.width, reference.height);
     let mut rows = Vec::new();
@@ -111,11 +114,11 @@ pub fn run(
             perturb,
             ..PropagationParams::default()
         };
-        let result = crate::propagate::propagate(ctx.clone(), scene, &params, false);
+        let result = crate::propagate::propagate(ctx.clone(), scene, &params, &Silent);
         let (lf, resident, report) = match result {
             Ok(r) => r,
             Err(e @ VlfError::GpuBudget(_)) => {
-                eprintln!("[{}/{total_runs}] light field {directions} dirs, grid {grid_res}: skipped, {e}", i + 1);
+                progress.note(&format!("[{}/{total_runs}] light field {directions} dirs, grid {grid_res}: skipped, {e}", i + 1));
                 continue;
             }
             Err(e) => return Err(e),
@@ -126,12 +129,10 @@ pub fn run(
         let render_s = frame_seconds(&mut renderer, camera, w, h, grid.ssaa)?;
         let propagation_s =
             report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
-        if progress {
-            eprintln!(
-                "[{}/{total_runs}] light field {} dirs, grid {grid_res}, {density} texels/unit, tol {tolerance:.0e}, perturb {perturb}: {:.3} s, relMSE {:.3e}",
-                i + 1, report.directions, propagation_s + render_s, c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "[{}/{total_runs}] light field {} dirs, grid {grid_res}, {density} texels/unit, tol {tolerance:.0e}, perturb {perturb}: {:.3} s, relMSE {:.3e}",
+            i + 1, report.directions, propagation_s + render_s, c.rel_mse
+        ));
         rows.push(row(
             "light field",
             report.directions,
@@ -148,18 +149,16 @@ pub fn run(
     for (i, &spp) in grid.spp.iter().enumerate() {
         // a seed other than the reference's: independent noise
         let r =
-            crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, false)?;
+            crate::reference::render(ctx.clone(), scene, camera, [w, h], spp, 1000 + spp, &Silent)?;
         let c = compare(&r.mean, reference)?;
-        if progress {
-            eprintln!(
-                "[{}/{total_runs}] path tracer {} spp: {:.3} s (+ {:.3} s setup), relMSE {:.3e}",
-                combos.len() + i + 1,
-                r.spp,
-                r.seconds,
-                r.setup_seconds,
-                c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "[{}/{total_runs}] path tracer {} spp: {:.3} s (+ {:.3} s setup), relMSE {:.3e}",
+            combos.len() + i + 1,
+            r.spp,
+            r.seconds,
+            r.setup_seconds,
+            c.rel_mse
+        ));
         rows.push(row(
             "path tracer",
             0,
@@ -207,26 +206,52 @@ fn row(
     }
 }
 
-/// The chart of a sweep: relMSE against total time, both methods, Pareto front.
-pub fn chart(rows: &[SweepRow], scene: &str, path: &std::path::Path) -> Result<()> {
-    let series = |method: &'static str, color| plot::Series {
-        name: method,
+/// The light field (red) and the path tracer (blue), each with its rows' `points`.
+fn method_series(points: impl Fn(&str) -> Vec<(f64, f64)>) -> [plot::Series<'static>; 2] {
+    use plotters::style::RGBColor;
+    [
+        ("light field", RGBColor(200, 60, 40)),
+        ("path tracer", RGBColor(40, 90, 200)),
+    ]
+    .map(|(name, color)| plot::Series {
+        name,
         color,
-        points: rows
-            .iter()
-            .filter(|r| r.method == method)
-            .map(|r| (r.total_s, r.rel_mse))
-            .collect(),
-    };
+        points: points(name),
+    })
+}
+
+/// The chart of a sweep: relMSE against total time, both methods, Pareto front.
+pub fn chart(rows: &[SweepRow], scene: &str, path: &Path) -> Result<()> {
     plot::error_vs_time(
         path,
         &format!("{scene}: error against run time"),
         "relMSE against the reference",
-        &[
-            series("light field", plotters::style::RGBColor(200, 60, 40)),
-            series("path tracer", plotters::style::RGBColor(40, 90, 200)),
-        ],
+        &method_series(|method| {
+            rows.iter()
+                .filter(|r| r.method == method)
+                .map(|r| (r.total_s, r.rel_mse))
+                .collect()
+        }),
     )
+}
+
+/// A CSV file: the header, then one line a row.
+fn write_csv(path: &Path, header: &str, lines: impl Iterator<Item = String>) -> Result<()> {
+    let mut text = format!("{header}\n");
+    for line in lines {
+        text.push_str(&line);
+        text.push('\n');
+    }
+    write_atomic(path, text.as_bytes())
+}
+
+/// The sweep as OUT/sweep.csv and its chart as OUT/sweep.png; returns both paths.
+pub fn write(rows: &[SweepRow], scene: &str, out: &Path) -> Result<[PathBuf; 2]> {
+    let csv = out.join("sweep.csv");
+    write_csv(&csv, SweepRow::CSV_HEADER, rows.iter().map(SweepRow::csv))?;
+    let png = out.join("sweep.png");
+    chart(rows, scene, &png)?;
+    Ok([csv, png])
 }
 
 /// A scripted camera path: from the scene's first camera, `frames` views turning about the
@@ -260,6 +285,46 @@ pub struct WalkRow {
     pub flip: f64,
 }
 
+impl WalkRow {
+    pub const CSV_HEADER: &'static str = "frame,method,spp,frame_ms,rel_mse,flip";
+    pub fn csv(&self) -> String {
+        format!(
+            "{},{},{},{:.4},{:.6e},{:.6}",
+            self.frame, self.method, self.spp, self.frame_ms, self.rel_mse, self.flip
+        )
+    }
+}
+
+/// The walkthrough as OUT/walkthrough.csv and its relMSE per frame charted as
+/// OUT/walkthrough.png under `title`; returns both paths.
+pub fn write_walkthrough(rows: &[WalkRow], title: &str, out: &Path) -> Result<[PathBuf; 2]> {
+    let csv = out.join("walkthrough.csv");
+    write_csv(&csv, WalkRow::CSV_HEADER, rows.iter().map(WalkRow::csv))?;
+    let png = out.join("walkthrough.png");
+    plot::error_per_frame(
+        &png,
+        title,
+        "relMSE against the frame's reference",
+        &method_series(|method| {
+            rows.iter()
+                .filter(|r| r.method == method)
+                .map(|r| (r.frame as f64, r.rel_mse))
+                .collect()
+        }),
+    )?;
+    Ok([csv, png])
+}
+
+/// The mean relMSE of one method's frames.
+pub fn mean_rel_mse(rows: &[WalkRow], method: &str) -> f64 {
+    let v: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.method == method)
+        .map(|r| r.rel_mse)
+        .collect();
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
 /// The walkthrough at a fixed per-frame budget: the light field propagates once, then draws
 /// every frame; the path tracer gets the samples per pixel that fit the budget for each frame.
 /// Each frame is compared with a path-traced reference of that frame at `reference_spp`.
@@ -272,14 +337,15 @@ pub fn walkthrough(
     size: [u32; 2],
     budget_ms: f64,
     reference_spp: u32,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<(Vec<WalkRow>, f64, u32)> {
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, progress)?;
     let propagation_s =
         report.setup_seconds + report.visibility_seconds + report.propagation_seconds;
     let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
     // path tracer speed: seconds per sample per pixel at this size
-    let calibration = crate::reference::render(ctx.clone(), scene, &path[0], size, 16, 99, false)?;
+    let calibration =
+        crate::reference::render(ctx.clone(), scene, &path[0], size, 16, 99, &Silent)?;
     let per_spp_ms = calibration.seconds * 1e3 / calibration.spp as f64;
     let spp = ((budget_ms / per_spp_ms).floor() as u32).max(1);
     let mut rows = Vec::new();
@@ -291,7 +357,7 @@ pub fn walkthrough(
             size,
             reference_spp,
             5000 + i as u32,
-            false,
+            &Silent,
         )?;
         let image = renderer.render(cam, size[0], size[1])?;
         let (ms, _) = renderer.time_frames(cam, size[0], size[1], 10)?;
@@ -305,7 +371,7 @@ pub fn walkthrough(
             flip: c.flip_mean,
         });
         let pt =
-            crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, false)?;
+            crate::reference::render(ctx.clone(), scene, cam, size, spp, 7000 + i as u32, &Silent)?;
         let c = compare(&pt.mean, &reference.mean)?;
         rows.push(WalkRow {
             frame: i as u32,
@@ -315,16 +381,14 @@ pub fn walkthrough(
             rel_mse: c.rel_mse,
             flip: c.flip_mean,
         });
-        if progress {
-            eprintln!(
-                "frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}",
-                i + 1,
-                path.len(),
-                rows[rows.len() - 2].rel_mse,
-                pt.spp,
-                c.rel_mse
-            );
-        }
+        progress.note(&format!(
+            "frame {}/{}: light field relMSE {:.3e}, path tracer ({} spp) relMSE {:.3e}",
+            i + 1,
+            path.len(),
+            rows[rows.len() - 2].rel_mse,
+            pt.spp,
+            c.rel_mse
+        ));
     }
     Ok((rows, propagation_s, spp))
 }

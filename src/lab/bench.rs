@@ -4,6 +4,7 @@
 
 use crate::error::Result;
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger};
+use crate::progress::Silent;
 use crate::propagate::report::PropagationReport;
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
@@ -40,7 +41,7 @@ pub fn run(
     frames: u32,
     samples_per_pixel: u32,
 ) -> Result<BenchReport> {
-    let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, false)?;
+    let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, &Silent)?;
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger)?;
     renderer.set_samples_per_pixel(samples_per_pixel)?;

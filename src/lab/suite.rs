@@ -6,8 +6,9 @@
 //! 1920x1080, one 8-view CAVE frame, memory; then the targets, checked, and a log-log chart.
 
 use crate::error::Result;
-use crate::generate::{GenerateOptions, SceneKind};
 use crate::gpu::{human_bytes, GpuContext, MemoryLedger, Timestamps};
+use crate::lab::generate::{GenerateOptions, SceneKind};
+use crate::progress::{Progress, Silent};
 use crate::propagate::PropagationParams;
 use crate::render::Renderer;
 use crate::scene::{Camera, Scene};
@@ -102,6 +103,27 @@ struct Case {
 /// Settings label of the runs that vary elements x directions on one scene.
 const SCALING: &str = "scaling";
 
+impl Case {
+    /// A case that is rendered too, except in a quick run, where only Cornell at our settings
+    /// is (a software adapter draws slowly).
+    fn new(
+        name: &str,
+        scene: PathBuf,
+        params: PropagationParams,
+        settings: &str,
+        quick: bool,
+    ) -> Case {
+        Case {
+            render: !quick || name == "cornell",
+            name: name.into(),
+            scene,
+            params,
+            settings: settings.into(),
+        }
+    }
+}
+
+/// The suite's cases: the Cornell boxes, the scaling runs, the generated scenes.
 fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     let paper = PropagationParams::from_toml_file(&root.join("config/propagation/paper.toml"))?;
     // quick (software adapters, the test): light settings everywhere
@@ -115,42 +137,54 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     } else {
         PropagationParams::default()
     };
-    // quick: only Cornell at our settings is rendered (a software adapter draws slowly)
-    let case = |name: &str, scene: PathBuf, params: PropagationParams, settings: &str| Case {
-        render: !quick || name == "cornell",
-        name: name.into(),
-        scene,
-        params,
-        settings: settings.into(),
-    };
+    let mut out = cornell_cases(root, &paper, &ours, quick);
+    out.extend(scaling_cases(
+        &root.join("scenes/cornell/scene.toml"),
+        &ours,
+        quick,
+    ));
+    out.extend(generated_cases(work, &ours, quick)?);
+    Ok(out)
+}
+
+/// Cornell and Cornell-mirror at the paper's settings and at ours.
+fn cornell_cases(
+    root: &Path,
+    paper: &PropagationParams,
+    ours: &PropagationParams,
+    quick: bool,
+) -> Vec<Case> {
     let cornell = root.join("scenes/cornell/scene.toml");
-    let mut out = vec![
-        case(
+    let mirror = root.join("scenes/cornell-mirror/scene.toml");
+    let paper_settings = "paper: 501 dirs, 64^2, 3 iterations";
+    vec![
+        Case::new(
             "cornell (paper settings)",
             cornell.clone(),
             paper.clone(),
-            "paper: 501 dirs, 64^2, 3 iterations",
+            paper_settings,
+            quick,
         ),
-        case(
-            "cornell",
-            cornell.clone(),
-            ours.clone(),
-            "defaults, to 1e-3",
-        ),
-        case(
+        Case::new("cornell", cornell, ours.clone(), "defaults, to 1e-3", quick),
+        Case::new(
             "cornell-mirror (paper settings)",
-            root.join("scenes/cornell-mirror/scene.toml"),
-            paper,
-            "paper: 501 dirs, 64^2, 3 iterations",
+            mirror.clone(),
+            paper.clone(),
+            paper_settings,
+            quick,
         ),
-        case(
+        Case::new(
             "cornell-mirror",
-            root.join("scenes/cornell-mirror/scene.toml"),
+            mirror,
             ours.clone(),
             "defaults, to 1e-3",
+            quick,
         ),
-    ];
-    // elements x directions varied on one scene, 3 plain iterations each: the cost's slope
+    ]
+}
+
+/// Elements x directions varied on one scene, 3 plain iterations each: the cost's slope.
+fn scaling_cases(cornell: &Path, ours: &PropagationParams, quick: bool) -> Vec<Case> {
     let grid: &[(u32, f64)] = if quick {
         &[(3, 12.0), (5, 12.0), (5, 20.0)]
     } else {
@@ -163,26 +197,34 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
             (20, 136.0),
         ]
     };
-    for &(n, density) in grid {
-        let params = PropagationParams {
-            geodesic_frequency: n,
-            texel_density: density,
-            max_iterations: 3,
-            accelerate: false,
-            tolerance: 1e-9,
-            ..ours.clone()
-        };
-        out.push(Case {
-            name: format!(
-                "cornell, {} directions, {density} texels/unit",
-                params.direction_count()
-            ),
-            scene: cornell.clone(),
-            params,
-            settings: format!("{SCALING}: 3 iterations"),
-            render: false,
-        });
-    }
+    grid.iter()
+        .map(|&(n, density)| {
+            let params = PropagationParams {
+                geodesic_frequency: n,
+                texel_density: density,
+                max_iterations: 3,
+                accelerate: false,
+                tolerance: 1e-9,
+                ..ours.clone()
+            };
+            Case {
+                name: format!(
+                    "cornell, {} directions, {density} texels/unit",
+                    params.direction_count()
+                ),
+                scene: cornell.to_path_buf(),
+                params,
+                settings: format!("{SCALING}: 3 iterations"),
+                render: false,
+            }
+        })
+        .collect()
+}
+
+/// Generated scenes, written into `work`: classrooms of growing size, the mirror gallery, and
+/// the 100K classroom (quick: the 1K one) again under a memory budget.
+fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result<Vec<Case>> {
+    let mut out = Vec::new();
     let sizes: &[u64] = if quick {
         &[1_000]
     } else {
@@ -190,7 +232,7 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
     };
     for &size in sizes {
         let dir = work.join(format!("classroom-{size}"));
-        let g = crate::generate::generate(
+        let g = crate::lab::generate::generate(
             &GenerateOptions {
                 kind: SceneKind::Classroom,
                 size,
@@ -198,15 +240,16 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
             },
             &dir,
         )?;
-        out.push(case(
+        out.push(Case::new(
             &format!("classroom ~{}K triangles", size / 1000),
             g.scene,
             ours.clone(),
             "defaults, to 1e-3",
+            quick,
         ));
     }
     let gallery = work.join("gallery-mirror");
-    let g = crate::generate::generate(
+    let g = crate::lab::generate::generate(
         &GenerateOptions {
             kind: SceneKind::Gallery,
             size: if quick { 1_000 } else { 10_000 },
@@ -214,22 +257,24 @@ fn cases(root: &Path, work: &Path, quick: bool) -> Result<Vec<Case>> {
         },
         &gallery,
     )?;
-    out.push(case(
+    out.push(Case::new(
         "gallery with mirrors",
         g.scene,
         ours.clone(),
         "defaults, to 1e-3",
+        quick,
     ));
     let budget_scene = work.join(format!("classroom-{}", sizes[sizes.len().min(3) - 1]));
     let budget = if quick { 3 } else { 512 };
-    out.push(case(
+    out.push(Case::new(
         &format!("same classroom, --memory-budget {budget}MiB"),
         budget_scene.join("scene.toml"),
         PropagationParams {
             memory_budget_mib: Some(budget),
-            ..ours
+            ..ours.clone()
         },
         "defaults, directions in batches",
+        quick,
     ));
     Ok(out)
 }
@@ -260,7 +305,7 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
 fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) =
-        crate::propagate::propagate(ctx.clone(), &scene, &case.params, false)?;
+        crate::propagate::propagate(ctx.clone(), &scene, &case.params, &Silent)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
         let (a, b, c) = time_rendering(ctx, &lf, &resident, frames)?;
         (Some(a), Some(b), Some(c))
@@ -365,36 +410,25 @@ pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
     (sxx > 0.0).then(|| p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum::<f64>() / sxx)
 }
 
-/// Run the suite. `quick` (software adapters, tests) keeps the scenes small.
+/// Run the suite, reporting each case to `progress`. `quick` (software adapters, tests) keeps
+/// the scenes small.
 pub fn run(
     ctx: Arc<GpuContext>,
     root: &Path,
     work: &Path,
     quick: bool,
     frames: u32,
-    progress: bool,
+    progress: &dyn Progress,
 ) -> Result<SuiteReport> {
     let peak = peak_bandwidth(&ctx.summary.name);
     let cases = cases(root, work, quick)?;
-    let bar = if progress {
-        indicatif::ProgressBar::new(cases.len() as u64)
-    } else {
-        indicatif::ProgressBar::hidden()
-    };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{spinner} {elapsed_precise} [{bar:30}] {pos}/{len} {msg}",
-        )
-        .unwrap()
-        .progress_chars("=> "),
-    );
+    progress.begin(cases.len() as u64, "cases", "");
     let mut entries = Vec::new();
-    for case in &cases {
-        bar.set_message(case.name.clone());
+    for (i, case) in cases.iter().enumerate() {
+        progress.advance_to(i as u64, &case.name);
         entries.push(run_case(&ctx, case, frames)?);
-        bar.inc(1);
     }
-    bar.finish_and_clear();
+    progress.finish();
     // cost per iteration against elements x directions, over the scaling runs
     let points: Vec<(f64, f64)> = entries
         .iter()
@@ -411,8 +445,8 @@ pub fn run(
     Ok(SuiteReport {
         adapter: ctx.summary.clone(),
         vlf_version: env!("CARGO_PKG_VERSION").into(),
-        commit: crate::bench::commit(),
-        date_utc: crate::bench::utc_date(),
+        commit: crate::lab::bench::commit(),
+        date_utc: crate::lab::bench::utc_date(),
         peak_bandwidth_gb_s: peak,
         entries,
         cost_slope,
@@ -508,7 +542,7 @@ impl SuiteReport {
         let mut s = format!(
             "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
             self.date_utc,
-            crate::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
+            crate::lab::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
         );
         s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -563,7 +597,7 @@ impl SuiteReport {
     /// Two log-log panels: time to converge against triangles, GPU time per iteration against
     /// elements x directions with the fitted line.
     pub fn plot(&self, path: &Path) -> Result<()> {
-        use crate::sweep::plot::{log_log, Series};
+        use crate::lab::sweep::plot::{log_log, Series};
         use plotters::style::RGBColor;
         let converged = |mirror: bool| -> Vec<(f64, f64)> {
             self.entries
