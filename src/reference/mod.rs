@@ -49,6 +49,192 @@ fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
+/// The scene as the path tracer reads it: the light field's faces, the front triangles in BVH
+/// order, the emitters weighted by luminance x area, and the textures back to back.
+struct TraceScene {
+    faces: Vec<crate::gpu::types::GpuFace>,
+    triangles: Vec<GpuTriangle>,
+    nodes: Vec<GpuBvhNode>,
+    /// (triangle index as f32 bits, running weight)
+    lights: Vec<[f32; 2]>,
+    light_weight_total: f32,
+    texture_info: Vec<[u32; 4]>,
+    texels: Vec<[f32; 4]>,
+    face_textures: Vec<[u32; 4]>,
+}
+
+impl TraceScene {
+    fn new(scene: &Scene, prepared: &PreparedScene) -> TraceScene {
+        let faces =
+            crate::prepare::packing::gpu_faces(prepared, &vec![NO_FACE; prepared.faces.len()]);
+        let front: Vec<&crate::prepare::PreparedTriangle> = prepared
+            .triangles
+            .iter()
+            .filter(|t| !prepared.faces[t.face as usize].is_back)
+            .collect();
+        let corners: Vec<[Vec3; 3]> = front
+            .iter()
+            .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
+            .collect();
+        let (nodes, order) = build_bvh(&corners);
+        let triangles: Vec<GpuTriangle> = order
+            .iter()
+            .map(|&i| {
+                let [a, b, c] = corners[i as usize];
+                let uv = front[i as usize].uv.unwrap_or([[0.0; 2]; 3]);
+                GpuTriangle {
+                    v0: a.into(),
+                    face: front[i as usize].face,
+                    e1: (b - a).into(),
+                    e2: (c - a).into(),
+                    uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
+                    uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
+                    ..Default::default()
+                }
+            })
+            .collect();
+        // emitters: front triangles of emitting faces, weighted by luminance x area
+        let mut lights: Vec<[f32; 2]> = Vec::new();
+        let mut total = 0.0f32;
+        for (i, t) in triangles.iter().enumerate() {
+            let le = luminance(faces[t.face as usize].emission);
+            let area = 0.5 * Vec3::from(t.e1).cross(Vec3::from(t.e2)).length();
+            if le > 0.0 && area > 0.0 {
+                total += le * area;
+                lights.push([f32::from_bits(i as u32), total]);
+            }
+        }
+        // textures, texel arrays back to back
+        let mut texture_info: Vec<[u32; 4]> = Vec::new();
+        let mut texels: Vec<[f32; 4]> = Vec::new();
+        for t in &scene.textures {
+            texture_info.push([texels.len() as u32, t.width, t.height, 0]);
+            texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
+        }
+        let face_textures: Vec<[u32; 4]> = prepared
+            .faces
+            .iter()
+            .map(|f| {
+                let m = &scene.materials[f.material as usize];
+                [
+                    m.diffuse_texture.unwrap_or(NO_FACE),
+                    m.emission_texture.unwrap_or(NO_FACE),
+                    0,
+                    0,
+                ]
+            })
+            .collect();
+        TraceScene {
+            faces,
+            triangles,
+            nodes,
+            lights,
+            light_weight_total: total,
+            texture_info,
+            texels,
+            face_textures,
+        }
+    }
+}
+
+/// The path tracer on the GPU: its parameters, the scene's buffers (the running sums last),
+/// the pipeline and its bind group.
+struct Tracer {
+    params: wgpu::Buffer,
+    sums: wgpu::Buffer,
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    /// kept alive while the bind group refers to them
+    _buffers: Vec<wgpu::Buffer>,
+}
+
+impl Tracer {
+    fn new(ctx: &GpuContext, t: &TraceScene, [width, height]: [u32; 2]) -> Result<Tracer> {
+        let ledger = MemoryLedger::default();
+        let device = &ctx.device;
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("trace parameters"),
+            size: std::mem::size_of::<GpuTraceParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let buffers = vec![
+            ctx.buffer_init(
+                &ledger,
+                "triangles",
+                bytemuck::cast_slice(&t.triangles),
+                STORAGE,
+            ),
+            ctx.buffer_init(&ledger, "bvh", bytemuck::cast_slice(&t.nodes), STORAGE),
+            ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&t.faces), STORAGE),
+            ctx.buffer_init(
+                &ledger,
+                "face textures",
+                bytemuck::cast_slice(&t.face_textures),
+                STORAGE,
+            ),
+            ctx.buffer_init(
+                &ledger,
+                "texture info",
+                bytemuck::cast_slice(&t.texture_info),
+                STORAGE,
+            ),
+            ctx.buffer_init(&ledger, "texels", bytemuck::cast_slice(&t.texels), STORAGE),
+            ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&t.lights), STORAGE),
+        ];
+        let sums = ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE);
+        let layout = reflect::layout(device, "reference.wgsl", 0)?;
+        let module = shaders::module(device, "reference.wgsl")?;
+        let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
+        let mut all: Vec<&wgpu::Buffer> = vec![&params];
+        all.extend(buffers.iter());
+        all.push(&sums);
+        let bind_group = ctx.bind_group(&layout, &all);
+        Ok(Tracer {
+            params,
+            sums,
+            pipeline,
+            bind_group,
+            _buffers: buffers,
+        })
+    }
+
+    /// One pass of `params.samples_per_pass` samples per pixel, waited for.
+    fn pass(&self, ctx: &GpuContext, params: &GpuTraceParams) -> Result<()> {
+        ctx.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(params));
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(params.width.div_ceil(8), params.height.div_ceil(8), 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        ctx.wait()
+    }
+}
+
+/// The mean image and the per-pixel variance of the mean from the running sums of radiance
+/// and of its square.
+fn mean_and_variance(sums: &[[f32; 4]], spp: u32, [width, height]: [u32; 2]) -> (Frame, Frame) {
+    let n = spp as f32;
+    let mut mean = Vec::with_capacity((width * height) as usize);
+    let mut variance = Vec::with_capacity((width * height) as usize);
+    for px in sums.chunks(2) {
+        let m: [f32; 3] = std::array::from_fn(|c| px[0][c] / n);
+        let v: [f32; 3] = std::array::from_fn(|c| ((px[1][c] / n - m[c] * m[c]).max(0.0)) / n);
+        mean.push([m[0], m[1], m[2], 1.0]);
+        variance.push([v[0], v[1], v[2], 1.0]);
+    }
+    let frame = |pixels| Frame {
+        width,
+        height,
+        pixels,
+    };
+    (frame(mean), frame(variance))
+}
+
 /// Path-trace one view with `spp` samples per pixel, reporting its passes to `progress`.
 pub fn render(
     ctx: Arc<GpuContext>,
@@ -68,111 +254,14 @@ pub fn render(
     let started = std::time::Instant::now();
     // the light field's own preparation: same normalisation, faces, twins and materials
     let prepared = PreparedScene::new(scene, 1.0)?;
-    let faces = crate::prepare::packing::gpu_faces(&prepared, &vec![NO_FACE; prepared.faces.len()]);
-    let front: Vec<&crate::prepare::PreparedTriangle> = prepared
-        .triangles
-        .iter()
-        .filter(|t| !prepared.faces[t.face as usize].is_back)
-        .collect();
-    let corners: Vec<[Vec3; 3]> = front
-        .iter()
-        .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
-        .collect();
-    let (nodes, order) = build_bvh(&corners);
-    let triangles: Vec<GpuTriangle> = order
-        .iter()
-        .map(|&i| {
-            let [a, b, c] = corners[i as usize];
-            let uv = front[i as usize].uv.unwrap_or([[0.0; 2]; 3]);
-            GpuTriangle {
-                v0: a.into(),
-                face: front[i as usize].face,
-                e1: (b - a).into(),
-                e2: (c - a).into(),
-                uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
-                uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
-                ..Default::default()
-            }
-        })
-        .collect();
-    // emitters: front triangles of emitting faces, weighted by luminance x area
-    let mut lights: Vec<[f32; 2]> = Vec::new();
-    let mut total = 0.0f32;
-    for (i, t) in triangles.iter().enumerate() {
-        let le = luminance(faces[t.face as usize].emission);
-        let area = 0.5 * Vec3::from(t.e1).cross(Vec3::from(t.e2)).length();
-        if le > 0.0 && area > 0.0 {
-            total += le * area;
-            lights.push([f32::from_bits(i as u32), total]);
-        }
-    }
-    // textures, texel arrays back to back
-    let mut texture_info: Vec<[u32; 4]> = Vec::new();
-    let mut texels: Vec<[f32; 4]> = Vec::new();
-    for t in &scene.textures {
-        texture_info.push([texels.len() as u32, t.width, t.height, 0]);
-        texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
-    }
-    let face_textures: Vec<[u32; 4]> = prepared
-        .faces
-        .iter()
-        .map(|f| {
-            let m = &scene.materials[f.material as usize];
-            [
-                m.diffuse_texture.unwrap_or(NO_FACE),
-                m.emission_texture.unwrap_or(NO_FACE),
-                0,
-                0,
-            ]
-        })
-        .collect();
+    let trace_scene = TraceScene::new(scene, &prepared);
     let [width, height] = size;
     let vp = crate::render::view_projection(camera, &prepared.normalisation, width, height);
     let eye = prepared.normalisation.to_unit(camera.eye).as_vec3();
-    let sky = scene.sky.unwrap_or([0.0; 3]);
     let samples_per_pass = 4u32.min(spp);
     let passes = spp.div_ceil(samples_per_pass);
     let spp = passes * samples_per_pass;
-
-    let ledger = MemoryLedger::default();
-    let device = &ctx.device;
-    let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("trace parameters"),
-        size: std::mem::size_of::<GpuTraceParams>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let buffers = [
-        ctx.buffer_init(
-            &ledger,
-            "triangles",
-            bytemuck::cast_slice(&triangles),
-            STORAGE,
-        ),
-        ctx.buffer_init(&ledger, "bvh", bytemuck::cast_slice(&nodes), STORAGE),
-        ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&faces), STORAGE),
-        ctx.buffer_init(
-            &ledger,
-            "face textures",
-            bytemuck::cast_slice(&face_textures),
-            STORAGE,
-        ),
-        ctx.buffer_init(
-            &ledger,
-            "texture info",
-            bytemuck::cast_slice(&texture_info),
-            STORAGE,
-        ),
-        ctx.buffer_init(&ledger, "texels", bytemuck::cast_slice(&texels), STORAGE),
-        ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&lights), STORAGE),
-        ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE),
-    ];
-    let layout = reflect::layout(device, "reference.wgsl", 0)?;
-    let module = shaders::module(device, "reference.wgsl")?;
-    let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
-    let mut all: Vec<&wgpu::Buffer> = vec![&params_buffer];
-    all.extend(buffers.iter());
-    let bind_group = ctx.bind_group(&layout, &all);
+    let tracer = Tracer::new(&ctx, &trace_scene, size)?;
 
     let what = format!("{spp} spp at {width}x{height}");
     progress.begin(passes as u64, "passes", &what);
@@ -183,50 +272,24 @@ pub fn render(
             inv_view_proj: vp.inverse().to_cols_array_2d(),
             eye: eye.into(),
             width,
-            sky,
+            sky: scene.sky.unwrap_or([0.0; 3]),
             height,
             samples_per_pass,
             pass_index,
             seed,
-            light_count: lights.len() as u32,
-            light_weight_total: total.max(1e-30),
+            light_count: trace_scene.lights.len() as u32,
+            light_weight_total: trace_scene.light_weight_total.max(1e-30),
             _pad: [0; 3],
         };
-        ctx.queue
-            .write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
-        let mut encoder = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind_group, &[]);
-            pass.dispatch_workgroups(width.div_ceil(8), height.div_ceil(8), 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
-        ctx.wait()?;
+        tracer.pass(&ctx, &params)?;
         progress.advance_to(pass_index as u64 + 1, &what);
     }
     progress.finish();
-    let sums: Vec<[f32; 4]> = ctx.read_buffer(&buffers[7], width as u64 * height as u64 * 32)?;
-    let n = spp as f32;
-    let mut mean = Vec::with_capacity((width * height) as usize);
-    let mut variance = Vec::with_capacity((width * height) as usize);
-    for px in sums.chunks(2) {
-        let m: [f32; 3] = std::array::from_fn(|c| px[0][c] / n);
-        let v: [f32; 3] = std::array::from_fn(|c| ((px[1][c] / n - m[c] * m[c]).max(0.0)) / n);
-        mean.push([m[0], m[1], m[2], 1.0]);
-        variance.push([v[0], v[1], v[2], 1.0]);
-    }
+    let sums: Vec<[f32; 4]> = ctx.read_buffer(&tracer.sums, width as u64 * height as u64 * 32)?;
+    let (mean, variance) = mean_and_variance(&sums, spp, size);
     Ok(Reference {
-        mean: Frame {
-            width,
-            height,
-            pixels: mean,
-        },
-        variance: Frame {
-            width,
-            height,
-            pixels: variance,
-        },
+        mean,
+        variance,
         spp,
         seconds: tracing.elapsed().as_secs_f64(),
         setup_seconds,
