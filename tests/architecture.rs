@@ -2,7 +2,8 @@
 //! top-level modules of src/ and between the files of one module (a folder's mod.rs is their
 //! parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
 //! depend on the pipeline stages above them. The core leaves the lab (src/lab/, feature `lab`)
-//! out: no core module names it, and its crates are not the core's.
+//! out: no core module names it, and its crates are not the core's. No function is longer than
+//! 120 lines.
 
 mod common;
 
@@ -22,6 +23,22 @@ fn there_are_no_import_cycles() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(stdout.contains("no import cycles"), "{stdout}");
+}
+
+/// Functions do one job: none in src/ is longer than 120 lines (tools/long-functions.py counts
+/// from the signature to the closing brace).
+#[test]
+fn no_function_is_longer_than_120_lines() {
+    let run = Command::new("python3")
+        .arg(repo_path("tools/long-functions.py"))
+        .output()
+        .expect("python3 is needed to measure the functions");
+    assert!(
+        run.status.success(),
+        "functions over 120 lines (split them by job):\n{}{}",
+        String::from_utf8_lossy(&run.stdout),
+        String::from_utf8_lossy(&run.stderr)
+    );
 }
 
 /// The core (`cargo build --no-default-features`) leaves the lab's crates out: plotters, the
