@@ -89,6 +89,18 @@ pacing_dir=$(dirname "$dir")/pacing
 if [ -f "$pacing_dir/gpu.txt" ]; then
   bash "$(dirname "$0")/pacing-md.sh" "$pacing_dir"
 fi
+# behaviour unchanged across the refactors (tools/gpu-identity.sh): DIR's sibling identity/
+identity_dir=$(dirname "$dir")/identity
+if [ -f "$identity_dir/identity.txt" ]; then
+  echo "### Two builds: the same light fields, the same speed"
+  echo
+  echo "\`tools/gpu-identity.sh\` ($(cat "$identity_dir/builds.txt")): the light fields of four scenes byte for byte, and the suite of both builds, three runs each taking turns, judged against the spread of the old build's own runs."
+  echo
+  echo '```'; cat "$identity_dir/identity.txt"; echo '```'
+  echo
+  cat "$identity_dir/suite-compare.md"
+  echo
+fi
 xr_dir=${3:-docs/results/xr-h200}
 if compgen -G "$xr_dir/xr-*.json" > /dev/null; then
   bash "$(dirname "$0")/xr-md.sh" "$xr_dir"

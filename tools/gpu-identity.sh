@@ -2,11 +2,12 @@
 # Runs on the lent NVIDIA machine: is the behaviour of build NEW the same as build OLD's? The
 # light fields (.vlf) of Cornell, Cornell-mirror, the textured room and a generated 10K-triangle
 # classroom, byte for byte (and OLD twice on Cornell: propagation is deterministic); the
-# generator's files; and `vlf bench --suite` of both, with OLD run twice to show the noise
-# between two runs of one build (tools/suite-compare.py reads them).
-#   tools/gpu-identity.sh OLD_VLF NEW_VLF OUT_DIR
+# generator's files; and `vlf bench --suite` of both, taking turns ROUNDS times (default 3) so
+# that drifts of the machine fall on both (tools/suite-compare.py compares the medians against the
+# spread of one build's own runs).
+#   tools/gpu-identity.sh OLD_VLF NEW_VLF OUT_DIR [ROUNDS]
 set -uo pipefail
-old=$1; new=$2; out=$3; work=$(mktemp -d)
+old=$1; new=$2; out=$3; rounds=${4:-3}; work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
 {
   "$old" generate classroom --size 10000 -o $work/gen-old >/dev/null 2>&1
@@ -22,9 +23,10 @@ quiet() { grep -v XDG_RUNTIME_DIR; }
   "$old" propagate scenes/cornell/scene.toml -o $work/again.vlf 2>&1 | quiet > /dev/null
   cmp -s $work/again.vlf $work/cornell-old.vlf && echo "cornell, old build twice: identical" || echo "cornell, old build twice: DIFFERENT"
 } | tee "$out/identity.txt"
-# suites: a first run pays the driver's shader compilation; then old, new, old again
+# suites: a first run pays the driver's shader compilation; then the builds take turns
 "$old" bench --suite --json $work/suite-cold.json 2>&1 | quiet | tail -1
-"$old" bench --suite --json "$out/suite-old.json" 2>&1 | quiet | tail -1
-"$new" bench --suite --json "$out/suite-new.json" 2>&1 | quiet | tail -1
-"$old" bench --suite --json "$out/suite-old-again.json" 2>&1 | quiet | tail -1
+for r in $(seq 1 "$rounds"); do
+  "$old" bench --suite --json "$out/suite-old-$r.json" 2>&1 | quiet | tail -1
+  "$new" bench --suite --json "$out/suite-new-$r.json" 2>&1 | quiet | tail -1
+done
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"

@@ -35,6 +35,12 @@ for scene, title in walks.items():
         flag = verdict(not v.get("above_limit")) if v.get("above_limit") is not None else "-"
         print(f"| {v['wall']} | {v['eye']} | {g.get('median', float('nan')):.3f} | {g.get('p99', float('nan')):.3f} | {g.get('max', float('nan')):.3f} | {v.get('p99_over_p50') or float('nan'):.3f} | {flag} |")
     print()
+aa = os.path.join(d, "render-aa.txt")
+if os.path.exists(aa):
+    print("Where the time goes: one 1920x1200 view of the 100K classroom (`vlf bench --size 1920x1200 --aa N`). Eye rays go in pairs "
+          "that share one traced reflection, so 1 and 2 rays per pixel cost the same and 4 cost twice that: the frame time is the "
+          "number of ray pairs, and 8 views at 4 rays per pixel need about three times faster rays to fit 8.3 ms.\n")
+    print("```"); print(open(aa).read().strip()); print("```\n")
 xr = sorted(glob.glob(os.path.join(d, "xr-*.json")))
 if xr:
     print("#### The headset on the same scenes\n")

@@ -1,25 +1,38 @@
 #!/usr/bin/env python3
-"""Two builds' `vlf bench --suite` side by side (tools/gpu-identity.sh): per scene the total
-time (setup + visibility + propagation) of OLD, NEW and OLD run again, NEW/OLD and the noise
-between OLD's two runs; a scene whose NEW/OLD falls outside OLD's own spread (widened by 5%)
-is flagged.   python3 tools/suite-compare.py DIR > DIR/suite-compare.md"""
+"""Two builds' `vlf bench --suite` side by side (tools/gpu-identity.sh): each build ran the suite
+several times, taking turns. Per scene and per stage (setup, visibility, propagation) the median
+of each build, NEW/OLD, and OLD's own spread (its slowest over its fastest run); NEW's median is
+within noise when it lies inside the range of OLD's runs widened by 5% (or the two ranges
+overlap).     python3 tools/suite-compare.py DIR > DIR/suite-compare.md"""
 
 import json
+import statistics
 import sys
 from pathlib import Path
 
 d = Path(sys.argv[1])
-runs = {k: json.loads((d / f"suite-{k}.json").read_text()) for k in ("old", "new", "old-again")}
+runs = {b: [json.loads(p.read_text()) for p in sorted(d.glob(f"suite-{b}-*.json"))] for b in ("old", "new")}
 gpu = (d / "gpu.txt").read_text().strip() if (d / "gpu.txt").exists() else "?"
-print(f"`vlf bench --suite` of two builds on **{gpu}**: total seconds per scene (setup, visibility, propagation).\n")
-print("| scene | old (s) | new (s) | old again (s) | new/old | old again/old | verdict |")
-print("|---|---|---|---|---|---|---|")
-flagged = 0
-for e_old, e_new, e_again in zip(*(runs[k]["entries"] for k in ("old", "new", "old-again"))):
-    a, b, c = e_old["total_seconds"], e_new["total_seconds"], e_again["total_seconds"]
-    noise = abs(c / a - 1.0)
-    ratio = b / a
-    within = abs(ratio - 1.0) <= noise + 0.05
-    flagged += not within
-    print(f"| {e_old['name']} | {a:.3f} | {b:.3f} | {c:.3f} | {ratio:.3f} | {c / a:.3f} | {'within noise' if within else '**OUTSIDE NOISE**'} |")
-print(f"\n{flagged} scene(s) outside the noise (old's two runs differ by the 'old again/old' column; 5% added).")
+stages = [("setup_seconds", "setup"), ("visibility_seconds", "visibility"), ("propagation_seconds", "propagation"), ("total_seconds", "total")]
+print(f"`vlf bench --suite` of two builds on **{gpu}**, {len(runs['old'])} runs each, taking turns: per scene the median "
+      "milliseconds of each build per stage as old / new, and the verdict on the total (new's median inside old's own range, widened by 5%).\n")
+print("| scene | " + " | ".join(f"{label} old / new (ms)" for _, label in stages) + " | old's own spread (total) | new/old (total) | verdict |")
+print("|---|" + "---|" * (len(stages) + 3))
+outside = 0
+names = [e["name"] for e in runs["old"][0]["entries"]]
+for i, name in enumerate(names):
+    cells, verdict = [], ""
+    for key, label in stages:
+        old = [r["entries"][i][key] * 1e3 for r in runs["old"]]
+        new = [r["entries"][i][key] * 1e3 for r in runs["new"]]
+        cells.append(f"{statistics.median(old):.1f} / {statistics.median(new):.1f}")
+        if key == "total_seconds":
+            lo, hi = min(old) / 1.05, max(old) * 1.05
+            m = statistics.median(new)
+            within = lo <= m <= hi or (min(new) <= max(old) and min(old) <= max(new))
+            outside += not within
+            spread = max(old) / max(min(old), 1e-9)
+            ratio = m / max(statistics.median(old), 1e-9)
+            verdict = f"{spread:.3f} | {ratio:.3f} | {'within noise' if within else '**OUTSIDE NOISE**'}"
+    print(f"| {name} | " + " | ".join(cells) + f" | {verdict} |")
+print(f"\n{outside} scene(s) outside the noise.")
