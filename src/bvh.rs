@@ -112,6 +112,34 @@ fn sah_split(
     best
 }
 
+/// The BVH over `corners` and the triangles in the order its leaves refer to, each with the face
+/// `face_of(i)` and the texture coordinates `uv_of(i)` of input triangle i (the path tracer's,
+/// direct light's and the renderer's ray casting share it).
+pub fn bvh_triangles(
+    corners: &[[Vec3; 3]],
+    face_of: impl Fn(usize) -> u32,
+    uv_of: impl Fn(usize) -> [[f32; 2]; 3],
+) -> (Vec<GpuBvhNode>, Vec<GpuTriangle>) {
+    let (nodes, order) = build_bvh(corners);
+    let triangles = order
+        .iter()
+        .map(|&i| {
+            let [a, b, c] = corners[i as usize];
+            let uv = uv_of(i as usize);
+            GpuTriangle {
+                v0: a.into(),
+                face: face_of(i as usize),
+                e1: (b - a).into(),
+                e2: (c - a).into(),
+                uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
+                uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
+                ..Default::default()
+            }
+        })
+        .collect();
+    (nodes, triangles)
+}
+
 /// A bounding volume hierarchy over `triangles`: binned surface-area-heuristic splits (median
 /// splits past depth SAH_DEPTH); returns the nodes and the triangle order the leaves refer to.
 /// The left child of an internal node is the node after it; `index` holds the right child.

@@ -91,82 +91,61 @@ impl Drawer<'_> {
         passes
     }
 
+    /// Draw one view: submitted and timed (`keep` false), or drawn again untimed and read back
+    /// with its projectors' outputs (`keep` true: the last frame's images).
+    fn draw_view(
+        &mut self,
+        v: WallView,
+        (pose, wand): (&Pose, Option<&WandPose>),
+        ts: Option<&mut Timestamps>,
+        keep: bool,
+    ) -> Result<Option<(Frame, Vec<(String, Frame)>)>> {
+        let wall = &self.config.walls[v.wall];
+        let norm = &self.lf.meta.normalisation;
+        let view = super::wall_view(self.config, wall, v.side, pose, norm);
+        let [w, h] = wall.eye_pixels();
+        let Some(p) = self.post.as_ref() else {
+            if keep {
+                let frame = self.renderer.render_matrix(view.0, view.1, w, h)?.0;
+                return Ok(Some((frame, Vec::new())));
+            }
+            self.renderer.submit_matrix(view.0, view.1, w, h, ts);
+            return Ok(None);
+        };
+        let overlay = super::post::wand_overlay(self.config, wall, v.side, pose, wand, norm);
+        let draw = if keep { Draw::Everything } else { Draw::Timed };
+        p.encode(&mut self.renderer, v.wall, view, overlay.as_ref(), ts, draw);
+        if !keep {
+            return Ok(None);
+        }
+        let (frame, projectors) = p.read(v.wall)?;
+        let named = (projectors.into_iter())
+            .map(|(name, image)| (format!("{}-{}-{name}", wall.name, v.eye), image))
+            .collect();
+        Ok(Some((frame, named)))
+    }
+
     /// Submit every view of a timed frame, back to back.
     fn submit_timed(
         &mut self,
         pose: &Pose,
         wand: Option<&WandPose>,
         mut ts: Option<&mut Timestamps>,
-    ) {
-        for &WallView {
-            wall: wall_index,
-            side,
-            ..
-        } in &self.views
-        {
-            let wall = &self.config.walls[wall_index];
-            let norm = &self.lf.meta.normalisation;
-            let view = super::wall_view(self.config, wall, side, pose, norm);
-            match self.post.as_ref() {
-                Some(p) => {
-                    let overlay =
-                        super::post::wand_overlay(self.config, wall, side, pose, wand, norm);
-                    p.encode(
-                        &mut self.renderer,
-                        wall_index,
-                        view,
-                        overlay.as_ref(),
-                        ts.as_deref_mut(),
-                        Draw::Timed,
-                    )
-                }
-                None => {
-                    let [w, h] = wall.eye_pixels();
-                    self.renderer
-                        .submit_matrix(view.0, view.1, w, h, ts.as_deref_mut())
-                }
-            }
+    ) -> Result<()> {
+        for v in self.views.clone() {
+            self.draw_view(v, (pose, wand), ts.as_deref_mut(), false)?;
         }
+        Ok(())
     }
 
     /// Draw every view of the last frame again, one by one, and read the images back (not
     /// timed).
     fn draw_kept(&mut self, pose: &Pose, wand: Option<&WandPose>) -> Result<Kept> {
         let mut kept = Kept::default();
-        for &WallView {
-            wall: wall_index,
-            eye: eye_name,
-            side,
-        } in &self.views
-        {
-            let wall = &self.config.walls[wall_index];
-            let norm = &self.lf.meta.normalisation;
-            let view = super::wall_view(self.config, wall, side, pose, norm);
-            match self.post.as_ref() {
-                Some(p) => {
-                    let overlay =
-                        super::post::wand_overlay(self.config, wall, side, pose, wand, norm);
-                    p.encode(
-                        &mut self.renderer,
-                        wall_index,
-                        view,
-                        overlay.as_ref(),
-                        None,
-                        Draw::Everything,
-                    );
-                    let (frame, projectors) = p.read(wall_index)?;
-                    kept.views.push(frame);
-                    kept.projectors.extend(
-                        projectors.into_iter().map(|(name, image)| {
-                            (format!("{}-{eye_name}-{name}", wall.name), image)
-                        }),
-                    );
-                }
-                None => {
-                    let [w, h] = wall.eye_pixels();
-                    kept.views
-                        .push(self.renderer.render_matrix(view.0, view.1, w, h)?.0);
-                }
+        for v in self.views.clone() {
+            if let Some((frame, projectors)) = self.draw_view(v, (pose, wand), None, true)? {
+                kept.views.push(frame);
+                kept.projectors.extend(projectors);
             }
         }
         Ok(kept)
@@ -247,7 +226,7 @@ pub fn run_locked(
             break;
         }
         let started = std::time::Instant::now();
-        drawer.submit_timed(&pose, wand.as_ref(), timestamps.as_mut());
+        drawer.submit_timed(&pose, wand.as_ref(), timestamps.as_mut())?;
         if let Some(arrived) = fresh {
             latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }

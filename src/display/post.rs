@@ -318,21 +318,12 @@ pub fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture) -> Result<Frame> 
         mapped_at_creation: false,
     });
     let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &readback,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded_row),
-                rows_per_image: Some(height),
-            },
-        },
-        wgpu::Extent3d {
-            width,
-            height,
-            depth_or_array_layers: 1,
-        },
+    crate::gpu::copy_texture_to_buffer(
+        &mut encoder,
+        texture,
+        &readback,
+        padded_row,
+        [width, height],
     );
     ctx.queue.submit([encoder.finish()]);
     let raw: Vec<[f32; 4]> = ctx.read_buffer(&readback, padded_row as u64 * height as u64)?;

@@ -431,6 +431,33 @@ impl Timestamps {
     }
 }
 
+/// Record a copy of a whole 2D texture into `buffer`, rows `padded_row` bytes apart (a multiple
+/// of wgpu::COPY_BYTES_PER_ROW_ALIGNMENT).
+pub fn copy_texture_to_buffer(
+    encoder: &mut wgpu::CommandEncoder,
+    texture: &wgpu::Texture,
+    buffer: &wgpu::Buffer,
+    padded_row: u32,
+    [width, height]: [u32; 2],
+) {
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(height),
+            },
+        },
+        wgpu::Extent3d {
+            width,
+            height,
+            depth_or_array_layers: 1,
+        },
+    );
+}
+
 pub fn human_bytes(bytes: u64) -> String {
     let b = bytes as f64;
     if b >= 1024.0 * 1024.0 * 1024.0 {

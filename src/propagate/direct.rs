@@ -9,7 +9,7 @@
 //! belongs to, so that every iteration's texels and tiles hold paths of the same length. That
 //! iteration's texel gather leaves mirror senders out.
 
-use crate::bvh::{build_bvh, GpuBvhNode, GpuTriangle};
+use crate::bvh::GpuBvhNode;
 use crate::error::Result;
 use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
@@ -115,20 +115,8 @@ impl DirectLight {
             .iter()
             .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
             .collect();
-        let (nodes, order) = build_bvh(&corners);
-        let triangles: Vec<GpuTriangle> = order
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = corners[i as usize];
-                GpuTriangle {
-                    v0: a.into(),
-                    face: prepared.triangles[i as usize].face,
-                    e1: (b - a).into(),
-                    e2: (c - a).into(),
-                    ..Default::default()
-                }
-            })
-            .collect();
+        let (nodes, triangles) =
+            crate::bvh::bvh_triangles(&corners, |i| prepared.triangles[i].face, |_| [[0.0; 2]; 3]);
         let params = GpuDirectParams {
             emitter_count: emitters.len() as u32,
             emitter_samples: emitter_samples.max(1),

@@ -76,23 +76,11 @@ impl TraceScene {
             .iter()
             .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
             .collect();
-        let (nodes, order) = build_bvh(&corners);
-        let triangles: Vec<GpuTriangle> = order
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = corners[i as usize];
-                let uv = front[i as usize].uv.unwrap_or([[0.0; 2]; 3]);
-                GpuTriangle {
-                    v0: a.into(),
-                    face: front[i as usize].face,
-                    e1: (b - a).into(),
-                    e2: (c - a).into(),
-                    uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
-                    uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
-                    ..Default::default()
-                }
-            })
-            .collect();
+        let (nodes, triangles) = crate::bvh::bvh_triangles(
+            &corners,
+            |i| front[i].face,
+            |i| front[i].uv.unwrap_or([[0.0; 2]; 3]),
+        );
         // emitters: front triangles of emitting faces, weighted by luminance x area
         let mut lights: Vec<[f32; 2]> = Vec::new();
         let mut total = 0.0f32;

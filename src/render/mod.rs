@@ -563,20 +563,8 @@ fn ray_casting_mesh(
         .chunks_exact(3)
         .map(|t| [0, 1, 2].map(|k| Vec3::from(t[k].position)))
         .collect();
-    let (nodes, order) = crate::bvh::build_bvh(&corners);
-    let triangles = order
-        .iter()
-        .map(|&i| {
-            let [a, b, c] = corners[i as usize];
-            crate::bvh::GpuTriangle {
-                v0: a.into(),
-                face: vertices[i as usize * 3].face,
-                e1: (b - a).into(),
-                e2: (c - a).into(),
-                ..Default::default()
-            }
-        })
-        .collect();
+    let (nodes, triangles) =
+        crate::bvh::bvh_triangles(&corners, |i| vertices[i * 3].face, |_| [[0.0; 2]; 3]);
     (triangles, nodes)
 }
 
