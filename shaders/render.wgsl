@@ -259,7 +259,12 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
         let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
         let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
         let s0 = cast_ray(r0[0], r0[1]);
-        let s1 = cast_ray(r1[0], r1[1]);
+        // an odd count's last pair has one eye ray: r1 is r0, so is what it meets (no second
+        // cast: 1 eye ray per pixel costs one cast and one reflection, not two casts)
+        var s1 = s0;
+        if k + 1u < n {
+            s1 = cast_ray(r1[0], r1[1]);
+        }
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;

@@ -12,6 +12,7 @@ use crate::scene::Scene;
 use serde::Serialize;
 use std::sync::Arc;
 
+use crate::display::frame::{Limit, CONSTANT_FRAME_TIME};
 pub use crate::stats::Distribution;
 
 #[derive(Clone, Debug, Serialize)]
@@ -31,6 +32,9 @@ pub struct BenchReport {
     pub mirror_bounces: u32,
     pub render_frame_ms: Distribution,
     pub render_timing_source: String,
+    /// the view's frame time against the constancy limit (p99/p50 <= 1.10), said in the table
+    #[serde(default)]
+    pub limits: Vec<Limit>,
 }
 
 pub fn run(
@@ -65,6 +69,7 @@ pub fn run(
         render_size: size,
         eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
+        limits: render_limits(&Distribution::of(&frame_ms)),
         render_frame_ms: Distribution::of(&frame_ms),
         render_timing_source: if gpu {
             "GPU timestamp queries".into()
@@ -130,6 +135,12 @@ pub fn utc_date() -> String {
     format!("{y:04}-{m:02}-{d:02}")
 }
 
+/// The view's frame time p99/p50 against the constant-frame-time limit.
+fn render_limits(frame_ms: &Distribution) -> Vec<Limit> {
+    let ratio = frame_ms.p99 / frame_ms.median.max(1e-12);
+    vec![Limit::check("render p99/p50", ratio, CONSTANT_FRAME_TIME)]
+}
+
 impl BenchReport {
     pub fn table(&self) -> String {
         let p = &self.propagation;
@@ -149,6 +160,7 @@ impl BenchReport {
             "  render {}x{}            median {:.4} ms, p99 {:.4} ms, max {:.4} ms over {} frames ({})\n",
             self.render_size[0], self.render_size[1], r.median, r.p99, r.max, r.samples, self.render_timing_source
         ));
+        s.push_str(&Limit::lines(&self.limits));
         s
     }
 
