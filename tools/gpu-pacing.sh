@@ -5,20 +5,29 @@
 # Reports (JSON + table) and the last frame's overview into OUT_DIR/pacing.tar.
 # With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
 # (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes.
+# SCENES (default "classroom-100k classroom-1m gallery") picks the walks; AA=N draws N eye rays per
+# pixel instead of the configuration's 4 (reports named cave-<scene>-aaN).
 #   tools/gpu-pacing.sh VLF_BINARY OUT_DIR [FRAMES]
 set -uo pipefail
 vlf=$1; out=$2; frames=${3:-300}; work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
-"$vlf" generate classroom --size 100000 --mirrors -o $work/classroom-100k | quiet | tail -1
-"$vlf" generate classroom --size 1000000 --mirrors -o $work/classroom-1m | quiet | tail -1
-"$vlf" generate gallery --mirrors -o $work/gallery | quiet | tail -1
-for scene in classroom-100k classroom-1m gallery; do
+generate() {  # scene name -> the generator's command line
+  case $1 in
+    classroom-100k) echo "classroom --size 100000 --mirrors" ;;
+    classroom-1m) echo "classroom --size 1000000 --mirrors" ;;
+    gallery) echo "gallery --mirrors" ;;
+  esac
+}
+suffix=${AA:+-aa$AA}
+for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
+  "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
   "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
   # the walk CAVE (config/displays/cave-4wall-walk.toml) on this scene's path
   sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene.toml
+  [ -n "${AA:-}" ] && sed -i "s/^refresh_hz.*/&\nantialiasing = $AA/" $work/cave-$scene.toml
   "$vlf" cave $work/cave-$scene.toml --scene $work/$scene.vlf --headless --frames $frames --out $work/out-$scene \
-    --json $work/cave-$scene.json 2>&1 | quiet | tee $work/cave-$scene.txt | tail -16
-  cp $work/out-$scene/overview.png $work/cave-$scene-overview.png
+    --json $work/cave-$scene$suffix.json 2>&1 | quiet | tee $work/cave-$scene$suffix.txt | tail -16
+  cp $work/out-$scene/overview.png $work/cave-$scene$suffix-overview.png
   if [ -n "${XR_RUNTIME_LIBRARY:-}" ]; then
     manifest=$work/runtime.json
     printf '{"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": "%s"}}\n' "$(realpath "$XR_RUNTIME_LIBRARY")" > $manifest

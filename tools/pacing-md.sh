@@ -35,6 +35,18 @@ for scene, title in walks.items():
         flag = verdict(not v.get("above_limit")) if v.get("above_limit") is not None else "-"
         print(f"| {v['wall']} | {v['eye']} | {g.get('median', float('nan')):.3f} | {g.get('p99', float('nan')):.3f} | {g.get('max', float('nan')):.3f} | {v.get('p99_over_p50') or float('nan'):.3f} | {flag} |")
     print()
+fewer = sorted(glob.glob(os.path.join(os.path.dirname(d.rstrip("/")), "pacing-aa", "cave-*-aa*.json")))
+if fewer:
+    print("The same walks with fewer eye rays per pixel (`AA=N tools/gpu-pacing.sh`, `antialiasing = N` in the display configuration; 150 frames):\n")
+    print("| walk | eye rays per pixel | all views' GPU p50 (ms) | p99 | frame CPU+GPU max (ms) | limits above |\n|---|---|---|---|---|---|")
+    for f in fewer:
+        r = json.load(open(f))
+        name = os.path.basename(f)[5:-5]
+        scene, aa = name.rsplit("-aa", 1)
+        a = r.get("all_views_gpu_ms") or {}
+        bad = [l["what"] for l in r.get("limits", []) if not l["met"]]
+        print(f"| {scene} | {aa} | {a.get('median', float('nan')):.3f} | {a.get('p99', float('nan')):.3f} | {r['cpu_frame_ms']['max']:.3f} | {', '.join(bad) or 'none'} |")
+    print()
 aa = os.path.join(d, "render-aa.txt")
 if os.path.exists(aa):
     print("Where the time goes: one 1920x1200 view of the 100K classroom (`vlf bench --size 1920x1200 --aa N`). Eye rays go in pairs "
