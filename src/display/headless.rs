@@ -62,6 +62,9 @@ pub fn run(
     run_locked(lf, resident, config, config_path, (frames, out, exr), None)
 }
 
+/// A kept view's image and its projectors' outputs (named `<wall>-<eye>-<projector>`).
+type ViewImages = (Frame, Vec<(String, Frame)>);
+
 /// What the last frame leaves: every view's image, and each projector's output.
 #[derive(Default)]
 struct Kept {
@@ -99,7 +102,7 @@ impl Drawer<'_> {
         (pose, wand): (&Pose, Option<&WandPose>),
         ts: Option<&mut Timestamps>,
         keep: bool,
-    ) -> Result<Option<(Frame, Vec<(String, Frame)>)>> {
+    ) -> Result<Option<ViewImages>> {
         let wall = &self.config.walls[v.wall];
         let norm = &self.lf.meta.normalisation;
         let view = super::wall_view(self.config, wall, v.side, pose, norm);
