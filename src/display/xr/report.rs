@@ -1,5 +1,7 @@
 //! What a headset run measured (`vlf xr --json`), and its table: per-eye GPU time, missed
-//! refreshes and late frames against their limits, frames in flight and the overlap they bought.
+//! refreshes and late frames against their limits, frames in flight and the overlap they bought;
+//! and the display account those counts come from (`display_account`): which refresh showed which
+//! frame, given when the GPU finished each frame, as the runtime's compositor decides it.
 
 use crate::display::frame::{Limit, ViewTiming};
 use crate::stats::Distribution;
@@ -17,14 +19,33 @@ pub struct XrReport {
     pub frames: u32,
     /// frames the runtime said not to render (should_render false)
     pub frames_skipped: u32,
-    /// display refreshes between consecutive predicted display times that no frame was
-    /// submitted for
+    /// display refreshes from the first timed frame's predicted display time to the last one's
+    /// that did not show the frame predicted for them: no frame was meant for them
+    /// (`prediction_gaps`), or it was not ready (`display_account`). Without the runtime's clock
+    /// (XR_KHR_convert_timespec_time), only the gaps
     pub missed_frames: u64,
     /// the frames (1-based) after which refreshes were missed, the first 100
     pub missed_after_frames: Vec<u32>,
-    /// frames whose xrEndFrame came after their predicted display time (None: the runtime
-    /// cannot convert the system clock to XrTime)
+    /// refreshes between consecutive predicted display times that no frame was predicted for:
+    /// what xrWaitFrame's predictions skipped
+    pub prediction_gaps: u64,
+    /// frames shown after their predicted display time: their GPU work finished after the
+    /// compositor took the frame for that refresh (None: the runtime cannot convert the system
+    /// clock to XrTime)
     pub late_frames: Option<u64>,
+    /// frames never shown: a later frame was ready for the same refresh
+    pub dropped_frames: Option<u64>,
+    /// how long before a refresh the compositor takes the frames that are ready
+    /// (`compositor_lead_ns`)
+    pub compositor_lead_ms: Option<f64>,
+    /// per timed frame: its predicted display time minus when its GPU work finished (negative:
+    /// finished after it)
+    pub gpu_done_before_display_ms: Option<Distribution>,
+    /// frames whose GPU work finished after their predicted display time: late for any
+    /// compositor
+    pub gpu_done_after_display: Option<u64>,
+    /// the display's refresh period: the shortest the runtime predicted after the first timed
+    /// frame (`refresh_period_ns`)
     pub display_period_ms: f64,
     /// per eye: GPU time of the eye's render pass (timestamp queries)
     pub eyes: Vec<ViewTiming>,
@@ -55,12 +76,25 @@ impl XrReport {
             self.runtime, self.system, self.adapter, self.reference_space, self.swapchain_format
         );
         s.push_str(&format!(
-            "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms)\n",
-            self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms
+            "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms; {} of them skipped by xrWaitFrame's predictions)\n",
+            self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms, self.prediction_gaps
         ));
-        if let Some(late) = self.late_frames {
+        if let (Some(late), Some(dropped), Some(lead)) = (
+            self.late_frames,
+            self.dropped_frames,
+            self.compositor_lead_ms,
+        ) {
             s.push_str(&format!(
-                "{late} frames submitted after their predicted display time\n"
+                "{late} frames shown after their predicted display time, {dropped} never shown (the compositor taking the frames ready {lead:.1} ms before each refresh)\n"
+            ));
+        }
+        if let (Some(d), Some(after)) = (
+            &self.gpu_done_before_display_ms,
+            self.gpu_done_after_display,
+        ) {
+            s.push_str(&format!(
+                "GPU done before the predicted display time: min {:.2} ms, p50 {:.2} ms, max {:.2} ms; {after} frames finished on the GPU after it\n",
+                d.min, d.median, d.max
             ));
         }
         if !self.missed_after_frames.is_empty() {
@@ -118,5 +152,240 @@ impl XrReport {
             s.push_str(&format!("screenshot (left eye): {p}\n"));
         }
         s
+    }
+}
+
+/// One timed frame as the display account sees it, on the runtime's clock (XrTime, ns): its
+/// predicted display time and period (xrWaitFrame) and when the GPU finished it.
+#[derive(Clone, Copy, Debug)]
+pub struct ShownFrame {
+    pub display_ns: i64,
+    pub period_ns: i64,
+    pub gpu_done_ns: i64,
+}
+
+/// Which refresh showed which frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct DisplayAccount {
+    /// refreshes, from the first frame's predicted display time to the last one's, that did
+    /// not show the frame predicted for them
+    pub missed: u64,
+    /// per missed refresh: how many frames were predicted before it (the first 100)
+    pub missed_after: Vec<u32>,
+    /// of `missed`: refreshes no frame was predicted for
+    pub gaps: u64,
+    /// frames shown after their predicted display time
+    pub late: u64,
+    /// frames never shown: a later one was ready for the same refresh
+    pub dropped: u64,
+}
+
+/// Half a millisecond: display times this close are the same refresh (as Monado compares them).
+const SAME_REFRESH_NS: i64 = 500_000;
+
+/// How long before a refresh the compositor takes the frames that are ready: OpenXR does not
+/// say, so this is Monado's pacing: 4 ms from present to display plus the compositor's time,
+/// 20% of the period and at least 3 ms (14 ms at 20 Hz, its null compositor; 7 ms at 90 Hz).
+/// VLF_XR_COMPOSITOR_LEAD_MS sets another runtime's.
+pub fn compositor_lead_ns(period_ns: i64) -> i64 {
+    let set = std::env::var("VLF_XR_COMPOSITOR_LEAD_MS")
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|ms| ms.is_finite() && *ms >= 0.0);
+    match set {
+        Some(ms) => (ms * 1e6) as i64,
+        None => 4_000_000 + (period_ns / 5).max(3_000_000),
+    }
+}
+
+/// The display period the account steps refreshes by: the longest that divides every period the
+/// runtime predicted and every step between predicted display times, after the first frame
+/// (Monado's first prediction comes before its compositor has run, and it gives a slow
+/// application a multiple of the display's period: 100 and 150 ms at 20 Hz are 50 ms refreshes).
+pub fn refresh_period_ns(frames: &[ShownFrame]) -> i64 {
+    let later = frames.get(1..).filter(|f| !f.is_empty()).unwrap_or(frames);
+    let lengths: Vec<i64> = (later.iter().map(|f| f.period_ns))
+        .chain(later.windows(2).map(|w| w[1].display_ns - w[0].display_ns))
+        .filter(|&d| d > SAME_REFRESH_NS)
+        .collect();
+    let Some(&shortest) = lengths.iter().min() else {
+        return 1;
+    };
+    let divides = |q: i64| {
+        (lengths.iter())
+            .all(|&d| (d - (d as f64 / q as f64).round() as i64 * q).abs() <= SAME_REFRESH_NS)
+    };
+    (1..=8)
+        .map(|k| shortest / k)
+        .find(|&q| divides(q))
+        .unwrap_or(shortest)
+}
+
+/// Every refresh from the first frame's predicted display time to the last one's, with the
+/// frame predicted for it (None: a gap in the predictions).
+fn refreshes(frames: &[ShownFrame], period: i64) -> Vec<(i64, Option<usize>)> {
+    let mut out = Vec::with_capacity(frames.len());
+    for (n, f) in frames.iter().enumerate() {
+        if n > 0 {
+            let before = frames[n - 1].display_ns + period / 2;
+            let gaps = (1..)
+                .map(|j| f.display_ns - j * period)
+                .take_while(|&r| r > before);
+            let mut gaps: Vec<_> = gaps.map(|r| (r, None)).collect();
+            gaps.reverse();
+            out.extend(gaps);
+        }
+        out.push((f.display_ns, Some(n)));
+    }
+    out
+}
+
+/// The runtime's account of the frames: at each refresh the compositor takes, `lead_ns` before
+/// it, the newest frame that is predicted for this refresh or an earlier one and whose GPU work
+/// has finished; a refresh that does not get its own frame is missed, a frame taken after its
+/// predicted refresh is late, and one overtaken by a newer frame is dropped. Frames are in the
+/// order they were submitted.
+pub fn display_account(frames: &[ShownFrame], lead_ns: i64) -> DisplayAccount {
+    use std::cmp::Reverse;
+    use std::collections::BinaryHeap;
+    let mut account = DisplayAccount::default();
+    if frames.is_empty() {
+        return account;
+    }
+    let period = refresh_period_ns(frames);
+    // frames predicted up to the current refresh, not yet done: (GPU done, index)
+    let mut waiting = BinaryHeap::new();
+    let (mut predicted, mut newest_ready, mut shown) = (0usize, None::<usize>, None::<usize>);
+    let mut take = |refresh: i64, account: &mut DisplayAccount| {
+        while predicted < frames.len() && frames[predicted].display_ns <= refresh + SAME_REFRESH_NS
+        {
+            waiting.push(Reverse((frames[predicted].gpu_done_ns, predicted)));
+            predicted += 1;
+        }
+        while let Some(&Reverse((done, n))) = waiting.peek() {
+            if done > refresh - lead_ns {
+                break;
+            }
+            waiting.pop();
+            newest_ready = newest_ready.max(Some(n));
+        }
+        if let Some(n) = newest_ready.filter(|&n| shown.is_none_or(|s| n > s)) {
+            account.dropped += (n - shown.map_or(0, |s| s + 1)) as u64;
+            if refresh > frames[n].display_ns + SAME_REFRESH_NS {
+                account.late += 1;
+            }
+            shown = Some(n);
+        }
+        shown
+    };
+    for (refresh, meant) in refreshes(frames, period) {
+        let now = take(refresh, &mut account);
+        let own = now.is_some_and(|n| (frames[n].display_ns - refresh).abs() <= SAME_REFRESH_NS);
+        if !own {
+            account.missed += 1;
+            account.gaps += meant.is_none() as u64;
+            if account.missed_after.len() < 100 {
+                let before = frames.partition_point(|f| f.display_ns < refresh - SAME_REFRESH_NS);
+                account.missed_after.push(before as u32);
+            }
+        }
+    }
+    // after the last predicted refresh: the frames still to come are shown late or dropped
+    let last_done = frames.iter().map(|f| f.gpu_done_ns).max().unwrap_or(0);
+    let mut refresh = frames[frames.len() - 1].display_ns;
+    while take(refresh, &mut account).is_none_or(|s| s + 1 < frames.len()) {
+        if refresh - lead_ns > last_done {
+            break;
+        }
+        refresh += period;
+    }
+    account
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MS: i64 = 1_000_000;
+
+    /// Frames predicted every 50 ms from 1000 ms, done `done[n]` ms before their display time.
+    fn frames(ahead_ms: &[i64]) -> Vec<ShownFrame> {
+        (ahead_ms.iter().enumerate())
+            .map(|(n, &a)| ShownFrame {
+                display_ns: (1000 + 50 * n as i64) * MS,
+                period_ns: 50 * MS,
+                gpu_done_ns: (1000 + 50 * n as i64 - a) * MS,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn frames_done_before_the_lead_are_all_shown_on_time() {
+        let a = display_account(&frames(&[20, 15, 30, 14]), 14 * MS);
+        assert_eq!(a, DisplayAccount::default());
+    }
+
+    #[test]
+    fn a_frame_done_inside_the_lead_misses_its_refresh_and_the_next_one_overtakes_it() {
+        // frame 1 is done 5 ms before its refresh, after the compositor took the frames (14 ms);
+        // by the next refresh frame 2 is ready too: frame 1 is never shown
+        let a = display_account(&frames(&[20, 5, 20, 20]), 14 * MS);
+        assert_eq!((a.missed, a.late, a.dropped, a.gaps), (1, 0, 1, 0));
+        assert_eq!(a.missed_after, vec![1]);
+        // with no lead it would have been on time: the count depends on the compositor
+        assert_eq!(
+            display_account(&frames(&[20, 5, 20, 20]), 0),
+            DisplayAccount::default()
+        );
+    }
+
+    #[test]
+    fn late_frames_in_a_row_are_shown_late_until_one_catches_up() {
+        // 1 and 2 both miss the lead: 1 is shown at 2's refresh, 2 is overtaken by 3
+        let a = display_account(&frames(&[20, 5, 5, 20]), 14 * MS);
+        assert_eq!((a.missed, a.late, a.dropped), (2, 1, 1), "{a:?}");
+        assert_eq!(a.missed_after, vec![1, 2]);
+    }
+
+    #[test]
+    fn gaps_in_the_predictions_are_missed_refreshes_without_late_frames() {
+        let mut f = frames(&[20, 20, 20]);
+        f[2].display_ns += 100 * MS; // xrWaitFrame skipped two refreshes before frame 2
+        f[2].gpu_done_ns += 100 * MS;
+        let a = display_account(&f, 14 * MS);
+        assert_eq!((a.missed, a.gaps, a.late, a.dropped), (2, 2, 0, 0));
+        assert_eq!(a.missed_after, vec![2, 2]);
+    }
+
+    #[test]
+    fn the_last_frame_late_is_counted_after_the_last_refresh() {
+        let a = display_account(&frames(&[20, 20, -30]), 14 * MS);
+        assert_eq!((a.missed, a.late, a.dropped), (1, 1, 0));
+    }
+
+    #[test]
+    fn the_refresh_period_ignores_the_first_prediction_and_longer_application_periods() {
+        let mut f = frames(&[20, 20, 20, 20]);
+        f[0].period_ns = 16 * MS;
+        f[3].period_ns = 100 * MS;
+        assert_eq!(refresh_period_ns(&f), 50 * MS);
+        // a slow application paced at 100 and 150 ms: the display still refreshes every 50 ms
+        let mut slow = frames(&[20, 20, 20, 20]);
+        for (k, (display, period)) in [(1000, 16), (1100, 100), (1250, 150), (1350, 100)]
+            .into_iter()
+            .enumerate()
+        {
+            slow[k].display_ns = display * MS;
+            slow[k].period_ns = period * MS;
+        }
+        assert_eq!(refresh_period_ns(&slow), 50 * MS);
+    }
+
+    #[test]
+    fn the_lead_follows_monado_pacing() {
+        if std::env::var_os("VLF_XR_COMPOSITOR_LEAD_MS").is_none() {
+            assert_eq!(compositor_lead_ns(50 * MS), 14 * MS);
+            assert_eq!(compositor_lead_ns(11_111_111), 7 * MS);
+        }
     }
 }

@@ -1,13 +1,14 @@
 //! The OpenXR session: a swapchain per eye on the runtime's Vulkan device, the frame loop paced
 //! by the runtime (xrWaitFrame / xrBeginFrame / xrEndFrame at the predicted display time), the
 //! session states, thumbstick navigation through an action set, the left eye's screenshot and
-//! the per-eye frame-time report. Each eye is rendered by the CAVE's renderer (one compute pass,
-//! constant work per pixel) into an offscreen image and put on the swapchain image by
-//! `shaders/present.wgsl`.
+//! the per-eye frame-time report, with when the GPU finished each frame on the runtime's clock
+//! (what the runtime's account of late and dropped frames rests on: `report::display_account`).
+//! Each eye is rendered by the CAVE's renderer (one compute pass, constant work per pixel) into
+//! an offscreen image and put on the swapchain image by `shaders/present.wgsl`.
 
 use super::controls::{controls, Controls};
 use super::eyes::{copy_to_buffer, write_screenshot, Eye};
-use super::report::XrReport;
+use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, Fov, XrPose, XrRuntime};
 use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, Pass, ViewLabel};
 use crate::display::navigator::Navigator;
@@ -193,7 +194,7 @@ pub fn run(
         lf: &lf,
         runtime: &runtime,
     };
-    let mut state = LoopState::new(&ctx, &headset.eyes);
+    let mut state = LoopState::new(&ctx, &headset.eyes, runtime.clock);
     let ended = headset.run_loop(&mut state, options)?;
     let report = state.report(&headset, ended, options)?;
     // the swapchains and the session go before the device they were made on
@@ -244,9 +245,10 @@ struct LoopState {
     lost: bool,
     frames: u32,
     skipped: u32,
-    missed: u64,
-    missed_after: Vec<u32>,
-    late: u64,
+    /// every timed frame's predicted display time, period and clock reference
+    shown: Vec<FrameClock>,
+    /// when the GPU finished each timed frame (with the runtime's clock only)
+    gpu_done: Option<GpuDone>,
     times: FrameTimes,
     in_flight: Option<InFlight>,
     last_display_time: Option<i64>,
@@ -256,8 +258,97 @@ struct LoopState {
     waiting_since: Instant,
 }
 
+/// What the display showed of the timed frames (`display_account`).
+struct Display {
+    account: super::report::DisplayAccount,
+    /// the refresh period the account stepped by (`refresh_period_ns`), ms
+    period_ms: Option<f64>,
+    /// with the runtime's clock: what depends on when the GPU finished each frame
+    done: Option<DisplayDone>,
+}
+
+struct DisplayDone {
+    late: u64,
+    dropped: u64,
+    lead_ms: f64,
+    before_display_ms: crate::stats::Distribution,
+    after_display: u64,
+}
+
+/// A timed frame's predicted display time and period (XrTime, ns), and an instant on this
+/// process's monotonic clock with the runtime's time at it, taken when xrWaitFrame returned (with
+/// the runtime's clock only): the frame's GPU completion goes onto the runtime's clock through it.
+struct FrameClock {
+    display_ns: i64,
+    period_ns: i64,
+    clock: Option<(Instant, i64)>,
+}
+
+/// When the GPU finished each timed frame: a thread waits for the frame's last submission and
+/// notes the time, as the runtime waits for the frame's semaphore before it may show the frame.
+struct GpuDone {
+    frames: Option<std::sync::mpsc::Sender<(usize, wgpu::SubmissionIndex)>>,
+    thread: Option<std::thread::JoinHandle<Vec<(usize, Instant)>>>,
+}
+
+impl GpuDone {
+    fn new(device: &wgpu::Device) -> GpuDone {
+        let (frames, submitted) = std::sync::mpsc::channel::<(usize, wgpu::SubmissionIndex)>();
+        let device = device.clone();
+        let thread = std::thread::Builder::new()
+            .name("vlf xr: GPU done".into())
+            .spawn(move || {
+                let mut done = Vec::new();
+                for (frame, submission) in submitted {
+                    let waited = device.poll(wgpu::PollType::Wait {
+                        submission_index: Some(submission),
+                        timeout: None,
+                    });
+                    if waited.is_ok() {
+                        done.push((frame, Instant::now()));
+                    }
+                }
+                done
+            })
+            .ok();
+        GpuDone {
+            frames: Some(frames),
+            thread,
+        }
+    }
+
+    /// Note when the GPU finishes `submission`, the last of timed frame `frame` (0-based).
+    fn watch(&self, frame: usize, submission: wgpu::SubmissionIndex) {
+        if let Some(f) = &self.frames {
+            let _ = f.send((frame, submission));
+        }
+    }
+
+    /// When the GPU finished each of the first `frames` timed frames (None: not watched, or the
+    /// wait failed); the thread has ended.
+    fn finish(&mut self, frames: usize) -> Vec<Option<Instant>> {
+        drop(self.frames.take());
+        let mut out = vec![None; frames];
+        if let Some(done) = self.thread.take().and_then(|t| t.join().ok()) {
+            for (n, at) in done {
+                if let Some(slot) = out.get_mut(n) {
+                    *slot = Some(at);
+                }
+            }
+        }
+        out
+    }
+}
+
+impl Drop for GpuDone {
+    /// The thread holds the device: it ends before the device and the runtime's session go.
+    fn drop(&mut self) {
+        self.finish(0);
+    }
+}
+
 impl LoopState {
-    fn new(ctx: &GpuContext, eyes: &[Eye]) -> LoopState {
+    fn new(ctx: &GpuContext, eyes: &[Eye], clock: bool) -> LoopState {
         let labels = eyes
             .iter()
             .map(|e| ViewLabel {
@@ -275,9 +366,8 @@ impl LoopState {
             lost: false,
             frames: 0,
             skipped: 0,
-            missed: 0,
-            missed_after: Vec::new(),
-            late: 0,
+            shown: Vec::new(),
+            gpu_done: clock.then(|| GpuDone::new(&ctx.device)),
             times: FrameTimes::new(labels),
             in_flight: InFlight::new(ctx, eyes.len() as u32, FRAMES_IN_FLIGHT),
             last_display_time: None,
@@ -288,20 +378,11 @@ impl LoopState {
         }
     }
 
-    /// Count the refreshes missed since the last frame; the time since it, in seconds.
-    fn count_refreshes(&mut self, frame_state: &xr::FrameState) -> f32 {
+    /// The time since the last frame's predicted display time, in seconds.
+    fn since_last_frame(&mut self, frame_state: &xr::FrameState) -> f32 {
         let display_time = frame_state.predicted_display_time.as_nanos();
         let period = frame_state.predicted_display_period.as_nanos().max(1);
         self.period_ms = period as f64 * 1e-6;
-        if let Some(last) = self.last_display_time {
-            let refreshes = ((display_time - last) as f64 / period as f64).round() as i64;
-            if refreshes > 1 {
-                self.missed += (refreshes - 1) as u64;
-                if self.missed_after.len() < 100 {
-                    self.missed_after.push(self.frames);
-                }
-            }
-        }
         let dt = self
             .last_display_time
             .map(|l| ((display_time - l) as f64 * 1e-9) as f32)
@@ -315,6 +396,54 @@ impl LoopState {
         let passes: Vec<Pass> = (0..self.times.labels.len()).map(Pass::View).collect();
         for ms in done {
             self.times.push_gpu(&ms, &passes);
+        }
+    }
+
+    /// The runtime's account of the timed frames (`display_account`), from when the GPU
+    /// finished each on the runtime's clock; without that clock, only the gaps in its
+    /// predictions.
+    fn display(&mut self) -> Display {
+        let n = self.shown.len();
+        let finished = self.gpu_done.as_mut().map(|g| g.finish(n));
+        let done_ns = |(f, at): (&FrameClock, Option<Instant>)| {
+            let (then, xr_then) = f.clock?;
+            Some(xr_then + at?.saturating_duration_since(then).as_nanos() as i64)
+        };
+        let done: Option<Vec<i64>> = finished.and_then(|at| {
+            self.shown
+                .iter()
+                .zip(at)
+                .map(done_ns)
+                .collect::<Option<_>>()
+        });
+        let frames: Vec<ShownFrame> = (self.shown.iter().enumerate())
+            .map(|(k, f)| ShownFrame {
+                display_ns: f.display_ns,
+                period_ns: f.period_ns,
+                // without the clock every frame counts as ready at once: the gaps only
+                gpu_done_ns: done.as_ref().map_or(i64::MIN, |d| d[k]),
+            })
+            .collect();
+        let period = refresh_period_ns(&frames);
+        let lead = compositor_lead_ns(period);
+        let account = display_account(&frames, if done.is_some() { lead } else { 0 });
+        let done = done.filter(|d| !d.is_empty()).map(|d| {
+            let before: Vec<f64> = (frames.iter().zip(&d))
+                .map(|(f, t)| (f.display_ns - t) as f64 * 1e-6)
+                .collect();
+            DisplayDone {
+                late: account.late,
+                dropped: account.dropped,
+                lead_ms: lead as f64 * 1e-6,
+                after_display: before.iter().filter(|&&b| b < 0.0).count() as u64,
+                before_display_ms: crate::stats::Distribution::of(&before),
+            }
+        });
+        let period_ms = (!frames.is_empty()).then_some(period as f64 * 1e-6);
+        Display {
+            account,
+            period_ms,
+            done,
         }
     }
 
@@ -339,15 +468,16 @@ impl LoopState {
             )));
         }
         let eyes = self.times.views();
-        let late = headset.runtime.clock.then_some(self.late);
+        let display = self.display();
         let mut limits = frame_limits(&eyes, None, None);
         limits.push(Limit::check(
             "missed display refreshes",
-            self.missed as f64,
+            display.account.missed as f64,
             0.0,
         ));
-        if let Some(late) = late {
-            limits.push(Limit::check("frames submitted late", late as f64, 0.0));
+        if let Some(done) = &display.done {
+            limits.push(Limit::check("frames shown late", done.late as f64, 0.0));
+            limits.push(Limit::check("frames dropped", done.dropped as f64, 0.0));
         }
         let in_flight = self.in_flight.as_ref();
         Ok(XrReport {
@@ -359,10 +489,15 @@ impl LoopState {
             interaction_profiles: headset.controls.profiles.clone(),
             frames: self.frames,
             frames_skipped: self.skipped,
-            missed_frames: self.missed,
-            missed_after_frames: self.missed_after,
-            late_frames: late,
-            display_period_ms: self.period_ms,
+            missed_frames: display.account.missed,
+            missed_after_frames: display.account.missed_after,
+            prediction_gaps: display.account.gaps,
+            late_frames: display.done.as_ref().map(|d| d.late),
+            dropped_frames: display.done.as_ref().map(|d| d.dropped),
+            compositor_lead_ms: display.done.as_ref().map(|d| d.lead_ms),
+            gpu_done_before_display_ms: display.done.as_ref().map(|d| d.before_display_ms.clone()),
+            gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
+            display_period_ms: display.period_ms.unwrap_or(self.period_ms),
             eyes,
             cpu_frame_ms: self.times.cpu_ms(),
             frames_in_flight: FRAMES_IN_FLIGHT as u32,
@@ -477,7 +612,8 @@ impl Headset<'_> {
     /// waited for: its timestamps come back frames later (`InFlight`).
     fn frame(&mut self, st: &mut LoopState, options: &XrOptions) -> Result<()> {
         let frame_state = self.frame_waiter.wait().map_err(xr_error("xrWaitFrame"))?;
-        let dt = st.count_refreshes(&frame_state);
+        let woke = self.clock()?;
+        let dt = st.since_last_frame(&frame_state);
         let begun = Instant::now();
         self.frame_stream
             .begin()
@@ -505,6 +641,13 @@ impl Headset<'_> {
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
         let pose = st.navigator.apply(base);
         let timed = options.frames.is_none_or(|n| st.frames < n);
+        if timed {
+            st.shown.push(FrameClock {
+                display_ns: frame_state.predicted_display_time.as_nanos(),
+                period_ns: frame_state.predicted_display_period.as_nanos(),
+                clock: woke,
+            });
+        }
         // this frame's slot of the frames in flight (timed frames only); back in `st` at the end
         let mut in_flight = st.in_flight.take_if(|_| timed);
         if let Some(f) = in_flight.as_mut() {
@@ -547,7 +690,10 @@ impl Headset<'_> {
             if let (Some(f), true) = (in_flight.as_mut(), i == last_eye) {
                 f.resolve(self.ctx, &mut encoder);
             }
-            self.ctx.queue.submit([encoder.finish()]);
+            let submission = self.ctx.queue.submit([encoder.finish()]);
+            if let (true, true, Some(g)) = (timed, i == last_eye, st.gpu_done.as_ref()) {
+                g.watch(st.shown.len() - 1, submission);
+            }
             eye.swapchain
                 .release_image()
                 .map_err(xr_error("xrReleaseSwapchainImage"))?;
@@ -557,15 +703,6 @@ impl Headset<'_> {
             st.in_flight = Some(f);
         }
         self.end_frame(&frame_state, &views)?;
-        if self.runtime.clock && timed {
-            let now = self
-                .instance
-                .now()
-                .map_err(xr_error("xrConvertTimespecTimeToTimeKHR"))?;
-            if now.as_nanos() > frame_state.predicted_display_time.as_nanos() {
-                st.late += 1;
-            }
-        }
         self.ctx.check_errors()?;
         st.frames += 1;
         if timed {
@@ -575,6 +712,17 @@ impl Headset<'_> {
             self.write_screenshot(st, &buffer, padded_row, path)?;
         }
         Ok(())
+    }
+
+    /// Now on this process's monotonic clock and on the runtime's (None without
+    /// XR_KHR_convert_timespec_time).
+    fn clock(&self) -> Result<Option<(Instant, i64)>> {
+        if !self.runtime.clock {
+            return Ok(None);
+        }
+        let at = Instant::now();
+        let now = (self.instance.now()).map_err(xr_error("xrConvertTimespecTimeToTimeKHR"))?;
+        Ok(Some((at, now.as_nanos())))
     }
 
     /// Both eyes' images as one projection layer, at the predicted display time.
