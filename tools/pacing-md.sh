@@ -57,7 +57,9 @@ xr = sorted(glob.glob(os.path.join(d, "xr-*.json")))
 if xr:
     print("#### The headset on the same scenes\n")
     print("`vlf xr` on vlf's headless test runtime (tests/xr-runtime: 90 Hz, 2064x2208 per eye, Meta Quest 3's recommended size), 900 frames, "
-          "frames in flight (the CPU records frame N+1 while the GPU draws frame N). Limits: per-eye GPU p99/p50 <= 1.10, no missed refresh, no late frame.\n")
+          "frames in flight (the CPU records frame N+1 while the GPU draws frame N). Limits: per-eye GPU p99/p50 <= 1.10, no missed refresh, no late frame. "
+          "Where the report has no `dropped_frames` it was measured before the headset's account was matched to the compositor's: a missed refresh was then a gap "
+          "between consecutive predicted display times, a late frame one whose xrEndFrame came after its predicted display time.\n")
     print("| scene | eye | GPU p50 (ms) | p99 | p99/p50 | missed refreshes | late frames | CPU began while GPU busy | waited for GPU | verdict |\n|---|---|---|---|---|---|---|---|---|---|")
     for f in xr:
         r = json.load(open(f))
