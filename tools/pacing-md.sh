@@ -60,7 +60,7 @@ if xr:
           "frames in flight (the CPU records frame N+1 while the GPU draws frame N). Limits: per-eye GPU p99/p50 <= 1.10, no missed refresh, no late frame. "
           "Where the report has no `dropped_frames` it was measured before the headset's account was matched to the compositor's: a missed refresh was then a gap "
           "between consecutive predicted display times, a late frame one whose xrEndFrame came after its predicted display time.\n")
-    print("| scene | eye | GPU p50 (ms) | p99 | p99/p50 | missed refreshes | late frames | CPU began while GPU busy | waited for GPU | verdict |\n|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | eye | GPU p50 (ms) | p99 | p99/p50 | missed refreshes | late frames | dropped frames | CPU began while GPU busy | waited for GPU | verdict |\n|---|---|---|---|---|---|---|---|---|---|---|")
     for f in xr:
         r = json.load(open(f))
         scene = os.path.basename(f)[3:-5]
@@ -68,7 +68,7 @@ if xr:
         for e in r["eyes"]:
             g = e["gpu_ms"] or {}
             print(f"| {scene} | {e['eye']} | {g.get('median', float('nan')):.3f} | {g.get('p99', float('nan')):.3f} | {e.get('p99_over_p50') or float('nan'):.3f} | "
-                  f"{r['missed_frames']} | {r.get('late_frames')} | {r.get('overlapped_frames')} of {r['frames']} | {r.get('waited_for_gpu')} | "
+                  f"{r['missed_frames']} | {r.get('late_frames')} | {r.get('dropped_frames', '-')} | {r.get('overlapped_frames')} of {r['frames']} | {r.get('waited_for_gpu')} | "
                   f"{'met' if not bad else '**ABOVE THE LIMIT**: ' + ', '.join(bad)} |")
     print()
 PY
