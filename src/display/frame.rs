@@ -224,6 +224,12 @@ impl FrameTimes {
         }
     }
 
+    /// One frame's timestamp pairs when each view has exactly one, in view order.
+    pub fn push_view_gpu(&mut self, ms: &[f64]) {
+        let passes: Vec<Pass> = (0..self.labels.len()).map(Pass::View).collect();
+        self.push_gpu(ms, &passes);
+    }
+
     pub fn push_cpu(&mut self, ms: f64) {
         self.cpu.push(ms);
     }
@@ -341,10 +347,9 @@ impl InFlight {
     }
 
     /// After the frame's last pass: copy its timestamps to the slot's read-back buffer.
-    pub fn resolve(&mut self, ctx: &GpuContext, encoder: &mut wgpu::CommandEncoder) {
+    pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder) {
         let slot = &mut self.slots[self.next];
         slot.pairs = slot.timestamps.resolve_into(encoder, &slot.readback);
-        let _ = ctx;
     }
 
     /// After the frame is submitted: ask for its timestamps, and move to the next slot.

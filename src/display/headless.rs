@@ -135,8 +135,8 @@ impl Drawer<'_> {
         wand: Option<&WandPose>,
         mut ts: Option<&mut Timestamps>,
     ) -> Result<()> {
-        for v in self.views.clone() {
-            self.draw_view(v, (pose, wand), ts.as_deref_mut(), false)?;
+        for i in 0..self.views.len() {
+            self.draw_view(self.views[i], (pose, wand), ts.as_deref_mut(), false)?;
         }
         Ok(())
     }
@@ -145,8 +145,10 @@ impl Drawer<'_> {
     /// timed).
     fn draw_kept(&mut self, pose: &Pose, wand: Option<&WandPose>) -> Result<Kept> {
         let mut kept = Kept::default();
-        for v in self.views.clone() {
-            if let Some((frame, projectors)) = self.draw_view(v, (pose, wand), None, true)? {
+        for i in 0..self.views.len() {
+            if let Some((frame, projectors)) =
+                self.draw_view(self.views[i], (pose, wand), None, true)?
+            {
                 kept.views.push(frame);
                 kept.projectors.extend(projectors);
             }

@@ -14,7 +14,7 @@ mod surfaces;
 
 pub use report::WindowReport;
 
-use super::frame::{labels, wall_views, FrameTimes, Pass, WallView};
+use super::frame::{labels, wall_views, FrameTimes, WallView};
 use super::framelock::{FrameLock, FrameState};
 use super::live::TrackingStatus;
 use super::navigator::Navigator;
@@ -261,8 +261,7 @@ impl App<'_> {
         if timed {
             self.times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
             if let Some(t) = timestamps.as_mut() {
-                let passes: Vec<Pass> = (0..self.views.len()).map(Pass::View).collect();
-                self.times.push_gpu(&t.read_ms(&ctx)?, &passes);
+                self.times.push_view_gpu(&t.read_ms(&ctx)?);
             }
             self.frames += 1;
         }

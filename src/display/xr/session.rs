@@ -10,7 +10,7 @@ use super::controls::{controls, Controls};
 use super::eyes::{copy_to_buffer, write_screenshot, Eye};
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, Fov, XrPose, XrRuntime};
-use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, Pass, ViewLabel};
+use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, ViewLabel};
 use crate::display::navigator::Navigator;
 use crate::display::present::{present_pass, present_pipeline, PresentPipeline};
 use crate::display::tracking::Pose;
@@ -393,9 +393,8 @@ impl LoopState {
     }
 
     fn push_gpu(&mut self, done: Vec<Vec<f64>>) {
-        let passes: Vec<Pass> = (0..self.times.labels.len()).map(Pass::View).collect();
         for ms in done {
-            self.times.push_gpu(&ms, &passes);
+            self.times.push_view_gpu(&ms);
         }
     }
 
@@ -688,7 +687,7 @@ impl Headset<'_> {
                 drop(present_pass(&mut encoder, &target, wgpu::LoadOp::Load));
             }
             if let (Some(f), true) = (in_flight.as_mut(), i == last_eye) {
-                f.resolve(self.ctx, &mut encoder);
+                f.resolve(&mut encoder);
             }
             let submission = self.ctx.queue.submit([encoder.finish()]);
             if let (true, true, Some(g)) = (timed, i == last_eye, st.gpu_done.as_ref()) {
