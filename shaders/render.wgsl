@@ -24,12 +24,13 @@
 #include "common/directions.wgsl"
 #include "common/tile_pages.wgsl"
 #include "common/tiles.wgsl"
-#include "common/bvh.wgsl"
+#include "common/ray.wgsl"
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
 @group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(0) @binding(3) var<storage, read> nodes: array<BvhNode>;
+// the BVH (src/bvh.rs) as child pairs: each internal node holds both children's boxes
+@group(0) @binding(3) var<storage, read> pairs: array<BvhPair>;
 @group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
 // the converged radiance atlas, in pages of view.texel_page_cells texels
 @group(0) @binding(5) var<storage, read> radiance_0: array<vec4<f32>>;
@@ -55,6 +56,86 @@ fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
     let u = dot(tri.u.xyz, h) + tri.u.w;
     let v = dot(tri.v.xyz, h) + tri.v.w;
     return select(-1.0, t, u >= 0.0 && v >= 0.0 && u + v <= 1.0);
+}
+
+// Mirrors bvh::GpuBvhPair: an internal node of the BVH as its two children, each a box and a
+// reference: (pair << 5) for an internal child, (first triangle << 5) | count for a leaf.
+// Opening a node is one 64-byte read with both boxes in it.
+struct BvhPair {
+    lo_left: vec3<f32>,
+    left: u32,
+    hi_left: vec3<f32>,
+    right: u32,
+    lo_right: vec3<f32>,
+    _pad0: u32,
+    hi_right: vec3<f32>,
+    _pad1: u32,
+}
+
+// no node: the traversal is done
+const NO_NODE: u32 = 0xffffffffu;
+// entries of the traversal stack: one per level of the tree at most; src/render/mod.rs sets it
+// to what the scene's tree needs (bvh::BvhPairs::depth), since every entry is local memory
+const PAIR_STACK: u32 = 64u;
+
+// Closest hit through the BVH. Internal nodes are walked in a loop of their own (into the nearer
+// child the ray enters, the farther one onto the stack with its entry distance), leaves tested
+// after it, so the threads of a warp stay in step through the internal levels; an entry a hit
+// found since has made too far is dropped when popped without reading anything.
+fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>) -> Hit {
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    let safe = select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
+    let inv_dir = 1.0 / safe;
+    var stack: array<u32, PAIR_STACK>;
+    var entry: array<f32, PAIR_STACK>;
+    var top = 0u;
+    var node = 0u;
+    loop {
+        while node != NO_NODE && (node & 31u) == 0u {
+            let p = pairs[node >> 5u];
+            let reach = hit.t * TIE;
+            let t_left = box_entry(p.lo_left, p.hi_left, origin, inv_dir, reach);
+            let t_right = box_entry(p.lo_right, p.hi_right, origin, inv_dir, reach);
+            if t_left >= 0.0 && t_right >= 0.0 {
+                let right_first = t_right < t_left;
+                node = select(p.left, p.right, right_first);
+                if top < PAIR_STACK {
+                    stack[top] = select(p.right, p.left, right_first);
+                    entry[top] = max(t_left, t_right);
+                    top += 1u;
+                }
+            } else if t_left >= 0.0 {
+                node = p.left;
+            } else if t_right >= 0.0 {
+                node = p.right;
+            } else {
+                node = NO_NODE;
+            }
+        }
+        if node != NO_NODE {
+            let first = node >> 5u;
+            let end = first + (node & 31u);
+            for (var i = first; i < end; i++) {
+                let t = ray_triangle(origin, ray, ray_triangles[i]);
+                if t > 1e-5 && closer(t, i, hit) {
+                    hit.t = t;
+                    hit.tri = i;
+                }
+            }
+        }
+        node = NO_NODE;
+        while top > 0u {
+            top -= 1u;
+            if entry[top] < hit.t * TIE {
+                node = stack[top];
+                break;
+            }
+        }
+        if node == NO_NODE {
+            break;
+        }
+    }
+    return hit;
 }
 
 fn radiance(texel: u32) -> vec4<f32> {
@@ -150,7 +231,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
             hit.tri = select(hit.tri, j, found_j);
         }
     } else {
-        hit = trace(origin, ray, 1e30, false);
+        hit = cast_bvh(origin, ray);
     }
     var out: Surface;
     var id = SKY;

@@ -30,6 +30,96 @@ pub struct GpuBvhNode {
     pub count: u32,
 }
 
+/// Mirrors WGSL `BvhPair` (shaders/render.wgsl): an internal node as its two children's boxes
+/// and references, which the renderer reads in one 64-byte load when it opens the node. A
+/// reference is `pair << 5` for an internal child, `(first triangle << 5) | count` for a leaf.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuBvhPair {
+    pub lo_left: [f32; 3],
+    pub left: u32,
+    pub hi_left: [f32; 3],
+    pub right: u32,
+    pub lo_right: [f32; 3],
+    pub _pad0: u32,
+    pub hi_right: [f32; 3],
+    pub _pad1: u32,
+}
+
+/// Pair and triangle references keep 27 bits (5 go to a leaf's count).
+pub const MAX_PAIR_REFERENCE: usize = 1 << 27;
+
+/// The BVH of `build_bvh` as child pairs (`pairs[0]` holds the root's children; a root that is
+/// a leaf gets a pair of itself and a box no ray enters), and the most pairs on a path from the
+/// root to a leaf: the deepest the traversal's stack can get.
+pub struct BvhPairs {
+    pub pairs: Vec<GpuBvhPair>,
+    pub depth: u32,
+}
+
+/// The BVH as child pairs; None for an empty tree, or one of MAX_PAIR_REFERENCE nodes or more.
+pub fn bvh_pairs(nodes: &[GpuBvhNode]) -> Option<BvhPairs> {
+    if nodes.is_empty() || nodes.len() >= MAX_PAIR_REFERENCE {
+        return None;
+    }
+    // the pair of internal node i, numbered in node order
+    let mut pair_of = vec![u32::MAX; nodes.len()];
+    let mut count = 0u32;
+    for (i, n) in nodes.iter().enumerate() {
+        if n.count == 0 {
+            pair_of[i] = count;
+            count += 1;
+        }
+    }
+    let reference = |i: usize| -> u32 {
+        let n = &nodes[i];
+        if n.count == 0 {
+            pair_of[i] << 5
+        } else {
+            debug_assert!(n.count < 32, "leaves hold at most MAX_LEAF_SIZE triangles");
+            (n.index << 5) | n.count
+        }
+    };
+    if nodes[0].count > 0 {
+        let root = nodes[0];
+        let never = [f32::MAX / 2.0; 3];
+        let pairs = vec![GpuBvhPair {
+            lo_left: root.lo,
+            left: reference(0),
+            hi_left: root.hi,
+            right: reference(0),
+            lo_right: never,
+            hi_right: never,
+            ..Default::default()
+        }];
+        return Some(BvhPairs { pairs, depth: 1 });
+    }
+    let mut pairs = Vec::with_capacity(count as usize);
+    // pairs above each node; a parent comes before its children in node order
+    let mut above = vec![0u32; nodes.len()];
+    let mut depth = 0;
+    for (i, n) in nodes.iter().enumerate() {
+        if n.count > 0 {
+            continue;
+        }
+        for child in [i + 1, n.index as usize] {
+            above[child] = above[i] + 1;
+            depth = depth.max(above[child]);
+        }
+        let (l, r) = (i + 1, n.index as usize);
+        pairs.push(GpuBvhPair {
+            lo_left: nodes[l].lo,
+            left: reference(l),
+            hi_left: nodes[l].hi,
+            right: reference(r),
+            lo_right: nodes[r].lo,
+            hi_right: nodes[r].hi,
+            ..Default::default()
+        });
+    }
+    Some(BvhPairs { pairs, depth })
+}
+
 const LEAF_SIZE: usize = 4;
 /// A leaf never holds more than this many triangles, whatever the cost model says.
 const MAX_LEAF_SIZE: usize = 16;
@@ -183,10 +273,13 @@ pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
             count: order.len() as u32,
         });
         let extent = chi - clo;
-        if order.len() <= LEAF_SIZE || extent.max_element() <= 0.0 {
+        let coincident = extent.max_element() <= 0.0;
+        if order.len() <= LEAF_SIZE || (coincident && order.len() <= MAX_LEAF_SIZE) {
             return me as u32;
         }
-        let by_sah = if depth < SAH_DEPTH {
+        // triangles with one centroid (duplicates) are halved like the rest, so that no leaf
+        // holds more than MAX_LEAF_SIZE
+        let by_sah = if depth < SAH_DEPTH && !coincident {
             sah_split(order, input.boxes, input.centroids, clo, chi, bounds.area())
         } else {
             None

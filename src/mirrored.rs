@@ -2,7 +2,7 @@
 //! tests/shaders.rs can check them member by member against naga's layout of the WGSL. It sits
 //! above the modules that own the structs (gpu, display, reference) and nothing depends on it.
 
-use crate::bvh::{GpuBvhNode, GpuTriangle};
+use crate::bvh::{GpuBvhNode, GpuBvhPair, GpuTriangle};
 use crate::display::post::GpuWarp;
 use crate::gpu::types::*;
 use crate::reference::GpuTraceParams;
@@ -87,5 +87,8 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             v0, face, e1, _pad0, e2, _pad1, uv01, uv2
         }),
         mirrored!(GpuBvhNode => "BvhNode" in "reference.wgsl" { lo, index, hi, count }),
+        mirrored!(GpuBvhPair => "BvhPair" in "render.wgsl" {
+            lo_left, left, hi_left, right, lo_right, _pad0, hi_right, _pad1
+        }),
     ]
 }

@@ -1,10 +1,12 @@
 //! The bounding volume hierarchy the renderer's eye rays and the reference path tracer traverse
 //! (reference::build_bvh, shaders/common/bvh.wgsl): every triangle in exactly one leaf, every
 //! box holding what is under it, the depth within the GPU's 64-entry stack even for
-//! pathological input, and a CPU traversal written like the shader's finding the same closest
-//! triangle as testing every triangle.
+//! pathological input, and CPU traversals written like the shaders' (the BVH of
+//! common/bvh.wgsl, and the child pairs the renderer casts through, render.wgsl's cast_bvh, with
+//! the stack its scene gets) finding the same closest triangle as testing every triangle.
 
 use glam::Vec3;
+use vlf::bvh::{bvh_pairs, BvhPairs};
 use vlf::reference::{build_bvh, GpuBvhNode};
 
 /// A tiny deterministic generator (xorshift), so failures reproduce.
@@ -91,6 +93,79 @@ fn trace(
     best
 }
 
+/// The renderer's traversal (render.wgsl, cast_bvh) over bvh::bvh_pairs: internal nodes in a
+/// loop of their own, nearer child first, the farther one pushed with its entry distance; the
+/// stack as deep as src/render/mod.rs makes it for this tree (overflow is a failure here).
+fn cast_pairs(
+    tree: &BvhPairs,
+    order: &[u32],
+    tris: &[[Vec3; 3]],
+    origin: Vec3,
+    dir: Vec3,
+) -> Option<(f32, u32)> {
+    let capacity = tree.depth.next_multiple_of(8).max(16) as usize;
+    let inv = dir.recip();
+    let mut best: Option<(f32, u32)> = None;
+    let reach = |best: Option<(f32, u32)>| best.map_or(f32::INFINITY, |b| b.0);
+    let entry = |lo: [f32; 3], hi: [f32; 3], t_max: f32| {
+        box_entry(
+            &GpuBvhNode {
+                lo,
+                hi,
+                ..Default::default()
+            },
+            origin,
+            inv,
+            t_max,
+        )
+    };
+    let mut stack: Vec<(u32, f32)> = Vec::new();
+    let mut node = Some(0u32);
+    while let Some(mut current) = node {
+        while current & 31 == 0 {
+            let p = &tree.pairs[(current >> 5) as usize];
+            let tl = entry(p.lo_left, p.hi_left, reach(best));
+            let tr = entry(p.lo_right, p.hi_right, reach(best));
+            current = match (tl, tr) {
+                (Some(l), Some(r)) => {
+                    let (near, far) = if r < l {
+                        (p.right, p.left)
+                    } else {
+                        (p.left, p.right)
+                    };
+                    stack.push((far, l.max(r)));
+                    assert!(stack.len() <= capacity, "the traversal stack overflowed");
+                    near
+                }
+                (Some(_), None) => p.left,
+                (None, Some(_)) => p.right,
+                (None, None) => u32::MAX,
+            };
+            if current == u32::MAX {
+                break;
+            }
+        }
+        if current != u32::MAX {
+            for i in (current >> 5)..(current >> 5) + (current & 31) {
+                let tri = order[i as usize];
+                if let Some(t) = intersect(origin, dir, &tris[tri as usize]) {
+                    if best.is_none_or(|b| t < b.0) {
+                        best = Some((t, tri));
+                    }
+                }
+            }
+        }
+        node = None;
+        while let Some((next, t)) = stack.pop() {
+            if t < reach(best) {
+                node = Some(next);
+                break;
+            }
+        }
+    }
+    best
+}
+
 fn check_structure(nodes: &[GpuBvhNode], order: &[u32], tris: &[[Vec3; 3]]) -> u32 {
     let mut seen = vec![0u32; tris.len()];
     let mut max_depth = 0;
@@ -155,6 +230,12 @@ fn a_random_soup_is_traversed_to_the_same_closest_triangle_as_brute_force() {
     let (nodes, order) = build_bvh(&tris);
     let depth = check_structure(&nodes, &order, &tris);
     println!("{} nodes, depth {depth}", nodes.len());
+    let tree = bvh_pairs(&nodes).unwrap();
+    assert_eq!(tree.depth, depth, "the pairs' depth is the tree's");
+    assert!(tree
+        .pairs
+        .iter()
+        .all(|p| [p.left, p.right].iter().all(|&r| r & 31 <= 16)));
     let mut hits = 0;
     for _ in 0..4000 {
         let origin = rng.vec() * 12.0 - 1.0;
@@ -169,6 +250,12 @@ fn a_random_soup_is_traversed_to_the_same_closest_triangle_as_brute_force() {
             bvh.map(|b| b.1),
             brute.map(|b| b.1),
             "ray from {origin} along {dir}"
+        );
+        let pairs = cast_pairs(&tree, &order, &tris, origin, dir);
+        assert_eq!(
+            pairs.map(|b| b.1),
+            brute.map(|b| b.1),
+            "pairs: ray from {origin} along {dir}"
         );
         hits += brute.is_some() as u32;
     }
@@ -194,10 +281,18 @@ fn pathological_input_stays_within_the_traversal_stack() {
         depth < 60,
         "depth {depth}: the GPU traversal keeps at most 64 entries"
     );
-    // and 10,000 copies of one triangle: a single leaf, not an endless split
+    // and 10,000 copies of one triangle: halved down to leaves of at most 16 (a leaf's count
+    // has 5 bits in the renderer's pairs), not an endless split
     let same = vec![[Vec3::ZERO, Vec3::X, Vec3::Y]; 10_000];
     let (nodes, order) = build_bvh(&same);
-    check_structure(&nodes, &order, &same);
+    let depth = check_structure(&nodes, &order, &same);
+    assert!(
+        nodes.iter().all(|n| n.count <= 16) && depth <= 12,
+        "depth {depth}"
+    );
+    let tree = bvh_pairs(&nodes).unwrap();
+    let hit = cast_pairs(&tree, &order, &same, Vec3::new(0.2, 0.2, 1.0), -Vec3::Z);
+    assert_eq!(hit.map(|h| h.0), Some(1.0));
 }
 
 /// The renderer's eye rays through the BVH see what testing every triangle sees: the generated

@@ -6,10 +6,12 @@
 # With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
 # (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes.
 # SCENES (default "classroom-100k classroom-1m gallery") picks the walks; AA=N draws N eye rays per
-# pixel instead of the configuration's 4 (reports named cave-<scene>-aaN).
+# pixel instead of the configuration's 4 (reports named cave-<scene>-aaN). TAG=name adds -name to
+# the reports and names the archive pacing-name.tar; WORK=dir keeps the generated scenes and light
+# fields there and reuses them (several builds or shader variants on the same light fields).
 #   tools/gpu-pacing.sh VLF_BINARY OUT_DIR [FRAMES]
 set -uo pipefail
-vlf=$1; out=$2; frames=${3:-300}; work=$(mktemp -d)
+vlf=$1; out=$2; frames=${3:-300}; work=${WORK:-$(mktemp -d)}; mkdir -p $work
 quiet() { grep -v XDG_RUNTIME_DIR; }
 generate() {  # scene name -> the generator's command line
   case $1 in
@@ -18,10 +20,12 @@ generate() {  # scene name -> the generator's command line
     gallery) echo "gallery --mirrors" ;;
   esac
 }
-suffix=${AA:+-aa$AA}
+suffix=${AA:+-aa$AA}${TAG:+-$TAG}
 for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
-  "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
-  "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
+  if [ ! -f $work/$scene.vlf ]; then
+    "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
+    "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
+  fi
   # the walk CAVE (config/displays/cave-4wall-walk.toml) on this scene's path
   sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene.toml
   [ -n "${AA:-}" ] && sed -i "s/^refresh_hz.*/&\nantialiasing = $AA/" $work/cave-$scene.toml
@@ -31,11 +35,11 @@ for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
   if [ -n "${XR_RUNTIME_LIBRARY:-}" ]; then
     manifest=$work/runtime.json
     printf '{"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": "%s"}}\n' "$(realpath "$XR_RUNTIME_LIBRARY")" > $manifest
-    XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene-runtime.txt \
-      "$vlf" xr --scene $work/$scene.vlf --frames 900 --json $work/xr-$scene.json 2>&1 | quiet | tee $work/xr-$scene.txt | tail -12
+    XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene$suffix-runtime.txt \
+      "$vlf" xr --scene $work/$scene.vlf --frames 900 --json $work/xr-$scene$suffix.json 2>&1 | quiet | tee $work/xr-$scene$suffix.txt | tail -12
   fi
 done
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt
 echo "${VLF_COMMIT:-unknown}" > $work/commit.txt
 date -u +%Y-%m-%dT%H:%M:%SZ > $work/date.txt
-(cd $work && tar cf "$out/pacing.tar" gpu.txt commit.txt date.txt cave-*.json cave-*.txt cave-*-overview.png $(cd $work && ls xr-* 2>/dev/null))
+(cd $work && tar cf "$out/pacing${TAG:+-$TAG}.tar" gpu.txt commit.txt date.txt cave-*.json cave-*.txt cave-*-overview.png $(cd $work && ls xr-* 2>/dev/null))

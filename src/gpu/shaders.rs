@@ -30,6 +30,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/upstream.wgsl"),
     ),
     (
+        "common/ray.wgsl",
+        include_str!("../../shaders/common/ray.wgsl"),
+    ),
+    (
         "common/bvh.wgsl",
         include_str!("../../shaders/common/bvh.wgsl"),
     ),
@@ -83,11 +87,22 @@ pub struct ExpandedShader {
     pub line_origin: Vec<(String, usize)>,
 }
 
-fn raw_source(name: &str) -> Result<&'static str> {
+/// A shader file's text: the embedded copy, or with `VLF_SHADER_DIR` set (shader experiments on
+/// a machine without a Rust toolchain: one binary, several variants) the file of that name in
+/// that folder where there is one.
+fn raw_source(name: &str) -> Result<std::borrow::Cow<'static, str>> {
+    if let Some(dir) = std::env::var_os("VLF_SHADER_DIR") {
+        let path = std::path::Path::new(&dir).join(name);
+        if path.exists() {
+            return std::fs::read_to_string(&path)
+                .map(Into::into)
+                .map_err(|e| VlfError::Gpu(format!("VLF_SHADER_DIR: {}: {e}", path.display())));
+        }
+    }
     SOURCES
         .iter()
         .find(|(n, _)| *n == name)
-        .map(|(_, s)| *s)
+        .map(|(_, s)| (*s).into())
         .ok_or_else(|| VlfError::Gpu(format!("shader {name} is not embedded")))
 }
 
@@ -160,7 +175,29 @@ impl ExpandedShader {
 
 /// Compile a stage into a wgpu shader module.
 pub fn module(device: &wgpu::Device, name: &str) -> Result<wgpu::ShaderModule> {
-    let expanded = expand(name)?;
+    module_with(device, name, &[])
+}
+
+/// The same, with module-scope `const NAME: u32 = ...;` declarations given other values: sizes
+/// WGSL cannot take from an `override` (a function's array length) chosen per scene.
+pub fn module_with(
+    device: &wgpu::Device,
+    name: &str,
+    constants: &[(&str, u32)],
+) -> Result<wgpu::ShaderModule> {
+    let mut expanded = expand(name)?;
+    for (constant, value) in constants {
+        let declaration = format!("const {constant}: u32 = ");
+        let line = expanded
+            .source
+            .lines()
+            .find(|l| l.starts_with(&declaration))
+            .ok_or_else(|| VlfError::Gpu(format!("shaders/{name} declares no {declaration}")))?
+            .to_string();
+        expanded.source = expanded
+            .source
+            .replace(&line, &format!("{declaration}{value}u;"));
+    }
     Ok(device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(name),
         source: wgpu::ShaderSource::Wgsl(expanded.source.into()),
