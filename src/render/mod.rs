@@ -120,28 +120,8 @@ impl Renderer {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let (triangles, tree) = ray_casting_mesh(&lf.render_vertices)?;
-        // the traversal's stack as deep as this tree needs: local memory per thread is what a
-        // ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 32 entries
-        // than with 64)
-        let stack = tree.depth.next_multiple_of(8).max(16);
-        let module = shaders::module_with(device, "render.wgsl", &[("PAIR_STACK", stack)])?;
-        // view, faces, triangles, BVH, image, the radiance pages, ray-casting triangles
-        let resolve_layout = reflect::layout(device, "render.wgsl", 0)?;
-        // a diffuse-only light field binds no view-dependent path at all
-        let tile_layout = match resident.tiles {
-            Some(_) => Some(reflect::layout(device, "render.wgsl", 1)?),
-            None => None,
-        };
-        let mut resolve_layouts = vec![&resolve_layout];
-        if let Some(t) = &tile_layout {
-            resolve_layouts.push(t);
-        }
-        let entry = if tile_layout.is_some() {
-            "resolve_mixed"
-        } else {
-            "resolve_diffuse"
-        };
-        let resolve_pipeline = ctx.compute_pipeline(&module, entry, &resolve_layouts);
+        let (resolve_pipeline, resolve_layout, tile_layout) =
+            resolve_pipeline(&ctx, resident.tiles.is_some(), tree.depth)?;
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: std::mem::size_of::<GpuView>() as u64,
@@ -552,6 +532,40 @@ impl Renderer {
             }
         }
     }
+}
+
+/// The resolve pass: its pipeline, its bind group layout and, for a light field with mirror
+/// tiles, the tiles' layout. The traversal's stack is as deep as the scene's tree needs
+/// (`depth`, rounded up): local memory per thread is what a ray cast waits on (an H100 cast the
+/// 100K classroom's views 1.6x faster with 24 entries than with 64).
+fn resolve_pipeline(
+    ctx: &GpuContext,
+    tiles: bool,
+    depth: u32,
+) -> Result<(
+    wgpu::ComputePipeline,
+    wgpu::BindGroupLayout,
+    Option<wgpu::BindGroupLayout>,
+)> {
+    let device = &ctx.device;
+    let stack = depth.next_multiple_of(8).max(16);
+    let module = shaders::module_with(device, "render.wgsl", &[("PAIR_STACK", stack)])?;
+    // view, faces, triangles, BVH, image, the radiance pages, ray-casting triangles
+    let resolve_layout = reflect::layout(device, "render.wgsl", 0)?;
+    // a diffuse-only light field binds no view-dependent path at all
+    let tile_layout = match tiles {
+        true => Some(reflect::layout(device, "render.wgsl", 1)?),
+        false => None,
+    };
+    let mut layouts = vec![&resolve_layout];
+    layouts.extend(&tile_layout);
+    let entry = if tiles {
+        "resolve_mixed"
+    } else {
+        "resolve_diffuse"
+    };
+    let pipeline = ctx.compute_pipeline(&module, entry, &layouts);
+    Ok((pipeline, resolve_layout, tile_layout))
 }
 
 /// The render mesh (triangles in the light field's normalised space, each with its face) as
