@@ -5,8 +5,9 @@
 //   shows the covered fraction;
 // - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
 //   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
-//   (the same work for every ray), through the BVH of a large one (common/bvh.wgsl, nearer
-//   child first: logarithmic, though no longer exactly equal per pixel). No rasteriser: its
+//   (the same work for every ray), through the BVH of a large one (cast_bvh, over the tree
+//   stored as child pairs, nearer child first: logarithmic, though no longer exactly equal per
+//   pixel). No rasteriser: its
 //   cost grows with how many surfaces overlap a pixel, and it is scarce on compute GPUs such
 //   as the H100/H200;
 // - one bilinear lookup in the diffuse atlas for the diffuse part (and emission);
@@ -14,10 +15,10 @@
 //   (or a mixed surface's mirror part) view.mirror_bounces times and reads the converged
 //   radiance where it lands, with the geometric sharpness of a path tracer. Every reflection is
 //   traced whatever it carries (a pixel that sees no mirror traces a stand-in and multiplies
-//   it by zero); resolve_diffuse shares one reflection between two eye rays. Where a
-//   chain of mirrors can be longer than that (facing mirrors), resolve_mixed ends it with the
-//   mirror tiles: the three fixed directions around the reflected ray, looked up in the face's
-//   tiles (a diffuse or sky sample does the same lookups on a stand-in, times zero).
+//   it by zero), and two eye rays share one chain of reflections. Where a chain of mirrors can
+//   be longer than that (facing mirrors), resolve_mixed ends it with the mirror tiles: the
+//   three fixed directions around the reflected ray, looked up in the face's tiles (a diffuse
+//   or sky sample does the same lookups on a stand-in, times zero).
 // Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
@@ -262,16 +263,18 @@ struct Path {
     ray: vec3<f32>,
 }
 
-fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
-    var s = cast_ray(origin, ray_in);
+// The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
+// every one traced whatever it carries, with the weights relative to the light leaving `first`
+// by its mirror (the caller multiplies by that mirror's reflectance).
+fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
+    var s = first;
     var ray = ray_in;
     var f = faces[s.face];
+    var weight = vec3<f32>(1.0);
     var path: Path;
-    path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
-    var weight = f.mirror * s.seen;
-    path.throughput = vec3<f32>(s.seen);
+    path.radiance = vec3<f32>(0.0);
+    path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
-        // every bounce is traced; one that carries nothing (no mirror) is multiplied by zero
         ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
@@ -300,25 +303,6 @@ fn eye_ray(pixel: vec2<u32>, offset: vec2<f32>, size: vec2<u32>) -> array<vec3<f
 fn sample_offset(k: u32, n: u32) -> vec2<f32> {
     let count = f32(n);
     return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
-}
-
-// Radiance arriving at surface `s` (met by `ray`) along its mirror reflection, through up to
-// view.mirror_bounces reflections: every one traced, whatever it carries.
-fn reflected(first: Surface, ray_in: vec3<f32>) -> vec3<f32> {
-    var s = first;
-    var ray = ray_in;
-    var n = faces[s.face].normal;
-    var weight = vec3<f32>(1.0);
-    var sum = vec3<f32>(0.0);
-    for (var b = 0u; b < view.mirror_bounces; b++) {
-        ray = ray - 2.0 * dot(ray, n) * n;
-        s = cast_ray(s.point + n * 1e-5, ray);
-        let f = faces[s.face];
-        sum += weight * (diffuse_part(f, s.point) * s.seen + s.background);
-        weight *= f.mirror * s.seen;
-        n = f.normal;
-    }
-    return sum;
 }
 
 // Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
@@ -359,12 +343,16 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
                 s = s1;
             }
             let ray = select(r0[1], r1[1], use_second);
-            sum += (m0 + m1) * reflected(s, ray);
+            sum += (m0 + m1) * mirror_chain(s, ray).radiance;
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }
 
+// With tiles (mirrors facing each other) eye rays go in pairs as in resolve_diffuse: the pair's
+// chain of view.mirror_bounces reflections, from the ray that meets more mirror, is shared by
+// both and ends in the tiles of the last surface: n eye rays, n/2 chains and n/2 tile lookups
+// per pixel.
 @compute @workgroup_size(8, 8)
 fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     let size = textureDimensions(image);
@@ -373,15 +361,33 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
-    for (var k = 0u; k < n; k++) {
-        let r = eye_ray(gid.xy, sample_offset(k, n), size);
-        let path = trace_path(r[0], r[1]);
-        let f = faces[path.face];
+    for (var k = 0u; k < n; k += 2u) {
+        let w1 = select(0.0, 1.0, k + 1u < n);
+        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
+        let r1 = eye_ray(gid.xy, sample_offset(min(k + 1u, n - 1u), n), size);
+        let s0 = cast_ray(r0[0], r0[1]);
+        var s1 = s0;
+        if k + 1u < n {
+            s1 = cast_ray(r1[0], r1[1]);
+        }
+        let f0 = faces[s0.face];
+        let f1 = faces[s1.face];
+        let m0 = f0.mirror * s0.seen;
+        let m1 = f1.mirror * s1.seen * w1;
+        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
+        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+        var s = s0;
+        if use_second {
+            s = s1;
+        }
+        let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
+        let f = faces[chain.face];
         // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-        let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+        let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
         let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
         // the tiles hold the radiance the mirror reflects toward where the ray came from
-        sum += path.radiance + carried * view_dependent_part(f, slot, path.point, -path.ray);
+        sum += (m0 + m1) * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }
