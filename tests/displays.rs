@@ -334,3 +334,67 @@ fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
     assert_eq!(held, pose, "a quiet source keeps the last pose");
     assert!(matches!(status, TrackingStatus::Quiet(_)), "{status:?}");
 }
+
+/// `fit_frame_time`: the views probed from the configured antialiasing down until they fit
+/// the refresh period with headroom; a period nothing fits gets the cheapest rung, and says so.
+#[test]
+fn fitting_the_frame_time_steps_down_until_the_views_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let params = vlf::propagate::PropagationParams {
+        geodesic_frequency: 3,
+        grid_resolution: 32,
+        tile_size: 8,
+        texel_density: 8.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+    };
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
+    let run = |hz: &str| {
+        let text = std::fs::read_to_string(config("cave-4wall.toml"))
+            .unwrap()
+            .replace("pixels = [1920, 1200]", "pixels = [96, 60]")
+            .replace(
+                "refresh_hz = 120",
+                &format!("refresh_hz = {hz}\nfit_frame_time = true"),
+            );
+        let path = dir.path().join(format!("cave-{hz}.toml"));
+        std::fs::write(&path, text).unwrap();
+        let display = DisplayConfig::load(&path).unwrap();
+        let out = dir.path().join(format!("out-{hz}"));
+        vlf::display::headless::run(&lf, &resident, &display, &path, 2, &out, false).unwrap()
+    };
+    // a second per frame: the configured 4 eye rays fit at once
+    let slow = run("1");
+    let fit = slow.fit.as_ref().expect("fitted");
+    assert!(fit.fits && fit.probes.len() == 1, "{}", fit.summary());
+    assert_eq!(slow.quality.eye_rays_per_pixel, 4);
+    assert!(
+        slow.table().contains("frame time fit: budget 1000.00 ms"),
+        "{}",
+        slow.table()
+    );
+    // a million frames a second: 4, 2 and 1 eye rays tried (Cornell has no mirror), none fits
+    let fast = run("1000000");
+    let fit = fast.fit.as_ref().expect("fitted");
+    let tried: Vec<u32> = fit
+        .probes
+        .iter()
+        .map(|p| p.quality.eye_rays_per_pixel)
+        .collect();
+    assert_eq!(tried, [4, 2, 1]);
+    assert!(!fit.fits && fast.quality.eye_rays_per_pixel == 1);
+    assert!(fast.table().contains("NOTHING FITS"), "{}", fast.table());
+    assert!(fit.probes.iter().all(|p| p.frame_gpu_ms > 0.0));
+    // a fit needs a refresh rate
+    let e = bad(("refresh_hz = 120", "fit_frame_time = true"));
+    assert!(
+        e.contains("fit_frame_time") && e.contains("refresh_hz"),
+        "{e}"
+    );
+}

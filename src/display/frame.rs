@@ -404,3 +404,32 @@ impl InFlight {
         done
     }
 }
+
+/// With `fit_frame_time`, the settings whose frame fits the refresh period, probed on the
+/// views of the walk's first pose (`render/budget.rs`).
+pub fn fit_frame_time(
+    renderer: &mut crate::render::Renderer,
+    config: &super::DisplayConfig,
+    views: &[WallView],
+    poses: &super::tracking::PoseSource,
+    lf: &crate::lightfield::LightField,
+) -> crate::error::Result<Option<crate::render::budget::BudgetFit>> {
+    let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) else {
+        return Ok(None);
+    };
+    let (pose, _) = poses.at_fresh(0.0);
+    let probes: Vec<crate::render::budget::ProbeView> = (views.iter())
+        .map(|v| {
+            let wall = &config.walls[v.wall];
+            let (view_proj, eye) =
+                super::wall_view(config, wall, v.side, &pose, &lf.meta.normalisation);
+            let [w, h] = wall.eye_pixels();
+            crate::render::budget::ProbeView {
+                view_proj,
+                eye,
+                size: [w, h],
+            }
+        })
+        .collect();
+    renderer.fit_frame_time(&probes, budget).map(Some)
+}

@@ -16,6 +16,7 @@ use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::gpu::{MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
+use crate::render::budget::BudgetFit;
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
 use crate::stats::Distribution;
@@ -45,6 +46,9 @@ pub struct CaveReport {
     /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
     /// drawn from it (timed frames; None without live tracking or without a new pose)
     pub tracking_latency_ms: Option<Distribution>,
+    /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
+    pub quality: crate::render::budget::Quality,
+    pub fit: Option<BudgetFit>,
     pub images: Vec<String>,
 }
 
@@ -200,6 +204,7 @@ pub fn run_locked(
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
     let views = wall_views(config);
+    let fit = super::frame::fit_frame_time(&mut renderer, config, &views, &poses, lf)?;
     let specs = super::warp::load_outputs(config, config_path)?;
     // the pass after rendering (`post.rs`), when needed: one wall image per wall
     let wand = poses.may_have_wand(&config.tracking);
@@ -265,6 +270,8 @@ pub fn run_locked(
         cpu_frame_ms,
         outputs_gpu_ms: times.output_gpu_ms(),
         tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
+        quality: drawer.renderer.quality(),
+        fit,
         images,
     })
 }
@@ -381,9 +388,12 @@ fn write_overview(
 impl CaveReport {
     pub fn table(&self) -> String {
         let mut s = format!(
-            "  display {} on {}: {} frames, {} views per frame\n",
-            self.display, self.adapter, self.frames, self.views_per_frame
+            "  display {} on {}: {} frames, {} views per frame, {}\n",
+            self.display, self.adapter, self.frames, self.views_per_frame, self.quality
         );
+        if let Some(fit) = &self.fit {
+            s += &format!("  {}\n", fit.summary());
+        }
         for v in &self.views {
             s.push_str(&v.row());
         }

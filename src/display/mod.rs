@@ -58,6 +58,12 @@ pub struct DisplayConfig {
     /// reports check it; left out, no frame budget is checked)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refresh_hz: Option<f32>,
+    /// fit every frame into the refresh period (needs `refresh_hz`): before the first frame the
+    /// views are probed from `antialiasing` down (fewer eye rays per pixel, then fewer mirror
+    /// reflections before the tiles) until their GPU time leaves a quarter of the period free,
+    /// and the run keeps those settings (`render/budget.rs`); the report says what was chosen
+    #[serde(default)]
+    pub fit_frame_time: bool,
     /// the tracked wand's ray, drawn on every wall (`post.rs`)
     #[serde(default)]
     pub wand_ray: post::WandRay,
@@ -417,6 +423,12 @@ impl DisplayConfig {
             return Err(format!(
                 "refresh_hz: {hz} is not a refresh rate: give the projectors' rate in Hz (e.g. 120)"
             ));
+        }
+        if self.fit_frame_time && self.refresh_hz.is_none() {
+            return Err(
+                "fit_frame_time: a frame can only be fitted into a refresh period: give refresh_hz"
+                    .into(),
+            );
         }
         if !(self.eye_separation.is_finite() && (0.0..0.2).contains(&self.eye_separation)) {
             return Err(format!(

@@ -2,6 +2,7 @@
 //! camera plus a projection; many views share one light field. Output is linear radiance,
 //! written as EXR or tonemapped PNG by `image_io.rs`.
 
+pub mod budget;
 pub mod image_io;
 
 use crate::error::{Result, VlfError};

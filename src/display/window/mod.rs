@@ -82,6 +82,7 @@ pub fn run_locked<'a>(
     renderer.set_samples_per_pixel(config.antialiasing)?;
     // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
     let views = wall_views(config);
+    let fit = super::frame::fit_frame_time(&mut renderer, config, &views, &poses, lf)?;
     let specs = super::warp::load_outputs(config, config_path)?;
     let walls: Vec<usize> = views.iter().map(|v| v.wall).collect();
     let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
@@ -113,6 +114,7 @@ pub fn run_locked<'a>(
         printed_done: false,
         lock,
         shown: 0,
+        fit,
     };
     event_loop
         .run_app(&mut app)
@@ -124,6 +126,8 @@ pub fn run_locked<'a>(
 }
 
 struct App<'a> {
+    /// with `fit_frame_time`: the settings probed and chosen before the first frame
+    fit: Option<crate::render::budget::BudgetFit>,
     lf: &'a LightField,
     resident: &'a ResidentLightField,
     config: &'a DisplayConfig,

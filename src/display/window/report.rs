@@ -20,6 +20,9 @@ pub struct WindowReport {
     pub tracking_latency_ms: Option<Distribution>,
     /// the frames judged by the limits (per-view and frame p99/p50, max/median, refresh)
     pub limits: Vec<Limit>,
+    /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
+    pub quality: crate::render::budget::Quality,
+    pub fit: Option<crate::render::budget::BudgetFit>,
 }
 
 impl App<'_> {
@@ -38,6 +41,8 @@ impl App<'_> {
             tracking_latency_ms: (!self.latency.is_empty())
                 .then(|| Distribution::of(&self.latency)),
             limits,
+            quality: self.renderer.quality(),
+            fit: self.fit.clone(),
         }
     }
 }
@@ -45,9 +50,12 @@ impl App<'_> {
 impl WindowReport {
     pub fn table(&self) -> String {
         let mut s = format!(
-            "  display {} on {}: {} window(s), {} frames timed\n",
-            self.display, self.adapter, self.windows, self.frames
+            "  display {} on {}: {} window(s), {} frames timed, {}\n",
+            self.display, self.adapter, self.windows, self.frames, self.quality
         );
+        if let Some(fit) = &self.fit {
+            s += &format!("  {}\n", fit.summary());
+        }
         for v in self.views.iter().filter(|v| v.gpu_ms.is_some()) {
             s.push_str(&v.row());
         }
