@@ -305,17 +305,27 @@ fn sample_offset(k: u32, n: u32) -> vec2<f32> {
     return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
 }
 
+// Eye rays per pixel of the 8x8 tile `tile`: samples_per_pixel, or paced_samples for the share
+// paced_fraction of the tiles (frame pacing holds a view's time by that share). A tile's rank
+// is its place in a rank-1 lattice (the R2 sequence's), so any share is spread evenly over the
+// view, and a tile changes only when the share crosses its rank.
+fn tile_samples(tile: vec2<u32>) -> u32 {
+    let rank = fract(f32(tile.x) * 0.7548776662 + f32(tile.y) * 0.5698402910);
+    let n = select(view.samples_per_pixel, view.paced_samples, rank < view.paced_fraction);
+    return max(n, 1u);
+}
+
 // Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
 // from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
 // a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
 // reflections per pixel (the reflection is what a mirror makes expensive).
 @compute @workgroup_size(8, 8)
-fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>) {
     let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let n = max(view.samples_per_pixel, 1u);
+    let n = tile_samples(tile.xy);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < n; k += 2u) {
         // an odd count's last pair repeats its ray with weight 0
@@ -354,12 +364,12 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
 // both and ends in the tiles of the last surface: n eye rays, n/2 chains and n/2 tile lookups
 // per pixel.
 @compute @workgroup_size(8, 8)
-fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>) {
     let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
     }
-    let n = max(view.samples_per_pixel, 1u);
+    let n = tile_samples(tile.xy);
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < n; k += 2u) {
         let w1 = select(0.0, 1.0, k + 1u < n);
@@ -386,8 +396,12 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
         // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
         let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
         let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-        // the tiles hold the radiance the mirror reflects toward where the ray came from
-        sum += (m0 + m1) * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
+        // the tiles hold the radiance the mirror reflects toward where the ray came from (its
+        // reflectance included): with no reflection traced they weigh by the eye rays that meet
+        // a mirror, after one or more by the mirrors' reflectance along the chain
+        let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
+        let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
+        sum += weight * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }

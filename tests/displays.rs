@@ -367,28 +367,40 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
         std::fs::write(&path, text).unwrap();
         let display = DisplayConfig::load(&path).unwrap();
         let out = dir.path().join(format!("out-{hz}"));
-        vlf::display::headless::run(&lf, &resident, &display, &path, 2, &out, false).unwrap()
+        vlf::display::headless::run(&lf, &resident, &display, &path, 4, &out, false).unwrap()
     };
-    // a second per frame: the configured 4 eye rays fit at once
+    // a second per frame: 1 eye ray per pixel fits, 4 are probed for the pacer, which then
+    // gives the views more tiles at 4 as their time stays under the target
     let slow = run("1");
     let fit = slow.fit.as_ref().expect("fitted");
-    assert!(fit.fits && fit.probes.len() == 1, "{}", fit.summary());
-    assert_eq!(slow.quality.eye_rays_per_pixel, 4);
+    let tried: Vec<u32> = fit.probes.iter().map(|p| p.eye_rays_per_pixel).collect();
+    assert!(fit.fits && tried == [1, 4], "{}", fit.summary());
+    assert_eq!(
+        (
+            slow.quality.eye_rays_per_pixel,
+            slow.quality.paced_eye_rays_per_pixel
+        ),
+        (1, 4)
+    );
     assert!(
         slow.table().contains("frame time fit: budget 1000.00 ms"),
         "{}",
         slow.table()
     );
-    // a million frames a second: 4, 2 and 1 eye rays tried (Cornell has no mirror), none fits
+    let pacer = slow.pacer.as_ref().expect("paced");
+    assert!(pacer.share.iter().all(|d| d.max > 0.0), "{}", pacer.line());
+    assert!(
+        slow.table()
+            .contains("frame pacing: views held at 750.00 ms"),
+        "{}",
+        slow.table()
+    );
+    // a million frames a second: not even 1 eye ray fits (Cornell has no mirror to drop)
     let fast = run("1000000");
     let fit = fast.fit.as_ref().expect("fitted");
-    let tried: Vec<u32> = fit
-        .probes
-        .iter()
-        .map(|p| p.quality.eye_rays_per_pixel)
-        .collect();
-    assert_eq!(tried, [4, 2, 1]);
-    assert!(!fit.fits && fast.quality.eye_rays_per_pixel == 1);
+    assert_eq!(fit.probes.len(), 1);
+    assert!(!fit.fits && fast.pacer.is_none());
+    assert_eq!(fast.quality.paced_eye_rays_per_pixel, 1);
     assert!(fast.table().contains("NOTHING FITS"), "{}", fast.table());
     assert!(fit.probes.iter().all(|p| p.frame_gpu_ms > 0.0));
     // a fit needs a refresh rate

@@ -117,7 +117,13 @@ struct View {
     samples_per_pixel: u32,
     // mirror reflections traced per eye ray (0: the scene has no mirror)
     mirror_bounces: u32,
+    // frame pacing (src/render/budget.rs): the share paced_fraction of the view's 8x8 tiles
+    // draws paced_samples eye rays per pixel instead of samples_per_pixel
+    paced_samples: u32,
+    paced_fraction: f32,
     _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

@@ -258,6 +258,24 @@ impl FrameTimes {
     pub fn cpu_ms(&self) -> Option<Distribution> {
         (!self.cpu.is_empty()).then(|| Distribution::of(&self.cpu))
     }
+
+    /// Every timed frame in order: each view's GPU milliseconds, all views', the CPU's (for
+    /// plotting a walk frame by frame).
+    pub fn series(&self) -> FrameSeries {
+        FrameSeries {
+            view_gpu_ms: self.gpu.clone(),
+            frame_gpu_ms: self.frame_gpu.clone(),
+            cpu_frame_ms: self.cpu.clone(),
+        }
+    }
+}
+
+/// The frames of a run in order (`FrameTimes::series`), views in the report's order.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameSeries {
+    pub view_gpu_ms: Vec<Vec<f64>>,
+    pub frame_gpu_ms: Vec<f64>,
+    pub cpu_frame_ms: Vec<f64>,
 }
 
 /// The largest p99/p50 among the views.
@@ -432,4 +450,14 @@ pub fn fit_frame_time(
         })
         .collect();
     renderer.fit_frame_time(&probes, budget).map(Some)
+}
+
+/// One frame's timestamp pairs (`passes[i]` saying what pair i timed) to the pacer: each
+/// view's GPU time.
+pub fn pace_views(pacer: &mut crate::render::budget::Pacer, ms: &[f64], passes: &[Pass]) {
+    for (&m, pass) in ms.iter().zip(passes) {
+        if let Pass::View(v) = pass {
+            pacer.observe(*v, m);
+        }
+    }
 }

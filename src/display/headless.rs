@@ -16,7 +16,7 @@ use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::gpu::{MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::budget::BudgetFit;
+use crate::render::budget::{BudgetFit, Pacer, PacerReport};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
 use crate::stats::Distribution;
@@ -49,7 +49,11 @@ pub struct CaveReport {
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
     pub quality: crate::render::budget::Quality,
     pub fit: Option<BudgetFit>,
+    /// with a fit: the share of each view's tiles the pacer drew at the high eye-ray count
+    pub pacer: Option<PacerReport>,
     pub images: Vec<String>,
+    /// every timed frame in order
+    pub series: super::frame::FrameSeries,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -83,6 +87,8 @@ struct Drawer<'a> {
     renderer: Renderer,
     post: Option<Outputs>,
     views: Vec<WallView>,
+    /// with a fit: each view's share of tiles at the high eye-ray count, frame by frame
+    pacer: Option<Pacer>,
 }
 
 impl Drawer<'_> {
@@ -140,6 +146,9 @@ impl Drawer<'_> {
         mut ts: Option<&mut Timestamps>,
     ) -> Result<()> {
         for i in 0..self.views.len() {
+            if let Some(p) = &self.pacer {
+                self.renderer.set_paced_fraction(p.fraction(i));
+            }
             self.draw_view(self.views[i], (pose, wand), ts.as_deref_mut(), false)?;
         }
         Ok(())
@@ -218,6 +227,7 @@ pub fn run_locked(
         renderer,
         post,
         views,
+        pacer: fit.as_ref().and_then(Pacer::from_fit),
     };
     let passes = drawer.passes();
     let mut times = FrameTimes::new(labels(config, &drawer.views));
@@ -246,7 +256,11 @@ pub fn run_locked(
             l.swap()?;
         }
         if let Some(ts) = timestamps.as_mut() {
-            times.push_gpu(&ts.read_ms(&resident.ctx)?, &passes);
+            let ms = ts.read_ms(&resident.ctx)?;
+            times.push_gpu(&ms, &passes);
+            if let Some(p) = drawer.pacer.as_mut() {
+                super::frame::pace_views(p, &ms, &passes);
+            }
         }
     }
     if times.frames_timed() == 0 {
@@ -272,7 +286,9 @@ pub fn run_locked(
         tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
         quality: drawer.renderer.quality(),
         fit,
+        pacer: drawer.pacer.as_ref().map(Pacer::report),
         images,
+        series: times.series(),
     })
 }
 
@@ -393,6 +409,9 @@ impl CaveReport {
         );
         if let Some(fit) = &self.fit {
             s += &format!("  {}\n", fit.summary());
+        }
+        if let Some(p) = &self.pacer {
+            s += &p.line();
         }
         for v in &self.views {
             s.push_str(&v.row());

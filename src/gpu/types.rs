@@ -122,7 +122,13 @@ pub struct GpuView {
     pub samples_per_pixel: u32,
     /// mirror reflections traced per eye ray (0: the scene has no mirror)
     pub mirror_bounces: u32,
+    /// frame pacing (render/budget.rs): the share `paced_fraction` of the view's 8x8 tiles draws
+    /// `paced_samples` eye rays per pixel instead of `samples_per_pixel`
+    pub paced_samples: u32,
+    pub paced_fraction: f32,
     pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to: the render

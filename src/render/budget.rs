@@ -1,49 +1,66 @@
-//! Fitting a frame into the display's frame time. The renderer's cost per pixel is set by its
-//! settings (eye rays per pixel, mirror reflections per chain), hardly by what a view sees, so
-//! one probe of a frame's views at each rung of a ladder of settings tells which ones fit: a
-//! display that must never miss a refresh (a CAVE, a headset) starts at its configured settings
-//! and steps down until the probed GPU time leaves headroom in the budget, then keeps those
-//! settings for the whole run, so every frame costs the same.
+//! Fitting every frame into the display's frame time, at the same time every frame.
+//!
+//! What a pixel costs depends on what it sees: an eye ray through the empty half of a classroom
+//! opens fewer nodes of the BVH than one through rows of chairs (on an H100 a 1920x1200 view of
+//! the 100K-triangle classroom at 2 eye rays per pixel takes 0.54 ms facing the blackboard's
+//! empty strip and 0.97 ms facing the class). Two steps hold the time constant anyway:
+//! - the fit, once before the first frame: the frame's views are probed at 1 eye ray per pixel
+//!   and at the configured count, from the configured mirror reflections down (fewer reflections
+//!   before the tiles end a chain, down to none: the tiles alone, the paper's method), until the
+//!   cheap setting leaves headroom in the refresh period;
+//! - the pacer, every frame: each view draws the configured eye rays per pixel in a share of
+//!   its 8x8 tiles and 1 in the rest (`tile_samples` in render.wgsl), and the share follows the
+//!   view's measured GPU time toward its target. A view that turns cheap gets more antialiased
+//!   tiles, one that turns expensive fewer: the time stays put and the surplus goes to the
+//!   picture.
 
 use super::Renderer;
 use crate::error::Result;
 use crate::gpu::Timestamps;
+use crate::stats::Distribution;
 use glam::{Mat4, Vec3};
 use serde::Serialize;
 
-/// The share of the frame budget the probed GPU time may take: the rest is for what a walk's
-/// views vary by (per-view p99/p50 up to about 1.1 on the shipped walks), the CPU's submission
-/// and the passes after rendering (warp, present).
+/// The share of the frame budget the views' GPU time is held at: the rest is for the CPU's
+/// submission, the passes after rendering (warp, present) and what the pacer lags behind by.
 pub const FIT_HEADROOM: f64 = 0.75;
+/// How far the pacer moves a view's share toward its target each frame (1: all the way, by the
+/// slope the fit measured).
+const PACER_GAIN: f64 = 0.6;
 
-/// What a pixel costs: eye rays per pixel and mirror reflections traced per chain.
+/// What a frame is drawn with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub struct Quality {
     pub eye_rays_per_pixel: u32,
+    /// eye rays per pixel in the tiles frame pacing picks (= eye_rays_per_pixel unpaced)
+    pub paced_eye_rays_per_pixel: u32,
     pub mirror_bounces: u32,
 }
 
 impl std::fmt::Display for Quality {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "{} eye ray{} per pixel, {} mirror reflection{}",
+        let (n, paced, b) = (
             self.eye_rays_per_pixel,
-            if self.eye_rays_per_pixel == 1 {
-                ""
-            } else {
-                "s"
-            },
+            self.paced_eye_rays_per_pixel,
             self.mirror_bounces,
-            if self.mirror_bounces == 1 { "" } else { "s" }
-        )
+        );
+        match paced == n {
+            true => write!(f, "{n} eye ray(s) per pixel, {b} mirror reflection(s)"),
+            false => write!(
+                f,
+                "{n} to {paced} eye rays per pixel (paced by tile), {b} mirror reflection(s)"
+            ),
+        }
     }
 }
 
-/// One rung tried: the GPU time of the frame's views with these settings.
+/// One probe: the frame's views with `mirror_bounces` reflections, every tile at
+/// `eye_rays_per_pixel`.
 #[derive(Clone, Debug, Serialize)]
 pub struct Probe {
-    pub quality: Quality,
+    pub eye_rays_per_pixel: u32,
+    pub mirror_bounces: u32,
+    pub view_gpu_ms: Vec<f64>,
     pub frame_gpu_ms: f64,
 }
 
@@ -53,10 +70,16 @@ pub struct BudgetFit {
     pub budget_ms: f64,
     pub headroom: f64,
     pub probes: Vec<Probe>,
-    pub chosen: Quality,
-    /// whether the chosen settings' probe fits budget x headroom (false: the cheapest rung did
-    /// not, and the run is drawn with it anyway)
+    /// the reflections traced, and the eye rays per pixel a tile draws (the pacer picks which
+    /// tiles draw `high`)
+    pub mirror_bounces: u32,
+    pub low: u32,
+    pub high: u32,
+    /// whether 1 eye ray per pixel fits budget x headroom (false: nothing did, and the run is
+    /// drawn with the cheapest settings anyway)
     pub fits: bool,
+    /// each view's pixels: the views share the held time, and the pacer's slope, by them
+    pub view_pixels: Vec<u64>,
     /// "GPU timestamps" or "wall clock" (an adapter without timestamp queries)
     pub timed_by: &'static str,
 }
@@ -66,23 +89,19 @@ impl BudgetFit {
     pub fn summary(&self) -> String {
         let tried: Vec<String> = (self.probes.iter())
             .map(|p| {
-                format!(
-                    "{}/{} {:.2} ms",
-                    p.quality.eye_rays_per_pixel, p.quality.mirror_bounces, p.frame_gpu_ms
-                )
+                let (n, b) = (p.eye_rays_per_pixel, p.mirror_bounces);
+                format!("{n}/{b} {:.2} ms", p.frame_gpu_ms)
             })
             .collect();
         format!(
-            "frame time fit: budget {:.2} ms x {:.2} headroom; probed (eye rays/reflections) {}; {} {}",
+            "frame time fit: budget {:.2} ms x {:.2} headroom; probed (eye rays/reflections) {}; {} {} reflection(s), {} to {} eye rays per pixel by tile",
             self.budget_ms,
             self.headroom,
             tried.join(", "),
-            if self.fits {
-                "drawn with"
-            } else {
-                "NOTHING FITS, drawn with the cheapest:"
-            },
-            self.chosen
+            if self.fits { "drawn with" } else { "NOTHING FITS, drawn with the cheapest:" },
+            self.mirror_bounces,
+            self.low,
+            self.high
         )
     }
 }
@@ -99,92 +118,209 @@ impl Renderer {
     pub fn quality(&self) -> Quality {
         Quality {
             eye_rays_per_pixel: self.view_template.samples_per_pixel,
+            paced_eye_rays_per_pixel: self.view_template.paced_samples,
             mirror_bounces: self.view_template.mirror_bounces,
         }
     }
 
-    /// From the configured settings down: halving the eye rays per pixel to 1, then (only where
-    /// mirror tiles end the chains, so that a mirror keeps its picture) one reflection fewer down
-    /// to 1.
-    pub fn quality_ladder(&self) -> Vec<Quality> {
-        let mut rung = self.quality();
-        let mut ladder = vec![rung];
-        while rung.eye_rays_per_pixel > 1 {
-            rung.eye_rays_per_pixel /= 2;
-            ladder.push(rung);
+    /// Mirror reflections to try, from the configured count down: to none where the tiles end
+    /// chains (they then show the mirrors on their own), none fewer without tiles (a mirror
+    /// would go black).
+    fn bounce_ladder(&self) -> Vec<u32> {
+        let configured = self.view_template.mirror_bounces;
+        match self.view_dependent() {
+            true => (0..=configured).rev().collect(),
+            false => vec![configured],
         }
-        while self.view_dependent() && rung.mirror_bounces > 1 {
-            rung.mirror_bounces -= 1;
-            ladder.push(rung);
-        }
-        ladder
     }
 
-    fn set_quality(&mut self, quality: Quality) -> Result<()> {
-        self.set_samples_per_pixel(quality.eye_rays_per_pixel)?;
-        self.view_template.mirror_bounces = quality.mirror_bounces;
-        Ok(())
+    /// Eye rays per pixel in the share `fraction` of every view's tiles (the rest: 1).
+    pub fn set_paced_fraction(&mut self, fraction: f32) {
+        self.view_template.paced_fraction = fraction.clamp(0.0, 1.0);
     }
 
-    /// Probe `views` down the quality ladder and keep the first settings whose frame fits
-    /// `budget_ms` x FIT_HEADROOM (or the cheapest).
+    /// Probe `views` (see the module's notes) and leave the renderer at the chosen settings,
+    /// every tile at 1 eye ray per pixel until the pacer says otherwise.
     pub fn fit_frame_time(&mut self, views: &[ProbeView], budget_ms: f64) -> Result<BudgetFit> {
-        let ladder = self.quality_ladder();
+        let high = self.view_template.samples_per_pixel;
+        let ladder = self.bounce_ladder();
         let mut probes = Vec::new();
-        let mut timed_by = "GPU timestamps";
-        for quality in &ladder {
-            self.set_quality(*quality)?;
-            let (ms, timestamps) = self.probe_frame_ms(views)?;
-            if !timestamps {
-                timed_by = "wall clock";
+        let mut timestamps = true;
+        let mut fits = false;
+        for &bounces in &ladder {
+            self.view_template.mirror_bounces = bounces;
+            // 1 eye ray per pixel must fit; the configured count shows what the pacer can add
+            let counts = if high > 1 { vec![1, high] } else { vec![1] };
+            for n in counts {
+                self.set_samples_per_pixel(n)?;
+                let (view_gpu_ms, timed) = self.probe_views(views)?;
+                timestamps &= timed;
+                let frame_gpu_ms = view_gpu_ms.iter().sum();
+                if n == 1 {
+                    fits = frame_gpu_ms <= budget_ms * FIT_HEADROOM;
+                }
+                probes.push(Probe {
+                    eye_rays_per_pixel: n,
+                    mirror_bounces: bounces,
+                    frame_gpu_ms,
+                    view_gpu_ms,
+                });
+                if !fits {
+                    break;
+                }
             }
-            probes.push(Probe {
-                quality: *quality,
-                frame_gpu_ms: ms,
-            });
-            if ms <= budget_ms * FIT_HEADROOM {
+            if fits {
                 break;
             }
         }
-        let last = probes.last().expect("the ladder has one rung at least");
-        let fit = BudgetFit {
+        self.set_samples_per_pixel(1)?;
+        // nothing fits: no tile draws more than one eye ray
+        self.view_template.paced_samples = if fits { high } else { 1 };
+        Ok(BudgetFit {
             budget_ms,
             headroom: FIT_HEADROOM,
-            chosen: last.quality,
-            fits: last.frame_gpu_ms <= budget_ms * FIT_HEADROOM,
+            mirror_bounces: self.view_template.mirror_bounces,
+            low: 1,
+            high,
+            fits,
             probes,
-            timed_by,
-        };
-        self.set_quality(fit.chosen)?;
-        Ok(fit)
+            view_pixels: (views.iter())
+                .map(|v| v.size[0] as u64 * v.size[1] as u64)
+                .collect(),
+            timed_by: if timestamps {
+                "GPU timestamps"
+            } else {
+                "wall clock"
+            },
+        })
     }
 
-    /// The frame's views drawn offscreen three times, one submission each as a display does; the
-    /// slower of the last two (the first warms up). Milliseconds, and whether from timestamps.
-    fn probe_frame_ms(&mut self, views: &[ProbeView]) -> Result<(f64, bool)> {
+    /// The views drawn offscreen three times, one submission each as a display does; each
+    /// view's slower time of the last two rounds (the first warms up), in milliseconds, and
+    /// whether they come from timestamps.
+    fn probe_views(&mut self, views: &[ProbeView]) -> Result<(Vec<f64>, bool)> {
         let targets: Vec<_> = (views.iter())
             .map(|v| self.view_targets(v.size[0], v.size[1]))
             .collect();
         let ctx = self.ctx.clone();
         let mut timestamps = Timestamps::new(&ctx, views.len() as u32);
-        let mut slowest: f64 = 0.0;
+        let mut slowest = vec![0.0f64; views.len()];
         for round in 0..3 {
-            let started = std::time::Instant::now();
+            let mut wall = Vec::new();
             for (view, target) in views.iter().zip(&targets) {
+                let started = std::time::Instant::now();
                 self.set_view_matrix(view.view_proj, view.eye);
                 let mut encoder = ctx.device.create_command_encoder(&Default::default());
                 self.encode_view(&mut encoder, target, timestamps.as_mut());
                 ctx.queue.submit([encoder.finish()]);
+                if timestamps.is_none() {
+                    ctx.wait()?;
+                }
+                wall.push(started.elapsed().as_secs_f64() * 1e3);
             }
             ctx.wait()?;
             let ms = match timestamps.as_mut() {
-                Some(t) => t.read_ms(&ctx)?.iter().sum(),
-                None => started.elapsed().as_secs_f64() * 1e3,
+                Some(t) => t.read_ms(&ctx)?,
+                None => wall,
             };
             if round > 0 {
-                slowest = slowest.max(ms);
+                for (s, m) in slowest.iter_mut().zip(ms) {
+                    *s = s.max(m);
+                }
             }
         }
         Ok((slowest, timestamps.is_some()))
+    }
+}
+
+/// Holds each view's GPU time at its target by the share of its tiles drawn at the fit's
+/// `high` eye rays per pixel (see the module's notes).
+pub struct Pacer {
+    target_ms: Vec<f64>,
+    /// the GPU time a view gains from share 0 to share 1, as probed
+    slope_ms: Vec<f64>,
+    fraction: Vec<f32>,
+    history: Vec<Vec<f32>>,
+}
+
+/// What the pacer did over a run, per view: the share of tiles at `high` eye rays per pixel.
+#[derive(Clone, Debug, Serialize)]
+pub struct PacerReport {
+    pub target_ms: Vec<f64>,
+    pub share: Vec<Distribution>,
+}
+
+impl PacerReport {
+    /// One line for a report: the targets and the range of shares over all views.
+    pub fn line(&self) -> String {
+        let (lo, hi) = (self.share.iter()).fold((f64::MAX, f64::MIN), |(lo, hi), d| {
+            (lo.min(d.min), hi.max(d.max))
+        });
+        let total: f64 = self.target_ms.iter().sum();
+        format!(
+            "  frame pacing: views held at {total:.2} ms in all; share of tiles at the high eye-ray count {:.0}% to {:.0}% (median per view {})\n",
+            lo * 100.0,
+            hi * 100.0,
+            (self.share.iter())
+                .map(|d| format!("{:.0}%", d.median * 100.0))
+                .collect::<Vec<_>>()
+                .join(" ")
+        )
+    }
+}
+
+impl Pacer {
+    /// For a fit that fits with more than one eye ray per pixel to give. Views share the held
+    /// time, and what the high count adds to the frame, by their pixels (one view's own probe
+    /// time is not to be trusted: a software adapter's timestamps put a frame's work on its last
+    /// pass).
+    pub fn from_fit(fit: &BudgetFit) -> Option<Pacer> {
+        if !fit.fits || fit.high <= fit.low {
+            return None;
+        }
+        let low = fit
+            .probes
+            .iter()
+            .rev()
+            .find(|p| p.eye_rays_per_pixel == fit.low)?;
+        let high = (fit.probes.iter().rev()).find(|p| p.eye_rays_per_pixel == fit.high)?;
+        let held = fit.budget_ms * fit.headroom;
+        let total = fit.view_pixels.iter().sum::<u64>().max(1) as f64;
+        let share: Vec<f64> = (fit.view_pixels.iter())
+            .map(|&p| p as f64 / total)
+            .collect();
+        let target_ms: Vec<f64> = share.iter().map(|s| held * s).collect();
+        let added = high.frame_gpu_ms - low.frame_gpu_ms;
+        let slope_ms = (share.iter().zip(&target_ms))
+            .map(|(s, t)| (added * s).max(0.05 * t))
+            .collect();
+        Some(Pacer {
+            target_ms,
+            slope_ms,
+            fraction: vec![0.0; share.len()],
+            history: vec![Vec::new(); share.len()],
+        })
+    }
+
+    /// The share of view `view`'s tiles to draw at `high` this frame.
+    pub fn fraction(&self, view: usize) -> f32 {
+        self.fraction[view]
+    }
+
+    /// View `view` took `gpu_ms` with the share it was given: move toward its target.
+    pub fn observe(&mut self, view: usize, gpu_ms: f64) {
+        let given = self.fraction[view];
+        self.history[view].push(given);
+        let step = PACER_GAIN * (self.target_ms[view] - gpu_ms) / self.slope_ms[view];
+        self.fraction[view] = (given as f64 + step).clamp(0.0, 1.0) as f32;
+    }
+
+    pub fn report(&self) -> PacerReport {
+        PacerReport {
+            target_ms: self.target_ms.clone(),
+            share: (self.history.iter())
+                .map(|h| Distribution::of(&h.iter().map(|&f| f as f64).collect::<Vec<_>>()))
+                .collect(),
+        }
     }
 }

@@ -226,6 +226,9 @@ impl Renderer {
             });
         }
         self.view_template.samples_per_pixel = n;
+        // the same everywhere: no tile draws more (frame pacing, budget.rs, may change it)
+        self.view_template.paced_samples = n;
+        self.view_template.paced_fraction = 0.0;
         Ok(())
     }
 

@@ -14,7 +14,7 @@ mod surfaces;
 
 pub use report::WindowReport;
 
-use super::frame::{labels, wall_views, FrameTimes, WallView};
+use super::frame::{labels, wall_views, FrameTimes, Pass, WallView};
 use super::framelock::{FrameLock, FrameState};
 use super::live::TrackingStatus;
 use super::navigator::Navigator;
@@ -114,6 +114,9 @@ pub fn run_locked<'a>(
         printed_done: false,
         lock,
         shown: 0,
+        pacer: fit
+            .as_ref()
+            .and_then(crate::render::budget::Pacer::from_fit),
         fit,
     };
     event_loop
@@ -126,8 +129,10 @@ pub fn run_locked<'a>(
 }
 
 struct App<'a> {
-    /// with `fit_frame_time`: the settings probed and chosen before the first frame
+    /// with `fit_frame_time`: the settings probed and chosen before the first frame, and each
+    /// view's share of tiles at the high eye-ray count, frame by frame
     fit: Option<crate::render::budget::BudgetFit>,
+    pacer: Option<crate::render::budget::Pacer>,
     lf: &'a LightField,
     resident: &'a ResidentLightField,
     config: &'a DisplayConfig,
@@ -168,6 +173,32 @@ impl App<'_> {
     fn fail(&mut self, event_loop: &ActiveEventLoop, e: VlfError) {
         self.error = Some(e);
         event_loop.exit();
+    }
+
+    /// A drawn frame's view times to the pacer and, when timed, with its CPU time to the report.
+    fn account(
+        &mut self,
+        ctx: &GpuContext,
+        timestamps: Option<&mut Timestamps>,
+        started: Instant,
+        timed: bool,
+    ) -> Result<()> {
+        let view_ms = match timestamps {
+            Some(t) => t.read_ms(ctx)?,
+            None => Vec::new(),
+        };
+        if let Some(p) = self.pacer.as_mut() {
+            let passes: Vec<Pass> = (0..view_ms.len()).map(Pass::View).collect();
+            super::frame::pace_views(p, &view_ms, &passes);
+        }
+        if timed {
+            self.times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
+            if !view_ms.is_empty() {
+                self.times.push_view_gpu(&view_ms);
+            }
+            self.frames += 1;
+        }
+        Ok(())
     }
 
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
@@ -226,7 +257,8 @@ impl App<'_> {
 
         let timed = self.options.frames.is_none_or(|n| self.frames < n);
         let ctx = self.ctx().clone();
-        let mut timestamps = if timed {
+        // the pacer needs every frame's view times, timed or not
+        let mut timestamps = if timed || self.pacer.is_some() {
             Timestamps::new(&ctx, self.views.len() as u32)
         } else {
             None
@@ -234,6 +266,9 @@ impl App<'_> {
         let started = Instant::now();
         // every view rendered, and its outputs drawn, once; then each window shows its parts
         for (slot, v) in self.views.iter().enumerate() {
+            if let Some(p) = &self.pacer {
+                self.renderer.set_paced_fraction(p.fraction(slot));
+            }
             let wall = &self.config.walls[v.wall];
             let norm = &self.lf.meta.normalisation;
             let view = super::wall_view(self.config, wall, v.side, &pose, norm);
@@ -262,13 +297,7 @@ impl App<'_> {
             ctx.queue.present(texture);
         }
         ctx.wait()?;
-        if timed {
-            self.times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
-            if let Some(t) = timestamps.as_mut() {
-                self.times.push_view_gpu(&t.read_ms(&ctx)?);
-            }
-            self.frames += 1;
-        }
+        self.account(&ctx, timestamps.as_mut(), started, timed)?;
         let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {
             if self.frames >= n {

@@ -23,6 +23,7 @@ pub struct WindowReport {
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
     pub quality: crate::render::budget::Quality,
     pub fit: Option<crate::render::budget::BudgetFit>,
+    pub pacer: Option<crate::render::budget::PacerReport>,
 }
 
 impl App<'_> {
@@ -43,6 +44,7 @@ impl App<'_> {
             limits,
             quality: self.renderer.quality(),
             fit: self.fit.clone(),
+            pacer: self.pacer.as_ref().map(|p| p.report()),
         }
     }
 }
@@ -55,6 +57,9 @@ impl WindowReport {
         );
         if let Some(fit) = &self.fit {
             s += &format!("  {}\n", fit.summary());
+        }
+        if let Some(p) = &self.pacer {
+            s += &p.line();
         }
         for v in self.views.iter().filter(|v| v.gpu_ms.is_some()) {
             s.push_str(&v.row());
