@@ -315,6 +315,13 @@ fn tile_samples(tile: vec2<u32>) -> u32 {
     return max(n, 1u);
 }
 
+// Whether a pair of eye rays traces its reflection chain: always with view.fixed_work (every
+// pixel the same work, a pixel that sees no mirror tracing a stand-in times zero), else only
+// where one of them meets a mirror (frame pacing holds the time instead, render/budget.rs).
+fn reflection_traced(mirror: vec3<f32>) -> bool {
+    return view.fixed_work != 0u || max(mirror.x, max(mirror.y, mirror.z)) > 0.0;
+}
+
 // Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
 // from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
 // a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
@@ -346,7 +353,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let m1 = f1.mirror * s1.seen * w1;
         sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
         sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
-        if view.mirror_bounces > 0u {
+        if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
             if use_second {
@@ -386,22 +393,24 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let m1 = f1.mirror * s1.seen * w1;
         sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
         sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
-        let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
-        var s = s0;
-        if use_second {
-            s = s1;
+        if reflection_traced(m0 + m1) {
+            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+            var s = s0;
+            if use_second {
+                s = s1;
+            }
+            let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
+            let f = faces[chain.face];
+            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+            let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+            // the tiles hold the radiance the mirror reflects toward where the ray came from (its
+            // reflectance included): with no reflection traced they weigh by the eye rays that meet
+            // a mirror, after one or more by the mirrors' reflectance along the chain
+            let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
+            let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
+            sum += weight * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
         }
-        let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
-        let f = faces[chain.face];
-        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-        let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
-        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-        // the tiles hold the radiance the mirror reflects toward where the ray came from (its
-        // reflectance included): with no reflection traced they weigh by the eye rays that meet
-        // a mirror, after one or more by the mirrors' reflectance along the chain
-        let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
-        let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
-        sum += weight * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
 }

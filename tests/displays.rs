@@ -370,7 +370,7 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
         vlf::display::headless::run(&lf, &resident, &display, &path, 4, &out, false).unwrap()
     };
     // a second per frame: 1 eye ray per pixel fits, 4 are probed for the pacer, which then
-    // gives the views more tiles at 4 as their time stays under the target
+    // gives the views more eye rays as their time stays under the target
     let slow = run("1");
     let fit = slow.fit.as_ref().expect("fitted");
     let tried: Vec<u32> = fit.probes.iter().map(|p| p.eye_rays_per_pixel).collect();
@@ -380,7 +380,7 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
             slow.quality.eye_rays_per_pixel,
             slow.quality.paced_eye_rays_per_pixel
         ),
-        (1, 4)
+        (1, 16)
     );
     assert!(
         slow.table().contains("frame time fit: budget 1000.00 ms"),
@@ -388,7 +388,7 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
         slow.table()
     );
     let pacer = slow.pacer.as_ref().expect("paced");
-    assert!(pacer.share.iter().all(|d| d.max > 0.0), "{}", pacer.line());
+    assert!(pacer.eye_rays_per_pixel.iter().all(|d| d.max > 1.0), "{}", pacer.line());
     assert!(
         slow.table()
             .contains("frame pacing: views held at 750.00 ms"),

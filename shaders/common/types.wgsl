@@ -121,7 +121,8 @@ struct View {
     // draws paced_samples eye rays per pixel instead of samples_per_pixel
     paced_samples: u32,
     paced_fraction: f32,
-    _pad0: u32,
+    // 1: every pixel traces its reflections whatever it sees (see render.wgsl)
+    fixed_work: u32,
     _pad1: u32,
     _pad2: u32,
 }

@@ -266,6 +266,7 @@ impl FrameTimes {
             view_gpu_ms: self.gpu.clone(),
             frame_gpu_ms: self.frame_gpu.clone(),
             cpu_frame_ms: self.cpu.clone(),
+            submit_ms: Vec::new(),
         }
     }
 }
@@ -276,6 +277,9 @@ pub struct FrameSeries {
     pub view_gpu_ms: Vec<Vec<f64>>,
     pub frame_gpu_ms: Vec<f64>,
     pub cpu_frame_ms: Vec<f64>,
+    /// of each frame's CPU time, the part spent encoding and submitting its passes (headless;
+    /// the rest is waiting for the GPU)
+    pub submit_ms: Vec<f64>,
 }
 
 /// The largest p99/p50 among the views.

@@ -87,7 +87,7 @@ struct Drawer<'a> {
     renderer: Renderer,
     post: Option<Outputs>,
     views: Vec<WallView>,
-    /// with a fit: each view's share of tiles at the high eye-ray count, frame by frame
+    /// with a fit: how many eye rays each view draws in which tiles, frame by frame
     pacer: Option<Pacer>,
 }
 
@@ -147,7 +147,7 @@ impl Drawer<'_> {
     ) -> Result<()> {
         for i in 0..self.views.len() {
             if let Some(p) = &self.pacer {
-                self.renderer.set_paced_fraction(p.fraction(i));
+                self.renderer.set_pacing(p.setting(i));
             }
             self.draw_view(self.views[i], (pose, wand), ts.as_deref_mut(), false)?;
         }
@@ -233,6 +233,7 @@ pub fn run_locked(
     let mut times = FrameTimes::new(labels(config, &drawer.views));
     // live tracking: milliseconds from a pose's arrival to the submission of its frame
     let mut latency = Vec::new();
+    let mut submit_ms = Vec::new();
     let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, passes.len() as u32);
     let total = frames.max(1);
     let mut kept = Kept::default();
@@ -247,10 +248,11 @@ pub fn run_locked(
         }
         let started = std::time::Instant::now();
         drawer.submit_timed(&pose, wand.as_ref(), timestamps.as_mut())?;
+        submit_ms.push(started.elapsed().as_secs_f64() * 1e3);
         if let Some(arrived) = fresh {
             latency.push(arrived.elapsed().as_secs_f64() * 1e3);
         }
-        resident.ctx.wait()?;
+        resident.ctx.wait_spinning()?;
         times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
         if let Some(l) = lock.as_deref_mut() {
             l.swap()?;
@@ -284,11 +286,14 @@ pub fn run_locked(
         cpu_frame_ms,
         outputs_gpu_ms: times.output_gpu_ms(),
         tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
-        quality: drawer.renderer.quality(),
+        quality: drawer.renderer.run_quality(drawer.pacer.as_ref()),
         fit,
         pacer: drawer.pacer.as_ref().map(Pacer::report),
         images,
-        series: times.series(),
+        series: super::frame::FrameSeries {
+            submit_ms,
+            ..times.series()
+        },
     })
 }
 

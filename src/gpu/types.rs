@@ -126,7 +126,9 @@ pub struct GpuView {
     /// `paced_samples` eye rays per pixel instead of `samples_per_pixel`
     pub paced_samples: u32,
     pub paced_fraction: f32,
-    pub _pad0: u32,
+    /// 1: every pixel traces its reflections whatever it sees (constant work without frame
+    /// pacing); 0: only pixels that see a mirror (the pacer holds the time)
+    pub fixed_work: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

@@ -115,6 +115,18 @@ pub struct ProbeView {
 }
 
 impl Renderer {
+    /// What a run draws with: its pacer's range where it has one, else the current settings.
+    pub fn run_quality(&self, pacer: Option<&Pacer>) -> Quality {
+        match pacer {
+            Some(_) => Quality {
+                eye_rays_per_pixel: 1,
+                paced_eye_rays_per_pixel: PACED_MAX_SAMPLES,
+                mirror_bounces: self.view_template.mirror_bounces,
+            },
+            None => self.quality(),
+        }
+    }
+
     pub fn quality(&self) -> Quality {
         Quality {
             eye_rays_per_pixel: self.view_template.samples_per_pixel,
@@ -134,9 +146,12 @@ impl Renderer {
         }
     }
 
-    /// Eye rays per pixel in the share `fraction` of every view's tiles (the rest: 1).
-    pub fn set_paced_fraction(&mut self, fraction: f32) {
-        self.view_template.paced_fraction = fraction.clamp(0.0, 1.0);
+    /// The next views' tiles: `setting.high` eye rays per pixel in the share `setting.fraction`,
+    /// `setting.low` in the rest.
+    pub fn set_pacing(&mut self, setting: PacedSetting) {
+        self.view_template.samples_per_pixel = setting.low.clamp(1, super::MAX_SAMPLES);
+        self.view_template.paced_samples = setting.high.clamp(1, super::MAX_SAMPLES);
+        self.view_template.paced_fraction = setting.fraction.clamp(0.0, 1.0);
     }
 
     /// Probe `views` (see the module's notes) and leave the renderer at the chosen settings,
@@ -144,6 +159,9 @@ impl Renderer {
     pub fn fit_frame_time(&mut self, views: &[ProbeView], budget_ms: f64) -> Result<BudgetFit> {
         let high = self.view_template.samples_per_pixel;
         let ladder = self.bounce_ladder();
+        // paced, a pixel that sees no mirror traces no stand-in reflection: the pacer spends
+        // the time saved on more eye rays elsewhere
+        self.view_template.fixed_work = 0;
         let mut probes = Vec::new();
         let mut timestamps = true;
         let mut fits = false;
@@ -233,36 +251,47 @@ impl Renderer {
     }
 }
 
-/// Holds each view's GPU time at its target by the share of its tiles drawn at the fit's
-/// `high` eye rays per pixel (see the module's notes).
-pub struct Pacer {
-    target_ms: Vec<f64>,
-    /// the GPU time a view gains from share 0 to share 1, as probed
-    slope_ms: Vec<f64>,
-    fraction: Vec<f32>,
-    history: Vec<Vec<f32>>,
+/// The most eye rays per pixel the pacer gives a view that is cheap for its target.
+pub const PACED_MAX_SAMPLES: u32 = 16;
+
+/// A view's tiles: `high` eye rays per pixel in the share `fraction`, `low` in the rest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PacedSetting {
+    pub low: u32,
+    pub high: u32,
+    pub fraction: f32,
 }
 
-/// What the pacer did over a run, per view: the share of tiles at `high` eye rays per pixel.
+/// Holds each view's GPU time at its target by how many of its tiles draw more eye rays (see
+/// the module's notes). A view's level is a pair of counts, 1 and 2, 2 and 4, ... up to
+/// PACED_MAX_SAMPLES; its share moves within the level, and past either end to the next level:
+/// a view too cheap at the configured count for its target gets more eye rays still.
+pub struct Pacer {
+    target_ms: Vec<f64>,
+    /// the GPU time one more eye ray per pixel adds to a view, as probed
+    per_ray_ms: Vec<f64>,
+    low: Vec<u32>,
+    fraction: Vec<f32>,
+    /// eye rays per pixel each frame, averaged over the view's tiles
+    history: Vec<Vec<f32>>,
+}
+/// What the pacer did over a run, per view: eye rays per pixel, averaged over its tiles.
 #[derive(Clone, Debug, Serialize)]
 pub struct PacerReport {
     pub target_ms: Vec<f64>,
-    pub share: Vec<Distribution>,
+    pub eye_rays_per_pixel: Vec<Distribution>,
 }
 
 impl PacerReport {
     /// One line for a report: the targets and the range of shares over all views.
     pub fn line(&self) -> String {
-        let (lo, hi) = (self.share.iter()).fold((f64::MAX, f64::MIN), |(lo, hi), d| {
-            (lo.min(d.min), hi.max(d.max))
-        });
+        let (lo, hi) = (self.eye_rays_per_pixel.iter())
+            .fold((f64::MAX, f64::MIN), |(lo, hi), d| (lo.min(d.min), hi.max(d.max)));
         let total: f64 = self.target_ms.iter().sum();
         format!(
-            "  frame pacing: views held at {total:.2} ms in all; share of tiles at the high eye-ray count {:.0}% to {:.0}% (median per view {})\n",
-            lo * 100.0,
-            hi * 100.0,
-            (self.share.iter())
-                .map(|d| format!("{:.0}%", d.median * 100.0))
+            "  frame pacing: views held at {total:.2} ms in all; eye rays per pixel (over a view's tiles) {lo:.2} to {hi:.2}, median per view {}\n",
+            (self.eye_rays_per_pixel.iter())
+                .map(|d| format!("{:.2}", d.median))
                 .collect::<Vec<_>>()
                 .join(" ")
         )
@@ -271,54 +300,63 @@ impl PacerReport {
 
 impl Pacer {
     /// For a fit that fits with more than one eye ray per pixel to give. Views share the held
-    /// time, and what the high count adds to the frame, by their pixels (one view's own probe
-    /// time is not to be trusted: a software adapter's timestamps put a frame's work on its last
-    /// pass).
+    /// time, and the cost of an eye ray, by their pixels (one view's own probe time is not to be
+    /// trusted: a software adapter's timestamps put a frame's work on its last pass).
     pub fn from_fit(fit: &BudgetFit) -> Option<Pacer> {
         if !fit.fits || fit.high <= fit.low {
             return None;
         }
-        let low = fit
-            .probes
-            .iter()
-            .rev()
-            .find(|p| p.eye_rays_per_pixel == fit.low)?;
+        let low = fit.probes.iter().rev().find(|p| p.eye_rays_per_pixel == fit.low)?;
         let high = (fit.probes.iter().rev()).find(|p| p.eye_rays_per_pixel == fit.high)?;
         let held = fit.budget_ms * fit.headroom;
         let total = fit.view_pixels.iter().sum::<u64>().max(1) as f64;
-        let share: Vec<f64> = (fit.view_pixels.iter())
-            .map(|&p| p as f64 / total)
-            .collect();
+        let share: Vec<f64> = (fit.view_pixels.iter()).map(|&p| p as f64 / total).collect();
         let target_ms: Vec<f64> = share.iter().map(|s| held * s).collect();
-        let added = high.frame_gpu_ms - low.frame_gpu_ms;
-        let slope_ms = (share.iter().zip(&target_ms))
-            .map(|(s, t)| (added * s).max(0.05 * t))
+        let per_ray = (high.frame_gpu_ms - low.frame_gpu_ms) / (fit.high - fit.low) as f64;
+        let per_ray_ms = (share.iter().zip(&target_ms))
+            .map(|(s, t)| (per_ray * s).max(0.01 * t))
             .collect();
+        let views = share.len();
         Some(Pacer {
             target_ms,
-            slope_ms,
-            fraction: vec![0.0; share.len()],
-            history: vec![Vec::new(); share.len()],
+            per_ray_ms,
+            low: vec![fit.low; views],
+            fraction: vec![0.0; views],
+            history: vec![Vec::new(); views],
         })
     }
 
-    /// The share of view `view`'s tiles to draw at `high` this frame.
-    pub fn fraction(&self, view: usize) -> f32 {
-        self.fraction[view]
+    /// What view `view` draws this frame.
+    pub fn setting(&self, view: usize) -> PacedSetting {
+        PacedSetting {
+            low: self.low[view],
+            high: self.low[view] * 2,
+            fraction: self.fraction[view],
+        }
     }
 
-    /// View `view` took `gpu_ms` with the share it was given: move toward its target.
+    /// View `view` took `gpu_ms` with the setting it was given: move toward its target, by the
+    /// probed cost of the eye rays a share of one level adds.
     pub fn observe(&mut self, view: usize, gpu_ms: f64) {
-        let given = self.fraction[view];
-        self.history[view].push(given);
-        let step = PACER_GAIN * (self.target_ms[view] - gpu_ms) / self.slope_ms[view];
-        self.fraction[view] = (given as f64 + step).clamp(0.0, 1.0) as f32;
+        let (low, given) = (self.low[view], self.fraction[view] as f64);
+        self.history[view].push((low as f64 * (1.0 + given)) as f32);
+        let level_ms = self.per_ray_ms[view] * low as f64;
+        let mut fraction = given + PACER_GAIN * (self.target_ms[view] - gpu_ms) / level_ms;
+        if fraction > 1.0 && low * 2 < PACED_MAX_SAMPLES {
+            // up a level, whose share costs twice as much
+            self.low[view] = low * 2;
+            fraction = (fraction - 1.0) / 2.0;
+        } else if fraction < 0.0 && low > 1 {
+            self.low[view] = low / 2;
+            fraction = 1.0 + fraction * 2.0;
+        }
+        self.fraction[view] = fraction.clamp(0.0, 1.0) as f32;
     }
 
     pub fn report(&self) -> PacerReport {
         PacerReport {
             target_ms: self.target_ms.clone(),
-            share: (self.history.iter())
+            eye_rays_per_pixel: (self.history.iter())
                 .map(|h| Distribution::of(&h.iter().map(|&f| f as f64).collect::<Vec<_>>()))
                 .collect(),
         }

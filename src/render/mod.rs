@@ -198,6 +198,7 @@ impl Renderer {
             texel_page_cells: resident.texel_pages.page_cells,
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
+            fixed_work: 1,
             ..Default::default()
         };
         Ok(Renderer {

@@ -130,7 +130,7 @@ pub fn run_locked<'a>(
 
 struct App<'a> {
     /// with `fit_frame_time`: the settings probed and chosen before the first frame, and each
-    /// view's share of tiles at the high eye-ray count, frame by frame
+    /// view's eye rays per pixel by tile, frame by frame
     fit: Option<crate::render::budget::BudgetFit>,
     pacer: Option<crate::render::budget::Pacer>,
     lf: &'a LightField,
@@ -267,7 +267,7 @@ impl App<'_> {
         // every view rendered, and its outputs drawn, once; then each window shows its parts
         for (slot, v) in self.views.iter().enumerate() {
             if let Some(p) = &self.pacer {
-                self.renderer.set_paced_fraction(p.fraction(slot));
+                self.renderer.set_pacing(p.setting(slot));
             }
             let wall = &self.config.walls[v.wall];
             let norm = &self.lf.meta.normalisation;
@@ -296,7 +296,7 @@ impl App<'_> {
         for texture in outputs {
             ctx.queue.present(texture);
         }
-        ctx.wait()?;
+        ctx.wait_spinning()?;
         self.account(&ctx, timestamps.as_mut(), started, timed)?;
         let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {

@@ -42,7 +42,7 @@ impl App<'_> {
             tracking_latency_ms: (!self.latency.is_empty())
                 .then(|| Distribution::of(&self.latency)),
             limits,
-            quality: self.renderer.quality(),
+            quality: self.renderer.run_quality(self.pacer.as_ref()),
             fit: self.fit.clone(),
             pacer: self.pacer.as_ref().map(|p| p.report()),
         }
