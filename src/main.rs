@@ -210,6 +210,11 @@ struct XrArgs {
     /// Antialiasing: N eye rays per pixel (1 = off)
     #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
     aa: u32,
+    /// Fit every frame into the headset's refresh period: the first frame probes the eyes from
+    /// --aa down (fewer eye rays, then fewer mirror reflections) and shows nothing; then each
+    /// eye's eye rays per pixel follow its GPU time (frame pacing)
+    #[arg(long)]
+    fit_frame_time: bool,
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -779,6 +784,7 @@ fn xr(a: XrArgs) -> Result<()> {
         exposure,
         resolution_scale,
         aa,
+        fit_frame_time,
         json,
         params,
     } = a;
@@ -790,6 +796,7 @@ fn xr(a: XrArgs) -> Result<()> {
         camera,
         resolution_scale,
         antialiasing: aa,
+        fit_frame_time,
     };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {

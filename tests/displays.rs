@@ -388,7 +388,11 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
         slow.table()
     );
     let pacer = slow.pacer.as_ref().expect("paced");
-    assert!(pacer.eye_rays_per_pixel.iter().all(|d| d.max > 1.0), "{}", pacer.line());
+    assert!(
+        pacer.eye_rays_per_pixel.iter().all(|d| d.max > 1.0),
+        "{}",
+        pacer.line()
+    );
     assert!(
         slow.table()
             .contains("frame pacing: views held at 750.00 ms"),

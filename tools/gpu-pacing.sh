@@ -4,7 +4,7 @@
 # classrooms with a mirror and through the mirror gallery (frames spread evenly over each walk).
 # Reports (JSON + table) and the last frame's overview into OUT_DIR/pacing.tar.
 # With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
-# (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes.
+# (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes., paced (--fit-frame-time).
 # SCENES (default "classroom-100k classroom-1m gallery") picks the walks; AA=N draws N eye rays per
 # pixel instead of the configuration's 4 (reports named cave-<scene>-aaN). TAG=name adds -name to
 # the reports and names the archive pacing-name.tar; WORK=dir keeps the generated scenes and light
@@ -36,7 +36,7 @@ for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
     manifest=$work/runtime.json
     printf '{"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": "%s"}}\n' "$(realpath "$XR_RUNTIME_LIBRARY")" > $manifest
     XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene$suffix-runtime.txt \
-      "$vlf" xr --scene $work/$scene.vlf --frames 900 --json $work/xr-$scene$suffix.json 2>&1 | quiet | tee $work/xr-$scene$suffix.txt | tail -12
+      "$vlf" xr --scene $work/$scene.vlf --frames 900 --fit-frame-time --json $work/xr-$scene$suffix.json 2>&1 | quiet | tee $work/xr-$scene$suffix.txt | tail -12
   fi
 done
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt

@@ -101,7 +101,7 @@ impl BudgetFit {
             if self.fits { "drawn with" } else { "NOTHING FITS, drawn with the cheapest:" },
             self.mirror_bounces,
             self.low,
-            self.high
+            if self.fits { PACED_MAX_SAMPLES } else { self.low }
         )
     }
 }
@@ -274,6 +274,7 @@ pub struct Pacer {
     fraction: Vec<f32>,
     /// eye rays per pixel each frame, averaged over the view's tiles
     history: Vec<Vec<f32>>,
+    gain: f64,
 }
 /// What the pacer did over a run, per view: eye rays per pixel, averaged over its tiles.
 #[derive(Clone, Debug, Serialize)]
@@ -286,7 +287,9 @@ impl PacerReport {
     /// One line for a report: the targets and the range of shares over all views.
     pub fn line(&self) -> String {
         let (lo, hi) = (self.eye_rays_per_pixel.iter())
-            .fold((f64::MAX, f64::MIN), |(lo, hi), d| (lo.min(d.min), hi.max(d.max)));
+            .fold((f64::MAX, f64::MIN), |(lo, hi), d| {
+                (lo.min(d.min), hi.max(d.max))
+            });
         let total: f64 = self.target_ms.iter().sum();
         format!(
             "  frame pacing: views held at {total:.2} ms in all; eye rays per pixel (over a view's tiles) {lo:.2} to {hi:.2}, median per view {}\n",
@@ -306,11 +309,17 @@ impl Pacer {
         if !fit.fits || fit.high <= fit.low {
             return None;
         }
-        let low = fit.probes.iter().rev().find(|p| p.eye_rays_per_pixel == fit.low)?;
+        let low = fit
+            .probes
+            .iter()
+            .rev()
+            .find(|p| p.eye_rays_per_pixel == fit.low)?;
         let high = (fit.probes.iter().rev()).find(|p| p.eye_rays_per_pixel == fit.high)?;
         let held = fit.budget_ms * fit.headroom;
         let total = fit.view_pixels.iter().sum::<u64>().max(1) as f64;
-        let share: Vec<f64> = (fit.view_pixels.iter()).map(|&p| p as f64 / total).collect();
+        let share: Vec<f64> = (fit.view_pixels.iter())
+            .map(|&p| p as f64 / total)
+            .collect();
         let target_ms: Vec<f64> = share.iter().map(|s| held * s).collect();
         let per_ray = (high.frame_gpu_ms - low.frame_gpu_ms) / (fit.high - fit.low) as f64;
         let per_ray_ms = (share.iter().zip(&target_ms))
@@ -323,7 +332,15 @@ impl Pacer {
             low: vec![fit.low; views],
             fraction: vec![0.0; views],
             history: vec![Vec::new(); views],
+            gain: PACER_GAIN,
         })
+    }
+
+    /// For a loop whose GPU times arrive `frames` frames after the frame was drawn (frames in
+    /// flight): a smaller step per frame keeps the share from overshooting while it waits.
+    pub fn lagged(mut self, frames: u32) -> Pacer {
+        self.gain = PACER_GAIN / (1.0 + frames as f64);
+        self
     }
 
     /// What view `view` draws this frame.
@@ -341,7 +358,7 @@ impl Pacer {
         let (low, given) = (self.low[view], self.fraction[view] as f64);
         self.history[view].push((low as f64 * (1.0 + given)) as f32);
         let level_ms = self.per_ray_ms[view] * low as f64;
-        let mut fraction = given + PACER_GAIN * (self.target_ms[view] - gpu_ms) / level_ms;
+        let mut fraction = given + self.gain * (self.target_ms[view] - gpu_ms) / level_ms;
         if fraction > 1.0 && low * 2 < PACED_MAX_SAMPLES {
             // up a level, whose share costs twice as much
             self.low[view] = low * 2;

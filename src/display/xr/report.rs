@@ -61,6 +61,11 @@ pub struct XrReport {
     pub waited_for_gpu: u64,
     /// per-eye GPU p99/p50, missed refreshes and late frames against their limits
     pub limits: Vec<Limit>,
+    /// what the eyes were drawn with; with --fit-frame-time what the first frame probed, and
+    /// how many eye rays per pixel the pacer gave each eye
+    pub quality: crate::render::budget::Quality,
+    pub fit: Option<crate::render::budget::BudgetFit>,
+    pub pacer: Option<crate::render::budget::PacerReport>,
     /// the session states in the order the runtime reported them
     pub states: Vec<String>,
     pub ended: String,
@@ -79,6 +84,13 @@ impl XrReport {
             "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms; {} of them skipped by xrWaitFrame's predictions)\n",
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms, self.prediction_gaps
         ));
+        s.push_str(&format!("eyes drawn with {}\n", self.quality));
+        if let Some(fit) = &self.fit {
+            s += &format!("{}\n", fit.summary());
+        }
+        if let Some(p) = &self.pacer {
+            s += p.line().trim_start();
+        }
         if let (Some(late), Some(dropped), Some(lead)) = (
             self.late_frames,
             self.dropped_frames,

@@ -16,6 +16,7 @@ use crate::display::present::{present_pass, present_pipeline, PresentPipeline};
 use crate::display::tracking::Pose;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
+use crate::render::budget::{Pacer, ProbeView};
 use crate::render::Renderer;
 use glam::{Quat, Vec3};
 use openxr as xr;
@@ -42,6 +43,8 @@ pub struct XrOptions {
     pub resolution_scale: f32,
     /// antialiasing: eye rays per pixel (1 = off)
     pub antialiasing: u32,
+    /// probe the eyes in the first frame and pace them after (render/budget.rs)
+    pub fit_frame_time: bool,
 }
 
 pub(super) fn xr_error(what: &str) -> impl Fn(xr::sys::Result) -> VlfError + '_ {
@@ -250,6 +253,9 @@ struct LoopState {
     /// when the GPU finished each timed frame (with the runtime's clock only)
     gpu_done: Option<GpuDone>,
     times: FrameTimes,
+    /// with `fit_frame_time`: what the first frame probed, and the eyes' pacing after it
+    fit: Option<crate::render::budget::BudgetFit>,
+    pacer: Option<crate::render::budget::Pacer>,
     in_flight: Option<InFlight>,
     last_display_time: Option<i64>,
     period_ms: f64,
@@ -369,6 +375,8 @@ impl LoopState {
             shown: Vec::new(),
             gpu_done: clock.then(|| GpuDone::new(&ctx.device)),
             times: FrameTimes::new(labels),
+            fit: None,
+            pacer: None,
             in_flight: InFlight::new(ctx, eyes.len() as u32, FRAMES_IN_FLIGHT),
             last_display_time: None,
             period_ms: 0.0,
@@ -394,6 +402,11 @@ impl LoopState {
 
     fn push_gpu(&mut self, done: Vec<Vec<f64>>) {
         for ms in done {
+            if let Some(p) = self.pacer.as_mut() {
+                for (eye, &m) in ms.iter().enumerate() {
+                    p.observe(eye, m);
+                }
+            }
             self.times.push_view_gpu(&ms);
         }
     }
@@ -504,6 +517,9 @@ impl LoopState {
             serial_frames: in_flight.map_or(0, |f| f.serial),
             waited_for_gpu: in_flight.map_or(0, |f| f.waited),
             limits,
+            quality: headset.renderer.run_quality(self.pacer.as_ref()),
+            pacer: self.pacer.as_ref().map(|p| p.report()),
+            fit: self.fit,
             states: self.states,
             ended,
             lost: self.lost,
@@ -607,6 +623,37 @@ impl Headset<'_> {
         Ok(None)
     }
 
+    /// The first frame with `fit_frame_time`: the eyes probed (render/budget.rs) against the
+    /// runtime's display period, and nothing shown (the probe takes longer than a frame; no
+    /// frame is timed yet).
+    fn fit_frame(
+        &mut self,
+        st: &mut LoopState,
+        frame_state: &xr::FrameState,
+        views: &[xr::View],
+        pose: &Pose,
+    ) -> Result<()> {
+        let norm = &self.lf.meta.normalisation;
+        let probes: Vec<ProbeView> = (views.iter().zip(&self.eyes))
+            .map(|(view, eye)| {
+                let (view_proj, position) = eye_view(xr_pose(view), xr_fov(view), pose, norm, NEAR);
+                ProbeView {
+                    view_proj,
+                    eye: position,
+                    size: eye.size,
+                }
+            })
+            .collect();
+        let period_ms = frame_state.predicted_display_period.as_nanos() as f64 * 1e-6;
+        let fit = self.renderer.fit_frame_time(&probes, period_ms)?;
+        // the eyes' timestamps come back FRAMES_IN_FLIGHT frames late: a gentler pacer
+        st.pacer = Pacer::from_fit(&fit).map(|p| p.lagged(FRAMES_IN_FLIGHT as u32));
+        st.fit = Some(fit);
+        self.frame_stream
+            .end(frame_state.predicted_display_time, self.setup.blend, &[])
+            .map_err(xr_error("xrEndFrame"))
+    }
+
     /// One frame, paced by the runtime: wait, begin, draw both eyes, end. The GPU's work is not
     /// waited for: its timestamps come back frames later (`InFlight`).
     fn frame(&mut self, st: &mut LoopState, options: &XrOptions) -> Result<()> {
@@ -639,6 +686,9 @@ impl Headset<'_> {
         let navigation = crate::display::Navigation::default();
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
         let pose = st.navigator.apply(base);
+        if options.fit_frame_time && st.fit.is_none() {
+            return self.fit_frame(st, &frame_state, &views, &pose);
+        }
         let timed = options.frames.is_none_or(|n| st.frames < n);
         if timed {
             st.shown.push(FrameClock {
@@ -664,6 +714,9 @@ impl Headset<'_> {
                 &self.lf.meta.normalisation,
                 NEAR,
             );
+            if let Some(p) = &st.pacer {
+                self.renderer.set_pacing(p.setting(i));
+            }
             self.renderer.set_view_matrix(view_proj, eye_position);
             let eye = &mut self.eyes[i];
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
