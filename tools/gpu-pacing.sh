@@ -4,7 +4,7 @@
 # classrooms with a mirror and through the mirror gallery (frames spread evenly over each walk).
 # Reports (JSON + table) and the last frame's overview into OUT_DIR/pacing.tar.
 # With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
-# (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes., paced (--fit-frame-time).
+# (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes, paced (--fit-frame-time).
 # SCENES (default "classroom-100k classroom-1m gallery") picks the walks; AA=N draws N eye rays per
 # pixel instead of the configuration's 4 (reports named cave-<scene>-aaN). TAG=name adds -name to
 # the reports and names the archive pacing-name.tar; WORK=dir keeps the generated scenes and light
