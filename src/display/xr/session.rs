@@ -290,7 +290,7 @@ struct FrameClock {
     clock: Option<(Instant, i64)>,
 }
 
-/// When the GPU finished each timed frame: a thread waits for the frame's last submission and
+/// When the GPU finished each timed frame: a thread polls for the frame's last submission and
 /// notes the time, as the runtime waits for the frame's semaphore before it may show the frame.
 struct GpuDone {
     frames: Option<std::sync::mpsc::Sender<(usize, wgpu::SubmissionIndex)>>,
@@ -306,10 +306,18 @@ impl GpuDone {
             .spawn(move || {
                 let mut done = Vec::new();
                 for (frame, submission) in submitted {
-                    let waited = device.poll(wgpu::PollType::Wait {
-                        submission_index: Some(submission),
-                        timeout: None,
-                    });
+                    // polled without sleeping: a thread put to sleep is woken milliseconds
+                    // late now and then, and the frame would be counted late
+                    let waited = loop {
+                        let poll = device.poll(wgpu::PollType::Wait {
+                            submission_index: Some(submission.clone()),
+                            timeout: Some(Duration::ZERO),
+                        });
+                        match poll {
+                            Err(wgpu::PollError::Timeout) => std::hint::spin_loop(),
+                            other => break other,
+                        }
+                    };
                     if waited.is_ok() {
                         done.push((frame, Instant::now()));
                     }
