@@ -1,0 +1,394 @@
+// View rendering from the resident light field, driven by src/render/mod.rs: one compute
+// pass, one thread per pixel, and every pixel does the same fixed work whatever it sees:
+// - antialiasing: view.samples_per_pixel eye rays per pixel on a Hammersley set (for 2^m of
+//   them, one in every elementary box of the pixel), averaged with a box filter: an edge pixel
+//   shows the covered fraction;
+// - each eye ray finds the face it meets (the twin for the back of a two-sided surface, none for
+//   an absorbing back or the sky) and the exact point: against every triangle of a small mesh
+//   (the same work for every ray), through the BVH of a large one (cast_bvh, over the tree
+//   stored as child pairs, nearer child first: logarithmic, though no longer exactly equal per
+//   pixel). No rasteriser: its
+//   cost grows with how many surfaces overlap a pixel, and it is scarce on compute GPUs such
+//   as the H100/H200;
+// - one bilinear lookup in the diffuse atlas for the diffuse part (and emission);
+// - mirrors by ray tracing, the paper's rendering method (ii): the ray reflects off a mirror
+//   (or a mixed surface's mirror part) view.mirror_bounces times and reads the converged
+//   radiance where it lands, with the geometric sharpness of a path tracer. Every reflection is
+//   traced whatever it carries (a pixel that sees no mirror traces a stand-in and multiplies
+//   it by zero), and two eye rays share one chain of reflections. Where a chain of mirrors can
+//   be longer than that (facing mirrors), resolve_mixed ends it with the mirror tiles: the
+//   three fixed directions around the reflected ray, looked up in the face's tiles (a diffuse
+//   or sky sample does the same lookups on a stand-in, times zero).
+// Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
+#include "common/types.wgsl"
+#include "common/atlas.wgsl"
+#include "common/directions.wgsl"
+#include "common/tile_pages.wgsl"
+#include "common/tiles.wgsl"
+#include "common/ray.wgsl"
+
+@group(0) @binding(0) var<uniform> view: View;
+@group(0) @binding(1) var<storage, read> faces: array<Face>;
+@group(0) @binding(2) var<storage, read> triangles: array<Triangle>;
+// the BVH (src/bvh.rs) as child pairs: each internal node holds both children's boxes
+@group(0) @binding(3) var<storage, read> pairs: array<BvhPair>;
+@group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
+// the converged radiance atlas, in pages of view.texel_page_cells texels
+@group(0) @binding(5) var<storage, read> radiance_0: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> radiance_1: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> radiance_2: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> radiance_3: array<vec4<f32>>;
+// the small mesh's triangles as affine maps (rows u, v, w: world -> the triangle's barycentric
+// u, v and its plane distance w), in the order of `triangles`
+@group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
+
+// mirrors gpu::types::GpuRayTriangle
+struct RayTriangle {
+    u: vec4<f32>,
+    v: vec4<f32>,
+    w: vec4<f32>,
+}
+
+// Where the ray meets the triangle's plane, and whether inside it, by the triangle's affine map
+// to the unit triangle (Baldwin & Weber 2016): four dot products and no branch.
+fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
+    let t = -(dot(tri.w.xyz, origin) + tri.w.w) / dot(tri.w.xyz, ray);
+    let h = origin + ray * t;
+    let u = dot(tri.u.xyz, h) + tri.u.w;
+    let v = dot(tri.v.xyz, h) + tri.v.w;
+    return select(-1.0, t, u >= 0.0 && v >= 0.0 && u + v <= 1.0);
+}
+
+// Mirrors bvh::GpuBvhPair: an internal node of the BVH as its two children, each a box and a
+// reference: (pair << 5) for an internal child, (first triangle << 5) | count for a leaf.
+// Opening a node is one 64-byte read with both boxes in it.
+struct BvhPair {
+    lo_left: vec3<f32>,
+    left: u32,
+    hi_left: vec3<f32>,
+    right: u32,
+    lo_right: vec3<f32>,
+    _pad0: u32,
+    hi_right: vec3<f32>,
+    _pad1: u32,
+}
+
+// no node: the traversal is done
+const NO_NODE: u32 = 0xffffffffu;
+// entries of the traversal stack: one per level of the tree at most; src/render/mod.rs sets it
+// to what the scene's tree needs (bvh::BvhPairs::depth), since every entry is local memory
+const PAIR_STACK: u32 = 64u;
+const FIXED_STACK: u32 = 64u;
+
+// Closest hit through the BVH. Internal nodes are walked in a loop of their own (into the nearer
+// child the ray enters, the farther one onto the stack with its entry distance), leaves tested
+// after it, so the threads of a warp stay in step through the internal levels; an entry a hit
+// found since has made too far is dropped when popped without reading anything.
+fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>) -> Hit {
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    let safe = select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
+    let inv_dir = 1.0 / safe;
+    var stack: array<u32, FIXED_STACK>;
+    var entry: array<f32, FIXED_STACK>;
+    var top = 0u;
+    var node = 0u;
+    loop {
+        while node != NO_NODE && (node & 31u) == 0u {
+            let p = pairs[node >> 5u];
+            let reach = hit.t * TIE;
+            let t_left = box_entry(p.lo_left, p.hi_left, origin, inv_dir, reach);
+            let t_right = box_entry(p.lo_right, p.hi_right, origin, inv_dir, reach);
+            if t_left >= 0.0 && t_right >= 0.0 {
+                let right_first = t_right < t_left;
+                node = select(p.left, p.right, right_first);
+                if top < FIXED_STACK {
+                    stack[top] = select(p.right, p.left, right_first);
+                    entry[top] = max(t_left, t_right);
+                    top += 1u;
+                }
+            } else if t_left >= 0.0 {
+                node = p.left;
+            } else if t_right >= 0.0 {
+                node = p.right;
+            } else {
+                node = NO_NODE;
+            }
+        }
+        if node != NO_NODE {
+            let first = node >> 5u;
+            let end = first + (node & 31u);
+            for (var i = first; i < end; i++) {
+                let t = ray_triangle(origin, ray, ray_triangles[i]);
+                if t > 1e-5 && closer(t, i, hit) {
+                    hit.t = t;
+                    hit.tri = i;
+                }
+            }
+        }
+        node = NO_NODE;
+        while top > 0u {
+            top -= 1u;
+            if entry[top] < hit.t * TIE {
+                node = stack[top];
+                break;
+            }
+        }
+        if node == NO_NODE {
+            break;
+        }
+    }
+    return hit;
+}
+
+fn radiance(texel: u32) -> vec4<f32> {
+    let i = texel % view.texel_page_cells;
+    switch texel / view.texel_page_cells {
+        case 0u: { return radiance_0[i]; }
+        case 1u: { return radiance_1[i]; }
+        case 2u: { return radiance_2[i]; }
+        default: { return radiance_3[i]; }
+    }
+}
+// view-dependent part, bound only for scenes with mirrors (resolve_mixed)
+@group(1) @binding(0) var<storage, read> directions: array<Direction>;
+@group(1) @binding(1) var<storage, read> geodesic_points: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> geodesic_index: array<u32>;
+@group(1) @binding(3) var<storage, read> tile_rects: array<vec4<u32>>;
+@group(1) @binding(4) var<storage, read> tile_index: array<u32>;
+@group(1) @binding(5) var<storage, read> tile_radiance_0: array<vec4<f32>>;
+@group(1) @binding(6) var<storage, read> tile_radiance_1: array<vec4<f32>>;
+@group(1) @binding(7) var<storage, read> tile_radiance_2: array<vec4<f32>>;
+@group(1) @binding(8) var<storage, read> tile_radiance_3: array<vec4<f32>>;
+
+fn tile_page_cells() -> u32 {
+    return view.tile_page_cells;
+}
+
+fn tile_cells_total() -> u32 {
+    return view.tile_cell_count;
+}
+
+// Bilinear in the atlas over the texels marked visible (w = 1, propagate's texel_validity):
+// a texel inside closed geometry (under a box standing on the floor) drops out and the others
+// take its weight, so no dark seam runs along the foot of the box. A light field without marks
+// (w = 0 everywhere: the paper's settings, older files) interpolates all four.
+fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
+    let taps = atlas_taps(f, p, view.atlas_width);
+    let r0 = radiance(taps.index.x);
+    let r1 = radiance(taps.index.y);
+    let r2 = radiance(taps.index.z);
+    let r3 = radiance(taps.index.w);
+    let marked = taps.weight * vec4<f32>(r0.w, r1.w, r2.w, r3.w);
+    let sum = marked.x + marked.y + marked.z + marked.w;
+    let w = select(taps.weight, marked / sum, sum > 1e-6);
+    return r0.xyz * w.x + r1.xyz * w.y + r2.xyz * w.z + r3.xyz * w.w;
+}
+
+// The mirror part leaving p along out_dir: three fixed directions around it, from the tiles.
+fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>, out_dir: vec3<f32>) -> vec3<f32> {
+    let taps = lookup_direction(out_dir, view.geodesic_frequency);
+    var sum = vec3<f32>(0.0);
+    var found = 0.0;
+    for (var k = 0u; k < 3u; k++) {
+        let d = directions[taps.index[k]];
+        // tiles hold the radiance leaving the front; a tap behind the face drops out
+        let front = select(0.0, 1.0, dot(d.w * taps.sign[k], f.normal) > 0.0);
+        let v = tile_bilinear(taps.index[k], d, slot, p, view.cell_size, view.tile_size, view.tile_face_count, true);
+        let w = taps.weight[k] * min(v.w, 1.0) * front;
+        sum += v.xyz * w;
+        found += w;
+    }
+    return select(vec3<f32>(0.0), sum / found, found > 0.0);
+}
+
+// The ray meets nothing: the sky.
+const SKY: u32 = 0xfffffffdu;
+
+// What a ray meets first.
+struct Surface {
+    // the face to look up (a stand-in, face 0, where the ray meets none)
+    face: u32,
+    // 1 where the ray meets a face, 0 where it meets the sky or an absorbing back
+    seen: f32,
+    // what the ray shows instead when it meets no face: the sky, or black
+    background: vec3<f32>,
+    point: vec3<f32>,
+}
+
+fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    if view.exhaustive_triangles > 0u {
+        // a small mesh: every ray tests every triangle, the same work for every ray
+        // two triangles a step: their tests are independent, which keeps the GPU's pipes full
+        let n = view.exhaustive_triangles;
+        for (var i = 0u; i < n; i += 2u) {
+            let j = min(i + 1u, n - 1u);
+            let ti = ray_triangle(origin, ray, ray_triangles[i]);
+            let tj = ray_triangle(origin, ray, ray_triangles[j]);
+            let found_i = ti > 1e-5 && closer(ti, i, hit);
+            hit.t = select(hit.t, ti, found_i);
+            hit.tri = select(hit.tri, i, found_i);
+            let found_j = tj > 1e-5 && closer(tj, j, hit);
+            hit.t = select(hit.t, tj, found_j);
+            hit.tri = select(hit.tri, j, found_j);
+        }
+    } else {
+        hit = cast_bvh(origin, ray);
+    }
+    var out: Surface;
+    var id = SKY;
+    if hit.tri != NO_FACE {
+        let face = triangles[hit.tri].face;
+        // the back of a one-sided face absorbs: its twin is NO_FACE, black
+        id = select(faces[face].twin, face, dot(faces[face].normal, ray) < 0.0);
+    }
+    let none = id == NO_FACE || id == SKY;
+    out.seen = select(1.0, 0.0, none);
+    out.face = select(id, 0u, none);
+    out.background = select(vec3<f32>(0.0), view.sky.xyz, id == SKY);
+    // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
+    out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
+    return out;
+}
+
+// One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
+// chain ends: the last surface, its direction of travel and the weight still carried (for the
+// tiles, in resolve_mixed).
+struct Path {
+    radiance: vec3<f32>,
+    // the weight carried to the last surface (its own mirror reflectance not included: the
+    // tiles hold reflected radiance)
+    throughput: vec3<f32>,
+    face: u32,
+    point: vec3<f32>,
+    ray: vec3<f32>,
+}
+
+// The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
+// every one traced whatever it carries, with the weights relative to the light leaving `first`
+// by its mirror (the caller multiplies by that mirror's reflectance).
+fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
+    var s = first;
+    var ray = ray_in;
+    var f = faces[s.face];
+    var weight = vec3<f32>(1.0);
+    var path: Path;
+    path.radiance = vec3<f32>(0.0);
+    path.throughput = vec3<f32>(1.0);
+    for (var b = 0u; b < view.mirror_bounces; b++) {
+        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
+        s = cast_ray(s.point + f.normal * 1e-5, ray);
+        f = faces[s.face];
+        path.radiance += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.throughput = weight * s.seen;
+        weight *= f.mirror * s.seen;
+    }
+    path.face = s.face;
+    path.point = s.point;
+    path.ray = ray;
+    return path;
+}
+
+// The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
+fn eye_ray(pixel: vec2<u32>, offset: vec2<f32>, size: vec2<u32>) -> array<vec3<f32>, 2> {
+    let ndc = vec2<f32>((f32(pixel.x) + offset.x) / f32(size.x) * 2.0 - 1.0, 1.0 - (f32(pixel.y) + offset.y) / f32(size.y) * 2.0);
+    let near = view.inv_view_proj * vec4<f32>(ndc, 0.0, 1.0);
+    let far = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let origin = near.xyz / near.w;
+    return array<vec3<f32>, 2>(origin, normalize(far.xyz / far.w - origin));
+}
+
+// Sample k of n: the Hammersley set of n points, shifted half a stratum. For a power-of-two
+// count it is a (0, m, 2)-net in base 2: one sample in every elementary box of area 1/n
+// (n x 1, ..., 1 x n), so an edge of any slope is resolved in about 1/n steps.
+fn sample_offset(k: u32, n: u32) -> vec2<f32> {
+    let count = f32(n);
+    return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
+}
+
+// Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
+// from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
+// a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
+// reflections per pixel (the reflection is what a mirror makes expensive).
+@compute @workgroup_size(8, 8)
+fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let size = textureDimensions(image);
+    if gid.x >= size.x || gid.y >= size.y {
+        return;
+    }
+    let n = max(view.samples_per_pixel, 1u);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < n; k += 2u) {
+        // an odd count's last pair repeats its ray with weight 0
+        let second = min(k + 1u, n - 1u);
+        let w1 = select(0.0, 1.0, k + 1u < n);
+        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
+        let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
+        let s0 = cast_ray(r0[0], r0[1]);
+        // an odd count's last pair has one eye ray: r1 is r0, so is what it meets (no second
+        // cast: 1 eye ray per pixel costs one cast and one reflection, not two casts)
+        var s1 = s0;
+        if k + 1u < n {
+            s1 = cast_ray(r1[0], r1[1]);
+        }
+        let f0 = faces[s0.face];
+        let f1 = faces[s1.face];
+        let m0 = f0.mirror * s0.seen;
+        let m1 = f1.mirror * s1.seen * w1;
+        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
+        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        if view.mirror_bounces > 0u {
+            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+            var s = s0;
+            if use_second {
+                s = s1;
+            }
+            let ray = select(r0[1], r1[1], use_second);
+            sum += (m0 + m1) * mirror_chain(s, ray).radiance;
+        }
+    }
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+}
+
+// With tiles (mirrors facing each other) eye rays go in pairs as in resolve_diffuse: the pair's
+// chain of view.mirror_bounces reflections, from the ray that meets more mirror, is shared by
+// both and ends in the tiles of the last surface: n eye rays, n/2 chains and n/2 tile lookups
+// per pixel.
+@compute @workgroup_size(8, 8)
+fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let size = textureDimensions(image);
+    if gid.x >= size.x || gid.y >= size.y {
+        return;
+    }
+    let n = max(view.samples_per_pixel, 1u);
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < n; k += 2u) {
+        let w1 = select(0.0, 1.0, k + 1u < n);
+        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
+        let r1 = eye_ray(gid.xy, sample_offset(min(k + 1u, n - 1u), n), size);
+        let s0 = cast_ray(r0[0], r0[1]);
+        var s1 = s0;
+        if k + 1u < n {
+            s1 = cast_ray(r1[0], r1[1]);
+        }
+        let f0 = faces[s0.face];
+        let f1 = faces[s1.face];
+        let m0 = f0.mirror * s0.seen;
+        let m1 = f1.mirror * s1.seen * w1;
+        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
+        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+        var s = s0;
+        if use_second {
+            s = s1;
+        }
+        let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
+        let f = faces[chain.face];
+        // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+        let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+        let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+        // the tiles hold the radiance the mirror reflects toward where the ray came from
+        sum += (m0 + m1) * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
+    }
+    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+}
