@@ -614,3 +614,69 @@ fn the_resolution_scale_sets_the_swapchain_size() {
         bad.stderr
     );
 }
+
+/// `--fit-frame-time`: the first frame probes both eyes against the runtime's period and shows
+/// nothing (an empty frame, within the rules), then the eyes are paced; the report says what was
+/// probed and drawn. On a fast enough adapter 1 eye ray fits the tiny eyes and the pacer runs;
+/// on a slow one the report must say that nothing fitted.
+#[test]
+fn fitting_the_frame_time_probes_the_first_frame_then_paces_the_eyes() {
+    let s = session(
+        "fit",
+        &cornell(),
+        &[
+            "--frames",
+            "16",
+            "--screenshot-frame",
+            "8",
+            "--fit-frame-time",
+        ],
+        &[("VLF_TEST_XR_EYE_PIXELS", "24x24")],
+    );
+    assert!(
+        s.ok && !s.stderr.contains("panicked"),
+        "vlf xr failed: {}",
+        s.stderr
+    );
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
+    let fit = &s.report["fit"];
+    let probes = fit["probes"]
+        .as_array()
+        .expect("the fit's probes in the JSON");
+    assert_eq!(probes[0]["eye_rays_per_pixel"], 1, "{fit}");
+    assert!(
+        (fit["budget_ms"].as_f64().unwrap() - 1000.0 / 90.0).abs() < 0.01,
+        "{fit}"
+    );
+    assert!(
+        s.stdout.contains("frame time fit: budget 11.11 ms"),
+        "{}",
+        s.stdout
+    );
+    if fit["fits"].as_bool().unwrap() {
+        let rays = s.report["pacer"]["eye_rays_per_pixel"]
+            .as_array()
+            .expect("paced");
+        assert_eq!(rays.len(), 2);
+        assert_eq!(s.report["quality"]["paced_eye_rays_per_pixel"], 16);
+        assert!(
+            s.stdout.contains("frame pacing: views held at"),
+            "{}",
+            s.stdout
+        );
+    } else {
+        assert!(s.report["pacer"].is_null() && s.stdout.contains("NOTHING FITS"));
+    }
+    // the probing frame is not one of the 16 timed frames, and the picture still shows the box
+    assert!(s.report["ended"]
+        .as_str()
+        .unwrap()
+        .starts_with("cleanly, after the 16 frames"));
+    let (mean, _) = brightness(s.screenshot.as_ref().expect("a screenshot"));
+    assert!(mean > 5.0, "the left eye is black");
+}
