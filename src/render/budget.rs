@@ -8,11 +8,13 @@
 //!   and at the configured count, from the configured mirror reflections down (fewer reflections
 //!   before the tiles end a chain, down to none: the tiles alone, the paper's method), until the
 //!   cheap setting leaves headroom in the refresh period;
-//! - the pacer, every frame: each view draws the configured eye rays per pixel in a share of
-//!   its 8x8 tiles and 1 in the rest (`tile_samples` in render.wgsl), and the share follows the
-//!   view's measured GPU time toward its target. A view that turns cheap gets more antialiased
-//!   tiles, one that turns expensive fewer: the time stays put and the surplus goes to the
-//!   picture.
+//! - the pacer, every frame: each view draws twice the eye rays per pixel in a share of its
+//!   8x8 tiles (`tile_samples` in render.wgsl), at a level of 1-2, 2-4, ... up to
+//!   PACED_MAX_SAMPLES, and the share (and past its ends the level) follows the view's measured
+//!   GPU time toward its part of FIT_HEADROOM of the period. A view that turns cheap gets more
+//!   eye rays, one that turns expensive fewer: the time stays put and the surplus goes to the
+//!   picture. Paced, a pixel that sees no mirror traces no stand-in reflection (`fixed_work`
+//!   off): the pacer, not equal work per pixel, keeps the time.
 
 use super::Renderer;
 use crate::error::Result;
