@@ -168,7 +168,12 @@ impl GpuContext {
     /// not miss a refresh. A thread that sleeps until the GPU is done is woken by the OS when it
     /// gets to it: on the H100 machine 1 to 4 ms late in one frame of twenty (the CAVE's CPU+GPU
     /// frame p99 8.2 ms against a GPU time held at 6.25).
+    /// On a software adapter (lavapipe) it waits as `wait` does: there the GPU is the CPU, and a
+    /// spinning thread would take a core from it.
     pub fn wait_spinning(&self) -> Result<()> {
+        if self.summary.software {
+            return self.wait();
+        }
         loop {
             let status = (self.device.poll(wgpu::PollType::Poll))
                 .map_err(|e| VlfError::Gpu(e.to_string()))?;

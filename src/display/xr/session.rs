@@ -298,9 +298,12 @@ struct GpuDone {
 }
 
 impl GpuDone {
-    fn new(device: &wgpu::Device) -> GpuDone {
+    fn new(device: &wgpu::Device, software: bool) -> GpuDone {
         let (frames, submitted) = std::sync::mpsc::channel::<(usize, wgpu::SubmissionIndex)>();
         let device = device.clone();
+        // polled without sleeping on a GPU; on a software adapter the GPU is the CPU, and a
+        // spinning thread would take a core from it
+        let spin = !software;
         let thread = std::thread::Builder::new()
             .name("vlf xr: GPU done".into())
             .spawn(move || {
@@ -311,7 +314,7 @@ impl GpuDone {
                     let waited = loop {
                         let poll = device.poll(wgpu::PollType::Wait {
                             submission_index: Some(submission.clone()),
-                            timeout: Some(Duration::ZERO),
+                            timeout: spin.then_some(Duration::ZERO),
                         });
                         match poll {
                             Err(wgpu::PollError::Timeout) => std::hint::spin_loop(),
@@ -381,7 +384,7 @@ impl LoopState {
             frames: 0,
             skipped: 0,
             shown: Vec::new(),
-            gpu_done: clock.then(|| GpuDone::new(&ctx.device)),
+            gpu_done: clock.then(|| GpuDone::new(&ctx.device, ctx.summary.software)),
             times: FrameTimes::new(labels),
             fit: None,
             pacer: None,
