@@ -18,7 +18,9 @@
 //   chain of mirrors can be longer than that (facing mirrors), resolve_mixed ends it with the
 //   mirror tiles: the three fixed directions around the reflected ray, looked up in the face's
 //   tiles (a diffuse or sky sample does the same lookups on a stand-in, times zero).
-// Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
+// Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU. Beside
+// it, each pixel's depth: the view's clip depth of the nearest point its eye rays first meet
+// (1 where they meet nothing), which the headset submits so the runtime can reproject.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
@@ -39,6 +41,15 @@
 // the small mesh's triangles as affine maps (rows u, v, w: world -> the triangle's barycentric
 // u, v and its plane distance w), in the order of `triangles`
 @group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
+// the depth of what each pixel sees, in the view's clip depth (0 near, 1 far)
+@group(0) @binding(10) var depth_image: texture_storage_2d<r32float, write>;
+
+// The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
+// where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
+fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
+    let clip = view.view_proj * vec4<f32>(point, 1.0);
+    return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
+}
 
 // mirrors gpu::types::GpuRayTriangle
 struct RayTriangle {
@@ -179,6 +190,8 @@ struct Path {
     face: u32,
     point: vec3<f32>,
     ray: vec3<f32>,
+    // the first surface's point (the pixel's depth)
+    first: vec3<f32>,
 }
 
 fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
@@ -186,6 +199,7 @@ fn trace_path(origin: vec3<f32>, ray_in: vec3<f32>) -> Path {
     var ray = ray_in;
     var f = faces[s.face];
     var path: Path;
+    path.first = s.point;
     path.radiance = diffuse_part(f, s.point) * s.seen + s.background;
     var weight = f.mirror * s.seen;
     path.throughput = vec3<f32>(s.seen);
@@ -252,6 +266,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
+    var depth = 1.0;
     for (var k = 0u; k < n; k += 2u) {
         // an odd count's last pair repeats its ray with weight 0
         let second = min(k + 1u, n - 1u);
@@ -265,6 +280,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
         if k + 1u < n {
             s1 = cast_ray(r1[0], r1[1]);
         }
+        depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;
@@ -282,6 +298,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
 }
 
 @compute @workgroup_size(8, 8)
@@ -292,9 +309,11 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let n = max(view.samples_per_pixel, 1u);
     var sum = vec3<f32>(0.0);
+    var depth = 1.0;
     for (var k = 0u; k < n; k++) {
         let r = eye_ray(gid.xy, sample_offset(k, n), size);
         let path = trace_path(r[0], r[1]);
+        depth = min(depth, eye_depth(r[0], path.first));
         let f = faces[path.face];
         // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
         let carried = select(path.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
@@ -303,4 +322,5 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>) {
         sum += path.radiance + carried * view_dependent_part(f, slot, path.point, -path.ray);
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
 }

@@ -210,6 +210,10 @@ struct XrArgs {
     /// Antialiasing: N eye rays per pixel (1 = off)
     #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
     aa: u32,
+    /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
+    /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
+    #[arg(long, value_enum, default_value = "auto")]
+    swapchains: vlf::display::xr::Swapchains,
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -779,6 +783,7 @@ fn xr(a: XrArgs) -> Result<()> {
         exposure,
         resolution_scale,
         aa,
+        swapchains,
         json,
         params,
     } = a;
@@ -790,6 +795,7 @@ fn xr(a: XrArgs) -> Result<()> {
         camera,
         resolution_scale,
         antialiasing: aa,
+        swapchains,
     };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {
