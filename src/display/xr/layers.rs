@@ -31,7 +31,9 @@ pub enum Swapchains {
 pub(super) enum Shape {
     PerEye,
     /// one swapchain, a layer per eye; both eyes in one multiview pass, or a pass per layer
-    Array { multiview: bool },
+    Array {
+        multiview: bool,
+    },
 }
 
 /// One swapchain of the runtime and its images as wgpu textures.
@@ -269,7 +271,8 @@ impl Layers {
             chain.acquired = chain
                 .swapchain
                 .acquire_image()
-                .map_err(xr_error("xrAcquireSwapchainImage"))? as usize;
+                .map_err(xr_error("xrAcquireSwapchainImage"))?
+                as usize;
             chain
                 .swapchain
                 .wait_image(xr::Duration::INFINITE)
@@ -330,8 +333,12 @@ impl Layers {
         // (colour image, its layer or all of them, the bind group) of each pass
         let passes: Vec<(usize, Option<u32>, usize)> = match self.shape {
             Shape::Array { multiview: true } => vec![(0, None, 0)],
-            Shape::Array { multiview: false } => (0..eyes).map(|i| (0, Some(i), i as usize)).collect(),
-            Shape::PerEye => (0..eyes).map(|i| (i as usize, Some(0), i as usize)).collect(),
+            Shape::Array { multiview: false } => {
+                (0..eyes).map(|i| (0, Some(i), i as usize)).collect()
+            }
+            Shape::PerEye => (0..eyes)
+                .map(|i| (i as usize, Some(0), i as usize))
+                .collect(),
         };
         for (image, layer, group) in passes {
             let colour_view = layer_view(colour[image], layer, eyes);
@@ -395,7 +402,9 @@ impl Layers {
         };
         (
             sub_image(&self.colour[chain], layer),
-            self.depth.get(chain).map(|d| sub_image(d, layer).into_raw()),
+            self.depth
+                .get(chain)
+                .map(|d| sub_image(d, layer).into_raw()),
         )
     }
 

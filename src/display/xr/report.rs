@@ -85,7 +85,10 @@ impl XrReport {
             "OpenXR runtime {} | headset {} | GPU {} | {} space | swapchain {}\n",
             self.runtime, self.system, self.adapter, self.reference_space, self.swapchain_format
         );
-        s.push_str(&format!("eyes: {}\ndepth: {}\n", self.eye_layers, self.depth));
+        s.push_str(&format!(
+            "eyes: {}\ndepth: {}\n",
+            self.eye_layers, self.depth
+        ));
         s.push_str(&format!(
             "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms; {} of them skipped by xrWaitFrame's predictions)\n",
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms, self.prediction_gaps
