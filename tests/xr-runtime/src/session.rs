@@ -503,12 +503,19 @@ pub(crate) unsafe fn check_depth(
         return Err(format!("projection view {i}: XrCompositionLayerDepthInfoKHR without XR_KHR_composition_layer_depth enabled"));
     }
     let d = &*(next as *const xr::CompositionLayerDepthInfoKHR);
-    check_sub_image(rt, &d.sub_image, true, &format!("projection view {i}'s depth"))?;
+    check_sub_image(
+        rt,
+        &d.sub_image,
+        true,
+        &format!("projection view {i}'s depth"),
+    )?;
     if d.sub_image.image_rect.extent.width != view.sub_image.image_rect.extent.width
         || d.sub_image.image_rect.extent.height != view.sub_image.image_rect.extent.height
         || d.sub_image.image_array_index != view.sub_image.image_array_index
     {
-        return Err(format!("projection view {i}: depth sub-image of another size or layer than the colour's"));
+        return Err(format!(
+            "projection view {i}: depth sub-image of another size or layer than the colour's"
+        ));
     }
     let range_ok = (0.0..=1.0).contains(&d.min_depth)
         && (0.0..=1.0).contains(&d.max_depth)
@@ -524,7 +531,10 @@ pub(crate) unsafe fn check_depth(
             d.min_depth, d.max_depth, d.near_z, d.far_z
         ));
     }
-    Ok(Some((d.sub_image.swapchain.into_raw(), d.sub_image.image_array_index)))
+    Ok(Some((
+        d.sub_image.swapchain.into_raw(),
+        d.sub_image.image_array_index,
+    )))
 }
 
 pub(crate) unsafe fn check_layer(
@@ -556,9 +566,14 @@ pub(crate) unsafe fn check_layer(
         }
         check_sub_image(rt, &view.sub_image, false, &format!("projection view {i}"))?;
         // two eyes on one image would show one eye's picture to both
-        let place = (view.sub_image.swapchain.into_raw(), view.sub_image.image_array_index);
+        let place = (
+            view.sub_image.swapchain.into_raw(),
+            view.sub_image.image_array_index,
+        );
         if places.contains(&place) {
-            return Err(format!("projection view {i}: the same swapchain and layer as another view"));
+            return Err(format!(
+                "projection view {i}: the same swapchain and layer as another view"
+            ));
         }
         places.push(place);
         seen.depth.push(check_depth(rt, view, i)?);
@@ -591,14 +606,18 @@ unsafe fn check_left_depth(rt: &mut Runtime, seen: &LayerSeen) {
         Ok(values) => {
             let n = values.len().max(1) as f64;
             let inside = values.iter().filter(|v| (0.0..=1.0).contains(*v));
-            let (min, max) = inside.fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            let (min, max) =
+                inside.fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
             let far = values.iter().filter(|&&v| v == 1.0).count() as f64 / n;
             let outside = values.iter().filter(|v| !(0.0..=1.0).contains(*v)).count() as f64 / n;
             let frame = rt.counters.frames_ended + 1;
             rt.counters.depth_left = Some((frame, min, max, far, outside));
         }
         Err(e) => {
-            rt.violation(&format!("reading back the left eye's depth: {e}"), xr::Result::ERROR_RUNTIME_FAILURE);
+            rt.violation(
+                &format!("reading back the left eye's depth: {e}"),
+                xr::Result::ERROR_RUNTIME_FAILURE,
+            );
         }
     }
 }

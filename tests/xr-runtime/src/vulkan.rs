@@ -436,7 +436,9 @@ pub(crate) unsafe fn read_depth(rt: &Runtime, chain: u64, layer: u32) -> Result<
     let buffer_info = vk::BufferCreateInfo::default()
         .size(bytes)
         .usage(vk::BufferUsageFlags::TRANSFER_DST);
-    let buffer = device.create_buffer(&buffer_info, None).map_err(e("buffer"))?;
+    let buffer = device
+        .create_buffer(&buffer_info, None)
+        .map_err(e("buffer"))?;
     let requirements = device.get_buffer_memory_requirements(buffer);
     let props = vulkan
         .instance
@@ -464,8 +466,7 @@ pub(crate) unsafe fn read_depth(rt: &Runtime, chain: u64, layer: u32) -> Result<
         let mapped = device
             .map_memory(memory, 0, bytes, vk::MemoryMapFlags::empty())
             .map_err(e("map"))?;
-        let values =
-            std::slice::from_raw_parts(mapped as *const f32, (w * h) as usize).to_vec();
+        let values = std::slice::from_raw_parts(mapped as *const f32, (w * h) as usize).to_vec();
         device.unmap_memory(memory);
         Ok(values)
     });
@@ -487,10 +488,14 @@ unsafe fn copy_depth(
         .command_pool(pool)
         .level(vk::CommandBufferLevel::PRIMARY)
         .command_buffer_count(1);
-    let cmd = device.allocate_command_buffers(&alloc).map_err(e("command buffer"))?[0];
-    let begin = vk::CommandBufferBeginInfo::default()
-        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-    device.begin_command_buffer(cmd, &begin).map_err(e("begin"))?;
+    let cmd = device
+        .allocate_command_buffers(&alloc)
+        .map_err(e("command buffer"))?[0];
+    let begin =
+        vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+    device
+        .begin_command_buffer(cmd, &begin)
+        .map_err(e("begin"))?;
     let range = vk::ImageSubresourceRange {
         aspect_mask: vk::ImageAspectFlags::DEPTH,
         base_mip_level: 0,
