@@ -19,7 +19,9 @@
 //   be longer than that (facing mirrors), resolve_mixed ends it with the mirror tiles: the
 //   three fixed directions around the reflected ray, looked up in the face's tiles (a diffuse
 //   or sky sample does the same lookups on a stand-in, times zero).
-// Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU.
+// Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU. Beside
+// it, each pixel's depth: the view's clip depth of the nearest point its eye rays first meet
+// (1 where they meet nothing), which the headset submits so the runtime can reproject.
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
@@ -41,6 +43,15 @@
 // the small mesh's triangles as affine maps (rows u, v, w: world -> the triangle's barycentric
 // u, v and its plane distance w), in the order of `triangles`
 @group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
+// the depth of what each pixel sees, in the view's clip depth (0 near, 1 far)
+@group(0) @binding(10) var depth_image: texture_storage_2d<r32float, write>;
+
+// The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
+// where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
+fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
+    let clip = view.view_proj * vec4<f32>(point, 1.0);
+    return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
+}
 
 // mirrors gpu::types::GpuRayTriangle
 struct RayTriangle {
@@ -334,6 +345,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
     }
     let n = tile_samples(tile.xy);
     var sum = vec3<f32>(0.0);
+    var depth = 1.0;
     for (var k = 0u; k < n; k += 2u) {
         // an odd count's last pair repeats its ray with weight 0
         let second = min(k + 1u, n - 1u);
@@ -347,6 +359,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         if k + 1u < n {
             s1 = cast_ray(r1[0], r1[1]);
         }
+        depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;
@@ -364,6 +377,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
 }
 
 // With tiles (mirrors facing each other) eye rays go in pairs as in resolve_diffuse: the pair's
@@ -378,6 +392,7 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
     }
     let n = tile_samples(tile.xy);
     var sum = vec3<f32>(0.0);
+    var depth = 1.0;
     for (var k = 0u; k < n; k += 2u) {
         let w1 = select(0.0, 1.0, k + 1u < n);
         let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
@@ -387,6 +402,7 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         if k + 1u < n {
             s1 = cast_ray(r1[0], r1[1]);
         }
+        depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;
@@ -413,4 +429,5 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
+    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
 }

@@ -215,6 +215,10 @@ struct XrArgs {
     /// eye's eye rays per pixel follow its GPU time (frame pacing)
     #[arg(long)]
     fit_frame_time: bool,
+    /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
+    /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
+    #[arg(long, value_enum, default_value = "auto")]
+    swapchains: vlf::display::xr::Swapchains,
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -785,6 +789,7 @@ fn xr(a: XrArgs) -> Result<()> {
         resolution_scale,
         aa,
         fit_frame_time,
+        swapchains,
         json,
         params,
     } = a;
@@ -797,6 +802,7 @@ fn xr(a: XrArgs) -> Result<()> {
         resolution_scale,
         antialiasing: aa,
         fit_frame_time,
+        swapchains,
     };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {

@@ -680,3 +680,189 @@ fn fitting_the_frame_time_probes_the_first_frame_then_paces_the_eyes() {
     let (mean, _) = brightness(s.screenshot.as_ref().expect("a screenshot"));
     assert!(mean > 5.0, "the left eye is black");
 }
+
+/// A session of `frames` frames with the head standing still and the display in lockstep, so
+/// that two runs see the same views; the left eye of its last frame.
+fn still_session(name: &str, args: &[&str], envs: &[(&str, &str)]) -> Session {
+    let mut all_args = vec!["--frames", "6", "--screenshot-frame", "6"];
+    all_args.extend_from_slice(args);
+    let mut all_envs = vec![
+        ("VLF_TEST_XR_STILL_HEAD", "1"),
+        ("VLF_TEST_XR_LOCKSTEP", "1"),
+    ];
+    all_envs.extend_from_slice(envs);
+    let s = session(name, &cornell(), &all_args, &all_envs);
+    assert!(s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    assert_eq!(
+        s.runtime.get("violation").map(String::as_str),
+        Some("none"),
+        "{:?}",
+        s.runtime
+    );
+    s
+}
+
+fn runtime_count(s: &Session, key: &str) -> u64 {
+    s.runtime
+        .get(key)
+        .and_then(|v| v.parse::<u64>().ok())
+        .unwrap_or_else(|| panic!("{key} not in the runtime's report: {:?}", s.runtime))
+}
+
+/// The largest difference of any channel of any pixel between two screenshots.
+fn max_difference(a: &image::RgbImage, b: &image::RgbImage) -> u8 {
+    assert_eq!(a.dimensions(), b.dimensions());
+    (a.as_raw().iter().zip(b.as_raw()))
+        .map(|(x, y)| x.abs_diff(*y))
+        .max()
+        .unwrap_or(0)
+}
+
+#[test]
+fn both_eyes_go_on_one_array_swapchain_in_one_multiview_pass_with_depth_as_the_per_eye_path_shows_them(
+) {
+    let array = still_session("array", &[], &[]);
+    // vlf says which path ran, and the runtime saw the same
+    let r = &array.report;
+    assert_eq!(r["swapchains"], "array", "{r}");
+    assert_eq!(r["multiview"], true, "lavapipe has multiview: {r}");
+    assert_eq!(
+        r["eye_layers"],
+        "one array swapchain (2 layers), both eyes in one pass (multiview)"
+    );
+    assert_eq!(r["depth_submitted"], true, "{r}");
+    assert!(
+        r["depth"]
+            .as_str()
+            .unwrap()
+            .starts_with("submitted (XR_KHR_composition_layer_depth"),
+        "{r}"
+    );
+    assert!(
+        array
+            .stdout
+            .contains("eyes: one array swapchain (2 layers), both eyes in one pass (multiview)")
+            && array.stdout.contains("depth: submitted"),
+        "{}",
+        array.stdout
+    );
+    let rt = &array.runtime;
+    assert_eq!(rt["swapchains"], "1 array (2 layers) + depth", "{rt:?}");
+    assert_eq!(rt["depth_extension"], "enabled", "{rt:?}");
+    // every view of every frame carried its depth; one colour and one depth image released a frame
+    let layers = runtime_count(&array, "layers_checked");
+    assert!(layers >= 6, "{rt:?}");
+    assert_eq!(runtime_count(&array, "depth_views"), 2 * layers, "{rt:?}");
+    assert_eq!(runtime_count(&array, "views_without_depth"), 0, "{rt:?}");
+    assert_eq!(
+        runtime_count(&array, "images_released"),
+        2 * layers,
+        "{rt:?}"
+    );
+    // the left eye's depth as the runtime read it back: within [0, 1], the box in front (its
+    // nearest point a few metres away with near 0.05 m and far 500 m), the black around it far
+    let value = |k: &str| rt[k].parse::<f64>().unwrap();
+    assert_eq!(value("depth_left_outside_share"), 0.0, "{rt:?}");
+    let (near, far) = (0.05, 500.0);
+    let metres = |z: f64| near * far / (far - z * (far - near));
+    let nearest = metres(value("depth_left_min"));
+    println!(
+        "left eye depth: nearest {nearest:.2} m, {:.0}% far",
+        value("depth_left_far_share") * 100.0
+    );
+    assert!(
+        (1.0..20.0).contains(&nearest),
+        "nearest {nearest} m: {rt:?}"
+    );
+    assert_eq!(value("depth_left_max"), 1.0, "{rt:?}");
+    let far_share = value("depth_left_far_share");
+    assert!(far_share > 0.2 && far_share < 0.98, "{rt:?}");
+
+    // the fallback, forced: a swapchain per eye, each with its depth; the same picture
+    let per_eye = still_session("per-eye", &["--swapchains", "per-eye"], &[]);
+    assert_eq!(per_eye.report["swapchains"], "per-eye");
+    assert_eq!(per_eye.report["multiview"], false);
+    assert_eq!(
+        per_eye.report["eye_layers"],
+        "per-eye swapchains (--swapchains per-eye)"
+    );
+    assert_eq!(per_eye.runtime["swapchains"], "2 per-eye + depth");
+    let layers = runtime_count(&per_eye, "layers_checked");
+    assert_eq!(runtime_count(&per_eye, "depth_views"), 2 * layers);
+    assert_eq!(runtime_count(&per_eye, "images_released"), 4 * layers);
+    let (a, b) = (array.screenshot.unwrap(), per_eye.screenshot.unwrap());
+    let (mean, lit) = brightness(&a);
+    assert!(
+        mean > 3.0 && lit > 0.02,
+        "the left eye is black: {mean} {lit}"
+    );
+    let diff = max_difference(&a, &b);
+    assert!(
+        diff <= 1,
+        "the array and per-eye left eyes differ by up to {diff}"
+    );
+}
+
+#[test]
+fn a_runtime_without_depth_layers_gets_none_and_the_report_says_so() {
+    let s = still_session("no-depth", &[], &[("VLF_TEST_XR_NO_DEPTH", "1")]);
+    assert_eq!(s.report["depth_submitted"], false, "{}", s.report);
+    assert_eq!(
+        s.report["depth"],
+        "not offered by the runtime (no XR_KHR_composition_layer_depth)"
+    );
+    assert!(
+        s.stdout.contains("depth: not offered by the runtime"),
+        "{}",
+        s.stdout
+    );
+    assert_eq!(s.report["swapchains"], "array");
+    assert_eq!(s.runtime["depth_extension"], "not offered");
+    assert_eq!(s.runtime["swapchains"], "1 array (2 layers)");
+    assert_eq!(runtime_count(&s, "depth_views"), 0);
+    assert_eq!(runtime_count(&s, "depth_swapchains"), 0);
+}
+
+#[test]
+fn a_runtime_refusing_array_swapchains_gets_one_per_eye_and_the_report_says_why() {
+    let s = still_session("no-array", &[], &[("VLF_TEST_XR_NO_ARRAY", "1")]);
+    assert_eq!(s.report["swapchains"], "per-eye", "{}", s.report);
+    assert!(
+        s.report["eye_layers"]
+            .as_str()
+            .unwrap()
+            .starts_with("per-eye swapchains (the runtime refused an array swapchain"),
+        "{}",
+        s.report
+    );
+    assert_eq!(runtime_count(&s, "arrays_refused"), 1);
+    assert_eq!(s.runtime["swapchains"], "2 per-eye + depth");
+    assert_eq!(runtime_count(&s, "views_without_depth"), 0);
+    let (mean, _) = brightness(&s.screenshot.expect("left eye written"));
+    assert!(mean > 3.0, "the left eye is black");
+    // insisting on the array is an error that says what to do
+    let insist = session(
+        "no-array-insist",
+        &cornell(),
+        &[
+            "--frames",
+            "2",
+            "--screenshot-frame",
+            "1",
+            "--swapchains",
+            "array",
+        ],
+        &[("VLF_TEST_XR_NO_ARRAY", "1")],
+    );
+    assert!(
+        !insist.ok && !insist.stderr.contains("panicked"),
+        "{}",
+        insist.stderr
+    );
+    assert!(
+        insist.stderr.contains("refused an array swapchain")
+            && insist.stderr.contains("--swapchains auto"),
+        "{}",
+        insist.stderr
+    );
+}

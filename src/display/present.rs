@@ -1,7 +1,7 @@
-//! Putting a view's linear image on a colour target (a window's surface, a headset's swapchain
-//! image): the pipeline of `shaders/present.wgsl` (scaled to the viewport, exposed, sRGB
-//! encoded unless the target does it, the status overlay), one binding per image shown, and the
-//! render pass that draws it. Shared by the windowed CAVE and the headset.
+//! Putting a view's linear image on a window's surface: the pipeline of `shaders/present.wgsl`
+//! (scaled to the viewport, exposed, sRGB encoded unless the target does it, the status
+//! overlay), one binding per image shown, and the render pass that draws it (the headset uses
+//! the pass alone; its eyes go on the swapchains by `display/xr/layers.rs`).
 
 use crate::error::Result;
 use crate::gpu::types::GpuPresent;
@@ -127,18 +127,5 @@ impl PresentBinding {
     pub(crate) fn set(&self, ctx: &GpuContext, params: &GpuPresent) {
         ctx.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(params));
-    }
-
-    /// Clear `target` and draw the image over all of it.
-    pub(crate) fn draw(
-        &self,
-        encoder: &mut wgpu::CommandEncoder,
-        target: &wgpu::TextureView,
-        present: &PresentPipeline,
-    ) {
-        let mut pass = present_pass(encoder, target, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
-        pass.set_pipeline(&present.pipeline);
-        pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.draw(0..3, 0..1);
     }
 }

@@ -62,6 +62,15 @@ pub const SOURCES: &[(&str, &str)] = &[
     ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
+    (
+        "common/eye_layer.wgsl",
+        include_str!("../../shaders/common/eye_layer.wgsl"),
+    ),
+    ("xr_eye.wgsl", include_str!("../../shaders/xr_eye.wgsl")),
+    (
+        "xr_multiview.wgsl",
+        include_str!("../../shaders/xr_multiview.wgsl"),
+    ),
     ("warp.wgsl", include_str!("../../shaders/warp.wgsl")),
 ];
 
@@ -76,6 +85,8 @@ pub const STAGES: &[&str] = &[
     "texture.wgsl",
     "render.wgsl",
     "present.wgsl",
+    "xr_eye.wgsl",
+    "xr_multiview.wgsl",
     "warp.wgsl",
     "reference.wgsl",
 ];
@@ -148,9 +159,11 @@ impl ExpandedShader {
                 e.emit_to_string(&self.source)
             )
         })?;
+        // multiview (view_index, xr_multiview.wgsl) is allowed here; a device without it
+        // refuses the module, and vlf compiles that stage only where the device has it
         let mut validator = naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
+            naga::valid::Capabilities::default() | naga::valid::Capabilities::MULTIVIEW,
         );
         validator.validate(&module).map_err(|e| {
             let location = e

@@ -16,6 +16,9 @@ use std::sync::Arc;
 use wgpu::util::DeviceExt;
 
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
+/// Each pixel's depth: the view's clip depth (0 near, 1 far) of the nearest point its eye rays
+/// first meet, 1 where they meet nothing (the headset submits it for the runtime to reproject).
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// Antialiasing of real-time views (CAVE walls, headset eyes): eye rays per pixel. With
 /// mirrors, two eye rays share one traced reflection (shaders/render.wgsl, resolve_diffuse):
@@ -76,13 +79,16 @@ pub fn view_projection(camera: &Camera, norm: &Normalisation, width: u32, height
     proj * view
 }
 
-/// One view's image (linear radiance) with the bindings of the pass that draws it. A window
-/// keeps one per eye.
+/// One view's image (linear radiance) and depth with the bindings of the pass that draws them.
+/// A window keeps one per eye.
 pub struct ViewTargets {
     pub width: u32,
     pub height: u32,
     pub image: wgpu::Texture,
     pub image_view: wgpu::TextureView,
+    /// `DEPTH_FORMAT`, the same size
+    pub depth: wgpu::Texture,
+    pub depth_view: wgpu::TextureView,
     resolve_bind_group: wgpu::BindGroup,
 }
 
@@ -254,6 +260,14 @@ impl Renderer {
             U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
         );
         let image_view = image.create_view(&Default::default());
+        let depth = texture_2d(
+            device,
+            "depth",
+            [width, height],
+            DEPTH_FORMAT,
+            U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
+        );
+        let depth_view = depth.create_view(&Default::default());
         let page = |p: usize| self.radiance.get(p).unwrap_or(&self.radiance[0]);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),
@@ -299,6 +313,10 @@ impl Renderer {
                     binding: 9,
                     resource: self.ray_triangles.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 10,
+                    resource: wgpu::BindingResource::TextureView(&depth_view),
+                },
             ],
         });
         ViewTargets {
@@ -306,6 +324,8 @@ impl Renderer {
             height,
             image,
             image_view,
+            depth,
+            depth_view,
             resolve_bind_group,
         }
     }

@@ -1,48 +1,29 @@
-//! The headset's eyes: a swapchain per eye at the runtime's recommended size (scaled), its
-//! images wrapped as wgpu textures, the offscreen image the renderer draws into and the present
-//! binding that puts it on the swapchain image; the untimed warm-up frame; the left eye's
-//! screenshot.
+//! The headset's eyes: each eye's size (the runtime's recommendation, scaled) and the offscreen
+//! image and depth the renderer draws into (the swapchains they go on: `layers.rs`); the
+//! untimed warm-up frame; the left eye's screenshot.
 
+use super::layers::Layers;
 use super::session::{xr_error, VIEW_TYPE};
 use super::XrOptions;
-use crate::display::present::{PresentBinding, PresentPipeline};
 use crate::error::{Result, VlfError};
-use crate::gpu::types::GpuPresent;
 use crate::gpu::{GpuContext, Timestamps};
 use crate::lightfield::LightField;
 use crate::render::{Renderer, ViewTargets};
 use openxr as xr;
 
-/// One eye: the runtime's swapchain, its images as wgpu textures, and the offscreen image the
-/// renderer draws into.
+/// One eye: its size and the offscreen image and depth the renderer draws into.
 pub(super) struct Eye {
     pub(super) name: &'static str,
-    /// before `swapchain`: fields drop in order, and the runtime frees the images with it
-    pub(super) images: Vec<wgpu::Texture>,
-    pub(super) swapchain: xr::Swapchain<xr::Vulkan>,
     pub(super) size: [u32; 2],
     pub(super) targets: ViewTargets,
-    pub(super) binding: PresentBinding,
 }
 
-/// Both eyes' swapchains and images, as the runtime recommends them (times
-/// `options.resolution_scale`).
+/// Both eyes, at the size the runtime recommends (times `options.resolution_scale`).
 pub(super) fn create(
-    ctx: &GpuContext,
-    (instance, system, session): (&xr::Instance, xr::SystemId, &xr::Session<xr::Vulkan>),
+    (instance, system): (&xr::Instance, xr::SystemId),
     renderer: &Renderer,
-    present: &PresentPipeline,
-    (vk_format, format): (ash::vk::Format, wgpu::TextureFormat),
     options: &XrOptions,
 ) -> Result<Vec<Eye>> {
-    let overlay = crate::render::texture_2d(
-        &ctx.device,
-        "no overlay",
-        [1, 1],
-        wgpu::TextureFormat::Rgba8Unorm,
-        wgpu::TextureUsages::TEXTURE_BINDING,
-    );
-    let overlay_view = overlay.create_view(&Default::default());
     let view_configs = instance
         .enumerate_view_configuration_views(system, VIEW_TYPE)
         .map_err(xr_error("view configuration"))?;
@@ -52,91 +33,38 @@ pub(super) fn create(
             view_configs.len()
         )));
     }
-    let mut eyes = Vec::new();
-    for (i, vc) in view_configs.iter().enumerate() {
-        let name = ["left", "right"][i];
-        let scaled = |recommended: u32, max: u32| {
-            ((recommended as f32 * options.resolution_scale).round() as u32).clamp(1, max.max(1))
-        };
-        let size = [
-            scaled(vc.recommended_image_rect_width, vc.max_image_rect_width),
-            scaled(vc.recommended_image_rect_height, vc.max_image_rect_height),
-        ];
-        let swapchain = session
-            .create_swapchain(&xr::SwapchainCreateInfo {
-                create_flags: xr::SwapchainCreateFlags::EMPTY,
-                usage_flags: xr::SwapchainUsageFlags::COLOR_ATTACHMENT
-                    | xr::SwapchainUsageFlags::TRANSFER_SRC,
-                format: vk_format.as_raw() as u32,
-                sample_count: 1,
-                width: size[0],
-                height: size[1],
-                face_count: 1,
-                array_size: 1,
-                mip_count: 1,
-            })
-            .map_err(xr_error("xrCreateSwapchain"))?;
-        let images = swapchain
-            .enumerate_images()
-            .map_err(xr_error("swapchain images"))?
-            .into_iter()
-            .enumerate()
-            .map(|(n, image)| {
-                super::vulkan::wrap_swapchain_image(
-                    ctx,
-                    image,
-                    format,
-                    size,
-                    &format!("{name} eye swapchain image {n}"),
-                )
-            })
-            .collect::<Result<Vec<_>>>()?;
-        let targets = renderer.view_targets(size[0], size[1]);
-        let binding = PresentBinding::new(ctx, present, &targets.image_view, &overlay_view);
-        binding.set(
-            ctx,
-            &GpuPresent {
-                viewport_origin: [0.0, 0.0],
-                viewport_size: [size[0] as f32, size[1] as f32],
-                exposure: options.exposure,
-                encode_srgb: (!present.surface_is_srgb) as u32,
-                show_overlay: 0,
-                _pad0: 0,
-            },
-        );
-        eyes.push(Eye {
-            name,
-            images,
-            swapchain,
-            size,
-            targets,
-            binding,
-        });
-    }
-    Ok(eyes)
+    let scaled = |recommended: u32, max: u32| {
+        ((recommended as f32 * options.resolution_scale).round() as u32).clamp(1, max.max(1))
+    };
+    Ok((view_configs.iter().zip(["left", "right"]))
+        .map(|(vc, name)| {
+            let size = [
+                scaled(vc.recommended_image_rect_width, vc.max_image_rect_width),
+                scaled(vc.recommended_image_rect_height, vc.max_image_rect_height),
+            ];
+            Eye {
+                name,
+                size,
+                targets: renderer.view_targets(size[0], size[1]),
+            }
+        })
+        .collect())
 }
 
 /// One untimed frame before the session: the first use of every pipeline and image costs
 /// more than a display period, and would otherwise be the first frame the headset shows
-/// (timestamps included: their first read-back sets up more of the driver).
+/// (timestamps included: their first read-back sets up more of the driver). The eyes go onto
+/// images of the swapchains' shape, not the swapchains' own (the runtime counts those).
 pub(super) fn warm_up(
     ctx: &GpuContext,
     renderer: &mut Renderer,
     eyes: &[Eye],
     (camera, lf): (&crate::scene::Camera, &LightField),
-    present: &PresentPipeline,
-    format: wgpu::TextureFormat,
+    layers: &Layers,
 ) -> Result<()> {
-    let scratch = crate::render::texture_2d(
-        &ctx.device,
-        "warm-up",
-        eyes[0].size,
-        format,
-        wgpu::TextureUsages::RENDER_ATTACHMENT,
-    );
-    let scratch_view = scratch.create_view(&Default::default());
+    let (colour, depth) = layers.scratch(ctx);
     let mut timestamps = Timestamps::new(ctx, 2);
-    for eye in eyes {
+    for (i, eye) in eyes.iter().enumerate() {
         let view_proj = crate::render::view_projection(
             camera,
             &lf.meta.normalisation,
@@ -149,7 +77,11 @@ pub(super) fn warm_up(
         );
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         renderer.encode_view(&mut encoder, &eye.targets, timestamps.as_mut());
-        eye.binding.draw(&mut encoder, &scratch_view, present);
+        if i + 1 == eyes.len() {
+            let colour: Vec<&wgpu::Texture> = colour.iter().collect();
+            let depth: Vec<&wgpu::Texture> = depth.iter().collect();
+            layers.draw(&mut encoder, &colour, &depth);
+        }
         ctx.queue.submit([encoder.finish()]);
     }
     ctx.wait()?;

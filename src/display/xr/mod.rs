@@ -7,10 +7,12 @@
 
 mod controls;
 mod eyes;
+mod layers;
 pub mod report;
 pub mod session;
 pub mod vulkan;
 
+pub use layers::Swapchains;
 pub use report::XrReport;
 pub use session::XrOptions;
 
@@ -74,6 +76,10 @@ pub fn pose_from_view(view: Mat4) -> XrPose {
     }
 }
 
+/// The far plane of the eyes' projection over the near plane: the renderer's depth (submitted
+/// as the depth layer) runs from the near plane at 0 to this far at 1.
+pub const FAR_OVER_NEAR: f32 = 1e4;
+
 /// One eye's view-projection and position in the light field's normalised space: the stage is
 /// placed in the scene by `room` (navigation), then normalised.
 pub fn eye_view(
@@ -95,7 +101,7 @@ pub fn eye_view(
     let eye = (unit_from_world * world_from_stage).transform_point3(Vec3::from(pose.position));
     let near_unit = near * scale;
     (
-        projection_from_fov(fov, near_unit, near_unit * 1e4) * eye_from_unit,
+        projection_from_fov(fov, near_unit, near_unit * FAR_OVER_NEAR) * eye_from_unit,
         eye,
     )
 }
@@ -131,6 +137,8 @@ pub struct XrRuntime {
     /// the runtime converts the system clock to XrTime (XR_KHR_convert_timespec_time), so
     /// frames submitted after their display time can be counted
     pub clock: bool,
+    /// the runtime takes depth layers (XR_KHR_composition_layer_depth), enabled
+    pub depth: bool,
 }
 
 /// Find a runtime with Vulkan (XR_KHR_vulkan_enable2) and a head-mounted display.
@@ -155,6 +163,8 @@ pub fn find_runtime(
     let mut extensions = openxr::ExtensionSet::default();
     extensions.khr_vulkan_enable2 = true;
     extensions.khr_convert_timespec_time = available.khr_convert_timespec_time;
+    // depth layers let the runtime reproject with the rendered depth (layers.rs)
+    extensions.khr_composition_layer_depth = available.khr_composition_layer_depth;
     let app = openxr::ApplicationInfo {
         application_name: "vlf",
         application_version: 1,
@@ -178,6 +188,7 @@ pub fn find_runtime(
         runtime: format!("{} {}", props.runtime_name, props.runtime_version),
         system: system_props.system_name,
         clock: available.khr_convert_timespec_time,
+        depth: available.khr_composition_layer_depth,
     };
     Ok((instance, system, runtime))
 }

@@ -14,6 +14,16 @@ pub struct XrReport {
     pub adapter: String,
     pub reference_space: String,
     pub swapchain_format: String,
+    /// "array" (one swapchain, a layer per eye) or "per-eye"
+    pub swapchains: String,
+    /// both eyes went onto the array swapchain in one multiview pass
+    pub multiview: bool,
+    /// how the eyes reached the runtime, in words (and why per eye, if so)
+    pub eye_layers: String,
+    /// each projection view carried its depth (XR_KHR_composition_layer_depth)
+    pub depth_submitted: bool,
+    /// the depth layer in words, or why the runtime got none
+    pub depth: String,
     pub interaction_profiles: Vec<String>,
     /// frames rendered and submitted
     pub frames: u32,
@@ -80,6 +90,10 @@ impl XrReport {
             "OpenXR runtime {} | headset {} | GPU {} | {} space | swapchain {}\n",
             self.runtime, self.system, self.adapter, self.reference_space, self.swapchain_format
         );
+        s.push_str(&format!(
+            "eyes: {}\ndepth: {}\n",
+            self.eye_layers, self.depth
+        ));
         s.push_str(&format!(
             "{} frames rendered, {} skipped by the runtime, {} missed display refreshes (period {:.2} ms; {} of them skipped by xrWaitFrame's predictions)\n",
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms, self.prediction_gaps

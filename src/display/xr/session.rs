@@ -1,18 +1,19 @@
-//! The OpenXR session: a swapchain per eye on the runtime's Vulkan device, the frame loop paced
+//! The OpenXR session: the eyes' swapchains on the runtime's Vulkan device (`layers`), the frame loop paced
 //! by the runtime (xrWaitFrame / xrBeginFrame / xrEndFrame at the predicted display time), the
 //! session states, thumbstick navigation through an action set, the left eye's screenshot and
 //! the per-eye frame-time report, with when the GPU finished each frame on the runtime's clock
 //! (what the runtime's account of late and dropped frames rests on: `report::display_account`).
 //! Each eye is rendered by the CAVE's renderer (one compute pass, constant work per pixel) into
-//! an offscreen image and put on the swapchain image by `shaders/present.wgsl`.
+//! an offscreen image and depth, and both eyes are put on the swapchain images by `layers`.
 
 use super::controls::{controls, Controls};
 use super::eyes::{copy_to_buffer, write_screenshot, Eye};
+use super::layers::{Layers, Swapchains};
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, Fov, XrPose, XrRuntime};
 use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, ViewLabel};
 use crate::display::navigator::Navigator;
-use crate::display::present::{present_pass, present_pipeline, PresentPipeline};
+use crate::display::present::present_pass;
 use crate::display::tracking::Pose;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
@@ -27,6 +28,8 @@ use std::time::{Duration, Instant};
 pub(super) const VIEW_TYPE: xr::ViewConfigurationType = xr::ViewConfigurationType::PRIMARY_STEREO;
 /// metres: the near plane of both eyes
 const NEAR: f32 = 0.05;
+/// metres: the near and far plane of the eyes' depth (the depth layer's nearZ and farZ)
+const DEPTH_RANGE: (f32, f32) = (NEAR, NEAR * super::FAR_OVER_NEAR);
 
 pub struct XrOptions {
     /// request the end of the session after this many rendered frames (None: until the
@@ -45,6 +48,8 @@ pub struct XrOptions {
     pub antialiasing: u32,
     /// probe the eyes in the first frame and pace them after (render/budget.rs)
     pub fit_frame_time: bool,
+    /// one array swapchain for both eyes, or one per eye
+    pub swapchains: Swapchains,
 }
 
 pub(super) fn xr_error(what: &str) -> impl Fn(xr::sys::Result) -> VlfError + '_ {
@@ -81,19 +86,22 @@ fn start_room(camera: &crate::scene::Camera, views: &[xr::View]) -> Pose {
     )
 }
 
-/// The session's fixed parts: the reference space, the blend mode and the swapchain format.
+/// The session's fixed parts: the reference space, the blend mode and the swapchain formats.
 struct Setup {
     space_type: xr::ReferenceSpaceType,
     space: xr::Space,
     blend: xr::EnvironmentBlendMode,
     vk_format: ash::vk::Format,
     format: wgpu::TextureFormat,
+    /// the depth swapchain's format, or why the runtime gets no depth
+    depth: std::result::Result<(ash::vk::Format, wgpu::TextureFormat), String>,
 }
 
 fn setup(
     instance: &xr::Instance,
     system: xr::SystemId,
     session: &xr::Session<xr::Vulkan>,
+    runtime: &XrRuntime,
 ) -> Result<Setup> {
     let spaces = session
         .enumerate_reference_spaces()
@@ -122,12 +130,19 @@ fn setup(
         .copied()
         .find(|(vk, _)| formats.contains(&(vk.as_raw() as u32)))
         .ok_or_else(|| VlfError::Display(format!("the OpenXR runtime offers no swapchain format vlf can draw into (offered Vulkan formats {formats:?}; vlf needs RGBA8 or BGRA8, sRGB or UNORM)")))?;
+    let depth = match runtime.depth {
+        false => Err("not offered by the runtime (no XR_KHR_composition_layer_depth)".into()),
+        true => (super::vulkan::DEPTH_FORMATS.iter().copied())
+            .find(|(vk, _)| formats.contains(&(vk.as_raw() as u32)))
+            .ok_or_else(|| format!("not submitted: the runtime offers no depth format vlf writes (D32_SFLOAT or D16_UNORM; offered {formats:?})")),
+    };
     Ok(Setup {
         space_type,
         space,
         blend,
         vk_format,
         format,
+        depth,
     })
 }
 
@@ -163,24 +178,21 @@ pub fn run(
     session
         .attach_action_sets(&[&controls.set])
         .map_err(xr_error("xrAttachSessionActionSets"))?;
-    let setup = setup(&instance, system, &session)?;
-    let present = present_pipeline(&ctx, setup.format)?;
-    let eyes = super::eyes::create(
+    let setup = setup(&instance, system, &session, &runtime)?;
+    let eyes = super::eyes::create((&instance, system), &renderer, options)?;
+    let layers = Layers::create(
         &ctx,
-        (&instance, system, &session),
-        &renderer,
-        &present,
-        (setup.vk_format, setup.format),
+        &session,
+        &eyes.iter().map(|e| &e.targets).collect::<Vec<_>>(),
+        ((setup.vk_format, setup.format), setup.depth.clone()),
         options,
     )?;
-    super::eyes::warm_up(
-        &ctx,
-        &mut renderer,
-        &eyes,
-        (&camera, &lf),
-        &present,
-        setup.format,
-    )?;
+    eprintln!(
+        "OpenXR eyes: {}; depth: {}",
+        layers.eyes_text(),
+        layers.depth_text(DEPTH_RANGE)
+    );
+    super::eyes::warm_up(&ctx, &mut renderer, &eyes, (&camera, &lf), &layers)?;
 
     let mut headset = Headset {
         instance: &instance,
@@ -191,8 +203,8 @@ pub fn run(
         ctx: &ctx,
         renderer,
         eyes,
+        layers,
         controls,
-        present,
         camera: &camera,
         lf: &lf,
         runtime: &runtime,
@@ -204,13 +216,14 @@ pub fn run(
     ctx.wait()?;
     let Headset {
         eyes,
+        layers,
         controls,
         frame_stream,
         frame_waiter,
         renderer,
         ..
     } = headset;
-    drop(eyes);
+    drop((layers, eyes));
     drop((controls, frame_stream, frame_waiter));
     drop(setup);
     drop(session);
@@ -231,8 +244,9 @@ struct Headset<'a> {
     ctx: &'a Arc<GpuContext>,
     renderer: Renderer,
     eyes: Vec<Eye>,
+    /// the swapchains the eyes go on
+    layers: Layers,
     controls: Controls,
-    present: PresentPipeline,
     camera: &'a crate::scene::Camera,
     lf: &'a crate::lightfield::LightField,
     runtime: &'a XrRuntime,
@@ -509,6 +523,14 @@ impl LoopState {
             adapter: headset.ctx.summary.name.clone(),
             reference_space: format!("{:?}", headset.setup.space_type).to_lowercase(),
             swapchain_format: format!("{:?}", headset.setup.format),
+            swapchains: match headset.layers.shape {
+                super::layers::Shape::PerEye => "per-eye".into(),
+                super::layers::Shape::Array { .. } => "array".into(),
+            },
+            multiview: headset.layers.shape == super::layers::Shape::Array { multiview: true },
+            eye_layers: headset.layers.eyes_text(),
+            depth_submitted: headset.layers.depth_format.is_ok(),
+            depth: headset.layers.depth_text(DEPTH_RANGE),
             interaction_profiles: headset.controls.profiles.clone(),
             frames: self.frames,
             frames_skipped: self.skipped,
@@ -715,57 +737,13 @@ impl Headset<'_> {
             st.push_gpu(done);
         }
         let capture = options.screenshot.is_some() && st.frames + 1 == options.screenshot_frame;
-        let mut readback = None;
-        let last_eye = self.eyes.len() - 1;
-        for (i, view) in views.iter().enumerate() {
-            let (view_proj, eye_position) = eye_view(
-                xr_pose(view),
-                xr_fov(view),
-                &pose,
-                &self.lf.meta.normalisation,
-                NEAR,
-            );
-            if let Some(p) = &st.pacer {
-                self.renderer.set_pacing(p.setting(i));
-            }
-            self.renderer.set_view_matrix(view_proj, eye_position);
-            let eye = &mut self.eyes[i];
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            let timestamps = in_flight.as_mut().map(|f| f.timestamps());
-            self.renderer
-                .encode_view(&mut encoder, &eye.targets, timestamps);
-            let index = eye
-                .swapchain
-                .acquire_image()
-                .map_err(xr_error("xrAcquireSwapchainImage"))?;
-            eye.swapchain
-                .wait_image(xr::Duration::INFINITE)
-                .map_err(xr_error("xrWaitSwapchainImage"))?;
-            let texture = &eye.images[index as usize];
-            let target = texture.create_view(&Default::default());
-            eye.binding.draw(&mut encoder, &target, &self.present);
-            if capture && eye.name == "left" {
-                readback = Some(copy_to_buffer(self.ctx, &mut encoder, texture, eye.size));
-                // the runtime expects its image back as a colour attachment: an empty pass that
-                // keeps the image leaves it in that layout
-                drop(present_pass(&mut encoder, &target, wgpu::LoadOp::Load));
-            }
-            if let (Some(f), true) = (in_flight.as_mut(), i == last_eye) {
-                f.resolve(&mut encoder);
-            }
-            let submission = self.ctx.queue.submit([encoder.finish()]);
-            if let (true, true, Some(g)) = (timed, i == last_eye, st.gpu_done.as_ref()) {
-                g.watch(st.shown.len() - 1, submission);
-            }
-            eye.swapchain
-                .release_image()
-                .map_err(xr_error("xrReleaseSwapchainImage"))?;
-        }
+        let readback = self.draw_eyes(st, &mut in_flight, &views, &pose, (timed, capture))?;
         if let Some(mut f) = in_flight {
             f.submitted();
             st.in_flight = Some(f);
         }
-        self.end_frame(&frame_state, &views)?;
+        let fixed = (&frame_state, self.setup.blend, &self.setup.space);
+        (self.layers).end_frame(&mut self.frame_stream, fixed, &views, DEPTH_RANGE)?;
         self.ctx.check_errors()?;
         st.frames += 1;
         if timed {
@@ -788,40 +766,58 @@ impl Headset<'_> {
         Ok(Some((at, now.as_nanos())))
     }
 
-    /// Both eyes' images as one projection layer, at the predicted display time.
-    fn end_frame(&mut self, frame_state: &xr::FrameState, views: &[xr::View]) -> Result<()> {
-        let projection_views: Vec<xr::CompositionLayerProjectionView<xr::Vulkan>> = self
-            .eyes
-            .iter()
-            .zip(views)
-            .map(|(eye, view)| {
-                xr::CompositionLayerProjectionView::new()
-                    .pose(view.pose)
-                    .fov(view.fov)
-                    .sub_image(
-                        xr::SwapchainSubImage::new()
-                            .swapchain(&eye.swapchain)
-                            .image_array_index(0)
-                            .image_rect(xr::Rect2Di {
-                                offset: xr::Offset2Di { x: 0, y: 0 },
-                                extent: xr::Extent2Di {
-                                    width: eye.size[0] as i32,
-                                    height: eye.size[1] as i32,
-                                },
-                            }),
-                    )
-            })
-            .collect();
-        let layer = xr::CompositionLayerProjection::new()
-            .space(&self.setup.space)
-            .views(&projection_views);
-        self.frame_stream
-            .end(
-                frame_state.predicted_display_time,
-                self.setup.blend,
-                &[&layer],
-            )
-            .map_err(xr_error("xrEndFrame"))
+    /// Render both eyes (a compute pass and submission each: they share the renderer's view
+    /// buffer) and put them on this frame's swapchain images with the last; the left eye's image
+    /// copied for the screenshot when `capture`.
+    fn draw_eyes(
+        &mut self,
+        st: &mut LoopState,
+        in_flight: &mut Option<InFlight>,
+        views: &[xr::View],
+        pose: &Pose,
+        (timed, capture): (bool, bool),
+    ) -> Result<Option<(wgpu::Buffer, u32)>> {
+        let mut readback = None;
+        let last_eye = self.eyes.len() - 1;
+        for (i, view) in views.iter().enumerate() {
+            let (view_proj, eye_position) = eye_view(
+                xr_pose(view),
+                xr_fov(view),
+                pose,
+                &self.lf.meta.normalisation,
+                NEAR,
+            );
+            if let Some(p) = &st.pacer {
+                self.renderer.set_pacing(p.setting(i));
+            }
+            self.renderer.set_view_matrix(view_proj, eye_position);
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            let timestamps = in_flight.as_mut().map(|f| f.timestamps());
+            self.renderer
+                .encode_view(&mut encoder, &self.eyes[i].targets, timestamps);
+            if i == last_eye {
+                self.layers.acquire()?;
+                let (colour, depth) = self.layers.acquired();
+                self.layers.draw(&mut encoder, &colour, &depth);
+                if capture {
+                    let (texture, target) = self.layers.left();
+                    let size = self.eyes[0].size;
+                    readback = Some(copy_to_buffer(self.ctx, &mut encoder, texture, size));
+                    // the runtime expects its image back as a colour attachment: an empty pass
+                    // that keeps the image leaves it in that layout
+                    drop(present_pass(&mut encoder, &target, wgpu::LoadOp::Load));
+                }
+                if let Some(f) = in_flight.as_mut() {
+                    f.resolve(&mut encoder);
+                }
+            }
+            let submission = self.ctx.queue.submit([encoder.finish()]);
+            if let (true, true, Some(g)) = (timed, i == last_eye, st.gpu_done.as_ref()) {
+                g.watch(st.shown.len() - 1, submission);
+            }
+        }
+        self.layers.release()?;
+        Ok(readback)
     }
 
     /// The left eye's image of this frame, read back once the GPU has drawn it (this frame

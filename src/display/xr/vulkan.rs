@@ -151,7 +151,8 @@ fn runtime_device(
         ..
     } = vulkan;
     let (physical_device, get_instance_proc_addr) = (*physical_device, *get_instance_proc_addr);
-    let features = exposed.features & wgpu::Features::TIMESTAMP_QUERY;
+    // multiview puts both eyes on an array swapchain's two layers in one pass (layers.rs)
+    let features = exposed.features & (wgpu::Features::TIMESTAMP_QUERY | wgpu::Features::MULTIVIEW);
     let device_extensions = exposed.adapter.required_device_extensions(features);
     let mut device_features = exposed
         .adapter
@@ -281,19 +282,38 @@ pub const SWAPCHAIN_FORMATS: [(vk::Format, wgpu::TextureFormat); 4] = [
     (vk::Format::B8G8R8A8_UNORM, wgpu::TextureFormat::Bgra8Unorm),
 ];
 
-/// Wrap one of the runtime's swapchain images as a wgpu texture (render target and copy
-/// source). The runtime owns the image: wgpu must not destroy it.
+/// The depth swapchain formats vlf can write, best first, as (Vulkan format, wgpu format).
+pub const DEPTH_FORMATS: [(vk::Format, wgpu::TextureFormat); 2] = [
+    (vk::Format::D32_SFLOAT, wgpu::TextureFormat::Depth32Float),
+    (vk::Format::D16_UNORM, wgpu::TextureFormat::Depth16Unorm),
+];
+
+/// Wrap one of the runtime's swapchain images (`layers` array layers) as a wgpu texture: a
+/// colour image as render target and copy source, a depth image as depth attachment. The
+/// runtime owns the image: wgpu must not destroy it.
 pub fn wrap_swapchain_image(
     ctx: &GpuContext,
     image: u64,
     format: wgpu::TextureFormat,
-    [width, height]: [u32; 2],
+    ([width, height], layers): ([u32; 2], u32),
     label: &str,
 ) -> Result<wgpu::Texture> {
     let size = wgpu::Extent3d {
         width,
         height,
-        depth_or_array_layers: 1,
+        depth_or_array_layers: layers,
+    };
+    let depth = format.is_depth_stencil_format();
+    let (hal_usage, usage) = if depth {
+        (
+            wgpu::TextureUses::DEPTH_STENCIL_WRITE,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        )
+    } else {
+        (
+            wgpu::TextureUses::COLOR_TARGET | wgpu::TextureUses::COPY_SRC,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        )
     };
     let hal_desc = hal::TextureDescriptor {
         label: Some(label),
@@ -302,12 +322,12 @@ pub fn wrap_swapchain_image(
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUses::COLOR_TARGET | wgpu::TextureUses::COPY_SRC,
+        usage: hal_usage,
         memory_flags: hal::MemoryFlags::empty(),
         view_formats: vec![],
     };
     // SAFETY: the image is the runtime's, created on this device with colour-attachment and
-    // transfer-source usage and this size and format; it outlives the texture (the swapchain
+    // transfer-source usage (depth: depth-attachment) and this size, layer count and format; it outlives the texture (the swapchain
     // is destroyed after the textures). The drop callback stops wgpu-hal destroying it.
     let hal_device = unsafe { ctx.device.as_hal::<Vulkan>() }
         .ok_or_else(|| VlfError::Display("the OpenXR device is not a Vulkan device".into()))?;
@@ -327,7 +347,7 @@ pub fn wrap_swapchain_image(
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        usage,
         view_formats: &[],
     };
     Ok(unsafe {

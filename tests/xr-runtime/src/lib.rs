@@ -11,14 +11,21 @@
 //! - Oculus Touch controllers whose thumbsticks read `VLF_TEST_XR_LEFT_STICK` /
 //!   `VLF_TEST_XR_RIGHT_STICK` ("x,y", default 0,0);
 //! - `VLF_TEST_XR_EYE_PIXELS` ("WxH", default 256x224) recommended per eye;
+//! - `VLF_TEST_XR_STILL_HEAD` set: the head stands still (two runs see the same views);
 //! - `VLF_TEST_XR_LOCKSTEP` set: the display waits for the application, one refresh per frame
 //!   however long the frame took, so motion per frame is the same on any machine;
 //! - `VLF_TEST_XR_END_AFTER` = N: the runtime ends the session itself after N frames, as a user
 //!   quitting from the headset's menu would;
 //! - `VLF_TEST_XR_LOSE_AFTER` = N: the session is lost after N frames (LOSS_PENDING), as when
 //!   a headset is unplugged;
+//! - array swapchains (a layer per eye) and depth swapchains (D32_SFLOAT) are accepted, and
+//!   XR_KHR_composition_layer_depth is offered; `VLF_TEST_XR_NO_ARRAY` set: swapchains with more
+//!   than one layer are refused (XR_ERROR_FEATURE_UNSUPPORTED); `VLF_TEST_XR_NO_DEPTH` set: the
+//!   depth extension is not offered. Depth chained into projection views is checked, and the
+//!   left eye's depth image of one frame is read back and its values checked;
 //! - `VLF_TEST_XR_REPORT` = file: at xrDestroySession, one `key=value` line per count of what
-//!   the application did (frames, layers checked, states) for the tests to assert on.
+//!   the application did (frames, layers checked, states, swapchains, depth) for the tests to
+//!   assert on.
 //!
 //! The first rule violation is written to the report (`violation=...`) and returned as the
 //! error the specification names. `vulkan.rs` holds the Vulkan objects and swapchains,
@@ -47,6 +54,9 @@ pub(crate) const SYSTEM_ID: u64 = 1;
 pub(crate) const PERIOD_NS: i64 = 11_111_111;
 pub(crate) const VULKAN_EXTENSION: &str = "XR_KHR_vulkan_enable2";
 pub(crate) const CLOCK_EXTENSION: &str = "XR_KHR_convert_timespec_time";
+pub(crate) const DEPTH_EXTENSION: &str = "XR_KHR_composition_layer_depth";
+/// the depth swapchain format offered (beside the colour formats)
+pub(crate) const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 pub(crate) const PROFILE: &str = "/interaction_profiles/oculus/touch_controller";
 pub(crate) const SWAPCHAIN_FORMATS: [vk::Format; 4] = [
     vk::Format::R8G8B8A8_SRGB,
@@ -66,6 +76,8 @@ pub(crate) struct Session {
     pub(crate) running: bool,
     pub(crate) exit_requested: bool,
     pub(crate) device: ash::Device,
+    /// the queue the application named in XrGraphicsBindingVulkanKHR (depth read-back)
+    pub(crate) queue: (u32, u32),
     /// predicted display time index of the last xrWaitFrame, and whether a frame is begun
     pub(crate) waited: Option<i64>,
     pub(crate) begun: bool,
@@ -77,6 +89,11 @@ pub(crate) struct Swapchain {
     pub(crate) session: u64,
     pub(crate) images: Vec<(vk::Image, vk::DeviceMemory)>,
     pub(crate) size: [u32; 2],
+    pub(crate) layers: u32,
+    /// a depth swapchain (DEPTH_FORMAT)
+    pub(crate) depth: bool,
+    /// the image released last
+    pub(crate) last_released: Option<usize>,
     pub(crate) next: usize,
     pub(crate) acquired: VecDeque<usize>,
     pub(crate) waited: bool,
@@ -91,6 +108,17 @@ pub(crate) struct Counters {
     pub(crate) images_released: u64,
     pub(crate) states: Vec<String>,
     pub(crate) violation: Option<String>,
+    /// swapchains created: colour (with their layers) and depth
+    pub(crate) colour_swapchains: Vec<u32>,
+    pub(crate) depth_swapchains: Vec<u32>,
+    /// array swapchains refused (VLF_TEST_XR_NO_ARRAY)
+    pub(crate) arrays_refused: u64,
+    /// projection views that carried XrCompositionLayerDepthInfoKHR, and those that did not
+    pub(crate) depth_views: u64,
+    pub(crate) views_without_depth: u64,
+    /// the left eye's depth image as read back once: (frame, min, max, share at far, share
+    /// outside [0, 1] or not a number)
+    pub(crate) depth_left: Option<(u64, f32, f32, f64, f64)>,
 }
 
 /// XrTime of this runtime: CLOCK_MONOTONIC in nanoseconds, so timespec conversion is exact.
@@ -107,6 +135,8 @@ pub(crate) fn monotonic_ns() -> i64 {
 pub(crate) struct Runtime {
     pub(crate) next_handle: u64,
     pub(crate) instance: Option<u64>,
+    /// the application enabled XR_KHR_composition_layer_depth
+    pub(crate) depth_enabled: bool,
     pub(crate) requirements_queried: bool,
     pub(crate) vulkan: Option<Vulkan>,
     pub(crate) sessions: HashMap<u64, Session>,
@@ -124,6 +154,7 @@ pub(crate) static RUNTIME: LazyLock<Mutex<Runtime>> = LazyLock::new(|| {
     Mutex::new(Runtime {
         next_handle: 1,
         instance: None,
+        depth_enabled: false,
         requirements_queried: false,
         vulkan: None,
         sessions: HashMap::new(),
@@ -362,7 +393,10 @@ unsafe extern "system" fn enumerate_instance_extension_properties(
     if !layer.is_null() {
         return xr::Result::ERROR_API_LAYER_NOT_PRESENT;
     }
-    let extensions = [(VULKAN_EXTENSION, 2), (CLOCK_EXTENSION, 1)];
+    let mut extensions = vec![(VULKAN_EXTENSION, 2), (CLOCK_EXTENSION, 1)];
+    if std::env::var_os("VLF_TEST_XR_NO_DEPTH").is_none() {
+        extensions.push((DEPTH_EXTENSION, 6));
+    }
     two_call(capacity, count, out, extensions.len(), |i, p| {
         write_str(&mut p.extension_name, extensions[i].0);
         p.extension_version = extensions[i].1;
@@ -392,12 +426,17 @@ unsafe extern "system" fn create_instance(
         );
     }
     let info = &*info;
+    let depth_offered = std::env::var_os("VLF_TEST_XR_NO_DEPTH").is_none();
+    let mut depth_enabled = false;
     for i in 0..info.enabled_extension_count as usize {
         let name = CStr::from_ptr(*info.enabled_extension_names.add(i)).to_string_lossy();
-        if name != VULKAN_EXTENSION && name != CLOCK_EXTENSION {
+        if name == DEPTH_EXTENSION && depth_offered {
+            depth_enabled = true;
+        } else if name != VULKAN_EXTENSION && name != CLOCK_EXTENSION {
             return xr::Result::ERROR_EXTENSION_NOT_PRESENT;
         }
     }
+    rt.depth_enabled = depth_enabled;
     if info.application_info.api_version.major() != 1 {
         return xr::Result::ERROR_API_VERSION_UNSUPPORTED;
     }

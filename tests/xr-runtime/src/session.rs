@@ -50,6 +50,7 @@ pub(crate) unsafe extern "system" fn create_session(
             running: false,
             exit_requested: false,
             device,
+            queue: (binding.queue_family_index, binding.queue_index),
             waited: None,
             begun: false,
             last_display_index: 0,
@@ -67,7 +68,7 @@ pub(crate) fn write_report(rt: &Runtime) {
         return;
     };
     let c = &rt.counters;
-    let text = format!(
+    let mut text = format!(
         "frames_waited={}\nframes_ended={}\nlayers_checked={}\nimages_released={}\nstates={}\nviolation={}\n",
         c.frames_waited,
         c.frames_ended,
@@ -76,7 +77,45 @@ pub(crate) fn write_report(rt: &Runtime) {
         c.states.join(","),
         c.violation.clone().unwrap_or_else(|| "none".into())
     );
+    text.push_str(&format!(
+        "swapchains={}\ncolour_swapchains={}\ncolour_layers={}\ndepth_swapchains={}\narrays_refused={}\n",
+        swapchains_text(c),
+        c.colour_swapchains.len(),
+        c.colour_swapchains.iter().sum::<u32>(),
+        c.depth_swapchains.len(),
+        c.arrays_refused
+    ));
+    let offered = std::env::var_os("VLF_TEST_XR_NO_DEPTH").is_none();
+    text.push_str(&format!(
+        "depth_extension={}\ndepth_views={}\nviews_without_depth={}\n",
+        match (offered, rt.depth_enabled) {
+            (true, true) => "enabled",
+            (true, false) => "offered, not enabled",
+            _ => "not offered",
+        },
+        c.depth_views,
+        c.views_without_depth
+    ));
+    if let Some((frame, min, max, far, outside)) = c.depth_left {
+        text.push_str(&format!(
+            "depth_left_frame={frame}\ndepth_left_min={min}\ndepth_left_max={max}\ndepth_left_far_share={far}\ndepth_left_outside_share={outside}\n"
+        ));
+    }
     let _ = std::fs::write(path, text);
+}
+
+/// The swapchains the application made, in words: "1 array (2 layers) + depth", "2 per-eye".
+fn swapchains_text(c: &Counters) -> String {
+    let colour = &c.colour_swapchains;
+    let mut text = match colour.as_slice() {
+        [layers] if *layers > 1 => format!("1 array ({layers} layers)"),
+        _ if colour.iter().all(|&l| l == 1) => format!("{} per-eye", colour.len()),
+        _ => format!("{} ({colour:?} layers)", colour.len()),
+    };
+    if !c.depth_swapchains.is_empty() {
+        text.push_str(" + depth");
+    }
+    text
 }
 
 pub(crate) unsafe extern "system" fn destroy_session(session: xr::Session) -> xr::Result {
@@ -252,7 +291,12 @@ pub(crate) unsafe extern "system" fn locate_views(
     if info.display_time.as_nanos() <= 0 {
         return xr::Result::ERROR_TIME_INVALID;
     }
-    let (mut position, yaw) = head(info.display_time.as_nanos() as f64 * 1e-9);
+    // VLF_TEST_XR_STILL_HEAD: the head stands still, so that two runs see the same views
+    let t = match std::env::var_os("VLF_TEST_XR_STILL_HEAD") {
+        Some(_) => 0.0,
+        None => info.display_time.as_nanos() as f64 * 1e-9,
+    };
+    let (mut position, yaw) = head(t);
     match space {
         xr::ReferenceSpaceType::LOCAL => position[1] = 0.0,
         xr::ReferenceSpaceType::VIEW => position = [0.0; 3],
@@ -395,10 +439,108 @@ pub(crate) unsafe extern "system" fn convert_time_to_timespec_time(
     xr::Result::SUCCESS
 }
 
+/// What a projection layer carried besides its colour: per view, its depth sub-image
+/// (swapchain, layer) if any.
+pub(crate) struct LayerSeen {
+    pub(crate) depth: Vec<Option<(u64, u32)>>,
+}
+
+/// A sub-image: a known swapchain of the right kind with an image released this frame, the
+/// rectangle inside it and the layer one it has. `what` names it in the error.
+pub(crate) fn check_sub_image(
+    rt: &Runtime,
+    sub: &xr::SwapchainSubImage,
+    depth: bool,
+    what: &str,
+) -> Result<(), String> {
+    let Some(chain) = rt.swapchains.get(&sub.swapchain.into_raw()) else {
+        return Err(format!("{what}: unknown swapchain"));
+    };
+    if chain.depth != depth {
+        let kind = if depth { "a colour" } else { "a depth" };
+        return Err(format!("{what}: {kind} swapchain"));
+    }
+    if !chain.released_since_end || !chain.acquired.is_empty() {
+        return Err(format!(
+            "{what}: its swapchain has no released image this frame"
+        ));
+    }
+    let r = sub.image_rect;
+    if r.offset.x < 0
+        || r.offset.y < 0
+        || r.extent.width <= 0
+        || r.extent.height <= 0
+        || (r.offset.x + r.extent.width) as u32 > chain.size[0]
+        || (r.offset.y + r.extent.height) as u32 > chain.size[1]
+    {
+        return Err(format!("{what}: image rect outside the swapchain"));
+    }
+    if sub.image_array_index >= chain.layers {
+        return Err(format!(
+            "{what}: image array index {} in a swapchain of {} layer(s)",
+            sub.image_array_index, chain.layers
+        ));
+    }
+    Ok(())
+}
+
+/// XrCompositionLayerDepthInfoKHR chained into projection view `i`, if any: only with the
+/// extension enabled, a depth sub-image of the same size and layer as the colour's, a depth
+/// range within [0, 1] and near and far planes that are positive, finite and apart.
+pub(crate) unsafe fn check_depth(
+    rt: &Runtime,
+    view: &xr::CompositionLayerProjectionView,
+    i: usize,
+) -> Result<Option<(u64, u32)>, String> {
+    let mut next = view.next as *const xr::BaseInStructure;
+    while !next.is_null() && (*next).ty != xr::CompositionLayerDepthInfoKHR::TYPE {
+        next = (*next).next;
+    }
+    if next.is_null() {
+        return Ok(None);
+    }
+    if !rt.depth_enabled {
+        return Err(format!("projection view {i}: XrCompositionLayerDepthInfoKHR without XR_KHR_composition_layer_depth enabled"));
+    }
+    let d = &*(next as *const xr::CompositionLayerDepthInfoKHR);
+    check_sub_image(
+        rt,
+        &d.sub_image,
+        true,
+        &format!("projection view {i}'s depth"),
+    )?;
+    if d.sub_image.image_rect.extent.width != view.sub_image.image_rect.extent.width
+        || d.sub_image.image_rect.extent.height != view.sub_image.image_rect.extent.height
+        || d.sub_image.image_array_index != view.sub_image.image_array_index
+    {
+        return Err(format!(
+            "projection view {i}: depth sub-image of another size or layer than the colour's"
+        ));
+    }
+    let range_ok = (0.0..=1.0).contains(&d.min_depth)
+        && (0.0..=1.0).contains(&d.max_depth)
+        && d.min_depth < d.max_depth;
+    let planes_ok = d.near_z.is_finite()
+        && d.far_z.is_finite()
+        && d.near_z > 0.0
+        && d.far_z > 0.0
+        && d.near_z != d.far_z;
+    if !range_ok || !planes_ok {
+        return Err(format!(
+            "projection view {i}: depth range {}..{}, near {} far {}",
+            d.min_depth, d.max_depth, d.near_z, d.far_z
+        ));
+    }
+    Ok(Some((
+        d.sub_image.swapchain.into_raw(),
+        d.sub_image.image_array_index,
+    )))
+}
+
 pub(crate) unsafe fn check_layer(
     rt: &Runtime,
     layer: *const xr::CompositionLayerBaseHeader,
-) -> Result<(), String> {
+) -> Result<LayerSeen, String> {
     if (*layer).ty != xr::CompositionLayerProjection::TYPE {
         return Err(format!(
             "layer of type {:?}: this runtime composes projection layers only",
@@ -415,31 +557,26 @@ pub(crate) unsafe fn check_layer(
             projection.view_count
         ));
     }
+    let mut seen = LayerSeen { depth: Vec::new() };
+    let mut places = Vec::new();
     for i in 0..2 {
         let view = &*projection.views.add(i);
         if view.ty != xr::CompositionLayerProjectionView::TYPE {
             return Err(format!("projection view {i}: wrong structure type"));
         }
-        let Some(chain) = rt.swapchains.get(&view.sub_image.swapchain.into_raw()) else {
-            return Err(format!("projection view {i}: unknown swapchain"));
-        };
-        if !chain.released_since_end || !chain.acquired.is_empty() {
+        check_sub_image(rt, &view.sub_image, false, &format!("projection view {i}"))?;
+        // two eyes on one image would show one eye's picture to both
+        let place = (
+            view.sub_image.swapchain.into_raw(),
+            view.sub_image.image_array_index,
+        );
+        if places.contains(&place) {
             return Err(format!(
-                "projection view {i}: its swapchain has no released image this frame"
+                "projection view {i}: the same swapchain and layer as another view"
             ));
         }
-        let r = view.sub_image.image_rect;
-        if r.offset.x < 0
-            || r.offset.y < 0
-            || r.extent.width <= 0
-            || r.extent.height <= 0
-            || (r.offset.x + r.extent.width) as u32 > chain.size[0]
-            || (r.offset.y + r.extent.height) as u32 > chain.size[1]
-        {
-            return Err(format!(
-                "projection view {i}: image rect outside the swapchain"
-            ));
-        }
+        places.push(place);
+        seen.depth.push(check_depth(rt, view, i)?);
         let f = view.fov;
         if !(f.angle_left < f.angle_right && f.angle_down < f.angle_up) {
             return Err(format!("projection view {i}: empty field of view"));
@@ -452,7 +589,37 @@ pub(crate) unsafe fn check_layer(
             ));
         }
     }
-    Ok(())
+    Ok(seen)
+}
+
+/// Read back the left eye's depth (view 0) once, on the third frame that carries depth (the
+/// first few frames are as real as the rest; the third leaves the warm-up behind), and note
+/// what it holds.
+unsafe fn check_left_depth(rt: &mut Runtime, seen: &LayerSeen) {
+    let Some(Some((chain, layer))) = seen.depth.first().copied() else {
+        return;
+    };
+    if rt.counters.depth_left.is_some() || rt.counters.depth_views < 6 {
+        return;
+    }
+    match read_depth(rt, chain, layer) {
+        Ok(values) => {
+            let n = values.len().max(1) as f64;
+            let inside = values.iter().filter(|v| (0.0..=1.0).contains(*v));
+            let (min, max) =
+                inside.fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+            let far = values.iter().filter(|&&v| v == 1.0).count() as f64 / n;
+            let outside = values.iter().filter(|v| !(0.0..=1.0).contains(*v)).count() as f64 / n;
+            let frame = rt.counters.frames_ended + 1;
+            rt.counters.depth_left = Some((frame, min, max, far, outside));
+        }
+        Err(e) => {
+            rt.violation(
+                &format!("reading back the left eye's depth: {e}"),
+                xr::Result::ERROR_RUNTIME_FAILURE,
+            );
+        }
+    }
 }
 
 pub(crate) unsafe extern "system" fn end_frame(
@@ -482,10 +649,17 @@ pub(crate) unsafe extern "system" fn end_frame(
         return xr::Result::ERROR_ENVIRONMENT_BLEND_MODE_UNSUPPORTED;
     }
     for i in 0..info.layer_count as usize {
-        if let Err(e) = check_layer(&rt, *info.layers.add(i)) {
-            return rt.violation(&format!("xrEndFrame: {e}"), xr::Result::ERROR_LAYER_INVALID);
-        }
+        let seen = match check_layer(&rt, *info.layers.add(i)) {
+            Ok(seen) => seen,
+            Err(e) => {
+                return rt.violation(&format!("xrEndFrame: {e}"), xr::Result::ERROR_LAYER_INVALID)
+            }
+        };
         rt.counters.layers_checked += 1;
+        let with_depth = seen.depth.iter().filter(|d| d.is_some()).count() as u64;
+        rt.counters.depth_views += with_depth;
+        rt.counters.views_without_depth += seen.depth.len() as u64 - with_depth;
+        check_left_depth(&mut rt, &seen);
     }
     for chain in rt.swapchains.values_mut().filter(|c| c.session == h) {
         chain.released_since_end = false;

@@ -158,8 +158,13 @@ pub(crate) unsafe extern "system" fn enumerate_swapchain_formats(
     if !runtime().sessions.contains_key(&session.into_raw()) {
         return xr::Result::ERROR_HANDLE_INVALID;
     }
-    two_call(capacity, count, out, SWAPCHAIN_FORMATS.len(), |i, v| {
-        *v = SWAPCHAIN_FORMATS[i].as_raw() as i64
+    let formats: Vec<vk::Format> = SWAPCHAIN_FORMATS
+        .iter()
+        .copied()
+        .chain([DEPTH_FORMAT])
+        .collect();
+    two_call(capacity, count, out, formats.len(), |i, v| {
+        *v = formats[i].as_raw() as i64
     })
 }
 
@@ -184,7 +189,8 @@ pub(crate) unsafe extern "system" fn create_swapchain(
     let device = s.device.clone();
     let info = &*info;
     let format = vk::Format::from_raw(info.format as i32);
-    if !SWAPCHAIN_FORMATS.contains(&format) {
+    let depth = format == DEPTH_FORMAT;
+    if !SWAPCHAIN_FORMATS.contains(&format) && !depth {
         return xr::Result::ERROR_SWAPCHAIN_FORMAT_UNSUPPORTED;
     }
     if info.width == 0
@@ -193,13 +199,35 @@ pub(crate) unsafe extern "system" fn create_swapchain(
         || info.height > 4096
         || info.sample_count != 1
         || info.face_count != 1
-        || info.array_size != 1
+        || !(1..=16).contains(&info.array_size)
         || info.mip_count != 1
     {
         return xr::Result::ERROR_VALIDATION_FAILURE;
     }
-    let mut usage = vk::ImageUsageFlags::SAMPLED;
+    if info.array_size > 1 && std::env::var_os("VLF_TEST_XR_NO_ARRAY").is_some() {
+        rt.counters.arrays_refused += 1;
+        return xr::Result::ERROR_FEATURE_UNSUPPORTED;
+    }
     let flags = info.usage_flags;
+    let (attachment, other) = if depth {
+        (
+            xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            xr::SwapchainUsageFlags::COLOR_ATTACHMENT,
+        )
+    } else {
+        (
+            xr::SwapchainUsageFlags::COLOR_ATTACHMENT,
+            xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+        )
+    };
+    if !flags.contains(attachment) || flags.contains(other) {
+        return rt.violation(
+            &format!("xrCreateSwapchain: {format:?} with usage {flags:?}"),
+            xr::Result::ERROR_VALIDATION_FAILURE,
+        );
+    }
+    // depth images are read back by the runtime (the depth check): transfer source
+    let mut usage = vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_SRC;
     for (x, v) in [
         (
             xr::SwapchainUsageFlags::COLOR_ATTACHMENT,
@@ -216,6 +244,10 @@ pub(crate) unsafe extern "system" fn create_swapchain(
         (
             xr::SwapchainUsageFlags::UNORDERED_ACCESS,
             vk::ImageUsageFlags::STORAGE,
+        ),
+        (
+            xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+            vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
         ),
     ] {
         if flags.contains(x) {
@@ -239,7 +271,7 @@ pub(crate) unsafe extern "system" fn create_swapchain(
                 depth: 1,
             })
             .mip_levels(1)
-            .array_layers(1)
+            .array_layers(info.array_size)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(usage)
@@ -268,12 +300,20 @@ pub(crate) unsafe extern "system" fn create_swapchain(
         images.push((image, memory));
     }
     let h = rt.handle();
+    if depth {
+        rt.counters.depth_swapchains.push(info.array_size);
+    } else {
+        rt.counters.colour_swapchains.push(info.array_size);
+    }
     rt.swapchains.insert(
         h,
         Swapchain {
             session: sh,
             images,
             size: [info.width, info.height],
+            layers: info.array_size,
+            depth,
+            last_released: None,
             next: 0,
             acquired: VecDeque::new(),
             waited: false,
@@ -369,9 +409,154 @@ pub(crate) unsafe extern "system" fn release_swapchain_image(
             xr::Result::ERROR_CALL_ORDER_INVALID,
         );
     }
-    s.acquired.pop_front();
+    s.last_released = s.acquired.pop_front();
     s.waited = false;
     s.released_since_end = true;
     rt.counters.images_released += 1;
     xr::Result::SUCCESS
+}
+
+// ---- depth read-back ------------------------------------------------------------------------
+
+/// The depth values (DEPTH_FORMAT, f32) of layer `layer` of swapchain `chain`'s last released
+/// image, copied on the application's queue after the work it submitted. The image is in
+/// DEPTH_STENCIL_ATTACHMENT_OPTIMAL, as the application must release a depth image, and is left so.
+pub(crate) unsafe fn read_depth(rt: &Runtime, chain: u64, layer: u32) -> Result<Vec<f32>, String> {
+    let s = rt.swapchains.get(&chain).ok_or("unknown swapchain")?;
+    let session = rt.sessions.get(&s.session).ok_or("unknown session")?;
+    let vulkan = rt.vulkan.as_ref().ok_or("no Vulkan instance")?;
+    let image = s.images[s.last_released.ok_or("no image released")?].0;
+    let device = &session.device;
+    let [w, h] = s.size;
+    let bytes = w as u64 * h as u64 * 4;
+    let e = |what: &str| {
+        let what = what.to_string();
+        move |r: vk::Result| format!("{what}: {r}")
+    };
+    let buffer_info = vk::BufferCreateInfo::default()
+        .size(bytes)
+        .usage(vk::BufferUsageFlags::TRANSFER_DST);
+    let buffer = device
+        .create_buffer(&buffer_info, None)
+        .map_err(e("buffer"))?;
+    let requirements = device.get_buffer_memory_requirements(buffer);
+    let props = vulkan
+        .instance
+        .get_physical_device_memory_properties(vulkan.physical_device);
+    let host = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
+    let type_index = (0..props.memory_type_count)
+        .find(|&i| {
+            requirements.memory_type_bits & (1 << i) != 0
+                && props.memory_types[i as usize].property_flags.contains(host)
+        })
+        .ok_or("no host-visible memory")?;
+    let alloc = vk::MemoryAllocateInfo::default()
+        .allocation_size(requirements.size)
+        .memory_type_index(type_index);
+    let memory = device.allocate_memory(&alloc, None).map_err(e("memory"))?;
+    device
+        .bind_buffer_memory(buffer, memory, 0)
+        .map_err(e("bind"))?;
+    let pool_info = vk::CommandPoolCreateInfo::default().queue_family_index(session.queue.0);
+    let pool = device
+        .create_command_pool(&pool_info, None)
+        .map_err(e("command pool"))?;
+    let result = copy_depth(device, session.queue, pool, (image, layer, [w, h]), buffer);
+    let values = result.and_then(|()| {
+        let mapped = device
+            .map_memory(memory, 0, bytes, vk::MemoryMapFlags::empty())
+            .map_err(e("map"))?;
+        let values = std::slice::from_raw_parts(mapped as *const f32, (w * h) as usize).to_vec();
+        device.unmap_memory(memory);
+        Ok(values)
+    });
+    device.destroy_command_pool(pool, None);
+    device.destroy_buffer(buffer, None);
+    device.free_memory(memory, None);
+    values
+}
+
+unsafe fn copy_depth(
+    device: &ash::Device,
+    (family, index): (u32, u32),
+    pool: vk::CommandPool,
+    (image, layer, [w, h]): (vk::Image, u32, [u32; 2]),
+    buffer: vk::Buffer,
+) -> Result<(), String> {
+    let e = |what: &'static str| move |r: vk::Result| format!("{what}: {r}");
+    let alloc = vk::CommandBufferAllocateInfo::default()
+        .command_pool(pool)
+        .level(vk::CommandBufferLevel::PRIMARY)
+        .command_buffer_count(1);
+    let cmd = device
+        .allocate_command_buffers(&alloc)
+        .map_err(e("command buffer"))?[0];
+    let begin =
+        vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+    device
+        .begin_command_buffer(cmd, &begin)
+        .map_err(e("begin"))?;
+    let range = vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::DEPTH,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: layer,
+        layer_count: 1,
+    };
+    let barrier = |old, new, src, dst| {
+        vk::ImageMemoryBarrier::default()
+            .old_layout(old)
+            .new_layout(new)
+            .src_access_mask(src)
+            .dst_access_mask(dst)
+            .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+            .image(image)
+            .subresource_range(range)
+    };
+    let attachment = vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
+    let to_copy = barrier(
+        attachment,
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        vk::AccessFlags::MEMORY_WRITE,
+        vk::AccessFlags::TRANSFER_READ,
+    );
+    let all = vk::PipelineStageFlags::ALL_COMMANDS;
+    let transfer = vk::PipelineStageFlags::TRANSFER;
+    let none = vk::DependencyFlags::empty();
+    device.cmd_pipeline_barrier(cmd, all, transfer, none, &[], &[], &[to_copy]);
+    let region = vk::BufferImageCopy::default()
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::DEPTH,
+            mip_level: 0,
+            base_array_layer: layer,
+            layer_count: 1,
+        })
+        .image_extent(vk::Extent3D {
+            width: w,
+            height: h,
+            depth: 1,
+        });
+    let src = vk::ImageLayout::TRANSFER_SRC_OPTIMAL;
+    device.cmd_copy_image_to_buffer(cmd, image, src, buffer, &[region]);
+    let back = barrier(
+        src,
+        attachment,
+        vk::AccessFlags::TRANSFER_READ,
+        vk::AccessFlags::MEMORY_READ | vk::AccessFlags::MEMORY_WRITE,
+    );
+    device.cmd_pipeline_barrier(cmd, transfer, all, none, &[], &[], &[back]);
+    device.end_command_buffer(cmd).map_err(e("end"))?;
+    let queue = device.get_device_queue(family, index);
+    let fence = device
+        .create_fence(&vk::FenceCreateInfo::default(), None)
+        .map_err(e("fence"))?;
+    let cmds = [cmd];
+    let submit = vk::SubmitInfo::default().command_buffers(&cmds);
+    let done = device
+        .queue_submit(queue, &[submit], fence)
+        .and_then(|()| device.wait_for_fences(&[fence], true, u64::MAX))
+        .map_err(e("submit"));
+    device.destroy_fence(fence, None);
+    done
 }

@@ -1,0 +1,18 @@
+// One eye onto its swapchain image (a per-eye swapchain, or one layer of an array swapchain),
+// driven by src/display/xr/layers.rs: fs_colour without a depth swapchain, fs_colour_depth with.
+#include "common/types.wgsl"
+#include "common/eye_layer.wgsl"
+
+@group(0) @binding(1) var image: texture_2d<f32>;
+@group(0) @binding(2) var depth: texture_2d<f32>;
+
+@fragment
+fn fs_colour(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {
+    return eye_colour(textureLoad(image, vec2<u32>(position.xy), 0).rgb);
+}
+
+@fragment
+fn fs_colour_depth(@builtin(position) position: vec4<f32>) -> ColourDepth {
+    let pixel = vec2<u32>(position.xy);
+    return ColourDepth(eye_colour(textureLoad(image, pixel, 0).rgb), textureLoad(depth, pixel, 0).x);
+}

@@ -1,0 +1,597 @@
+//! The eyes on the runtime's swapchains. Where the runtime accepts it, one colour swapchain with
+//! a layer per eye, both eyes put on it in one multiview pass (`shaders/xr_multiview.wgsl`)
+//! where the device has multiview, a pass per layer (`shaders/xr_eye.wgsl`) where it has not;
+//! otherwise, or with `--swapchains per-eye`, a swapchain per eye. With
+//! XR_KHR_composition_layer_depth, a depth swapchain of the same shape takes the renderer's
+//! depth (written as each fragment's depth by the same pass) and is chained into each projection
+//! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject.
+
+use super::session::xr_error;
+use super::XrOptions;
+use crate::error::{Result, VlfError};
+use crate::gpu::types::GpuPresent;
+use crate::gpu::GpuContext;
+use crate::render::ViewTargets;
+use openxr as xr;
+use std::num::NonZeroU32;
+
+/// Which swapchains the eyes are put on (`vlf xr --swapchains`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Swapchains {
+    /// one array swapchain where the runtime accepts it, else one per eye
+    Auto,
+    /// one array swapchain, a layer per eye (an error where the runtime refuses it)
+    Array,
+    /// a swapchain per eye
+    PerEye,
+}
+
+/// How the eyes reached the runtime.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Shape {
+    PerEye,
+    /// one swapchain, a layer per eye; both eyes in one multiview pass, or a pass per layer
+    Array {
+        multiview: bool,
+    },
+}
+
+/// One swapchain of the runtime and its images as wgpu textures.
+pub(super) struct Chain {
+    /// before `swapchain`: fields drop in order, and the runtime frees the images with it
+    pub(super) images: Vec<wgpu::Texture>,
+    swapchain: xr::Swapchain<xr::Vulkan>,
+    /// the image acquired this frame
+    acquired: usize,
+}
+
+/// The swapchains the eyes go on and the pipeline that puts them there.
+pub(super) struct Layers {
+    pub(super) shape: Shape,
+    /// why the eyes have a swapchain each (None: an array swapchain)
+    pub(super) per_eye_because: Option<String>,
+    /// one (array) or one per eye
+    pub(super) colour: Vec<Chain>,
+    /// the same shape as `colour`, or none
+    pub(super) depth: Vec<Chain>,
+    /// the depth swapchain's Vulkan format, or why the runtime gets no depth
+    pub(super) depth_format: std::result::Result<ash::vk::Format, String>,
+    pipeline: wgpu::RenderPipeline,
+    /// one for both eyes (multiview), else one per eye
+    bind_groups: Vec<wgpu::BindGroup>,
+    _params: wgpu::Buffer,
+}
+
+/// The swapchain formats: colour (Vulkan, wgpu) and depth (Vulkan, wgpu, or why none).
+pub(super) type Formats = (
+    (ash::vk::Format, wgpu::TextureFormat),
+    std::result::Result<(ash::vk::Format, wgpu::TextureFormat), String>,
+);
+
+fn create_chain(
+    ctx: &GpuContext,
+    session: &xr::Session<xr::Vulkan>,
+    (vk_format, format): (ash::vk::Format, wgpu::TextureFormat),
+    (size, layers): ([u32; 2], u32),
+    label: &str,
+) -> Result<std::result::Result<Chain, xr::sys::Result>> {
+    let usage_flags = if format.is_depth_stencil_format() {
+        xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+    } else {
+        xr::SwapchainUsageFlags::COLOR_ATTACHMENT | xr::SwapchainUsageFlags::TRANSFER_SRC
+    };
+    let swapchain = match session.create_swapchain(&xr::SwapchainCreateInfo {
+        create_flags: xr::SwapchainCreateFlags::EMPTY,
+        usage_flags,
+        format: vk_format.as_raw() as u32,
+        sample_count: 1,
+        width: size[0],
+        height: size[1],
+        face_count: 1,
+        array_size: layers,
+        mip_count: 1,
+    }) {
+        Ok(s) => s,
+        Err(e) => return Ok(Err(e)),
+    };
+    let images = swapchain
+        .enumerate_images()
+        .map_err(xr_error("swapchain images"))?
+        .into_iter()
+        .enumerate()
+        .map(|(n, image)| {
+            super::vulkan::wrap_swapchain_image(
+                ctx,
+                image,
+                format,
+                (size, layers),
+                &format!("{label} swapchain image {n}"),
+            )
+        })
+        .collect::<Result<Vec<_>>>()?;
+    Ok(Ok(Chain {
+        images,
+        swapchain,
+        acquired: 0,
+    }))
+}
+
+/// The colour swapchains: one array where the runtime takes it (and `mode` allows), else one per
+/// eye; and why per eye.
+fn colour_chains(
+    ctx: &GpuContext,
+    session: &xr::Session<xr::Vulkan>,
+    colour: (ash::vk::Format, wgpu::TextureFormat),
+    sizes: &[[u32; 2]],
+    mode: Swapchains,
+) -> Result<(Vec<Chain>, Option<String>)> {
+    let same_size = sizes.windows(2).all(|w| w[0] == w[1]);
+    let why = match (mode, same_size) {
+        (Swapchains::PerEye, _) => "--swapchains per-eye".to_string(),
+        (_, false) => format!("the runtime recommends different sizes per eye ({sizes:?})"),
+        (_, true) => {
+            let layers = sizes.len() as u32;
+            match create_chain(ctx, session, colour, (sizes[0], layers), "eyes")? {
+                Ok(chain) => return Ok((vec![chain], None)),
+                Err(e) => format!("the runtime refused an array swapchain ({e})"),
+            }
+        }
+    };
+    if mode == Swapchains::Array {
+        return Err(VlfError::Display(format!(
+            "--swapchains array: {why}; run with --swapchains auto (or per-eye) to use a swapchain per eye"
+        )));
+    }
+    let mut chains = Vec::new();
+    for (size, name) in sizes.iter().zip(["left eye", "right eye"]) {
+        let chain = create_chain(ctx, session, colour, (*size, 1), name)?
+            .map_err(xr_error("xrCreateSwapchain"))?;
+        chains.push(chain);
+    }
+    Ok((chains, Some(why)))
+}
+
+/// Depth swapchains in the colour swapchains' shape, or why the runtime gets no depth.
+fn depth_chains(
+    ctx: &GpuContext,
+    session: &xr::Session<xr::Vulkan>,
+    depth: &std::result::Result<(ash::vk::Format, wgpu::TextureFormat), String>,
+    sizes: &[[u32; 2]],
+    array: bool,
+) -> Result<(Vec<Chain>, std::result::Result<ash::vk::Format, String>)> {
+    let depth = match depth {
+        Ok(d) => *d,
+        Err(why) => return Ok((Vec::new(), Err(why.clone()))),
+    };
+    let shapes: Vec<([u32; 2], u32)> = if array {
+        vec![(sizes[0], sizes.len() as u32)]
+    } else {
+        sizes.iter().map(|s| (*s, 1)).collect()
+    };
+    let mut chains = Vec::new();
+    for shape in shapes {
+        match create_chain(ctx, session, depth, shape, "depth")? {
+            Ok(chain) => chains.push(chain),
+            Err(e) => {
+                return Ok((
+                    Vec::new(),
+                    Err(format!("the runtime refused a depth swapchain ({e})")),
+                ))
+            }
+        }
+    }
+    Ok((chains, Ok(depth.0)))
+}
+
+impl Layers {
+    /// The swapchains for `eyes` (the left first) and the pipeline that puts the eyes on them.
+    pub(super) fn create(
+        ctx: &GpuContext,
+        session: &xr::Session<xr::Vulkan>,
+        eyes: &[&ViewTargets],
+        (colour, depth): Formats,
+        options: &XrOptions,
+    ) -> Result<Layers> {
+        let sizes: Vec<[u32; 2]> = eyes.iter().map(|t| [t.width, t.height]).collect();
+        let (colour_chains, per_eye_because) =
+            colour_chains(ctx, session, colour, &sizes, options.swapchains)?;
+        let array = per_eye_because.is_none();
+        let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
+        let device = &ctx.device;
+        let multiview = array
+            && device.features().contains(wgpu::Features::MULTIVIEW)
+            && device.limits().max_multiview_view_count >= eyes.len() as u32;
+        let shape = match array {
+            true => Shape::Array { multiview },
+            false => Shape::PerEye,
+        };
+        let stage = if multiview {
+            "xr_multiview.wgsl"
+        } else {
+            "xr_eye.wgsl"
+        };
+        let depth_target = depth.ok().map(|d| d.1).filter(|_| depth_format.is_ok());
+        let layout = crate::gpu::reflect::layout(device, stage, 0)?;
+        let pipeline = pipeline(ctx, stage, &layout, (colour.1, depth_target), multiview)?;
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("eye layer parameters"),
+            size: std::mem::size_of::<GpuPresent>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        ctx.queue.write_buffer(
+            &params,
+            0,
+            bytemuck::bytes_of(&GpuPresent {
+                viewport_origin: [0.0, 0.0],
+                viewport_size: [sizes[0][0] as f32, sizes[0][1] as f32],
+                exposure: options.exposure,
+                encode_srgb: (!colour.1.is_srgb()) as u32,
+                show_overlay: 0,
+                _pad0: 0,
+            }),
+        );
+        let texture = wgpu::BindingResource::TextureView;
+        let bind_groups = if multiview {
+            let entries = [
+                params.as_entire_binding(),
+                texture(&eyes[0].image_view),
+                texture(&eyes[1].image_view),
+                texture(&eyes[0].depth_view),
+                texture(&eyes[1].depth_view),
+            ];
+            vec![bind_group(ctx, &layout, &entries)]
+        } else {
+            (eyes.iter())
+                .map(|e| {
+                    let entries = [
+                        params.as_entire_binding(),
+                        texture(&e.image_view),
+                        texture(&e.depth_view),
+                    ];
+                    bind_group(ctx, &layout, &entries)
+                })
+                .collect()
+        };
+        Ok(Layers {
+            shape,
+            per_eye_because,
+            colour: colour_chains,
+            depth: depth_chains,
+            depth_format,
+            pipeline,
+            bind_groups,
+            _params: params,
+        })
+    }
+
+    /// Acquire and wait for this frame's image of every swapchain.
+    pub(super) fn acquire(&mut self) -> Result<()> {
+        for chain in self.colour.iter_mut().chain(self.depth.iter_mut()) {
+            chain.acquired = chain
+                .swapchain
+                .acquire_image()
+                .map_err(xr_error("xrAcquireSwapchainImage"))?
+                as usize;
+            chain
+                .swapchain
+                .wait_image(xr::Duration::INFINITE)
+                .map_err(xr_error("xrWaitSwapchainImage"))?;
+        }
+        Ok(())
+    }
+
+    /// Release every swapchain's image of this frame.
+    pub(super) fn release(&mut self) -> Result<()> {
+        for chain in self.colour.iter_mut().chain(self.depth.iter_mut()) {
+            chain
+                .swapchain
+                .release_image()
+                .map_err(xr_error("xrReleaseSwapchainImage"))?;
+        }
+        Ok(())
+    }
+
+    /// This frame's images: colour, then depth, one per swapchain.
+    pub(super) fn acquired(&self) -> (Vec<&wgpu::Texture>, Vec<&wgpu::Texture>) {
+        let colour = self.colour.iter().map(|c| &c.images[c.acquired]);
+        let depth = self.depth.iter().map(|c| &c.images[c.acquired]);
+        (colour.collect(), depth.collect())
+    }
+
+    /// Textures of the swapchains' shape, format and usage (the warm-up frame draws into them).
+    pub(super) fn scratch(&self, ctx: &GpuContext) -> (Vec<wgpu::Texture>, Vec<wgpu::Texture>) {
+        let like = |chains: &[Chain]| {
+            (chains.iter())
+                .map(|c| {
+                    let t = &c.images[0];
+                    ctx.device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some("warm-up"),
+                        size: t.size(),
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: t.format(),
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                        view_formats: &[],
+                    })
+                })
+                .collect::<Vec<_>>()
+        };
+        (like(&self.colour), like(&self.depth))
+    }
+
+    /// Put both eyes on `colour` (and their depth on `depth`, when the runtime takes depth):
+    /// images in the swapchains' shape, one per swapchain.
+    pub(super) fn draw(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        colour: &[&wgpu::Texture],
+        depth: &[&wgpu::Texture],
+    ) {
+        let eyes = self.eye_count();
+        // (colour image, its layer or all of them, the bind group) of each pass
+        let passes: Vec<(usize, Option<u32>, usize)> = match self.shape {
+            Shape::Array { multiview: true } => vec![(0, None, 0)],
+            Shape::Array { multiview: false } => {
+                (0..eyes).map(|i| (0, Some(i), i as usize)).collect()
+            }
+            Shape::PerEye => (0..eyes)
+                .map(|i| (i as usize, Some(0), i as usize))
+                .collect(),
+        };
+        for (image, layer, group) in passes {
+            let colour_view = layer_view(colour[image], layer, eyes);
+            let depth_view = depth.get(image).map(|d| layer_view(d, layer, eyes));
+            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("eye layers"),
+                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                    view: &colour_view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations {
+                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                        store: wgpu::StoreOp::Store,
+                    },
+                })],
+                depth_stencil_attachment: depth_view.as_ref().map(|view| {
+                    wgpu::RenderPassDepthStencilAttachment {
+                        view,
+                        depth_ops: Some(wgpu::Operations {
+                            load: wgpu::LoadOp::Clear(1.0),
+                            store: wgpu::StoreOp::Store,
+                        }),
+                        stencil_ops: None,
+                    }
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: layer.is_none().then(|| all_views(eyes)),
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &self.bind_groups[group], &[]);
+            pass.draw(0..3, 0..1);
+        }
+    }
+
+    fn eye_count(&self) -> u32 {
+        match self.shape {
+            Shape::PerEye => self.colour.len() as u32,
+            Shape::Array { .. } => self.colour[0].images[0].depth_or_array_layers(),
+        }
+    }
+
+    /// The left eye's image this frame (layer 0 of an array image) and a view of it alone.
+    pub(super) fn left(&self) -> (&wgpu::Texture, wgpu::TextureView) {
+        let texture = &self.colour[0].images[self.colour[0].acquired];
+        (texture, layer_view(texture, Some(0), 1))
+    }
+
+    /// Eye `i`'s place in the swapchains: its colour sub-image, and its depth sub-image if any
+    /// (the same swapchain index and layer).
+    fn sub_images(
+        &self,
+        i: usize,
+    ) -> (
+        xr::SwapchainSubImage<'_, xr::Vulkan>,
+        Option<xr::sys::SwapchainSubImage>,
+    ) {
+        let (chain, layer) = match self.shape {
+            Shape::PerEye => (i, 0),
+            Shape::Array { .. } => (0, i as u32),
+        };
+        (
+            sub_image(&self.colour[chain], layer),
+            self.depth
+                .get(chain)
+                .map(|d| sub_image(d, layer).into_raw()),
+        )
+    }
+
+    /// Both eyes as one projection layer at the predicted display time, each view with its depth
+    /// (near and far of the eyes' projection, metres) where the runtime takes depth.
+    pub(super) fn end_frame(
+        &self,
+        stream: &mut xr::FrameStream<xr::Vulkan>,
+        (frame_state, blend, space): (&xr::FrameState, xr::EnvironmentBlendMode, &xr::Space),
+        views: &[xr::View],
+        (near, far): (f32, f32),
+    ) -> Result<()> {
+        // the depth infos first, in a vector that does not move while the views point at them
+        let depth_infos: Vec<Option<xr::sys::CompositionLayerDepthInfoKHR>> = (0..views.len())
+            .map(|i| {
+                self.sub_images(i)
+                    .1
+                    .map(|sub_image| xr::sys::CompositionLayerDepthInfoKHR {
+                        ty: xr::sys::CompositionLayerDepthInfoKHR::TYPE,
+                        next: std::ptr::null(),
+                        sub_image,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                        near_z: near,
+                        far_z: far,
+                    })
+            })
+            .collect();
+        let projection_views: Vec<xr::CompositionLayerProjectionView<xr::Vulkan>> = views
+            .iter()
+            .enumerate()
+            .map(|(i, view)| {
+                let v = xr::CompositionLayerProjectionView::new()
+                    .pose(view.pose)
+                    .fov(view.fov)
+                    .sub_image(self.sub_images(i).0);
+                match &depth_infos[i] {
+                    None => v,
+                    Some(info) => {
+                        let mut raw = v.into_raw();
+                        raw.next = info as *const _ as *const std::ffi::c_void;
+                        // SAFETY: `raw` came from the builder, with its swapchain borrowed from
+                        // `self`; the depth info it now points at lives in `depth_infos`, which
+                        // outlives the xrEndFrame call below.
+                        unsafe { xr::CompositionLayerProjectionView::from_raw(raw) }
+                    }
+                }
+            })
+            .collect();
+        let layer = xr::CompositionLayerProjection::new()
+            .space(space)
+            .views(&projection_views);
+        stream
+            .end(frame_state.predicted_display_time, blend, &[&layer])
+            .map_err(xr_error("xrEndFrame"))
+    }
+
+    /// How the eyes reached the runtime, in words.
+    pub(super) fn eyes_text(&self) -> String {
+        match (self.shape, &self.per_eye_because) {
+            (Shape::Array { multiview: true }, _) => {
+                "one array swapchain (2 layers), both eyes in one pass (multiview)".into()
+            }
+            (Shape::Array { multiview: false }, _) => {
+                "one array swapchain (2 layers), a pass per layer (the device has no multiview)"
+                    .into()
+            }
+            (Shape::PerEye, Some(why)) => format!("per-eye swapchains ({why})"),
+            (Shape::PerEye, None) => "per-eye swapchains".into(),
+        }
+    }
+
+    /// Whether and how the runtime got depth, in words.
+    pub(super) fn depth_text(&self, (near, far): (f32, f32)) -> String {
+        match &self.depth_format {
+            Ok(format) => format!(
+                "submitted (XR_KHR_composition_layer_depth; {format:?}, {} swapchain(s), near {near} m, far {far} m)",
+                self.depth.len()
+            ),
+            Err(why) => why.clone(),
+        }
+    }
+}
+
+/// All of one layer of a swapchain's images.
+fn sub_image(c: &Chain, layer: u32) -> xr::SwapchainSubImage<'_, xr::Vulkan> {
+    let size = c.images[0].size();
+    xr::SwapchainSubImage::new()
+        .swapchain(&c.swapchain)
+        .image_array_index(layer)
+        .image_rect(xr::Rect2Di {
+            offset: xr::Offset2Di { x: 0, y: 0 },
+            extent: xr::Extent2Di {
+                width: size.width as i32,
+                height: size.height as i32,
+            },
+        })
+}
+
+/// All of the views of a multiview pass.
+fn all_views(eyes: u32) -> NonZeroU32 {
+    NonZeroU32::new((1u32 << eyes) - 1).unwrap_or(NonZeroU32::MIN)
+}
+
+/// A view of one layer of `texture` (2D), or of all `layers` (an array, multiview).
+fn layer_view(texture: &wgpu::Texture, layer: Option<u32>, layers: u32) -> wgpu::TextureView {
+    let (dimension, base_array_layer, count) = match layer {
+        Some(l) => (wgpu::TextureViewDimension::D2, l, 1),
+        None => (wgpu::TextureViewDimension::D2Array, 0, layers),
+    };
+    texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(dimension),
+        base_array_layer,
+        array_layer_count: Some(count),
+        ..Default::default()
+    })
+}
+
+fn bind_group(
+    ctx: &GpuContext,
+    layout: &wgpu::BindGroupLayout,
+    resources: &[wgpu::BindingResource<'_>],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = (resources.iter().enumerate())
+        .map(|(i, r)| wgpu::BindGroupEntry {
+            binding: i as u32,
+            resource: r.clone(),
+        })
+        .collect();
+    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("eye layers"),
+        layout,
+        entries: &entries,
+    })
+}
+
+/// The pipeline that puts the eyes on the swapchain images: `stage` (xr_eye.wgsl, or
+/// xr_multiview.wgsl for both eyes at once), writing depth when there is a depth target.
+fn pipeline(
+    ctx: &GpuContext,
+    stage: &str,
+    layout: &wgpu::BindGroupLayout,
+    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
+    multiview: bool,
+) -> Result<wgpu::RenderPipeline> {
+    let device = &ctx.device;
+    let module = crate::gpu::shaders::module(device, stage)?;
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some("eye layers"),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    Ok(
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("eye layers"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            // every fragment writes the renderer's depth: no test, the pass covers the image once
+            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
+                format,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some(match depth {
+                    Some(_) => "fs_colour_depth",
+                    None => "fs_colour",
+                }),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: colour,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: multiview.then(|| all_views(2)),
+            cache: None,
+        }),
+    )
+}
