@@ -50,6 +50,8 @@ pub(super) struct Layers {
     pub(super) shape: Shape,
     /// why the eyes have a swapchain each (None: an array swapchain)
     pub(super) per_eye_because: Option<String>,
+    /// why an array swapchain gets a pass per layer rather than one multiview pass
+    no_multiview: Option<String>,
     /// one (array) or one per eye
     pub(super) colour: Vec<Chain>,
     /// the same shape as `colour`, or none
@@ -198,9 +200,12 @@ impl Layers {
         let array = per_eye_because.is_none();
         let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
         let device = &ctx.device;
-        let multiview = array
-            && device.features().contains(wgpu::Features::MULTIVIEW)
-            && device.limits().max_multiview_view_count >= eyes.len() as u32;
+        let depth_target = depth.ok().map(|d| d.1).filter(|_| depth_format.is_ok());
+        let no_multiview = match array {
+            true => why_no_multiview(ctx, eyes.len() as u32, (colour.1, depth_target))?,
+            false => None,
+        };
+        let multiview = array && no_multiview.is_none();
         let shape = match array {
             true => Shape::Array { multiview },
             false => Shape::PerEye,
@@ -210,7 +215,6 @@ impl Layers {
         } else {
             "xr_eye.wgsl"
         };
-        let depth_target = depth.ok().map(|d| d.1).filter(|_| depth_format.is_ok());
         let layout = crate::gpu::reflect::layout(device, stage, 0)?;
         let pipeline = pipeline(ctx, stage, &layout, (colour.1, depth_target), multiview)?;
         let params = device.create_buffer(&wgpu::BufferDescriptor {
@@ -256,6 +260,7 @@ impl Layers {
         Ok(Layers {
             shape,
             per_eye_because,
+            no_multiview,
             colour: colour_chains,
             depth: depth_chains,
             depth_format,
@@ -341,36 +346,12 @@ impl Layers {
                 .collect(),
         };
         for (image, layer, group) in passes {
-            let colour_view = layer_view(colour[image], layer, eyes);
-            let depth_view = depth.get(image).map(|d| layer_view(d, layer, eyes));
-            let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("eye layers"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &colour_view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                        store: wgpu::StoreOp::Store,
-                    },
-                })],
-                depth_stencil_attachment: depth_view.as_ref().map(|view| {
-                    wgpu::RenderPassDepthStencilAttachment {
-                        view,
-                        depth_ops: Some(wgpu::Operations {
-                            load: wgpu::LoadOp::Clear(1.0),
-                            store: wgpu::StoreOp::Store,
-                        }),
-                        stencil_ops: None,
-                    }
-                }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: layer.is_none().then(|| all_views(eyes)),
-            });
-            pass.set_pipeline(&self.pipeline);
-            pass.set_bind_group(0, &self.bind_groups[group], &[]);
-            pass.draw(0..3, 0..1);
+            layer_pass(
+                encoder,
+                (colour[image], depth.get(image).copied()),
+                (&self.pipeline, &self.bind_groups[group]),
+                layer,
+            );
         }
     }
 
@@ -468,10 +449,10 @@ impl Layers {
             (Shape::Array { multiview: true }, _) => {
                 "one array swapchain (2 layers), both eyes in one pass (multiview)".into()
             }
-            (Shape::Array { multiview: false }, _) => {
-                "one array swapchain (2 layers), a pass per layer (the device has no multiview)"
-                    .into()
-            }
+            (Shape::Array { multiview: false }, _) => format!(
+                "one array swapchain (2 layers), a pass per layer ({})",
+                self.no_multiview.as_deref().unwrap_or("no multiview")
+            ),
             (Shape::PerEye, Some(why)) => format!("per-eye swapchains ({why})"),
             (Shape::PerEye, None) => "per-eye swapchains".into(),
         }
@@ -489,6 +470,29 @@ impl Layers {
     }
 }
 
+/// Why the eyes cannot go on an array swapchain in one multiview pass on this device, or None
+/// when they can: the device lacks the feature or enough views, or its multiview fails the
+/// check that draws two tiny eyes with the same pipeline (multiview_check.rs).
+fn why_no_multiview(
+    ctx: &GpuContext,
+    eyes: u32,
+    formats: (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
+) -> Result<Option<String>> {
+    let device = &ctx.device;
+    if !device.features().contains(wgpu::Features::MULTIVIEW) {
+        return Ok(Some("the device has no multiview".into()));
+    }
+    let views = device.limits().max_multiview_view_count;
+    if views < eyes {
+        return Ok(Some(format!("the device's multiview takes {views} views")));
+    }
+    let failure = super::multiview_check::multiview_failure(ctx, formats.0, formats.1)?;
+    if let Some(what) = &failure {
+        log::warn!("{what}; vlf draws each eye's layer in a pass of its own");
+    }
+    Ok(failure.map(|what| format!("the device's multiview failed vlf's check: {what}")))
+}
+
 /// All of one layer of a swapchain's images.
 fn sub_image(c: &Chain, layer: u32) -> xr::SwapchainSubImage<'_, xr::Vulkan> {
     let size = c.images[0].size();
@@ -502,6 +506,47 @@ fn sub_image(c: &Chain, layer: u32) -> xr::SwapchainSubImage<'_, xr::Vulkan> {
                 height: size.height as i32,
             },
         })
+}
+
+/// One pass of the eye-layer pipeline onto `layer` of the colour (and depth) image, or onto all
+/// of their layers in one multiview pass (`layer` None).
+pub(super) fn layer_pass(
+    encoder: &mut wgpu::CommandEncoder,
+    (colour, depth): (&wgpu::Texture, Option<&wgpu::Texture>),
+    (pipeline, bind_group): (&wgpu::RenderPipeline, &wgpu::BindGroup),
+    layer: Option<u32>,
+) {
+    let layers = colour.depth_or_array_layers();
+    let colour_view = layer_view(colour, layer, layers);
+    let depth_view = depth.map(|d| layer_view(d, layer, layers));
+    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("eye layers"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &colour_view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: depth_view.as_ref().map(|view| {
+            wgpu::RenderPassDepthStencilAttachment {
+                view,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: None,
+            }
+        }),
+        timestamp_writes: None,
+        occlusion_query_set: None,
+        multiview_mask: layer.is_none().then(|| all_views(layers)),
+    });
+    pass.set_pipeline(pipeline);
+    pass.set_bind_group(0, bind_group, &[]);
+    pass.draw(0..3, 0..1);
 }
 
 /// All of the views of a multiview pass.
@@ -523,7 +568,7 @@ fn layer_view(texture: &wgpu::Texture, layer: Option<u32>, layers: u32) -> wgpu:
     })
 }
 
-fn bind_group(
+pub(super) fn bind_group(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
     resources: &[wgpu::BindingResource<'_>],
@@ -543,7 +588,7 @@ fn bind_group(
 
 /// The pipeline that puts the eyes on the swapchain images: `stage` (xr_eye.wgsl, or
 /// xr_multiview.wgsl for both eyes at once), writing depth when there is a depth target.
-fn pipeline(
+pub(super) fn pipeline(
     ctx: &GpuContext,
     stage: &str,
     layout: &wgpu::BindGroupLayout,

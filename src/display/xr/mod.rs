@@ -8,6 +8,7 @@
 mod controls;
 mod eyes;
 mod layers;
+mod multiview_check;
 pub mod report;
 pub mod session;
 pub mod vulkan;

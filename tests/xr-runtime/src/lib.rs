@@ -119,6 +119,9 @@ pub(crate) struct Counters {
     /// the left eye's depth image as read back once: (frame, min, max, share at far, share
     /// outside [0, 1] or not a number)
     pub(crate) depth_left: Option<(u64, f32, f32, f64, f64)>,
+    /// the right eye's depth, read back in the same frame: (mean of the values in [0, 1], share
+    /// of pixels whose depth differs from the left eye's: 0 if both layers got one eye)
+    pub(crate) depth_right: Option<(f64, f64)>,
 }
 
 /// XrTime of this runtime: CLOCK_MONOTONIC in nanoseconds, so timespec conversion is exact.

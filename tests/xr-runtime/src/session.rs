@@ -101,6 +101,11 @@ pub(crate) fn write_report(rt: &Runtime) {
             "depth_left_frame={frame}\ndepth_left_min={min}\ndepth_left_max={max}\ndepth_left_far_share={far}\ndepth_left_outside_share={outside}\n"
         ));
     }
+    if let Some((mean, differ)) = c.depth_right {
+        text.push_str(&format!(
+            "depth_right_mean={mean}\ndepth_eyes_differ_share={differ}\n"
+        ));
+    }
     let _ = std::fs::write(path, text);
 }
 
@@ -592,18 +597,24 @@ pub(crate) unsafe fn check_layer(
     Ok(seen)
 }
 
-/// Read back the left eye's depth (view 0) once, on the third frame that carries depth (the
-/// first few frames are as real as the rest; the third leaves the warm-up behind), and note
-/// what it holds.
-unsafe fn check_left_depth(rt: &mut Runtime, seen: &LayerSeen) {
-    let Some(Some((chain, layer))) = seen.depth.first().copied() else {
+/// Read back both eyes' depth once, on the third frame that carries depth (the first few frames
+/// are as real as the rest; the third leaves the warm-up behind), and note what the left holds
+/// and how the right differs from it (a layer given the wrong eye shows as no difference).
+unsafe fn check_eye_depths(rt: &mut Runtime, seen: &LayerSeen) {
+    let Some(Some(left)) = seen.depth.first().copied() else {
         return;
     };
     if rt.counters.depth_left.is_some() || rt.counters.depth_views < 6 {
         return;
     }
-    match read_depth(rt, chain, layer) {
-        Ok(values) => {
+    let right = seen.depth.get(1).copied().flatten();
+    let read = |rt: &Runtime, (chain, layer): (u64, u32)| read_depth(rt, chain, layer);
+    let values = read(rt, left).and_then(|l| match right {
+        Some(r) => read(rt, r).map(|r| (l, Some(r))),
+        None => Ok((l, None)),
+    });
+    match values {
+        Ok((values, right)) => {
             let n = values.len().max(1) as f64;
             let inside = values.iter().filter(|v| (0.0..=1.0).contains(*v));
             let (min, max) =
@@ -612,10 +623,18 @@ unsafe fn check_left_depth(rt: &mut Runtime, seen: &LayerSeen) {
             let outside = values.iter().filter(|v| !(0.0..=1.0).contains(*v)).count() as f64 / n;
             let frame = rt.counters.frames_ended + 1;
             rt.counters.depth_left = Some((frame, min, max, far, outside));
+            rt.counters.depth_right = right.map(|r| {
+                let inside: Vec<f64> = (r.iter().filter(|v| (0.0..=1.0).contains(*v)))
+                    .map(|&v| v as f64)
+                    .collect();
+                let mean = inside.iter().sum::<f64>() / inside.len().max(1) as f64;
+                let differ = values.iter().zip(&r).filter(|(a, b)| a != b).count() as f64 / n;
+                (mean, differ)
+            });
         }
         Err(e) => {
             rt.violation(
-                &format!("reading back the left eye's depth: {e}"),
+                &format!("reading back the eyes' depth: {e}"),
                 xr::Result::ERROR_RUNTIME_FAILURE,
             );
         }
@@ -659,7 +678,7 @@ pub(crate) unsafe extern "system" fn end_frame(
         let with_depth = seen.depth.iter().filter(|d| d.is_some()).count() as u64;
         rt.counters.depth_views += with_depth;
         rt.counters.views_without_depth += seen.depth.len() as u64 - with_depth;
-        check_left_depth(&mut rt, &seen);
+        check_eye_depths(&mut rt, &seen);
     }
     for chain in rt.swapchains.values_mut().filter(|c| c.session == h) {
         chain.released_since_end = false;
