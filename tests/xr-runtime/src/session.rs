@@ -214,6 +214,7 @@ pub(crate) unsafe extern "system" fn end_session(session: xr::Session) -> xr::Re
         );
     }
     s.running = false;
+    check_eye_depths(&mut rt);
     rt.set_state(h, xr::SessionState::IDLE);
     rt.set_state(h, xr::SessionState::EXITING);
     xr::Result::SUCCESS
@@ -597,17 +598,14 @@ pub(crate) unsafe fn check_layer(
     Ok(seen)
 }
 
-/// Read back both eyes' depth once, on the third frame that carries depth (the first few frames
-/// are as real as the rest; the third leaves the warm-up behind), and note what the left holds
-/// and how the right differs from it (a layer given the wrong eye shows as no difference).
-unsafe fn check_eye_depths(rt: &mut Runtime, seen: &LayerSeen) {
-    let Some(Some(left)) = seen.depth.first().copied() else {
+/// Read back both eyes' depth of the last frame ended (at xrEndSession, so that no frame is
+/// stalled by it) and note what the left holds and how the right differs from it (a layer given
+/// the wrong eye shows as no difference).
+unsafe fn check_eye_depths(rt: &mut Runtime) {
+    let Some(Some(left)) = rt.last_depth.first().copied() else {
         return;
     };
-    if rt.counters.depth_left.is_some() || rt.counters.depth_views < 6 {
-        return;
-    }
-    let right = seen.depth.get(1).copied().flatten();
+    let right = rt.last_depth.get(1).copied().flatten();
     let read = |rt: &Runtime, (chain, layer): (u64, u32)| read_depth(rt, chain, layer);
     let values = read(rt, left).and_then(|l| match right {
         Some(r) => read(rt, r).map(|r| (l, Some(r))),
@@ -621,7 +619,7 @@ unsafe fn check_eye_depths(rt: &mut Runtime, seen: &LayerSeen) {
                 inside.fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
             let far = values.iter().filter(|&&v| v == 1.0).count() as f64 / n;
             let outside = values.iter().filter(|v| !(0.0..=1.0).contains(*v)).count() as f64 / n;
-            let frame = rt.counters.frames_ended + 1;
+            let frame = rt.counters.frames_ended;
             rt.counters.depth_left = Some((frame, min, max, far, outside));
             rt.counters.depth_right = right.map(|r| {
                 let inside: Vec<f64> = (r.iter().filter(|v| (0.0..=1.0).contains(*v)))
@@ -678,7 +676,7 @@ pub(crate) unsafe extern "system" fn end_frame(
         let with_depth = seen.depth.iter().filter(|d| d.is_some()).count() as u64;
         rt.counters.depth_views += with_depth;
         rt.counters.views_without_depth += seen.depth.len() as u64 - with_depth;
-        check_eye_depths(&mut rt, &seen);
+        rt.last_depth = seen.depth;
     }
     for chain in rt.swapchains.values_mut().filter(|c| c.session == h) {
         chain.released_since_end = false;
