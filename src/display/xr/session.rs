@@ -485,6 +485,10 @@ impl LoopState {
     }
 
     fn report(mut self, headset: &Headset, ended: String, options: &XrOptions) -> Result<XrReport> {
+        // when the GPU finished the last frames, before anything here waits for the device: a
+        // thread blocked in a device wait holds wgpu's device lock, and the GPU-done thread would
+        // note the last frames milliseconds late (counted as a missed refresh)
+        let display = self.display();
         if let Some(f) = self.in_flight.as_mut() {
             let done = f.finish(headset.ctx)?;
             self.push_gpu(done);
@@ -505,7 +509,6 @@ impl LoopState {
             )));
         }
         let eyes = self.times.views();
-        let display = self.display();
         let mut limits = frame_limits(&eyes, None, None);
         limits.push(Limit::check(
             "missed display refreshes",
