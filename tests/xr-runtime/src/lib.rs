@@ -116,7 +116,7 @@ pub(crate) struct Counters {
     /// projection views that carried XrCompositionLayerDepthInfoKHR, and those that did not
     pub(crate) depth_views: u64,
     pub(crate) views_without_depth: u64,
-    /// the left eye's depth image of the last frame, read back at xrEndSession: (frame, min, max, share at far, share
+    /// the left eye's depth image of the last frame, read back before its swapchain goes: (frame, min, max, share at far, share
     /// outside [0, 1] or not a number)
     pub(crate) depth_left: Option<(u64, f32, f32, f64, f64)>,
     /// the right eye's depth, read back in the same frame: (mean of the values in [0, 1], share
@@ -141,7 +141,8 @@ pub(crate) struct Runtime {
     /// the application enabled XR_KHR_composition_layer_depth
     pub(crate) depth_enabled: bool,
     /// the depth sub-images (swapchain, layer) of each view of the last frame ended, read back
-    /// at xrEndSession: a read-back inside xrEndFrame would stall the frame it measures
+    /// when the first of them is destroyed: a read-back inside xrEndFrame would stall the frame
+    /// it measures, and one at xrEndSession can overlap the application's last frames
     pub(crate) last_depth: Vec<Option<(u64, u32)>>,
     pub(crate) requirements_queried: bool,
     pub(crate) vulkan: Option<Vulkan>,

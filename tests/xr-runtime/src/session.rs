@@ -214,7 +214,6 @@ pub(crate) unsafe extern "system" fn end_session(session: xr::Session) -> xr::Re
         );
     }
     s.running = false;
-    check_eye_depths(&mut rt);
     rt.set_state(h, xr::SessionState::IDLE);
     rt.set_state(h, xr::SessionState::EXITING);
     xr::Result::SUCCESS
@@ -598,10 +597,11 @@ pub(crate) unsafe fn check_layer(
     Ok(seen)
 }
 
-/// Read back both eyes' depth of the last frame ended (at xrEndSession, so that no frame is
-/// stalled by it) and note what the left holds and how the right differs from it (a layer given
+/// Read back both eyes' depth of the last frame ended (when the application destroys the first
+/// depth swapchain: after its last frame and its own account of the frames, which a read-back on
+/// its queue could disturb) and note what the left holds and how the right differs from it (a layer given
 /// the wrong eye shows as no difference).
-unsafe fn check_eye_depths(rt: &mut Runtime) {
+pub(crate) unsafe fn check_eye_depths(rt: &mut Runtime) {
     let Some(Some(left)) = rt.last_depth.first().copied() else {
         return;
     };

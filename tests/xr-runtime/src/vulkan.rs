@@ -326,6 +326,11 @@ pub(crate) unsafe extern "system" fn create_swapchain(
 
 pub(crate) unsafe extern "system" fn destroy_swapchain(swapchain: xr::Swapchain) -> xr::Result {
     let mut rt = runtime();
+    let handle = swapchain.into_raw();
+    let shows_depth = rt.last_depth.iter().flatten().any(|&(chain, _)| chain == handle);
+    if shows_depth && rt.counters.depth_left.is_none() {
+        crate::session::check_eye_depths(&mut rt);
+    }
     let Some(s) = rt.swapchains.remove(&swapchain.into_raw()) else {
         return xr::Result::ERROR_HANDLE_INVALID;
     };
