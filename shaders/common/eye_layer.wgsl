@@ -6,18 +6,7 @@
 
 @group(0) @binding(0) var<uniform> params: PresentParams;
 
-@vertex
-fn vs_fullscreen(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    // one triangle covering the viewport
-    let uv = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(uv * 2.0 - 1.0, 0.0, 1.0);
-}
-
-fn encode_srgb(c: vec3<f32>) -> vec3<f32> {
-    let lo = c * 12.92;
-    let hi = 1.055 * pow(c, vec3<f32>(1.0 / 2.4)) - 0.055;
-    return select(hi, lo, c <= vec3<f32>(0.0031308));
-}
+#include "common/fullscreen.wgsl"
 
 // The swapchain's colour of one pixel of the eye's linear radiance.
 fn eye_colour(radiance: vec3<f32>) -> vec4<f32> {

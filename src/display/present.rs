@@ -42,45 +42,92 @@ pub(crate) fn present_pipeline(
     ctx: &GpuContext,
     format: wgpu::TextureFormat,
 ) -> Result<PresentPipeline> {
-    let device = &ctx.device;
-    let module = crate::gpu::shaders::module(device, "present.wgsl")?;
     // params, the eye's image, the status overlay: as present.wgsl declares them
-    let layout = crate::gpu::reflect::layout(device, "present.wgsl", 0)?;
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("present"),
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-        label: Some("present"),
-        layout: Some(&pipeline_layout),
-        vertex: wgpu::VertexState {
-            module: &module,
-            entry_point: Some("vs_fullscreen"),
-            compilation_options: Default::default(),
-            buffers: &[],
-        },
-        primitive: Default::default(),
-        depth_stencil: None,
-        multisample: Default::default(),
-        fragment: Some(wgpu::FragmentState {
-            module: &module,
-            entry_point: Some("fs_present"),
-            compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format,
-                blend: None,
-                write_mask: wgpu::ColorWrites::ALL,
-            })],
-        }),
-        multiview_mask: None,
-        cache: None,
-    });
+    let layout = crate::gpu::reflect::layout(&ctx.device, "present.wgsl", 0)?;
+    let pipeline = fullscreen_pipeline(
+        ctx,
+        ("present.wgsl", "fs_present"),
+        &layout,
+        (format, None),
+        None,
+    )?;
     Ok(PresentPipeline {
         pipeline,
         layout,
         surface_is_srgb: format.is_srgb(),
     })
+}
+
+/// A pipeline that draws one triangle over the target (`vs_fullscreen`, common/fullscreen.wgsl)
+/// with `fragment` of `stage`: onto a `colour` target, and writing the fragment's depth into a
+/// `depth` target where there is one (no depth test: the pass covers the image once), into the
+/// layers of `multiview_mask` at once where there is one. Windows' present pass and the
+/// headset's eye layers.
+pub(crate) fn fullscreen_pipeline(
+    ctx: &GpuContext,
+    (stage, fragment): (&str, &str),
+    layout: &wgpu::BindGroupLayout,
+    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
+    multiview_mask: Option<std::num::NonZeroU32>,
+) -> Result<wgpu::RenderPipeline> {
+    let device = &ctx.device;
+    let module = crate::gpu::shaders::module(device, stage)?;
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(stage),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    Ok(
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(stage),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_fullscreen"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
+                format,
+                depth_write_enabled: Some(true),
+                depth_compare: Some(wgpu::CompareFunction::Always),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some(fragment),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: colour,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask,
+            cache: None,
+        }),
+    )
+}
+
+/// A uniform buffer of present parameters (`PresentParams` in WGSL), holding `initial` if given.
+pub(crate) fn params_buffer(
+    ctx: &GpuContext,
+    label: &str,
+    initial: Option<&GpuPresent>,
+) -> wgpu::Buffer {
+    let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: std::mem::size_of::<GpuPresent>() as u64,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    if let Some(p) = initial {
+        ctx.queue.write_buffer(&params, 0, bytemuck::bytes_of(p));
+    }
+    params
 }
 
 /// One image as a target shows it: its parameters (viewport, exposure, encoding) and the bind
@@ -97,12 +144,7 @@ impl PresentBinding {
         image: &wgpu::TextureView,
         overlay: &wgpu::TextureView,
     ) -> PresentBinding {
-        let params = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("present parameters"),
-            size: std::mem::size_of::<GpuPresent>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let params = params_buffer(ctx, "present parameters", None);
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("present"),
             layout: &present.layout,

@@ -63,6 +63,10 @@ pub const SOURCES: &[(&str, &str)] = &[
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
     (
+        "common/fullscreen.wgsl",
+        include_str!("../../shaders/common/fullscreen.wgsl"),
+    ),
+    (
         "common/eye_layer.wgsl",
         include_str!("../../shaders/common/eye_layer.wgsl"),
     ),

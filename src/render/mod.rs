@@ -252,21 +252,11 @@ impl Renderer {
     pub fn view_targets(&self, width: u32, height: u32) -> ViewTargets {
         let device = &self.ctx.device;
         use wgpu::TextureUsages as U;
-        let image = texture_2d(
-            device,
-            "image",
-            [width, height],
-            COLOR_FORMAT,
-            U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
-        );
+        // written by the resolve, read by the present passes, copied for screenshots
+        let usage = U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC;
+        let target = |label, format| texture_2d(device, label, [width, height], format, usage);
+        let (image, depth) = (target("image", COLOR_FORMAT), target("depth", DEPTH_FORMAT));
         let image_view = image.create_view(&Default::default());
-        let depth = texture_2d(
-            device,
-            "depth",
-            [width, height],
-            DEPTH_FORMAT,
-            U::STORAGE_BINDING | U::TEXTURE_BINDING | U::COPY_SRC,
-        );
         let depth_view = depth.create_view(&Default::default());
         let page = |p: usize| self.radiance.get(p).unwrap_or(&self.radiance[0]);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -201,32 +201,35 @@ impl Layers {
         let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
         let device = &ctx.device;
         let depth_target = depth.ok().map(|d| d.1).filter(|_| depth_format.is_ok());
-        let no_multiview = match array {
-            true => why_no_multiview(ctx, eyes.len() as u32, (colour.1, depth_target))?,
+        let formats = (colour.1, depth_target);
+        // the multiview pipeline, checked, where the array can take it; else a pass per eye
+        let checked = match array {
+            true => Some(multiview_pipeline(ctx, eyes.len() as u32, formats)?),
             false => None,
         };
-        let multiview = array && no_multiview.is_none();
+        let (multiview, no_multiview) = match checked {
+            Some(Ok(checked)) => (Some(checked), None),
+            Some(Err(why)) => (None, Some(why)),
+            None => (None, None),
+        };
         let shape = match array {
-            true => Shape::Array { multiview },
+            true => Shape::Array {
+                multiview: multiview.is_some(),
+            },
             false => Shape::PerEye,
         };
-        let stage = if multiview {
-            "xr_multiview.wgsl"
-        } else {
-            "xr_eye.wgsl"
+        let (layout, pipeline) = match multiview {
+            Some(checked) => checked,
+            None => {
+                let layout = crate::gpu::reflect::layout(device, "xr_eye.wgsl", 0)?;
+                let pipeline = pipeline(ctx, "xr_eye.wgsl", &layout, formats, false)?;
+                (layout, pipeline)
+            }
         };
-        let layout = crate::gpu::reflect::layout(device, stage, 0)?;
-        let pipeline = pipeline(ctx, stage, &layout, (colour.1, depth_target), multiview)?;
-        let params = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("eye layer parameters"),
-            size: std::mem::size_of::<GpuPresent>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        ctx.queue.write_buffer(
-            &params,
-            0,
-            bytemuck::bytes_of(&GpuPresent {
+        let params = crate::display::present::params_buffer(
+            ctx,
+            "eye layer parameters",
+            Some(&GpuPresent {
                 viewport_origin: [0.0, 0.0],
                 viewport_size: [sizes[0][0] as f32, sizes[0][1] as f32],
                 exposure: options.exposure,
@@ -236,7 +239,7 @@ impl Layers {
             }),
         );
         let texture = wgpu::BindingResource::TextureView;
-        let bind_groups = if multiview {
+        let bind_groups = if shape == (Shape::Array { multiview: true }) {
             let entries = [
                 params.as_entire_binding(),
                 texture(&eyes[0].image_view),
@@ -470,27 +473,35 @@ impl Layers {
     }
 }
 
-/// Why the eyes cannot go on an array swapchain in one multiview pass on this device, or None
-/// when they can: the device lacks the feature or enough views, or its multiview fails the
-/// check that draws two tiny eyes with the same pipeline (multiview_check.rs).
-fn why_no_multiview(
+/// The multiview pipeline that puts both eyes on an array swapchain's layers in one pass, with
+/// its bind group layout; or why this device cannot: it lacks the feature or enough views, or
+/// its multiview fails the check that draws two tiny eyes with this pipeline
+/// (multiview_check.rs).
+fn multiview_pipeline(
     ctx: &GpuContext,
     eyes: u32,
     formats: (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
-) -> Result<Option<String>> {
+) -> Result<std::result::Result<(wgpu::BindGroupLayout, wgpu::RenderPipeline), String>> {
     let device = &ctx.device;
     if !device.features().contains(wgpu::Features::MULTIVIEW) {
-        return Ok(Some("the device has no multiview".into()));
+        return Ok(Err("the device has no multiview".into()));
     }
     let views = device.limits().max_multiview_view_count;
     if views < eyes {
-        return Ok(Some(format!("the device's multiview takes {views} views")));
+        return Ok(Err(format!("the device's multiview takes {views} views")));
     }
-    let failure = super::multiview_check::multiview_failure(ctx, formats.0, formats.1)?;
-    if let Some(what) = &failure {
-        log::warn!("{what}; vlf draws each eye's layer in a pass of its own");
+    let stage = "xr_multiview.wgsl";
+    let layout = crate::gpu::reflect::layout(device, stage, 0)?;
+    let pipeline = pipeline(ctx, stage, &layout, formats, true)?;
+    match super::multiview_check::multiview_failure(ctx, (&layout, &pipeline), formats)? {
+        None => Ok(Ok((layout, pipeline))),
+        Some(what) => {
+            log::warn!("{what}; vlf draws each eye's layer in a pass of its own");
+            Ok(Err(format!(
+                "the device's multiview failed vlf's check: {what}"
+            )))
+        }
     }
-    Ok(failure.map(|what| format!("the device's multiview failed vlf's check: {what}")))
 }
 
 /// All of one layer of a swapchain's images.
@@ -595,48 +606,16 @@ pub(super) fn pipeline(
     (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
     multiview: bool,
 ) -> Result<wgpu::RenderPipeline> {
-    let device = &ctx.device;
-    let module = crate::gpu::shaders::module(device, stage)?;
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: Some("eye layers"),
-        bind_group_layouts: &[Some(layout)],
-        immediate_size: 0,
-    });
-    Ok(
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("eye layers"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_fullscreen"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            // every fragment writes the renderer's depth: no test, the pass covers the image once
-            depth_stencil: depth.map(|format| wgpu::DepthStencilState {
-                format,
-                depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Always),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some(match depth {
-                    Some(_) => "fs_colour_depth",
-                    None => "fs_colour",
-                }),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: colour,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: multiview.then(|| all_views(2)),
-            cache: None,
-        }),
+    let fragment = match depth {
+        Some(_) => "fs_colour_depth",
+        None => "fs_colour",
+    };
+    let eyes = multiview.then(|| all_views(2));
+    crate::display::present::fullscreen_pipeline(
+        ctx,
+        (stage, fragment),
+        layout,
+        (colour, depth),
+        eyes,
     )
 }

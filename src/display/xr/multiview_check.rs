@@ -15,25 +15,18 @@ const RADIANCE: [f32; 2] = [0.2, 0.8];
 const DEPTH: [f32; 2] = [0.25, 0.75];
 
 /// Ok(None) when both layers hold their own eye; Ok(Some(what went wrong)) when not.
+/// `pipeline` (of xr_multiview.wgsl, with its bind group `layout`) draws onto `colour` and,
+/// where it writes depth, `depth`.
 pub(super) fn multiview_failure(
     ctx: &GpuContext,
-    colour: wgpu::TextureFormat,
-    depth: Option<wgpu::TextureFormat>,
+    (layout, pipeline): (&wgpu::BindGroupLayout, &wgpu::RenderPipeline),
+    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
 ) -> Result<Option<String>> {
     let device = &ctx.device;
-    let stage = "xr_multiview.wgsl";
-    let layout = crate::gpu::reflect::layout(device, stage, 0)?;
-    let pipeline = super::layers::pipeline(ctx, stage, &layout, (colour, depth), true)?;
-    let params = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("multiview check parameters"),
-        size: std::mem::size_of::<GpuPresent>() as u64,
-        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    ctx.queue.write_buffer(
-        &params,
-        0,
-        bytemuck::bytes_of(&GpuPresent {
+    let params = crate::display::present::params_buffer(
+        ctx,
+        "multiview check parameters",
+        Some(&GpuPresent {
             viewport_origin: [0.0, 0.0],
             viewport_size: [SIZE as f32; 2],
             exposure: 1.0,
@@ -48,14 +41,14 @@ pub(super) fn multiview_failure(
         .map(|t| t.create_view(&Default::default()));
     let mut entries = vec![params.as_entire_binding()];
     entries.extend(views.iter().map(wgpu::BindingResource::TextureView));
-    let bind_group = super::layers::bind_group(ctx, &layout, &entries);
+    let bind_group = super::layers::bind_group(ctx, layout, &entries);
     let colour_target = target(ctx, colour);
     let depth_target = depth.map(|f| target(ctx, f));
     let mut encoder = device.create_command_encoder(&Default::default());
     super::layers::layer_pass(
         &mut encoder,
         (&colour_target, depth_target.as_ref()),
-        (&pipeline, &bind_group),
+        (pipeline, &bind_group),
         None,
     );
     let mut readback = vec![&colour_target];
