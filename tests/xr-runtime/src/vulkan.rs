@@ -280,12 +280,8 @@ pub(crate) unsafe extern "system" fn create_swapchain(
             return xr::Result::ERROR_RUNTIME_FAILURE;
         };
         let requirements = device.get_image_memory_requirements(image);
-        let Some(type_index) = (0..memory_properties.memory_type_count).find(|&i| {
-            requirements.memory_type_bits & (1 << i) != 0
-                && memory_properties.memory_types[i as usize]
-                    .property_flags
-                    .contains(vk::MemoryPropertyFlags::DEVICE_LOCAL)
-        }) else {
+        let local = vk::MemoryPropertyFlags::DEVICE_LOCAL;
+        let Some(type_index) = memory_type(&memory_properties, &requirements, local) else {
             return xr::Result::ERROR_RUNTIME_FAILURE;
         };
         let alloc = vk::MemoryAllocateInfo::default()
@@ -327,11 +323,15 @@ pub(crate) unsafe extern "system" fn create_swapchain(
 pub(crate) unsafe extern "system" fn destroy_swapchain(swapchain: xr::Swapchain) -> xr::Result {
     let mut rt = runtime();
     let handle = swapchain.into_raw();
-    let shows_depth = rt.last_depth.iter().flatten().any(|&(chain, _)| chain == handle);
+    let shows_depth = rt
+        .last_depth
+        .iter()
+        .flatten()
+        .any(|&(chain, _)| chain == handle);
     if shows_depth && rt.counters.depth_left.is_none() {
         crate::session::check_eye_depths(&mut rt);
     }
-    let Some(s) = rt.swapchains.remove(&swapchain.into_raw()) else {
+    let Some(s) = rt.swapchains.remove(&handle) else {
         return xr::Result::ERROR_HANDLE_INVALID;
     };
     if let Some(session) = rt.sessions.get(&s.session) {
@@ -421,6 +421,20 @@ pub(crate) unsafe extern "system" fn release_swapchain_image(
     xr::Result::SUCCESS
 }
 
+/// The first memory type `requirements` allow that has all of `flags`.
+fn memory_type(
+    props: &vk::PhysicalDeviceMemoryProperties,
+    requirements: &vk::MemoryRequirements,
+    flags: vk::MemoryPropertyFlags,
+) -> Option<u32> {
+    (0..props.memory_type_count).find(|&i| {
+        requirements.memory_type_bits & (1 << i) != 0
+            && props.memory_types[i as usize]
+                .property_flags
+                .contains(flags)
+    })
+}
+
 // ---- depth read-back ------------------------------------------------------------------------
 
 /// The depth values (DEPTH_FORMAT, f32) of layer `layer` of swapchain `chain`'s last released
@@ -449,12 +463,7 @@ pub(crate) unsafe fn read_depth(rt: &Runtime, chain: u64, layer: u32) -> Result<
         .instance
         .get_physical_device_memory_properties(vulkan.physical_device);
     let host = vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT;
-    let type_index = (0..props.memory_type_count)
-        .find(|&i| {
-            requirements.memory_type_bits & (1 << i) != 0
-                && props.memory_types[i as usize].property_flags.contains(host)
-        })
-        .ok_or("no host-visible memory")?;
+    let type_index = memory_type(&props, &requirements, host).ok_or("no host-visible memory")?;
     let alloc = vk::MemoryAllocateInfo::default()
         .allocation_size(requirements.size)
         .memory_type_index(type_index);
