@@ -76,6 +76,15 @@ fn hash(x: u32) -> u32 {
     return (h >> 22u) ^ h;
 }
 
+// A texel's seed from its face and its place in the face's chart, not from its index in the
+// atlas: a texel gets the same shadow rays however the atlas is packed (the backs of two-sided
+// surfaces, packed with the rest, must not change the noise of the fronts' direct light).
+fn texel_seed(texel: u32, face_id: u32, f: Face) -> u32 {
+    let local_x = texel % grid.atlas_width - f.atlas_x;
+    let local_y = texel / grid.atlas_width - f.atlas_y;
+    return hash(hash(face_id) ^ (local_x | (local_y << 16u)));
+}
+
 fn unit_float(bits: u32) -> f32 {
     return f32(bits >> 8u) * (1.0 / 16777216.0);
 }
@@ -414,7 +423,7 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let f = faces[face_id];
-    let seed = hash(texel);
+    let seed = texel_seed(texel, face_id, f);
     let e = emitter_irradiance(point.xyz, f.normal, seed, face_id);
     var sky = vec3<f32>(0.0);
     if (grid.flags & GRID_FLAG_SKY) != 0u {
@@ -491,7 +500,7 @@ fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let f = faces[face_id];
-    let seed = hash(texel);
+    let seed = texel_seed(texel, face_id, f);
     let gathered = next[in_page];
     let discrete = clamp(gathered.w / PI, 0.0, 1.0);
     let share = mirror_share(point.xyz, f.normal, seed, face_id);

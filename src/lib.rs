@@ -25,5 +25,6 @@ pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod stats;
+pub mod verify;
 
 pub use error::{Result, VlfError};

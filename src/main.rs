@@ -68,6 +68,9 @@ enum Command {
     Export(ExportArgs),
     /// Propagate the built-in Cornell box and write PNG + EXR into out/
     Demo(DemoArgs),
+    /// Check the light field on your own model: every camera rendered from it and path-traced
+    /// by `vlf reference`, compared, with error maps and the verdict in words
+    Verify(VerifyArgs),
     /// Measure setup, visibility, propagation and rendering
     #[cfg(feature = "lab")]
     Bench(cli::lab::BenchArgs),
@@ -141,6 +144,35 @@ struct ReferenceArgs {
     /// ref.exr (linear radiance) or ref.png
     #[arg(short, long)]
     output: PathBuf,
+}
+
+/// `vlf verify`'s arguments.
+#[derive(Args)]
+struct VerifyArgs {
+    /// scene.toml or a glTF model (.gltf/.glb)
+    scene: PathBuf,
+    /// Cameras to check (default: every camera of the scene); repeat for several
+    #[arg(long)]
+    camera: Vec<String>,
+    /// Image size WxH (default: each camera's)
+    #[arg(long, value_parser = parse_size)]
+    size: Option<[u32; 2]>,
+    /// The reference's samples per pixel (its noise is listed beside every figure)
+    #[arg(long, default_value_t = 4096)]
+    spp: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// With a scene.toml: check this light field instead of propagating (must match the scene)
+    #[arg(long)]
+    lightfield: Option<PathBuf>,
+    /// Where the images and error maps go
+    #[arg(long, default_value = "verify-out")]
+    out: PathBuf,
+    /// Also write the figures as JSON
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    params: ParamArgs,
 }
 
 /// `vlf cave`'s arguments.
@@ -548,6 +580,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Compare(a) => compare(a),
         Command::Export(a) => export(a),
         Command::Demo(a) => demo(&a.out),
+        Command::Verify(a) => verify(a),
         #[cfg(feature = "lab")]
         Command::Sweep(a) => cli::lab::sweep(a),
         #[cfg(feature = "lab")]
@@ -630,6 +663,26 @@ fn reference(args: ReferenceArgs) -> Result<()> {
     if let Some(path) = args.variance {
         image_io::write_image(&r.variance, &path, 1.0)?;
         println!("variance: {}", path.display());
+    }
+    Ok(())
+}
+
+/// `vlf verify`: the light field against the path tracer on every camera, in words.
+fn verify(a: VerifyArgs) -> Result<()> {
+    let ctx = GpuContext::new()?;
+    let scene = Scene::load(&a.scene)?;
+    let (lf, resident) = light_field_for(&ctx, &a.scene, a.lightfield.as_deref(), &a.params)?;
+    let options = vlf::verify::VerifyOptions {
+        cameras: a.camera,
+        size: a.size,
+        spp: a.spp,
+        seed: a.seed,
+        out: a.out,
+    };
+    let report = vlf::verify::verify(&ctx, &scene, (&lf, &resident), &options, &Bars::default())?;
+    print!("{}", report.table());
+    if let Some(path) = a.json {
+        write_json(&path, &report)?;
     }
     Ok(())
 }
@@ -740,6 +793,7 @@ fn cave(a: CaveArgs) -> Result<()> {
     let display = vlf::display::DisplayConfig::load(config)?;
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
+    estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
     if !headless {
         if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
             bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
@@ -756,14 +810,14 @@ fn cave(a: CaveArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let report = vlf::display::headless::run(
+    let run = (frames.unwrap_or(60), out, exr);
+    let report = vlf::display::headless::run_reporting(
         &lf,
         &resident,
         &display,
         config,
-        frames.unwrap_or(60),
-        out,
-        exr,
+        run,
+        &Bars::default(),
     )?;
     print!("{}", report.table());
     if let Some(path) = json {
@@ -875,6 +929,53 @@ const SOFTWARE_SECONDS_PER_TEXEL_DIRECTION: f64 = 1.8e-7;
 /// Iterations assumed by the estimate: the accelerated Cornell box and the furnaces take 3 to 5.
 const ESTIMATE_ITERATIONS: f64 = 5.0;
 
+/// Seconds per eye ray on lavapipe with 2 CPU cores (a view's ray cast and resolve against the
+/// light field): `cave-4wall.toml` at 480x300 per eye (8 views, 1.2 Mpixels, 4 eye rays per
+/// pixel) on the Cornell box drew a frame in 16 s, with another process on the second core.
+const SOFTWARE_SECONDS_PER_EYE_RAY: f64 = 4.0e-6;
+
+/// On a software adapter, before a CAVE's first frame: how long its frames will take, by a
+/// rough model, and what shortens them (a full-size CAVE takes minutes a frame there).
+fn estimate_cave_time(
+    ctx: &GpuContext,
+    display: &vlf::display::DisplayConfig,
+    frames: Option<u32>,
+) {
+    if !ctx.summary.software {
+        return;
+    }
+    let views = vlf::display::frame::wall_views(display);
+    let pixels: f64 = (views.iter())
+        .map(|v| {
+            let [w, h] = display.walls[v.wall].eye_pixels();
+            w as f64 * h as f64
+        })
+        .sum();
+    let cores = std::thread::available_parallelism().map_or(2, |n| n.get()) as f64;
+    let ray_seconds = SOFTWARE_SECONDS_PER_EYE_RAY * 2.0 / cores;
+    let frame_seconds = pixels * display.antialiasing as f64 * ray_seconds;
+    // the fit draws every view 3 times at 1 eye ray per rung of its ladder (up to 4 rungs)
+    let fit_seconds = match display.fit_frame_time {
+        true => 4.0 * 3.0 * pixels * ray_seconds,
+        false => 0.0,
+    };
+    let length = match frames {
+        Some(n) => format!(
+            "{n} frames take {}",
+            human_seconds(frame_seconds * n as f64 + fit_seconds)
+        ),
+        None => format!("each frame takes {}", human_seconds(frame_seconds)),
+    };
+    eprintln!(
+        "estimate: {} is a software adapter: {} views, {:.1} Mpixels at {} eye rays per pixel; {length}{} ({cores} CPU cores; a rough model). Fewer --frames, smaller wall `pixels` or `antialiasing = 1` in the display TOML shorten it",
+        ctx.summary.name,
+        views.len(),
+        pixels / 1e6,
+        display.antialiasing,
+        if display.fit_frame_time { ", the frame-time fit's probes included" } else { "" },
+    );
+}
+
 /// On a software adapter, a rough estimate of the propagation time before starting it.
 fn estimate_time(ctx: &GpuContext, scene: &Scene, params: &PropagationParams) -> Result<()> {
     if !ctx.summary.software {
@@ -888,7 +989,7 @@ fn estimate_time(ctx: &GpuContext, scene: &Scene, params: &PropagationParams) ->
         params.direction_count() as f64 * texels * ESTIMATE_ITERATIONS * params.perturb as f64;
     let seconds = work * SOFTWARE_SECONDS_PER_TEXEL_DIRECTION * 2.0 / cores;
     eprintln!(
-        "estimate: propagating takes about {} on {} ({} directions x {} texels x ~{ESTIMATE_ITERATIONS} iterations, {cores} CPU cores; a rough model, mirrors add more)",
+        "estimate: propagating takes {} on {} ({} directions x {} texels x ~{ESTIMATE_ITERATIONS} iterations, {cores} CPU cores; a rough model, mirrors add more)",
         human_seconds(seconds),
         ctx.summary.name,
         params.direction_count(),
@@ -897,12 +998,14 @@ fn estimate_time(ctx: &GpuContext, scene: &Scene, params: &PropagationParams) ->
     Ok(())
 }
 
+/// A duration as a sentence reads it after "takes": "under a second", "about 40 s",
+/// "about 12 min", "about 2.5 h".
 fn human_seconds(s: f64) -> String {
     match s {
         s if s < 1.0 => "under a second".into(),
-        s if s < 120.0 => format!("{s:.0} s"),
-        s if s < 7200.0 => format!("{:.0} min", s / 60.0),
-        s => format!("{:.1} h", s / 3600.0),
+        s if s < 120.0 => format!("about {s:.0} s"),
+        s if s < 7200.0 => format!("about {:.0} min", s / 60.0),
+        s => format!("about {:.1} h", s / 3600.0),
     }
 }
 

@@ -84,6 +84,49 @@ fn the_core_builds_without_the_labs_crates() {
     }
 }
 
+/// The demo's `cargo build --features mpi` and the tests' `cargo test --features mpi` build every
+/// shared dependency with the same features (cargo unifies the dev-dependencies' features only
+/// into builds with tests): otherwise the test command rebuilds those crates and vlf itself
+/// after the demo. Cargo.toml names the features the dev-dependencies add.
+#[test]
+fn the_demo_and_the_tests_build_one_dependency_graph() {
+    let tree = |edges: &str| {
+        let run = Command::new(env!("CARGO"))
+            .args([
+                "tree",
+                "--features",
+                "mpi",
+                "-e",
+                edges,
+                "--prefix",
+                "none",
+                "--offline",
+            ])
+            .args(["-f", "{p} {f}", "--manifest-path"])
+            .arg(repo_path("Cargo.toml"))
+            .output()
+            .expect("cargo runs");
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        String::from_utf8_lossy(&run.stdout)
+            .lines()
+            .map(|l| l.trim_end_matches(" (*)").to_string())
+            .collect::<std::collections::BTreeSet<String>>()
+    };
+    let build = tree("normal,build");
+    let test = tree("normal,build,dev");
+    let differ: Vec<&String> = build.difference(&test).collect();
+    assert!(
+        differ.is_empty(),
+        "the tests build these dependencies with other features than the demo does, so \
+         `bash tools/test.sh` would rebuild them and vlf after `bash tools/demo.sh`: add the \
+         features the test build has to Cargo.toml's unifying dependencies:\n{differ:#?}"
+    );
+}
+
 /// No core module uses the lab: only src/lab/ itself and the binary's lab commands name it.
 #[test]
 fn no_core_module_uses_the_lab() {

@@ -158,16 +158,30 @@ fn zero_area_triangles_are_dropped_with_a_count() {
 }
 
 #[test]
-fn cornell_duplicated_faces_are_dropped_and_reported() {
-    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+fn duplicated_triangles_are_dropped_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = tiny(dir.path());
+    // the quad's two triangles again (same corners, same winding; one of them rotated)
+    let obj = std::fs::read_to_string(dir.path().join("scene.obj")).unwrap();
+    let faces: Vec<&str> = obj.lines().filter(|l| l.starts_with("f ")).collect();
+    let again = faces.join("\n");
+    std::fs::write(dir.path().join("scene.obj"), format!("{obj}\n{again}\n")).unwrap();
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.triangles.len(), 2);
     assert!(
         scene
             .warnings
             .iter()
-            .any(|w| w.contains("dropped 4 duplicated")),
+            .any(|w| w.contains("dropped 2 duplicated")),
         "{:?}",
         scene.warnings
     );
+}
+
+#[test]
+fn the_shipped_cornell_box_loads_without_a_warning() {
+    let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
     let cam = scene.camera(Some("front")).unwrap();
     assert_eq!(
         (cam.eye, cam.target, cam.up, cam.fov_y_deg, cam.size),

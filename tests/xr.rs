@@ -548,11 +548,12 @@ fn ctrl_c_ends_the_session_cleanly_with_the_report() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    // wait for frames to flow, then interrupt as an operator would
+    // wait until vlf says its frames run (a fixed wait after propagation could interrupt the
+    // warm-up on a loaded machine), let a few go, then interrupt as an operator would
     let stderr = child.stderr.take().unwrap();
     let mut lines = std::io::BufRead::lines(std::io::BufReader::new(stderr));
     for line in lines.by_ref() {
-        if line.unwrap().starts_with("propagated in") {
+        if line.unwrap().starts_with("OpenXR frames: running") {
             break;
         }
     }

@@ -1,7 +1,8 @@
 // Ray casting through a bounding volume hierarchy (src/bvh.rs::build_bvh), shared by the
 // reference path tracer (reference.wgsl) and the shadow rays of direct light (direct.wgsl); the
 // renderer casts through the same tree stored as child pairs (render.wgsl, cast_bvh).
-// The including file binds `triangles: array<Triangle>` and `nodes: array<BvhNode>`.
+// The including file binds `triangles: array<Triangle>`, `nodes: array<BvhNode>` and
+// `faces: array<Face>`.
 #include "common/ray.wgsl"
 
 // mirrors reference::GpuBvhNode: leaf when count > 0 (first triangle in `index`), else
@@ -21,10 +22,16 @@ fn trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool) -> Hit {
     return trace_skipping(origin, dir, t_max, any_hit, NO_FACE, 0.0);
 }
 
-// The same, ignoring the triangles of face `skip` (a shadow ray leaving a face that is not
-// quite planar must not meet the face itself).
+// The same, ignoring the triangles of face `skip` and of its twin, the other side of a
+// two-sided surface (a shadow ray leaving a face that is not quite planar must not meet the
+// face itself: its texels lie on the face's mean plane, which runs behind part of the
+// triangles, where a ray would meet the twin's front). The including file binds `faces`.
 fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, skip: u32, grow: f32) -> Hit {
     var hit = Hit(t_max, NO_FACE, 0.0, 0.0);
+    var skip_twin = NO_FACE;
+    if skip < UNRESOLVED {
+        skip_twin = faces[skip].twin;
+    }
     let safe = select(dir, vec3<f32>(1e-20), abs(dir) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
     let root = box_entry(nodes[0].lo, nodes[0].hi, origin, inv_dir, hit.t * TIE);
@@ -45,7 +52,7 @@ fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, 
         let node = nodes[index];
         if node.count > 0u {
             for (var i = node.index; i < node.index + node.count; i++) {
-                if triangles[i].face == skip {
+                if triangles[i].face == skip || triangles[i].face == skip_twin {
                     continue;
                 }
                 let r = intersect_grown(origin, dir, triangles[i], hit.t * TIE, grow);

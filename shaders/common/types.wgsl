@@ -16,6 +16,9 @@ const GRID_FLAG_BATCHED: u32 = 4u;
 // the sky came with direct light; of the emitters, direct.wgsl's mirror_light adds it next) and
 // puts pi x their share of its quadrature weight in w
 const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8u;
+// tests only: the sender lookup takes the list's first side of a two-sided surface, as before
+// facing_side fixed it (the power balance must catch the light this loses)
+const GRID_FLAG_LIST_ORDER_SIDES: u32 = 16u;
 
 // mirrors gpu::types::GpuDirection
 struct Direction {

@@ -27,6 +27,10 @@
 @group(1) @binding(5) var<uniform> texel_page: PageRange;
 // with GRID_FLAG_BATCHED: the quadrature weights used so far, per texel then per tile cell
 @group(1) @binding(6) var<storage, read_write> weight_sums: array<f32>;
+// the power balance's per-texel terms of the page this dispatch writes (gather_texel):
+// irradiance r+g+b, the mirror part's share of it (rho_s . E), and the shares of this texel's
+// own unshot radiosity (r+g+b) that leave toward the sky and onto the back of a one-sided face
+@group(1) @binding(7) var<storage, read_write> balance: array<vec4<f32>>;
 
 fn texel_point(texel: u32) -> vec4<f32> {
     let i = texel % grid.texel_page_cells;
@@ -117,8 +121,44 @@ fn clamp_cell(c: vec2<i32>) -> vec2<u32> {
     return vec2<u32>(clamp(c, vec2<i32>(0), vec2<i32>(n)));
 }
 
+// The side of a two-sided surface that faces the light's way of travel. Both sides lie in the
+// same cells at (nearly) the same depth, and which of them a list puts first is an accident of
+// depth rounding and face ids: taking the list's first would send the back's nothing along half
+// the directions. A one-sided face (no twin) is returned as it is.
+fn facing_side(sender: u32, travel: vec3<f32>) -> u32 {
+    // GRID_FLAG_LIST_ORDER_SIDES (tests only) takes the list's first side, as before the fix
+    if sender >= UNRESOLVED || (grid.flags & GRID_FLAG_LIST_ORDER_SIDES) != 0u {
+        return sender;
+    }
+    let s = faces[sender];
+    if s.twin != NO_FACE && dot(s.normal, travel) <= 1e-6 {
+        return s.twin;
+    }
+    return sender;
+}
+
+// The rim fallback's sender: the face met, if it faces the light's way, else UNRESOLVED. Of a
+// two-sided surface the original face decides (its generated back, the twin with the higher
+// id, lies in the same place): when the original faces away, the lists cannot tell whether x
+// looks at an open surface's back or into closed geometry, and the direction is dropped as it
+// is for a one-sided face, so a closed two-sided object gathers exactly as a one-sided one.
+fn rim_sender(found: u32, travel: vec3<f32>) -> u32 {
+    if found >= UNRESOLVED {
+        return UNRESOLVED;
+    }
+    var original = found;
+    if faces[found].twin < found {
+        original = faces[found].twin;
+    }
+    if dot(faces[original].normal, travel) > 1e-6 {
+        return original;
+    }
+    return UNRESOLVED;
+}
+
 // Which face sends light along direction d (travelling +w when `forward`) to point x on `face`.
 fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward: bool) -> u32 {
+    let travel = select(-d.w, d.w, forward);
     let inv_h = 1.0 / grid.cell_size;
     let q = vec2<f32>((dot(x, d.u) + 1.0) * inv_h - 0.5, (dot(x, d.v) + 1.0) * inv_h - 0.5);
     let base = dir_index * grid.resolution * grid.resolution;
@@ -128,7 +168,7 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
     let cell0 = base + c0.y * grid.resolution + c0.x;
     let k0 = find_in_cell(cell0, face);
     if k0 >= 0 {
-        return upstream_of_entry(cell0, u32(k0), forward);
+        return facing_side(upstream_of_entry(cell0, u32(k0), forward), travel);
     }
     for (var i = 0; i < 9; i++) {
         let c = clamp_cell(nearest + vec2<i32>(i % 3 - 1, i / 3 - 1));
@@ -138,7 +178,7 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
         let cell = base + c.y * grid.resolution + c.x;
         let k = find_in_cell(cell, face);
         if k >= 0 {
-            return upstream_of_entry(cell, u32(k), forward);
+            return facing_side(upstream_of_entry(cell, u32(k), forward), travel);
         }
     }
     // The face has no cell centre nearby (a grazing direction at a rim or corner, or a face
@@ -148,7 +188,6 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
     // counting it black (a leak that high albedos would amplify a thousandfold). Only where no
     // nearby line meets anything is x in the open: the sky.
     let depth = dot(x, d.w);
-    let travel = select(-d.w, d.w, forward);
     for (var i = -1; i < 9; i++) {
         var c = c0;
         if i >= 0 {
@@ -158,11 +197,7 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
         if cell_count[cell] == 0u {
             continue;
         }
-        let sender = upstream_of_depth(cell, depth, forward);
-        if sender != NO_FACE && dot(faces[sender].normal, travel) > 1e-6 {
-            return sender;
-        }
-        return UNRESOLVED;
+        return rim_sender(upstream_of_depth(cell, depth, forward), travel);
     }
     return NO_FACE;
 }
@@ -186,11 +221,13 @@ fn sender_radiance(sender: u32, x: vec3<f32>, dir_index: u32, travel: vec3<f32>)
 
 // Next unshot radiosity of one texel (rgb) and the sky's share of its irradiance (w); with
 // GRID_FLAG_NO_MIRROR_SENDERS (never in the sky's iteration) senders with a mirror part are left
-// out and w is instead pi x their share of the quadrature weight.
+// out and w is instead pi x their share of the quadrature weight. The texel's power-balance terms
+// go to `balance` (see store_balance).
 fn gather_texel(texel: u32) -> vec4<f32> {
     let point = texel_point(texel);
     let face_id = bitcast<u32>(point.w);
     if face_id == NO_FACE {
+        store_balance(texel, vec4<f32>(0.0));
         return vec4<f32>(0.0);
     }
     let f = faces[face_id];
@@ -206,6 +243,14 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     // exact solid angle
     let mirror_senders_out = (grid.flags & GRID_FLAG_NO_MIRROR_SENDERS) != 0u;
     var mirror_weight = 0.0;
+    // the power balance: by reciprocity, the weight of the directions that see the sky (or the
+    // back of a one-sided face) is the share of this texel's own diffuse light that goes there
+    var open_weight = 0.0;
+    var back_weight = 0.0;
+    // what the mirror senders left out would deliver: the balance's irradiance on faces whose
+    // next unshot radiosity cannot tell it (a channel of albedo 0: mirrors, black faces)
+    let blind = !all(f.albedo > vec3<f32>(0.0));
+    var mirrored_in = vec3<f32>(0.0);
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];
         let cos_w = dot(f.normal, d.w);
@@ -222,14 +267,22 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         }
         weight_sum += weight;
         if sender == NO_FACE {
+            open_weight += weight;
             if sky_on {
                 sky_irradiance += grid.sky * weight;
             }
         } else {
+            let s = faces[sender];
+            // the back of a two-sided surface stands for its twin's front, which receives
+            if dot(s.normal, travel) <= 1e-6 && s.twin == NO_FACE {
+                back_weight += weight;
+            }
             if mirror_senders_out {
-                let s = faces[sender];
                 if s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
                     mirror_weight += weight;
+                    if blind {
+                        mirrored_in += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;
+                    }
                     continue;
                 }
             }
@@ -237,16 +290,35 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         }
     }
 
-    if (grid.flags & GRID_FLAG_BATCHED) != 0u {
-        // raw sums: normalize.wgsl divides by the weights of every batch together
+    let own = unshot_load(texel).xyz;
+    let own_sum = own.x + own.y + own.z;
+    let batched = (grid.flags & GRID_FLAG_BATCHED) != 0u;
+    // raw sums when batched (normalize.wgsl multiplies by pi / the weights of every batch)
+    let norm = select(select(0.0, PI / weight_sum, weight_sum > 0.0), 1.0, batched);
+    let e = (irradiance + sky_irradiance) * norm;
+    let seen = e + mirrored_in * norm;
+    let shares = vec2<f32>(open_weight, back_weight) * (own_sum / PI * norm);
+    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(f.mirror, seen), shares) * grid.direction_weight);
+    if batched {
         weight_sums[texel] += weight_sum * grid.direction_weight;
         let sky_raw = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out);
         return vec4<f32>(f.albedo * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
     }
-    let norm = select(0.0, PI / weight_sum, weight_sum > 0.0);
-    let e = (irradiance + sky_irradiance) * norm;
     let sky_share = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out) * norm;
     return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
+}
+
+// One texel's power-balance terms (per unit area; the balance passes weight them by area),
+// written or added as the gather writes `next`: irradiance r+g+b, rho_s . irradiance, and the
+// texel's own unshot r+g+b times the cosine-weighted share of its hemisphere that is open to the
+// sky, and that meets the back of a one-sided face.
+fn store_balance(texel: u32, terms: vec4<f32>) {
+    let in_page = texel - texel_page.base;
+    if (grid.flags & (GRID_FLAG_ACCUMULATE | GRID_FLAG_BATCHED)) != 0u {
+        balance[in_page] += terms;
+    } else {
+        balance[in_page] = terms;
+    }
 }
 
 // One texel's gather, written to `next` (added to it for perturbed sets after the first);

@@ -470,6 +470,7 @@ fn draw(
             &run.config,
             (frames, &out, run.exr),
             Some(link),
+            &crate::progress::Silent,
         )?;
         Ok(report.views)
     } else {

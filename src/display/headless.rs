@@ -67,7 +67,30 @@ pub fn run(
     out: &Path,
     exr: bool,
 ) -> Result<CaveReport> {
-    run_locked(lf, resident, config, config_path, (frames, out, exr), None)
+    let run = (frames, out, exr);
+    run_locked(
+        lf,
+        resident,
+        config,
+        config_path,
+        run,
+        None,
+        &crate::progress::Silent,
+    )
+}
+
+/// `run`, reporting each frame drawn to `progress` (the binary's bar; on a software adapter,
+/// where a frame of a full-size CAVE takes minutes, a line per frame as well).
+pub fn run_reporting(
+    lf: &LightField,
+    resident: &ResidentLightField,
+    config: &DisplayConfig,
+    config_path: &Path,
+    (frames, out, exr): (u32, &Path, bool),
+    progress: &dyn crate::progress::Progress,
+) -> Result<CaveReport> {
+    let run = (frames, out, exr);
+    run_locked(lf, resident, config, config_path, run, None, progress)
 }
 
 /// A kept view's image and its projectors' outputs (named `<wall>-<eye>-<projector>`).
@@ -207,6 +230,7 @@ pub fn run_locked(
     config_path: &Path,
     (frames, out, exr): (u32, &Path, bool),
     mut lock: Option<&mut dyn FrameLock>,
+    progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = PoseSource::from_config(config, config_path)?;
@@ -237,7 +261,11 @@ pub fn run_locked(
     let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, passes.len() as u32);
     let total = frames.max(1);
     let mut kept = Kept::default();
+    let software = resident.ctx.summary.software;
+    let began = std::time::Instant::now();
+    progress.begin(total as u64, "frames", "drawing every wall and eye");
     for f in 0..total {
+        report_frame(progress, (f, total), began, software);
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         if f + 1 == total {
             kept = drawer.draw_kept(&pose, wand.as_ref())?;
@@ -265,6 +293,8 @@ pub fn run_locked(
             }
         }
     }
+    report_frame(progress, (total, total), began, software);
+    progress.finish();
     if times.frames_timed() == 0 {
         times.push_cpu(0.0);
     }
@@ -295,6 +325,27 @@ pub fn run_locked(
             ..times.series()
         },
     })
+}
+
+/// `done` of `total` frames drawn, to the bar; on a software adapter also as a line with the
+/// time so far and the time left at that rate (a bar is hidden where stderr is no terminal).
+fn report_frame(
+    progress: &dyn crate::progress::Progress,
+    (done, total): (u32, u32),
+    began: std::time::Instant,
+    software: bool,
+) {
+    let elapsed = began.elapsed().as_secs_f64();
+    let left = elapsed / done.max(1) as f64 * (total - done) as f64;
+    let message = format!("frame {done} of {total}");
+    progress.advance_to(done as u64, &message);
+    if software && done == total {
+        progress.note(&format!("all {total} frames drawn in {elapsed:.0} s"));
+    } else if software && done > 0 {
+        progress.note(&format!(
+            "{message} drawn after {elapsed:.0} s (software adapter; about {left:.0} s to go)"
+        ));
+    }
 }
 
 /// The last frame's images (`<wall>-<eye>.png`, each projector's output) and the overview.

@@ -89,6 +89,10 @@ pub const GRID_FLAG_BATCHED: u32 = 4;
 /// sky came with direct light; of the emitters, `mirror_light` in direct.wgsl adds them next)
 /// and puts pi x their share of its quadrature weight in w
 pub const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8;
+/// Tests only (`propagate::propagate_with_regression`): the sender lookup takes whichever side
+/// of a two-sided surface its cell list holds first, as before `facing_side` fixed it, so that
+/// tests can show the power balance catching the light that loses.
+pub const GRID_FLAG_LIST_ORDER_SIDES: u32 = 16;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
 #[repr(C)]

@@ -188,7 +188,14 @@ fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
             let t = scene.triangles[members[k] as usize];
             k += 1;
             for e in 0..3 {
-                for other in sharing(edge_key(t.vertices[e], t.vertices[(e + 1) % 3])) {
+                let key = edge_key(t.vertices[e], t.vertices[(e + 1) % 3]);
+                // an edge that a third surface meets (a wall standing on the line where two
+                // floor triangles meet) bounds the chart: one chart across it would blend the
+                // texels of both sides of that wall in its lookups, light through the wall
+                if sharing(key).nth(2).is_some() {
+                    continue;
+                }
+                for other in sharing(key) {
                     let o = other as usize;
                     if chart_of[o] != u32::MAX || scene.triangles[o].material != material {
                         continue;

@@ -48,6 +48,73 @@ pub fn initial_radiance(
     (unshot, total)
 }
 
+/// Each texel's share of its face's area (normalised units): the face's triangles clipped to the
+/// texel's square, exactly. The power balance weights texels by it (a texel's `coverage`, from
+/// 4 x 4 samples, is off by up to a sixteenth of a texel per edge: percents of a face a few
+/// texels wide, such as a small emitter, whose light direct light delivers from its exact area).
+pub fn texel_areas(prepared: &PreparedScene) -> Vec<f64> {
+    use glam::DVec2;
+    let d = prepared.texel_density;
+    let mut areas = vec![0.0f64; prepared.atlas.texel_count()];
+    for t in &prepared.triangles {
+        let f = &prepared.faces[t.face as usize];
+        // corners in texel units of the face's chart
+        let c = t.vertices.map(|v| {
+            let rel = prepared.positions[v as usize] - f.origin;
+            DVec2::new(f.axis_a.dot(rel), f.axis_b.dot(rel)) * d
+        });
+        let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+        let r = f.atlas;
+        let range = |lo: f64, hi: f64, n: u32| {
+            (lo.floor().max(0.0) as u32)..(hi.ceil().max(0.0) as u32).min(n)
+        };
+        for j in range(lo.y, hi.y, r.h) {
+            for i in range(lo.x, hi.x, r.w) {
+                let cell = DVec2::new(i as f64, j as f64);
+                let covered = clipped_area(&c, cell, cell + DVec2::ONE);
+                areas[((r.y + j) * prepared.atlas.width + r.x + i) as usize] += covered / (d * d);
+            }
+        }
+    }
+    areas
+}
+
+/// Area of the triangle `t` inside the box [lo, hi] (Sutherland-Hodgman, then the shoelace).
+fn clipped_area(t: &[glam::DVec2; 3], lo: glam::DVec2, hi: glam::DVec2) -> f64 {
+    let mut poly: Vec<glam::DVec2> = t.to_vec();
+    // (axis, bound, keep the side below the bound)
+    for (axis, bound, below) in [
+        (0, lo.x, false),
+        (0, hi.x, true),
+        (1, lo.y, false),
+        (1, hi.y, true),
+    ] {
+        let inside = |p: glam::DVec2| (p[axis] <= bound) == below || p[axis] == bound;
+        let mut out = Vec::with_capacity(poly.len() + 2);
+        for k in 0..poly.len() {
+            let (p, q) = (poly[k], poly[(k + 1) % poly.len()]);
+            if inside(p) {
+                out.push(p);
+            }
+            if inside(p) != inside(q) {
+                out.push(p + (q - p) * ((bound - p[axis]) / (q[axis] - p[axis])));
+            }
+        }
+        poly = out;
+        if poly.len() < 3 {
+            return 0.0;
+        }
+    }
+    let twice: f64 = (0..poly.len())
+        .map(|k| poly[k].perp_dot(poly[(k + 1) % poly.len()]))
+        .sum();
+    0.5 * twice.abs()
+}
+
+/// GPU bytes per texel while propagating: unshot, next, total, points, the power balance's
+/// terms (16 bytes each), the power weight and the exact area (+ texture factors, not counted).
+const TEXEL_BYTES: u64 = 16 * 5 + 8;
+
 /// The big GPU buffers a propagation will need, estimated before anything is allocated.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct MemoryEstimate {
@@ -83,8 +150,7 @@ pub fn estimate_memory(
     let texels = prepared.atlas.texel_count() as u64;
     let cell_table_bytes = cells * 8;
     let layer_bytes = (layers * 8.0) as u64;
-    // unshot, next, total, points, power weights (+ texture factors)
-    let texel_bytes = texels * (16 * 4 + 4);
+    let texel_bytes = texels * TEXEL_BYTES;
     MemoryEstimate {
         cell_table_bytes,
         layer_bytes,
@@ -102,7 +168,7 @@ pub fn check_memory(ctx: &crate::gpu::GpuContext, estimate: &MemoryEstimate) -> 
         .max_storage_buffer_binding_size
         .min(limits.max_buffer_size);
     crate::lightfield::tiles::TilePages::plan_texels(
-        estimate.texel_bytes / (16 * 4 + 4),
+        estimate.texel_bytes / TEXEL_BYTES,
         max_binding,
     )
     .map(|_| ())
@@ -237,6 +303,29 @@ pub fn propagate_with(
     progress: &dyn Progress,
     plan: Option<&checkpoint::CheckpointPlan>,
 ) -> Result<Propagated> {
+    propagate_with_regression(ctx, scene, params, progress, plan, Regression::default())
+}
+
+/// Tests only: fixed transport bugs turned back on, so that a test can show the power balance
+/// catching the light they lose. Nothing in the CLI sets them.
+#[doc(hidden)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Regression {
+    /// the sender lookup takes whichever side of a two-sided surface its cell list holds first,
+    /// as before `facing_side` (shaders/common/upstream.wgsl): the back sends nothing
+    pub list_order_sides: bool,
+}
+
+/// `propagate_with`, with the `regression` switched on (tests only).
+#[doc(hidden)]
+pub fn propagate_with_regression(
+    ctx: std::sync::Arc<crate::gpu::GpuContext>,
+    scene: &crate::scene::Scene,
+    params: &PropagationParams,
+    progress: &dyn Progress,
+    plan: Option<&checkpoint::CheckpointPlan>,
+    regression: Regression,
+) -> Result<Propagated> {
     use std::time::Instant;
     params.validate()?;
     let t0 = Instant::now();
@@ -253,6 +342,9 @@ pub fn propagate_with(
         scene.sky,
         None,
     )?;
+    if regression.list_order_sides {
+        prop.regression_flags |= crate::gpu::types::GRID_FLAG_LIST_ORDER_SIDES;
+    }
     let batch_plan = prop.plan.clone();
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
@@ -290,6 +382,7 @@ pub fn propagate_with(
         propagation_seconds,
         shooting,
         warnings,
+        power_balance: None,
     };
     job.finish(&ctx, prop, measured)
 }
@@ -322,6 +415,8 @@ struct Measured {
     propagation_seconds: f64,
     shooting: Shooting,
     warnings: Vec<String>,
+    /// set at the end, from the propagator's account
+    power_balance: Option<report::PowerBalance>,
 }
 
 /// What the propagation spent and did, read from the propagator before it becomes the resident
@@ -450,6 +545,7 @@ impl<'a> Job<'a> {
                     residual: r,
                     gpu_ms: None,
                     wall_ms: 0.0,
+                    power: None,
                 })
                 .collect();
             start.residual = start.per_iteration.last().map_or(1.0, |s| s.residual);
@@ -581,10 +677,11 @@ impl<'a> Job<'a> {
     fn finish(
         &self,
         ctx: &crate::gpu::GpuContext,
-        prop: transport::Propagator,
-        measured: Measured,
+        mut prop: transport::Propagator,
+        mut measured: Measured,
     ) -> Result<Propagated> {
         let total = prop.read_total()?;
+        measured.power_balance = self.power_balance(&mut prop, &total, &mut measured.warnings)?;
         let faces = prop.faces.clone();
         let tiles = match prop.tile_layout() {
             Some(layout) => Some(crate::lightfield::TileField {
@@ -673,10 +770,89 @@ impl<'a> Job<'a> {
             direct_mirrors: spent.direct_mirrors,
             render_memory: report::memory_items(resident.ledger.entries()),
             sky: scene.sky.is_some(),
+            power_balance: measured.power_balance,
             warnings: measured.warnings,
         }
     }
+
+    /// The run's power balance (None when resumed). Where it is off, each of the materials that
+    /// sent the most light is probed for the share of it the transport loses, and the verdict
+    /// joins the warnings.
+    fn power_balance(
+        &self,
+        prop: &mut transport::Propagator,
+        total: &[[f32; 4]],
+        warnings: &mut Vec<String>,
+    ) -> Result<Option<report::PowerBalance>> {
+        let Some(account) = prop.power.clone() else {
+            return Ok(None);
+        };
+        let mut balance = report::PowerBalance::of(&account);
+        if balance.off {
+            balance.losses = self.material_losses(prop, total, account.injected())?;
+        }
+        balance.set_verdict();
+        if balance.off {
+            warnings.push(balance.verdict.clone());
+        }
+        Ok(Some(balance))
+    }
+
+    /// What the transport loses of each material's light: the materials that sent the most
+    /// (pi x total radiance x area over their texels, emission included), at most
+    /// `PROBED_MATERIALS`, each sent once more through the gather alone (`Propagator::probe`),
+    /// largest loss first. Linear transport: the losses of all materials' light add up to the
+    /// gathers' part of the residue.
+    fn material_losses(
+        &self,
+        prop: &mut transport::Propagator,
+        total: &[[f32; 4]],
+        injected: f64,
+    ) -> Result<Vec<report::MaterialLoss>> {
+        let prepared = &self.prepared;
+        let weights: Vec<f32> = texel_areas(prepared).iter().map(|&a| a as f32).collect();
+        let material: Vec<Option<usize>> = (prepared.atlas.points.iter())
+            .map(|p| match p[3].to_bits() {
+                NO_FACE => None,
+                f => Some(prepared.faces[f as usize].material as usize),
+            })
+            .collect();
+        let radiosity = |t: &[f32; 4]| [t[0], t[1], t[2], 0.0].map(|v| v * std::f32::consts::PI);
+        let mut sent = vec![0.0f64; prepared.materials.len()];
+        for ((t, m), w) in total.iter().zip(&material).zip(&weights) {
+            if let Some(m) = m {
+                sent[*m] += radiosity(t).iter().map(|&v| v as f64).sum::<f64>() * *w as f64;
+            }
+        }
+        let mut order: Vec<usize> = (0..sent.len()).filter(|&m| sent[m] > 0.0).collect();
+        order.sort_by(|a, b| sent[*b].total_cmp(&sent[*a]));
+        order.truncate(PROBED_MATERIALS);
+        let mut losses = Vec::new();
+        for m in order {
+            let unshot: Vec<[f32; 4]> = (total.iter().zip(&material))
+                .map(|(t, &mat)| match mat == Some(m) {
+                    true => radiosity(t),
+                    false => [0.0; 4],
+                })
+                .collect();
+            let [sent, received, escaped, backs] = prop.probe(&unshot, &weights)?;
+            let lost = sent - received - escaped - backs;
+            losses.push(report::MaterialLoss {
+                material: prepared.materials[m].name.clone(),
+                sent,
+                lost,
+                lost_fraction: lost / sent.max(1e-300),
+                share_of_injected: lost / injected.max(1e-300),
+            });
+        }
+        losses.sort_by(|a, b| b.lost.abs().total_cmp(&a.lost.abs()));
+        Ok(losses)
+    }
 }
+
+/// Materials probed for their share of a power balance that is off (the ones that sent the
+/// most light): each probe costs one more gather.
+const PROBED_MATERIALS: usize = 8;
 
 /// The geometric tail added by acceleration.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -1,7 +1,8 @@
 //! The propagation summary, after the paper's Table 1: what was propagated, what it cost in
-//! time and GPU memory. Printed as a table and written as JSON.
+//! time and GPU memory, and where the light went (the power balance). Printed as a table and
+//! written as JSON.
 
-use super::transport::IterationStats;
+use super::transport::{IterationStats, PowerAccount};
 use crate::gpu::{human_bytes, AdapterSummary};
 use crate::params::PropagationParams;
 use serde::Serialize;
@@ -58,6 +59,9 @@ pub struct PropagationReport {
     /// or mirror_direct off: then through the mirror tiles)
     pub direct_mirrors: u32,
     pub sky: bool,
+    /// emitted + sky = absorbed + escaped + unshot (+ residue), measured term by term; None for
+    /// a run resumed from a checkpoint (the iterations before it were not measured)
+    pub power_balance: Option<PowerBalance>,
     pub warnings: Vec<String>,
 }
 
@@ -66,6 +70,13 @@ impl PropagationReport {
         let mut rows = self.size_rows();
         rows.extend(self.cost_rows());
         rows.extend(self.light_rows());
+        match &self.power_balance {
+            Some(b) => rows.extend(b.rows(&self.per_iteration)),
+            None => rows.push((
+                "power balance".into(),
+                "not measured (resumed from a checkpoint)".into(),
+            )),
+        }
         let width = rows.iter().map(|r| r.0.len()).max().unwrap_or(0);
         rows.iter()
             .map(|(k, v)| format!("  {k:<width$}  {v}\n"))
@@ -250,4 +261,140 @@ pub fn memory_items(entries: Vec<(String, u64)>) -> Vec<MemoryItem> {
         .into_iter()
         .map(|(name, bytes)| MemoryItem { name, bytes })
         .collect()
+}
+
+/// A run whose power balance is off by more than this share of the injected power says so.
+pub const BALANCE_TOLERANCE: f64 = 0.005;
+
+/// The power balance of a run: emitted + sky = absorbed (fronts and one-sided backs) + escaped +
+/// unshot + residue. See `transport::Propagator` for how each term is measured and which are
+/// exact.
+#[derive(Clone, Debug, Serialize)]
+pub struct PowerBalance {
+    pub emitted: f64,
+    pub sky: f64,
+    pub absorbed: f64,
+    pub absorbed_by_backs: f64,
+    pub escaped: f64,
+    /// left unshot when the iterations stopped (a geometric tail, where one was added, spreads
+    /// it over the totals in the proportions of the last iteration)
+    pub unshot: f64,
+    pub residue: f64,
+    /// residue / (emitted + sky): > 0 light lost in transport, < 0 light made
+    pub residue_fraction: f64,
+    /// |residue_fraction| > 0.5%
+    pub off: bool,
+    /// where the balance is off: what each material's light loses when gathered once more
+    pub losses: Vec<MaterialLoss>,
+    /// the balance in words
+    pub verdict: String,
+}
+
+/// How much of one material's light the transport loses (`transport::Propagator::probe`).
+#[derive(Clone, Debug, Serialize)]
+pub struct MaterialLoss {
+    pub material: String,
+    /// what its texels sent over the run (pi x total radiance x area, r+g+b)
+    pub sent: f64,
+    /// of that, sent once more: what reached no face's front, not the sky and no one-sided back
+    pub lost: f64,
+    /// lost / sent
+    pub lost_fraction: f64,
+    /// lost / (emitted + sky)
+    pub share_of_injected: f64,
+}
+
+impl PowerBalance {
+    /// The whole run's balance from its account (losses per material to be filled in where it is
+    /// off).
+    pub fn of(account: &PowerAccount) -> PowerBalance {
+        let injected = account.injected().max(1e-300);
+        let residue = account.residue();
+        PowerBalance {
+            emitted: account.emitted,
+            sky: account.sky,
+            absorbed: account.absorbed,
+            absorbed_by_backs: account.absorbed_by_backs,
+            escaped: account.escaped,
+            unshot: account.unshot(),
+            residue,
+            residue_fraction: residue / injected,
+            off: (residue / injected).abs() > BALANCE_TOLERANCE,
+            losses: Vec::new(),
+            verdict: String::new(),
+        }
+    }
+
+    /// Set the verdict in words from the terms and `losses` (largest loss first).
+    pub fn set_verdict(&mut self) {
+        let pct = |x: f64| 100.0 * x / (self.emitted + self.sky).max(1e-300);
+        let terms = format!(
+            "emitted + sky ({:.4} + {:.4}) = absorbed {:.2}% + absorbed by one-sided backs {:.2}% + escaped {:.2}% + unshot {:.2}% + residue {:+.3}%",
+            self.emitted,
+            self.sky,
+            pct(self.absorbed),
+            pct(self.absorbed_by_backs),
+            pct(self.escaped),
+            pct(self.unshot),
+            pct(self.residue)
+        );
+        if !self.off {
+            self.verdict = format!("power balance closes within 0.5%: {terms}");
+            return;
+        }
+        let what = if self.residue > 0.0 { "lost" } else { "made" };
+        let mut text = format!(
+            "power balance off by {:+.2}% (more than 0.5%): {:.2}% of the injected power was {what} in transport, neither absorbed, nor escaped to the sky, nor still unshot ({terms})",
+            pct(self.residue),
+            pct(self.residue.abs())
+        );
+        let named: Vec<String> = (self.losses.iter())
+            .filter(|l| {
+                l.lost * self.residue > 0.0
+                    && l.share_of_injected.abs() >= 0.1 * self.residue_fraction.abs()
+            })
+            .take(3)
+            .map(|l| {
+                format!(
+                    "'{}' ({:.1}% of the light it sends goes nowhere: {:.2}% of the injected power)",
+                    l.material,
+                    100.0 * l.lost_fraction,
+                    100.0 * l.share_of_injected
+                )
+            })
+            .collect();
+        if !named.is_empty() {
+            text.push_str(&format!(
+                "; the loss concentrates on the light of {}",
+                named.join(", ")
+            ));
+        }
+        self.verdict = text;
+    }
+
+    /// Rows of the summary table: the balance, then per iteration.
+    fn rows(&self, per_iteration: &[IterationStats]) -> Vec<(String, String)> {
+        let injected = (self.emitted + self.sky).max(1e-300);
+        let pct = |x: f64| 100.0 * x / injected;
+        let mut rows = vec![("power balance".to_string(), self.verdict.clone())];
+        for s in per_iteration {
+            let Some(p) = &s.power else { continue };
+            rows.push((
+                format!("  iteration {}", s.iteration),
+                format!(
+                    "shot {:.2}% -> received {:.2}% (absorbed {:.2}%, reflected {:.2}%, mirrored {:.2}%), one-sided backs {:.2}%, escaped {:.2}%; unshot {:.2}%; residue so far {:+.3}%",
+                    pct(p.shot),
+                    pct(p.received),
+                    pct(p.absorbed),
+                    pct(p.reflected),
+                    pct(p.mirrored),
+                    pct(p.absorbed_by_backs),
+                    pct(p.escaped),
+                    pct(p.unshot),
+                    100.0 * p.residue
+                ),
+            ));
+        }
+        rows
+    }
 }

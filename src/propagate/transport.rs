@@ -6,6 +6,37 @@
 //! the visibility lists for each (memory unchanged, time about x K). When the lists of every
 //! direction do not fit (a memory budget, or one binding), directions come in batches: each
 //! batch builds its lists and adds raw sums, and `shaders/normalize.wgsl` closes the iteration.
+//!
+//! Every iteration also measures the power balance (`BalancePasses`, `PowerAccount`):
+//! emitted + sky = absorbed + escaped + unshot + residue, each term measured on its own, in
+//! r+g+b radiosity x area, every texel weighted by the exact area of its face it stands for
+//! (`super::texel_areas`):
+//! - emitted: the emitters' initial unshot radiosity (pi Le, map_Ke included) x area; exact.
+//! - sky: the sky's irradiance x area over the texels in the first iteration (the gather's, or
+//!   direct light's shadow rays); exact as delivered.
+//! - received: irradiance x area at every texel. Where the albedo is positive in every channel,
+//!   next / albedo: exactly what the light field took in, direct light included; on black and
+//!   pure mirror faces, the gather's irradiance through the fixed directions (an estimate of
+//!   what direct light gives there in the first two iterations; in the second, mirror senders
+//!   count through their tiles).
+//! - absorbed at the fronts: received - reflected diffusely (the texels' next unshot power,
+//!   map_Kd included) - reflected by the mirror parts (mirror reflectance x irradiance); exact
+//!   given received.
+//! - escaped, and absorbed by the backs of one-sided faces: measured at the senders, apart from
+//!   what the receivers got. A texel's share is its unshot radiosity x area x the cosine-weighted
+//!   share of its own quadrature directions whose upstream lookup finds the sky (the back of a
+//!   one-sided face): by reciprocity the share of its diffuse light that goes there, an estimate
+//!   through the fixed directions. A mirror tile cell's is its radiance x cell area x solid angle
+//!   where the first layer downstream of its face in its own cell list is nothing (a one-sided
+//!   back).
+//! - unshot: the texels' unshot radiosity x area, plus the mirror tiles' radiance x cell area x
+//!   solid angle over the cells whose line crosses their face.
+//!
+//! The residue is what is left: light the transport lost (> 0) or made (< 0). Discretisation
+//! moves light but makes the terms differ a little (the receivers' gathers and the senders'
+//! reciprocity shares are two quadratures of the same transport, the tiles a third of the
+//! mirrors'): about 0.1% on the shipped scenes. A transport that loses light (a sender read as
+//! black) shows as a residue of percents.
 
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{
@@ -32,6 +63,114 @@ pub struct IterationStats {
     /// GPU milliseconds of the gathers and accumulations, when timestamps are available
     pub gpu_ms: Option<f64>,
     pub wall_ms: f64,
+    /// where this iteration's light went (None for iterations before a resumed checkpoint)
+    pub power: Option<IterationPower>,
+}
+
+/// One iteration's power, r+g+b, in normalised units (radiosity x area): what it moved and where
+/// that went. Fractions of the injected power (emitted + sky) in the table.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct IterationPower {
+    /// what the texels (unshot radiosity x area) and the mirror tiles (radiance x cell area x
+    /// solid angle, cells on their face) sent in this iteration
+    pub shot: f64,
+    /// the sky's power, received in the first iteration (part of `received`)
+    pub sky: f64,
+    /// power arriving at the front of every face (irradiance x area, summed over the texels)
+    pub received: f64,
+    /// of it: reflected diffusely (the texels' next unshot power)
+    pub reflected: f64,
+    /// reflected by the mirror parts (mirror reflectance x irradiance x area)
+    pub mirrored: f64,
+    /// absorbed at the fronts: received - reflected - mirrored, i.e. (1 - albedo - mirror) E A
+    pub absorbed: f64,
+    /// of what was shot: absorbed by the backs of one-sided faces
+    pub absorbed_by_backs: f64,
+    /// of what was shot: left for the sky
+    pub escaped: f64,
+    /// what is left to shoot after the iteration (texels and mirror tiles)
+    pub unshot: f64,
+    /// (emitted + sky - absorbed so far - escaped so far - unshot) / (emitted + sky): the light
+    /// the transport lost (> 0) or made (< 0) up to here
+    pub residue: f64,
+}
+
+/// The running sums of the power balance, one `close` per iteration (`transport::Propagator`).
+#[derive(Clone, Debug, Default)]
+pub struct PowerAccount {
+    pub emitted: f64,
+    pub sky: f64,
+    pub absorbed: f64,
+    pub absorbed_by_backs: f64,
+    pub escaped: f64,
+    /// what the next iteration shoots: texels; mirror tiles, and their escaping and
+    /// back-absorbed parts
+    texels_unshot: f64,
+    tiles_unshot: [f64; 3],
+}
+
+/// What the balance passes measured in one iteration.
+pub struct MeasuredPower {
+    /// texel sums (received, mirrored, escaped, absorbed by backs) of shaders/propagate.wgsl's
+    /// `texel_balance`
+    pub texels: [f64; 4],
+    /// the texels' next unshot power (shaders/accumulate.wgsl)
+    pub reflected: f64,
+    /// the sky's power (first iteration)
+    pub sky: f64,
+    /// the mirror tiles' next unshot power and its escaping and back-absorbed parts
+    /// (`tile_balance`)
+    pub tiles_next: [f64; 3],
+}
+
+impl PowerAccount {
+    pub fn new(emitted: f64) -> PowerAccount {
+        PowerAccount {
+            emitted,
+            texels_unshot: emitted,
+            ..Default::default()
+        }
+    }
+
+    pub fn injected(&self) -> f64 {
+        self.emitted + self.sky
+    }
+
+    pub fn unshot(&self) -> f64 {
+        self.texels_unshot + self.tiles_unshot[0]
+    }
+
+    /// The injected power that is neither absorbed, nor escaped, nor still unshot.
+    pub fn residue(&self) -> f64 {
+        self.injected() - self.absorbed - self.absorbed_by_backs - self.escaped - self.unshot()
+    }
+
+    /// Book one iteration.
+    pub fn close(&mut self, m: &MeasuredPower) -> IterationPower {
+        let shot = self.unshot() + m.sky;
+        self.sky += m.sky;
+        let [received, mirrored, escaped, backs] = m.texels;
+        let escaped = escaped + self.tiles_unshot[1];
+        let backs = backs + self.tiles_unshot[2];
+        let absorbed = received - m.reflected - mirrored;
+        self.absorbed += absorbed;
+        self.absorbed_by_backs += backs;
+        self.escaped += escaped;
+        self.texels_unshot = m.reflected;
+        self.tiles_unshot = m.tiles_next;
+        IterationPower {
+            shot,
+            sky: m.sky,
+            received,
+            reflected: m.reflected,
+            mirrored,
+            absorbed,
+            absorbed_by_backs: backs,
+            escaped,
+            unshot: self.unshot(),
+            residue: self.residue() / self.injected().max(1e-300),
+        }
+    }
 }
 
 /// One kind of element (texels, or tile cells): unshot/next ping-pong, total, power weights.
@@ -213,6 +352,35 @@ pub struct Propagator {
     timestamps: Option<Timestamps>,
     /// direct light for the first iteration's texels; None: through the fixed directions
     pub direct: Option<super::direct::DirectLight>,
+    /// the power balance's buffers and passes
+    balance: BalancePasses,
+    /// the power balance's running sums; None once resumed from a checkpoint
+    pub power: Option<PowerAccount>,
+    /// tests only: gather flags that turn a fixed bug back on (`GRID_FLAG_LIST_ORDER_SIDES`)
+    pub regression_flags: u32,
+}
+
+/// The power balance on the GPU: the gather's per-texel terms (`balance` in
+/// shaders/common/upstream.wgsl), where each mirror tile cell's light goes, and the passes of
+/// shaders/propagate.wgsl that sum them (`texel_balance`, `tile_classes`, `tile_balance`).
+struct BalancePasses {
+    /// per texel page: irradiance, its mirror part, escaping and back-absorbed own light
+    texel_terms: Vec<wgpu::Buffer>,
+    /// per texel page: the exact area each texel stands for (`super::texel_areas`)
+    texel_areas: Vec<wgpu::Buffer>,
+    texel_pipe: wgpu::ComputePipeline,
+    power_pipe: wgpu::ComputePipeline,
+    classes_pipe: wgpu::ComputePipeline,
+    tile_pipe: wgpu::ComputePipeline,
+    layout2: wgpu::BindGroupLayout,
+    /// 2 bits per mirror tile cell (a placeholder without tiles)
+    tile_class: wgpu::Buffer,
+    /// per-workgroup sums, room for the largest page
+    partials: wgpu::Buffer,
+    /// bound where a pass reads nothing
+    placeholder: wgpu::Buffer,
+    /// whether the tile cells have been classified (once, with the fixed directions' lists)
+    classified: bool,
 }
 
 /// map_Kd factors per texel page, the pass multiplying next by them, its layout.
@@ -612,6 +780,75 @@ impl Setup<'_> {
         Ok((buffer, Some((pipe, layout))))
     }
 
+    /// The power balance's per-texel terms, tile classes and passes.
+    fn balance_passes(
+        &self,
+        texels: &[Page],
+        areas: &[f64],
+        tiles: Option<&Tiles>,
+        tile_cells: u64,
+        layouts: [&wgpu::BindGroupLayout; 2],
+    ) -> Result<BalancePasses> {
+        let (ctx, ledger) = (self.ctx, self.ledger);
+        let device = &ctx.device;
+        let module = shaders::module(device, "propagate.wgsl")?;
+        let layout2 = reflect::layout(device, "propagate.wgsl", 2)?;
+        let pipe =
+            |entry| ctx.compute_pipeline(&module, entry, &[layouts[0], layouts[1], &layout2]);
+        let groups = |count: u32| {
+            let (x, y) = dispatch_2d(count.div_ceil(256));
+            (x * y) as u64
+        };
+        let largest = (texels.iter().map(|p| p.state.count))
+            .chain(
+                tiles
+                    .iter()
+                    .flat_map(|t| t.pages.iter().map(|p| p.state.count)),
+            )
+            .map(groups)
+            .max()
+            .unwrap_or(1);
+        let texel_terms = texels
+            .iter()
+            .map(|p| {
+                let bytes = p.state.count as u64 * 16;
+                ctx.buffer_zeroed(ledger, "texels: power balance", bytes, STORAGE)
+            })
+            .collect();
+        let areas: Vec<f32> = areas.iter().map(|&a| a as f32).collect();
+        let texel_areas = texels
+            .iter()
+            .map(|p| {
+                let r = p.first as usize..(p.first + p.state.count) as usize;
+                let data = bytemuck::cast_slice(&areas[r]);
+                ctx.buffer_init(ledger, "texels: areas", data, STORAGE)
+            })
+            .collect();
+        let class_bytes = if tiles.is_some() {
+            tile_cells.div_ceil(16) * 4
+        } else {
+            16
+        };
+        Ok(BalancePasses {
+            texel_terms,
+            texel_areas,
+            texel_pipe: pipe("texel_balance"),
+            power_pipe: pipe("texel_power"),
+            classes_pipe: pipe("tile_classes"),
+            tile_pipe: pipe("tile_balance"),
+            layout2,
+            tile_class: ctx.buffer_zeroed(
+                ledger,
+                "mirror tiles: power balance classes",
+                class_bytes,
+                STORAGE,
+            ),
+            partials: ctx.buffer_zeroed(ledger, "power balance sums", largest * 16, STORAGE),
+            placeholder: ctx.buffer_zeroed(&MemoryLedger::default(), "placeholder", 64, STORAGE),
+            classified: tiles.is_none(),
+        })
+    }
+
     /// The first iterations' direct light, when `params.direct_samples` asks for it.
     fn direct_light(
         &self,
@@ -713,6 +950,17 @@ impl Propagator {
             s.batch_weight_sums(batched, grid.texel_count as u64 + sizes.tile_cells)?;
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
         let direct = s.direct_light(sky, &sizes.faces, &unshot, [&layout0, &layout1])?;
+        let areas = super::texel_areas(prepared);
+        let emitted_exactly = (unshot.iter().zip(&areas))
+            .map(|(u, a)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * a)
+            .sum();
+        let balance = s.balance_passes(
+            &texels,
+            &areas,
+            tiles.as_ref(),
+            sizes.tile_cells,
+            [&layout0, &layout1],
+        )?;
         let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
         Ok(Propagator {
             ctx,
@@ -743,6 +991,9 @@ impl Propagator {
             texel_count: grid.texel_count,
             timestamps,
             direct,
+            balance,
+            power: Some(PowerAccount::new(emitted_exactly)),
+            regression_flags: 0,
         })
     }
 
@@ -764,14 +1015,48 @@ impl Propagator {
         self.tiles.as_ref().map(|t| &t.layout)
     }
 
-    /// One shooting iteration (one more bounce). Returns the residual after it.
+    /// One shooting iteration (one more bounce). Returns the residual after it, and where the
+    /// light went.
     pub fn iterate(&mut self) -> Result<IterationStats> {
         let started = std::time::Instant::now();
+        let first = self.iteration == 0;
+        let mut gpu_ms = 0.0;
+        let timed = self.gather_all(false, &mut gpu_ms)?;
+        if self.iteration <= 1 && self.direct.is_some() {
+            self.encode_direct(self.iteration == 1);
+        }
+        if first {
+            self.encode_validity();
+        }
+        // before the texture factors: next / albedo is the irradiance
+        let texels = self.sum_texel_balance()?;
+        self.encode_texture();
+        let [reflected, sky, _, _] = self.sum_texels(&self.balance.power_pipe)?;
+        let residual = self.finish_iteration(&mut gpu_ms)?;
+        let tiles_next = self.sum_tile_balance()?;
+        let measured = MeasuredPower {
+            texels,
+            reflected,
+            sky: if first { sky } else { 0.0 },
+            tiles_next,
+        };
+        Ok(IterationStats {
+            iteration: self.iteration,
+            residual,
+            gpu_ms: timed.then_some(gpu_ms),
+            wall_ms: started.elapsed().as_secs_f64() * 1e3,
+            power: self.power.as_mut().map(|a| a.close(&measured)),
+        })
+    }
+
+    /// Every direction set (the fixed set last: it stays resident for rendering and tiles) and
+    /// batch gathered into `next`, the batches' raw sums normalised. A `probe` gathers the texels
+    /// alone, without the sky or the second iteration's mirror rule. Returns whether every
+    /// gather was timed.
+    fn gather_all(&mut self, probe: bool, gpu_ms: &mut f64) -> Result<bool> {
         let k = self.direction_sets.len().max(1);
         let batched = self.normalize.is_some();
-        // perturbed sets first, the fixed set last: it stays resident for rendering and tiles
         let order: Vec<usize> = (1..k).chain([0]).collect();
-        let mut gpu_ms = 0.0;
         let mut timed = self.timestamps.is_some();
         if batched {
             self.clear_next_and_weight_sums();
@@ -783,38 +1068,29 @@ impl Propagator {
                 grid.direction_count = count;
                 grid.first_direction = first;
                 if k > 1 || batched {
-                    self.rebuild_visibility(set, &grid, &mut gpu_ms)?;
+                    self.rebuild_visibility(set, &grid, gpu_ms)?;
                 }
                 grid.iteration = self.iteration;
-                grid.flags = self.gather_flags(&grid, n > 0);
+                grid.flags = self.gather_flags(&grid, n > 0, probe);
                 self.ctx
                     .queue
                     .write_buffer(&self.scene.grid, 0, bytemuck::bytes_of(&grid));
-                self.encode_gathers(set == 0)?;
+                self.encode_gathers(set == 0 && !probe)?;
+                if set == 0 && !self.balance.classified {
+                    self.encode_tile_classes();
+                }
                 if let Some(t) = self.timestamps.as_mut() {
-                    gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
+                    *gpu_ms += t.read_ms(&self.ctx)?.iter().sum::<f64>();
                 } else {
                     timed = false;
                 }
             }
         }
+        self.balance.classified = true;
         if batched {
             self.normalize_batches();
         }
-        if self.iteration <= 1 && self.direct.is_some() {
-            self.encode_direct(self.iteration == 1);
-        }
-        if self.iteration == 0 {
-            self.encode_validity();
-        }
-        self.encode_texture();
-        let residual = self.finish_iteration(&mut gpu_ms)?;
-        Ok(IterationStats {
-            iteration: self.iteration,
-            residual,
-            gpu_ms: timed.then_some(gpu_ms),
-            wall_ms: started.elapsed().as_secs_f64() * 1e3,
-        })
+        Ok(timed)
     }
 
     /// With batches each batch adds raw sums: next (texels and tiles) and the weight sums
@@ -825,6 +1101,9 @@ impl Propagator {
             encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
         }
         encoder.clear_buffer(&self.weight_sums, 0, None);
+        for terms in &self.balance.texel_terms {
+            encoder.clear_buffer(terms, 0, None);
+        }
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             encoder.clear_buffer(&page.state.radiance[1 - self.current], 0, None);
         }
@@ -865,15 +1144,15 @@ impl Propagator {
     }
 
     /// The gather's flags this iteration: the sky shoots in the first; mirrors do not send in
-    /// the second when direct light brought their virtual emitters; batches add raw sums, a
-    /// later direction set (`accumulate`) adds to the earlier ones.
-    fn gather_flags(&self, grid: &GpuGrid, accumulate: bool) -> u32 {
-        let mut flags = if self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
-            GRID_FLAG_SKY
-        } else {
-            0
-        };
-        if self.iteration == 1 && self.direct.as_ref().is_some_and(|d| d.mirror_count > 0) {
+    /// the second when direct light brought their virtual emitters (neither in a `probe`);
+    /// batches add raw sums, a later direction set (`accumulate`) adds to the earlier ones.
+    fn gather_flags(&self, grid: &GpuGrid, accumulate: bool, probe: bool) -> u32 {
+        let mut flags = self.regression_flags;
+        if !probe && self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
+            flags |= GRID_FLAG_SKY;
+        }
+        let mirrors = self.direct.as_ref().is_some_and(|d| d.mirror_count > 0);
+        if !probe && self.iteration == 1 && mirrors {
             flags |= GRID_FLAG_NO_MIRROR_SENDERS;
         }
         if self.normalize.is_some() {
@@ -936,6 +1215,151 @@ impl Propagator {
         })
     }
 
+    /// One balance pass (`entry` of shaders/propagate.wgsl) over `count` elements with group 2
+    /// bound to `group2`, and the sum of its per-workgroup partials.
+    fn balance_pass(
+        &self,
+        pipe: &wgpu::ComputePipeline,
+        groups01: (&wgpu::BindGroup, &wgpu::BindGroup),
+        group2: &[&wgpu::Buffer],
+        count: u32,
+    ) -> Result<[f64; 4]> {
+        let ctx = &self.ctx;
+        let bg2 = ctx.bind_group(&self.balance.layout2, group2);
+        let (x, y) = dispatch_2d(count.div_ceil(256));
+        let mut encoder = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(pipe);
+            pass.set_bind_group(0, groups01.0, &[]);
+            pass.set_bind_group(1, groups01.1, &[]);
+            pass.set_bind_group(2, &bg2, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let partials: Vec<[f32; 4]> =
+            ctx.read_buffer(&self.balance.partials, (x * y) as u64 * 16)?;
+        let mut sum = [0.0f64; 4];
+        for p in &partials {
+            for (s, v) in sum.iter_mut().zip(p) {
+                *s += *v as f64;
+            }
+        }
+        Ok(sum)
+    }
+
+    /// The texels' balance terms after the gather (and direct light), before the texture
+    /// factors: received, mirrored, escaped and back-absorbed power.
+    fn sum_texel_balance(&self) -> Result<[f64; 4]> {
+        self.sum_texels(&self.balance.texel_pipe)
+    }
+
+    /// One of the texel balance passes over every page, summed.
+    fn sum_texels(&self, pipe: &wgpu::ComputePipeline) -> Result<[f64; 4]> {
+        let (bg0, bg1) = self.texel_bind_groups();
+        let b = &self.balance;
+        let mut sum = [0.0f64; 4];
+        for ((page, bg), areas) in self.texels.iter().zip(&bg1).zip(&b.texel_areas) {
+            let group2 = [
+                areas,
+                &b.partials,
+                &b.placeholder,
+                &b.placeholder,
+                &page.page_uniform,
+                &b.tile_class,
+                &self.scene.directions,
+            ];
+            let part = self.balance_pass(pipe, (&bg0, bg), &group2, page.state.count)?;
+            for (s, p) in sum.iter_mut().zip(part) {
+                *s += p;
+            }
+        }
+        Ok(sum)
+    }
+
+    /// The mirror tiles' unshot power (cells on their face) and its escaping and back-absorbed
+    /// parts; zero without mirrors.
+    fn sum_tile_balance(&self) -> Result<[f64; 3]> {
+        let Some(t) = &self.tiles else {
+            return Ok([0.0; 3]);
+        };
+        let (bg0, bg1) = self.texel_bind_groups();
+        let b = &self.balance;
+        let mut sum = [0.0f64; 3];
+        for page in &t.pages {
+            let group2 = [
+                &b.placeholder,
+                &b.partials,
+                &t.tables[2],
+                &page.state.radiance[self.current],
+                &page.page_uniform,
+                &b.tile_class,
+                &t.fixed_directions,
+            ];
+            let part =
+                self.balance_pass(&b.tile_pipe, (&bg0, &bg1[0]), &group2, page.state.count)?;
+            for (s, p) in sum.iter_mut().zip(part) {
+                *s += p;
+            }
+        }
+        Ok(sum)
+    }
+
+    /// Where each mirror tile cell of this batch sends its light (`tile_classes`), with the
+    /// fixed directions' lists in place.
+    fn encode_tile_classes(&self) {
+        let Some(t) = &self.tiles else { return };
+        let (bg0, bg1) = self.texel_bind_groups();
+        let b = &self.balance;
+        let group2 = [
+            &b.placeholder,
+            &b.partials,
+            &t.tables[2],
+            &b.placeholder,
+            &t.pages[0].page_uniform,
+            &b.tile_class,
+            &t.fixed_directions,
+        ];
+        let bg2 = self.ctx.bind_group(&b.layout2, &group2);
+        let words = (self.grid.tile_cell_count as u64).div_ceil(16) as u32;
+        let (x, y) = dispatch_2d(words.div_ceil(64));
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&b.classes_pipe);
+            pass.set_bind_group(0, &bg0, &[]);
+            pass.set_bind_group(1, &bg1[0], &[]);
+            pass.set_bind_group(2, &bg2, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// What the transport does with one unshot state: `radiosity` per texel (r, g, b; the mirror
+    /// tiles dark) gathered once more, texels only, without direct light. Returns the power its
+    /// texels send (radiosity x area) and of that what is received (at any front), escapes and
+    /// meets a one-sided back: a probe of where light goes missing. The propagator's unshot and
+    /// next state are overwritten; the totals are not touched.
+    pub fn probe(&mut self, radiosity: &[[f32; 4]], weights: &[f32]) -> Result<[f64; 4]> {
+        let sent: f64 = (radiosity.iter().zip(weights))
+            .map(|(u, &w)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * w as f64)
+            .sum();
+        for page in &self.texels {
+            let range = page.first as usize..(page.first + page.state.count) as usize;
+            let data = bytemuck::cast_slice(&radiosity[range]);
+            let unshot = &page.state.radiance[self.current];
+            self.ctx.queue.write_buffer(unshot, 0, data);
+        }
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        for page in self.tiles.iter().flat_map(|t| &t.pages) {
+            encoder.clear_buffer(&page.state.radiance[self.current], 0, None);
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+        self.gather_all(true, &mut 0.0)?;
+        let [received, _, escaped, backs] = self.sum_texel_balance()?;
+        Ok([sent, received, escaped, backs])
+    }
+
     /// The scene bind group (group 0) and one texel-page bind group (group 1) per page: all
     /// pages' unshot to read, this page's next to write.
     fn texel_bind_groups(&self) -> (wgpu::BindGroup, Vec<wgpu::BindGroup>) {
@@ -977,7 +1401,8 @@ impl Propagator {
         let bg1 = self
             .texels
             .iter()
-            .map(|page| {
+            .zip(&self.balance.texel_terms)
+            .map(|(page, terms)| {
                 ctx.bind_group(
                     &self.layout1,
                     &[
@@ -988,6 +1413,7 @@ impl Propagator {
                         target(page),
                         &page.page_uniform,
                         &self.weight_sums,
+                        terms,
                     ],
                 )
             })
@@ -1130,6 +1556,10 @@ impl Propagator {
                 )
             })
             .collect();
+        // the balance terms: irradiances and reciprocity shares, raw like the texels' next
+        for (terms, p) in self.balance.texel_terms.iter().zip(&self.texels) {
+            passes.push((terms, p.state.count, std::f32::consts::PI, p.first));
+        }
         for page in self.tiles.iter().flat_map(|t| &t.pages) {
             passes.push((
                 &page.state.radiance[1 - self.current],
@@ -1362,6 +1792,8 @@ impl Propagator {
         }
         self.iteration = cp.meta.iteration;
         self.emitted_power = cp.meta.emitted_power;
+        // the iterations before the checkpoint were not measured
+        self.power = None;
         self.ctx.wait()
     }
 

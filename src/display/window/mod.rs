@@ -109,6 +109,7 @@ pub fn run_locked<'a>(
         last_frame: Instant::now(),
         frames: 0,
         status_messages: Vec::new(),
+        status_to_announce: None,
         latency: Vec::new(),
         error: None,
         printed_done: false,
@@ -154,7 +155,10 @@ struct App<'a> {
     frames: u32,
     /// every timed frame's GPU time per view (in `views` order) and CPU time
     times: FrameTimes,
+    /// status lines shown on screen (tracking gone quiet), in order
     status_messages: Vec<String>,
+    /// a new condition's status line, set for the next frame and announced once presented
+    status_to_announce: Option<String>,
     /// milliseconds from a live pose's arrival to the frame drawn from it
     latency: Vec<f64>,
     error: Option<VlfError>,
@@ -293,18 +297,21 @@ impl App<'_> {
             ctx.wait()?;
             lock.swap()?;
         }
+        let outputs_shown = outputs.len();
         for texture in outputs {
             ctx.queue.present(texture);
         }
         ctx.wait_spinning()?;
+        self.announce_presented(outputs_shown);
         self.account(&ctx, timestamps.as_mut(), started, timed)?;
         let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {
             if self.frames >= n {
                 if !self.printed_done {
-                    println!("presented {n} frames on {} window(s)", self.windows.len());
-                    use std::io::Write;
-                    let _ = std::io::stdout().flush();
+                    status::say(&format!(
+                        "presented {n} frames on {} window(s)",
+                        self.windows.len()
+                    ));
                     self.printed_done = true;
                     self.started = Instant::now();
                 }

@@ -5,6 +5,13 @@ use super::App;
 
 const OVERLAY_SIZE: [u32; 2] = [720, 30];
 
+/// A line on stdout, flushed at once (a watcher reads it while the windows are up).
+pub(super) fn say(line: &str) {
+    use std::io::Write;
+    println!("{line}");
+    let _ = std::io::stdout().flush();
+}
+
 /// The status line as RGBA8 (white text on a translucent black band), with DejaVu Sans.
 fn rasterise_status(text: &str) -> Vec<u8> {
     use ab_glyph::{Font, FontRef, PxScale, ScaleFont};
@@ -57,6 +64,20 @@ fn rasterise_status(text: &str) -> Vec<u8> {
 }
 
 impl App<'_> {
+    /// After a frame is presented on `windows` windows: the first frame, or a new condition's
+    /// status line, is on screen now. Said on stdout ("first frame on screen", "status line on
+    /// screen: ...") for whoever watches the run (a test takes its screenshots then); a status
+    /// line is kept for the report.
+    pub(super) fn announce_presented(&mut self, windows: usize) {
+        if self.shown == 1 {
+            say(&format!("first frame on screen ({windows} window(s))"));
+        }
+        if let Some(t) = self.status_to_announce.take() {
+            say(&format!("status line on screen: {t}"));
+            self.status_messages.push(t);
+        }
+    }
+
     pub(super) fn overlay_view(&mut self) -> &wgpu::TextureView {
         if self.overlay.is_none() {
             let usage = wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST;
@@ -88,7 +109,7 @@ impl App<'_> {
         };
         if let (Some(t), true) = (&text, kind(&text) != kind(&self.status)) {
             log::warn!("{t}");
-            self.status_messages.push(t.clone());
+            self.status_to_announce = Some(t.clone());
         }
         for w in &self.windows {
             let base = w.window.title();

@@ -192,6 +192,8 @@ pub fn run(
         layers.eyes_text(),
         layers.depth_text(DEPTH_RANGE)
     );
+    // from here on Ctrl-C ends the session cleanly, with the report (warm-up included)
+    interrupt_flag();
     super::eyes::warm_up(&ctx, &mut renderer, &eyes, (&camera, &lf), &layers)?;
 
     let mut headset = Headset {
@@ -569,6 +571,7 @@ impl Headset<'_> {
     fn run_loop(&mut self, st: &mut LoopState, options: &XrOptions) -> Result<String> {
         let mut event_buffer = xr::EventDataBuffer::new();
         let interrupted = interrupt_flag();
+        eprintln!("OpenXR frames: running (Ctrl-C ends the session cleanly, with the report)");
         loop {
             if let Some(ended) = self.poll_events(st, &mut event_buffer, options, &interrupted)? {
                 return Ok(ended);

@@ -239,6 +239,33 @@ impl GatherInputs<'_> {
         [c[0].clamp(0, n) as u32, c[1].clamp(0, n) as u32]
     }
 
+    /// The side of a two-sided surface that faces the light's way of travel (upstream.wgsl's
+    /// `facing_side`): list order between the two coplanar sides is an accident of rounding.
+    fn facing_side(&self, sender: u32, travel: Vec3) -> u32 {
+        if sender >= UNRESOLVED {
+            return sender;
+        }
+        let s = &self.faces[sender as usize];
+        if s.twin != NO_FACE && v3(s.normal).dot(travel) <= 1e-6 {
+            return s.twin;
+        }
+        sender
+    }
+
+    /// The rim fallback's sender (upstream.wgsl's `rim_sender`): the original side of what was
+    /// met (a generated back's twin has the lower id), if it faces the light's way.
+    fn rim_sender(&self, found: u32, travel: Vec3) -> u32 {
+        if found >= UNRESOLVED {
+            return UNRESOLVED;
+        }
+        let twin = self.faces[found as usize].twin;
+        let original = if twin < found { twin } else { found };
+        if v3(self.faces[original as usize].normal).dot(travel) > 1e-6 {
+            return original;
+        }
+        UNRESOLVED
+    }
+
     pub(super) fn find_upstream(
         &self,
         dir_index: u32,
@@ -247,6 +274,7 @@ impl GatherInputs<'_> {
         face: u32,
         forward: bool,
     ) -> u32 {
+        let travel = if forward { v3(d.w) } else { -v3(d.w) };
         let inv_h = 1.0 / self.grid.cell_size;
         let q = Vec2::new(
             (x.dot(v3(d.u)) + 1.0) * inv_h - 0.5,
@@ -258,7 +286,7 @@ impl GatherInputs<'_> {
         let cell0 = base + c0[1] * self.grid.resolution + c0[0];
         let k0 = self.find_in_cell(cell0, face);
         if k0 >= 0 {
-            return self.upstream_of_entry(cell0, k0 as u32, forward);
+            return self.facing_side(self.upstream_of_entry(cell0, k0 as u32, forward), travel);
         }
         for i in 0..9 {
             let c = self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1]);
@@ -268,11 +296,10 @@ impl GatherInputs<'_> {
             let cell = base + c[1] * self.grid.resolution + c[0];
             let k = self.find_in_cell(cell, face);
             if k >= 0 {
-                return self.upstream_of_entry(cell, k as u32, forward);
+                return self.facing_side(self.upstream_of_entry(cell, k as u32, forward), travel);
             }
         }
         let depth = x.dot(v3(d.w));
-        let travel = if forward { v3(d.w) } else { -v3(d.w) };
         for i in -1..9 {
             let c = if i >= 0 {
                 self.clamp_cell([nearest[0] + i % 3 - 1, nearest[1] + i / 3 - 1])
@@ -283,11 +310,7 @@ impl GatherInputs<'_> {
             if self.visibility.cell_count[cell as usize] == 0 {
                 continue;
             }
-            let sender = self.upstream_of_depth(cell, depth, forward);
-            if sender != NO_FACE && v3(self.faces[sender as usize].normal).dot(travel) > 1e-6 {
-                return sender;
-            }
-            return UNRESOLVED;
+            return self.rim_sender(self.upstream_of_depth(cell, depth, forward), travel);
         }
         NO_FACE
     }
