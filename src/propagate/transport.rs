@@ -829,6 +829,7 @@ impl Setup<'_> {
         } else {
             16
         };
+        let unledgered = MemoryLedger::default();
         Ok(BalancePasses {
             texel_terms,
             texel_areas,
@@ -837,8 +838,10 @@ impl Setup<'_> {
             classes_pipe: pipe("tile_classes"),
             tile_pipe: pipe("tile_balance"),
             layout2,
+            // without mirror tiles a 16-byte placeholder, which the ledger does not count: a
+            // diffuse-only scene allocates no tiles (tests/mirrors.rs)
             tile_class: ctx.buffer_zeroed(
-                ledger,
+                if tiles.is_some() { ledger } else { &unledgered },
                 "mirror tiles: power balance classes",
                 class_bytes,
                 STORAGE,
