@@ -1,6 +1,6 @@
 //! The module structure stays acyclic: tools/module-cycles.py finds import cycles between the
-//! top-level modules of src/ and between the files of one module (a folder's mod.rs is their
-//! parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
+//! children of every folder of src/, at every depth (the top-level modules; the files of
+//! src/display/; those of src/display/xr/; a folder's mod.rs is their parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
 //! depend on the pipeline stages above them. The core leaves the lab (src/lab/, feature `lab`)
 //! out: no core module names it, and its crates are not the core's. No function is longer than
 //! 120 lines.
@@ -23,6 +23,49 @@ fn there_are_no_import_cycles() {
         String::from_utf8_lossy(&run.stderr)
     );
     assert!(stdout.contains("no import cycles"), "{stdout}");
+}
+
+/// The cycle check looks into nested folders: a circle between two files two folders down (and
+/// one through a `use super::{...}` group inside an inline `mod tests`) is reported, naming
+/// both files, and the check fails.
+#[test]
+fn the_cycle_check_sees_nested_folders() {
+    let dir = tempfile::tempdir().unwrap();
+    let src = dir.path().join("src");
+    let files = [
+        ("lib.rs", "pub mod outer;\n"),
+        ("outer/mod.rs", "pub mod inner;\n"),
+        ("outer/inner/mod.rs", "mod a;\nmod b;\nmod c;\n"),
+        ("outer/inner/a.rs", "use super::b::B;\npub struct A;\n"),
+        (
+            "outer/inner/b.rs",
+            "pub struct B;\n#[cfg(test)]\nmod tests {\n    use super::super::{c::C};\n}\n",
+        ),
+        (
+            "outer/inner/c.rs",
+            "pub struct C(crate::outer::inner::a::A);\n",
+        ),
+    ];
+    for (path, text) in files {
+        let path = src.join(path);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(path, text).unwrap();
+    }
+    let run = Command::new("python3")
+        .arg(repo_path("tools/module-cycles.py"))
+        .arg("--src")
+        .arg(&src)
+        .output()
+        .expect("python3 runs");
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(!run.status.success(), "a cycle should fail: {stdout}");
+    assert!(
+        stdout.contains("src/outer/inner/")
+            && stdout.contains("outer::inner::a -> outer::inner::b")
+            && stdout.contains("outer::inner::b -> outer::inner::c")
+            && stdout.contains("outer::inner::c -> outer::inner::a"),
+        "{stdout}"
+    );
 }
 
 /// Functions do one job: none in src/ is longer than 120 lines (tools/long-functions.py counts

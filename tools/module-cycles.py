@@ -1,15 +1,19 @@
 #!/usr/bin/env python3
 """Import cycles between vlf's modules (tests/architecture.rs runs it; exit 1 on a cycle).
 
-Two levels are checked:
-- the top-level modules of src/ (scene, prepare, lightfield, propagate, render, ...): module A
-  depends on B when a file under A names `crate::B` (in a `use` or a path);
-- sibling files inside one module (display::osc and display::tracking): the same, for
-  `super::X` / `crate::M::X` between files of one folder. A folder's mod.rs is its parent, not
-  a sibling: children using what their parent declares is how Rust modules are built.
+Every folder of src/ is checked, at every depth: the children of one module (the files and
+folders beside each other: src/display/osc.rs and src/display/tracking.rs, or
+src/display/xr/session.rs and src/display/xr/layers.rs) must not import each other in a circle.
+Child A depends on its sibling B when a file anywhere under A names a path into B: `crate::...`,
+`super::...` (also `super::super::...`, and inside an inline `mod tests`) or a `use` group of
+them (`use crate::{a::X, b::Y}`, `use super::{b, c::Z}`). The top level (scene, prepare,
+lightfield, propagate, render, ...) is the children of src/. A folder's mod.rs (or the file
+beside a folder, src/scene/gltf.rs for src/scene/gltf/) is its parent, not a sibling: children
+using what their parent declares is how Rust modules are built.
 
     python3 tools/module-cycles.py            # print the graph's cycles (none: exit 0)
     python3 tools/module-cycles.py --graph    # also print every edge
+    python3 tools/module-cycles.py --src DIR  # another source tree (the script's own test)
 """
 
 import re
@@ -17,9 +21,10 @@ import sys
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parent.parent / "src"
-PATH = re.compile(r"\bcrate::([a-z_]+)(?:::([a-z_]+))?")
-SUPER = re.compile(r"\bsuper::([a-z_]+)")
-USE_GROUP = re.compile(r"use\s+crate::\{([^;]*)\};", re.S)
+IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
+# a path starting at crate/super/self; the tail may continue into a `{...}` group (handled apart)
+PATH = re.compile(rf"\b(crate|super|self)((?:::{IDENT})*)(::\{{)?")
+INLINE_MOD = re.compile(rf"\bmod\s+{IDENT}\s*\{{")
 
 
 def strip_comments(text):
@@ -27,42 +32,115 @@ def strip_comments(text):
     return re.sub(r"/\*.*?\*/", "", text, flags=re.S)
 
 
-def modules():
-    """file -> (top-level module, sibling name or None for a folder's mod.rs / a top file)."""
-    out = {}
-    for f in SRC.rglob("*.rs"):
-        rel = f.relative_to(SRC)
-        if rel.name in ("main.rs", "lib.rs"):
+def module_of(src, f):
+    """src/display/xr/session.rs -> (display, xr, session); src/display/xr/mod.rs -> (display, xr)."""
+    parts = f.relative_to(src).with_suffix("").parts
+    return parts[:-1] if parts[-1] == "mod" else parts
+
+
+def is_module(src, path):
+    if not path:
+        return True
+    p = src.joinpath(*path)
+    return p.with_suffix(".rs").is_file() or (p / "mod.rs").is_file()
+
+
+def expand_group(body):
+    """`a::X, b::{c, d::Y}` -> [[a, X], [b, c], [b, d, Y]] (top-level commas only)."""
+    out, depth, start = [], 0, 0
+    items = []
+    for i, ch in enumerate(body):
+        if ch == "{":
+            depth += 1
+        elif ch == "}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            items.append(body[start:i])
+            start = i + 1
+    items.append(body[start:])
+    for item in items:
+        item = item.strip()
+        if not item or item == "*":
             continue
-        parts = rel.with_suffix("").parts
-        top = parts[0]
-        sibling = None
-        if len(parts) >= 2 and parts[-1] != "mod":
-            sibling = parts[1] if len(parts) == 2 else None
-        out[f] = (top, sibling)
+        if "{" in item:
+            head, _, rest = item.partition("{")
+            prefix = [s for s in head.split("::") if s]
+            for tail in expand_group(rest[: rest.rindex("}")]):
+                out.append(prefix + tail)
+        else:
+            out.append([s for s in item.split(" as ")[0].split("::") if s and s != "*"])
     return out
 
 
-def edges():
-    top_edges, sib_edges = set(), set()
-    for f, (top, sibling) in modules().items():
-        text = strip_comments(f.read_text())
-        # `use crate::{a::X, b::Y}` groups name several modules
-        names = []
-        for group in USE_GROUP.findall(text):
-            names += [(m, None) for m in re.findall(r"(?:^|[,{\s])([a-z_]+)::", group)]
-        names += PATH.findall(text)
-        for dep_top, dep_sub in names:
-            if dep_top != top and ((SRC / dep_top).is_dir() or (SRC / f"{dep_top}.rs").exists()):
-                top_edges.add((top, dep_top))
-            if dep_top == top and sibling and dep_sub and dep_sub != sibling:
-                if (SRC / top / f"{dep_sub}.rs").exists() or (SRC / top / dep_sub).is_dir():
-                    sib_edges.add((f"{top}::{sibling}", f"{top}::{dep_sub}"))
-        if sibling:
-            for dep_sub in SUPER.findall(text):
-                if dep_sub != sibling and ((SRC / top / f"{dep_sub}.rs").exists() or (SRC / top / dep_sub).is_dir()):
-                    sib_edges.add((f"{top}::{sibling}", f"{top}::{dep_sub}"))
-    return top_edges, sib_edges
+def inline_mod_depth(text):
+    """For each character offset, how many inline `mod x { ... }` blocks enclose it (as a list of
+    (start, end) ranges)."""
+    ranges = []
+    for m in INLINE_MOD.finditer(text):
+        depth, i = 1, m.end()
+        while i < len(text) and depth:
+            depth += {"{": 1, "}": -1}.get(text[i], 0)
+            i += 1
+        ranges.append((m.end(), i))
+    return lambda pos: sum(1 for a, b in ranges if a <= pos < b)
+
+
+def references(src, f):
+    """The module paths (tuples) a file names, each cut to the longest prefix that is a module."""
+    module = module_of(src, f)
+    text = strip_comments(f.read_text())
+    depth_at = inline_mod_depth(text)
+    found = set()
+    for m in PATH.finditer(text):
+        root, tail, group = m[1], [s for s in m[2].split("::") if s], m[3]
+        tails = [tail]
+        if group:
+            depth, i = 1, m.end()
+            while i < len(text) and depth:
+                depth += {"{": 1, "}": -1}.get(text[i], 0)
+                i += 1
+            tails = [tail + t for t in expand_group(text[m.end() : i - 1])]
+        # where the path starts: the crate root, or this file's module (plus inline modules)
+        inline = depth_at(m.start())
+        if root == "crate":
+            base = ()
+        else:
+            if inline:  # inside `mod tests { ... }` the path starts at that inline module
+                base = module + ("<inline>",) * inline
+            else:
+                base = module
+        for t in tails:
+            path = list(base)
+            rest = list(t)
+            if root == "super":
+                path = path[:-1]
+            while rest and rest[0] == "super":
+                path = path[:-1]
+                rest = rest[1:]
+            path = tuple(p for p in path if p != "<inline>")
+            full = path + tuple(rest)
+            while full and not is_module(src, full):
+                full = full[:-1]
+            found.add(full)
+    return module, found
+
+
+def edges(src):
+    """(a, b) pairs of sibling modules, named by their paths ('display::xr::session')."""
+    out = set()
+    for f in sorted(src.rglob("*.rs")):
+        if f.parent == src and f.name in ("main.rs", "lib.rs"):
+            continue
+        module, refs = references(src, f)
+        for target in refs:
+            common = 0
+            while common < min(len(module), len(target)) and module[common] == target[common]:
+                common += 1
+            # both below their common folder (not the folder's own module): siblings
+            if common < len(module) and common < len(target):
+                parent = module[:common]
+                out.add(("::".join(parent + (module[common],)), "::".join(parent + (target[common],))))
+    return out
 
 
 def cycles(edge_set):
@@ -103,21 +181,25 @@ def cycles(edge_set):
     return out, graph
 
 
+def folder(name):
+    parts = name.split("::")[:-1]
+    return "src/" + "".join(p + "/" for p in parts)
+
+
 def main(argv):
-    top, sib = edges()
-    status = 0
-    for label, e in (("modules", top), ("files within a module", sib)):
-        found, graph = cycles(e)
-        if "--graph" in argv:
-            for a in sorted(graph):
-                print(f"{a} -> {', '.join(sorted(graph[a])) or '-'}")
-        for comp in found:
-            status = 1
-            links = [f"{a} -> {b}" for a, b in sorted(e) if a in comp and b in comp]
-            print(f"cycle among {label}: {{{', '.join(comp)}}}: {'; '.join(links)}")
-    if status == 0:
-        print(f"no import cycles ({len(top)} module edges, {len(sib)} file edges)")
-    return status
+    src = Path(argv[argv.index("--src") + 1]) if "--src" in argv else SRC
+    e = edges(src)
+    found, graph = cycles(e)
+    if "--graph" in argv:
+        for a in sorted(graph):
+            print(f"{a} -> {', '.join(sorted(graph[a])) or '-'}")
+    for comp in found:
+        links = [f"{a} -> {b}" for a, b in sorted(e) if a in comp and b in comp]
+        print(f"cycle among the children of {folder(comp[0])}: {{{', '.join(comp)}}}: {'; '.join(links)}")
+    if not found:
+        folders = {folder(a) for a, _ in e}
+        print(f"no import cycles ({len(e)} edges between siblings in {len(folders)} folders)")
+    return 1 if found else 0
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 //! Thumbstick navigation in the headset: an action set bound to the controllers the runtime
 //! knows (Touch, Index, Windows Mixed Reality, Vive), read every frame into the navigator.
 
-use super::session::xr_error;
+use super::xr_error;
 use crate::display::navigator::Navigator;
 use crate::error::Result;
 use openxr as xr;

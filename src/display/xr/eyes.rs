@@ -3,8 +3,7 @@
 //! untimed warm-up frame; the left eye's screenshot.
 
 use super::layers::Layers;
-use super::session::{xr_error, VIEW_TYPE};
-use super::XrOptions;
+use super::{xr_error, XrOptions, VIEW_TYPE};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, Timestamps};
 use crate::lightfield::LightField;

@@ -6,14 +6,13 @@
 //! depth (written as each fragment's depth by the same pass) and is chained into each projection
 //! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject.
 
-use super::session::xr_error;
-use super::XrOptions;
+use super::eye_pass::{bind_group, layer_pass, layer_view, pipeline};
+use super::{xr_error, XrOptions};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
 use crate::gpu::GpuContext;
 use crate::render::ViewTargets;
 use openxr as xr;
-use std::num::NonZeroU32;
 
 /// Which swapchains the eyes are put on (`vlf xr --swapchains`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -517,105 +516,4 @@ fn sub_image(c: &Chain, layer: u32) -> xr::SwapchainSubImage<'_, xr::Vulkan> {
                 height: size.height as i32,
             },
         })
-}
-
-/// One pass of the eye-layer pipeline onto `layer` of the colour (and depth) image, or onto all
-/// of their layers in one multiview pass (`layer` None).
-pub(super) fn layer_pass(
-    encoder: &mut wgpu::CommandEncoder,
-    (colour, depth): (&wgpu::Texture, Option<&wgpu::Texture>),
-    (pipeline, bind_group): (&wgpu::RenderPipeline, &wgpu::BindGroup),
-    layer: Option<u32>,
-) {
-    let layers = colour.depth_or_array_layers();
-    let colour_view = layer_view(colour, layer, layers);
-    let depth_view = depth.map(|d| layer_view(d, layer, layers));
-    let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-        label: Some("eye layers"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &colour_view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
-        depth_stencil_attachment: depth_view.as_ref().map(|view| {
-            wgpu::RenderPassDepthStencilAttachment {
-                view,
-                depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: None,
-            }
-        }),
-        timestamp_writes: None,
-        occlusion_query_set: None,
-        multiview_mask: layer.is_none().then(|| all_views(layers)),
-    });
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, bind_group, &[]);
-    pass.draw(0..3, 0..1);
-}
-
-/// All of the views of a multiview pass.
-fn all_views(eyes: u32) -> NonZeroU32 {
-    NonZeroU32::new((1u32 << eyes) - 1).unwrap_or(NonZeroU32::MIN)
-}
-
-/// A view of one layer of `texture` (2D), or of all `layers` (an array, multiview).
-fn layer_view(texture: &wgpu::Texture, layer: Option<u32>, layers: u32) -> wgpu::TextureView {
-    let (dimension, base_array_layer, count) = match layer {
-        Some(l) => (wgpu::TextureViewDimension::D2, l, 1),
-        None => (wgpu::TextureViewDimension::D2Array, 0, layers),
-    };
-    texture.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(dimension),
-        base_array_layer,
-        array_layer_count: Some(count),
-        ..Default::default()
-    })
-}
-
-pub(super) fn bind_group(
-    ctx: &GpuContext,
-    layout: &wgpu::BindGroupLayout,
-    resources: &[wgpu::BindingResource<'_>],
-) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = (resources.iter().enumerate())
-        .map(|(i, r)| wgpu::BindGroupEntry {
-            binding: i as u32,
-            resource: r.clone(),
-        })
-        .collect();
-    ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("eye layers"),
-        layout,
-        entries: &entries,
-    })
-}
-
-/// The pipeline that puts the eyes on the swapchain images: `stage` (xr_eye.wgsl, or
-/// xr_multiview.wgsl for both eyes at once), writing depth when there is a depth target.
-pub(super) fn pipeline(
-    ctx: &GpuContext,
-    stage: &str,
-    layout: &wgpu::BindGroupLayout,
-    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
-    multiview: bool,
-) -> Result<wgpu::RenderPipeline> {
-    let fragment = match depth {
-        Some(_) => "fs_colour_depth",
-        None => "fs_colour",
-    };
-    let eyes = multiview.then(|| all_views(2));
-    crate::display::present::fullscreen_pipeline(
-        ctx,
-        (stage, fragment),
-        layout,
-        (colour, depth),
-        eyes,
-    )
 }

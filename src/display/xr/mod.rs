@@ -6,6 +6,7 @@
 //! instance and device the runtime creates; `session` runs the frame loop.
 
 mod controls;
+mod eye_pass;
 mod eyes;
 mod layers;
 mod multiview_check;
@@ -15,7 +16,6 @@ pub mod vulkan;
 
 pub use layers::Swapchains;
 pub use report::XrReport;
-pub use session::XrOptions;
 
 pub use super::MakeLightField;
 
@@ -23,6 +23,35 @@ use super::tracking::Pose;
 use crate::error::{Result, VlfError};
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::path::Path;
+
+/// The eyes' view configuration: one stereo pair.
+const VIEW_TYPE: openxr::ViewConfigurationType = openxr::ViewConfigurationType::PRIMARY_STEREO;
+
+/// What `vlf xr` is asked for.
+pub struct XrOptions {
+    /// request the end of the session after this many rendered frames (None: until the
+    /// runtime ends it)
+    pub frames: Option<u32>,
+    /// write the left eye's swapchain image of frame `screenshot_frame` (1-based) as PNG
+    pub screenshot: Option<std::path::PathBuf>,
+    pub screenshot_frame: u32,
+    pub exposure: f32,
+    /// the scene camera the viewer starts at (None: the first)
+    pub camera: Option<String>,
+    /// per-eye resolution relative to the runtime's recommendation (1.0: as recommended;
+    /// above 1 supersamples), clamped to the runtime's maximum
+    pub resolution_scale: f32,
+    /// antialiasing: eye rays per pixel (1 = off)
+    pub antialiasing: u32,
+    /// probe the eyes in the first frame and pace them after (render/budget.rs)
+    pub fit_frame_time: bool,
+    /// one array swapchain for both eyes, or one per eye
+    pub swapchains: Swapchains,
+}
+
+fn xr_error(what: &str) -> impl Fn(openxr::sys::Result) -> VlfError + '_ {
+    move |e| VlfError::Display(format!("OpenXR {what}: {e}"))
+}
 
 /// OpenXR's field of view of one eye: four angles in radians from the view direction (left and
 /// down are usually negative).

@@ -41,11 +41,11 @@ pub(super) fn multiview_failure(
         .map(|t| t.create_view(&Default::default()));
     let mut entries = vec![params.as_entire_binding()];
     entries.extend(views.iter().map(wgpu::BindingResource::TextureView));
-    let bind_group = super::layers::bind_group(ctx, layout, &entries);
+    let bind_group = super::eye_pass::bind_group(ctx, layout, &entries);
     let colour_target = target(ctx, colour);
     let depth_target = depth.map(|f| target(ctx, f));
     let mut encoder = device.create_command_encoder(&Default::default());
-    super::layers::layer_pass(
+    super::eye_pass::layer_pass(
         &mut encoder,
         (&colour_target, depth_target.as_ref()),
         (pipeline, &bind_group),

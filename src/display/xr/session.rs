@@ -8,9 +8,9 @@
 
 use super::controls::{controls, Controls};
 use super::eyes::{copy_to_buffer, write_screenshot, Eye};
-use super::layers::{Layers, Swapchains};
+use super::layers::Layers;
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
-use super::{eye_view, Fov, XrPose, XrRuntime};
+use super::{eye_view, xr_error, Fov, XrOptions, XrPose, XrRuntime, VIEW_TYPE};
 use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, ViewLabel};
 use crate::display::navigator::Navigator;
 use crate::display::present::present_pass;
@@ -21,40 +21,13 @@ use crate::render::budget::{Pacer, ProbeView};
 use crate::render::Renderer;
 use glam::{Quat, Vec3};
 use openxr as xr;
-use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-pub(super) const VIEW_TYPE: xr::ViewConfigurationType = xr::ViewConfigurationType::PRIMARY_STEREO;
 /// metres: the near plane of both eyes
 const NEAR: f32 = 0.05;
 /// metres: the near and far plane of the eyes' depth (the depth layer's nearZ and farZ)
 const DEPTH_RANGE: (f32, f32) = (NEAR, NEAR * super::FAR_OVER_NEAR);
-
-pub struct XrOptions {
-    /// request the end of the session after this many rendered frames (None: until the
-    /// runtime ends it)
-    pub frames: Option<u32>,
-    /// write the left eye's swapchain image of frame `screenshot_frame` (1-based) as PNG
-    pub screenshot: Option<PathBuf>,
-    pub screenshot_frame: u32,
-    pub exposure: f32,
-    /// the scene camera the viewer starts at (None: the first)
-    pub camera: Option<String>,
-    /// per-eye resolution relative to the runtime's recommendation (1.0: as recommended;
-    /// above 1 supersamples), clamped to the runtime's maximum
-    pub resolution_scale: f32,
-    /// antialiasing: eye rays per pixel (1 = off)
-    pub antialiasing: u32,
-    /// probe the eyes in the first frame and pace them after (render/budget.rs)
-    pub fit_frame_time: bool,
-    /// one array swapchain for both eyes, or one per eye
-    pub swapchains: Swapchains,
-}
-
-pub(super) fn xr_error(what: &str) -> impl Fn(xr::sys::Result) -> VlfError + '_ {
-    move |e| VlfError::Display(format!("OpenXR {what}: {e}"))
-}
 
 /// Where the stage stands in the world so that the head, as first tracked, is at the scene
 /// camera's eye and looks along its direction (yaw only; the floor stays level).
