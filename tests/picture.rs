@@ -466,8 +466,8 @@ fn an_emitter_seen_in_a_mirror_lights_a_floor_as_the_closed_form_says() {
 }
 
 #[test]
-fn the_readme_accuracy_block_is_current() {
-    // README's accuracy section is generated from docs/results/accuracy.json by
+fn the_accuracy_block_is_current() {
+    // docs/guide/accuracy.md's accuracy block is generated from docs/results/accuracy.json by
     // tools/accuracy.py; a hand edit or a stale block fails here
     let out = std::process::Command::new("python3")
         .arg(common::repo_path("tools/accuracy.py"))

@@ -270,7 +270,7 @@ output = {{ window = [340, 0] }}
     same_as_readme_picture(&img, &shot);
 }
 
-/// README shows this test's screenshot (docs/images/cave-xvfb.png): it must still be what the
+/// The guide shows this test's screenshot (docs/images/cave-xvfb.png, in docs/guide/tracking.md): it must still be what the
 /// windowed CAVE draws. Compared below the status band (its seconds count may differ): the mean
 /// absolute difference per channel at most 1 level of 255; a difference image on failure.
 fn same_as_readme_picture(img: &image::RgbImage, shot: &Path) {

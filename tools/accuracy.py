@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""The README's accuracy figures, from committed data only: vlf's default renders (from
+"""The accuracy figures of the user guide's docs/guide/accuracy.md, from committed data only: vlf's default renders (from
 tools/gpu-quality.sh on the lent GPU), the independent Mitsuba 3 references and their edge
 masks (tools/mitsuba/), compared by `vlf compare`.
 
     python3 tools/accuracy.py [--vlf target/release/vlf]            # docs/results/accuracy.json,
                                                                      # docs/images/accuracy-*.png,
-                                                                     # README block rewritten
-    python3 tools/accuracy.py --check                                # fail if README's block is stale
+                                                                     # the page's block rewritten
+    python3 tools/accuracy.py --check                                # fail if the page's block is stale
     python3 tools/accuracy.py --combine OUT.exr A.exr B.exr ...      # mean of references (and of
                                                                      # their -var.exr, divided by n^2)
 
@@ -33,6 +33,8 @@ VIEWS = [
 ]
 RESULTS = ROOT / "docs/results/h100/quality"
 REFERENCES = ROOT / "docs/results/reference"
+# the page the block is in; its images are in docs/images/ (relative to the page: ../images/)
+PAGE = "docs/guide/accuracy.md"
 BEGIN, END = "<!-- accuracy:begin (tools/accuracy.py) -->", "<!-- accuracy:end -->"
 
 
@@ -132,7 +134,7 @@ def block(rows, meta):
     lines += ["", "| view | vlf (default settings) | Mitsuba 3 reference | FLIP difference |", "|---|---|---|---|"]
     for r in rows:
         v = r["view"]
-        lines.append(f"| {v} | ![vlf](docs/images/accuracy-vlf-{v}.png) | ![Mitsuba](docs/images/accuracy-mitsuba-{v}.png) | ![FLIP](docs/images/accuracy-diff-{v}.png) |")
+        lines.append(f"| {v} | ![vlf](../images/accuracy-vlf-{v}.png) | ![Mitsuba](../images/accuracy-mitsuba-{v}.png) | ![FLIP](../images/accuracy-diff-{v}.png) |")
     lines += ["", END]
     return "\n".join(lines)
 
@@ -152,20 +154,20 @@ def combine(out, inputs):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--vlf", default=str(ROOT / "target/release/vlf"))
-    ap.add_argument("--check", action="store_true", help="fail if README's block differs from docs/results/accuracy.json")
+    ap.add_argument("--check", action="store_true", help="fail if docs/guide/accuracy.md's block differs from docs/results/accuracy.json")
     ap.add_argument("--combine", nargs="+", metavar=("OUT", "IN"))
     a = ap.parse_args()
     if a.combine:
         combine(a.combine[0], a.combine[1:])
         return 0
-    readme = ROOT / "README.md"
+    readme = ROOT / PAGE
     text = readme.read_text()
     if a.check:
         saved = json.loads((ROOT / "docs/results/accuracy.json").read_text())
         expected = block(saved["views"], saved)
         if expected not in text:
-            sys.exit("README.md's accuracy block is stale: run python3 tools/accuracy.py")
-        print("README.md's accuracy block matches docs/results/accuracy.json")
+            sys.exit(f"{PAGE}'s accuracy block is stale: run python3 tools/accuracy.py")
+        print(f"{PAGE}'s accuracy block matches docs/results/accuracy.json")
         return 0
     meta = {"gpu": (RESULTS / "gpu.txt").read_text().strip().split(",")[0], "commit": (RESULTS / "commit.txt").read_text().strip()}
     rows = measure(a.vlf)

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Fills every measured figure in README.md from the committed results, so none is typed by hand.
+"""Fills every measured figure in README.md and the user guide (docs/guide/*.md) from the committed
+results, so none is typed by hand.
 
 Two kinds of marks in the Markdown (HTML comments, invisible when rendered):
 
@@ -14,7 +15,7 @@ Two kinds of marks in the Markdown (HTML comments, invisible when rendered):
     <!--/include-->
         a verbatim text file from docs/results/ (e.g. a run's printed summary), fenced.
 
-    python3 tools/figures.py            # rewrite README.md in place
+    python3 tools/figures.py            # rewrite README.md and docs/guide/*.md in place
     python3 tools/figures.py --check    # exit 1 and show the stale figures (tests/docs.rs runs it)
 
 Expressions are Python over `j` (the file's JSON, keys as attributes: j.views[0].gpu_ms.p99)
@@ -89,7 +90,7 @@ SAFE = {"by": by, "int": int, "float": float, "max": max, "min": min, "sum": sum
 
 def figure(name, table, cache):
     if name not in table:
-        raise SystemExit(f"README.md: figure {name!r} is not defined in tools/figures.toml")
+        raise SystemExit(f"figure {name!r} is not defined in tools/figures.toml")
     spec = table[name]
     path = ROOT / spec["file"]
     if path not in cache:
@@ -110,26 +111,28 @@ def render(text, table):
     def include(m):
         path = ROOT / m[1].strip()
         if not path.exists():
-            raise SystemExit(f"README.md: included file {m[1]} does not exist")
+            raise SystemExit(f"included file {m[1]} does not exist")
         body = path.read_text().rstrip("\n")
         return f"<!--include:{m[1]}-->\n```\n{body}\n```\n<!--/include-->"
 
     return INCLUDE.sub(include, text)
 
 
+def documents():
+    """README.md and the guide's pages, as paths relative to the repository."""
+    return ["README.md"] + sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs/guide").glob("*.md"))
+
+
 def main(argv):
     check = "--check" in argv
     table = tomllib.loads((ROOT / "tools/figures.toml").read_text())
     status = 0
-    for doc in ("README.md",):
+    used = set()
+    for doc in documents():
         path = ROOT / doc
         old = path.read_text()
         new = render(old, table)
-        used = {name for name, _ in FIG.findall(old)}
-        unused = sorted(set(table) - used)
-        if unused and doc == "README.md":
-            print(f"tools/figures.toml: defined but not used in README.md: {', '.join(unused)}", file=sys.stderr)
-            status = 1
+        used |= {name for name, _ in FIG.findall(old)}
         if new == old:
             continue
         if check:
@@ -142,6 +145,10 @@ def main(argv):
             tmp.write_text(new)
             tmp.replace(path)
             print(f"{doc}: figures updated", file=sys.stderr)
+    unused = sorted(set(table) - used)
+    if unused:
+        print(f"tools/figures.toml: defined but used in no document: {', '.join(unused)}", file=sys.stderr)
+        status = 1
     return status
 
 

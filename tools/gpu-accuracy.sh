@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Runs on the lent NVIDIA machine: references, sweeps and the walkthrough for the README's
-# accuracy section, packed into OUT_DIR/accuracy.tar.   tools/gpu-accuracy.sh VLF_BINARY OUT_DIR
+# Runs on the lent NVIDIA machine: references, sweeps and the walkthrough for the guide's
+# accuracy page (docs/guide/accuracy.md), packed into OUT_DIR/accuracy.tar.   tools/gpu-accuracy.sh VLF_BINARY OUT_DIR
 set -uo pipefail
 vlf=$1; out=$2; work=$(mktemp -d)
 for scene in cornell cornell-mirror; do

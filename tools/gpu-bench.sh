@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs on the lent NVIDIA machine (see DEVELOPERS.md): the suite (`vlf bench --suite`), `vlf
+# Runs on the lent NVIDIA machine (docs/guide/lab.md): the suite (`vlf bench --suite`), `vlf
 # bench` on the Cornell box and the Cornell-mirror box at our defaults and at the paper's
 # settings, a perturbation run, the
 # README images, and BENCHMARKS.md assembled from it all, everything into OUT_DIR.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Runs on the lent NVIDIA machine: the picture-quality figures (README "Picture quality").
+# Runs on the lent NVIDIA machine: the picture-quality figures (docs/guide/accuracy.md).
 # Default-setting propagation of Cornell and Cornell-mirror (reports; bench runs them again
 # warm), 512x512 stills of the accuracy views at default settings (EXR, compared here with the
 # Mitsuba references by tools/accuracy.py), view times at 1024x768 with the real-time and the
@@ -10,7 +10,7 @@ set -uo pipefail
 vlf=$1; out=$2; work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
 for scene in cornell cornell-mirror; do
-  # the printed summary is kept as text too (README includes Cornell's)
+  # the printed summary is kept as text too (docs/guide/getting-started.md includes Cornell's)
   "$vlf" propagate scenes/$scene/scene.toml -o $work/$scene.vlf --report $work/propagate-$scene.json 2>&1 | quiet \
     | grep -E '^  [a-zA-Z]' | tee $work/propagate-$scene.txt
   "$vlf" bench --scene scenes/$scene/scene.toml --frames 200 --json $work/bench-$scene.json 2>&1 | quiet | grep -E "render|setup|visibility  |propagation  "

@@ -3,7 +3,7 @@
 # materials against `vlf reference`, into OUT_DIR (JSON, tables, error maps):
 #   - the Space Ship Hallway (third-party glTF, every material doubleSided), both cameras;
 #   - the Cornell box with every material but the light two-sided, and the shipped one-sided
-#     box, which must agree (the two-sided fix, README "Scenes").
+#     box, which must agree (the two-sided fix, docs/guide/scenes.md).
 #   tools/gpu-verify.sh VLF_BINARY OUT_DIR [SPP]
 set -uo pipefail
 vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2"); spp=${3:-4096}

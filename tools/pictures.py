@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""README's pictures and what makes them: docs/images/pictures.toml (the manifest).
+"""The documents' pictures and what makes them: docs/images/pictures.toml (the manifest).
 
-Every picture README.md, BENCHMARKS.md and ARCHITECTURE.md show has an entry: the command that
+Every picture README.md, BENCHMARKS.md, ARCHITECTURE.md and the guide (docs/guide/) show has an entry: the command that
 makes it (`made_by`), where it must run (`machine`: gpu or software), what it shows (`shows`:
 the repository paths whose change changes the picture: scenes, display configs, results it is
 drawn from, the code that draws it), and, stamped when it was made, the commit, the adapter and
@@ -63,7 +63,7 @@ def write(pictures):
     """The manifest back, entries in their order, keys in a fixed order."""
     keys = ["image", "made_by", "machine", "shows", "made_at", "adapter", "inputs_sha256"]
     lines = [
-        "# README's pictures: what makes each one and what it shows (tools/pictures.py explains the",
+        "# The documents' pictures: what makes each one and what it shows (tools/pictures.py explains the",
         "# fields; tests/docs.rs fails when a picture's `shows` changed since `inputs_sha256`).",
         "# Stamped by tools/pictures.py: edit `made_by`, `machine` and `shows` by hand, not the rest.",
         "",

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Makes README's pictures with the build at hand, each by the command docs/images/pictures.toml
+# Makes the documents' pictures with the build at hand, each by the command docs/images/pictures.toml
 # names for it, and stamps the manifest with the commit, the adapter and the inputs' hash
 # (tools/pictures.py; tests/docs.rs fails when a picture's inputs changed since it was made).
 #   bash tools/pictures.sh VLF_BINARY OUT_DIR [NAME ...]

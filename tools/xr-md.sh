@@ -13,7 +13,7 @@ print(f"`tools/gpu-xr.sh` on **{read('gpu.txt')}** (driver), commit {read('commi
       "Per-eye sizes of two headsets: Valve Index (1440x1600) and Meta Quest 3 (2064x2208); 900 frames each (10 s); the light field of each scene at default settings, loaded from .vlf. "
       "GPU time is the eye's render pass (timestamp queries); CPU frame is xrBeginFrame to xrEndFrame including the present pass and the wait for the GPU; "
       "a missed refresh is a display period between consecutive predicted display times that no frame was submitted for; a late frame is one whose xrEndFrame came after its predicted display time (runtime clock): "
-      "the definitions of the time of this run (the report now replays the compositor's display instead, README \"OpenXR headset\").\n")
+      "the definitions of the time of this run (the report now replays the compositor's display instead: docs/guide/headset.md).\n")
 print("| scene | eye | pixels | GPU p50 (ms) | p99 | max | p99/p50 | CPU frame p50 / p99 / max (ms) | frames | missed refreshes | late frames | runtime's checks |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|")
 for f in sorted(glob.glob(os.path.join(d, "xr-*.json"))):

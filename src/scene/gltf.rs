@@ -1,6 +1,6 @@
 //! glTF 2.0 import (`.gltf` with external or embedded buffers, `.glb`) through the `gltf` crate,
 //! into the same [`ImportedMesh`] the OBJ importer yields, so prepare and propagate do not know
-//! where a scene came from. README "glTF models" states what is read and the approximation rules:
+//! where a scene came from. docs/guide/gltf.md states what is read and the approximation rules:
 //! - geometry: the default scene's node hierarchy with its transforms, every primitive
 //!   (triangles; strips and fans converted; points and lines skipped with a warning);
 //! - materials (`material.rs`): base colour (factor x sRGB texture) as diffuse, or as an ideal

@@ -1,5 +1,5 @@
 //! glTF materials to the light field's: what a metallic-roughness material becomes, by the rules
-//! README "glTF models" states. The light field holds a diffuse reflectance (with a texture), an
+//! docs/guide/gltf.md states. The light field holds a diffuse reflectance (with a texture), an
 //! ideal mirror reflectance (one colour per material) and an emitted radiance (with a texture):
 //! - metallic >= 0.5 and roughness <= 0.2: an ideal mirror of the base colour (factor times
 //!   the texture's mean), no diffuse;
