@@ -2,8 +2,12 @@
 //! scenes from files it reads itself (tools/mitsuba/reference.py parses scene.toml, OBJ and MTL
 //! in Python; no vlf code), and vlf's own path tracer and the light field must agree with it.
 //!
-//! Needs Python 3.11+ with `pip install mitsuba numpy` (.ci/run installs them). Without them
-//! these tests fail and say so: they never pass without running.
+//! Needs Python 3.11+ with `pip install mitsuba numpy pygltflib` (`bash tools/setup.sh test`
+//! installs them). Without them these tests fail and say so: they never pass without running.
+//!
+//! reference.py also reads glTF (.gltf / .glb) by vlf's rules: the same scene written as OBJ and
+//! as glTF renders the same image, and vlf's importer and reference.py's make the same scene of
+//! a model that exercises every rule (tools/mitsuba/gltf_cases.py).
 //!
 //! Agreement is judged against what noise alone explains: for two unbiased estimates a and b
 //! with per-pixel variances va and vb, the expected relMSE is mean((va + vb) / (b^2 + 0.01)).
@@ -19,8 +23,8 @@ use vlf::propagate::PropagationParams;
 use vlf::render::{image_io, Frame, Renderer};
 use vlf::scene::Scene;
 
-const HOW_TO_GET_MITSUBA: &str = "these tests need Python 3.11+ with Mitsuba 3 and numpy: \
-     `pip install mitsuba numpy` (.ci/run and tools/setup.sh --mitsuba install them)";
+const HOW_TO_GET_MITSUBA: &str = "these tests need Python 3.11+ with Mitsuba 3, numpy and \
+     pygltflib: `pip install mitsuba numpy pygltflib` (`bash tools/setup.sh test` installs them)";
 
 /// Mitsuba's mean and variance-of-the-mean images (scalar_rgb: no LLVM needed).
 fn mitsuba(scene: &str, camera: &str, size: u32, spp: u32, dir: &Path) -> (Frame, Frame) {
@@ -208,4 +212,322 @@ fn vlf_export_mitsuba_writes_a_scene_per_camera() {
     let err = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success());
     assert!(err.contains("no/such/scene.toml"), "{err}");
+}
+
+/// Runs `python3 SCRIPT ARGS...` (a repository script), failing with its stderr and how to get
+/// what it needs. Returns its stderr.
+fn python(script: &str, args: &[&std::ffi::OsStr]) -> String {
+    let run = Command::new("python3")
+        .arg(repo_path(script))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run python3 ({e}); {HOW_TO_GET_MITSUBA}"));
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(
+        run.status.success(),
+        "{script} failed:\n{stderr}\n{HOW_TO_GET_MITSUBA}"
+    );
+    stderr
+}
+
+/// reference.py's render of `scene` (camera "front", 32x32, 16 spp, seed 0, scalar_rgb).
+fn mitsuba_small(scene: &Path, out: &Path) -> Frame {
+    python(
+        "tools/mitsuba/reference.py",
+        &[
+            scene.as_os_str(),
+            "--camera".as_ref(),
+            "front".as_ref(),
+            "--size".as_ref(),
+            "32x32".as_ref(),
+            "--spp".as_ref(),
+            "16".as_ref(),
+            "--variant".as_ref(),
+            "scalar_rgb".as_ref(),
+            "--quiet".as_ref(),
+            "-o".as_ref(),
+            out.as_os_str(),
+        ],
+    );
+    image_io::read_image(out).unwrap()
+}
+
+/// The Cornell box and the textured room written as glTF by an independent writer
+/// (tools/obj2gltf.py: .gltf + .bin + PNG files, and .glb with everything embedded) render in
+/// reference.py as their OBJ/MTL originals do: the same triangles in the same order, the same
+/// materials and textures, so the same samples give the same image.
+#[test]
+fn reference_py_renders_gltf_as_the_obj_it_was_written_from() {
+    let dir = tempfile::tempdir().unwrap();
+    for (scene, glb) in [("cornell", false), ("textured-room", true)] {
+        let out = dir.path().join(scene);
+        let toml = repo_path(&format!("scenes/{scene}/scene.toml"));
+        let mut args = vec![toml.as_os_str(), out.as_os_str()];
+        if glb {
+            args.push("--glb".as_ref());
+        }
+        python("tools/obj2gltf.py", &args);
+        let obj = mitsuba_small(&toml, &dir.path().join(format!("{scene}-obj.exr")));
+        let gltf = mitsuba_small(
+            &out.join("scene.toml"),
+            &dir.path().join(format!("{scene}-gltf.exr")),
+        );
+        let peak = obj
+            .pixels
+            .iter()
+            .flat_map(|p| p[..3].iter())
+            .fold(0.0f32, |m, &v| m.max(v));
+        let worst = obj
+            .pixels
+            .iter()
+            .zip(&gltf.pixels)
+            .flat_map(|(a, b)| (0..3).map(move |c| (a[c] - b[c]).abs()))
+            .fold(0.0f32, f32::max);
+        eprintln!(
+            "{scene}: OBJ vs glTF{}: largest pixel difference {worst:e} (peak {peak})",
+            if glb { " (.glb)" } else { "" }
+        );
+        // measured: 0 (bit-identical images); float rounding of a differently parsed number
+        // would stay far below this
+        assert!(peak > 0.0, "{scene}: the OBJ render is black");
+        assert!(
+            worst <= 1e-5 * peak,
+            "{scene}: reference.py renders the glTF {worst:e} away from the OBJ (peak {peak}): \
+             the glTF import differs from the OBJ's"
+        );
+    }
+}
+
+/// vlf's glTF importer and reference.py's (which shares no code with it) make the same scene of
+/// a model that exercises every import rule at once (tools/mitsuba/gltf_cases.py: node
+/// hierarchy, TRS and negative scale, strips, fans, lines, sparse and quantised accessors,
+/// strides, zero-area and repeated triangles, every material rule, overrides, cameras): the
+/// same triangles bit for bit per material, the same texture coordinates, colours and cameras.
+#[test]
+fn reference_py_reads_gltf_as_vlf_does() {
+    for glb in [false, true] {
+        let dir = tempfile::tempdir().unwrap();
+        let mut args = vec![dir.path().as_os_str()];
+        if glb {
+            args.push("--glb".as_ref());
+        }
+        python("tools/mitsuba/gltf_cases.py", &args);
+        let (toml, json) = (dir.path().join("scene.toml"), dir.path().join("scene.json"));
+        python(
+            "tools/mitsuba/reference.py",
+            &[toml.as_os_str(), "--dump-json".as_ref(), json.as_os_str()],
+        );
+        let py: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let scene = Scene::load(&toml).unwrap();
+        let what = if glb { "cases.glb" } else { "cases.gltf" };
+        same_triangles(&scene, &py, what);
+        same_materials(&scene, &py, what);
+        same_cameras(&scene, &py, what);
+    }
+    // a model on its own (no scene.toml beside it): no sky, vlf's framing camera
+    let dir = tempfile::tempdir().unwrap();
+    let toml = repo_path("scenes/cornell/scene.toml");
+    python(
+        "tools/obj2gltf.py",
+        &[toml.as_os_str(), dir.path().as_os_str(), "--glb".as_ref()],
+    );
+    std::fs::remove_file(dir.path().join("scene.toml")).unwrap();
+    let (model, json) = (dir.path().join("model.glb"), dir.path().join("model.json"));
+    python(
+        "tools/mitsuba/reference.py",
+        &[model.as_os_str(), "--dump-json".as_ref(), json.as_os_str()],
+    );
+    let py: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let scene = Scene::load(&model).unwrap();
+    same_triangles(&scene, &py, "model.glb alone");
+    same_materials(&scene, &py, "model.glb alone");
+    same_cameras(&scene, &py, "model.glb alone");
+}
+
+/// A triangle as (material, corners' bits, texture coordinates), turned so that the corner of
+/// the smallest bits comes first (the winding kept).
+type Tri = (String, [[u32; 3]; 3], Option<[[f32; 2]; 3]>);
+
+fn canonical(material: String, corners: [[f32; 3]; 3], uv: Option<[[f32; 2]; 3]>) -> Tri {
+    let bits = corners.map(|p| p.map(f32::to_bits));
+    let r = (0..3).min_by_key(|&k| bits[k]).unwrap();
+    let turn = |k: usize| (r + k) % 3;
+    (
+        material,
+        [bits[turn(0)], bits[turn(1)], bits[turn(2)]],
+        uv.map(|t| [t[turn(0)], t[turn(1)], t[turn(2)]]),
+    )
+}
+
+fn floats(v: &serde_json::Value) -> Vec<f32> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap() as f32)
+        .collect()
+}
+
+fn same_triangles(scene: &Scene, py: &serde_json::Value, what: &str) {
+    let mut ours: Vec<Tri> = scene
+        .triangles
+        .iter()
+        .map(|t| {
+            let m = &scene.materials[t.material as usize];
+            let textured = m.diffuse_texture.is_some() || m.emission_texture.is_some();
+            let corners = t.vertices.map(|v| scene.positions[v as usize]);
+            canonical(m.name.clone(), corners, t.uv.filter(|_| textured))
+        })
+        .collect();
+    let mut theirs: Vec<Tri> = Vec::new();
+    for group in py["groups"].as_array().unwrap() {
+        let name = group["material"].as_str().unwrap().to_string();
+        let uvs = group["uv"].as_array();
+        for (i, c) in group["corners"].as_array().unwrap().iter().enumerate() {
+            let c = floats(c);
+            let corners = std::array::from_fn(|k| [c[3 * k], c[3 * k + 1], c[3 * k + 2]]);
+            let uv = uvs.map(|u| {
+                let u = floats(&u[i]);
+                std::array::from_fn(|k| [u[2 * k], u[2 * k + 1]])
+            });
+            theirs.push(canonical(name.clone(), corners, uv));
+        }
+    }
+    let key = |t: &Tri| (t.0.clone(), t.1);
+    ours.sort_by_key(key);
+    theirs.sort_by_key(key);
+    assert_eq!(
+        ours.len(),
+        theirs.len(),
+        "{what}: vlf keeps {} triangles, reference.py {}",
+        ours.len(),
+        theirs.len()
+    );
+    for (a, b) in ours.iter().zip(&theirs) {
+        assert_eq!(
+            key(a),
+            key(b),
+            "{what}: a triangle differs (vlf, reference.py)"
+        );
+        match (a.2, b.2) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                let d = (0..3)
+                    .flat_map(|k| (0..2).map(move |c| (x[k][c] - y[k][c]).abs()))
+                    .fold(0.0f32, f32::max);
+                assert!(
+                    d <= 1e-6,
+                    "{what}: material {}: texture coordinates {x:?} (vlf) vs {y:?}",
+                    a.0
+                );
+            }
+            _ => panic!(
+                "{what}: material {}: texture coordinates {:?} (vlf) vs {:?}",
+                a.0, a.2, b.2
+            ),
+        }
+    }
+    eprintln!(
+        "{what}: {} triangles, the same in vlf and reference.py",
+        ours.len()
+    );
+}
+
+fn same_materials(scene: &Scene, py: &serde_json::Value, what: &str) {
+    let theirs = py["materials"].as_object().unwrap();
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    let mut py_names: Vec<&str> = theirs.keys().map(String::as_str).collect();
+    let mut our_names = names.clone();
+    py_names.sort();
+    our_names.sort();
+    assert_eq!(
+        our_names, py_names,
+        "{what}: material names (vlf, reference.py)"
+    );
+    for m in &scene.materials {
+        let p = &theirs[&m.name];
+        for (field, ours) in [
+            ("diffuse", m.diffuse),
+            ("mirror", m.mirror),
+            ("emission", m.emission),
+        ] {
+            let t = floats(&p[field]);
+            for c in 0..3 {
+                assert!(
+                    (ours[c] - t[c]).abs() <= 1e-6 * ours[c].abs().max(1.0),
+                    "{what}: material {}: {field} {ours:?} (vlf) vs {t:?} (reference.py)",
+                    m.name
+                );
+            }
+        }
+        assert_eq!(
+            m.two_sided,
+            p["two_sided"].as_bool().unwrap(),
+            "{what}: {} two_sided",
+            m.name
+        );
+        // vlf attaches an image to every material naming it once any triangle carries texture
+        // coordinates for it (a material's triangles without them then still name it)
+        let groups = py["groups"].as_array().unwrap();
+        let read = |image: &serde_json::Value| {
+            !image.is_null()
+                && groups.iter().any(|g| {
+                    let of = &theirs[g["material"].as_str().unwrap()];
+                    g["textured"] == true
+                        && (of["diffuse_texture"] == *image || of["emission_texture"] == *image)
+                })
+        };
+        for (field, ours) in [
+            ("diffuse_texture", m.diffuse_texture.is_some()),
+            ("emission_texture", m.emission_texture.is_some()),
+        ] {
+            let t = read(&p[field]);
+            assert_eq!(
+                ours, t,
+                "{what}: material {}: {field}: vlf {ours}, reference.py {t}",
+                m.name
+            );
+        }
+    }
+}
+
+fn same_cameras(scene: &Scene, py: &serde_json::Value, what: &str) {
+    let sky = (!py["sky"].is_null()).then(|| floats(&py["sky"]));
+    assert_eq!(scene.sky.map(|s| s.to_vec()), sky, "{what}: sky");
+    let theirs = py["cameras"].as_array().unwrap();
+    assert_eq!(scene.cameras.len(), theirs.len(), "{what}: cameras");
+    for (c, t) in scene.cameras.iter().zip(theirs) {
+        assert_eq!(c.name, t["name"].as_str().unwrap(), "{what}: camera names");
+        for (field, ours) in [("eye", c.eye), ("target", c.target), ("up", c.up)] {
+            let v = floats(&t[field]);
+            let d = (0..3)
+                .map(|k| (ours[k] - v[k]).abs())
+                .fold(0.0f32, f32::max);
+            assert!(
+                d <= 1e-5,
+                "{what}: camera {}: {field} {ours:?} (vlf) vs {v:?}",
+                c.name
+            );
+        }
+        let fov = t["fov_y_deg"].as_f64().unwrap() as f32;
+        assert!(
+            (c.fov_y_deg - fov).abs() <= 1e-4,
+            "{what}: camera {}: fov {} vs {fov}",
+            c.name,
+            c.fov_y_deg
+        );
+        let size: Vec<u64> = t["size"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_u64().unwrap())
+            .collect();
+        assert_eq!(
+            c.size.map(u64::from).to_vec(),
+            size,
+            "{what}: camera {} size",
+            c.name
+        );
+    }
 }

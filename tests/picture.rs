@@ -481,3 +481,20 @@ fn the_accuracy_block_is_current() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn the_accuracy_suite_block_is_current() {
+    // docs/guide/accuracy.md's block for models made by other people is generated from
+    // docs/results/h100/accuracy-suite/suite.json by tools/accuracy-suite.py
+    let out = std::process::Command::new("python3")
+        .arg(common::repo_path("tools/accuracy-suite.py"))
+        .args(["report", "--check"])
+        .output()
+        .expect("python3 runs tools/accuracy-suite.py (install python3 >= 3.11)");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -195,6 +195,44 @@ fn the_shipped_cornell_box_loads_without_a_warning() {
     );
 }
 
+/// scenes/small-things is what tools/make-small-things.py writes, and its detail is what the
+/// accuracy suite says it is: smaller than a texel and a grid cell at default settings.
+#[test]
+fn the_small_things_scene_is_its_scripts_and_its_detail_is_below_a_texel() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = std::process::Command::new("python3")
+        .arg(repo_path("tools/make-small-things.py"))
+        .arg(dir.path())
+        .output()
+        .expect("python3 runs tools/make-small-things.py");
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    for file in ["room.obj", "room.mtl", "scene.toml"] {
+        let shipped = std::fs::read(repo_path(&format!("scenes/small-things/{file}"))).unwrap();
+        let written = std::fs::read(dir.path().join(file)).unwrap();
+        assert!(
+            shipped == written,
+            "scenes/small-things/{file} differs from what tools/make-small-things.py writes"
+        );
+    }
+    let scene = Scene::load(&repo_path("scenes/small-things/scene.toml")).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let density = vlf::params::PropagationParams::default().texel_density;
+    let prepared = vlf::prepare::PreparedScene::new(&scene, density).unwrap();
+    let small = prepared
+        .warnings
+        .iter()
+        .any(|w| w.contains("smaller than one texel"));
+    assert!(
+        small,
+        "no face below a texel at density {density}: {:?}",
+        prepared.warnings
+    );
+}
+
 #[test]
 fn cornell_groups_into_planar_faces_with_a_padded_atlas() {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();

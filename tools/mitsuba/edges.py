@@ -24,14 +24,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import reference  # noqa: E402  (the exporter: same scene semantics, same camera)
 
 
-def first_diffuse_hits(xml, width, height, variant, bounces=4):
+def first_diffuse_hits(xml, width, height, variant, bounces=4, merge=True):
     """Per sub-pixel: the shape, geometric normal and path length where the eye ray, reflected
     through ideal mirrors, first meets a surface that is not a pure mirror (or leaves: sky)."""
     import mitsuba as mi
     import drjit as dr
     mi.set_variant(variant)
     reference.register_plugins()
-    scene = mi.load_file(str(xml), spp="1", width=str(width), height=str(height))
+    # merge=False keeps one shape per material (Mitsuba merges identical ones by default)
+    scene = mi.load_file(str(xml), optimize=merge, spp="1", width=str(width), height=str(height))
     sensor = scene.sensors()[0]
     idx = dr.arange(mi.UInt32, width * height)
     pos = mi.Point2f((mi.Float(idx % width) + 0.5) / width, (mi.Float(idx // width) + 0.5) / height)
@@ -58,11 +59,24 @@ def first_diffuse_hits(xml, width, height, variant, bounces=4):
     normal = np.array(final_n).reshape(3, -1).T.reshape(height, width, 3) if np.array(final_n).ndim == 2 and np.array(final_n).shape[0] == 3 else np.array(final_n).reshape(height, width, 3)
     valid = np.array(final_valid).reshape(height, width)
     depth = np.array(length).reshape(height, width)
-    return shape, normal, np.where(valid, depth, 0.0)
+    shapes = scene.shapes()
+    ids = np.array(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shapes))) if hasattr(dr, "reinterpret_array") else []
+    names = {int(i): s.id() for i, s in zip(ids, shapes)}
+    return shape, normal, np.where(valid, depth, 0.0), names
+
+
+def surfaces(xml, width, height, variant, path):
+    """Per pixel (its centre): which material's surface the eye sees first past ideal mirrors,
+    -1 for the sky, as JSON {"ids": [...row-major...], "names": {id: material}}."""
+    import json
+    sid, _, depth, names = first_diffuse_hits(xml, width, height, variant, merge=False)
+    ids = np.where(depth > 0.0, sid.astype(np.int64), -1)
+    names = {k: v[len("mesh-"):] if v.startswith("mesh-") else v for k, v in names.items()}
+    Path(path).write_text(json.dumps({"width": width, "height": height, "ids": ids.ravel().tolist(), "names": names}))
 
 
 def edge_map(xml, width, height, variant):
-    sid, normal, depth = first_diffuse_hits(xml, width, height, variant)
+    sid, normal, depth, _ = first_diffuse_hits(xml, width, height, variant)
     sky = depth <= 0.0
     edge = np.zeros(sid.shape, dtype=bool)
     for axis in (0, 1):
@@ -88,6 +102,7 @@ def main(argv=None):
     ap.add_argument("--oversample", type=int, default=4)
     ap.add_argument("--variant", default="llvm_ad_rgb")
     ap.add_argument("-o", "--output", required=True)
+    ap.add_argument("--surfaces", help="also write the material each pixel sees (JSON), for error maps by surface")
     a = ap.parse_args(argv)
     import mitsuba as mi
     mi.set_variant(a.variant)
@@ -101,6 +116,8 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="vlf-edges-") as tmp:
         files, _ = reference.export(scene, built, tmp, spp=1)
         fine = edge_map(files[cam["name"]], width * k, height * k, a.variant)
+        if a.surfaces:
+            surfaces(files[cam["name"]], width, height, a.variant, a.surfaces)
     coarse = fine.reshape(height, k, width, k).any(axis=(1, 3))
     near = np.zeros_like(coarse)
     r = a.radius

@@ -1,19 +1,25 @@
 #!/usr/bin/env python3
 """Independent Mitsuba 3 path-traced reference for vlf scenes (ARCHITECTURE.md, "Scene files: the contract").
 
-Shares no code with vlf: scene.toml, OBJ and MTL are parsed here. The scene is written out
-as a standalone Mitsuba XML scene (PLY meshes, one per material; textures premultiplied by
-Kd / Ke as linear EXR) and that very file is what gets rendered, so `--export` produces
-exactly what the reference renders.
+Shares no code with vlf: scene.toml, OBJ and MTL are parsed here, and glTF 2.0 (.gltf / .glb,
+with json + numpy), each with vlf's rules. The scene is written out as a standalone
+Mitsuba XML scene (PLY meshes, one per material; textures as 8-bit sRGB PNG, or
+premultiplied by their factor as linear EXR) and that very file is what gets rendered, so
+`--export` produces exactly what the reference renders.
 
-    python3 tools/mitsuba/reference.py SCENE.toml --camera NAME --size WxH --spp N -o out.exr
+    python3 tools/mitsuba/reference.py SCENE.toml|MODEL.glb --camera NAME --size WxH --spp N -o out.exr
         [--seed S] [--variant llvm_ad_rgb|scalar_rgb] [--variance var.exr] [--png out.png]
     python3 tools/mitsuba/reference.py SCENE.toml --export DIR     # DIR/<camera>.xml, geometry.xml, ...
+
+A .gltf / .glb given instead of a scene.toml is read as `vlf` reads it: with the scene.toml
+beside it whose `mesh` names it, else with the model's cameras (or one framing the model).
 
 Output: linear RGB radiance, float32 EXR (3 channels, ZIP compressed), row 0 = top.
 """
 
 import argparse
+import base64
+import json
 import math
 import os
 import struct
@@ -21,6 +27,7 @@ import sys
 import tempfile
 import time
 import tomllib
+import urllib.parse
 import zlib
 from pathlib import Path
 
@@ -69,7 +76,17 @@ def _color(v, where, reflectance):
 
 
 def load_scene_toml(path):
+    """scene.toml, or a .gltf / .glb model on its own (as `vlf` loads one: a scene.toml beside
+    it whose mesh names it supplies sky, cameras and overrides; else none of them)."""
     path = Path(path)
+    if is_gltf(path):
+        beside = path.parent / "scene.toml"
+        if beside.is_file():
+            with open(beside, "rb") as f:
+                mesh = tomllib.load(f).get("mesh")
+            if mesh is not None and Path(mesh).name == path.name:
+                return load_scene_toml(beside)
+        return {"name": path.stem, "mesh": path.resolve(), "sky": None, "cameras": [], "overrides": {}}
     with open(path, "rb") as f:
         doc = tomllib.load(f)
     unknown = set(doc) - {"name", "mesh", "sky", "camera", "materials"}
@@ -189,10 +206,751 @@ def load_obj(path):
 
 
 # ---------------------------------------------------------------------------------------------
+# glTF 2.0 (.gltf with external or data: buffers, .glb), read with json + numpy. Here, not
+# in a module of its own: `vlf export mitsuba` embeds this one file and runs it alone. Shares no
+# code with vlf, but reproduces the scene vlf's importer (src/scene/gltf.rs,
+# src/scene/gltf/material.rs) makes of a model, rule for rule, so that a difference between the
+# two renderers measures transport, not a different scene:
+#
+# - geometry: the default scene (`scene`, else scenes[0], else every root node), depth first,
+#   each mesh instance in its world transform (`matrix`, or T * R * S composed in float32 as the
+#   `gltf` crate does, then float64 products); corners placed in float64 and rounded to float32;
+#   a negative determinant reverses the winding; triangle lists, strips and fans (points and
+#   lines skipped with a warning); accessors of any component type, byteOffset / byteStride,
+#   normalised integers (KHR_mesh_quantization), sparse substitutions;
+# - clean-up: corners welded by their float32 bits, zero-area triangles (area <= 1e-14 x the
+#   largest absolute coordinate squared) and repeats of a kept triangle (same corners, same
+#   winding) dropped, in file order;
+# - materials (scene.toml `[materials.NAME]` overrides on top): metallic >= 0.5 and roughness
+#   <= 0.2 -> an ideal mirror of baseColorFactor (times the mean of its base colour texture);
+#   everything else -> diffuse of baseColorFactor x baseColorTexture; emission = emissiveFactor
+#   x KHR_materials_emissive_strength (x emissiveTexture); doubleSided -> two-sided; alpha,
+#   transmission, normal / occlusion / metallic-roughness maps ignored; one set of texture
+#   coordinates per material (the base colour's, else the emissive's) with its
+#   KHR_texture_transform; every sampler taken as repeat + bilinear; primitives without a
+#   material: grey diffuse 0.5;
+# - cameras: perspective glTF cameras join the scene.toml ones (a scene.toml camera of the same
+#   name wins); KHR_lights_punctual lights are ignored (as vlf does, with a warning).
+
+
+READ_EXTENSIONS = ("KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual",
+                   "KHR_materials_transmission", "KHR_mesh_quantization")
+MAX_INSTANCES = 1 << 20
+MAX_DEPTH = 256
+MAX_ZERO_ELEMENTS = 1 << 24
+MIRROR_METALLIC = np.float32(0.5)
+MIRROR_ROUGHNESS = np.float32(0.2)
+DEGENERATE_AREA = 1e-14
+
+_COMPONENT = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
+_DIMS = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
+F32 = np.float32
+
+
+def is_gltf(path):
+    """True for a .gltf / .glb path (vlf decides by the extension too)."""
+    return Path(path).suffix.lower() in (".gltf", ".glb")
+
+
+# ---------------------------------------------------------------------------------------------
+# the file, buffers, accessors
+
+
+class _J(dict):
+    """A glTF JSON object: its fields also as attributes, None when absent (but for names of
+    dict's own methods: sparse `values` is read with .get)."""
+    __slots__ = ()
+
+    def __getattr__(self, key):
+        return self.get(key)
+
+
+_ARRAYS = ("accessors", "bufferViews", "buffers", "nodes", "meshes", "materials", "textures", "images",
+           "cameras", "scenes", "samplers")
+
+
+def read_gltf_json(path):
+    """The document (JSON objects as `_J`) and the GLB binary chunk (None for .gltf). The JSON is
+    read with Python's json module: pygltflib's dataclass decoding takes about 1.5 ms per JSON
+    object (6 s for a model of 3800 accessors and views), which dominates large models."""
+    data = path.read_bytes()
+    blob = None
+    if data[:4] == b"glTF":
+        if len(data) < 12:
+            raise SceneError(f"{path}: not a valid binary glTF (.glb): truncated header")
+        _, version, length = struct.unpack_from("<4sII", data, 0)
+        if version != 2:
+            raise SceneError(f"{path}: binary glTF version {version}, not 2")
+        end, off, text = min(length, len(data)), 12, None
+        while off + 8 <= end:
+            size, kind = struct.unpack_from("<II", data, off)
+            chunk = data[off + 8:off + 8 + size]
+            if len(chunk) < size:
+                raise SceneError(f"{path}: not a valid binary glTF (.glb): a chunk runs past the end")
+            if kind == 0x4E4F534A and text is None:
+                text = chunk
+            elif kind == 0x004E4942 and blob is None:
+                blob = chunk
+            off += 8 + size
+        if text is None:
+            raise SceneError(f"{path}: not a valid binary glTF (.glb): no JSON chunk")
+    else:
+        text = data
+    try:
+        doc = json.loads(text.decode("utf-8-sig"), object_hook=_J)
+    except (UnicodeDecodeError, ValueError) as e:
+        raise SceneError(f"{path}: not valid glTF JSON: {e}") from None
+    if not isinstance(doc, _J):
+        raise SceneError(f"{path}: not valid glTF JSON: not an object")
+    for key in _ARRAYS:
+        doc[key] = doc.get(key) or []
+    return doc, blob
+
+
+def _read_uri(uri, folder):
+    if uri.startswith("data:"):
+        head, sep, payload = uri[5:].partition(";base64,")
+        if not sep:
+            raise SceneError("a data: URI that is not base64")
+        s = "".join(payload.split()).rstrip("=").replace("-", "+").replace("_", "/")
+        try:
+            return base64.b64decode(s + "=" * (-len(s) % 4), validate=True)
+        except ValueError:
+            raise SceneError("a data: URI with bad base64") from None
+    if "://" in uri:
+        raise SceneError(f"{uri!r}: only files beside the model and data: URIs are read")
+    f = Path(folder) / urllib.parse.unquote(uri)
+    try:
+        return f.read_bytes()
+    except OSError as e:
+        raise SceneError(f"{f}: cannot read: {e}") from None
+
+
+def load_buffers(doc, blob, path):
+    out = []
+    for i, b in enumerate(doc.buffers):
+        if b.uri is None:
+            data = blob
+            if data is None:
+                raise SceneError(f"buffer {i} is the GLB binary chunk, which the file does not have")
+        else:
+            data = _read_uri(b.uri, path.parent)
+        if b.byteLength is not None and len(data) < b.byteLength:
+            raise SceneError(f"buffer {i}: byteLength says {b.byteLength} bytes, but only {len(data)} are there")
+        out.append(memoryview(data))
+    return out
+
+
+def _view_bytes(doc, buffers, index):
+    if index is None or not 0 <= index < len(doc.bufferViews):
+        raise SceneError(f"buffer view {index} does not exist")
+    v = doc.bufferViews[index]
+    data = buffers[v.buffer]
+    start, length = v.byteOffset or 0, v.byteLength or 0
+    if start + length > len(data):
+        raise SceneError(f"buffer view {index} (bytes {start}..{start + length}) lies outside buffer {v.buffer}")
+    return data[start:start + length], v.byteStride
+
+
+def _strided(data, offset, stride, count, dtype, dims):
+    """`count` elements of `dims` components of `dtype`, `stride` bytes apart, from `offset`."""
+    dt = np.dtype(dtype)
+    if count == 0:
+        return np.zeros((0, dims), dtype=dt)
+    end = offset + stride * (count - 1) + dt.itemsize * dims
+    if end > len(data):
+        raise SceneError(f"{count} elements from byte {offset}, {stride} apart, overrun their buffer view ({len(data)} bytes)")
+    return np.ndarray((count, dims), dtype=dt, buffer=data, offset=offset, strides=(stride, dt.itemsize)).copy()
+
+
+def _to_f32(raw, normalized):
+    """vlf's conversion: every component to float32; normalised integers scaled to [0, 1] /
+    [-1, 1] in float32."""
+    k = raw.dtype.kind
+    out = raw.astype(F32)
+    if normalized and raw.dtype.itemsize < 4:
+        top = F32(np.iinfo(raw.dtype).max)
+        out = out / top
+        if k == "i":
+            out = np.maximum(out, F32(-1.0))
+    return out
+
+
+def read_accessor(doc, buffers, index, dims, integers=False):
+    """An accessor's values: float32 (count, dims), as vlf converts them, or with
+    integers=True the raw integers (index buffers; see `read_indices`)."""
+    if index is None or not 0 <= index < len(doc.accessors):
+        raise SceneError(f"accessor {index} does not exist")
+    a = doc.accessors[index]
+    at = f"(accessor {index})"
+    if _DIMS.get(a.type) != dims:
+        raise SceneError(f"{at} has {a.type} elements, {dims} components expected")
+    dtype = _COMPONENT.get(a.componentType)
+    if dtype is None:
+        raise SceneError(f"{at}: unknown componentType {a.componentType}")
+    comp = np.dtype(dtype).itemsize
+    count = a.count or 0
+    if a.bufferView is not None:
+        data, stride = _view_bytes(doc, buffers, a.bufferView)
+        stride = stride or comp * dims
+        if stride < comp * dims:
+            raise SceneError(f"{at}: byteStride {stride} is smaller than an element ({comp * dims} bytes)")
+        try:
+            raw = _strided(data, a.byteOffset or 0, stride, count, dtype, dims)
+        except SceneError as e:
+            raise SceneError(f"{at}: {e}") from None
+    else:
+        if count > MAX_ZERO_ELEMENTS:
+            raise SceneError(f"{at}: {count} elements without a buffer view")
+        raw = np.zeros((count, dims), dtype=dtype)
+    if a.sparse is not None and (a.sparse.count or 0) > 0:
+        s = a.sparse
+        n = s.count
+        idata, _ = _view_bytes(doc, buffers, s.indices.bufferView)
+        itype = _COMPONENT.get(s.indices.componentType)
+        if itype not in ("u1", "<u2", "<u4"):
+            raise SceneError(f"{at}: sparse indices must be unsigned integers")
+        idx = _strided(idata, s.indices.byteOffset or 0, np.dtype(itype).itemsize, n, itype, 1)[:, 0]
+        sv = s.get("values") or _J()  # not s.values: dict's method
+        vdata, _ = _view_bytes(doc, buffers, sv.bufferView)
+        vals = _strided(vdata, sv.byteOffset or 0, comp * dims, n, dtype, dims)
+        if (idx.astype(np.int64) >= count).any():
+            raise SceneError(f"{at}: sparse index {int(idx.max())} is out of range ({count})")
+        raw = raw.copy()
+        raw[idx.astype(np.int64)] = vals  # in order: a later repeat wins, as in vlf's loop
+    if integers:
+        return raw
+    out = _to_f32(raw, bool(a.normalized))
+    if not np.isfinite(out).all():
+        raise SceneError(f"{at} holds a value that is not finite")
+    return out
+
+
+def read_indices(doc, buffers, index, vertices, notes):
+    a = doc.accessors[index] if index is not None and 0 <= index < len(doc.accessors) else None
+    if a is None:
+        raise SceneError(f"indices: accessor {index} does not exist")
+    if a.type != "SCALAR" or a.componentType not in (5121, 5123, 5125):
+        raise SceneError(f"indices (accessor {index}) must be SCALAR unsigned integers")
+    raw = read_accessor(doc, buffers, index, 1, integers=True)[:, 0].astype(np.int64)
+    # vlf reads index buffers through float32 (exact only below 2^24): say where it would differ
+    if len(raw) and raw.max() >= (1 << 24):
+        moved = int((raw.astype(F32).astype(np.int64) != raw).sum())
+        if moved:
+            notes.append(f"indices (accessor {index}): {moved} index value(s) above 2^24 that vlf's importer "
+                         "rounds through float32 (it would connect other vertices there); read exactly here")
+    if len(raw) and raw.max() >= vertices:
+        raise SceneError(f"indices (accessor {index}): index {int(raw.max())} is out of range ({vertices} vertices)")
+    return raw
+
+
+def assemble(mode, idx):
+    """Corner index triples from a triangle list (4), strip (5) or fan (6)."""
+    idx = np.asarray(idx, dtype=np.int64)
+    n = len(idx)
+    if mode == 5:
+        if n < 3:
+            return np.zeros((0, 3), dtype=np.int64)
+        i = np.arange(n - 2)
+        odd = (i % 2) == 1
+        a = np.where(odd, idx[i + 1], idx[i])
+        b = np.where(odd, idx[i], idx[i + 1])
+        return np.stack([a, b, idx[i + 2]], axis=1)
+    if mode == 6:
+        if n < 3:
+            return np.zeros((0, 3), dtype=np.int64)
+        i = np.arange(1, n - 1)
+        return np.stack([np.full(len(i), idx[0]), idx[i], idx[i + 1]], axis=1)
+    return idx[: n - n % 3].reshape(-1, 3)
+
+
+# ---------------------------------------------------------------------------------------------
+# transforms (float32 TRS as the gltf crate composes it, float64 products as glam's DMat4)
+
+
+def local_matrix(node):
+    """Column-major 4x4 (m[col][row]) as float64 from float32 inputs."""
+    if node.matrix is not None:
+        m = np.array(node.matrix, dtype=F32).reshape(4, 4)  # glTF stores columns
+        return m.astype(np.float64)
+    t = np.array(node.translation if node.translation is not None else [0, 0, 0], dtype=F32)
+    x, y, z, s = (F32(v) for v in (node.rotation if node.rotation is not None else [0, 0, 0, 1]))
+    sc = np.array(node.scale if node.scale is not None else [1, 1, 1], dtype=F32)
+    x2, y2, z2 = x + x, y + y, z + z
+    xx2, xy2, xz2 = x2 * x, x2 * y, x2 * z
+    yy2, yz2, zz2 = y2 * y, y2 * z, z2 * z
+    sy2, sz2, sx2 = y2 * s, z2 * s, x2 * s
+    one, zero = F32(1.0), F32(0.0)
+    r = np.array([[one - yy2 - zz2, xy2 + sz2, xz2 - sy2, zero],
+                  [xy2 - sz2, one - xx2 - zz2, yz2 + sx2, zero],
+                  [xz2 + sy2, yz2 - sx2, one - xx2 - yy2, zero],
+                  [zero, zero, zero, one]], dtype=F32)  # r[col][row]
+    tm = np.eye(4, dtype=F32)
+    tm[3, :3] = t
+    sm = np.diag(np.append(sc, one)).astype(F32)
+    # the crate's float32 products, zeros included (they decide the sign of a zero)
+    return mat_mul(mat_mul(tm, r), sm).astype(np.float64)
+
+
+def mat_mul(p, q):
+    """p * q for column-major p[col][row], summed in glam's (and the gltf crate's) order, in
+    p's precision."""
+    out = np.zeros((4, 4), dtype=p.dtype)
+    for j in range(4):
+        out[j] = p[0] * q[j][0] + p[1] * q[j][1] + p[2] * q[j][2] + p[3] * q[j][3]
+    return out
+
+
+def transform_points(m, pts):
+    """float32 (n, 3) -> world float32 (n, 3): float64 ((c0 x + c1 y) + c2 z) + c3."""
+    x, y, z = (pts[:, k].astype(np.float64) for k in range(3))
+    out = np.empty(pts.shape, dtype=F32)
+    for r in range(3):
+        out[:, r] = (m[0][r] * x + m[1][r] * y + m[2][r] * z + m[3][r]).astype(F32)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# materials
+
+
+def _check_color(c, reflectance, what):
+    if not np.isfinite(c).all():
+        raise SceneError(f"{what} {c.tolist()} is not finite")
+    if (c < 0).any():
+        raise SceneError(f"{what} {c.tolist()} has a negative component")
+    if reflectance and (c > 1).any():
+        raise SceneError(f"{what} {c.tolist()} exceeds 1: a surface cannot reflect more light than it receives")
+
+
+def _uv_transform(info):
+    """KHR_texture_transform as float32 [[a, b, c], [d, e, f]] (u' = a u + b v + c), or None."""
+    t = (info.extensions or {}).get("KHR_texture_transform") if info is not None else None
+    if t is None:
+        return None
+    ox, oy = (F32(v) for v in t.get("offset", [0.0, 0.0]))
+    r = F32(t.get("rotation", 0.0))
+    sx, sy = (F32(v) for v in t.get("scale", [1.0, 1.0]))
+    s, c = F32(math.sin(r)), F32(math.cos(r))
+    m = np.array([[c * sx, s * sy, ox], [-s * sx, c * sy, oy]], dtype=F32)
+    if np.array_equal(m, np.array([[1, 0, 0], [0, 1, 0]], dtype=F32)):
+        return None
+    return m
+
+
+def _tex_coord(info):
+    t = (info.extensions or {}).get("KHR_texture_transform")
+    if t is not None and t.get("texCoord") is not None:
+        return int(t["texCoord"])
+    return int(info.texCoord or 0)
+
+
+def _image_of(doc, info):
+    if info.index is None or not 0 <= info.index < len(doc.textures):
+        raise SceneError(f"texture {info.index} does not exist")
+    src = doc.textures[info.index].source
+    if src is None or not 0 <= src < len(doc.images):
+        raise SceneError(f"texture {info.index} has no image vlf can read")
+    return src
+
+
+def plan_materials(doc, overrides):
+    """Every material in the document's order: vlf's name (name, or material<i>; a repeated
+    name gets #<i>) and what it becomes, overrides applied."""
+    seen, plans, notes = {}, [], []
+    for index, m in enumerate(doc.materials):
+        base = m.name if m.name is not None else f"material{index}"
+        seen[base] = seen.get(base, 0) + 1
+        name = f"{base}#{index}" if seen[base] > 1 else base
+        pbr = m.pbrMetallicRoughness or _J()
+        bcf = pbr.baseColorFactor if pbr.baseColorFactor is not None else [1.0, 1.0, 1.0, 1.0]
+        base_color = np.array(bcf[:3], dtype=F32)
+        try:
+            _check_color(base_color, True, "baseColorFactor")
+            metallic = F32(1.0 if pbr.metallicFactor is None else pbr.metallicFactor)
+            roughness = F32(1.0 if pbr.roughnessFactor is None else pbr.roughnessFactor)
+            strength = F32(((m.extensions or {}).get("KHR_materials_emissive_strength") or {}).get("emissiveStrength", 1.0))
+            emission = np.array(m.emissiveFactor if m.emissiveFactor is not None else [0, 0, 0], dtype=F32) * strength
+            _check_color(emission, False, "emissiveFactor x emissive_strength")
+        except SceneError as e:
+            raise SceneError(f"material {name}: {e}") from None
+        mirror = bool(metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS)
+        base_tex, emit_tex = pbr.baseColorTexture, m.emissiveTexture
+        diffuse_info = base_tex if not mirror else None
+        coords = diffuse_info if diffuse_info is not None else emit_tex
+        what = []
+        if mirror:
+            what.append(f"metallic {metallic} roughness {roughness}: ideal mirror of the base colour"
+                        + (" (times its texture's mean)" if base_tex is not None else ""))
+        elif metallic > 0:
+            what.append(f"metallic {metallic} roughness {roughness}: rough metal taken as diffuse")
+        if m.alphaMode in ("MASK", "BLEND"):
+            what.append(f"alpha {m.alphaMode} treated as opaque")
+        tr = ((m.extensions or {}).get("KHR_materials_transmission") or {}).get("transmissionFactor", 0.0)
+        if tr and tr > 0:
+            what.append(f"transmission {tr} treated as opaque")
+        if what:
+            notes.append(f"glTF material {name!r}: " + "; ".join(what))
+        o = overrides.get(name, {})
+        mat = {
+            "name": name,
+            "diffuse": np.array(o["diffuse"], dtype=F32) if "diffuse" in o else (np.zeros(3, F32) if mirror else base_color),
+            "mirror": np.array(o["mirror"], dtype=F32) if "mirror" in o else (base_color if mirror else np.zeros(3, F32)),
+            "emission": np.array(o["emission"], dtype=F32) if "emission" in o else emission,
+            "two_sided": bool(o["two_sided"]) if "two_sided" in o else bool(m.doubleSided),
+        }
+        for c in range(3):
+            if float(mat["diffuse"][c]) + float(mat["mirror"][c]) > 1 + 1e-6:
+                raise SceneError(f"material {name}: diffuse {mat['diffuse'].tolist()} + mirror {mat['mirror'].tolist()} "
+                                f"exceeds 1 in channel {c}: the surface would create energy")
+        plans.append({
+            "material": mat,
+            "diffuse_image": _image_of(doc, diffuse_info) if diffuse_info is not None else None,
+            "emission_image": _image_of(doc, emit_tex) if emit_tex is not None else None,
+            "mirror_image": _image_of(doc, base_tex) if (mirror and base_tex is not None) else None,
+            "uv_set": _tex_coord(coords) if coords is not None else None,
+            "uv_transform": _uv_transform(coords) if coords is not None else None,
+        })
+    return plans, notes
+
+
+# ---------------------------------------------------------------------------------------------
+# images
+
+
+def image_bytes(doc, buffers, index, folder):
+    im = doc.images[index]
+    if im.bufferView is not None:
+        data, _ = _view_bytes(doc, buffers, im.bufferView)
+        return bytes(data)
+    if im.uri is None:
+        raise SceneError(f"image {index} has neither a uri nor a bufferView")
+    return _read_uri(im.uri, folder)
+
+
+def decode_rgb8(data, name):
+    """Encoded PNG / JPEG bytes -> uint8 (h, w, 3), as vlf's `into_rgb8` (alpha dropped, grey
+    replicated, 16 bits rounded to 8)."""
+    import mitsuba as mi
+    s = mi.MemoryStream()
+    s.write(data)
+    s.seek(0)
+    try:
+        bmp = mi.Bitmap(s)
+    except Exception as e:
+        raise SceneError(f"{name}: not a readable PNG or JPEG image: {e}") from None
+    a = np.array(bmp)
+    if a.ndim == 2:
+        a = a[:, :, None]
+    if a.dtype == np.uint16:
+        a = np.round(a.astype(np.float64) / 257.0).astype(np.uint8)
+    elif a.dtype != np.uint8:
+        a = np.clip(np.round(a.astype(np.float64) * 255.0), 0, 255).astype(np.uint8)
+    ch = a.shape[2]
+    if ch in (1, 2):
+        a = np.repeat(a[:, :, :1], 3, axis=2)
+    else:
+        a = a[:, :, :3]
+    return np.ascontiguousarray(a)
+
+
+def srgb_lut():
+    """vlf's sRGB decode, in float32 (src/color.rs)."""
+    x = np.arange(256, dtype=F32) / F32(255.0)
+    lo = x / F32(12.92)
+    hi = np.power((x + F32(0.055)) / F32(1.055), F32(2.4)).astype(F32)
+    return np.where(x <= F32(0.04045), lo, hi).astype(F32)
+
+
+def texture_mean(rgb8):
+    lut = srgb_lut()
+    counts = [np.bincount(rgb8[:, :, c].ravel(), minlength=256) for c in range(3)]
+    n = max(rgb8.shape[0] * rgb8.shape[1], 1)
+    return np.array([float((counts[c] * lut.astype(np.float64)).sum()) / n for c in range(3)], dtype=F32)
+
+
+# ---------------------------------------------------------------------------------------------
+# the model
+
+
+def _walk_roots(doc):
+    if doc.scene is not None and 0 <= doc.scene < len(doc.scenes):
+        return list(doc.scenes[doc.scene].nodes or [])
+    if doc.scenes:
+        return list(doc.scenes[0].nodes or [])
+    children = {c for n in doc.nodes for c in (n.children or [])}
+    return [i for i in range(len(doc.nodes)) if i not in children]
+
+
+def _gltf_camera(doc, node, cam_index, world, names):
+    cam = doc.cameras[cam_index]
+    if cam.type != "perspective" or cam.perspective is None:
+        return None, True
+    p = cam.perspective
+    eye = world[3][:3].copy()
+    fwd = -world[2][:3]
+    up = world[1][:3].copy()
+    nf = np.linalg.norm(fwd)
+    fwd = fwd / nf if nf > 0 else fwd * 0
+    nu = np.linalg.norm(up)
+    up = up / nu if nu > 0 else up * 0
+    fov = math.degrees(float(F32(p.yfov or 0.0)))
+    aspect = float(F32(p.aspectRatio)) if p.aspectRatio is not None else 4.0 / 3.0
+    ok = (np.isfinite(eye).all() and nf > 0 and np.linalg.norm(np.cross(fwd, up)) ** 2 > 1e-12
+          and 0 < fov < 180 and math.isfinite(aspect) and aspect > 0)
+    if not ok:
+        return None, False
+    base = cam.name if cam.name is not None else (node.name if node.name is not None else f"camera{cam_index}")
+    name, k = base, 2
+    while name in names:
+        name, k = f"{base}#{k}", k + 1
+    names.add(name)
+    height = 768
+    width = min(max(int(round(height * aspect)), 1), 16384)
+    f = lambda v: [float(F32(x)) for x in v]
+    return {"name": name, "eye": f(eye), "target": f(eye + fwd), "up": f(up), "fov_y_deg": float(F32(fov)),
+            "size": [width, height]}, False
+
+
+def load_gltf(path, overrides):
+    """Read a glTF model the way vlf does. Returns dict with: triangles (n, 3, 3) float32 world
+    corners, material (n,) int (len(materials) = the grey default), uv (n, 3, 2) float32 in
+    vlf's convention (v = 0 at the image's bottom row) with has_uv (n,) bool, materials (list
+    of dicts), images (index -> loader of uint8 RGB), welded (m, 3) float32 positions, cameras,
+    warnings."""
+    path = Path(path)
+    doc, blob = read_gltf_json(path)
+    for ext in doc.extensionsRequired or []:
+        if ext not in READ_EXTENSIONS:
+            raise SceneError(f"{path}: requires the extension {ext}, which vlf cannot read")
+    warnings = []
+    ignored = [e for e in (doc.extensionsUsed or []) if e not in READ_EXTENSIONS]
+    if ignored:
+        warnings.append(f"{path}: extension(s) {', '.join(ignored)} not read: ignored")
+    buffers = load_buffers(doc, blob, path)
+    plans, notes = plan_materials(doc, overrides)
+    warnings += notes
+
+    tris, mats, uvs, has_uv = [], [], [], []
+    cameras, names = [], set()
+    skipped, orthographic, lights, missing_uv = 0, 0, [], {}
+    stack = [(i, np.eye(4), 0) for i in reversed(_walk_roots(doc))]
+    instances = 0
+    identity = np.eye(4)
+    while stack:
+        ni, parent, depth = stack.pop()
+        instances += 1
+        if depth > MAX_DEPTH or instances > MAX_INSTANCES:
+            raise SceneError(f"{path}: the node hierarchy is deeper than {MAX_DEPTH} levels or has more than "
+                            f"{MAX_INSTANCES} instances (a cycle?) at node {ni}")
+        if not 0 <= ni < len(doc.nodes):
+            raise SceneError(f"{path}: node {ni} does not exist")
+        node = doc.nodes[ni]
+        world = mat_mul(parent, local_matrix(node))
+        if node.mesh is not None:
+            mesh = doc.meshes[node.mesh]
+            for pi, prim in enumerate(mesh.primitives or []):
+                at = f"{path}: mesh {node.mesh} primitive {pi}"
+                mode = 4 if prim.mode is None else prim.mode
+                if mode in (0, 1, 2, 3):
+                    skipped += 1
+                    continue
+                if mode not in (4, 5, 6):
+                    raise SceneError(f"{at}: unknown mode {mode}")
+                pos_index = getattr(prim.attributes, "POSITION", None)
+                if pos_index is None:
+                    raise SceneError(f"{at}: has no POSITION attribute")
+                if 0 <= pos_index < len(doc.accessors) and (doc.accessors[pos_index].min is None
+                                                            or doc.accessors[pos_index].max is None):
+                    # required by the specification; vlf's glTF crate refuses the file without
+                    raise SceneError(f"{at}: POSITION accessor {pos_index} has no min / max (glTF 2.0 requires them)")
+                try:
+                    pts = read_accessor(doc, buffers, pos_index, 3)
+                    count = len(pts)
+                    if prim.indices is not None:
+                        idx = read_indices(doc, buffers, prim.indices, count, warnings)
+                    else:
+                        idx = np.arange(count, dtype=np.int64)
+                    corners = assemble(mode, idx)
+                    if prim.material is not None and not 0 <= prim.material < len(plans):
+                        raise SceneError(f"material {prim.material} does not exist")
+                    mi_ = len(plans) if prim.material is None else prim.material
+                    plan = plans[mi_] if mi_ < len(plans) else None
+                    uv = None
+                    if plan is not None and plan["uv_set"] is not None:
+                        a = getattr(prim.attributes, f"TEXCOORD_{plan['uv_set']}", None)
+                        if a is None:
+                            missing_uv[plan["material"]["name"]] = missing_uv.get(plan["material"]["name"], 0) + 1
+                        else:
+                            uv = read_accessor(doc, buffers, a, 2)
+                            if len(uv) < count:
+                                raise SceneError(f"TEXCOORD has {len(uv)} elements, POSITION {count}")
+                except SceneError as e:
+                    raise SceneError(f"{at}: {e}") from None
+                if np.linalg.det(world.T) < 0:
+                    corners = corners[:, [0, 2, 1]]
+                placed = pts if np.array_equal(world, identity) else transform_points(world, pts)
+                tris.append(placed[corners])
+                mats.append(np.full(len(corners), mi_, dtype=np.int64))
+                if uv is not None:
+                    t = plan["uv_transform"]
+                    u, v = uv[:, 0], uv[:, 1]
+                    if t is not None:
+                        u, v = (t[0, 0] * u + t[0, 1] * v + t[0, 2]).astype(F32), (t[1, 0] * u + t[1, 1] * v + t[1, 2]).astype(F32)
+                    uvv = np.stack([u, (F32(1.0) - v).astype(F32)], axis=1)  # glTF's v runs down the image
+                    uvs.append(uvv[corners])
+                    has_uv.append(np.ones(len(corners), dtype=bool))
+                else:
+                    uvs.append(np.zeros((len(corners), 3, 2), dtype=F32))
+                    has_uv.append(np.zeros(len(corners), dtype=bool))
+        if node.camera is not None:
+            c, ortho = _gltf_camera(doc, node, node.camera, world, names)
+            orthographic += ortho
+            if c is not None:
+                cameras.append(c)
+        light = ((node.extensions or {}).get("KHR_lights_punctual") or {}).get("light")
+        if light is not None:
+            lights.append(str(light))
+        for child in reversed(node.children or []):
+            stack.append((child, world, depth + 1))
+    if skipped:
+        warnings.append(f"{path}: skipped {skipped} point/line primitive(s)")
+    for name, n in sorted(missing_uv.items()):
+        warnings.append(f"{path}: {n} primitive(s) with the textured material {name!r} have no texture coordinates: "
+                        "their textures are ignored")
+    if orthographic:
+        warnings.append(f"{path}: {orthographic} orthographic camera(s) skipped")
+    if lights:
+        warnings.append(f"{path}: KHR_lights_punctual light(s) {', '.join(lights)} ignored (as vlf ignores them)")
+
+    tri = np.concatenate(tris) if tris else np.zeros((0, 3, 3), dtype=F32)
+    mat = np.concatenate(mats) if mats else np.zeros(0, dtype=np.int64)
+    uv = np.concatenate(uvs) if uvs else np.zeros((0, 3, 2), dtype=F32)
+    huv = np.concatenate(has_uv) if has_uv else np.zeros(0, dtype=bool)
+
+    keep, welded, dropped = clean_triangles(tri)
+    if dropped[0]:
+        warnings.append(f"{path}: dropped {dropped[0]} zero-area triangle(s)")
+    if dropped[1]:
+        warnings.append(f"{path}: dropped {dropped[1]} duplicated triangle(s) (same corners and winding as another)")
+    tri, mat, uv, huv = tri[keep], mat[keep], uv[keep], huv[keep]
+    if len(tri) == 0:
+        raise SceneError(f"{path}: the model has no triangles with area: nothing to light")
+
+    folder = path.parent
+    cache = {}
+
+    def loader(index):
+        def load_image():
+            if index not in cache:
+                cache[index] = decode_rgb8(image_bytes(doc, buffers, index, folder), f"{path} image {index}")
+            return cache[index]
+        return load_image
+
+    materials = []
+    for p in plans:
+        m = dict(p["material"])
+        if p["mirror_image"] is not None:
+            m["mirror"] = (m["mirror"] * texture_mean(loader(p["mirror_image"])())).astype(F32)
+        m["diffuse_tex"] = f"image{p['diffuse_image']}" if p["diffuse_image"] is not None else None
+        m["emission_tex"] = f"image{p['emission_image']}" if p["emission_image"] is not None else None
+        materials.append(m)
+    if (mat == len(plans)).any():
+        warnings.append(f"{path}: primitives without a material get a grey diffuse default (0.5)")
+    images = {f"image{i}": loader(i) for i in range(len(doc.images))}
+    return {"triangles": tri, "material": mat, "uv": uv, "has_uv": huv, "materials": materials,
+            "images": images, "welded": welded, "cameras": cameras, "warnings": warnings}
+
+
+def _group_rows(keys):
+    """Rows of equal keys (a list of uint64 columns, most significant first): each row's group
+    id and, per group, the index of its first row (lexsort is stable)."""
+    n = len(keys[0])
+    order = np.lexsort(keys[::-1])
+    new = np.zeros(n, dtype=bool)
+    new[:1] = True
+    for k in keys:
+        ks = k[order]
+        new[1:] |= ks[1:] != ks[:-1]
+    ids = np.empty(n, dtype=np.int64)
+    ids[order] = np.cumsum(new) - 1
+    return ids, order[new]
+
+
+def clean_triangles(tri):
+    """vlf's weld + filter over triangles in order: which to keep, the welded positions (every
+    corner's, dropped triangles' included) and (zero-area, duplicated) counts."""
+    n = len(tri)
+    if n == 0:
+        return np.zeros(0, dtype=bool), np.zeros((0, 3), dtype=F32), (0, 0)
+    t64 = tri.astype(np.float64)
+    extent = float(np.abs(t64).max())
+    min_area = DEGENERATE_AREA * max(extent * extent, 1e-30)
+    cr = np.cross(t64[:, 1] - t64[:, 0], t64[:, 2] - t64[:, 0])
+    area = 0.5 * np.sqrt((cr * cr).sum(axis=1))
+    good = area > min_area
+    # weld by bits: equal float32 patterns share an id
+    bits = np.ascontiguousarray(tri.reshape(-1, 3)).view(np.uint32).astype(np.uint64)
+    ids, first = _group_rows([(bits[:, 0] << np.uint64(32)) | bits[:, 1], bits[:, 2]])
+    welded = tri.reshape(-1, 3)[np.sort(first)]
+    ids = ids.reshape(n, 3)
+    # canonical rotation: the smallest id first (any total order of the ids gives the same test)
+    r = np.argmin(ids, axis=1)
+    rows = np.arange(n)
+    canon = np.stack([ids[rows, r], ids[rows, (r + 1) % 3], ids[rows, (r + 2) % 3]], axis=1).astype(np.uint64)
+    cand = np.nonzero(good)[0]
+    c = canon[cand]
+    _, first_of = _group_rows([(c[:, 0] << np.uint64(32)) | c[:, 1], c[:, 2]])
+    keep = np.zeros(n, dtype=bool)
+    keep[cand[first_of]] = True
+    return keep, welded, (int(n - good.sum()), int(good.sum() - keep.sum()))
+
+
+def framing_camera(welded):
+    """vlf's camera for a model without one (src/scene/mod.rs `framing_camera`)."""
+    p = welded.astype(np.float64)
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    centre = (lo + hi) * 0.5
+    radius = max(float(np.sqrt(((p - centre) ** 2).sum(axis=1)).max()), 1e-12)
+    scale = 0.99 / radius
+    radius = 0.99 / scale
+    d = np.array([0.35, 0.3, 1.0])
+    d /= np.linalg.norm(d)
+    eye = centre + d * radius / math.sin(math.radians(30.0)) * 1.05
+    f = lambda v: [float(F32(x)) for x in v]
+    return {"name": "view", "eye": f(eye), "target": f(centre), "up": [0.0, 1.0, 0.0], "fov_y_deg": 60.0,
+            "size": [1024, 768]}
+
+
+# ---------------------------------------------------------------------------------------------
 # scene assembly (vlf semantics)
 
 
 def build(scene):
+    """The scene as vlf makes it: {"materials": {name: material}, "groups": {(material name,
+    textured): (corners (n, 3, 3), uv (n, 3, 2) with v = 0 at the image's bottom row, or
+    None)}, "images": {key: loader of uint8 RGB}, "cameras": extra cameras of the model,
+    "warnings", "bounds"}. A material: diffuse, mirror, emission (RGB), two_sided,
+    diffuse_tex / emission_tex (keys of "images", or None). The model's cameras are added to
+    scene["cameras"] as vlf adds them."""
+    built = build_gltf(scene) if is_gltf(scene["mesh"]) else build_obj(scene)
+    # the model's own cameras join scene.toml's (a scene.toml camera of the same name wins)
+    have = {c["name"] for c in scene["cameras"]}
+    scene["cameras"] += [c for c in built["cameras"] if c["name"] not in have]
+    return built
+
+
+def _image_file_loader(path):
+    cache = []
+
+    def load():
+        if not cache:
+            cache.append(decode_rgb8(Path(path).read_bytes(), str(path)))
+        return cache[0]
+    return load
+
+
+def build_obj(scene):
     positions, texcoords, tris, mtllibs = load_obj(scene["mesh"])
     mtl = {}
     for lib in mtllibs:
@@ -202,6 +960,7 @@ def build(scene):
     if unknown:
         raise SceneError(f"[materials.{sorted(unknown)[0]}] overrides a material the mesh's MTL does not define")
 
+    images = {}
     materials = {}
     for name, m in mtl.items():
         o = scene["overrides"].get(name, {})
@@ -211,15 +970,18 @@ def build(scene):
             "mirror": o.get("mirror", m["Ks"]),
             "emission": o.get("emission", m["Ke"]),
             "two_sided": o.get("two_sided", False),
-            "map_Kd": m.get("map_Kd"),
-            "map_Ke": m.get("map_Ke"),
+            "diffuse_tex": str(m["map_Kd"]) if m.get("map_Kd") else None,
+            "emission_tex": str(m["map_Ke"]) if m.get("map_Ke") else None,
         }
+        for key in ("diffuse_tex", "emission_tex"):
+            if mat[key] is not None:
+                images.setdefault(mat[key], _image_file_loader(mat[key]))
         for c in range(3):
             if mat["diffuse"][c] + mat["mirror"][c] > 1 + 1e-6:
                 raise SceneError(f"material {name}: diffuse + mirror exceeds 1 in channel {c}")
         materials[name] = mat
     default = {"name": "(default)", "diffuse": [0.5] * 3, "mirror": [0.0] * 3, "emission": [0.0] * 3,
-               "two_sided": False, "map_Kd": None, "map_Ke": None}
+               "two_sided": False, "diffuse_tex": None, "emission_tex": None}
 
     # weld equal positions, drop zero-area and duplicated (same corners, same winding) triangles
     key_of = {}
@@ -250,35 +1012,75 @@ def build(scene):
             mname = "(default)"
             materials.setdefault(mname, default)
             mat = default
-        textured = bool(mat["map_Kd"] or mat["map_Ke"])
+        textured = bool(mat["diffuse_tex"] or mat["emission_tex"])
         uv = ts is not None and textured
         if textured and ts is None:
             warnings.append(f"material {mname}: a triangle without vt; its textures are ignored there")
         groups.setdefault((mname, uv), []).append((vs, ts if uv else None))
     if dropped[0] or dropped[1]:
         warnings.append(f"dropped {dropped[0]} zero-area and {dropped[1]} duplicated triangle(s)")
+    arrays = {}
+    for key, tri_list in groups.items():
+        vs = np.array([t[0] for t in tri_list], dtype=np.int64)
+        uv = np.array([t[1] for t in tri_list], dtype=np.int64) if key[1] else None
+        arrays[key] = (positions[vs], texcoords[uv] if uv is not None else None)
     lo, hi = positions.min(axis=0), positions.max(axis=0)
-    return {"positions": positions, "texcoords": texcoords, "materials": materials, "groups": groups,
+    return {"materials": materials, "groups": arrays, "images": images, "cameras": [],
             "warnings": sorted(set(warnings)), "bounds": (lo, hi)}
+
+
+def build_gltf(scene):
+    try:
+        g = load_gltf(scene["mesh"], scene["overrides"])
+    except SceneError as e:
+        raise SceneError(str(e)) from None
+    mats = list(g["materials"])
+    default = {"name": "(default)", "diffuse": [0.5] * 3, "mirror": [0.0] * 3, "emission": [0.0] * 3,
+               "two_sided": False, "diffuse_tex": None, "emission_tex": None}
+    if (g["material"] == len(mats)).any():
+        mats.append(default)
+    names = [m["name"] for m in mats]
+    for name in scene["overrides"]:
+        # vlf accepts "(default)" here when the model uses it, and then ignores it
+        if name not in names:
+            raise SceneError(f"[materials.{name}] overrides a material that {scene['mesh']} does not use; "
+                             f"it has: {', '.join(names)}")
+    groups = {}
+    for mi_, m in enumerate(mats):
+        sel = g["material"] == mi_
+        if not sel.any():
+            continue
+        textured = bool(m["diffuse_tex"] or m["emission_tex"])
+        for uv in ((True, False) if textured else (False,)):
+            s = sel & (g["has_uv"] if uv else ~g["has_uv"]) if textured else sel
+            if s.any():
+                groups[(m["name"], uv)] = (g["triangles"][s], g["uv"][s] if uv else None)
+    welded = g["welded"]
+    cameras = list(g["cameras"])
+    if not cameras and not scene["cameras"]:
+        cameras.append(framing_camera(welded))
+    return {"materials": {m["name"]: m for m in mats}, "groups": groups, "images": g["images"],
+            "cameras": cameras, "warnings": g["warnings"],
+            "bounds": (welded.min(axis=0).astype(np.float64), welded.max(axis=0).astype(np.float64))}
 
 
 # ---------------------------------------------------------------------------------------------
 # files: PLY meshes, EXR images
 
 
-def write_ply(path, positions, texcoords, tri_list):
+def write_ply(path, corners, uv):
     """Binary PLY, three vertices of its own per triangle (flat faces, no shared normals).
-    Mitsuba's bitmap texture puts uv (0,0) at the image's top-left and its PLY loader keeps
-    uv as written; OBJ's v = 0 is the image's bottom row, so v is stored as 1 - v."""
-    has_uv = tri_list and tri_list[0][1] is not None
-    n = len(tri_list)
-    verts = np.empty((3 * n, 5 if has_uv else 3), dtype="<f4")
-    for i, (vs, ts) in enumerate(tri_list):
-        for k in range(3):
-            verts[3 * i + k, :3] = positions[vs[k]]
-            if has_uv:
-                u, v = texcoords[ts[k]]
-                verts[3 * i + k, 3:] = (u, 1.0 - v)
+    `corners` (n, 3, 3); `uv` (n, 3, 2) with v = 0 at the image's bottom row (OBJ's and vlf's
+    convention) or None. Mitsuba's bitmap texture puts uv (0,0) at the image's top-left and its
+    PLY loader keeps uv as written, so v is stored as 1 - v."""
+    n = len(corners)
+    has_uv = uv is not None
+    verts = np.empty((n, 3, 5 if has_uv else 3), dtype="<f4")
+    verts[:, :, :3] = corners
+    if has_uv:
+        uv = np.asarray(uv, dtype=np.float64)
+        verts[:, :, 3] = uv[:, :, 0]
+        verts[:, :, 4] = 1.0 - uv[:, :, 1]
     header = ["ply", "format binary_little_endian 1.0", f"element vertex {3 * n}",
               "property float x", "property float y", "property float z"]
     if has_uv:
@@ -297,6 +1099,7 @@ def write_exr(path, rgb):
     """float32 RGB scanline OpenEXR, ZIP compression (16 lines per block), row 0 = top."""
     rgb = np.ascontiguousarray(rgb, dtype="<f4")
     h, w, _ = rgb.shape
+    level = 9 if h * w <= (1 << 20) else 1  # big textures: fast rather than small
 
     def attr(name, typ, data):
         return name.encode() + b"\0" + typ.encode() + b"\0" + struct.pack("<i", len(data)) + data
@@ -322,7 +1125,7 @@ def write_exr(path, rgb):
         reordered = np.concatenate([buf[0::2], buf[1::2]]).astype(np.int16)
         pred = reordered.copy()
         pred[1:] = (reordered[1:] - reordered[:-1] + 128) & 0xFF
-        data = zlib.compress(pred.astype(np.uint8).tobytes(), 9)
+        data = zlib.compress(pred.astype(np.uint8).tobytes(), level)
         if len(data) >= len(raw):
             data = raw
         chunks.append(struct.pack("<ii", y0, len(data)) + data)
@@ -355,16 +1158,52 @@ def _v(x):
     return ", ".join(repr(float(c)) for c in x)
 
 
-def linear_texture(mi, path):
-    """sRGB 8-bit image -> linear float RGB (exact sRGB curve), row 0 = top."""
-    bmp = mi.Bitmap(str(path)).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False)
-    return np.array(bmp, dtype=np.float32).reshape(bmp.height(), bmp.width(), 3)
-
-
-def _texture_xml(name, file):
+def _texture_xml(name, file, raw=True):
     return (f'<texture type="bitmap" name="{name}"><string name="filename" value="{file}"/>'
-            f'<boolean name="raw" value="true"/><string name="filter_type" value="bilinear"/>'
+            f'<boolean name="raw" value="{"true" if raw else "false"}"/><string name="filter_type" value="bilinear"/>'
             f'<string name="wrap_mode" value="repeat"/></texture>')
+
+
+class Textures:
+    """The export's texture files: an image times a factor (Kd / Ke / base colour / emission).
+    Factor 1: the image's own 8-bit sRGB pixels as PNG, decoded by Mitsuba (`raw=false`; its
+    sRGB curve is vlf's to 3e-6); any other factor: linear (vlf's sRGB curve) x factor as a
+    float32 EXR (`raw=true`). One file per (image, factor), shared by every material using it."""
+
+    def __init__(self, out_dir, images):
+        self.out_dir, self.images, self.files, self.stats = Path(out_dir), images, {}, {}
+        self.lut = srgb_lut()
+
+    def rgb8(self, key):
+        return self.images[key]()
+
+    def linear_stats(self, key):
+        """(max, mean) of the image in linear light, per channel."""
+        if key not in self.stats:
+            px = self.rgb8(key).reshape(-1, 3)
+            hist = [np.bincount(px[:, c], minlength=256) for c in range(3)]
+            lut = self.lut.astype(np.float64)
+            mx = np.array([lut[np.nonzero(h)[0].max()] if h.sum() else 0.0 for h in hist])
+            mean = np.array([(h * lut).sum() / max(h.sum(), 1) for h in hist])
+            self.stats[key] = (mx, mean)
+        return self.stats[key]
+
+    def xml(self, name, key, factor):
+        import mitsuba as mi
+        f32 = np.asarray(factor, dtype=np.float32)
+        unit = bool(np.all(f32 == 1.0))
+        fk = (key, f32.tobytes())
+        if fk not in self.files:
+            (self.out_dir / "textures").mkdir(exist_ok=True)
+            stem = f"textures/{len(self.files):03d}-{safe_name(Path(key).stem)}"
+            if unit:
+                file = stem + ".png"
+                mi.Bitmap(self.rgb8(key), mi.Bitmap.PixelFormat.RGB).write(str(self.out_dir / file))
+            else:
+                file = stem + ".exr"
+                write_exr(self.out_dir / file, self.lut[self.rgb8(key)] * f32)
+            self.files[fk] = file
+        return _texture_xml(name, self.files[fk], raw=not unit)
 
 
 def sensor_xml(cam, width, height, spp, clip):
@@ -403,7 +1242,6 @@ def export(scene, built, out_dir, spp=256):
     """Write DIR/geometry.xml (integrator, shapes, sky), DIR/<camera>.xml per [[camera]] (it
     includes geometry.xml), DIR/meshes/*.ply, DIR/textures/*.exr. Returns ({camera name: XML
     path}, notes)."""
-    import mitsuba as mi
     out_dir = Path(out_dir)
     (out_dir / "meshes").mkdir(parents=True, exist_ok=True)
     head = f'<scene version="3.0.0">\n  <!-- vlf scene "{scene["name"]}", written by tools/mitsuba/reference.py -->'
@@ -423,18 +1261,21 @@ def export(scene, built, out_dir, spp=256):
         cameras[cam["name"]] = path
     notes = []
     safe = safe_name
-    for gi, ((mname, uv), tri_list) in enumerate(sorted(built["groups"].items(), key=lambda kv: (kv[0][0], kv[0][1]))):
+    textures = Textures(out_dir, built.get("images", {}))
+    for gi, ((mname, uv), (corners, tex_uv)) in enumerate(sorted(built["groups"].items(), key=lambda kv: (kv[0][0], kv[0][1]))):
         m = built["materials"][mname]
         stem = f"{gi:03d}-{safe(mname)}"
-        write_ply(out_dir / "meshes" / f"{stem}.ply", built["positions"], built["texcoords"], tri_list)
+        write_ply(out_dir / "meshes" / f"{stem}.ply", corners, tex_uv)
         d = np.array(m["diffuse"], dtype=np.float64)
         s = np.array(m["mirror"], dtype=np.float64)
         e = np.array(m["emission"], dtype=np.float64)
-        # diffuse reflectance: constant, or Kd x map_Kd written premultiplied (linear EXR)
-        dtex = None
-        if uv and m["map_Kd"]:
-            dtex = linear_texture(mi, m["map_Kd"]) * d.astype(np.float32)
-        dmax = dtex.reshape(-1, 3).max(axis=0) if dtex is not None else d
+        # diffuse reflectance: constant, or Kd x map_Kd (base colour factor x texture)
+        dkey = m["diffuse_tex"] if uv else None
+        if dkey is not None:
+            tmax, tmean = textures.linear_stats(dkey)
+            dmax, dmean = tmax * d, tmean * d
+        else:
+            dmax = dmean = d
         has_d, has_s = bool(dmax.max() > 0), bool(s.max() > 0)
 
         def color_xml(name, value, suffix):
@@ -446,10 +1287,8 @@ def export(scene, built, out_dir, spp=256):
             return _texture_xml(name, f"textures/{stem}-{suffix}.exr")
 
         def diffuse_xml(scale):
-            if dtex is not None:
-                (out_dir / "textures").mkdir(exist_ok=True)
-                write_exr(out_dir / "textures" / f"{stem}-kd.exr", dtex * scale)
-                return f'<bsdf type="diffuse">{_texture_xml("reflectance", f"textures/{stem}-kd.exr")}</bsdf>'
+            if dkey is not None:  # scale is 1 here (blendbsdf is used for untextured ones only)
+                return f'<bsdf type="diffuse">{textures.xml("reflectance", dkey, d * scale)}</bsdf>'
             return f'<bsdf type="diffuse">{color_xml("reflectance", d * scale, "kd")}</bsdf>'
 
         def mirror_xml(scale):
@@ -463,14 +1302,13 @@ def export(scene, built, out_dir, spp=256):
             # With rho_s = k rho_d (one chromaticity, untextured) w = k/(1+k) gives both parts
             # rho_d + rho_s: exact, and plain Mitsuba. Otherwise vlf_mix, this file's plugin.
             k = s / np.where(d > 0, d, np.inf)
-            if dtex is None and d.min() > 0 and np.allclose(k, k.mean(), rtol=1e-6, atol=0):
+            if dkey is None and d.min() > 0 and np.allclose(k, k.mean(), rtol=1e-6, atol=0):
                 w = float(k.mean() / (1 + k.mean()))
                 bsdf = (f'<bsdf type="blendbsdf"><float name="weight" value="{w!r}"/>'
                         f'{diffuse_xml(1 / (1 - w))}{mirror_xml(1 / w)}</bsdf>')
             else:
                 # probability of the mirror lobe (any value in (0,1) is unbiased): by luminance
                 lum = lambda c: float(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
-                dmean = dtex.reshape(-1, 3).mean(axis=0) if dtex is not None else d
                 p = min(max(lum(s) / max(lum(s) + lum(dmean), 1e-12), 0.01), 0.99)
                 inner = diffuse_xml(1.0)[len('<bsdf type="diffuse">'):-len("</bsdf>")].replace('name="reflectance"', 'name="diffuse"', 1)
                 bsdf = (f'<bsdf type="vlf_mix"><float name="mirror_prob" value="{p!r}"/>{inner}'
@@ -485,10 +1323,8 @@ def export(scene, built, out_dir, spp=256):
             bsdf = f'<bsdf type="twosided">{bsdf}</bsdf>'
         emitter = ""
         if e.max() > 0:
-            if uv and m["map_Ke"]:
-                (out_dir / "textures").mkdir(exist_ok=True)
-                write_exr(out_dir / "textures" / f"{stem}-ke.exr", linear_texture(mi, m["map_Ke"]) * e.astype(np.float32))
-                rad = _texture_xml("radiance", f"textures/{stem}-ke.exr")
+            if uv and m["emission_tex"]:
+                rad = textures.xml("radiance", m["emission_tex"], e)
             else:
                 rad = f'<rgb name="radiance" value="{_v(e)}"/>'
             # Mitsuba's area emitter radiates from the front side only, like vlf's
@@ -609,6 +1445,25 @@ def render(xml, width, height, spp, seed, variant, progress=True):
     return mean, variance, time.time() - t0
 
 
+def dump_json(scene, built, path):
+    """The scene as built, for tests: materials (colours as float32 values, texture image keys
+    or null), per group its
+    triangles (9 floats each: the corners) and texture coordinates (6 floats, v = 0 at the
+    image's bottom row), the cameras and the sky."""
+    f32 = lambda v: [float(np.float32(x)) for x in np.asarray(v, dtype=np.float64).ravel()]
+    doc = {"materials": {}, "groups": [], "cameras": scene["cameras"], "sky": scene["sky"]}
+    for name, m in built["materials"].items():
+        doc["materials"][name] = {"diffuse": f32(m["diffuse"]), "mirror": f32(m["mirror"]),
+                                  "emission": f32(m["emission"]), "two_sided": bool(m["two_sided"]),
+                                  "diffuse_texture": m["diffuse_tex"], "emission_texture": m["emission_tex"]}
+    for (name, textured), (corners, uv) in sorted(built["groups"].items()):
+        c = np.asarray(corners, dtype=np.float32).reshape(-1, 9)
+        doc["groups"].append({"material": name, "textured": textured,
+                              "corners": [[float(x) for x in row] for row in c],
+                              "uv": None if uv is None else [[float(x) for x in row] for row in np.asarray(uv, dtype=np.float32).reshape(-1, 6)]})
+    Path(path).write_text(json.dumps(doc))
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("scene")
@@ -623,9 +1478,11 @@ def main(argv=None):
     ap.add_argument("--exposure", type=float, default=1.0)
     ap.add_argument("--export", metavar="DIR", help="write a standalone Mitsuba scene: DIR/<camera>.xml, geometry.xml, meshes/, textures/")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--dump-json", metavar="FILE", help="write the scene as built (materials, triangles, cameras) as JSON, "
+                    "for comparing with vlf's importer (tests/mitsuba.rs)")
     a = ap.parse_args(argv)
-    if not a.output and not a.export:
-        ap.error("give -o OUT.exr and/or --export DIR")
+    if not a.output and not a.export and not a.dump_json:
+        ap.error("give -o OUT.exr and/or --export DIR (or --dump-json FILE)")
 
     try:
         import mitsuba as mi
@@ -637,6 +1494,8 @@ def main(argv=None):
     for w in built["warnings"]:
         print(f"warning: {w}", file=sys.stderr)
 
+    if a.dump_json:
+        dump_json(scene, built, a.dump_json)
     if a.export:
         files, notes = export(scene, built, a.export, spp=a.spp)
         for n in notes:
