@@ -101,3 +101,56 @@ fn light_field_is_within_relmse_0_02_of_the_path_tracer_on_cornell() {
         );
     }
 }
+
+/// A face without texture coordinates shows its material's colour, not its texture, in the path
+/// tracer as in the light field (prepare::atlas): the floor of the textured room with its `vt`
+/// indices removed renders as the floor with no map_Kd at all (it used to read the checkerboard
+/// at uv (0, 0): a dark square, 0.38 of the untextured floor).
+#[test]
+fn path_tracer_leaves_the_texture_off_faces_without_texture_coordinates() {
+    let render = |obj_edit: &dyn Fn(String) -> String, mtl_edit: &dyn Fn(String) -> String| {
+        let dir = tempfile::tempdir().unwrap();
+        for f in ["scene.toml", "checker.png", "painting.png", "panel.png"] {
+            std::fs::copy(
+                repo_path(&format!("scenes/textured-room/{f}")),
+                dir.path().join(f),
+            )
+            .unwrap();
+        }
+        let read =
+            |f: &str| std::fs::read_to_string(repo_path(&format!("scenes/textured-room/{f}")));
+        std::fs::write(
+            dir.path().join("room.obj"),
+            obj_edit(read("room.obj").unwrap()),
+        )
+        .unwrap();
+        std::fs::write(
+            dir.path().join("room.mtl"),
+            mtl_edit(read("room.mtl").unwrap()),
+        )
+        .unwrap();
+        let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+        // looking down at the floor
+        let mut cam = scene.camera(Some("front")).unwrap().clone();
+        (cam.eye, cam.target, cam.up, cam.fov_y_deg) =
+            ([0.0, 1.5, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, -1.0], 40.0);
+        vlf::reference::render(gpu(), &scene, &cam, [16, 16], 16, 3, &Silent).unwrap()
+    };
+    let keep = |s: String| s;
+    let no_uv = |s: String| s.replace("f 1/1 2/2 3/3 4/4", "f 1 2 3 4");
+    let no_map = |s: String| s.replace("Kd 0.9 0.9 0.9\nmap_Kd checker.png", "Kd 0.9 0.9 0.9");
+    let without_uv = render(&no_uv, &keep);
+    let untextured = render(&keep, &no_map);
+    let mean = |f: &vlf::render::Frame| {
+        f.pixels
+            .iter()
+            .map(|p| (p[0] + p[1] + p[2]) as f64)
+            .sum::<f64>()
+            / f.pixels.len() as f64
+    };
+    let (a, b) = (mean(&without_uv.mean), mean(&untextured.mean));
+    assert!(
+        (a / b - 1.0).abs() < 1e-3,
+        "the floor without texture coordinates: mean {a}, the untextured floor {b}"
+    );
+}

@@ -99,14 +99,19 @@ impl TraceScene {
             texture_info.push([texels.len() as u32, t.width, t.height, 0]);
             texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
         }
-        let face_textures: Vec<[u32; 4]> = prepared
-            .faces
-            .iter()
-            .map(|f| {
+        // a face is textured where the light field's atlas textures it: only when every one of
+        // its triangles has texture coordinates (prepare::atlas), else its material's colour
+        let mut has_uv = vec![true; prepared.faces.len()];
+        for t in &prepared.triangles {
+            has_uv[t.face as usize] &= t.uv.is_some();
+        }
+        let face_textures: Vec<[u32; 4]> = (prepared.faces.iter().zip(&has_uv))
+            .map(|(f, &uv)| {
                 let m = &scene.materials[f.material as usize];
+                let texture = |which: Option<u32>| which.filter(|_| uv).unwrap_or(NO_FACE);
                 [
-                    m.diffuse_texture.unwrap_or(NO_FACE),
-                    m.emission_texture.unwrap_or(NO_FACE),
+                    texture(m.diffuse_texture),
+                    texture(m.emission_texture),
                     0,
                     0,
                 ]
