@@ -1,5 +1,5 @@
 // One eye onto its swapchain image (a per-eye swapchain, or one layer of an array swapchain),
-// driven by src/display/xr/layers.rs: fs_colour without a depth swapchain, fs_colour_depth with.
+// driven by src/xr/layers.rs: fs_colour without a depth swapchain, fs_colour_depth with.
 #include "common/types.wgsl"
 #include "common/eye_layer.wgsl"
 

@@ -1,5 +1,5 @@
 // Both eyes onto the two layers of one array swapchain in one multiview pass, driven by
-// src/display/xr/layers.rs: the pass draws each layer once, view_index naming the eye (0 left,
+// src/xr/layers.rs: the pass draws each layer once, view_index naming the eye (0 left,
 // 1 right). fs_colour without a depth swapchain, fs_colour_depth with.
 #include "common/types.wgsl"
 #include "common/eye_layer.wgsl"

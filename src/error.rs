@@ -1,5 +1,5 @@
 //! The library's one error type. Every message names the file or field at fault and says what
-//! to do about it; `anyhow` is used only in `main.rs`.
+//! to do about it; `anyhow` is used only in the binary (`main.rs`, `cli/`).
 
 use std::path::PathBuf;
 
@@ -55,7 +55,7 @@ pub enum VlfError {
     #[error("display: {0}")]
     Display(String),
 
-    /// a CAVE cluster under MPI: a lost rank, a refused launch (`display/cluster.rs`)
+    /// a CAVE cluster under MPI: a lost rank, a refused launch (`cluster/`)
     #[error("cluster: {0}")]
     Cluster(String),
 

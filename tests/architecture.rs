@@ -1,6 +1,6 @@
 //! The module structure stays acyclic: tools/module-cycles.py finds import cycles between the
 //! children of every folder of src/, at every depth (the top-level modules; the files of
-//! src/display/; those of src/display/xr/; a folder's mod.rs is their parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
+//! src/display/, src/tracking/, src/xr/; a folder's mod.rs is their parent, not a sibling). Lower modules (scene, params, bvh, stats, color, gpu, prepare) never
 //! depend on the pipeline stages above them. The core leaves the lab (src/lab/, feature `lab`)
 //! out: no core module names it, and its crates are not the core's. No function is longer than
 //! 120 lines.

@@ -288,8 +288,8 @@ output = {{ monitor = 0 }}
 
 #[test]
 fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
-    use vlf::display::osc::{OscTracker, TrackingStatus, QUIET_AFTER};
-    use vlf::display::tracking::Pose;
+    use vlf::tracking::osc::{OscTracker, TrackingStatus, QUIET_AFTER};
+    use vlf::tracking::source::Pose;
     let start = Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0);
     let mut tracker = OscTracker::listen("127.0.0.1:0", start).unwrap();
     assert_eq!(tracker.latest(), (start, TrackingStatus::Waiting));

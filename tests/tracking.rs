@@ -9,9 +9,9 @@ use common::*;
 use glam::{Quat, Vec3};
 use std::path::Path;
 use vlf::display::projection::project_to_pixel;
-use vlf::display::tracking::{head_rotation_from_angles, Pose, PoseSource};
 use vlf::display::{wall_view, DisplayConfig, Wall};
 use vlf::prepare::Normalisation;
+use vlf::tracking::source::{head_rotation_from_angles, Pose, PoseSource};
 
 /// Two unit quaternions are the same rotation (to float precision).
 fn same(a: Quat, b: Quat) -> bool {
@@ -259,9 +259,7 @@ fn with_tracking(tracking: &str) -> Result<DisplayConfig, String> {
 #[test]
 fn static_and_scripted_heads_take_an_orientation() {
     let config = with_tracking("[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nhead_yaw_deg = 90.0\nhead_pitch_deg = -60.0").unwrap();
-    let PoseSource::Static(pose) =
-        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
-    else {
+    let PoseSource::Static(pose) = config.pose_source(Path::new("cave.toml")).unwrap() else {
         panic!("static source")
     };
     assert!(
@@ -278,9 +276,7 @@ fn static_and_scripted_heads_take_an_orientation() {
         (q * 2.0).to_array()
     ))
     .unwrap();
-    let PoseSource::Static(pose) =
-        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
-    else {
+    let PoseSource::Static(pose) = config.pose_source(Path::new("cave.toml")).unwrap() else {
         panic!("static source")
     };
     assert!(same(pose.head_rotation, q) && (pose.head_rotation.length() - 1.0).abs() < 1e-5);
@@ -313,7 +309,7 @@ fn static_and_scripted_heads_take_an_orientation() {
          [[keyframe]]\nt = 3.0\nhead = [0.0, 1.6, 0.0]\nhead_orientation = [0.0, 0.0, 0.0, 1.0]\nposition = [0.0, 0.0, 0.0]\n",
     )
     .unwrap();
-    let p = vlf::display::tracking::ScriptedPath::load(&path).unwrap();
+    let p = vlf::tracking::source::ScriptedPath::load(&path).unwrap();
     assert!(same(
         p.at(1.0).head_rotation,
         head_rotation_from_angles(45.0, 0.0, 0.0)
@@ -324,11 +320,11 @@ fn static_and_scripted_heads_take_an_orientation() {
         head_rotation_from_angles(45.0, 0.0, 0.0)
     ));
     let walk =
-        vlf::display::tracking::ScriptedPath::load(&repo_path("config/paths/cornell-walk.toml"))
+        vlf::tracking::source::ScriptedPath::load(&repo_path("config/paths/cornell-walk.toml"))
             .unwrap();
     assert_eq!(walk.at(1.0).head_rotation, Quat::IDENTITY);
     std::fs::write(&path, "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.6, 0.0]\nhead_pitch_deg = inf\nposition = [0.0, 0.0, 0.0]\n").unwrap();
-    let e = vlf::display::tracking::ScriptedPath::load(&path)
+    let e = vlf::tracking::source::ScriptedPath::load(&path)
         .unwrap_err()
         .to_string();
     assert!(e.contains("keyframe[0].head_pitch_deg"), "{e}");
@@ -336,7 +332,7 @@ fn static_and_scripted_heads_take_an_orientation() {
 
 #[test]
 fn osc_head_takes_a_quaternion_and_keeps_the_three_number_form() {
-    use vlf::display::osc::OscTracker;
+    use vlf::tracking::osc::OscTracker;
     let mut tracker = OscTracker::listen(
         "127.0.0.1:0",
         Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0),
@@ -429,9 +425,7 @@ fn a_z_up_millimetre_tracker_maps_to_the_room() {
     assert!(((c.orientation(Quat::IDENTITY) * Vec3::NEG_Z) - c.rotation * Vec3::Y).length() < 1e-5);
 
     // end to end: the same pose over OSC comes out in the room
-    let PoseSource::Live(tracker) =
-        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
-    else {
+    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
         panic!("a live source")
     };
     let mut tracker = tracker.into_inner().unwrap();
@@ -502,10 +496,10 @@ fn dtrack_matrix(q: Quat) -> String {
 }
 
 fn wait_state(
-    tracker: &mut vlf::display::live::LiveTracker,
+    tracker: &mut vlf::tracking::live::LiveTracker,
     what: &str,
-    done: impl Fn(&vlf::display::live::LiveState) -> bool,
-) -> vlf::display::live::LiveState {
+    done: impl Fn(&vlf::tracking::live::LiveState) -> bool,
+) -> vlf::tracking::live::LiveState {
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(5);
     loop {
         let (state, _) = tracker.latest_state();
@@ -522,11 +516,9 @@ fn wait_state(
 
 #[test]
 fn dtrack_bodies_and_flysticks_reach_the_room() {
-    use vlf::display::live::TrackingStatus;
+    use vlf::tracking::live::TrackingStatus;
     let config = calibrated("dtrack", "axes = \"z_up\"\nhead_id = 1\nwand_id = 1").unwrap();
-    let PoseSource::Live(tracker) =
-        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
-    else {
+    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
         panic!("a live source")
     };
     let mut tracker = tracker.into_inner().unwrap();
@@ -614,18 +606,18 @@ fn dtrack_bodies_and_flysticks_reach_the_room() {
     );
 
     // quiet: the last state is held, and the status says so
-    std::thread::sleep(vlf::display::live::QUIET_AFTER + std::time::Duration::from_millis(100));
+    std::thread::sleep(vlf::tracking::live::QUIET_AFTER + std::time::Duration::from_millis(100));
     let (held, status) = tracker.latest_state();
     assert_eq!(held, s.state);
     assert!(
-        matches!(status, TrackingStatus::Quiet(d) if d > vlf::display::live::QUIET_AFTER),
+        matches!(status, TrackingStatus::Quiet(d) if d > vlf::tracking::live::QUIET_AFTER),
         "{status:?}"
     );
 }
 
 #[test]
 fn dtrack_parser_refuses_damaged_lines() {
-    let ids = vlf::display::calibration::RoomFromTracker::default();
+    let ids = vlf::tracking::calibration::RoomFromTracker::default();
     let mut out = Vec::new();
     let identity = dtrack_matrix(Quat::IDENTITY);
     for bad in [
@@ -636,11 +628,11 @@ fn dtrack_parser_refuses_damaged_lines() {
         format!("6d 1 [0 1.000][1 2 3][{identity}] junk"),
     ] {
         out.clear();
-        let e = vlf::display::dtrack::parse(bad.as_bytes(), &ids, &mut out);
+        let e = vlf::tracking::dtrack::parse(bad.as_bytes(), &ids, &mut out);
         assert!(e.is_err(), "{bad:?} was accepted: {out:?}");
     }
     out.clear();
-    vlf::display::dtrack::parse(
+    vlf::tracking::dtrack::parse(
         b"fr 5\r\n6dmt 0\r\nfuture 1 [2]\r\n6df2 1 0\r\n",
         &ids,
         &mut out,
@@ -651,7 +643,7 @@ fn dtrack_parser_refuses_damaged_lines() {
 
 #[test]
 fn osc_wand_buttons_and_joystick() {
-    use vlf::display::osc::OscTracker;
+    use vlf::tracking::osc::OscTracker;
     let mut tracker = OscTracker::listen(
         "127.0.0.1:0",
         Pose::new(Vec3::new(0.0, 1.7, 0.0), Vec3::ZERO, 0.0),
@@ -782,9 +774,9 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
 
 #[test]
 fn the_wand_flies_where_it_points_and_turns_about_the_head() {
-    use vlf::display::live::WandPose;
-    use vlf::display::wand::{pressed, step};
-    let nav = vlf::display::Navigation {
+    use vlf::tracking::live::WandPose;
+    use vlf::tracking::wand::{pressed, step};
+    let nav = vlf::tracking::Navigation {
         walk_speed: 1.4,
         turn_speed_deg: 60.0,
         fly: false,
@@ -910,9 +902,7 @@ fn vrpn_tracker_buttons_and_analogs_over_tcp() {
         "[tracking]\nsource = \"vrpn\"\nserver = \"127.0.0.1:{port}\"\ndevice = \"Wand\"\n\n[tracking.calibration]\nhead_id = 0\nwand_id = 1"
     ))
     .unwrap();
-    let PoseSource::Live(tracker) =
-        PoseSource::from_config(&config, Path::new("cave.toml")).unwrap()
-    else {
+    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
         panic!("a live source")
     };
     let mut tracker = tracker.into_inner().unwrap();
@@ -998,15 +988,15 @@ proptest::proptest! {
         let at = at % frame.len();
         frame[at] = byte;
         frame.truncate(cut.max(1).min(frame.len()));
-        let ids = vlf::display::calibration::RoomFromTracker { head_id: 0, wand_id: 0, ..Default::default() };
-        let _ = vlf::display::dtrack::parse(&frame, &ids, &mut Vec::new());
+        let ids = vlf::tracking::calibration::RoomFromTracker { head_id: 0, wand_id: 0, ..Default::default() };
+        let _ = vlf::tracking::dtrack::parse(&frame, &ids, &mut Vec::new());
         let mut stream = [vrpn_name(1, -1, "Wand"), vrpn_pose(1, 0, [0.1, 1.7, -2.0], Quat::IDENTITY)].concat();
         let at = at % stream.len();
         stream[at] = byte;
         stream.truncate(cut.max(1).min(stream.len()));
-        if let Ok(Some(m)) = vlf::display::vrpn::message(&stream) {
+        if let Ok(Some(m)) = vlf::tracking::vrpn::message(&stream) {
             for kind in ["vrpn_Tracker Pos_Quat", "vrpn_Button Change", "vrpn_Button States", "vrpn_Analog Channel"] {
-                let _ = vlf::display::vrpn::decode(kind, m.payload, &ids, &mut Vec::new());
+                let _ = vlf::tracking::vrpn::decode(kind, m.payload, &ids, &mut Vec::new());
             }
         }
     }

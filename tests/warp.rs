@@ -11,14 +11,14 @@ mod common;
 use common::*;
 use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};
-use vlf::display::live::WandPose;
 use vlf::display::post::{apply, wand_overlay};
 use vlf::display::projection::project_to_pixel;
-use vlf::display::tracking::Pose;
 use vlf::display::warp::{load_outputs, Grid, OutputSpec};
 use vlf::display::DisplayConfig;
 use vlf::progress::Silent;
 use vlf::render::Frame;
+use vlf::tracking::live::WandPose;
+use vlf::tracking::source::Pose;
 
 /// A test image whose every pixel differs: smooth ramps plus a hash, linear radiance.
 fn pattern(width: u32, height: u32) -> Frame {
@@ -563,7 +563,7 @@ fn keyframes_carry_a_wand() {
          [[keyframe]]\nt = 3.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\n",
     )
     .unwrap();
-    let p = vlf::display::tracking::ScriptedPath::load(&path).unwrap();
+    let p = vlf::tracking::source::ScriptedPath::load(&path).unwrap();
     let w = p.wand_at(1.0).unwrap();
     assert!((w.position - Vec3::new(0.5, 1.0, 0.0)).length() < 1e-6);
     assert!(
@@ -579,7 +579,7 @@ fn keyframes_carry_a_wand() {
     );
     assert!(p.wand_at(3.5).is_none(), "the last keyframe has no wand");
     std::fs::write(&path, "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\nwand_yaw_deg = 10.0\n").unwrap();
-    let e = vlf::display::tracking::ScriptedPath::load(&path)
+    let e = vlf::tracking::source::ScriptedPath::load(&path)
         .unwrap_err()
         .to_string();
     assert!(e.contains("keyframe[0].wand_position"), "{e}");

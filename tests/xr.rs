@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-use vlf::display::xr::{pose_from_view, projection_from_fov, view_from_pose, Fov, XrPose};
+use vlf::xr::{pose_from_view, projection_from_fov, view_from_pose, Fov, XrPose};
 
 #[test]
 fn projection_of_an_asymmetric_fov_matches_the_hand_computed_matrix() {

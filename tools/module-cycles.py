@@ -2,8 +2,8 @@
 """Import cycles between vlf's modules (tests/architecture.rs runs it; exit 1 on a cycle).
 
 Every folder of src/ is checked, at every depth: the children of one module (the files and
-folders beside each other: src/display/osc.rs and src/display/tracking.rs, or
-src/display/xr/session.rs and src/display/xr/layers.rs) must not import each other in a circle.
+folders beside each other: src/tracking/osc.rs and src/tracking/live.rs, or
+src/xr/session.rs and src/xr/layers.rs) must not import each other in a circle.
 Child A depends on its sibling B when a file anywhere under A names a path into B: `crate::...`,
 `super::...` (also `super::super::...`, and inside an inline `mod tests`) or a `use` group of
 them (`use crate::{a::X, b::Y}`, `use super::{b, c::Z}`). The top level (scene, prepare,
@@ -33,7 +33,7 @@ def strip_comments(text):
 
 
 def module_of(src, f):
-    """src/display/xr/session.rs -> (display, xr, session); src/display/xr/mod.rs -> (display, xr)."""
+    """src/display/window/status.rs -> (display, window, status); src/display/window/mod.rs -> (display, window)."""
     parts = f.relative_to(src).with_suffix("").parts
     return parts[:-1] if parts[-1] == "mod" else parts
 
@@ -126,7 +126,7 @@ def references(src, f):
 
 
 def edges(src):
-    """(a, b) pairs of sibling modules, named by their paths ('display::xr::session')."""
+    """(a, b) pairs of sibling modules, named by their paths ('xr::session')."""
     out = set()
     for f in sorted(src.rglob("*.rs")):
         if f.parent == src and f.name in ("main.rs", "lib.rs"):

@@ -1,8 +1,9 @@
 //! The lab's subcommands (feature `lab`): `vlf sweep`, `vlf generate`, `vlf stress` and
 //! `vlf bench`, over the library's `vlf::lab`.
 
+use super::params::ParamArgs;
 use super::progress::Bars;
-use crate::{parse_size, print_warnings, write_json, ParamArgs};
+use super::{parse_size, print_warnings, write_json};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use std::path::{Path, PathBuf};

@@ -1,5 +1,5 @@
 //! The frame as the three display loops share it (offscreen `headless.rs`, windows `window/`,
-//! headset `xr/`): which views a frame draws (`ViewLabel`), the GPU time of each view's passes
+//! headset `crate::xr`): which views a frame draws (`ViewLabel`), the GPU time of each view's passes
 //! from timestamp queries (`FrameTimes`), read back either at once (headless and windows wait
 //! for every frame, which is what their CPU+GPU frame time measures) or without stalling the
 //! next frame (`InFlight`: the headset records frame N+1 while the GPU draws frame N), and the
@@ -433,7 +433,7 @@ pub fn fit_frame_time(
     renderer: &mut crate::render::Renderer,
     config: &super::DisplayConfig,
     views: &[WallView],
-    poses: &super::tracking::PoseSource,
+    poses: &crate::tracking::source::PoseSource,
     lf: &crate::lightfield::LightField,
 ) -> crate::error::Result<Option<crate::render::budget::BudgetFit>> {
     let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) else {

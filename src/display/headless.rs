@@ -8,18 +8,18 @@ use super::frame::{
     frame_limits, labels, wall_views, worst_ratio, FrameTimes, Limit, Pass, WallView,
 };
 pub use super::frame::{ViewTiming, CONSTANT_FRAME_TIME};
-use super::framelock::{FrameLock, FrameState};
-use super::live::WandPose;
 use super::post::{Draw, Outputs};
-use super::tracking::{Pose, PoseSource};
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
+use crate::framelock::{FrameLock, FrameState};
 use crate::gpu::{MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::{Frame, Renderer};
 use crate::stats::Distribution;
+use crate::tracking::live::WandPose;
+use crate::tracking::source::{Pose, PoseSource};
 use serde::Serialize;
 use std::path::Path;
 
@@ -221,7 +221,7 @@ fn frame_pose<'l>(
     })
 }
 
-/// `run` as one rank of a cluster (`cluster.rs`): each frame's pose comes from `lock.share`,
+/// `run` as one rank of a cluster (`crate::cluster`): each frame's pose comes from `lock.share`,
 /// and `lock.swap` waits for every rank once the frame is drawn.
 pub fn run_locked(
     lf: &LightField,
@@ -233,7 +233,7 @@ pub fn run_locked(
     progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
-    let poses = PoseSource::from_config(config, config_path)?;
+    let poses = config.pose_source(config_path)?;
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
     let views = wall_views(config);

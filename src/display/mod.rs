@@ -1,38 +1,28 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
-//! (`projection.rs`), head tracking (`tracking.rs`; live sources in `live.rs`: `osc.rs`,
-//! `dtrack.rs`, `vrpn.rs`, calibrated by `calibration.rs`; wand navigation in `wand.rs`), projector warp and blend (`warp.rs`) applied with the wand
-//! ray by one GPU pass per output (`post.rs`), and headless rendering of every view
-//! (`headless.rs`); several processes driving one CAVE under MPI with a frame lock
-//! (`cluster.rs`, `framelock.rs`, `cluster_mpi.rs` with the `mpi` feature).
+//! (`projection.rs`), projector warp and blend (`warp.rs`) applied with the wand ray by one GPU
+//! pass per output (`post.rs`), the frame the loops share (`frame.rs`), an eye image onto a
+//! window (`present.rs`), and the loops that draw every view: offscreen (`headless.rs`) and in
+//! windows (`window/`). The display TOML's `[cluster]` table and its checks against the walls
+//! are `cluster_config.rs`. Poses come from `crate::tracking`; a cluster of processes drives
+//! these loops through `crate::framelock` (`crate::cluster`); the headset is `crate::xr`.
 //! Every wall and eye is drawn from one device and one light field.
 
-pub mod calibration;
-pub mod cluster;
-#[cfg(feature = "mpi")]
-mod cluster_mpi;
-pub mod dtrack;
+pub mod cluster_config;
 pub mod frame;
-pub mod framelock;
 pub mod headless;
-pub mod live;
-pub mod navigator;
-pub mod osc;
-pub mod pose;
 pub mod post;
 pub mod present;
 pub mod projection;
-pub mod tracking;
-pub mod vrpn;
-pub mod wand;
 pub mod warp;
 pub mod window;
-pub mod xr;
 
 use crate::error::{Result, VlfError};
+use crate::tracking::source::PoseSource;
+use crate::tracking::{vrpn, Navigation, Pose, StartPose, TrackingConfig};
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -69,9 +59,9 @@ pub struct DisplayConfig {
     pub wand_ray: post::WandRay,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
-    /// several processes, one CAVE (`mpirun`; `cluster.rs`): walls per rank, lost-rank timeout
+    /// several processes, one CAVE (`mpirun`; `cluster_config.rs`, `crate::cluster`): walls per rank, lost-rank timeout
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cluster: Option<cluster::ClusterConfig>,
+    pub cluster: Option<cluster_config::ClusterConfig>,
 }
 
 fn default_ipd() -> f32 {
@@ -80,224 +70,6 @@ fn default_ipd() -> f32 {
 
 fn default_antialiasing() -> u32 {
     crate::render::REALTIME_SAMPLES
-}
-
-/// Where the room stands in the scene: world = position + rotate_y(yaw) * room.
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct StartPose {
-    #[serde(default)]
-    pub position: [f32; 3],
-    #[serde(default)]
-    pub yaw_deg: f32,
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields, tag = "source", rename_all = "lowercase")]
-pub enum TrackingConfig {
-    /// a fixed head in room metres, looking along -z unless oriented (`tracking::head_rotation`)
-    Static {
-        head: [f32; 3],
-        head_yaw_deg: Option<f32>,
-        head_pitch_deg: Option<f32>,
-        head_roll_deg: Option<f32>,
-        head_orientation: Option<[f32; 4]>,
-        /// a tracked wand held still (room metres; see `wand::wand_pose`): draws the wand ray
-        wand_position: Option<[f32; 3]>,
-        wand_yaw_deg: Option<f32>,
-        wand_pitch_deg: Option<f32>,
-        wand_orientation: Option<[f32; 4]>,
-    },
-    /// keyframed head and navigation poses (a TOML file, path relative to the config)
-    Scripted { path: PathBuf },
-    /// live poses over UDP/OSC (`osc.rs`)
-    Osc {
-        port: u16,
-        #[serde(default)]
-        calibration: calibration::Calibration,
-    },
-    /// live poses from A.R.T. DTrack2 (ASCII over UDP, `dtrack.rs`)
-    Dtrack {
-        port: u16,
-        #[serde(default)]
-        calibration: calibration::Calibration,
-    },
-    /// live poses from a VRPN server (`host[:port]`), device `device` (`vrpn.rs`)
-    Vrpn {
-        server: String,
-        device: String,
-        #[serde(default)]
-        calibration: calibration::Calibration,
-    },
-}
-
-impl Default for TrackingConfig {
-    fn default() -> Self {
-        TrackingConfig::Static {
-            head: [0.0, 1.7, 0.0],
-            head_yaw_deg: None,
-            head_pitch_deg: None,
-            head_roll_deg: None,
-            head_orientation: None,
-            wand_position: None,
-            wand_yaw_deg: None,
-            wand_pitch_deg: None,
-            wand_orientation: None,
-        }
-    }
-}
-
-/// A live tracking source as configured (`TrackingConfig::live`).
-pub struct LiveSource {
-    pub protocol: &'static str,
-    /// where it is received: "UDP 9000", "Tracker0@host:3883"
-    pub address: String,
-    pub calibration: std::result::Result<calibration::RoomFromTracker, String>,
-    pub kind: LiveKind,
-}
-
-pub enum LiveKind {
-    /// packets on a UDP port, read by a parser
-    Udp {
-        port: u16,
-        parse: live::Parser,
-    },
-    Vrpn {
-        server: String,
-        device: String,
-    },
-}
-
-impl LiveSource {
-    /// Start receiving; `start` is the pose until the first measurement.
-    pub fn start(self, start: tracking::Pose, config_path: &Path) -> Result<live::LiveTracker> {
-        let calibration = self.calibration.map_err(|message| VlfError::Config {
-            path: config_path.to_path_buf(),
-            message,
-        })?;
-        match self.kind {
-            LiveKind::Udp { port, parse } => live::LiveTracker::spawn(
-                self.protocol,
-                &format!("0.0.0.0:{port}"),
-                start,
-                calibration,
-                parse,
-            ),
-            LiveKind::Vrpn { server, device } => {
-                live::LiveTracker::connect_vrpn(&server, &device, start, calibration)
-            }
-        }
-    }
-}
-
-impl TrackingConfig {
-    /// The static head's orientation (identity for the other sources).
-    /// The static wand, if one is configured.
-    pub fn static_wand(&self) -> std::result::Result<Option<live::WandPose>, String> {
-        match self {
-            TrackingConfig::Static {
-                wand_position,
-                wand_yaw_deg,
-                wand_pitch_deg,
-                wand_orientation,
-                ..
-            } => wand::wand_pose(
-                *wand_position,
-                [*wand_yaw_deg, *wand_pitch_deg],
-                *wand_orientation,
-                "tracking.",
-            ),
-            _ => Ok(None),
-        }
-    }
-
-    pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
-        match self {
-            TrackingConfig::Static {
-                head_yaw_deg,
-                head_pitch_deg,
-                head_roll_deg,
-                head_orientation,
-                ..
-            } => tracking::head_rotation(
-                [*head_yaw_deg, *head_pitch_deg, *head_roll_deg],
-                *head_orientation,
-                "tracking.",
-            ),
-            _ => Ok(glam::Quat::IDENTITY),
-        }
-    }
-
-    /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
-    /// and wand id) and packet parser; None for static and scripted heads.
-    pub fn live(&self) -> Option<LiveSource> {
-        let udp =
-            |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
-                protocol,
-                address: format!("UDP {port}"),
-                calibration,
-                kind: LiveKind::Udp { port: *port, parse },
-            };
-        match self {
-            TrackingConfig::Osc { port, calibration } => Some(udp(
-                "OSC",
-                port,
-                calibration.resolve(1.0, 1),
-                osc::parse as live::Parser,
-            )),
-            // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
-            TrackingConfig::Dtrack { port, calibration } => Some(udp(
-                "DTrack",
-                port,
-                calibration.resolve(0.001, 0),
-                dtrack::parse,
-            )),
-            TrackingConfig::Vrpn {
-                server,
-                device,
-                calibration,
-            } => Some(LiveSource {
-                protocol: "VRPN",
-                address: format!("{device}@{server}"),
-                calibration: calibration.resolve(1.0, 1),
-                kind: LiveKind::Vrpn {
-                    server: server.clone(),
-                    device: device.clone(),
-                },
-            }),
-            _ => None,
-        }
-    }
-}
-
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Navigation {
-    /// metres per second
-    pub walk_speed: f32,
-    /// degrees per second
-    pub turn_speed_deg: f32,
-    /// fly (move along the view direction) rather than walk on the ground plane
-    pub fly: bool,
-    /// the tracked wand's button that resets the navigation (DTrack Flystick2: 0 trigger,
-    /// 1-4 the blue buttons right to left, 5 the joystick pressed)
-    #[serde(default = "default_reset_button")]
-    pub wand_reset_button: u32,
-}
-
-fn default_reset_button() -> u32 {
-    1
-}
-
-impl Default for Navigation {
-    fn default() -> Self {
-        Navigation {
-            walk_speed: 1.4,
-            turn_speed_deg: 60.0,
-            fly: false,
-            wand_reset_button: default_reset_button(),
-        }
-    }
 }
 
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
@@ -345,7 +117,7 @@ pub struct Wall {
     /// none: the wall image goes to the output as it is
     #[serde(default, rename = "projector", skip_serializing_if = "Vec::is_empty")]
     pub projectors: Vec<warp::Projector>,
-    /// a cluster rank drawing only one eye of this wall (`cluster::local_config`)
+    /// a cluster rank drawing only one eye of this wall (`crate::cluster::local_config`)
     #[serde(skip)]
     pub only_eye: Option<&'static str>,
 }
@@ -383,6 +155,12 @@ impl Wall {
 }
 
 impl DisplayConfig {
+    /// The pose source this display's loops draw from (`config_path` resolves a scripted path
+    /// relative to the configuration file).
+    pub fn pose_source(&self, config_path: &Path) -> Result<PoseSource> {
+        PoseSource::from_config(&self.tracking, &self.start_pose, config_path)
+    }
+
     /// One refresh period in milliseconds, where `refresh_hz` is given.
     pub fn frame_budget_ms(&self) -> Option<f64> {
         self.refresh_hz.map(|hz| 1000.0 / hz as f64)
@@ -530,26 +308,14 @@ impl DisplayConfig {
 }
 
 /// Makes the light field on a GPU context chosen elsewhere (the headset runtime's device, each
-/// cluster rank's): loads a `.vlf` onto it or propagates a scene into it (`main.rs`).
+/// cluster rank's): loads a `.vlf` onto it or propagates a scene into it (the command line's
+/// `src/cli/light_field.rs`).
 pub type MakeLightField<'a> = dyn FnMut(
         &std::sync::Arc<crate::gpu::GpuContext>,
     ) -> Result<(
         crate::lightfield::LightField,
         crate::lightfield::ResidentLightField,
     )> + 'a;
-
-/// Run this process as one rank of a CAVE cluster (under mpirun; `cluster.rs`): rank 0 prints
-/// the cluster report (and writes it as JSON); a lost rank ends every process with a message.
-#[cfg(feature = "mpi")]
-pub fn run_cluster(run: &cluster::CaveRun, make: &mut cluster::MakeLightField) -> Result<()> {
-    cluster_mpi::run(run, make)
-}
-
-/// Without the `mpi` feature a cluster run is refused, saying how to build with it.
-#[cfg(not(feature = "mpi"))]
-pub fn run_cluster(_run: &cluster::CaveRun, _make: &mut cluster::MakeLightField) -> Result<()> {
-    Err(VlfError::Cluster(cluster::NO_MPI.into()))
-}
 
 /// One wall seen by one eye (`side` -1 left, +1 right, 0 mono): the off-axis view-projection
 /// and the eye, in the light field's normalised space. The eyes sit at +-IPD/2 along the
@@ -558,7 +324,7 @@ pub fn wall_view(
     config: &DisplayConfig,
     wall: &Wall,
     side: f32,
-    pose: &tracking::Pose,
+    pose: &Pose,
     norm: &crate::prepare::Normalisation,
 ) -> (Mat4, Vec3) {
     let to_unit = |p: Vec3| norm.to_unit(p.into()).as_vec3();

@@ -6,13 +6,13 @@
 //! display's wall images and the outputs drawn from them, for `vlf cave --headless`
 //! (`headless.rs`) and its windows (`window.rs`) alike: the same pass, the same warps and masks.
 
-use super::live::WandPose;
-use super::tracking::Pose;
 use super::warp::{Grid, OutputSpec};
 use super::{DisplayConfig, Wall};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, Timestamps};
 use crate::render::{texture_2d, Frame, Renderer, ViewTargets, COLOR_FORMAT};
+use crate::tracking::live::WandPose;
+use crate::tracking::source::Pose;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
 use serde::{Deserialize, Serialize};

@@ -1,7 +1,7 @@
 //! Putting a view's linear image on a window's surface: the pipeline of `shaders/present.wgsl`
 //! (scaled to the viewport, exposed, sRGB encoded unless the target does it, the status
 //! overlay), one binding per image shown, and the render pass that draws it (the headset uses
-//! the pass alone; its eyes go on the swapchains by `display/xr/layers.rs`).
+//! the pass alone; its eyes go on the swapchains by `xr/layers.rs`).
 
 use crate::error::Result;
 use crate::gpu::types::GpuPresent;

@@ -94,7 +94,7 @@ impl GpuContext {
     }
 
     /// Wrap a device opened elsewhere (an OpenXR runtime's Vulkan device, see
-    /// `display::xr::vulkan`): the same error sink and adapter summary as `new`.
+    /// `xr::vulkan`): the same error sink and adapter summary as `new`.
     pub fn from_device(
         instance: wgpu::Instance,
         adapter: wgpu::Adapter,

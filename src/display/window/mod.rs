@@ -15,17 +15,17 @@ mod surfaces;
 pub use report::WindowReport;
 
 use super::frame::{labels, wall_views, FrameTimes, Pass, WallView};
-use super::framelock::{FrameLock, FrameState};
-use super::live::TrackingStatus;
-use super::navigator::Navigator;
 use super::post::{Draw, Outputs};
 use super::present::PresentPipeline;
-use super::tracking::PoseSource;
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
+use crate::framelock::{FrameLock, FrameState};
 use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::Renderer;
+use crate::tracking::live::TrackingStatus;
+use crate::tracking::navigator::Navigator;
+use crate::tracking::source::PoseSource;
 use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -55,7 +55,7 @@ pub fn run(
     run_locked(lf, resident, config, config_path, options, None)
 }
 
-/// `run` as one rank of a cluster (`cluster.rs`): each frame's pose and exposure come from
+/// `run` as one rank of a cluster (`crate::cluster`): each frame's pose and exposure come from
 /// `lock.share`, every rank waits at `lock.swap` before presenting; only rank 0 takes input
 /// and decides when to stop (the others stop when its state says so).
 pub fn run_locked<'a>(
@@ -77,7 +77,7 @@ pub fn run_locked<'a>(
         ))
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let poses = PoseSource::from_config(config, config_path)?;
+    let poses = config.pose_source(config_path)?;
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
     renderer.set_samples_per_pixel(config.antialiasing)?;
     // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
@@ -163,7 +163,7 @@ struct App<'a> {
     latency: Vec<f64>,
     error: Option<VlfError>,
     printed_done: bool,
-    /// a cluster's frame lock (`cluster.rs`); None alone
+    /// a cluster's frame lock (`crate::cluster`); None alone
     lock: Option<&'a mut dyn FrameLock>,
     /// frames drawn (the frame number shared with a cluster)
     shown: u64,

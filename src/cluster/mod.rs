@@ -1,122 +1,40 @@
-//! One CAVE driven by a cluster of processes (`mpirun -np N vlf cave ...`): the display TOML's
-//! `[cluster]` table (walls or eyes per rank or host name, the lost-rank timeout), what a run
-//! was asked for, and the cluster report rank 0 prints. The state rank 0 broadcasts every frame
-//! and the frame lock the drawing loops call are in `framelock.rs`; the MPI side is
-//! `cluster_mpi.rs`, behind the cargo feature `mpi` (`super::run_cluster` starts it; without
-//! the feature a cluster launch is refused with how to build one).
+//! One CAVE driven by a cluster of processes (`mpirun -np N vlf cave ...`): which rank draws
+//! which views (`ClusterConfig::assign`, `local_config`), what a run was asked for
+//! (`CaveRun`), and the cluster report rank 0 prints. The display TOML's `[cluster]` table is
+//! read and checked with the rest of the display configuration
+//! (`crate::display::cluster_config`); the state rank 0 broadcasts every frame and the frame
+//! lock the drawing loops call are `crate::framelock`; the MPI side is `with_mpi.rs`, behind the
+//! cargo feature `mpi` (`run_cluster` starts it; without the feature a cluster launch is
+//! refused with how to build one).
 
-use super::headless::ViewTiming;
-use super::{DisplayConfig, Stereo};
+#[cfg(feature = "mpi")]
+mod with_mpi;
+
+use crate::display::cluster_config::parse_view;
+pub use crate::display::cluster_config::{ClusterConfig, LightFieldShare, Node, ViewRef};
+use crate::display::headless::ViewTiming;
+use crate::display::DisplayConfig;
+pub use crate::display::MakeLightField;
+use crate::error::Result;
 use crate::stats::Distribution;
+use crate::tracking::TrackingConfig;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
-/// `[cluster]`: which rank draws which walls, and how long a silent rank may take.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ClusterConfig {
-    /// seconds without a frame-lock message after which a rank counts as lost
-    #[serde(default = "default_timeout")]
-    pub timeout_s: f64,
-    /// seconds the ranks wait for each other while starting (loading, propagating on rank 0)
-    #[serde(default = "default_startup_timeout")]
-    pub startup_timeout_s: f64,
-    /// how the light field reaches the ranks: "auto" (each rank that can read the .vlf loads
-    /// it, the others get rank 0's over MPI), "shared" (every rank must read it) or "broadcast"
-    #[serde(default)]
-    pub light_field: LightFieldShare,
-    /// walls per rank (or host); none: the walls split in order into equal runs over the ranks
-    #[serde(default, rename = "node")]
-    pub nodes: Vec<Node>,
+/// Run this process as one rank of a CAVE cluster (under mpirun): rank 0 prints the cluster
+/// report (and writes it as JSON); a lost rank ends every process with a message.
+#[cfg(feature = "mpi")]
+pub fn run_cluster(run: &CaveRun, make: &mut MakeLightField) -> Result<()> {
+    with_mpi::run(run, make)
 }
 
-#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "lowercase")]
-pub enum LightFieldShare {
-    #[default]
-    Auto,
-    Shared,
-    Broadcast,
+/// Without the `mpi` feature a cluster run is refused, saying how to build with it.
+#[cfg(not(feature = "mpi"))]
+pub fn run_cluster(_run: &CaveRun, _make: &mut MakeLightField) -> Result<()> {
+    Err(crate::VlfError::Cluster(NO_MPI.into()))
 }
-
-/// `[[cluster.node]]`: a rank (by number, or the next rank on a host) and what it draws.
-#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Node {
-    pub rank: Option<u32>,
-    pub host: Option<String>,
-    /// wall names; "wall:left" / "wall:right" for one eye of a wall with `stereo = "separate"`
-    pub walls: Vec<String>,
-}
-
-impl Default for ClusterConfig {
-    fn default() -> Self {
-        ClusterConfig {
-            timeout_s: default_timeout(),
-            startup_timeout_s: default_startup_timeout(),
-            light_field: LightFieldShare::Auto,
-            nodes: Vec::new(),
-        }
-    }
-}
-
-fn default_timeout() -> f64 {
-    10.0
-}
-
-fn default_startup_timeout() -> f64 {
-    600.0
-}
-
-/// One view a rank draws: a wall and, when split, one of its eyes.
-pub type ViewRef = (usize, Option<&'static str>);
 
 impl ClusterConfig {
-    /// Checks naming the key (`cluster.…`), against the display's walls.
-    pub fn validate(&self, config: &DisplayConfig) -> std::result::Result<(), String> {
-        for (key, s) in [
-            ("timeout_s", self.timeout_s),
-            ("startup_timeout_s", self.startup_timeout_s),
-        ] {
-            if !(s.is_finite() && s > 0.0 && s <= 86400.0) {
-                return Err(format!("cluster.{key}: {s} must be seconds above 0"));
-            }
-        }
-        let mut seen = std::collections::HashSet::new();
-        for (i, n) in self.nodes.iter().enumerate() {
-            let at = format!("cluster.node[{i}]");
-            if n.rank.is_some() == n.host.is_some() {
-                return Err(format!("{at}: give either rank = N or host = \"name\""));
-            }
-            if n.walls.is_empty() {
-                return Err(format!("{at}.walls: name at least one wall"));
-            }
-            for name in &n.walls {
-                let (wall, eye) =
-                    parse_view(config, name).map_err(|e| format!("{at}.walls: {e}"))?;
-                let eyes: Vec<&str> = match eye {
-                    Some(e) => vec![e],
-                    None => config.walls[wall].eyes().iter().map(|e| e.0).collect(),
-                };
-                for e in eyes {
-                    if !seen.insert((wall, e)) {
-                        return Err(format!("{at}.walls: {name:?} is already drawn by another node (each wall and eye on one rank)"));
-                    }
-                }
-            }
-        }
-        if !self.nodes.is_empty() {
-            for (i, w) in config.walls.iter().enumerate() {
-                for (eye, _) in w.eyes() {
-                    if !seen.contains(&(i, eye)) {
-                        return Err(format!("cluster.node: wall {:?} ({eye} eye) is drawn by no node: add it to a node's walls", w.name));
-                    }
-                }
-            }
-        }
-        Ok(())
-    }
-
     /// Each rank's views, for `size` ranks on `hosts` (processor name per rank).
     pub fn assign(
         &self,
@@ -156,28 +74,6 @@ impl ClusterConfig {
     }
 }
 
-/// "front" or "front:left" -> (wall index, eye).
-fn parse_view(config: &DisplayConfig, name: &str) -> std::result::Result<ViewRef, String> {
-    let (wall, eye) = match name.split_once(':') {
-        Some((w, e)) => (w, Some(e)),
-        None => (name, None),
-    };
-    let index = (config.walls.iter().position(|w| w.name == wall)).ok_or_else(|| {
-        let names: Vec<&str> = config.walls.iter().map(|w| w.name.as_str()).collect();
-        format!("no wall named {wall:?} (walls: {})", names.join(", "))
-    })?;
-    let eye = match eye {
-        None => None,
-        Some(_) if config.walls[index].stereo != Stereo::Separate => {
-            return Err(format!("{name:?}: only a wall with stereo = \"separate\" has its eyes on different outputs; give the whole wall"))
-        }
-        Some("left") => Some("left"),
-        Some("right") => Some("right"),
-        Some(e) => return Err(format!("{name:?}: eye {e:?} is left or right")),
-    };
-    Ok((index, eye))
-}
-
 /// The display as one rank draws it: only its views; on ranks other than 0 a live tracker is
 /// replaced by a static head (poses come from rank 0) that may carry a wand like the source.
 pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> DisplayConfig {
@@ -191,7 +87,7 @@ pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> 
         })
         .collect();
     if !leader && config.tracking.live().is_some() {
-        local.tracking = super::TrackingConfig::Static {
+        local.tracking = TrackingConfig::Static {
             head: [0.0, 1.7, 0.0],
             head_yaw_deg: None,
             head_pitch_deg: None,
@@ -218,8 +114,6 @@ pub struct CaveRun {
     pub exr: bool,
     pub json: Option<PathBuf>,
 }
-
-pub use super::MakeLightField;
 
 /// The number of ranks when launched by mpirun (Open MPI, MPICH/PMI or PMIx), else None.
 pub fn launched_size() -> Option<u32> {

@@ -1,8 +1,8 @@
-//! Head tracking: a static head, a scripted path of keyframed head and navigation poses
+//! The pose source a display's loops draw from (`PoseSource`): a static head, a scripted path of keyframed head and navigation poses
 //! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
 pub use super::pose::{head_rotation, head_rotation_from_angles, Pose, WandPose};
-use super::{DisplayConfig, TrackingConfig};
+use super::{StartPose, TrackingConfig};
 use crate::error::{Result, VlfError};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
@@ -149,17 +149,20 @@ pub enum PoseSource {
 }
 
 impl PoseSource {
-    pub fn from_config(config: &DisplayConfig, config_path: &Path) -> Result<PoseSource> {
+    pub fn from_config(
+        tracking: &TrackingConfig,
+        start_pose: &StartPose,
+        config_path: &Path,
+    ) -> Result<PoseSource> {
         let start = Pose::new(
             Vec3::ZERO,
-            Vec3::from(config.start_pose.position),
-            config.start_pose.yaw_deg,
+            Vec3::from(start_pose.position),
+            start_pose.yaw_deg,
         );
-        match &config.tracking {
+        match tracking {
             TrackingConfig::Static { head, .. } => {
                 let head_rotation =
-                    config
-                        .tracking
+                    tracking
                         .static_head_rotation()
                         .map_err(|message| VlfError::Config {
                             path: config_path.to_path_buf(),
@@ -181,8 +184,7 @@ impl PoseSource {
                     head: Vec3::new(0.0, 1.7, 0.0),
                     ..start
                 };
-                let tracker = config
-                    .tracking
+                let tracker = tracking
                     .live()
                     .expect("a live source")
                     .start(start, config_path)?;
@@ -254,7 +256,9 @@ impl PoseSource {
 /// order) until `seconds` have passed (None: until the process is stopped), and when it goes
 /// quiet or comes back. A static or scripted head is printed once. Returns the states printed.
 pub fn track(
-    config: &super::DisplayConfig,
+    name: &str,
+    tracking: &TrackingConfig,
+    start_pose: &StartPose,
     config_path: &std::path::Path,
     seconds: Option<Duration>,
     out: &mut dyn std::io::Write,
@@ -262,13 +266,13 @@ pub fn track(
     let write = |out: &mut dyn std::io::Write, line: String| {
         writeln!(out, "{line}").map_err(|e| VlfError::io("stdout", e))
     };
-    let source = PoseSource::from_config(config, config_path)?;
+    let source = PoseSource::from_config(tracking, start_pose, config_path)?;
     let PoseSource::Live(tracker) = source else {
         write(
             out,
             format!(
                 "{}: tracking is not live ({}); the head:",
-                config.name,
+                name,
                 config_path.display()
             ),
         )?;
@@ -283,7 +287,7 @@ pub fn track(
         out,
         format!(
             "{}: listening for {} (room metres after calibration)",
-            config.name, tracker.name
+            name, tracker.name
         ),
     )?;
     let started = Instant::now();

@@ -2,8 +2,8 @@
 //! knows (Touch, Index, Windows Mixed Reality, Vive), read every frame into the navigator.
 
 use super::xr_error;
-use crate::display::navigator::Navigator;
 use crate::error::Result;
+use crate::tracking::navigator::Navigator;
 use openxr as xr;
 
 /// Thumbstick navigation: left stick walks and strafes, right stick turns (x) and rises or

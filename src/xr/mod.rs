@@ -17,10 +17,10 @@ pub mod vulkan;
 pub use layers::Swapchains;
 pub use report::XrReport;
 
-pub use super::MakeLightField;
+pub use crate::display::MakeLightField;
 
-use super::tracking::Pose;
 use crate::error::{Result, VlfError};
+use crate::tracking::Pose;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use std::path::Path;
 

@@ -1,11 +1,12 @@
-//! The frame lock between the drawing loops and a cluster (`cluster.rs`): the state rank 0
+//! The frame lock between the drawing loops and a cluster (`crate::cluster`): the state rank 0
 //! broadcasts every frame (`FrameState`: frame number, head, wand, navigation, exposure) and
 //! what the headless and windowed loops call (`FrameLock`: share the state at the start of a
-//! frame, then a swap barrier just before present).
+//! frame, then a swap barrier just before present). It sits below both: the display's loops
+//! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names
+//! the other's module for it.
 
-use super::live::WandPose;
-use super::tracking::Pose;
 use crate::error::Result;
+use crate::tracking::{Pose, WandPose};
 use glam::{Quat, Vec3};
 
 /// What every rank draws a frame from, as rank 0 broadcasts it (88 bytes).

@@ -323,7 +323,7 @@ fn receive(socket: UdpSocket, mut feed: Feed, parse: Parser, name: &str) {
 }
 
 /// One state as `vlf track` prints it: seconds since the start, head and wand (room metres,
-/// yaw/pitch/roll degrees as `tracking::head_rotation_from_angles` takes them), buttons held,
+/// yaw/pitch/roll degrees as `pose::head_rotation_from_angles` takes them), buttons held,
 /// joystick.
 pub fn describe(t: f64, state: &LiveState) -> String {
     let angles = |q: Quat| {

@@ -3,7 +3,7 @@
 //! in the world.
 
 use super::live::LiveState;
-use super::tracking::Pose;
+use super::pose::Pose;
 use glam::{Quat, Vec3};
 use std::collections::HashSet;
 use winit::keyboard::KeyCode;

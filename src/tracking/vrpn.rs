@@ -14,7 +14,7 @@
 
 use super::calibration::RoomFromTracker;
 use super::live::{Feed, LiveTracker, Measurement};
-use super::tracking::Pose;
+use super::pose::Pose;
 use crate::error::{Result, VlfError};
 use glam::{DQuat, DVec3};
 use std::collections::HashMap;

@@ -14,7 +14,7 @@
 use super::calibration::RoomFromTracker;
 use super::live::{LiveTracker, Measurement};
 pub use super::live::{TrackingStatus, QUIET_AFTER};
-use super::tracking::Pose;
+use super::pose::Pose;
 use crate::error::Result;
 use glam::{Quat, Vec3};
 

@@ -12,13 +12,13 @@ use super::layers::Layers;
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, xr_error, Fov, XrOptions, XrPose, XrRuntime, VIEW_TYPE};
 use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, ViewLabel};
-use crate::display::navigator::Navigator;
 use crate::display::present::present_pass;
-use crate::display::tracking::Pose;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
 use crate::render::budget::{Pacer, ProbeView};
 use crate::render::Renderer;
+use crate::tracking::navigator::Navigator;
+use crate::tracking::source::Pose;
 use glam::{Quat, Vec3};
 use openxr as xr;
 use std::sync::Arc;
@@ -695,7 +695,7 @@ impl Headset<'_> {
         let base = *st
             .room
             .get_or_insert_with(|| start_room(self.camera, &views));
-        let navigation = crate::display::Navigation::default();
+        let navigation = crate::tracking::Navigation::default();
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
         let pose = st.navigator.apply(base);
         if options.fit_frame_time && st.fit.is_none() {

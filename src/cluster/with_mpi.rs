@@ -12,10 +12,10 @@
 //! (a peer whose process is gone, on the same host; else the ranks rank 0 was waiting for) and
 //! rank 0's partial report before exiting.
 
-use super::cluster::*;
-use super::framelock::{FrameLock, FrameState};
-use super::{headless, window, DisplayConfig};
+use super::*;
+use crate::display::{headless, window, DisplayConfig};
 use crate::error::{Result, VlfError};
+use crate::framelock::{FrameLock, FrameState};
 use crate::gpu::GpuContext;
 use crate::lightfield::file;
 use mpi::request::StaticScope;
@@ -340,11 +340,7 @@ impl Link {
     }
 
     /// This rank's part of the report.
-    fn rank_report(
-        &self,
-        views: Vec<super::headless::ViewTiming>,
-        error: Option<String>,
-    ) -> RankReport {
+    fn rank_report(&self, views: Vec<ViewTiming>, error: Option<String>) -> RankReport {
         let w = self.watch.lock().unwrap_or_else(|e| e.into_inner());
         RankReport {
             rank: self.rank as u32,
@@ -425,7 +421,7 @@ fn draw(
     cluster: &ClusterConfig,
     make: &mut MakeLightField,
     adapter: &mut String,
-) -> Result<Vec<super::headless::ViewTiming>> {
+) -> Result<Vec<ViewTiming>> {
     let is_vlf = (run.scene.extension()).is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
     let can_read = is_vlf
         && cluster.light_field != LightFieldShare::Broadcast
@@ -649,7 +645,7 @@ fn light_field(
 fn finish(
     link: &mut Link,
     run: &CaveRun,
-    views: Vec<super::headless::ViewTiming>,
+    views: Vec<ViewTiming>,
     cluster: &ClusterConfig,
     adapter: String,
 ) -> Result<()> {

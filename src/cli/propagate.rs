@@ -1,0 +1,62 @@
+//! `vlf propagate`.
+
+use super::light_field::estimate_time;
+use super::params::ParamArgs;
+use super::progress::Bars;
+use super::{print_warnings, write_json};
+use anyhow::{Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+use vlf::gpu::GpuContext;
+use vlf::lightfield::file;
+use vlf::scene::Scene;
+
+/// `vlf propagate`'s arguments.
+#[derive(Args)]
+pub struct PropagateArgs {
+    /// scene.toml or a glTF model (.gltf/.glb)
+    scene: PathBuf,
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Also write the summary as JSON
+    #[arg(long)]
+    report: Option<PathBuf>,
+    /// Save the state every N iterations to OUTPUT.checkpoint (removed when done)
+    #[arg(long, default_value_t = 0)]
+    checkpoint: u32,
+    /// Continue from OUTPUT.checkpoint if it exists (same scene and settings)
+    #[arg(long)]
+    resume: bool,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf propagate`: a scene into a .vlf file, with checkpoints and a JSON report.
+pub fn run(args: PropagateArgs) -> Result<()> {
+    let scene = Scene::load(&args.scene)?;
+    print_warnings(&scene.warnings);
+    let ctx = GpuContext::new()?;
+    let params = args.params.for_adapter(&ctx)?;
+    estimate_time(&ctx, &scene, &params)?;
+    let output = args.output;
+    let plan = vlf::propagate::checkpoint::CheckpointPlan {
+        path: PathBuf::from(format!("{}.checkpoint", output.display())),
+        every: args.checkpoint,
+        resume: args.resume,
+    };
+    let (lf, _resident, rep) =
+        vlf::propagate::propagate_with(ctx, &scene, &params, &Bars::default(), Some(&plan))?;
+    print_warnings(&rep.warnings[scene.warnings.len()..]);
+    file::save(&lf, &output)?;
+    if plan.path.exists() {
+        std::fs::remove_file(&plan.path)
+            .with_context(|| format!("removing {}", plan.path.display()))?;
+    }
+    println!("{}", rep.table());
+    if let Some(path) = args.report {
+        write_json(&path, &rep)?;
+        println!("report: {}", path.display());
+    }
+    println!("light field: {}", output.display());
+    Ok(())
+}

@@ -1,0 +1,58 @@
+//! `vlf render`.
+
+use super::light_field::light_field_for;
+use super::params::ParamArgs;
+use super::parse_size;
+use anyhow::{bail, Result};
+use clap::Args;
+use std::path::PathBuf;
+use vlf::gpu::GpuContext;
+use vlf::render::{image_io, Renderer};
+
+/// `vlf render`'s arguments.
+#[derive(Args)]
+pub struct RenderArgs {
+    /// scene.toml, a glTF model (.gltf/.glb) or file.vlf
+    input: PathBuf,
+    #[arg(long)]
+    camera: Option<String>,
+    /// Image size WxH (default: the camera's)
+    #[arg(long, value_parser = parse_size)]
+    size: Option<[u32; 2]>,
+    /// With a scene.toml: load this light field instead of propagating (must match the scene)
+    #[arg(long)]
+    lightfield: Option<PathBuf>,
+    /// Exposure multiplier for PNG output
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Supersampling on top of --aa: render N x N times the pixels and box-filter them
+    #[arg(long, default_value_t = 1)]
+    ssaa: u32,
+    /// Antialiasing: N eye rays per pixel (a Hammersley set), box-filtered; 1 = off
+    #[arg(long, default_value_t = vlf::render::STILL_SAMPLES)]
+    aa: u32,
+    /// out.exr (linear radiance) or out.png (tonemapped)
+    #[arg(short, long)]
+    output: PathBuf,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf render`: one view from a scene (propagated first) or a .vlf file.
+pub fn run(args: RenderArgs) -> Result<()> {
+    let ssaa = args.ssaa;
+    if !(1..=16).contains(&ssaa) {
+        bail!("--ssaa {ssaa}: use 1 (off) to 16");
+    }
+    let ctx = GpuContext::new()?;
+    let (lf, resident) =
+        light_field_for(&ctx, &args.input, args.lightfield.as_deref(), &args.params)?;
+    let cam = lf.camera(args.camera.as_deref())?.clone();
+    let [w, h] = args.size.unwrap_or(cam.size);
+    let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+    renderer.set_samples_per_pixel(args.aa)?;
+    let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
+    image_io::write_image(&frame, &args.output, args.exposure)?;
+    println!("{} ({w}x{h}, camera {:?})", args.output.display(), cam.name);
+    Ok(())
+}

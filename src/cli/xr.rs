@@ -1,0 +1,107 @@
+//! `vlf xr`.
+
+use super::light_field::light_field_for;
+use super::params::ParamArgs;
+use super::write_json;
+use anyhow::{bail, Result};
+use clap::Args;
+use std::path::PathBuf;
+use vlf::gpu::GpuContext;
+
+/// `vlf xr`'s arguments.
+#[derive(Args)]
+pub struct XrArgs {
+    /// scene.toml (propagated first) or file.vlf
+    #[arg(long)]
+    scene: PathBuf,
+    /// End the session after this many frames (default: when the runtime or the user ends it)
+    #[arg(long)]
+    frames: Option<u32>,
+    /// Write the left eye's image of frame --screenshot-frame as PNG
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Which frame --screenshot captures (1 is the first rendered frame)
+    #[arg(long, default_value_t = 30)]
+    screenshot_frame: u32,
+    /// The scene camera the viewer starts at (default: the scene's first)
+    #[arg(long)]
+    camera: Option<String>,
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Per-eye resolution relative to the runtime's recommendation (e.g. 1.4 supersamples;
+    /// clamped to the runtime's maximum)
+    #[arg(long, default_value_t = 1.0)]
+    resolution_scale: f32,
+    /// Antialiasing: N eye rays per pixel (1 = off)
+    #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
+    aa: u32,
+    /// Fit every frame into the headset's refresh period: the first frame probes the eyes from
+    /// --aa down (fewer eye rays, then fewer mirror reflections) and shows nothing; then each
+    /// eye's eye rays per pixel follow its GPU time (frame pacing)
+    #[arg(long)]
+    fit_frame_time: bool,
+    /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
+    /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
+    #[arg(long, value_enum, default_value = "auto")]
+    swapchains: vlf::xr::Swapchains,
+    /// Write the frame-time report as JSON
+    #[arg(long)]
+    json: Option<PathBuf>,
+    #[command(flatten)]
+    params: ParamArgs,
+}
+
+/// `vlf xr`: an OpenXR headset session.
+pub fn run(a: XrArgs) -> Result<()> {
+    let XrArgs {
+        scene,
+        frames,
+        screenshot,
+        screenshot_frame,
+        camera,
+        exposure,
+        resolution_scale,
+        aa,
+        fit_frame_time,
+        swapchains,
+        json,
+        params,
+    } = a;
+    let options = vlf::xr::XrOptions {
+        frames,
+        screenshot,
+        screenshot_frame,
+        exposure,
+        camera,
+        resolution_scale,
+        antialiasing: aa,
+        fit_frame_time,
+        swapchains,
+    };
+    let scale = options.resolution_scale;
+    if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {
+        bail!("--resolution-scale {scale}: must be above 0 and at most 4 (1 renders at the runtime's recommended size)");
+    }
+    let shot = options.screenshot_frame;
+    if shot == 0 {
+        bail!("--screenshot-frame 0: frames count from 1");
+    }
+    if let (Some(n), Some(_)) = (options.frames, &options.screenshot) {
+        if shot > n {
+            bail!("--screenshot-frame {shot} is after the last of --frames {n}");
+        }
+    }
+    let mut make = |ctx: &std::sync::Arc<GpuContext>| {
+        light_field_for(ctx, &scene, None, &params)
+            .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
+    };
+    let report = vlf::xr::run_headset(&mut make, &options)?;
+    print!("{}", report.table());
+    if let Some(path) = json {
+        write_json(&path, &report)?;
+    }
+    if report.lost {
+        bail!("{}", report.ended);
+    }
+    Ok(())
+}
