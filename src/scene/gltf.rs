@@ -593,7 +593,29 @@ fn read_indices(
             a.index()
         ));
     }
-    let values = read_accessor(a, buffers, 1)?;
+    // exact integers where the indices are plain: through read_accessor's f32 an index above
+    // 2^24 would round to a neighbouring vertex
+    let values: Vec<u64> = match (a.view(), a.sparse()) {
+        (Some(view), None) => {
+            let at = format!("(accessor {})", a.index());
+            let bytes = view_bytes(&view, buffers).map_err(|m| format!("{at}: {m}"))?;
+            let comp = a.data_type().size();
+            let stride = view.stride().unwrap_or(comp);
+            check_span(bytes.len(), a.offset(), stride, a.count(), comp)
+                .map_err(|m| format!("{at}: {m}"))?;
+            (0..a.count())
+                .map(|i| {
+                    let b = &bytes[a.offset() + i * stride..][..comp];
+                    match a.data_type() {
+                        DataType::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as u64,
+                        DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as u64,
+                        _ => b[0] as u64,
+                    }
+                })
+                .collect()
+        }
+        _ => (read_accessor(a, buffers, 1)?.iter().map(|&v| v as u64)).collect(),
+    };
     values
         .iter()
         .map(|&v| {
@@ -607,6 +629,29 @@ fn read_indices(
             }
         })
         .collect()
+}
+
+/// Whether `count` elements of `element` bytes, `stride` apart from byte `offset`, lie within a
+/// buffer view of `len` bytes.
+fn check_span(
+    len: usize,
+    offset: usize,
+    stride: usize,
+    count: usize,
+    element: usize,
+) -> std::result::Result<(), String> {
+    if count == 0 {
+        return Ok(());
+    }
+    let end = (offset as u64)
+        .checked_add((stride as u64).saturating_mul(count as u64 - 1))
+        .and_then(|e| e.checked_add(element as u64));
+    match end {
+        Some(e) if e <= len as u64 => Ok(()),
+        _ => Err(format!(
+            "{count} elements from byte {offset}, {stride} apart, overrun its buffer view ({len} bytes)"
+        )),
+    }
 }
 
 /// An accessor's values as f32, `dims` per element, with every byte range checked. Integer
@@ -747,18 +792,7 @@ fn read_raw(
         return Ok(());
     }
     let comp = ty.size();
-    let end = (offset as u64)
-        .checked_add((stride as u64).saturating_mul(count as u64 - 1))
-        .and_then(|e| e.checked_add((comp * dims) as u64));
-    match end {
-        Some(e) if e <= bytes.len() as u64 => {}
-        _ => {
-            return Err(format!(
-                "{count} elements from byte {offset}, {stride} apart, overrun its buffer view ({} bytes)",
-                bytes.len()
-            ))
-        }
-    }
+    check_span(bytes.len(), offset, stride, count, comp * dims)?;
     for i in 0..count {
         for c in 0..dims {
             let o = offset + i * stride + c * comp;
