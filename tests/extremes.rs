@@ -24,16 +24,12 @@ fn small() -> PropagationParams {
     }
 }
 
-fn load(dir: &std::path::Path, obj: &ObjBuilder, mats: &[Mat], extra: &str) -> Scene {
-    Scene::load(&write_scene(dir, obj, mats, extra)).unwrap()
-}
-
 #[test]
 fn no_emitter_gives_a_clear_message_and_a_black_result() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("wall", DVec3::ZERO, 0.5, true);
-    let scene = load(
+    let scene = load_scene(
         dir.path(),
         &obj,
         &[Mat {
@@ -57,7 +53,7 @@ fn sky_only_and_one_triangle() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("wall", DVec3::ZERO, 0.5, false);
-    let scene = load(
+    let scene = load_scene(
         dir.path(),
         &obj,
         &[Mat {
@@ -147,7 +143,7 @@ fn two_rooms(dir: &std::path::Path, bright: f32, dim: f32, with_bright: bool) ->
         );
     }
     let bright_le = if with_bright { bright } else { 0.0 };
-    load(
+    load_scene(
         dir,
         &obj,
         &[
@@ -244,7 +240,7 @@ fn faces_smaller_than_a_cell_are_reported_and_still_lit() {
         [0.01, 0.01],
         0.0,
     );
-    let scene = load(
+    let scene = load_scene(
         dir.path(),
         &obj,
         &[
@@ -366,7 +362,7 @@ fn duplicated_coplanar_faces_do_not_flicker_between_views_or_runs() {
             ke: [0.0; 3],
         },
     ];
-    let scene = load(dir.path(), &obj, &mats, "");
+    let scene = load_scene(dir.path(), &obj, &mats, "");
     let views = |lf: &vlf::lightfield::LightField| -> Vec<vlf::render::Frame> {
         let resident = lf.upload(gpu()).unwrap();
         let mut renderer =

@@ -6,7 +6,7 @@
 //! goes missing.
 
 mod common;
-use common::{gpu, write_scene, Mat, ObjBuilder};
+use common::{closed_box_with_block, gpu, load_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use vlf::params::PropagationParams;
 use vlf::progress::Silent;
@@ -50,10 +50,6 @@ fn balance(report: &PropagationReport) -> &PowerBalance {
     report.power_balance.as_ref().expect("a power balance")
 }
 
-fn load(dir: &std::path::Path, obj: &ObjBuilder, mats: &[Mat], toml: &str) -> Scene {
-    Scene::load(&write_scene(dir, obj, mats, toml)).unwrap()
-}
-
 fn mat(name: &'static str, kd: f32, ke: f32) -> Mat {
     Mat {
         name,
@@ -64,16 +60,7 @@ fn mat(name: &'static str, kd: f32, ke: f32) -> Mat {
 
 /// A closed box (inward walls), a floating block and an emitter under the ceiling.
 fn closed_box() -> (ObjBuilder, Vec<Mat>) {
-    let mut obj = ObjBuilder::default();
-    obj.cube("wall", DVec3::ZERO, 1.0, true);
-    obj.cube("block", DVec3::new(0.2, -0.4, 0.1), 0.3, false);
-    obj.quad(
-        "light",
-        DVec3::new(0.0, 0.98, 0.0),
-        -DVec3::Y,
-        [0.5, 0.5],
-        0.0,
-    );
+    let obj = closed_box_with_block();
     let mats = vec![
         mat("wall", 0.7, 0.0),
         mat("block", 0.5, 0.0),
@@ -90,7 +77,7 @@ fn a_closed_box_balances_with_one_sided_and_two_sided_walls() {
     for toml in ["", TWO_SIDED] {
         let dir = tempfile::tempdir().unwrap();
         let report = run(
-            &load(dir.path(), &obj, &mats, toml),
+            &load_scene(dir.path(), &obj, &mats, toml),
             &params(false),
             Regression::default(),
         );
@@ -124,7 +111,7 @@ fn a_closed_box_balances_with_one_sided_and_two_sided_walls() {
 fn the_balance_flags_the_two_sided_loss_with_the_fix_switched_off() {
     let (obj, mats) = closed_box();
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(dir.path(), &obj, &mats, TWO_SIDED);
+    let scene = load_scene(dir.path(), &obj, &mats, TWO_SIDED);
     let fixed = run(&scene, &params(false), Regression::default());
     let old = Regression {
         list_order_sides: true,
@@ -159,7 +146,7 @@ fn escape_is_measured_at_the_senders_not_taken_as_the_remainder() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
-    let scene = load(
+    let scene = load_scene(
         dir.path(),
         &obj,
         &[mat("floor", 0.5, 0.0)],
@@ -216,7 +203,7 @@ fn an_open_box_with_a_mirror_floor_balances() {
         mat("light", 0.0, 4.0),
     ];
     let toml = "[materials.floor]\nmirror = [0.8, 0.8, 0.8]\ndiffuse = [0.0, 0.0, 0.0]\n";
-    let scene = load(dir.path(), &obj, &mats, toml);
+    let scene = load_scene(dir.path(), &obj, &mats, toml);
     let mut results = Vec::new();
     for mirror_direct in [true, false] {
         let report = run(&scene, &params(mirror_direct), Regression::default());
@@ -244,7 +231,7 @@ fn batched_directions_and_perturbed_sets_measure_the_same_balance() {
     // average theirs: the same box measures the same
     let (obj, mats) = closed_box();
     let dir = tempfile::tempdir().unwrap();
-    let scene = load(dir.path(), &obj, &mats, TWO_SIDED);
+    let scene = load_scene(dir.path(), &obj, &mats, TWO_SIDED);
     let coarse = PropagationParams {
         geodesic_frequency: 6,
         grid_resolution: 48,

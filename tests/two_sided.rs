@@ -7,7 +7,7 @@
 //! which sends nothing: the closed box lost 15-20% of its interreflected light.
 
 mod common;
-use common::{gpu, write_scene, Mat, ObjBuilder};
+use common::{closed_box_with_block, gpu, load_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use std::collections::HashMap;
 use vlf::params::PropagationParams;
@@ -54,23 +54,10 @@ fn texels(scene: &Scene) -> (PreparedScene, Texels) {
     (prepared, map)
 }
 
-fn load(dir: &std::path::Path, obj: &ObjBuilder, mats: &[Mat], toml: &str) -> Scene {
-    Scene::load(&write_scene(dir, obj, mats, toml)).unwrap()
-}
-
 /// A closed box (inward walls) with an emitter under its ceiling and a floating block that
 /// shadows part of the floor: light that is far from uniform, several bounces deep.
 fn closed_box() -> (ObjBuilder, Vec<Mat>) {
-    let mut obj = ObjBuilder::default();
-    obj.cube("wall", DVec3::ZERO, 1.0, true);
-    obj.cube("block", DVec3::new(0.2, -0.4, 0.1), 0.3, false);
-    obj.quad(
-        "light",
-        DVec3::new(0.0, 0.98, 0.0),
-        -DVec3::Y,
-        [0.5, 0.5],
-        0.0,
-    );
+    let obj = closed_box_with_block();
     let mats = vec![
         Mat {
             name: "wall",
@@ -96,9 +83,9 @@ fn a_closed_box_with_two_sided_walls_equals_the_one_sided_box() {
     let (obj, mats) = closed_box();
     let one = tempfile::tempdir().unwrap();
     let two = tempfile::tempdir().unwrap();
-    let (_, one_sided) = texels(&load(one.path(), &obj, &mats, ""));
+    let (_, one_sided) = texels(&load_scene(one.path(), &obj, &mats, ""));
     let toml = "[materials.wall]\ntwo_sided = true\n[materials.block]\ntwo_sided = true\n";
-    let (prepared, two_sided) = texels(&load(two.path(), &obj, &mats, toml));
+    let (prepared, two_sided) = texels(&load_scene(two.path(), &obj, &mats, toml));
     assert!(
         prepared.faces.iter().any(|f| f.is_back),
         "no back faces made"
@@ -206,7 +193,7 @@ fn panel(two_sided: bool, dir: &std::path::Path) -> (PreparedScene, Texels) {
     } else {
         ""
     };
-    texels(&load(dir, &obj, &mats, toml))
+    texels(&load_scene(dir, &obj, &mats, toml))
 }
 
 /// The mean of each channel over the texels of the faces of `material` facing `normal_z`.
@@ -313,7 +300,7 @@ fn a_thin_two_sided_wall_between_a_lit_and_a_dark_room_leaks_nothing() {
         },
     ];
     let toml = "[materials.room]\ntwo_sided = true\n[materials.divider]\ntwo_sided = true\n";
-    let scene = load(dir.path(), &obj, &mats, toml);
+    let scene = load_scene(dir.path(), &obj, &mats, toml);
     let (prepared, map) = texels(&scene);
     let (mut lit_sum, mut lit_n, mut dark, mut outside) = (0.0, 0usize, 0f64, 0f64);
     let (mut dark_sum, mut dark_n) = (0.0, 0usize);

@@ -30,6 +30,33 @@ pub struct Mat {
 /// An OBJ built from quads, each with a material (the library's, shared with `vlf stress`).
 pub use vlf::scene::builder::QuadMesh as ObjBuilder;
 
+/// Write the scene (as `write_scene`) and load it through the real importer.
+pub fn load_scene(
+    dir: &Path,
+    obj: &ObjBuilder,
+    materials: &[Mat],
+    extra_toml: &str,
+) -> vlf::scene::Scene {
+    vlf::scene::Scene::load(&write_scene(dir, obj, materials, extra_toml)).unwrap()
+}
+
+/// A closed box of side 2 (inward walls, material "wall") with a floating block ("block") that
+/// shadows part of the floor and an emitter ("light") under the ceiling: light far from
+/// uniform, several bounces deep (the two-sided and power-balance tests).
+pub fn closed_box_with_block() -> ObjBuilder {
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", glam::DVec3::ZERO, 1.0, true);
+    obj.cube("block", glam::DVec3::new(0.2, -0.4, 0.1), 0.3, false);
+    obj.quad(
+        "light",
+        glam::DVec3::new(0.0, 0.98, 0.0),
+        -glam::DVec3::Y,
+        [0.5, 0.5],
+        0.0,
+    );
+    obj
+}
+
 /// Write scene.toml + scene.obj + scene.mtl into `dir` and return the scene.toml path.
 pub fn write_scene(dir: &Path, obj: &ObjBuilder, materials: &[Mat], extra_toml: &str) -> PathBuf {
     let mut mtl = String::new();
