@@ -40,6 +40,9 @@ pub enum VlfError {
     )]
     NoAdapter { detail: String },
 
+    #[error("cannot open the GPU asked for: {0}")]
+    GpuChoice(String),
+
     #[error("GPU device request failed: {0}")]
     Device(String),
 

@@ -131,6 +131,25 @@ fn bad_use_gives_a_clear_error_and_nonzero_exit() {
         !out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"),
         "{err}"
     );
+
+    // VLF_GPU picks a hardware GPU by index: a wrong one is refused saying what there is
+    for (value, says) in [("one", "give a GPU's index"), ("7", "GPU 7 was asked for")] {
+        let out = vlf()
+            .arg("propagate")
+            .arg(repo_path("scenes/cornell/scene.toml"))
+            .args(SMALL)
+            .arg("-o")
+            .arg(dir.path().join("x.vlf"))
+            .env("VLF_GPU", value)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says) && err.contains("VLF_GPU"),
+            "VLF_GPU={value}: {err}"
+        );
+        assert!(!dir.path().join("x.vlf").exists());
+    }
 }
 
 #[test]

@@ -583,3 +583,41 @@ fn cluster_config_errors_name_the_key() {
         .unwrap();
     assert_eq!(plan, vec![vec![(0, None), (1, None)], vec![(2, None)]]);
 }
+
+/// `[cluster] gpu`: which GPU each rank opens, from the ranks' hosts (no mpirun needed).
+#[test]
+fn each_rank_on_a_host_takes_its_own_gpu() {
+    use vlf::gpu::AdapterChoice::{Default as Best, Gpu};
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(write_config(dir.path(), 64)).unwrap();
+    let parse = |from: &str, to: &str| {
+        let changed = text.replacen(from, to, 1);
+        assert_ne!(changed, text, "{from}");
+        vlf::display::DisplayConfig::parse(&changed, Path::new("three.toml"))
+    };
+    let hosts: Vec<String> = ["a", "b", "a"].iter().map(|h| h.to_string()).collect();
+    // the default, "local-rank": the n-th rank on a host takes the host's n-th GPU
+    let config = vlf::display::DisplayConfig::parse(&text, Path::new("three.toml")).unwrap();
+    let gpus = config.cluster.clone().unwrap().gpus(&hosts).unwrap();
+    let on = |index| Gpu { index, wrap: true };
+    assert_eq!(gpus, vec![on(0), on(0), on(1)]);
+    // "default": every rank the best adapter (or VLF_GPU's)
+    let same = parse("[cluster]\n", "[cluster]\ngpu = \"default\"\n").unwrap();
+    assert_eq!(same.cluster.unwrap().gpus(&hosts).unwrap(), vec![Best; 3]);
+    // a node's own gpu comes first, and is not wrapped round
+    let own = parse("rank = 1\n", "rank = 1\ngpu = 3\n").unwrap();
+    let gpus = own.cluster.unwrap().gpus(&hosts).unwrap();
+    assert_eq!(
+        gpus[1],
+        Gpu {
+            index: 3,
+            wrap: false
+        }
+    );
+    assert_eq!(gpus[0], on(0));
+    // a wrong value names the key
+    let e = parse("[cluster]\n", "[cluster]\ngpu = \"each\"\n")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gpu") && e.contains("local-rank"), "{e}");
+}

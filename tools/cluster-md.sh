@@ -1,36 +1,97 @@
 #!/usr/bin/env bash
 # BENCHMARKS.md's CAVE cluster section from what tools/gpu-cluster.sh wrote into DIR
-# (cluster-2ranks.json, cave-1process.json, gpu.txt, commit.txt). Usage: tools/cluster-md.sh DIR
+# (cluster-<scene>.json, one-process-<scene>.json, lose.json, gpus.txt, gpu-utilization.csv,
+# gpu.txt, commit.txt). Usage: tools/cluster-md.sh DIR
 set -euo pipefail
 python3 - "$1" <<'PY'
-import json, os, sys
+import csv, glob, json, os, statistics, sys
 d = sys.argv[1]
 read = lambda name: open(os.path.join(d, name)).read().strip() if os.path.exists(os.path.join(d, name)) else "?"
-r = json.load(open(os.path.join(d, "cluster-2ranks.json")))
-frames = len(r["per_rank"][0]["shown"]) if r["per_rank"] else 0
-print(f"### CAVE cluster: {r['ranks']} MPI ranks, frame lock\n")
-print(f"`tools/gpu-cluster.sh` on **{read('gpu.txt')}**, commit {read('commit.txt')}: `mpirun -np 2 vlf cave config/displays/cave-4wall.toml --headless --frames {frames}` "
-      f"(8 views of 1920x1200, Cornell-mirror at default settings loaded from one .vlf by both ranks; front and left walls on rank 0, right and floor on rank 1). "
-      f"**Both ranks share the one GPU** (a 2-GPU machine was not available), so the frame time is two processes' work on one GPU, not a node per wall. "
-      f"Frame time is present to present on each rank; the swap barrier wait is the time a rank waits for the other before presenting; GPU time per view from timestamp queries. "
-      f"Frame lock: {'every rank presented the same frames with the same poses' if r['same_frames_and_poses'] else '**NOT OK**'} ({r['check']}).\n")
-print("| rank | frame time p50 (ms) | p99 | CPU frame p50 (ms) | p99 | swap barrier wait p50 (ms) | p99 | frames presented |")
-print("|---|---|---|---|---|---|---|---|")
-for p in r["per_rank"]:
-    f, c, w = p.get("frame_ms") or {}, p.get("cpu_frame_ms") or {}, p.get("swap_wait_ms") or {}
-    g = lambda s, k: f"{s[k]:.3f}" if k in s else "-"
-    print(f"| {p['rank']} | {g(f,'p50')} | {g(f,'p99')} | {g(c,'p50')} | {g(c,'p99')} | {g(w,'p50')} | {g(w,'p99')} | {len(p['shown'])} |")
-print()
-print("| rank | wall | eye | pixels | GPU p50 (ms) | p99 |\n|---|---|---|---|---|---|")
-for p in r["per_rank"]:
-    for v in p["views"]:
-        gm = v["gpu_ms"] or {}
-        print(f"| {p['rank']} | {v['wall']} | {v['eye']} | {v['pixels'][0]}x{v['pixels'][1]} | {gm.get('median', float('nan')):.3f} | {gm.get('p99', float('nan')):.3f} |")
-one = os.path.join(d, "cave-1process.json")
-if os.path.exists(one):
-    o = json.load(open(one))
-    c = o["cpu_frame_ms"]
-    a = o.get("all_views_gpu_ms") or {}
-    print(f"\nThe same 8 views in one process (`vlf cave --headless`, no MPI): CPU frame time p50 {c['median']:.3f} ms, p99 {c['p99']:.3f} ms; all views' GPU time p50 {a.get('median', float('nan')):.3f} ms, p99 {a.get('p99', float('nan')):.3f} ms.")
-print()
+gpus = [l.strip() for l in read("gpus.txt").splitlines() if l.strip()]
+scenes = sorted((os.path.basename(p)[len("cluster-"):-len(".json")] for p in glob.glob(os.path.join(d, "cluster-*.json"))),
+                key=lambda s: ["classroom-100k", "classroom-1m", "gallery"].index(s) if s in ["classroom-100k", "classroom-1m", "gallery"] else 9)
+walks = {"classroom-100k": "the 100K-triangle classroom with a mirror", "classroom-1m": "the 1M-triangle classroom with a mirror", "gallery": "the mirror gallery"}
+first = json.load(open(os.path.join(d, f"cluster-{scenes[0]}.json")))
+frames = len(first["per_rank"][0]["shown"]) if first["per_rank"] else 0
+print(f"### CAVE cluster: {first['ranks']} MPI ranks, {len(gpus)} GPU(s), frame lock\n")
+print(f"`tools/gpu-cluster.sh` on **{len(gpus)}x {read('gpu.txt')}** ({'; '.join(gpus)}), commit {read('commit.txt')}, {read('date.txt')}: "
+      f"`mpirun -np 2 vlf cave <walk CAVE> --headless --frames {frames}` with `[cluster] gpu = \"local-rank\"`, so rank 0 draws on GPU 0 and rank 1 on GPU 1. "
+      "The 4-wall stereo CAVE (8 views of 1920x1200, config/displays/cave-4wall-walk.toml, paced as shipped: `refresh_hz = 120`, `fit_frame_time = true`) on each shipped walk; "
+      "no `[[cluster.node]]`, so the walls split in order: front and left (4 views) on rank 0, right and floor (4 views) on rank 1. Both ranks load one .vlf. "
+      "Against it: the same 8 views in one process on GPU 0 (`VLF_GPU=0 vlf cave ... --headless`). "
+      "Frame time is present to present on each rank (the cluster's frame: propagation of state from rank 0, drawing, the swap barrier); in one process it is the frame's CPU+GPU time. "
+      "The swap-barrier wait is the time a rank waits for the other before presenting. GPU time per view from timestamp queries. "
+      "Eye rays per pixel: what the frame pacer gave each view (median over frames of the average over a view's tiles), the pacer holding each rank's views at 75% of the 8.33 ms period.\n")
+
+def util_by_phase():
+    """Mean GPU utilisation per GPU between the script's '# <phase> start/end' marks."""
+    path = os.path.join(d, "gpu-utilization.csv")
+    if not os.path.exists(path):
+        return {}
+    phases, current, out = {}, None, {}
+    for line in open(path):
+        if line.startswith("# "):
+            what = line[2:].rsplit(",", 1)[0]
+            current = what[: -len(" start")] if what.endswith(" start") else None
+            continue
+        if current is None or line.startswith("timestamp"):
+            continue
+        row = [c.strip() for c in line.split(",")]
+        if len(row) < 4:
+            continue
+        try:
+            phases.setdefault(current, {}).setdefault(int(row[1]), []).append(float(row[3].split()[0]))
+        except ValueError:
+            continue
+    for phase, per_gpu in phases.items():
+        out[phase] = {g: statistics.mean(v) for g, v in sorted(per_gpu.items())}
+    return out
+
+util = util_by_phase()
+def util_text(phase):
+    u = util.get(phase)
+    return ", ".join(f"GPU {g} {v:.0f}%" for g, v in u.items()) if u else "-"
+
+def rays(pacer):
+    if not pacer or not pacer.get("eye_rays_per_pixel"):
+        return "-"
+    m = [x["median"] for x in pacer["eye_rays_per_pixel"]]
+    return f"{min(m):.2f} to {max(m):.2f}"
+
+def f3(s, k):
+    return f"{s[k]:.3f}" if s and k in s else "-"
+
+for scene in scenes:
+    r = json.load(open(os.path.join(d, f"cluster-{scene}.json")))
+    one_path = os.path.join(d, f"one-process-{scene}.json")
+    o = json.load(open(one_path)) if os.path.exists(one_path) else None
+    n = len(r["per_rank"][0]["shown"]) if r["per_rank"] else 0
+    lock = "every rank presented the same frames with the same poses" if r["same_frames_and_poses"] else "**NOT OK**"
+    print(f"#### {walks.get(scene, scene)} (config/paths/{scene}-walk.toml)\n")
+    print(f"Frame lock: {lock} ({r['check']}). Mean GPU utilisation during the cluster run: {util_text(scene + ' cluster')}; during the one-process run: {util_text(scene + ' one process')}.\n")
+    print("| run | GPU | frame time p50 (ms) | p99 | max | swap-barrier wait p50 (ms) | p99 | views' GPU p50 (ms) | p99 | eye rays per pixel (median per view) | frames |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for p in r["per_rank"]:
+        g = p.get("gpu") or {}
+        gpu = f"{g.get('index', '?')} ({g.get('pci_bus_id') or g.get('name', '?')})" if g else "?"
+        f, w = p.get("frame_ms") or {}, p.get("swap_wait_ms") or {}
+        views = [v["gpu_ms"] for v in p["views"] if v.get("gpu_ms")]
+        sum50 = sum(v["median"] for v in views)
+        sum99 = sum(v["p99"] for v in views)
+        print(f"| rank {p['rank']}: {', '.join(sorted({v['wall'] for v in p['views']}, key=[v['wall'] for v in p['views']].index))} | {gpu} | {f3(f,'p50')} | {f3(f,'p99')} | {f3(f,'max')} | {f3(w,'p50')} | {f3(w,'p99')} | {sum50:.3f} | {sum99:.3f} | {rays(p.get('pacer'))} | {len(p['shown'])} |")
+    if o:
+        c, a = o["cpu_frame_ms"], o.get("all_views_gpu_ms") or {}
+        print(f"| one process: all 8 views | 0 | {c['median']:.3f} | {c['p99']:.3f} | {c['max']:.3f} | - | - | {a.get('median', float('nan')):.3f} | {a.get('p99', float('nan')):.3f} | {rays(o.get('pacer'))} | {o['frames']} |")
+    print()
+    worst = max((v["p99_over_p50"], p["rank"], v["wall"], v["eye"]) for p in r["per_rank"] for v in p["views"] if v.get("p99_over_p50"))
+    print(f"Worst view GPU p99/p50 in the cluster: {worst[0]:.3f} (rank {worst[1]}, {worst[2]} {worst[3]}; limit 1.10: {'met' if worst[0] <= 1.10 else '**above the limit**'}).\n")
+
+lose = os.path.join(d, "lose.json")
+if os.path.exists(lose):
+    print("#### A rank lost mid-run\n")
+    print("Rank 1 sent a signal 6 s into a run of the 100K classroom walk; how long until the run ended and whether rank 0 named rank 1 as lost (the lost-rank timeout `[cluster] timeout_s` is 10 s):\n")
+    print("| signal | run ended | seconds to end | rank 0 named rank 1 |\n|---|---|---|---|")
+    for x in json.load(open(lose)):
+        print(f"| SIG{x['signal']} | {'yes' if x['ended'] else '**no**'} | {x['seconds_to_end']:.2f} | {'yes' if x['rank_0_named_rank_1'] else '**no**'} |")
+    print()
 PY

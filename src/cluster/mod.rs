@@ -11,11 +11,14 @@
 mod with_mpi;
 
 use crate::display::cluster_config::parse_view;
-pub use crate::display::cluster_config::{ClusterConfig, LightFieldShare, Node, ViewRef};
+pub use crate::display::cluster_config::{
+    ClusterConfig, GpuPerRank, LightFieldShare, Node, ViewRef,
+};
 use crate::display::headless::ViewTiming;
 use crate::display::DisplayConfig;
 pub use crate::display::MakeLightField;
 use crate::error::Result;
+use crate::gpu::AdapterChoice;
 use crate::stats::Distribution;
 use crate::tracking::TrackingConfig;
 use serde::{Deserialize, Serialize};
@@ -49,7 +52,22 @@ impl ClusterConfig {
                 plan[wall * size / n].push((wall, None));
             }
         }
+        for (node, rank) in self.nodes.iter().zip(self.node_ranks(hosts)?) {
+            for name in &node.walls {
+                plan[rank].push(parse_view(config, name)?);
+            }
+        }
+        if let Some(r) = plan.iter().position(Vec::is_empty) {
+            return Err(format!("rank {r} has no wall to draw ({} walls over {size} ranks): launch fewer ranks or give it a [[cluster.node]]", config.walls.len()));
+        }
+        Ok(plan)
+    }
+
+    /// The rank each `[[cluster.node]]` runs on, for `hosts` (processor name per rank).
+    fn node_ranks(&self, hosts: &[String]) -> std::result::Result<Vec<usize>, String> {
+        let size = hosts.len();
         let mut taken = vec![false; size];
+        let mut ranks = Vec::with_capacity(self.nodes.len());
         for (i, node) in self.nodes.iter().enumerate() {
             let rank = match (&node.rank, &node.host) {
                 (Some(r), _) if (*r as usize) < size => *r as usize,
@@ -63,14 +81,30 @@ impl ClusterConfig {
                 return Err(format!("cluster.node[{i}]: rank {rank} already has a node"));
             }
             taken[rank] = true;
-            for name in &node.walls {
-                plan[rank].push(parse_view(config, name)?);
+            ranks.push(rank);
+        }
+        Ok(ranks)
+    }
+
+    /// The GPU each rank opens: a node's own `gpu = N`, else by `[cluster] gpu`: "local-rank"
+    /// gives the n-th rank on a host the n-th GPU there (wrapping round when the host has
+    /// fewer GPUs than ranks), "default" the best adapter (or `VLF_GPU`'s) to every rank.
+    pub fn gpus(&self, hosts: &[String]) -> std::result::Result<Vec<AdapterChoice>, String> {
+        let mut gpus: Vec<AdapterChoice> = (0..hosts.len())
+            .map(|r| match self.gpu {
+                GpuPerRank::Default => AdapterChoice::Default,
+                GpuPerRank::LocalRank => AdapterChoice::Gpu {
+                    index: hosts[..r].iter().filter(|h| **h == hosts[r]).count(),
+                    wrap: true,
+                },
+            })
+            .collect();
+        for (node, rank) in self.nodes.iter().zip(self.node_ranks(hosts)?) {
+            if let Some(index) = node.gpu {
+                gpus[rank] = AdapterChoice::Gpu { index, wrap: false };
             }
         }
-        if let Some(r) = plan.iter().position(Vec::is_empty) {
-            return Err(format!("rank {r} has no wall to draw ({} walls over {size} ranks): launch fewer ranks or give it a [[cluster.node]]", config.walls.len()));
-        }
-        Ok(plan)
+        Ok(gpus)
     }
 }
 
@@ -169,8 +203,23 @@ pub struct RankReport {
     pub frame_ms: Option<Stats>,
     /// frames presented (after the swap barrier): [frame number, pose digest] each
     pub shown: Vec<[u64; 2]>,
+    /// the GPU this rank drew on
+    #[serde(default)]
+    pub gpu: Option<RankGpu>,
+    /// the eye rays per pixel the frame pacer gave this rank's views (headless, paced runs)
+    #[serde(default)]
+    pub pacer: Option<crate::render::budget::PacerReport>,
     /// this rank's own failure, if it had one
     pub error: Option<String>,
+}
+
+/// Which GPU a rank drew on: its name, the index it was asked for (`[cluster] gpu`; None: the
+/// default adapter) and its PCI bus address (two GPUs of one name differ there).
+#[derive(Clone, Debug, Default, Serialize, Deserialize, PartialEq)]
+pub struct RankGpu {
+    pub name: String,
+    pub index: Option<usize>,
+    pub pci_bus_id: String,
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -237,10 +286,14 @@ impl ClusterReport {
         );
         for r in &self.per_rank {
             s.push_str(&format!(
-                "  rank {} ({} pid {}): frames {}\n",
+                "  rank {} ({} pid {}{}): frames {}\n",
                 r.rank,
                 r.host,
                 r.pid,
+                r.gpu.as_ref().map_or(String::new(), |g| match g.index {
+                    Some(i) => format!(", GPU {i} {} at {}", g.name, g.pci_bus_id),
+                    None => format!(", {}", g.name),
+                }),
                 frame_range(&r.shown)
             ));
             for v in &r.views {

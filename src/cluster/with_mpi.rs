@@ -62,6 +62,8 @@ struct Plan {
     peers: Vec<(String, u32)>,
     views: Vec<(usize, Option<String>)>,
     receive_light_field: bool,
+    /// the GPU this rank opens (`[cluster] gpu`, a node's `gpu`)
+    gpu: AdapterChoice,
 }
 
 /// What the SIGTERM watcher needs: kept current by the frame lock.
@@ -82,6 +84,10 @@ struct Watch {
     last_present: Option<Instant>,
     display: String,
     adapter: String,
+    /// this rank's GPU: index asked for and PCI bus address
+    gpu: Option<RankGpu>,
+    /// eye rays per pixel the frame pacer gave this rank's views (headless, paced)
+    pacer: Option<crate::render::budget::PacerReport>,
     timeout_s: f64,
     json: Option<std::path::PathBuf>,
     /// the run's end is being handled (a lost rank reported): SIGTERM then ends quietly
@@ -351,6 +357,8 @@ impl Link {
             swap_wait_ms: Stats::of(&w.swap_ms),
             frame_ms: Stats::of(&w.frame_ms),
             shown: w.shown.clone(),
+            gpu: w.gpu.clone(),
+            pacer: w.pacer.clone(),
             error,
         }
     }
@@ -452,9 +460,17 @@ fn draw(
         names.join(", ")
     );
     let _ = std::io::stdout().flush();
-    let ctx = GpuContext::new()?;
+    let ctx = GpuContext::open(plan.gpu)?;
     *adapter = ctx.summary.name.clone();
-    link.watch.lock().unwrap_or_else(|e| e.into_inner()).adapter = adapter.clone();
+    {
+        let mut watch = link.watch.lock().unwrap_or_else(|e| e.into_inner());
+        watch.adapter = adapter.clone();
+        watch.gpu = Some(RankGpu {
+            name: ctx.summary.name.clone(),
+            index: ctx.summary.gpu_index,
+            pci_bus_id: ctx.summary.pci_bus_id.clone(),
+        });
+    }
     let (lf, resident) = light_field(link, &ctx, make, plan.receive_light_field)?;
     if run.headless {
         let out = run.out.join(format!("rank{}", link.rank));
@@ -468,6 +484,7 @@ fn draw(
             Some(link),
             &crate::progress::Silent,
         )?;
+        link.watch.lock().unwrap_or_else(|e| e.into_inner()).pacer = report.pacer.clone();
         Ok(report.views)
     } else {
         let options = window::WindowOptions {
@@ -534,12 +551,12 @@ fn plan(
     let hellos: Vec<Hello> = hellos.into_iter().flatten().collect();
     let peers: Vec<(String, u32)> = hellos.iter().map(|h| (h.host.clone(), h.pid)).collect();
     let hosts: Vec<String> = peers.iter().map(|p| p.0.clone()).collect();
-    let assignment = cluster
-        .assign(display, &hosts)
-        .map_err(|message| VlfError::Config {
-            path: "the display configuration".into(),
-            message,
-        })?;
+    let config_err = |message| VlfError::Config {
+        path: "the display configuration".into(),
+        message,
+    };
+    let assignment = cluster.assign(display, &hosts).map_err(config_err)?;
+    let gpus = cluster.gpus(&hosts).map_err(config_err)?;
     link.watch.lock().unwrap_or_else(|e| e.into_inner()).peers = peers.clone();
     let mut mine = None;
     for (r, views) in assignment.into_iter().enumerate() {
@@ -550,6 +567,7 @@ fn plan(
                 .map(|(w, e)| (w, e.map(String::from)))
                 .collect(),
             receive_light_field: !hellos[r].can_read_light_field,
+            gpu: gpus[r],
         };
         if r != 0 && plan.receive_light_field {
             link.receivers.push(r as i32);
@@ -903,6 +921,7 @@ fn spawn_watcher(set: libc::sigset_t, watch: Arc<Mutex<Watch>>) {
                     swap_wait_ms: Stats::of(&w.swap_ms),
                     frame_ms: Stats::of(&w.frame_ms),
                     shown: w.shown.clone(),
+                    gpu: w.gpu.clone(),
                     ..Default::default()
                 }],
             };

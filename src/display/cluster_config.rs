@@ -21,6 +21,11 @@ pub struct ClusterConfig {
     /// it, the others get rank 0's over MPI), "shared" (every rank must read it) or "broadcast"
     #[serde(default)]
     pub light_field: LightFieldShare,
+    /// which GPU each rank opens: "local-rank" (the n-th rank on a host takes the host's n-th
+    /// GPU in PCI bus order, nvidia-smi's; ranks share when there are fewer GPUs) or "default"
+    /// (every rank the best adapter, or `VLF_GPU`'s); a node's own `gpu = N` comes first
+    #[serde(default)]
+    pub gpu: GpuPerRank,
     /// walls per rank (or host); none: the walls split in order into equal runs over the ranks
     #[serde(default, rename = "node")]
     pub nodes: Vec<Node>,
@@ -35,12 +40,22 @@ pub enum LightFieldShare {
     Broadcast,
 }
 
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum GpuPerRank {
+    #[default]
+    LocalRank,
+    Default,
+}
+
 /// `[[cluster.node]]`: a rank (by number, or the next rank on a host) and what it draws.
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Node {
     pub rank: Option<u32>,
     pub host: Option<String>,
+    /// the GPU this node's rank opens (index in PCI bus order, as nvidia-smi lists them)
+    pub gpu: Option<usize>,
     /// wall names; "wall:left" / "wall:right" for one eye of a wall with `stereo = "separate"`
     pub walls: Vec<String>,
 }
@@ -51,6 +66,7 @@ impl Default for ClusterConfig {
             timeout_s: default_timeout(),
             startup_timeout_s: default_startup_timeout(),
             light_field: LightFieldShare::Auto,
+            gpu: GpuPerRank::LocalRank,
             nodes: Vec::new(),
         }
     }

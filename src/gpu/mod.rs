@@ -18,6 +18,22 @@ pub struct AdapterSummary {
     pub driver_info: String,
     pub device_type: String,
     pub software: bool,
+    /// PCI bus address where the driver gives one (tells two GPUs of one name apart)
+    #[serde(default)]
+    pub pci_bus_id: String,
+    /// which GPU was asked for (`VLF_GPU`, or a cluster rank's `[cluster] gpu`), if one was
+    #[serde(default)]
+    pub gpu_index: Option<usize>,
+}
+
+/// Which adapter to open.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum AdapterChoice {
+    /// `VLF_GPU=N` if set, else `WGPU_ADAPTER_NAME`/`WGPU_BACKEND`, else the best adapter
+    Default,
+    /// the n-th hardware GPU in PCI bus order (nvidia-smi's order); `wrap`: n modulo the
+    /// number of GPUs (a cluster rank on a host with fewer GPUs than ranks shares one)
+    Gpu { index: usize, wrap: bool },
 }
 
 pub struct GpuContext {
@@ -33,6 +49,69 @@ pub struct GpuContext {
     errors: Arc<Mutex<Vec<String>>>,
 }
 
+/// The hardware GPUs in PCI bus order (nvidia-smi's), each once: a GPU that both Vulkan and
+/// GL offer is taken through Vulkan. Software adapters are not GPUs here.
+async fn hardware_gpus(instance: &wgpu::Instance, backends: wgpu::Backends) -> Vec<wgpu::Adapter> {
+    let mut gpus: Vec<wgpu::Adapter> = (instance.enumerate_adapters(backends).await)
+        .into_iter()
+        .filter(|a| {
+            let info = a.get_info();
+            let name = info.name.to_lowercase();
+            info.device_type != wgpu::DeviceType::Cpu
+                && !name.contains("llvmpipe")
+                && !name.contains("lavapipe")
+        })
+        .collect();
+    if gpus
+        .iter()
+        .any(|a| a.get_info().backend == wgpu::Backend::Vulkan)
+    {
+        gpus.retain(|a| a.get_info().backend == wgpu::Backend::Vulkan);
+    }
+    gpus.sort_by_key(|a| {
+        let info = a.get_info();
+        (info.device_pci_bus_id, info.name, info.device)
+    });
+    gpus
+}
+
+/// The `index`-th hardware GPU (modulo their number when `wrap`) and the index taken; None
+/// when `wrap` and there is no hardware GPU (a cluster on the software adapter).
+async fn nth_gpu(
+    instance: &wgpu::Instance,
+    backends: wgpu::Backends,
+    index: usize,
+    wrap: bool,
+) -> Result<Option<(wgpu::Adapter, usize)>> {
+    let mut gpus = hardware_gpus(instance, backends).await;
+    let count = gpus.len();
+    if wrap && count == 0 {
+        return Ok(None);
+    }
+    let names: Vec<String> = (gpus.iter().enumerate())
+        .map(|(i, a)| {
+            format!(
+                "{i}: {} ({})",
+                a.get_info().name,
+                a.get_info().device_pci_bus_id
+            )
+        })
+        .collect();
+    let taken = if wrap && count > 0 {
+        index % count
+    } else {
+        index
+    };
+    if taken >= count {
+        return Err(VlfError::GpuChoice(if count == 0 {
+            format!("GPU {index} was asked for (VLF_GPU or [cluster] gpu), but wgpu sees no hardware GPU here; unset VLF_GPU (or set [cluster] gpu = \"default\") to use the best adapter there is")
+        } else {
+            format!("GPU {index} was asked for (VLF_GPU or [cluster] gpu), but this machine has {count}: {}", names.join(", "))
+        }));
+    }
+    Ok(Some((gpus.swap_remove(taken), taken)))
+}
+
 /// An error and every cause under it, on one line each.
 fn error_chain(e: &dyn std::error::Error) -> String {
     let mut s = e.to_string();
@@ -45,32 +124,71 @@ fn error_chain(e: &dyn std::error::Error) -> String {
 }
 
 impl GpuContext {
-    /// Open the best adapter (a real GPU before a software one). `WGPU_BACKEND` and
-    /// `WGPU_ADAPTER_NAME` choose otherwise.
+    /// Open the best adapter (a real GPU before a software one). `VLF_GPU=N` (the n-th GPU
+    /// in PCI bus order), `WGPU_BACKEND` and `WGPU_ADAPTER_NAME` choose otherwise.
     pub fn new() -> Result<Arc<GpuContext>> {
-        pollster::block_on(Self::new_async())
+        Self::open(AdapterChoice::Default)
     }
 
-    async fn new_async() -> Result<Arc<GpuContext>> {
+    /// Open the adapter `choice` names.
+    pub fn open(choice: AdapterChoice) -> Result<Arc<GpuContext>> {
+        let choice = match (choice, std::env::var("VLF_GPU")) {
+            (AdapterChoice::Default, Ok(v)) if !v.trim().is_empty() => AdapterChoice::Gpu {
+                index: v.trim().parse().map_err(|_| {
+                    VlfError::GpuChoice(format!("VLF_GPU={v:?}: give a GPU's index (0, 1, ...; nvidia-smi's order) or leave it unset"))
+                })?,
+                wrap: false,
+            },
+            (choice, _) => choice,
+        };
+        pollster::block_on(Self::new_async(choice))
+    }
+
+    async fn new_async(choice: AdapterChoice) -> Result<Arc<GpuContext>> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         if std::env::var_os("WGPU_BACKEND").is_none() {
             desc.backends = wgpu::Backends::VULKAN | wgpu::Backends::GL;
         }
+        let backends = desc.backends;
         let instance = wgpu::Instance::new(desc);
-        let adapter = match wgpu::util::initialize_adapter_from_env(&instance, None).await {
-            Ok(adapter) => adapter,
-            Err(_) => instance
-                .request_adapter(&wgpu::RequestAdapterOptions {
-                    power_preference: wgpu::PowerPreference::HighPerformance,
-                    force_fallback_adapter: false,
-                    compatible_surface: None,
-                    ..Default::default()
-                })
-                .await
-                .map_err(|e| VlfError::NoAdapter {
-                    detail: e.to_string(),
-                })?,
+        let mut gpu_index = None;
+        let chosen = match choice {
+            AdapterChoice::Gpu { index, wrap } => nth_gpu(&instance, backends, index, wrap).await?,
+            AdapterChoice::Default => None,
         };
+        let adapter = match chosen {
+            Some((adapter, index)) => {
+                gpu_index = Some(index);
+                adapter
+            }
+            None => Self::default_adapter(&instance).await?,
+        };
+        let (device, queue) = Self::request_device(&adapter).await?;
+        Ok(Self::wrap(instance, adapter, device, queue, gpu_index))
+    }
+
+    /// `WGPU_ADAPTER_NAME` / `WGPU_BACKEND`'s adapter, else the best one.
+    async fn default_adapter(instance: &wgpu::Instance) -> Result<wgpu::Adapter> {
+        Ok(
+            match wgpu::util::initialize_adapter_from_env(instance, None).await {
+                Ok(adapter) => adapter,
+                Err(_) => instance
+                    .request_adapter(&wgpu::RequestAdapterOptions {
+                        power_preference: wgpu::PowerPreference::HighPerformance,
+                        force_fallback_adapter: false,
+                        compatible_surface: None,
+                        ..Default::default()
+                    })
+                    .await
+                    .map_err(|e| VlfError::NoAdapter {
+                        detail: e.to_string(),
+                    })?,
+            },
+        )
+    }
+
+    /// A device with every feature and limit vlf uses that the adapter offers.
+    async fn request_device(adapter: &wgpu::Adapter) -> Result<(wgpu::Device, wgpu::Queue)> {
         let supported = adapter.features();
         let timestamps = supported.contains(wgpu::Features::TIMESTAMP_QUERY);
         let mut required_features = wgpu::Features::empty();
@@ -79,7 +197,7 @@ impl GpuContext {
         }
         // Ask for everything the adapter offers: big scenes need big storage bindings.
         let required_limits = adapter.limits();
-        let (device, queue) = adapter
+        adapter
             .request_device(&wgpu::DeviceDescriptor {
                 label: Some("vlf"),
                 required_features,
@@ -89,8 +207,7 @@ impl GpuContext {
                 trace: wgpu::Trace::Off,
             })
             .await
-            .map_err(|e| VlfError::Device(e.to_string()))?;
-        Ok(Self::from_device(instance, adapter, device, queue))
+            .map_err(|e| VlfError::Device(e.to_string()))
     }
 
     /// Wrap a device opened elsewhere (an OpenXR runtime's Vulkan device, see
@@ -100,6 +217,16 @@ impl GpuContext {
         adapter: wgpu::Adapter,
         device: wgpu::Device,
         queue: wgpu::Queue,
+    ) -> Arc<GpuContext> {
+        Self::wrap(instance, adapter, device, queue, None)
+    }
+
+    fn wrap(
+        instance: wgpu::Instance,
+        adapter: wgpu::Adapter,
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        gpu_index: Option<usize>,
     ) -> Arc<GpuContext> {
         let info = adapter.get_info();
         let software = info.device_type == wgpu::DeviceType::Cpu
@@ -124,6 +251,8 @@ impl GpuContext {
             driver_info: info.driver_info.clone(),
             device_type: format!("{:?}", info.device_type),
             software,
+            pci_bus_id: info.device_pci_bus_id.clone(),
+            gpu_index,
         };
         Arc::new(GpuContext {
             instance,

@@ -279,7 +279,7 @@ pub struct Pacer {
     gain: f64,
 }
 /// What the pacer did over a run, per view: eye rays per pixel, averaged over its tiles.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct PacerReport {
     pub target_ms: Vec<f64>,
     pub eye_rays_per_pixel: Vec<Distribution>,
