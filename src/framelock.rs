@@ -77,4 +77,9 @@ pub trait FrameLock {
     fn is_leader(&self) -> bool;
     fn share(&mut self, state: FrameState) -> Result<FrameState>;
     fn swap(&mut self) -> Result<()>;
+    /// The swap barrier of a frame that is not a displayed frame (a headless run's last frame,
+    /// read back for the images): locked like any other, but not counted in the frame times.
+    fn swap_untimed(&mut self) -> Result<()> {
+        self.swap()
+    }
 }

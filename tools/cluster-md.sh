@@ -8,7 +8,8 @@ import csv, glob, json, os, statistics, sys
 d = sys.argv[1]
 read = lambda name: open(os.path.join(d, name)).read().strip() if os.path.exists(os.path.join(d, name)) else "?"
 gpus = [l.strip() for l in read("gpus.txt").splitlines() if l.strip()]
-scenes = sorted((os.path.basename(p)[len("cluster-"):-len(".json")] for p in glob.glob(os.path.join(d, "cluster-*.json"))),
+names = [os.path.basename(p)[len("cluster-"):-len(".json")] for p in glob.glob(os.path.join(d, "cluster-*.json"))]
+scenes = sorted((n for n in names if not n.endswith("-fixed")),
                 key=lambda s: ["classroom-100k", "classroom-1m", "gallery"].index(s) if s in ["classroom-100k", "classroom-1m", "gallery"] else 9)
 walks = {"classroom-100k": "the 100K-triangle classroom with a mirror", "classroom-1m": "the 1M-triangle classroom with a mirror", "gallery": "the mirror gallery"}
 first = json.load(open(os.path.join(d, f"cluster-{scenes[0]}.json")))
@@ -61,14 +62,12 @@ def rays(pacer):
 def f3(s, k):
     return f"{s[k]:.3f}" if s and k in s else "-"
 
-for scene in scenes:
-    r = json.load(open(os.path.join(d, f"cluster-{scene}.json")))
-    one_path = os.path.join(d, f"one-process-{scene}.json")
+def table(name, heading):
+    r = json.load(open(os.path.join(d, f"cluster-{name}.json")))
+    one_path = os.path.join(d, f"one-process-{name}.json")
     o = json.load(open(one_path)) if os.path.exists(one_path) else None
-    n = len(r["per_rank"][0]["shown"]) if r["per_rank"] else 0
     lock = "every rank presented the same frames with the same poses" if r["same_frames_and_poses"] else "**NOT OK**"
-    print(f"#### {walks.get(scene, scene)} (config/paths/{scene}-walk.toml)\n")
-    print(f"Frame lock: {lock} ({r['check']}). Mean GPU utilisation during the cluster run: {util_text(scene + ' cluster')}; during the one-process run: {util_text(scene + ' one process')}.\n")
+    print(f"{heading} Frame lock: {lock} ({r['check']}). Mean GPU utilisation during the cluster run: {util_text(name + ' cluster')}; during the one-process run: {util_text(name + ' one process')}.\n")
     print("| run | GPU | frame time p50 (ms) | p99 | max | swap-barrier wait p50 (ms) | p99 | views' GPU p50 (ms) | p99 | eye rays per pixel (median per view) | frames |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for p in r["per_rank"]:
@@ -76,15 +75,21 @@ for scene in scenes:
         gpu = f"{g.get('index', '?')} ({g.get('pci_bus_id') or g.get('name', '?')})" if g else "?"
         f, w = p.get("frame_ms") or {}, p.get("swap_wait_ms") or {}
         views = [v["gpu_ms"] for v in p["views"] if v.get("gpu_ms")]
-        sum50 = sum(v["median"] for v in views)
-        sum99 = sum(v["p99"] for v in views)
-        print(f"| rank {p['rank']}: {', '.join(sorted({v['wall'] for v in p['views']}, key=[v['wall'] for v in p['views']].index))} | {gpu} | {f3(f,'p50')} | {f3(f,'p99')} | {f3(f,'max')} | {f3(w,'p50')} | {f3(w,'p99')} | {sum50:.3f} | {sum99:.3f} | {rays(p.get('pacer'))} | {len(p['shown'])} |")
+        walls = list(dict.fromkeys(v["wall"] for v in p["views"]))
+        print(f"| rank {p['rank']}: {', '.join(walls)} | {gpu} | {f3(f,'p50')} | {f3(f,'p99')} | {f3(f,'max')} | {f3(w,'p50')} | {f3(w,'p99')} | "
+              f"{sum(v['median'] for v in views):.3f} | {sum(v['p99'] for v in views):.3f} | {rays(p.get('pacer'))} | {len(p['shown'])} |")
     if o:
         c, a = o["cpu_frame_ms"], o.get("all_views_gpu_ms") or {}
         print(f"| one process: all 8 views | 0 | {c['median']:.3f} | {c['p99']:.3f} | {c['max']:.3f} | - | - | {a.get('median', float('nan')):.3f} | {a.get('p99', float('nan')):.3f} | {rays(o.get('pacer'))} | {o['frames']} |")
     print()
     worst = max((v["p99_over_p50"], p["rank"], v["wall"], v["eye"]) for p in r["per_rank"] for v in p["views"] if v.get("p99_over_p50"))
     print(f"Worst view GPU p99/p50 in the cluster: {worst[0]:.3f} (rank {worst[1]}, {worst[2]} {worst[3]}; limit 1.10: {'met' if worst[0] <= 1.10 else '**above the limit**'}).\n")
+
+for scene in scenes:
+    print(f"#### {walks.get(scene, scene)} (config/paths/{scene}-walk.toml)\n")
+    table(scene, "**Paced, as shipped** (the pacer holds each rank's views at 75% of the period and spends the rest on eye rays).")
+    if scene + "-fixed" in names:
+        table(scene + "-fixed", "**Fixed at 4 eye rays per pixel** (`fit_frame_time = false`: the time the drawing itself takes).")
 
 lose = os.path.join(d, "lose.json")
 if os.path.exists(lose):

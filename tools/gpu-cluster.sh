@@ -14,11 +14,15 @@
 # cluster.log, gpu.txt, gpus.txt, commit.txt, date.txt; tools/cluster-md.sh OUT_DIR turns them
 # into BENCHMARKS.md's section. Needs a vlf built with `--features mpi` and Open MPI's mpirun.
 #   tools/gpu-cluster.sh VLF_BINARY OUT_DIR
-# FRAMES (default 3000) frames per run; SCENES (default "classroom-100k classroom-1m gallery").
+# FRAMES (default 3000) frames per run; SCENES (default "classroom-100k classroom-1m gallery");
+# MODES (default "paced fixed"): paced as shipped, and fixed at 4 eye rays per pixel
+# (fit_frame_time = false; reports named <scene>-fixed).
 set -uo pipefail
 mkdir -p "$2"
 vlf=$(realpath "$1"); out=$(cd "$2" && pwd)
 frames=${FRAMES:-3000}
+SCENES=${SCENES:-classroom-100k classroom-1m gallery}
+MODES=${MODES:-paced fixed}
 work=${WORK:-$(mktemp -d)}
 cd "$(dirname "$0")/.."
 log="$out/cluster.log"
@@ -52,34 +56,40 @@ generate() {  # scene name -> the generator's command line
     gallery) echo "gallery --mirrors" ;;
   esac
 }
-for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
+for scene in $SCENES; do
   if [ ! -f "$work/$scene.vlf" ]; then
     "$vlf" generate $(generate "$scene") -o "$work/$scene" | quiet | tail -1 | tee -a "$log"
     "$vlf" propagate "$work/$scene/scene.toml" -o "$work/$scene.vlf" 2>&1 | quiet | grep -E "iterations|propagation  |triangles" | tee -a "$log"
   fi
-  config="$work/cave-$scene.toml"
-  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$config"
-  printf '\n[cluster]\ngpu = "local-rank"   # rank n on a host draws on its n-th GPU\n' >> "$config"
-  echo "== $scene: one process on GPU 0" | tee -a "$log"
-  mark "$scene one process start"
-  VLF_GPU=0 "$vlf" cave "$config" --scene "$work/$scene.vlf" --headless --frames "$frames" \
-    --out "$work/one-$scene" --json "$out/one-process-$scene.json" 2>&1 | quiet > "$out/one-process-$scene.txt"
-  mark "$scene one process end"
-  tail -14 "$out/one-process-$scene.txt" | tee -a "$log"
-  echo "== $scene: mpirun -np 2" | tee -a "$log"
-  mark "$scene cluster start"
-  timeout 900 mpirun -np 2 --oversubscribe "$vlf" cave "$config" --scene "$work/$scene.vlf" \
-    --headless --frames "$frames" --out "$work/cluster-$scene" --json "$out/cluster-$scene.json" 2>&1 | quiet > "$out/cluster-$scene.txt"
-  rc=${PIPESTATUS[0]}
-  mark "$scene cluster end"
-  grep -E "^vlf cluster|cluster report|rank [0-9] \(|frame time|swap|frames " "$out/cluster-$scene.txt" | head -24 | tee -a "$log"
-  echo "mpirun exit status $rc" | tee -a "$log"
+  for mode in $MODES; do
+    # paced: as shipped (fit_frame_time = true); fixed: 4 eye rays per pixel on every view, every
+    # frame (fit_frame_time = false): the frame time the drawing itself takes
+    name=$scene; [ "$mode" = fixed ] && name=$scene-fixed
+    config="$work/cave-$name.toml"
+    sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$config"
+    [ "$mode" = fixed ] && sed -i 's/^fit_frame_time = true/fit_frame_time = false/' "$config"
+    printf '\n[cluster]\ngpu = "local-rank"   # rank n on a host draws on its n-th GPU\n' >> "$config"
+    echo "== $name: one process on GPU 0" | tee -a "$log"
+    mark "$name one process start"
+    VLF_GPU=0 "$vlf" cave "$config" --scene "$work/$scene.vlf" --headless --frames "$frames" \
+      --out "$work/one-$name" --json "$out/one-process-$name.json" 2>&1 | quiet > "$out/one-process-$name.txt"
+    mark "$name one process end"
+    tail -14 "$out/one-process-$name.txt" | tee -a "$log"
+    echo "== $name: mpirun -np 2" | tee -a "$log"
+    mark "$name cluster start"
+    timeout 900 mpirun -np 2 --oversubscribe "$vlf" cave "$config" --scene "$work/$scene.vlf" \
+      --headless --frames "$frames" --out "$work/cluster-$name" --json "$out/cluster-$name.json" 2>&1 | quiet > "$out/cluster-$name.txt"
+    rc=${PIPESTATUS[0]}
+    mark "$name cluster end"
+    grep -E "^vlf cluster|cluster report|rank [0-9] \(|frame time|swap|frames " "$out/cluster-$name.txt" | head -24 | tee -a "$log"
+    echo "mpirun exit status $rc" | tee -a "$log"
+  done
 done
 
 # a rank lost mid-run: SIGKILL (mpirun ends the job) and SIGSTOP (the other rank's lost-rank
 # timeout, [cluster] timeout_s, 10 s by default)
 lose() {  # signal name
-  local scene=${SCENES%% *}; scene=${scene:-classroom-100k}
+  local scene=${SCENES%% *}
   local config="$work/cave-$scene.toml" text="$out/lose-$1.txt"
   mpirun -np 2 --oversubscribe "$vlf" cave "$config" --scene "$work/$scene.vlf" --headless \
     --frames 1000000 --out "$work/lose-$1" > "$text" 2>&1 &
@@ -109,4 +119,6 @@ lose KILL
 lose STOP
 python3 -c "import json; print(json.dumps([json.loads(l) for l in open('$work/lose.jsonl')], indent=1))" > "$out/lose.json"
 kill $sampler 2>/dev/null
+# the device tool brings back few files: one archive
+(cd "$out" && tar cf cluster.tar --exclude cluster.tar ./*)
 exit 0

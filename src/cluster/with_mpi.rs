@@ -259,6 +259,17 @@ impl FrameLock for Link {
     }
 
     fn swap(&mut self) -> Result<()> {
+        self.swap_timed(true)
+    }
+
+    fn swap_untimed(&mut self) -> Result<()> {
+        self.swap_timed(false)
+    }
+}
+
+impl Link {
+    /// The swap barrier; `counted`: the frame's times go into the report.
+    fn swap_timed(&mut self, counted: bool) -> Result<()> {
         let cpu_ms = self.frame_began.elapsed().as_secs_f64() * 1e3;
         let t0 = Instant::now();
         let frame = self.current.map_or(0, |s| s.frame);
@@ -282,7 +293,7 @@ impl FrameLock for Link {
             }
         }
         // the first frame (shader compilation, every rank getting ready) is not timed
-        let timed = std::mem::replace(&mut self.started, true);
+        let timed = std::mem::replace(&mut self.started, true) && counted;
         let digest = self.current.map_or(0, |s| s.pose_digest());
         let mut w = self.watch.lock().unwrap_or_else(|e| e.into_inner());
         if timed {
@@ -292,7 +303,9 @@ impl FrameLock for Link {
         w.shown.push([frame, digest as u64]);
         let now = Instant::now();
         if let Some(last) = w.last_present.replace(now) {
-            w.frame_ms.push((now - last).as_secs_f64() * 1e3);
+            if counted {
+                w.frame_ms.push((now - last).as_secs_f64() * 1e3);
+            }
         }
         Ok(())
     }

@@ -270,7 +270,7 @@ pub fn run_locked(
         if f + 1 == total {
             kept = drawer.draw_kept(&pose, wand.as_ref())?;
             if let Some(l) = lock.as_deref_mut() {
-                l.swap()?;
+                l.swap_untimed()?;
             }
             break;
         }
