@@ -14,7 +14,7 @@
 # cluster.log, gpu.txt, gpus.txt, commit.txt, date.txt; tools/cluster-md.sh OUT_DIR turns them
 # into BENCHMARKS.md's section. Needs a vlf built with `--features mpi` and Open MPI's mpirun.
 #   tools/gpu-cluster.sh VLF_BINARY OUT_DIR
-# FRAMES (default 3000) frames per run; SCENES (default "classroom-100k classroom-1m gallery");
+# FRAMES (default 3000) frames per run; LOSE=0 leaves out the lost-rank runs; SCENES (default "classroom-100k classroom-1m gallery");
 # MODES (default "paced fixed"): paced as shipped, and fixed at 4 eye rays per pixel
 # (fit_frame_time = false; reports named <scene>-fixed).
 set -uo pipefail
@@ -47,7 +47,9 @@ nvidia-smi --query-gpu=timestamp,index,pci.bus_id,utilization.gpu,memory.used --
   > "$out/gpu-utilization.csv" 2>/dev/null &
 sampler=$!
 trap 'kill $sampler 2>/dev/null' EXIT
-mark() { echo "# $*, $(date -u +%H:%M:%S.%N | cut -c1-12)" >> "$out/gpu-utilization.csv"; }
+# when each run started and ended, in nvidia-smi's clock format (its own file: nvidia-smi writes
+# gpu-utilization.csv at its own offset)
+mark() { echo "$*, $(date +%Y/%m/%d\ %H:%M:%S.%3N)" >> "$out/marks.csv"; }
 
 generate() {  # scene name -> the generator's command line
   case $1 in
@@ -109,15 +111,17 @@ lose() {  # signal name
   local t1; t1=$(date +%s.%N)
   kill -KILL "$pid" 2>/dev/null; kill $job 2>/dev/null; wait $job 2>/dev/null
   local named=no
-  grep -qE "^vlf cluster rank 0 .*lost rank 1 \(" "$text" && named=yes
+  grep -qE "^vlf cluster rank 0 .*lost rank 1[ :(]" "$text" && named=yes
   python3 -c "import json,sys; print(json.dumps({'signal': sys.argv[1], 'ended': sys.argv[2] == 'yes', 'seconds_to_end': round(float(sys.argv[4]) - float(sys.argv[3]), 3), 'rank_0_named_rank_1': sys.argv[5] == 'yes', 'timeout_s': 10.0}))" \
     "$1" "$ended" "$t0" "$t1" "$named" >> "$work/lose.jsonl"
   echo "== rank 1 sent SIG$1: ended=$ended, rank 0 named it: $named" | tee -a "$log"
   grep -E "lost rank|LOST" "$text" | head -4 | tee -a "$log"
 }
-lose KILL
-lose STOP
-python3 -c "import json; print(json.dumps([json.loads(l) for l in open('$work/lose.jsonl')], indent=1))" > "$out/lose.json"
+if [ "${LOSE:-1}" = 1 ]; then
+  lose KILL
+  lose STOP
+  python3 -c "import json; print(json.dumps([json.loads(l) for l in open('$work/lose.jsonl')], indent=1))" > "$out/lose.json"
+fi
 kill $sampler 2>/dev/null
 # the device tool brings back few files: one archive
 (cd "$out" && tar cf cluster.tar --exclude cluster.tar ./*)

@@ -201,6 +201,12 @@ pub struct RankReport {
     pub swap_wait_ms: Option<Stats>,
     /// milliseconds from one present to the next: the cluster's frame time
     pub frame_ms: Option<Stats>,
+    /// every frame's present-to-present time (ms), in order from frame 1: where a slow frame fell
+    #[serde(default)]
+    pub frame_ms_series: Vec<f32>,
+    /// every frame's swap-barrier wait (ms), in order from frame 1
+    #[serde(default)]
+    pub swap_wait_ms_series: Vec<f32>,
     /// frames presented (after the swap barrier): [frame number, pose digest] each
     pub shown: Vec<[u64; 2]>,
     /// the GPU this rank drew on

@@ -369,6 +369,8 @@ impl Link {
             cpu_frame_ms: Stats::of(&w.cpu_ms),
             swap_wait_ms: Stats::of(&w.swap_ms),
             frame_ms: Stats::of(&w.frame_ms),
+            frame_ms_series: w.frame_ms.iter().map(|&t| t as f32).collect(),
+            swap_wait_ms_series: w.swap_ms.iter().map(|&t| t as f32).collect(),
             shown: w.shown.clone(),
             gpu: w.gpu.clone(),
             pacer: w.pacer.clone(),
