@@ -77,13 +77,15 @@ for v in r["views"]:
 print()
 PY
 done
-# the CAVE as a 2-rank MPI cluster (tools/gpu-cluster.sh), if present: in DIR itself or in its
-# sibling cluster/ (docs/results/h100/cluster beside docs/results/h100/bench)
-cluster_dir=$dir
-[ -f "$cluster_dir/cluster-2ranks.json" ] || cluster_dir=$(dirname "$dir")/cluster
-if [ -f "$cluster_dir/cluster-2ranks.json" ]; then
-  bash "$(dirname "$0")/cluster-md.sh" "$cluster_dir"
-fi
+# the CAVE as a 2-rank MPI cluster, one GPU per rank (tools/gpu-cluster.sh), if present: in DIR
+# itself, or the 2-GPU machines' results beside DIR's machine (docs/results/h200x2/cluster and
+# docs/results/h100x2/cluster beside docs/results/h100/bench)
+results=$(dirname "$(dirname "$dir")")
+for cluster_dir in "$dir" "$results/h200x2/cluster" "$results/h100x2/cluster"; do
+  if compgen -G "$cluster_dir/cluster-*.json" > /dev/null; then
+    bash "$(dirname "$0")/cluster-md.sh" "$cluster_dir"
+  fi
+done
 # frame pacing on the walks through real scenes (tools/gpu-pacing.sh): DIR's sibling pacing/
 pacing_dir=$(dirname "$dir")/pacing
 if [ -f "$pacing_dir/gpu.txt" ]; then

@@ -25,32 +25,36 @@ print(f"`tools/gpu-cluster.sh` on **{len(gpus)}x {read('gpu.txt')}** ({'; '.join
       "Eye rays per pixel: what the frame pacer gave each view (median over frames of the average over a view's tiles), the pacer holding each rank's views at 75% of the 8.33 ms period.\n")
 
 def util_by_phase():
-    """Mean GPU utilisation per GPU between the script's '# <phase> start/end' marks."""
-    path = os.path.join(d, "gpu-utilization.csv")
-    if not os.path.exists(path):
+    """Mean GPU utilisation per GPU between each run's start and end (marks.csv)."""
+    from datetime import datetime
+    path, marks_path = os.path.join(d, "gpu-utilization.csv"), os.path.join(d, "marks.csv")
+    if not (os.path.exists(path) and os.path.exists(marks_path)):
         return {}
-    phases, current, out = {}, None, {}
-    for line in open(path):
-        if line.startswith("# "):
-            what = line[2:].rsplit(",", 1)[0]
-            current = what[: -len(" start")] if what.endswith(" start") else None
-            continue
-        if current is None or line.startswith("timestamp"):
-            continue
-        row = [c.strip() for c in line.split(",")]
-        if len(row) < 4:
-            continue
+    when = lambda t: datetime.strptime(t.strip(), "%Y/%m/%d %H:%M:%S.%f")
+    spans = {}
+    for line in open(marks_path):
+        what, t = line.rsplit(",", 1)
+        phase, edge = what.rsplit(" ", 1)
+        spans.setdefault(phase, {})[edge] = when(t)
+    rows = []
+    for row in csv.reader(open(path)):
         try:
-            phases.setdefault(current, {}).setdefault(int(row[1]), []).append(float(row[3].split()[0]))
-        except ValueError:
+            rows.append((when(row[0]), int(row[1]), float(row[3].split()[0])))
+        except (ValueError, IndexError):
             continue
-    for phase, per_gpu in phases.items():
-        out[phase] = {g: statistics.mean(v) for g, v in sorted(per_gpu.items())}
+    out = {}
+    for phase, span in spans.items():
+        if "start" in span and "end" in span:
+            per = {}
+            for t, g, u in rows:
+                if span["start"] <= t <= span["end"]:
+                    per.setdefault(g, []).append(u)
+            out[phase] = {g: statistics.mean(v) for g, v in sorted(per.items())}
     return out
 
-util = util_by_phase()
+util_by = util_by_phase()
 def util_text(phase):
-    u = util.get(phase)
+    u = util_by.get(phase)
     return ", ".join(f"GPU {g} {v:.0f}%" for g, v in u.items()) if u else "-"
 
 def rays(pacer):
@@ -67,7 +71,8 @@ def table(name, heading):
     one_path = os.path.join(d, f"one-process-{name}.json")
     o = json.load(open(one_path)) if os.path.exists(one_path) else None
     lock = "every rank presented the same frames with the same poses" if r["same_frames_and_poses"] else "**NOT OK**"
-    print(f"{heading} Frame lock: {lock} ({r['check']}). Mean GPU utilisation during the cluster run: {util_text(name + ' cluster')}; during the one-process run: {util_text(name + ' one process')}.\n")
+    util = f" Mean GPU utilisation (nvidia-smi, every 0.5 s) during the cluster run: {util_text(name + ' cluster')}; during the one-process run: {util_text(name + ' one process')}." if util_by else ""
+    print(f"{heading} Frame lock: {lock} ({r['check']}).{util}\n")
     print("| run | GPU | frame time p50 (ms) | p99 | max | swap-barrier wait p50 (ms) | p99 | views' GPU p50 (ms) | p99 | eye rays per pixel (median per view) | frames |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for p in r["per_rank"]:
@@ -83,7 +88,14 @@ def table(name, heading):
         print(f"| one process: all 8 views | 0 | {c['median']:.3f} | {c['p99']:.3f} | {c['max']:.3f} | - | - | {a.get('median', float('nan')):.3f} | {a.get('p99', float('nan')):.3f} | {rays(o.get('pacer'))} | {o['frames']} |")
     print()
     worst = max((v["p99_over_p50"], p["rank"], v["wall"], v["eye"]) for p in r["per_rank"] for v in p["views"] if v.get("p99_over_p50"))
-    print(f"Worst view GPU p99/p50 in the cluster: {worst[0]:.3f} (rank {worst[1]}, {worst[2]} {worst[3]}; limit 1.10: {'met' if worst[0] <= 1.10 else '**above the limit**'}).\n")
+    where = ""
+    series = [(t, i, p["rank"]) for p in r["per_rank"] for i, t in enumerate(p.get("frame_ms_series") or [])]
+    if series:
+        t, i, rank = max(series)
+        where = f" Slowest cluster frame: {t:.2f} ms, the interval ending at frame {i + 1} (rank {rank})" + (" (start-up: the first timed interval, just after the untimed first frame)" if i == 0 else "") + "."
+    else:
+        where = " (This run kept no per-frame series; the cluster report has them since commit 467513f.)"
+    print(f"Worst view GPU p99/p50 in the cluster: {worst[0]:.3f} (rank {worst[1]}, {worst[2]} {worst[3]}; limit 1.10: {'met' if worst[0] <= 1.10 else '**above the limit**'}).{where}\n")
 
 for scene in scenes:
     print(f"#### {walks.get(scene, scene)} (config/paths/{scene}-walk.toml)\n")
