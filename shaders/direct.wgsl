@@ -59,11 +59,8 @@ struct MirrorTriangle {
 
 @group(2) @binding(0) var<uniform> direct: DirectParams;
 @group(2) @binding(1) var<storage, read> emitters: array<Emitter>;
-@group(2) @binding(2) var<storage, read> triangles: array<Triangle>;
-@group(2) @binding(3) var<storage, read> nodes: array<BvhNode>;
-@group(2) @binding(4) var<storage, read> mirrors: array<MirrorTriangle>;
-
-#include "common/bvh.wgsl"
+@group(2) @binding(2) var<storage, read> mirrors: array<MirrorTriangle>;
+// the scene's triangles and BVH, for the shadow rays: common/upstream.wgsl's group 0
 
 // shadow rays start this far off the receiver and stop this short of the emitter
 const RAY_OFFSET: f32 = 1e-4;

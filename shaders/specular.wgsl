@@ -106,7 +106,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         if w <= 0.0 || dot(f.normal, travel) > -1e-6 {
             continue;
         }
-        let sender = find_upstream(j - grid.first_direction, dj, x, face_id, taps.sign[k] > 0.0);
+        let sender = find_upstream(j - grid.first_direction, dj, x, face_id, taps.sign[k] > 0.0, false);
         if sender == UNRESOLVED {
             continue;
         }

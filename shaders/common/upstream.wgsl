@@ -1,7 +1,7 @@
-// Shared by the transport stages (propagate.wgsl, specular.wgsl): scene and visibility
-// bindings, the upstream search, and the gather of one diffuse texel. The including file
-// defines `sender_specular(sender, point, dir_index, travel)`: zero for diffuse-only scenes,
-// a tile lookup where mirrors exist. CPU twin: src/propagate/cpu.rs.
+// Shared by the transport stages (propagate.wgsl, specular.wgsl, direct.wgsl): scene and
+// visibility bindings, the scene's BVH, the upstream search, and the gather of one diffuse
+// texel. The including file defines `sender_specular(sender, point, dir_index, travel)`: zero
+// for diffuse-only scenes, a tile lookup where mirrors exist. CPU twin: src/propagate/cpu/.
 
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> directions: array<Direction>;
@@ -16,6 +16,10 @@
 @group(0) @binding(7) var<storage, read> texel_points_1: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read> texel_points_2: array<vec4<f32>>;
 @group(0) @binding(9) var<storage, read> texel_points_3: array<vec4<f32>>;
+// the scene's triangles in BVH order and the BVH (src/bvh.rs): the rim rays below, and
+// direct.wgsl's shadow rays
+@group(0) @binding(10) var<storage, read> triangles: array<Triangle>;
+@group(0) @binding(11) var<storage, read> nodes: array<BvhNode>;
 // unshot radiosity (rgb)
 @group(1) @binding(0) var<storage, read> unshot_0: array<vec4<f32>>;
 @group(1) @binding(1) var<storage, read> unshot_1: array<vec4<f32>>;
@@ -31,6 +35,8 @@
 // irradiance r+g+b, the mirror part's share of it (rho_s . E), and the shares of this texel's
 // own unshot radiosity (r+g+b) that leave toward the sky and onto the back of a one-sided face
 @group(1) @binding(7) var<storage, read_write> balance: array<vec4<f32>>;
+
+#include "common/bvh.wgsl"
 
 fn texel_point(texel: u32) -> vec4<f32> {
     let i = texel % grid.texel_page_cells;
@@ -137,11 +143,29 @@ fn facing_side(sender: u32, travel: vec3<f32>) -> u32 {
     return sender;
 }
 
-// The rim fallback's sender: the face met, if it faces the light's way, else UNRESOLVED. Of a
-// two-sided surface the original face decides (its generated back, the twin with the higher
-// id, lies in the same place): when the original faces away, the lists cannot tell whether x
-// looks at an open surface's back or into closed geometry, and the direction is dropped as it
-// is for a one-sided face, so a closed two-sided object gathers exactly as a one-sided one.
+// The rim fallback of a texel's gather: what a ray from x against the light's way meets
+// first (the scene's BVH, x's own face and its twin skipped), on its side facing the light's
+// way; the sky (NO_FACE) where it meets nothing. The cell lists cannot say this at a rim: x's
+// own line misses its face there, and a neighbouring line may pass in front of, behind or
+// through what x sees (a two-sided chair frame, a thin leg), which is why the lists' fallback
+// below must drop directions it cannot tell.
+// Triangles are not grown here (shadow rays grow them, so that none slips through the crack
+// between two): a rim ray starts on an object's boundary, where a grown neighbour would be met
+// from behind, and a closed two-sided object would then show its inside.
+fn rim_ray_sender(x: vec3<f32>, travel: vec3<f32>, face: u32) -> u32 {
+    let hit = trace_skipping(x, -travel, 4.0, false, face, 0.0);
+    if hit.tri == NO_FACE {
+        return NO_FACE;
+    }
+    return facing_side(triangles[hit.tri].face, travel);
+}
+
+// The lists' rim fallback (mirror tile cells): the face met, if it faces the light's way, else
+// UNRESOLVED. Of a two-sided surface the original face decides (its generated back, the twin
+// with the higher id, lies in the same place): when the original faces away, the lists cannot
+// tell whether x looks at an open surface's back or into closed geometry, and the direction is
+// dropped as it is for a one-sided face, so a closed two-sided object gathers exactly as a
+// one-sided one.
 fn rim_sender(found: u32, travel: vec3<f32>) -> u32 {
     if found >= UNRESOLVED {
         return UNRESOLVED;
@@ -157,7 +181,9 @@ fn rim_sender(found: u32, travel: vec3<f32>) -> u32 {
 }
 
 // Which face sends light along direction d (travelling +w when `forward`) to point x on `face`.
-fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward: bool) -> u32 {
+// `rim_rays`: where no nearby cell's line meets the face, cast a ray (texels); otherwise fall
+// back on the lists (mirror tile cells, whose rim cells exist only for bilinear lookups).
+fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward: bool, rim_rays: bool) -> u32 {
     let travel = select(-d.w, d.w, forward);
     let inv_h = 1.0 / grid.cell_size;
     let q = vec2<f32>((dot(x, d.u) + 1.0) * inv_h - 0.5, (dot(x, d.v) + 1.0) * inv_h - 0.5);
@@ -182,11 +208,14 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
         }
     }
     // The face has no cell centre nearby (a grazing direction at a rim or corner, or a face
-    // smaller than a cell): take the first layer upstream of x's depth in the nearest cell whose
-    // line meets one. If it does not face the light's way, the lists cannot tell what x sees
+    // smaller than a cell). A texel casts a ray. Otherwise take the first layer upstream of x's
+    // depth in the nearest cell whose line meets one. If it does not face the light's way, the lists cannot tell what x sees
     // along this direction: UNRESOLVED drops the direction from x's quadrature rather than
     // counting it black (a leak that high albedos would amplify a thousandfold). Only where no
     // nearby line meets anything is x in the open: the sky.
+    if rim_rays {
+        return rim_ray_sender(x, travel, face);
+    }
     let depth = dot(x, d.w);
     for (var i = -1; i < 9; i++) {
         var c = c0;
@@ -261,7 +290,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         let forward = cos_w < 0.0;
         let travel = select(-d.w, d.w, forward);
         let weight = abs(cos_w) * d.solid_angle;
-        let sender = find_upstream(i, d, x, face_id, forward);
+        let sender = find_upstream(i, d, x, face_id, forward, true);
         if sender == UNRESOLVED {
             continue;
         }

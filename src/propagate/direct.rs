@@ -9,12 +9,10 @@
 //! belongs to, so that every iteration's texels and tiles hold paths of the same length. That
 //! iteration's texel gather leaves mirror senders out.
 
-use crate::bvh::GpuBvhNode;
 use crate::error::Result;
 use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::prepare::PreparedScene;
-use glam::Vec3;
 
 /// The emitting triangles of a scene, with each face's mean emitted radiance (over its texels:
 /// map_Ke varies it) and whether it varies. `initial` is the texels' initial unshot radiosity.
@@ -101,7 +99,6 @@ impl DirectLight {
     pub fn new(
         ctx: &GpuContext,
         ledger: &MemoryLedger,
-        prepared: &PreparedScene,
         emitters: &[GpuEmitter],
         mirrors: &[GpuMirrorTriangle],
         emitter_samples: u32,
@@ -110,13 +107,6 @@ impl DirectLight {
         layout1: &wgpu::BindGroupLayout,
     ) -> Result<DirectLight> {
         let device = &ctx.device;
-        let corners: Vec<[Vec3; 3]> = prepared
-            .triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
-            .collect();
-        let (nodes, triangles) =
-            crate::bvh::bvh_triangles(&corners, |i| prepared.triangles[i].face, |_| [[0.0; 2]; 3]);
         let params = GpuDirectParams {
             emitter_count: emitters.len() as u32,
             emitter_samples: emitter_samples.max(1),
@@ -152,18 +142,6 @@ impl DirectLight {
             bytemuck::cast_slice(emitter_data),
             STORAGE,
         );
-        let triangle_buffer = ctx.buffer_init(
-            ledger,
-            "direct light: triangles",
-            bytemuck::cast_slice(&triangles),
-            STORAGE,
-        );
-        let node_buffer = ctx.buffer_init(
-            ledger,
-            "direct light: BVH",
-            bytemuck::cast_slice::<GpuBvhNode, u8>(&nodes),
-            STORAGE,
-        );
         let layout2 = reflect::layout(device, "direct.wgsl", 2)?;
         let module = shaders::module(device, "direct.wgsl")?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
@@ -173,13 +151,7 @@ impl DirectLight {
             .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
         let bind_group = ctx.bind_group(
             &layout2,
-            &[
-                &params_buffer,
-                &emitter_buffer,
-                &triangle_buffer,
-                &node_buffer,
-                &mirror_buffer,
-            ],
+            &[&params_buffer, &emitter_buffer, &mirror_buffer],
         );
         Ok(DirectLight {
             pipeline,

@@ -569,6 +569,7 @@ impl Setup<'_> {
             .iter()
             .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
             .collect();
+        let (nodes, bvh_triangles) = super::scene_bvh(prepared);
         SceneBuffers {
             grid: ctx.buffer_init(ledger, "grid parameters", bytemuck::bytes_of(grid), uniform),
             directions: ctx.buffer_init(
@@ -591,6 +592,13 @@ impl Setup<'_> {
                 bytemuck::cast_slice(&prepared.atlas.points),
                 16,
             ),
+            bvh_triangles: ctx.buffer_init(
+                ledger,
+                "BVH triangles",
+                bytemuck::cast_slice(&bvh_triangles),
+                STORAGE,
+            ),
+            bvh_nodes: ctx.buffer_init(ledger, "BVH", bytemuck::cast_slice(&nodes), STORAGE),
         }
     }
 
@@ -878,7 +886,6 @@ impl Setup<'_> {
         Ok(Some(super::direct::DirectLight::new(
             self.ctx,
             self.ledger,
-            prepared,
             &emitters,
             &mirrors,
             params.direct_samples,
@@ -935,7 +942,8 @@ impl Propagator {
         let (unshot, total) = initial_radiance(prepared, &sizes.faces);
         let (texels, emitted_power) = s.texel_pages(&texel_ranges, &unshot, &total);
 
-        // grid, directions, faces, cell offsets, counts, layers, four pages of texel points
+        // grid, directions, faces, cell offsets, counts, layers, four pages of texel points, the
+        // BVH's triangles and nodes
         let layout0 = reflect::layout(device, "propagate.wgsl", 0)?;
         // four pages of unshot, the page of next written, its range, the batches' weight sums
         let layout1 = reflect::layout(device, "propagate.wgsl", 1)?;
@@ -1396,6 +1404,8 @@ impl Propagator {
                 point(1),
                 point(2),
                 point(3),
+                &s.bvh_triangles,
+                &s.bvh_nodes,
             ],
         );
         let current = self.current;

@@ -16,6 +16,10 @@ pub struct SceneBuffers {
     pub triangles: wgpu::Buffer,
     /// sample point per texel, in pages (see TilePages::plan_texels)
     pub texel_points: Vec<wgpu::Buffer>,
+    /// the triangles in BVH order and the BVH (src/bvh.rs): the texels' rim rays and direct
+    /// light's shadow rays (common/upstream.wgsl, group 0)
+    pub bvh_triangles: wgpu::Buffer,
+    pub bvh_nodes: wgpu::Buffer,
 }
 
 /// The resident layer lists.

@@ -6,6 +6,7 @@
 pub mod specular;
 
 use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
+use crate::bvh::GpuTriangle;
 use glam::{Vec2, Vec3};
 
 pub struct CpuVisibility {
@@ -16,6 +17,36 @@ pub struct CpuVisibility {
 
 pub(super) fn v3(a: [f32; 3]) -> Vec3 {
     Vec3::from(a)
+}
+
+/// common/ray.wgsl's tie: hits this close (relative) are tied.
+const TIE: f32 = 1.000001;
+
+/// common/ray.wgsl's `intersect_grown` (Moller-Trumbore, in the same f32 steps): the distance,
+/// or -1.
+fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32, grow: f32) -> f32 {
+    let (v0, e1, e2) = (v3(tri.v0), v3(tri.e1), v3(tri.e2));
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return -1.0;
+    }
+    let inv = 1.0 / det;
+    let s = origin - v0;
+    let u = s.dot(p) * inv;
+    if u < -grow || u > 1.0 + grow {
+        return -1.0;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv;
+    if v < -grow || u + v > 1.0 + grow {
+        return -1.0;
+    }
+    let t = e2.dot(q) * inv;
+    if t <= 1e-5 || t >= t_max {
+        return -1.0;
+    }
+    t
 }
 
 fn to_cell_units(grid: &GpuGrid, p: Vec3, d: &GpuDirection) -> Vec3 {
@@ -180,6 +211,10 @@ pub struct GatherInputs<'a> {
     pub unshot: &'a [[f32; 4]],
     /// the mirror tiles, for scenes with mirrors (sender_specular, gather_tile)
     pub tiles: Option<&'a specular::TileInputs<'a>>,
+    /// the scene's triangles as the GPU binds them (`propagate::scene_bvh`): the texels' rim
+    /// rays, cast here through every triangle (the GPU walks the BVH; the tie rule makes the
+    /// closest hit the same)
+    pub triangles: &'a [GpuTriangle],
 }
 
 impl GatherInputs<'_> {
@@ -252,8 +287,47 @@ impl GatherInputs<'_> {
         sender
     }
 
-    /// The rim fallback's sender (upstream.wgsl's `rim_sender`): the original side of what was
-    /// met (a generated back's twin has the lower id), if it faces the light's way.
+    /// The rim fallback of a texel's gather (upstream.wgsl's `rim_ray_sender`): what a ray from
+    /// x against the light's way meets first, x's face and its twin skipped, on its side facing
+    /// the light; the sky where it meets nothing.
+    fn rim_ray_sender(&self, x: Vec3, travel: Vec3, face: u32) -> u32 {
+        let skip_twin = self.faces[face as usize].twin;
+        let dir = -travel;
+        // (t, triangle): common/ray.wgsl's Hit, starting at t_max 4 with no triangle
+        let mut hit = (4.0f32, NO_FACE);
+        for (i, tri) in self.triangles.iter().enumerate() {
+            if tri.face == face || tri.face == skip_twin {
+                continue;
+            }
+            let t = intersect(x, dir, tri, hit.0 * TIE, 0.0);
+            if self.closer(t, i as u32, hit) {
+                hit = (t, i as u32);
+            }
+        }
+        if hit.1 == NO_FACE {
+            return NO_FACE;
+        }
+        self.facing_side(self.triangles[hit.1 as usize].face, travel)
+    }
+
+    /// common/ray.wgsl's `closer`: nearer by more than the tie, or tied and of the lower face
+    /// (then the lower triangle).
+    fn closer(&self, t: f32, tri: u32, hit: (f32, u32)) -> bool {
+        if t <= 0.0 {
+            return false;
+        }
+        if hit.1 == NO_FACE || t * TIE < hit.0 {
+            return true;
+        }
+        if t > hit.0 * TIE {
+            return false;
+        }
+        let (face, other) = (self.triangles[tri as usize].face, self.triangles[hit.1 as usize].face);
+        face < other || (face == other && tri < hit.1)
+    }
+
+    /// The lists' rim fallback (upstream.wgsl's `rim_sender`, mirror tile cells): the original
+    /// side of what was met (a generated back's twin has the lower id), if it faces the light.
     fn rim_sender(&self, found: u32, travel: Vec3) -> u32 {
         if found >= UNRESOLVED {
             return UNRESOLVED;
@@ -273,6 +347,7 @@ impl GatherInputs<'_> {
         x: Vec3,
         face: u32,
         forward: bool,
+        rim_rays: bool,
     ) -> u32 {
         let travel = if forward { v3(d.w) } else { -v3(d.w) };
         let inv_h = 1.0 / self.grid.cell_size;
@@ -298,6 +373,9 @@ impl GatherInputs<'_> {
             if k >= 0 {
                 return self.facing_side(self.upstream_of_entry(cell, k as u32, forward), travel);
             }
+        }
+        if rim_rays {
+            return self.rim_ray_sender(x, travel, face);
         }
         let depth = x.dot(v3(d.w));
         for i in -1..9 {
@@ -359,7 +437,7 @@ impl GatherInputs<'_> {
             let forward = cos_w < 0.0;
             let travel = if forward { v3(d.w) } else { -v3(d.w) };
             let weight = cos_w.abs() * d.solid_angle;
-            let sender = self.find_upstream(i as u32, d, x, face_id, forward);
+            let sender = self.find_upstream(i as u32, d, x, face_id, forward, true);
             if sender == UNRESOLVED {
                 continue;
             }

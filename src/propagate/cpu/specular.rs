@@ -141,7 +141,7 @@ impl GatherInputs<'_> {
             if w <= 0.0 || n.dot(travel) > -1e-6 {
                 continue;
             }
-            let sender = self.find_upstream(j, dj, x, face_id, sign > 0.0);
+            let sender = self.find_upstream(j, dj, x, face_id, sign > 0.0, false);
             if sender == UNRESOLVED {
                 continue;
             }
