@@ -19,9 +19,13 @@
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
 
-// the gather's hook; unused here
+// the gather's hooks; unused here
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
+}
+
+fn texel_rim_rays() -> bool {
+    return false;
 }
 
 // mirrors propagate::direct::GpuEmitter: one emitting triangle

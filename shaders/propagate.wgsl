@@ -14,6 +14,11 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
     return vec3<f32>(0.0);
 }
 
+// A texel the lists cannot place along a direction casts a ray (common/upstream.wgsl).
+fn texel_rim_rays() -> bool {
+    return true;
+}
+
 @compute @workgroup_size(64)
 fn gather(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     gather_and_store(gid.x + gid.y * groups.x * 64u);

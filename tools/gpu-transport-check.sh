@@ -9,14 +9,15 @@
 #   - OUT/balance/<model>.json: `vlf propagate --report` of each suite model (the power balance);
 #   - OUT/cornell/<scene>.json|txt: Cornell and Cornell-mirror at default settings against a
 #     16384-spp `vlf reference` at 256x256 (the guide's accuracy figures, tools/gpu-accuracy.sh).
-# Packed into OUT/transport.tar, also when the run is cut short (SIGTERM: what is done so far).
+# Packed into OUT/transport.tar (images other than EXR: the device tool brings back 16 MiB a
+# file), also when the run is cut short (SIGTERM: what is done so far).
 # PARTS (default "suite balance cornell pictures") picks and orders the parts.
 #   tools/gpu-transport-check.sh VLF_BINARY OUT
 set -uo pipefail
 vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2")
 cd "$(dirname "$0")/.."
 work=$(mktemp -d)
-pack() { (cd "$work" && tar cf "$out/transport.tar" --ignore-failed-read gpu.txt commit.txt cornell balance suite pictures 2>/dev/null); }
+pack() { (cd "$work" && tar cf "$out/transport.tar" --exclude="*.exr" --ignore-failed-read gpu.txt commit.txt cornell balance suite pictures 2>/dev/null); }
 trap 'pack; exit 1' TERM
 trap pack EXIT
 quiet() { grep -v XDG_RUNTIME_DIR; }

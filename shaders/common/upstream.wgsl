@@ -1,7 +1,8 @@
 // Shared by the transport stages (propagate.wgsl, specular.wgsl, direct.wgsl): scene and
 // visibility bindings, the scene's BVH, the upstream search, and the gather of one diffuse
 // texel. The including file defines `sender_specular(sender, point, dir_index, travel)`: zero
-// for diffuse-only scenes, a tile lookup where mirrors exist. CPU twin: src/propagate/cpu/.
+// for diffuse-only scenes, a tile lookup where mirrors exist; and `texel_rim_rays()`: whether a
+// texel's gather casts rim rays (find_upstream). CPU twin: src/propagate/cpu/.
 
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> directions: array<Direction>;
@@ -290,7 +291,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         let forward = cos_w < 0.0;
         let travel = select(-d.w, d.w, forward);
         let weight = abs(cos_w) * d.solid_angle;
-        let sender = find_upstream(i, d, x, face_id, forward, true);
+        let sender = find_upstream(i, d, x, face_id, forward, texel_rim_rays());
         if sender == UNRESOLVED {
             continue;
         }

@@ -437,7 +437,9 @@ impl GatherInputs<'_> {
             let forward = cos_w < 0.0;
             let travel = if forward { v3(d.w) } else { -v3(d.w) };
             let weight = cos_w.abs() * d.solid_angle;
-            let sender = self.find_upstream(i as u32, d, x, face_id, forward, true);
+            // rim rays in diffuse-only scenes (propagate.wgsl), not with mirrors (specular.wgsl)
+            let rim_rays = self.tiles.is_none();
+            let sender = self.find_upstream(i as u32, d, x, face_id, forward, rim_rays);
             if sender == UNRESOLVED {
                 continue;
             }
