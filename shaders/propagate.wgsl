@@ -14,9 +14,10 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
     return vec3<f32>(0.0);
 }
 
-// A texel the lists cannot place along a direction casts a ray (common/upstream.wgsl).
+// With `rim_rays`, a texel the lists cannot place along a direction casts a ray
+// (common/upstream.wgsl).
 fn texel_rim_rays() -> bool {
-    return true;
+    return (grid.flags & GRID_FLAG_RIM_RAYS) != 0u;
 }
 
 @compute @workgroup_size(64)

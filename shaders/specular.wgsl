@@ -37,10 +37,9 @@ fn tile_cells_total() -> u32 {
     return grid.tile_cell_count;
 }
 
-// Texels of scenes with mirrors keep the lists' rim fallback for now: with rim rays the
-// Space Ship Hallway's power balance went from within 0.5% to -22% (texels at rims then see
-// mirror tiles whose light the tile classes count as going elsewhere), although its picture came
-// closer to the path tracer's; the balance's tile classes need the same rule first.
+// Texels of scenes with mirrors keep the lists' rim fallback (`rim_rays` is for diffuse-only
+// scenes): the mirror tiles' rim cells and the power balance's tile classes have no rule for
+// what a rim ray may see of them.
 fn texel_rim_rays() -> bool {
     return false;
 }

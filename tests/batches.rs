@@ -25,6 +25,7 @@ fn params(n: u32, grid: u32) -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 

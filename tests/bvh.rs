@@ -321,6 +321,7 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let ctx = vlf::gpu::GpuContext::new().expect(
         "a GPU adapter (on a machine without one: sudo apt-get install mesa-vulkan-drivers)",

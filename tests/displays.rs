@@ -178,6 +178,7 @@ fn headless_cave_renders_every_wall_and_eye() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let out = dir.path().join("out");
@@ -245,6 +246,7 @@ output = {{ monitor = 0 }}
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the tracker streams head poses all through the run
@@ -353,6 +355,7 @@ fn fitting_the_frame_time_steps_down_until_the_views_fit() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let run = |hz: &str| {

@@ -87,15 +87,30 @@ fn tiny_params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 0,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 
 #[test]
 fn gpu_visibility_and_gather_equal_the_cpu_twin() {
+    visibility_and_gather_equal_the_cpu_twin(false);
+}
+
+/// The same with `rim_rays`: texels the lists cannot place cast rays (through the BVH on the
+/// GPU, through every triangle on the CPU), and the twin still agrees.
+#[test]
+fn gpu_gather_with_rim_rays_equals_the_cpu_twin() {
+    visibility_and_gather_equal_the_cpu_twin(true);
+}
+
+fn visibility_and_gather_equal_the_cpu_twin(rim_rays: bool) {
     let ctx = gpu();
     let dir = tempfile::tempdir().unwrap();
     let scene = tiny_scene(dir.path());
-    let params = tiny_params();
+    let params = PropagationParams {
+        rim_rays,
+        ..tiny_params()
+    };
     let prepared = PreparedScene::new(&scene, params.texel_density).unwrap();
     assert!(prepared.faces.len() <= 20);
     let directions = DirectionSet::geodesic(params.geodesic_frequency);
@@ -142,6 +157,9 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
     for iteration in 0..3 {
         let mut grid = prop.grid;
         grid.iteration = iteration;
+        if rim_rays {
+            grid.flags |= vlf::gpu::types::GRID_FLAG_RIM_RAYS;
+        }
         let inputs = cpu::GatherInputs {
             grid: &grid,
             directions: &gdirs,
@@ -155,6 +173,20 @@ fn gpu_visibility_and_gather_equal_the_cpu_twin() {
         let expected: Vec<[f32; 4]> = (0..prepared.atlas.texel_count())
             .map(|t| inputs.gather(t))
             .collect();
+        if rim_rays && iteration == 1 {
+            // the rays take part: without them some texel gathers differently
+            let mut lists_only = grid;
+            lists_only.flags &= !vlf::gpu::types::GRID_FLAG_RIM_RAYS;
+            let plain = cpu::GatherInputs {
+                grid: &lists_only,
+                ..inputs
+            };
+            let changed = (0..prepared.atlas.texel_count())
+                .filter(|&t| plain.gather(t) != expected[t])
+                .count();
+            assert!(changed > 0, "no texel's gather used a rim ray");
+            eprintln!("{changed} texels gather differently with rim rays");
+        }
         prop.iterate().unwrap();
         let got = prop.read_unshot().unwrap();
         let scale = expected
@@ -300,6 +332,7 @@ fn propagation_is_bit_for_bit_repeatable() {
         memory_budget_mib: None,
         direct_samples: 0,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (a, _, ra) = vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();
     let (b, _, rb) = vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();

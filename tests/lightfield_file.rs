@@ -21,6 +21,7 @@ fn small_light_field() -> (Scene, LightField) {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     (scene, lf)

@@ -28,6 +28,7 @@ fn params_with(n: u32, grid: u32, density: f64, mirror_direct: bool) -> Propagat
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct,
+        rim_rays: false,
     }
 }
 

@@ -86,6 +86,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (whole, _, whole_report) =
         vlf::propagate::propagate(ctx.clone(), &scene, &params, &Silent).unwrap();

@@ -28,6 +28,7 @@ fn params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 256,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 

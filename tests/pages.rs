@@ -76,6 +76,7 @@ fn paged_mirror_tiles_give_the_one_page_result() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let render = |lf: &vlf::lightfield::LightField| {
         let resident = lf.upload(gpu()).unwrap();

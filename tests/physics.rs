@@ -24,6 +24,7 @@ fn small_params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 
@@ -168,6 +169,7 @@ fn form_factor_params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 
@@ -300,6 +302,7 @@ fn perturbed_directions_change_an_open_scene() {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (a, _, _) = vlf::propagate::propagate(ctx.clone(), &scene, &base, &Silent).unwrap();
     let (b, _, _) = vlf::propagate::propagate(

@@ -32,6 +32,7 @@ fn params(direct_samples: u32) -> PropagationParams {
         memory_budget_mib: None,
         direct_samples,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 
@@ -413,6 +414,7 @@ fn mirrored_floor_error(direct_samples: u32) -> f64 {
         max_iterations: 2,
         accelerate: false,
         mirror_direct: true,
+        rim_rays: false,
         ..params(direct_samples)
     };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &p, &Silent).unwrap();

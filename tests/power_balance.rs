@@ -27,6 +27,7 @@ fn params(mirror_direct: bool) -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct,
+        rim_rays: false,
     }
 }
 
@@ -74,11 +75,21 @@ const TWO_SIDED: &str = "[materials.wall]\ntwo_sided = true\n[materials.block]\n
 #[test]
 fn a_closed_box_balances_with_one_sided_and_two_sided_walls() {
     let (obj, mats) = closed_box();
-    for toml in ["", TWO_SIDED] {
+    // with and without rim rays (`rim_rays`: texels the lists cannot place cast rays)
+    let with_rays = PropagationParams {
+        rim_rays: true,
+        ..params(false)
+    };
+    for (toml, settings) in [
+        ("", params(false)),
+        (TWO_SIDED, params(false)),
+        ("", with_rays.clone()),
+        (TWO_SIDED, with_rays),
+    ] {
         let dir = tempfile::tempdir().unwrap();
         let report = run(
             &load_scene(dir.path(), &obj, &mats, toml),
-            &params(false),
+            &settings,
             Regression::default(),
         );
         let b = balance(&report);

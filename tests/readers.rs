@@ -94,6 +94,7 @@ fn every_damage_to_a_light_field_file_is_caught() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let bytes = file::encode(&lf);

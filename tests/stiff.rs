@@ -40,6 +40,7 @@ fn params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 

@@ -20,6 +20,7 @@ fn small() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 

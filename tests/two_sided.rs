@@ -28,6 +28,7 @@ fn params() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct: false,
+        rim_rays: false,
     }
 }
 
@@ -37,7 +38,11 @@ type Texels = HashMap<(u32, [u32; 3]), [f32; 3]>;
 /// Each covered texel's converged radiance, keyed by its face and its sample point (bits): the
 /// same texel of the same face in two scenes whose atlases are packed differently.
 fn texels(scene: &Scene) -> (PreparedScene, Texels) {
-    let params = params();
+    texels_with(scene, &params())
+}
+
+fn texels_with(scene: &Scene, params: &PropagationParams) -> (PreparedScene, Texels) {
+    let params = params.clone();
     let (lf, _, report) = vlf::propagate::propagate(gpu(), scene, &params, &Silent).unwrap();
     assert!(report.converged, "residual {}", report.final_residual);
     let prepared = PreparedScene::new(scene, params.texel_density).unwrap();
@@ -80,12 +85,26 @@ fn closed_box() -> (ObjBuilder, Vec<Mat>) {
 
 #[test]
 fn a_closed_box_with_two_sided_walls_equals_the_one_sided_box() {
+    closed_box_two_sided_equals_one_sided(&params());
+}
+
+/// The same with `rim_rays`: a ray from a rim texel never shows a closed object's inside.
+#[test]
+fn with_rim_rays_too_a_closed_two_sided_box_equals_the_one_sided_box() {
+    let rim_rays = PropagationParams {
+        rim_rays: true,
+        ..params()
+    };
+    closed_box_two_sided_equals_one_sided(&rim_rays);
+}
+
+fn closed_box_two_sided_equals_one_sided(params: &PropagationParams) {
     let (obj, mats) = closed_box();
     let one = tempfile::tempdir().unwrap();
     let two = tempfile::tempdir().unwrap();
-    let (_, one_sided) = texels(&load_scene(one.path(), &obj, &mats, ""));
+    let (_, one_sided) = texels_with(&load_scene(one.path(), &obj, &mats, ""), params);
     let toml = "[materials.wall]\ntwo_sided = true\n[materials.block]\ntwo_sided = true\n";
-    let (prepared, two_sided) = texels(&load_scene(two.path(), &obj, &mats, toml));
+    let (prepared, two_sided) = texels_with(&load_scene(two.path(), &obj, &mats, toml), params);
     assert!(
         prepared.faces.iter().any(|f| f.is_back),
         "no back faces made"

@@ -608,6 +608,7 @@ fn headless_writes_every_projector_and_draws_the_wand() {
         memory_budget_mib: None,
         direct_samples: 16,
         mirror_direct: false,
+        rim_rays: false,
     };
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the shipped wall at small pixels, with a third, identity projector

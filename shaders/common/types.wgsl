@@ -19,6 +19,8 @@ const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8u;
 // tests only: the sender lookup takes the list's first side of a two-sided surface, as before
 // facing_side fixed it (the power balance must catch the light this loses)
 const GRID_FLAG_LIST_ORDER_SIDES: u32 = 16u;
+// rim_rays: a texel the lists cannot place along a direction casts a ray through the BVH
+const GRID_FLAG_RIM_RAYS: u32 = 32u;
 
 // mirrors gpu::types::GpuDirection
 struct Direction {

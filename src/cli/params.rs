@@ -104,6 +104,11 @@ pub struct ParamArgs {
     /// instead of as virtual emitters
     #[arg(long)]
     no_mirror_direct: bool,
+    /// A texel the visibility lists cannot place along a direction (a rim, a part smaller than
+    /// a grid cell) casts a ray through the scene's BVH instead of dropping the direction
+    /// (scenes without mirrors; slower, more accurate on two-sided, finely detailed models)
+    #[arg(long)]
+    rim_rays: bool,
 }
 
 impl ParamArgs {
@@ -164,6 +169,9 @@ impl ParamArgs {
         }
         if self.mirror_direct || self.no_mirror_direct {
             p.mirror_direct = self.mirror_direct;
+        }
+        if self.rim_rays {
+            p.rim_rays = true;
         }
         Ok(p)
     }

@@ -93,6 +93,9 @@ pub const GRID_FLAG_NO_MIRROR_SENDERS: u32 = 8;
 /// of a two-sided surface its cell list holds first, as before `facing_side` fixed it, so that
 /// tests can show the power balance catching the light that loses.
 pub const GRID_FLAG_LIST_ORDER_SIDES: u32 = 16;
+/// `rim_rays`: a texel the lists cannot place along a direction casts a ray through the BVH
+/// (diffuse-only scenes: propagate.wgsl's gather)
+pub const GRID_FLAG_RIM_RAYS: u32 = 32;
 
 /// Mirrors WGSL `AccumulateParams` (shaders/accumulate.wgsl).
 #[repr(C)]

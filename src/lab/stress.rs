@@ -106,6 +106,7 @@ fn small() -> PropagationParams {
         memory_budget_mib: None,
         direct_samples: 64,
         mirror_direct: true,
+        rim_rays: false,
     }
 }
 

@@ -149,10 +149,8 @@ impl DirectLight {
             ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);
         let mirror_pipeline = (!mirrors.is_empty())
             .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
-        let bind_group = ctx.bind_group(
-            &layout2,
-            &[&params_buffer, &emitter_buffer, &mirror_buffer],
-        );
+        let bind_group =
+            ctx.bind_group(&layout2, &[&params_buffer, &emitter_buffer, &mirror_buffer]);
         Ok(DirectLight {
             pipeline,
             mirror_pipeline,

@@ -51,7 +51,9 @@ pub fn initial_radiance(
 /// The scene's triangles in BVH order and its BVH (src/bvh.rs), as the transport stages bind
 /// them (common/upstream.wgsl's group 0: the texels' rim rays, direct light's shadow rays) and
 /// the CPU twin reads them.
-pub fn scene_bvh(prepared: &PreparedScene) -> (Vec<crate::bvh::GpuBvhNode>, Vec<crate::bvh::GpuTriangle>) {
+pub fn scene_bvh(
+    prepared: &PreparedScene,
+) -> (Vec<crate::bvh::GpuBvhNode>, Vec<crate::bvh::GpuTriangle>) {
     let corners: Vec<[glam::Vec3; 3]> = (prepared.triangles.iter())
         .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
         .collect();

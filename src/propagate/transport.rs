@@ -46,7 +46,7 @@ use super::{
 use crate::error::Result;
 use crate::gpu::types::{
     GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
-    GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_SKY,
+    GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY,
 };
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
@@ -358,6 +358,8 @@ pub struct Propagator {
     pub power: Option<PowerAccount>,
     /// tests only: gather flags that turn a fixed bug back on (`GRID_FLAG_LIST_ORDER_SIDES`)
     pub regression_flags: u32,
+    /// `PropagationParams::rim_rays` (GRID_FLAG_RIM_RAYS in every gather)
+    rim_rays: bool,
 }
 
 /// The power balance on the GPU: the gather's per-texel terms (`balance` in
@@ -1005,6 +1007,7 @@ impl Propagator {
             balance,
             power: Some(PowerAccount::new(emitted_exactly)),
             regression_flags: 0,
+            rim_rays: params.rim_rays,
         })
     }
 
@@ -1159,6 +1162,9 @@ impl Propagator {
     /// batches add raw sums, a later direction set (`accumulate`) adds to the earlier ones.
     fn gather_flags(&self, grid: &GpuGrid, accumulate: bool, probe: bool) -> u32 {
         let mut flags = self.regression_flags;
+        if self.rim_rays {
+            flags |= GRID_FLAG_RIM_RAYS;
+        }
         if !probe && self.iteration == 0 && grid.sky.iter().any(|&s| s > 0.0) {
             flags |= GRID_FLAG_SKY;
         }

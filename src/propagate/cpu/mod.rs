@@ -5,8 +5,10 @@
 
 pub mod specular;
 
-use crate::gpu::types::{GpuDirection, GpuFace, GpuGrid, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use crate::bvh::GpuTriangle;
+use crate::gpu::types::{
+    GpuDirection, GpuFace, GpuGrid, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY, NO_FACE, UNRESOLVED,
+};
 use glam::{Vec2, Vec3};
 
 pub struct CpuVisibility {
@@ -322,7 +324,10 @@ impl GatherInputs<'_> {
         if t > hit.0 * TIE {
             return false;
         }
-        let (face, other) = (self.triangles[tri as usize].face, self.triangles[hit.1 as usize].face);
+        let (face, other) = (
+            self.triangles[tri as usize].face,
+            self.triangles[hit.1 as usize].face,
+        );
         face < other || (face == other && tri < hit.1)
     }
 
@@ -438,7 +443,7 @@ impl GatherInputs<'_> {
             let travel = if forward { v3(d.w) } else { -v3(d.w) };
             let weight = cos_w.abs() * d.solid_angle;
             // rim rays in diffuse-only scenes (propagate.wgsl), not with mirrors (specular.wgsl)
-            let rim_rays = self.tiles.is_none();
+            let rim_rays = self.tiles.is_none() && self.grid.flags & GRID_FLAG_RIM_RAYS != 0;
             let sender = self.find_upstream(i as u32, d, x, face_id, forward, rim_rays);
             if sender == UNRESOLVED {
                 continue;
