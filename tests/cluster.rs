@@ -246,7 +246,15 @@ fn three_ranks_headless_present_the_same_frames_and_meet_at_the_seam() {
         log.contains("sends the light field") && log.contains("frame lock: ok"),
         "{log}"
     );
-    check_report(&json, 6);
+    let report = check_report(&json, 6);
+    // frame times present to present, one per frame after the first, the last frame (read back
+    // for the images) not counted: 4 of 6, as a series and as its statistics
+    for r in report["per_rank"].as_array().unwrap() {
+        let series = r["frame_ms_series"].as_array().unwrap();
+        assert_eq!(series.len(), 4, "{r:#}");
+        assert_eq!(r["frame_ms"]["samples"].as_u64(), Some(4), "{r:#}");
+        assert!(series.iter().all(|t| t.as_f64().unwrap() > 0.0), "{r:#}");
+    }
     // the ray leaves the left wall (rank 2) at its right edge where it enters the front wall
     // (rank 1) at its left edge
     let left = ray_row(&out.join("rank2/left-mono.png"), 159);
