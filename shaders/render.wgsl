@@ -35,7 +35,7 @@
 // the BVH (src/bvh.rs) as child pairs: each internal node holds both children's boxes
 @group(0) @binding(3) var<storage, read> pairs: array<BvhPair>;
 @group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
-// the converged radiance atlas, in pages of view.texel_page_cells texels
+// the converged radiance atlas, in pages of field.texel_page_cells texels
 @group(0) @binding(5) var<storage, read> radiance_0: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read> radiance_1: array<vec4<f32>>;
 @group(0) @binding(7) var<storage, read> radiance_2: array<vec4<f32>>;
@@ -45,6 +45,8 @@
 @group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
 // the depth of what each pixel sees, in the view's clip depth (0 near, 1 far)
 @group(0) @binding(10) var depth_image: texture_storage_2d<r32float, write>;
+// the light field's layout and sky, the same for every view (the view's own settings: `view`)
+@group(0) @binding(11) var<uniform> field: Field;
 
 // The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
 // where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
@@ -151,8 +153,8 @@ fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>) -> Hit {
 }
 
 fn radiance(texel: u32) -> vec4<f32> {
-    let i = texel % view.texel_page_cells;
-    switch texel / view.texel_page_cells {
+    let i = texel % field.texel_page_cells;
+    switch texel / field.texel_page_cells {
         case 0u: { return radiance_0[i]; }
         case 1u: { return radiance_1[i]; }
         case 2u: { return radiance_2[i]; }
@@ -171,11 +173,11 @@ fn radiance(texel: u32) -> vec4<f32> {
 @group(1) @binding(8) var<storage, read> tile_radiance_3: array<vec4<f32>>;
 
 fn tile_page_cells() -> u32 {
-    return view.tile_page_cells;
+    return field.tile_page_cells;
 }
 
 fn tile_cells_total() -> u32 {
-    return view.tile_cell_count;
+    return field.tile_cell_count;
 }
 
 // Bilinear in the atlas over the texels marked visible (w = 1, propagate's texel_validity):
@@ -183,7 +185,7 @@ fn tile_cells_total() -> u32 {
 // take its weight, so no dark seam runs along the foot of the box. A light field without marks
 // (w = 0 everywhere: the paper's settings, older files) interpolates all four.
 fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
-    let taps = atlas_taps(f, p, view.atlas_width);
+    let taps = atlas_taps(f, p, field.atlas_width);
     let r0 = radiance(taps.index.x);
     let r1 = radiance(taps.index.y);
     let r2 = radiance(taps.index.z);
@@ -196,14 +198,14 @@ fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
 
 // The mirror part leaving p along out_dir: three fixed directions around it, from the tiles.
 fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>, out_dir: vec3<f32>) -> vec3<f32> {
-    let taps = lookup_direction(out_dir, view.geodesic_frequency);
+    let taps = lookup_direction(out_dir, field.geodesic_frequency);
     var sum = vec3<f32>(0.0);
     var found = 0.0;
     for (var k = 0u; k < 3u; k++) {
         let d = directions[taps.index[k]];
         // tiles hold the radiance leaving the front; a tap behind the face drops out
         let front = select(0.0, 1.0, dot(d.w * taps.sign[k], f.normal) > 0.0);
-        let v = tile_bilinear(taps.index[k], d, slot, p, view.cell_size, view.tile_size, view.tile_face_count, true);
+        let v = tile_bilinear(taps.index[k], d, slot, p, field.cell_size, field.tile_size, field.tile_face_count, true);
         let w = taps.weight[k] * min(v.w, 1.0) * front;
         sum += v.xyz * w;
         found += w;
@@ -227,10 +229,10 @@ struct Surface {
 
 fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
-    if view.exhaustive_triangles > 0u {
+    if field.exhaustive_triangles > 0u {
         // a small mesh: every ray tests every triangle, the same work for every ray
         // two triangles a step: their tests are independent, which keeps the GPU's pipes full
-        let n = view.exhaustive_triangles;
+        let n = field.exhaustive_triangles;
         for (var i = 0u; i < n; i += 2u) {
             let j = min(i + 1u, n - 1u);
             let ti = ray_triangle(origin, ray, ray_triangles[i]);
@@ -255,7 +257,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     let none = id == NO_FACE || id == SKY;
     out.seen = select(1.0, 0.0, none);
     out.face = select(id, 0u, none);
-    out.background = select(vec3<f32>(0.0), view.sky.xyz, id == SKY);
+    out.background = select(vec3<f32>(0.0), field.sky.xyz, id == SKY);
     // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
     out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
     return out;

@@ -57,10 +57,13 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             tile_page_cells, texel_page_cells, _pad1, _pad2, _pad3
         }),
         mirrored!(GpuView => "View" in "render.wgsl" {
-            view_proj, inv_view_proj, sky, eye, cell_size, atlas_width, geodesic_frequency,
-            tile_size, tile_face_count, grid_resolution, exhaustive_triangles, tile_page_cells,
-            tile_cell_count, texel_page_cells, samples_per_pixel, mirror_bounces, paced_samples,
-            paced_fraction, fixed_work, _pad1, _pad2
+            view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
+            paced_fraction, fixed_work
+        }),
+        mirrored!(GpuField => "Field" in "render.wgsl" {
+            sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,
+            grid_resolution, exhaustive_triangles, tile_page_cells, tile_cell_count,
+            texel_page_cells, _pad0, _pad1
         }),
         mirrored!(GpuPresent => "PresentParams" in "present.wgsl" {
             viewport_origin, viewport_size, exposure, encode_srgb, show_overlay, _pad0

@@ -102,9 +102,24 @@ struct PageRange {
 struct View {
     view_proj: mat4x4<f32>,
     inv_view_proj: mat4x4<f32>,
-    sky: vec4<f32>,
     // eye position in normalised space
     eye: vec3<f32>,
+    // antialiasing: eye rays per pixel
+    samples_per_pixel: u32,
+    // mirror reflections traced per eye ray (0: the scene has no mirror)
+    mirror_bounces: u32,
+    // frame pacing (src/render/budget.rs): the share paced_fraction of the view's 8x8 tiles
+    // draws paced_samples eye rays per pixel instead of samples_per_pixel
+    paced_samples: u32,
+    paced_fraction: f32,
+    // 1: every pixel traces its reflections whatever it sees (see render.wgsl)
+    fixed_work: u32,
+}
+
+// mirrors gpu::types::GpuField: what the renderer needs to know of the light field it reads
+// (its layout and the scene's sky), the same for every view of it
+struct Field {
+    sky: vec4<f32>,
     cell_size: f32,
     atlas_width: u32,
     geodesic_frequency: u32,
@@ -118,18 +133,8 @@ struct View {
     tile_cell_count: u32,
     // the radiance atlas in pages: texels per page
     texel_page_cells: u32,
-    // antialiasing: eye rays per pixel
-    samples_per_pixel: u32,
-    // mirror reflections traced per eye ray (0: the scene has no mirror)
-    mirror_bounces: u32,
-    // frame pacing (src/render/budget.rs): the share paced_fraction of the view's 8x8 tiles
-    // draws paced_samples eye rays per pixel instead of samples_per_pixel
-    paced_samples: u32,
-    paced_fraction: f32,
-    // 1: every pixel traces its reflections whatever it sees (see render.wgsl)
-    fixed_work: u32,
+    _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

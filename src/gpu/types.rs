@@ -107,24 +107,13 @@ pub struct GpuAccumulate {
     pub _pad1: u32,
 }
 
-/// Mirrors WGSL `View`.
+/// Mirrors WGSL `View`: one view's camera and drawing settings.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuView {
     pub view_proj: [[f32; 4]; 4],
     pub inv_view_proj: [[f32; 4]; 4],
-    pub sky: [f32; 4],
     pub eye: [f32; 3],
-    pub cell_size: f32,
-    pub atlas_width: u32,
-    pub geodesic_frequency: u32,
-    pub tile_size: u32,
-    pub tile_face_count: u32,
-    pub grid_resolution: u32,
-    pub exhaustive_triangles: u32,
-    pub tile_page_cells: u32,
-    pub tile_cell_count: u32,
-    pub texel_page_cells: u32,
     /// antialiasing: eye rays per pixel
     pub samples_per_pixel: u32,
     /// mirror reflections traced per eye ray (0: the scene has no mirror)
@@ -136,8 +125,29 @@ pub struct GpuView {
     /// 1: every pixel traces its reflections whatever it sees (constant work without frame
     /// pacing); 0: only pixels that see a mirror (the pacer holds the time)
     pub fixed_work: u32,
+}
+
+/// Mirrors WGSL `Field`: the light field's layout and sky as the renderer reads them, the same
+/// for every view of it (written once per renderer).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuField {
+    pub sky: [f32; 4],
+    pub cell_size: f32,
+    pub atlas_width: u32,
+    pub geodesic_frequency: u32,
+    pub tile_size: u32,
+    pub tile_face_count: u32,
+    pub grid_resolution: u32,
+    /// > 0: the mesh is this small, and every eye ray tests every triangle
+    pub exhaustive_triangles: u32,
+    /// mirror tiles: cells per page, and cells in all
+    pub tile_page_cells: u32,
+    pub tile_cell_count: u32,
+    /// the radiance atlas in pages: texels per page
+    pub texel_page_cells: u32,
+    pub _pad0: u32,
     pub _pad1: u32,
-    pub _pad2: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to: the render

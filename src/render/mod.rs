@@ -6,7 +6,7 @@ pub mod budget;
 pub mod image_io;
 
 use crate::error::{Result, VlfError};
-use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
+use crate::gpu::types::{GpuField, GpuRayTriangle, GpuView, RenderVertex};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::prepare::Normalisation;
@@ -103,6 +103,8 @@ pub struct Renderer {
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
     view_buffer: wgpu::Buffer,
+    /// `GpuField`: the light field's layout and sky, written once
+    field_buffer: wgpu::Buffer,
     /// the render mesh as ray-casting triangles, and their BVH as child pairs
     triangles: wgpu::Buffer,
     /// the same triangles as affine maps (the exhaustive ray cast of small meshes)
@@ -187,7 +189,7 @@ impl Renderer {
         };
         let sky = lf.meta.sky.unwrap_or([0.0; 3]);
         let p = &lf.meta.params;
-        let view_template = GpuView {
+        let field = GpuField {
             sky: [sky[0], sky[1], sky[2], 1.0],
             cell_size: 2.0 / p.grid_resolution as f32,
             atlas_width: lf.meta.atlas_width,
@@ -202,6 +204,15 @@ impl Renderer {
                 .as_ref()
                 .map_or(0, |t| t.pages.total_cells as u32),
             texel_page_cells: resident.texel_pages.page_cells,
+            ..Default::default()
+        };
+        let field_buffer = ctx.buffer_init(
+            ledger,
+            "light field layout",
+            bytemuck::bytes_of(&field),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let view_template = GpuView {
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
             fixed_work: 1,
@@ -214,6 +225,7 @@ impl Renderer {
             faces: resident.faces.clone(),
             radiance: resident.total.clone(),
             view_buffer,
+            field_buffer,
             triangles,
             ray_triangles,
             pairs,
@@ -306,6 +318,10 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 10,
                     resource: wgpu::BindingResource::TextureView(&depth_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 11,
+                    resource: self.field_buffer.as_entire_binding(),
                 },
             ],
         });
