@@ -522,16 +522,19 @@ fn xvfb() -> (KillOnDrop, String) {
     panic!("Xvfb did not start");
 }
 
+/// The three-rank display configuration `text` with its first `from` replaced by `to`, parsed.
+fn parse_changed(text: &str, from: &str, to: &str) -> vlf::Result<vlf::display::DisplayConfig> {
+    let changed = text.replacen(from, to, 1);
+    assert_ne!(changed, text, "{from}");
+    vlf::display::DisplayConfig::parse(&changed, Path::new("three.toml"))
+}
+
 /// Bad `[cluster]` settings are refused naming the key (no mpirun needed).
 #[test]
 fn cluster_config_errors_name_the_key() {
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(write_config(dir.path(), 64)).unwrap();
-    let parse = |from: &str, to: &str| {
-        let changed = text.replacen(from, to, 1);
-        assert_ne!(changed, text, "{from}");
-        vlf::display::DisplayConfig::parse(&changed, Path::new("three.toml"))
-    };
+    let parse = |from: &str, to: &str| parse_changed(&text, from, to);
     let err = |from: &str, to: &str| parse(from, to).unwrap_err().to_string();
     let e = err(r#"walls = ["left"]"#, r#"walls = ["back"]"#);
     assert!(
@@ -598,11 +601,7 @@ fn each_rank_on_a_host_takes_its_own_gpu() {
     use vlf::gpu::AdapterChoice::{Default as Best, Gpu};
     let dir = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(write_config(dir.path(), 64)).unwrap();
-    let parse = |from: &str, to: &str| {
-        let changed = text.replacen(from, to, 1);
-        assert_ne!(changed, text, "{from}");
-        vlf::display::DisplayConfig::parse(&changed, Path::new("three.toml"))
-    };
+    let parse = |from: &str, to: &str| parse_changed(&text, from, to);
     let hosts: Vec<String> = ["a", "b", "a"].iter().map(|h| h.to_string()).collect();
     // the default, "local-rank": the n-th rank on a host takes the host's n-th GPU
     let config = vlf::display::DisplayConfig::parse(&text, Path::new("three.toml")).unwrap();

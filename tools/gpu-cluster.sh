@@ -51,13 +51,8 @@ trap 'kill $sampler 2>/dev/null' EXIT
 # gpu-utilization.csv at its own offset)
 mark() { echo "$*, $(date +%Y/%m/%d\ %H:%M:%S.%3N)" >> "$out/marks.csv"; }
 
-generate() {  # scene name -> the generator's command line
-  case $1 in
-    classroom-100k) echo "classroom --size 100000 --mirrors" ;;
-    classroom-1m) echo "classroom --size 1000000 --mirrors" ;;
-    gallery) echo "gallery --mirrors" ;;
-  esac
-}
+# generate SCENE: the walk's scene as `vlf generate` makes it
+source tools/walk-scenes.sh
 for scene in $SCENES; do
   if [ ! -f "$work/$scene.vlf" ]; then
     "$vlf" generate $(generate "$scene") -o "$work/$scene" | quiet | tail -1 | tee -a "$log"

@@ -14,13 +14,8 @@
 set -uo pipefail
 vlf=$1; out=$2; frames=${3:-300}; work=${WORK:-$(mktemp -d)}; mkdir -p $work
 quiet() { grep -v XDG_RUNTIME_DIR; }
-generate() {  # scene name -> the generator's command line
-  case $1 in
-    classroom-100k) echo "classroom --size 100000 --mirrors" ;;
-    classroom-1m) echo "classroom --size 1000000 --mirrors" ;;
-    gallery) echo "gallery --mirrors" ;;
-  esac
-}
+# generate SCENE: the walk's scene as `vlf generate` makes it
+source "$(dirname "$0")/walk-scenes.sh"
 suffix=${AA:+-aa$AA}${TAG:+-$TAG}
 for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
   if [ ! -f $work/$scene.vlf ]; then

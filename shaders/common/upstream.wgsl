@@ -209,11 +209,12 @@ fn find_upstream(dir_index: u32, d: Direction, x: vec3<f32>, face: u32, forward:
         }
     }
     // The face has no cell centre nearby (a grazing direction at a rim or corner, or a face
-    // smaller than a cell). A texel casts a ray. Otherwise take the first layer upstream of x's
-    // depth in the nearest cell whose line meets one. If it does not face the light's way, the lists cannot tell what x sees
-    // along this direction: UNRESOLVED drops the direction from x's quadrature rather than
-    // counting it black (a leak that high albedos would amplify a thousandfold). Only where no
-    // nearby line meets anything is x in the open: the sky.
+    // smaller than a cell). With rim rays, cast one. Otherwise take the first layer upstream of
+    // x's depth in the nearest cell whose line meets one. If it does not face the light's way,
+    // the lists cannot tell what x sees along this direction: UNRESOLVED drops the direction
+    // from x's quadrature rather than counting it black (a leak that high albedos would
+    // amplify a thousandfold). Only where no nearby line meets anything is x in the open: the
+    // sky.
     if rim_rays {
         return rim_ray_sender(x, travel, face);
     }

@@ -97,11 +97,7 @@ async fn nth_gpu(
             )
         })
         .collect();
-    let taken = if wrap && count > 0 {
-        index % count
-    } else {
-        index
-    };
+    let taken = if wrap { index % count } else { index };
     if taken >= count {
         return Err(VlfError::GpuChoice(if count == 0 {
             format!("GPU {index} was asked for (VLF_GPU or [cluster] gpu), but wgpu sees no hardware GPU here; unset VLF_GPU (or set [cluster] gpu = \"default\") to use the best adapter there is")

@@ -24,9 +24,9 @@ pub(super) fn v3(a: [f32; 3]) -> Vec3 {
 /// common/ray.wgsl's tie: hits this close (relative) are tied.
 const TIE: f32 = 1.000001;
 
-/// common/ray.wgsl's `intersect_grown` (Moller-Trumbore, in the same f32 steps): the distance,
-/// or -1.
-fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32, grow: f32) -> f32 {
+/// common/ray.wgsl's `intersect` (Moller-Trumbore, in the same f32 steps; rim rays do not grow
+/// triangles): the distance, or -1.
+fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32) -> f32 {
     let (v0, e1, e2) = (v3(tri.v0), v3(tri.e1), v3(tri.e2));
     let p = dir.cross(e2);
     let det = e1.dot(p);
@@ -36,12 +36,12 @@ fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32, grow: f32) 
     let inv = 1.0 / det;
     let s = origin - v0;
     let u = s.dot(p) * inv;
-    if u < -grow || u > 1.0 + grow {
+    if !(0.0..=1.0).contains(&u) {
         return -1.0;
     }
     let q = s.cross(e1);
     let v = dir.dot(q) * inv;
-    if v < -grow || u + v > 1.0 + grow {
+    if v < 0.0 || u + v > 1.0 {
         return -1.0;
     }
     let t = e2.dot(q) * inv;
@@ -301,7 +301,7 @@ impl GatherInputs<'_> {
             if tri.face == face || tri.face == skip_twin {
                 continue;
             }
-            let t = intersect(x, dir, tri, hit.0 * TIE, 0.0);
+            let t = intersect(x, dir, tri, hit.0 * TIE);
             if self.closer(t, i as u32, hit) {
                 hit = (t, i as u32);
             }
@@ -434,6 +434,8 @@ impl GatherInputs<'_> {
         let mut irradiance = Vec3::ZERO;
         let mut sky_irradiance = Vec3::ZERO;
         let mut weight_sum = 0.0f32;
+        // rim rays in diffuse-only scenes (propagate.wgsl), not with mirrors (specular.wgsl)
+        let rim_rays = self.tiles.is_none() && self.grid.flags & GRID_FLAG_RIM_RAYS != 0;
         for (i, d) in self.directions.iter().enumerate() {
             let cos_w = v3(f.normal).dot(v3(d.w));
             if cos_w.abs() < 1e-6 {
@@ -442,8 +444,6 @@ impl GatherInputs<'_> {
             let forward = cos_w < 0.0;
             let travel = if forward { v3(d.w) } else { -v3(d.w) };
             let weight = cos_w.abs() * d.solid_angle;
-            // rim rays in diffuse-only scenes (propagate.wgsl), not with mirrors (specular.wgsl)
-            let rim_rays = self.tiles.is_none() && self.grid.flags & GRID_FLAG_RIM_RAYS != 0;
             let sender = self.find_upstream(i as u32, d, x, face_id, forward, rim_rays);
             if sender == UNRESOLVED {
                 continue;

@@ -1,0 +1,9 @@
+# Sourced by the GPU scripts that run the shipped walks (tools/gpu-pacing.sh, tools/gpu-cluster.sh):
+# the scene each walk of config/paths/<scene>-walk.toml goes through, as `vlf generate` makes it.
+generate() {  # scene name -> the generator's command line
+  case $1 in
+    classroom-100k) echo "classroom --size 100000 --mirrors" ;;
+    classroom-1m) echo "classroom --size 1000000 --mirrors" ;;
+    gallery) echo "gallery --mirrors" ;;
+  esac
+}
