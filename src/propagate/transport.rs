@@ -571,7 +571,13 @@ impl Setup<'_> {
             .iter()
             .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
             .collect();
-        let (nodes, bvh_triangles) = super::scene_bvh(prepared);
+        // only direct light's shadow rays and rim rays trace the BVH: otherwise one placeholder
+        // node and triangle fill the bindings, and a big scene skips building it
+        let (nodes, bvh_triangles) = if self.params.direct_samples > 0 || self.params.rim_rays {
+            super::scene_bvh(prepared)
+        } else {
+            (vec![Default::default()], vec![Default::default()])
+        };
         SceneBuffers {
             grid: ctx.buffer_init(ledger, "grid parameters", bytemuck::bytes_of(grid), uniform),
             directions: ctx.buffer_init(
