@@ -25,9 +25,11 @@
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
-#include "common/tile_pages.wgsl"
-#include "common/tiles.wgsl"
+#include "common/light_field.wgsl"
 #include "common/ray.wgsl"
+
+// the light field's bindings (common/light_field.wgsl: layout, atlas, directions, tiles)
+const LIGHT_FIELD_GROUP: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -35,18 +37,11 @@
 // the BVH (src/bvh.rs) as child pairs: each internal node holds both children's boxes
 @group(0) @binding(3) var<storage, read> pairs: array<BvhPair>;
 @group(0) @binding(4) var image: texture_storage_2d<rgba32float, write>;
-// the converged radiance atlas, in pages of field.texel_page_cells texels
-@group(0) @binding(5) var<storage, read> radiance_0: array<vec4<f32>>;
-@group(0) @binding(6) var<storage, read> radiance_1: array<vec4<f32>>;
-@group(0) @binding(7) var<storage, read> radiance_2: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read> radiance_3: array<vec4<f32>>;
 // the small mesh's triangles as affine maps (rows u, v, w: world -> the triangle's barycentric
 // u, v and its plane distance w), in the order of `triangles`
-@group(0) @binding(9) var<storage, read> ray_triangles: array<RayTriangle>;
+@group(0) @binding(5) var<storage, read> ray_triangles: array<RayTriangle>;
 // the depth of what each pixel sees, in the view's clip depth (0 near, 1 far)
-@group(0) @binding(10) var depth_image: texture_storage_2d<r32float, write>;
-// the light field's layout and sky, the same for every view (the view's own settings: `view`)
-@group(0) @binding(11) var<uniform> field: Field;
+@group(0) @binding(6) var depth_image: texture_storage_2d<r32float, write>;
 
 // The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
 // where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
@@ -152,67 +147,6 @@ fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>) -> Hit {
     return hit;
 }
 
-fn radiance(texel: u32) -> vec4<f32> {
-    let i = texel % field.texel_page_cells;
-    switch texel / field.texel_page_cells {
-        case 0u: { return radiance_0[i]; }
-        case 1u: { return radiance_1[i]; }
-        case 2u: { return radiance_2[i]; }
-        default: { return radiance_3[i]; }
-    }
-}
-// view-dependent part, bound only for scenes with mirrors (resolve_mixed)
-@group(1) @binding(0) var<storage, read> directions: array<Direction>;
-@group(1) @binding(1) var<storage, read> geodesic_points: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read> geodesic_index: array<u32>;
-@group(1) @binding(3) var<storage, read> tile_rects: array<vec4<u32>>;
-@group(1) @binding(4) var<storage, read> tile_index: array<u32>;
-@group(1) @binding(5) var<storage, read> tile_radiance_0: array<vec4<f32>>;
-@group(1) @binding(6) var<storage, read> tile_radiance_1: array<vec4<f32>>;
-@group(1) @binding(7) var<storage, read> tile_radiance_2: array<vec4<f32>>;
-@group(1) @binding(8) var<storage, read> tile_radiance_3: array<vec4<f32>>;
-
-fn tile_page_cells() -> u32 {
-    return field.tile_page_cells;
-}
-
-fn tile_cells_total() -> u32 {
-    return field.tile_cell_count;
-}
-
-// Bilinear in the atlas over the texels marked visible (w = 1, propagate's texel_validity):
-// a texel inside closed geometry (under a box standing on the floor) drops out and the others
-// take its weight, so no dark seam runs along the foot of the box. A light field without marks
-// (w = 0 everywhere: the paper's settings, older files) interpolates all four.
-fn diffuse_part(f: Face, p: vec3<f32>) -> vec3<f32> {
-    let taps = atlas_taps(f, p, field.atlas_width);
-    let r0 = radiance(taps.index.x);
-    let r1 = radiance(taps.index.y);
-    let r2 = radiance(taps.index.z);
-    let r3 = radiance(taps.index.w);
-    let marked = taps.weight * vec4<f32>(r0.w, r1.w, r2.w, r3.w);
-    let sum = marked.x + marked.y + marked.z + marked.w;
-    let w = select(taps.weight, marked / sum, sum > 1e-6);
-    return r0.xyz * w.x + r1.xyz * w.y + r2.xyz * w.z + r3.xyz * w.w;
-}
-
-// The mirror part leaving p along out_dir: three fixed directions around it, from the tiles.
-fn view_dependent_part(f: Face, slot: u32, p: vec3<f32>, out_dir: vec3<f32>) -> vec3<f32> {
-    let taps = lookup_direction(out_dir, field.geodesic_frequency);
-    var sum = vec3<f32>(0.0);
-    var found = 0.0;
-    for (var k = 0u; k < 3u; k++) {
-        let d = directions[taps.index[k]];
-        // tiles hold the radiance leaving the front; a tap behind the face drops out
-        let front = select(0.0, 1.0, dot(d.w * taps.sign[k], f.normal) > 0.0);
-        let v = tile_bilinear(taps.index[k], d, slot, p, field.cell_size, field.tile_size, field.tile_face_count, true);
-        let w = taps.weight[k] * min(v.w, 1.0) * front;
-        sum += v.xyz * w;
-        found += w;
-    }
-    return select(vec3<f32>(0.0), sum / found, found > 0.0);
-}
-
 // The ray meets nothing: the sky.
 const SKY: u32 = 0xfffffffdu;
 
@@ -229,10 +163,10 @@ struct Surface {
 
 fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
-    if field.exhaustive_triangles > 0u {
+    if view.exhaustive_triangles > 0u {
         // a small mesh: every ray tests every triangle, the same work for every ray
         // two triangles a step: their tests are independent, which keeps the GPU's pipes full
-        let n = field.exhaustive_triangles;
+        let n = view.exhaustive_triangles;
         for (var i = 0u; i < n; i += 2u) {
             let j = min(i + 1u, n - 1u);
             let ti = ray_triangle(origin, ray, ray_triangles[i]);
@@ -291,7 +225,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
         ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
-        path.radiance += weight * (diffuse_part(f, s.point) * s.seen + s.background);
+        path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
         path.throughput = weight * s.seen;
         weight *= f.mirror * s.seen;
     }
@@ -366,8 +300,8 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;
         let m1 = f1.mirror * s1.seen * w1;
-        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
-        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
+        sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
         if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
@@ -409,8 +343,8 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let f1 = faces[s1.face];
         let m0 = f0.mirror * s0.seen;
         let m1 = f1.mirror * s1.seen * w1;
-        sum += diffuse_part(f0, s0.point) * s0.seen + s0.background;
-        sum += (diffuse_part(f1, s1.point) * s1.seen + s1.background) * w1;
+        sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
+        sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
         if reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
@@ -427,7 +361,7 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
             // a mirror, after one or more by the mirrors' reflectance along the chain
             let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
             let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
-            sum += weight * (chain.radiance + carried * view_dependent_part(f, slot, chain.point, -chain.ray));
+            sum += weight * (chain.radiance + carried * tile_radiance_leaving(f, slot, chain.point, -chain.ray));
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));

@@ -7,35 +7,20 @@
 #include "common/types.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
-#include "common/tile_pages.wgsl"
-#include "common/tiles.wgsl"
+#include "common/light_field.wgsl"
 #include "common/upstream.wgsl"
 
-@group(2) @binding(0) var<storage, read> tile_rects: array<vec4<u32>>;
-@group(2) @binding(1) var<storage, read> tile_index: array<u32>;
+// the light field being propagated, its unshot state (common/light_field.wgsl): the unshot atlas
+// and mirror tiles, the fixed directions whose grids the tiles live in (perturbed sets move
+// `directions`, not these), the geodesic tables
+const LIGHT_FIELD_GROUP: u32 = 2u;
+
 // per tile: (direction, face, tile x, tile y)
-@group(2) @binding(2) var<storage, read> tile_headers: array<vec4<u32>>;
-@group(2) @binding(3) var<storage, read> geodesic_points: array<vec4<f32>>;
-@group(2) @binding(4) var<storage, read> geodesic_index: array<u32>;
-// the fixed directions, whose grids the tiles live in (perturbed sets move `directions`)
-@group(2) @binding(5) var<storage, read> tile_directions: array<Direction>;
-// unshot mirror radiance (rgb), in pages
-@group(2) @binding(6) var<storage, read> tile_radiance_0: array<vec4<f32>>;
-@group(2) @binding(7) var<storage, read> tile_radiance_1: array<vec4<f32>>;
-@group(2) @binding(8) var<storage, read> tile_radiance_2: array<vec4<f32>>;
-@group(2) @binding(9) var<storage, read> tile_radiance_3: array<vec4<f32>>;
+@group(3) @binding(0) var<storage, read> tile_headers: array<vec4<u32>>;
 // next unshot mirror radiance (rgb) and, in w, the share that came from the sky (r+g+b): the
 // page this dispatch writes
-@group(2) @binding(10) var<storage, read_write> tile_next: array<vec4<f32>>;
-@group(2) @binding(11) var<uniform> tile_page: PageRange;
-
-fn tile_page_cells() -> u32 {
-    return grid.tile_page_cells;
-}
-
-fn tile_cells_total() -> u32 {
-    return grid.tile_cell_count;
-}
+@group(3) @binding(1) var<storage, read_write> tile_next: array<vec4<f32>>;
+@group(3) @binding(2) var<uniform> tile_page: PageRange;
 
 // Texels of scenes with mirrors keep the lists' rim fallback (`rim_rays` is for diffuse-only
 // scenes): the mirror tiles' rim cells and the power balance's tile classes have no rule for
@@ -48,8 +33,8 @@ fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) ->
     if s.tile_slot == NO_FACE {
         return vec3<f32>(0.0);
     }
-    let d = tile_directions[dir_index];
-    return tile_bilinear(dir_index, d, s.tile_slot, xs, grid.cell_size, grid.tile_size, grid.tile_face_count, false).xyz;
+    let d = field_directions[dir_index];
+    return tile_bilinear(dir_index, d, s.tile_slot, xs, false).xyz;
 }
 
 @compute @workgroup_size(64)
@@ -72,7 +57,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let face_id = header.y;
     let col = header.z * m + local % m;
     let row = header.w * m + local / m;
-    let d = tile_directions[dir_index];
+    let d = field_directions[dir_index];
     let f = faces[face_id];
     let cos_w = dot(f.normal, d.w);
     if abs(cos_w) < 1e-6 {

@@ -58,12 +58,12 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         }),
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
-            paced_fraction, fixed_work
+            paced_fraction, fixed_work, exhaustive_triangles, _pad0, _pad1, _pad2
         }),
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,
-            grid_resolution, exhaustive_triangles, tile_page_cells, tile_cell_count,
-            texel_page_cells, _pad0, _pad1
+            grid_resolution, tile_page_cells, tile_cell_count, texel_page_cells, _pad0, _pad1,
+            _pad2
         }),
         mirrored!(GpuPresent => "PresentParams" in "present.wgsl" {
             viewport_origin, viewport_size, exposure, encode_srgb, show_overlay, _pad0

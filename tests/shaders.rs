@@ -209,3 +209,41 @@ fn every_stage_file_is_listed_as_a_stage() {
         "not in gpu::shaders::STAGES: {missing:?}"
     );
 }
+
+#[test]
+fn the_light_field_is_declared_once_and_each_stage_says_where_it_binds_it() {
+    use vlf::gpu::reflect;
+    // the stages that read a light field include common/light_field.wgsl and name its group;
+    // the driver finds it by reflection (render.wgsl at 1, specular.wgsl at 2)
+    assert_eq!(reflect::group_of("render.wgsl", "field").unwrap(), 1);
+    assert_eq!(reflect::group_of("specular.wgsl", "field").unwrap(), 2);
+    // a binding both stages use has the same number and type in both (one declaration)
+    let render = reflect::used_layout_entries("render.wgsl", 1).unwrap();
+    let specular = reflect::used_layout_entries("specular.wgsl", 2).unwrap();
+    let mut shared = 0;
+    for s in &specular {
+        if let Some(r) = render.iter().find(|r| r.binding == s.binding) {
+            assert_eq!(r.ty, s.ty, "binding {} differs", s.binding);
+            shared += 1;
+        }
+    }
+    assert!(shared >= 8, "only {shared} bindings shared: {specular:?}");
+    // specular transport reads its unshot atlas through its own group: the light field's atlas
+    // pages are left out of its layout (which keeps it under 32 storage buffers per stage)
+    assert!(specular.iter().all(|e| !(1..=4).contains(&e.binding)));
+    assert!((1..=4).all(|b| render.iter().any(|e| e.binding == b)));
+    // no stage declares the light field's pages itself: every declaration of them comes from
+    // the shared module
+    for stage in shaders::STAGES {
+        let expanded = shaders::expand(stage).unwrap();
+        for (line, (file, _)) in expanded.source.lines().zip(&expanded.line_origin) {
+            let declares = line.contains("var<storage, read> tile_radiance_0")
+                || line.contains("var<storage, read> tile_rects")
+                || line.contains("var<uniform> field:");
+            assert!(
+                !declares || file == "common/light_field.wgsl",
+                "{stage}: {file} declares the light field's bindings itself: {line}"
+            );
+        }
+    }
+}

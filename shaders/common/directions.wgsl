@@ -1,6 +1,7 @@
 // The three fixed directions around any unit vector, with barycentric weights: the geodesic
 // lookup of src/lightfield/directions.rs (DirectionSet::lookup), which is its CPU twin.
-// The including file binds `geodesic_points` and `geodesic_index` (DirectionSet::gpu_tables):
+// `geodesic_points` and `geodesic_index` (DirectionSet::gpu_tables) are the light field's bindings
+// (common/light_field.wgsl, which the including stage includes too):
 //   geodesic_points: the 12 icosahedron corners, then every sphere point
 //   geodesic_index: 20 x 3 corner ids, then each face's grid of point ids (row by row), then
 //                   per point its direction index, with bit 31 set for -w

@@ -79,7 +79,7 @@ struct GridParams {
     tile_cell_count: u32,
     // global index of `directions[0]`: 0 unless directions come in batches
     first_direction: u32,
-    // mirror tiles in pages (common/tile_pages.wgsl): cells per page
+    // mirror tiles in pages (common/light_field.wgsl): cells per page
     tile_page_cells: u32,
     // texel arrays in pages (common/upstream.wgsl): texels per page
     texel_page_cells: u32,
@@ -114,10 +114,15 @@ struct View {
     paced_fraction: f32,
     // 1: every pixel traces its reflections whatever it sees (see render.wgsl)
     fixed_work: u32,
+    // > 0: the mesh is this small, and every eye ray tests every triangle
+    exhaustive_triangles: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
-// mirrors gpu::types::GpuField: what the renderer needs to know of the light field it reads
-// (its layout and the scene's sky), the same for every view of it
+// mirrors gpu::types::GpuField: the layout of the light field a stage reads and the scene's
+// sky (common/light_field.wgsl), the same for every view of it
 struct Field {
     sky: vec4<f32>,
     cell_size: f32,
@@ -126,8 +131,6 @@ struct Field {
     tile_size: u32,
     tile_face_count: u32,
     grid_resolution: u32,
-    // > 0: the mesh is this small, and every eye ray tests every triangle
-    exhaustive_triangles: u32,
     // mirror tiles: cells per page, and cells in all
     tile_page_cells: u32,
     tile_cell_count: u32,
@@ -135,6 +138,7 @@ struct Field {
     texel_page_cells: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

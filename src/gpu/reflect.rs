@@ -9,17 +9,24 @@ use crate::error::{Result, VlfError};
 use std::collections::HashMap;
 use std::sync::{Mutex, OnceLock};
 
-/// The parsed stages, each parsed once per process.
-fn parsed(stage: &str) -> Result<&'static naga::Module> {
-    static CACHE: OnceLock<Mutex<HashMap<String, &'static naga::Module>>> = OnceLock::new();
+/// The parsed stages and naga's analysis of them, each parsed once per process.
+fn parsed_with_info(stage: &str) -> Result<&'static (naga::Module, naga::valid::ModuleInfo)> {
+    type Parsed = &'static (naga::Module, naga::valid::ModuleInfo);
+    static CACHE: OnceLock<Mutex<HashMap<String, Parsed>>> = OnceLock::new();
     let cache = CACHE.get_or_init(Default::default);
     if let Some(m) = cache.lock().unwrap().get(stage) {
         return Ok(m);
     }
-    let module = shaders::expand(stage)?.validate().map_err(VlfError::Gpu)?;
-    let leaked: &'static naga::Module = Box::leak(Box::new(module));
+    let parsed = shaders::expand(stage)?
+        .validate_with_info()
+        .map_err(VlfError::Gpu)?;
+    let leaked: Parsed = Box::leak(Box::new(parsed));
     cache.lock().unwrap().insert(stage.to_string(), leaked);
     Ok(leaked)
+}
+
+fn parsed(stage: &str) -> Result<&'static naga::Module> {
+    parsed_with_info(stage).map(|(module, _)| module)
 }
 
 /// The stages that can see a binding: those of the module's entry points.
@@ -136,12 +143,31 @@ fn image_type(
 /// The entries of bind group `group` as `stage` (a file under shaders/) declares them, in
 /// binding order.
 pub fn layout_entries(stage: &str, group: u32) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    entries_where(stage, group, |_| true)
+}
+
+/// The entries of bind group `group` that some entry point of `stage` reads or writes: for a
+/// group declared by a shared module (`common/light_field.wgsl`), of which a stage may use a
+/// part (a binding in the layout counts against the device's limits whether read or not).
+pub fn used_layout_entries(stage: &str, group: u32) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
+    let (module, info) = parsed_with_info(stage)?;
+    let used = |handle: naga::Handle<naga::GlobalVariable>| {
+        (0..module.entry_points.len()).any(|e| !info.get_entry_point(e)[handle].is_empty())
+    };
+    entries_where(stage, group, used)
+}
+
+fn entries_where(
+    stage: &str,
+    group: u32,
+    keep: impl Fn(naga::Handle<naga::GlobalVariable>) -> bool,
+) -> Result<Vec<wgpu::BindGroupLayoutEntry>> {
     let module = parsed(stage)?;
     let visibility = stages_of(module);
     let mut entries = Vec::new();
-    for (_, var) in module.global_variables.iter() {
+    for (handle, var) in module.global_variables.iter() {
         let Some(rb) = &var.binding else { continue };
-        if rb.group != group {
+        if rb.group != group || !keep(handle) {
             continue;
         }
         let ty = binding_type(module, var).map_err(|what| {
@@ -171,10 +197,28 @@ pub fn layout_entries(stage: &str, group: u32) -> Result<Vec<wgpu::BindGroupLayo
 /// Bind group layout `group` of `stage`, reflected from its WGSL.
 pub fn layout(device: &wgpu::Device, stage: &str, group: u32) -> Result<wgpu::BindGroupLayout> {
     let entries = layout_entries(stage, group)?;
-    Ok(
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some(&format!("{stage} group {group}")),
-            entries: &entries,
-        }),
-    )
+    Ok(layout_of(device, stage, group, &entries))
+}
+
+/// A bind group layout of `entries` (from `layout_entries` or `used_layout_entries`).
+pub fn layout_of(
+    device: &wgpu::Device,
+    stage: &str,
+    group: u32,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(&format!("{stage} group {group}")),
+        entries,
+    })
+}
+
+/// The bind group of `stage`'s global `name`: a stage that includes a shared module of bindings
+/// (`common/light_field.wgsl`) chooses the group, and the driver asks the shader where it is.
+pub fn group_of(stage: &str, name: &str) -> Result<u32> {
+    let module = parsed(stage)?;
+    (module.global_variables.iter())
+        .find(|(_, var)| var.name.as_deref() == Some(name))
+        .and_then(|(_, var)| var.binding.as_ref().map(|b| b.group))
+        .ok_or_else(|| VlfError::Gpu(format!("shaders/{stage} binds no global named `{name}`")))
 }

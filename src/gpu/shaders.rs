@@ -18,12 +18,8 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/directions.wgsl"),
     ),
     (
-        "common/tiles.wgsl",
-        include_str!("../../shaders/common/tiles.wgsl"),
-    ),
-    (
-        "common/tile_pages.wgsl",
-        include_str!("../../shaders/common/tile_pages.wgsl"),
+        "common/light_field.wgsl",
+        include_str!("../../shaders/common/light_field.wgsl"),
     ),
     (
         "common/upstream.wgsl",
@@ -153,6 +149,13 @@ fn expand_into(name: &str, out: &mut ExpandedShader, depth: usize) -> Result<()>
 impl ExpandedShader {
     /// Parse and validate with naga; errors name the original file and line.
     pub fn validate(&self) -> std::result::Result<naga::Module, String> {
+        self.validate_with_info().map(|(module, _)| module)
+    }
+
+    /// `validate`, with naga's analysis of the module (which globals each entry point uses).
+    pub fn validate_with_info(
+        &self,
+    ) -> std::result::Result<(naga::Module, naga::valid::ModuleInfo), String> {
         let module = naga::front::wgsl::parse_str(&self.source).map_err(|e| {
             let location = e
                 .location(&self.source)
@@ -169,7 +172,7 @@ impl ExpandedShader {
             naga::valid::ValidationFlags::all(),
             naga::valid::Capabilities::default() | naga::valid::Capabilities::MULTIVIEW,
         );
-        validator.validate(&module).map_err(|e| {
+        let info = validator.validate(&module).map_err(|e| {
             let location = e
                 .location(&self.source)
                 .map(|l| self.origin(l.line_number as usize));
@@ -179,7 +182,7 @@ impl ExpandedShader {
                 e.emit_to_string(&self.source)
             )
         })?;
-        Ok(module)
+        Ok((module, info))
     }
 
     fn origin(&self, line: usize) -> String {

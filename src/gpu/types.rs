@@ -125,10 +125,15 @@ pub struct GpuView {
     /// 1: every pixel traces its reflections whatever it sees (constant work without frame
     /// pacing); 0: only pixels that see a mirror (the pacer holds the time)
     pub fixed_work: u32,
+    /// > 0: the mesh is this small, and every eye ray tests every triangle
+    pub exhaustive_triangles: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
-/// Mirrors WGSL `Field`: the light field's layout and sky as the renderer reads them, the same
-/// for every view of it (written once per renderer).
+/// Mirrors WGSL `Field`: the layout of the light field a stage reads, and the scene's sky
+/// (`shaders/common/light_field.wgsl`; made by `lightfield::bindings`), the same for every view.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuField {
@@ -139,8 +144,6 @@ pub struct GpuField {
     pub tile_size: u32,
     pub tile_face_count: u32,
     pub grid_resolution: u32,
-    /// > 0: the mesh is this small, and every eye ray tests every triangle
-    pub exhaustive_triangles: u32,
     /// mirror tiles: cells per page, and cells in all
     pub tile_page_cells: u32,
     pub tile_cell_count: u32,
@@ -148,6 +151,7 @@ pub struct GpuField {
     pub texel_page_cells: u32,
     pub _pad0: u32,
     pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to: the render

@@ -4,6 +4,7 @@
 //! `ResidentLightField` is the GPU-resident one that views are drawn from.
 
 pub mod atlas_lookup;
+pub mod bindings;
 pub mod directions;
 pub mod file;
 pub mod tiles;

@@ -10,7 +10,7 @@ use glam::{DVec2, DVec3};
 
 /// Elements (mirror tile cells, or texels) split into pages, none larger than one storage binding
 /// (128 MiB on the software adapter), bound as up to MAX_TILE_PAGES buffers
-/// (shaders/common/tile_pages.wgsl, shaders/common/upstream.wgsl, shaders/render.wgsl).
+/// (shaders/common/light_field.wgsl, shaders/common/upstream.wgsl).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TilePages {
     /// cells per page (whole tiles)

@@ -43,9 +43,9 @@ use super::{
     gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams,
     DEPTH_EPSILON,
 };
-use crate::error::Result;
+use crate::error::{Result, VlfError};
 use crate::gpu::types::{
-    GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
+    GpuAccumulate, GpuDirection, GpuFace, GpuField, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
     GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY,
 };
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
@@ -309,7 +309,12 @@ struct Tiles {
     page_plan: TilePages,
     tables: [wgpu::Buffer; 5],
     fixed_directions: wgpu::Buffer,
-    layout2: wgpu::BindGroupLayout,
+    /// the layout uniform of the light field being propagated (`GpuField`, from the grid)
+    field: wgpu::Buffer,
+    /// specular.wgsl's groups: the light field's (`lightfield::bindings`), and the tiles' own
+    /// (headers, the page written, its range)
+    field_layout: crate::lightfield::bindings::FieldLayout,
+    page_layout: wgpu::BindGroupLayout,
     gather_pipe: wgpu::ComputePipeline,
 }
 
@@ -657,7 +662,7 @@ impl Setup<'_> {
         layout: TileLayout,
         page_plan: TilePages,
         layouts: [&wgpu::BindGroupLayout; 2],
-        cell_size: f32,
+        grid: &GpuGrid,
         fixed_directions: impl FnOnce() -> wgpu::Buffer,
     ) -> Result<(wgpu::ComputePipeline, Option<Tiles>)> {
         let (ctx, device) = (self.ctx, &self.ctx.device);
@@ -670,13 +675,22 @@ impl Setup<'_> {
             ));
         }
         let module = shaders::module(device, "specular.wgsl")?;
-        // tables, fixed directions, four pages of unshot tile radiance, the page written, its range
-        let layout2 = reflect::layout(device, "specular.wgsl", 2)?;
-        let gather = ctx.compute_pipeline(&module, "gather_mixed", &[layout0, layout1, &layout2]);
-        let gather_tiles =
-            ctx.compute_pipeline(&module, "gather_tiles", &[layout0, layout1, &layout2]);
+        // the light field's group: layout, the unshot atlas, fixed directions, geodesic tables,
+        // tile tables, four pages of unshot tile radiance
+        let field_layout = crate::lightfield::bindings::layout(device, "specular.wgsl")?;
+        // tile headers, the page written, its range
+        let page_layout = reflect::layout(device, "specular.wgsl", 3)?;
+        if field_layout.group != 2 {
+            return Err(VlfError::Gpu(format!(
+                "shaders/specular.wgsl binds the light field at group {}; transport binds it at 2",
+                field_layout.group
+            )));
+        }
+        let groups = [layout0, layout1, &field_layout.layout, &page_layout];
+        let gather = ctx.compute_pipeline(&module, "gather_mixed", &groups);
+        let gather_tiles = ctx.compute_pipeline(&module, "gather_tiles", &groups);
         let (points, index) = self.directions.gpu_tables();
-        let pages = self.tile_pages(&layout, &page_plan, cell_size as f64);
+        let pages = self.tile_pages(&layout, &page_plan, grid.cell_size as f64);
         let tables: [(&str, &[u8]); 5] = [
             ("tile rectangles", bytemuck::cast_slice(&layout.rects)),
             ("tile index", bytemuck::cast_slice(&layout.index)),
@@ -684,12 +698,21 @@ impl Setup<'_> {
             ("geodesic points", bytemuck::cast_slice(&points)),
             ("geodesic index", bytemuck::cast_slice(&index)),
         ];
+        let field = field_params(grid);
+        let uniform = wgpu::BufferUsages::UNIFORM;
         let tiles = Tiles {
             pages,
             page_plan,
             tables: tables.map(|(name, data)| ctx.buffer_init(self.ledger, name, data, STORAGE)),
             fixed_directions: fixed_directions(),
-            layout2,
+            field: ctx.buffer_init(
+                self.ledger,
+                "light field layout",
+                bytemuck::bytes_of(&field),
+                uniform,
+            ),
+            field_layout,
+            page_layout,
             gather_pipe: gather_tiles,
             layout,
         };
@@ -961,7 +984,7 @@ impl Propagator {
             sizes.layout,
             tile_pages,
             [&layout0, &layout1],
-            grid.cell_size,
+            &grid,
             || s.fixed_directions(&sizes.fixed, separate, &scene.directions),
         )?;
         let texture = s.texture_stage(&texel_ranges)?;
@@ -1503,34 +1526,42 @@ impl Propagator {
         self.ctx.queue.submit([encoder.finish()]);
     }
 
+    /// The light field's bind group over the unshot state: the texels' and tiles' unshot pages.
+    fn unshot_field(&self, t: &Tiles) -> wgpu::BindGroup {
+        let current = self.current;
+        let [rects, index, _, points, geodesic_index] = &t.tables;
+        let buffers = crate::lightfield::bindings::FieldBuffers {
+            field: &t.field,
+            atlas: (self.texels.iter())
+                .map(|p| &p.state.radiance[current])
+                .collect(),
+            tiles: Some(crate::lightfield::bindings::FieldTiles {
+                directions: &t.fixed_directions,
+                geodesic_points: points,
+                geodesic_index,
+                rects,
+                index,
+                radiance: (t.pages.iter())
+                    .map(|p| &p.state.radiance[current])
+                    .collect(),
+            }),
+        };
+        crate::lightfield::bindings::bind_group(&self.ctx, &t.field_layout, &buffers)
+    }
+
     fn encode_gathers(&mut self, with_tiles: bool) -> Result<()> {
         let ctx = &self.ctx;
         let (bg0, bg1) = self.texel_bind_groups();
         let current = self.current;
         // per page: every page's unshot radiance to read, and this page's next to write
-        let mut bg2: Vec<wgpu::BindGroup> = Vec::new();
+        // the unshot light field (group 2), and per page the next radiance written (group 3)
+        let mut bg2 = None;
+        let mut bg3: Vec<wgpu::BindGroup> = Vec::new();
         if let Some(t) = &self.tiles {
-            let [a, b, c, d, e] = &t.tables;
-            let unshot = |p: usize| &t.pages.get(p).unwrap_or(&t.pages[0]).state.radiance[current];
+            bg2 = Some(self.unshot_field(t));
             for page in &t.pages {
                 let next = &page.state.radiance[1 - current];
-                bg2.push(ctx.bind_group(
-                    &t.layout2,
-                    &[
-                        a,
-                        b,
-                        c,
-                        d,
-                        e,
-                        &t.fixed_directions,
-                        unshot(0),
-                        unshot(1),
-                        unshot(2),
-                        unshot(3),
-                        next,
-                        &page.page_uniform,
-                    ],
-                ));
+                bg3.push(ctx.bind_group(&t.page_layout, &[&t.tables[2], next, &page.page_uniform]));
             }
         }
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
@@ -1540,8 +1571,9 @@ impl Propagator {
                 timestamp_writes: self.timestamps.as_mut().and_then(|t| t.compute_writes()),
             });
             pass.set_bind_group(0, &bg0, &[]);
-            if let Some(bg2) = bg2.first() {
+            if let (Some(bg2), Some(bg3)) = (&bg2, bg3.first()) {
                 pass.set_bind_group(2, bg2, &[]);
+                pass.set_bind_group(3, bg3, &[]);
             }
             pass.set_pipeline(&self.gather_pipe);
             for (page, bg) in self.texels.iter().zip(&bg1) {
@@ -1552,8 +1584,8 @@ impl Propagator {
             pass.set_bind_group(1, &bg1[0], &[]);
             if let (Some(t), true) = (&self.tiles, with_tiles) {
                 pass.set_pipeline(&t.gather_pipe);
-                for (page, bg) in t.pages.iter().zip(&bg2) {
-                    pass.set_bind_group(2, bg, &[]);
+                for (page, bg) in t.pages.iter().zip(&bg3) {
+                    pass.set_bind_group(3, bg, &[]);
                     let (x, y) = dispatch_2d(page.state.count.div_ceil(64));
                     pass.dispatch_workgroups(x, y, 1);
                 }
@@ -1872,5 +1904,23 @@ impl Propagator {
             tiles,
             ledger,
         }
+    }
+}
+
+/// The layout uniform of the light field being propagated, as `common/light_field.wgsl` reads
+/// it: the grid's own values, so the tiles are looked up exactly as before the module existed.
+fn field_params(grid: &GpuGrid) -> GpuField {
+    GpuField {
+        sky: [grid.sky[0], grid.sky[1], grid.sky[2], 1.0],
+        cell_size: grid.cell_size,
+        atlas_width: grid.atlas_width,
+        geodesic_frequency: grid.geodesic_frequency,
+        tile_size: grid.tile_size,
+        tile_face_count: grid.tile_face_count,
+        grid_resolution: grid.resolution,
+        tile_page_cells: grid.tile_page_cells,
+        tile_cell_count: grid.tile_cell_count,
+        texel_page_cells: grid.texel_page_cells,
+        ..Default::default()
     }
 }

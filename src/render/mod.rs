@@ -6,7 +6,7 @@ pub mod budget;
 pub mod image_io;
 
 use crate::error::{Result, VlfError};
-use crate::gpu::types::{GpuField, GpuRayTriangle, GpuView, RenderVertex};
+use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::prepare::Normalisation;
@@ -103,21 +103,19 @@ pub struct Renderer {
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
     view_buffer: wgpu::Buffer,
-    /// `GpuField`: the light field's layout and sky, written once
-    field_buffer: wgpu::Buffer,
     /// the render mesh as ray-casting triangles, and their BVH as child pairs
     triangles: wgpu::Buffer,
     /// the same triangles as affine maps (the exhaustive ray cast of small meshes)
     ray_triangles: wgpu::Buffer,
     pairs: wgpu::Buffer,
-    /// the view-dependent part's bindings; None for a diffuse-only light field
-    tile_bind_group: Option<wgpu::BindGroup>,
+    /// the light field's bind group (`lightfield::bindings`: layout, atlas, tiles)
+    field_bind_group: wgpu::BindGroup,
+    /// whether the light field's mirror tiles are resident (`resolve_mixed` reads them)
+    view_dependent: bool,
     normalisation: Normalisation,
     view_template: GpuView,
     target: Option<Target>,
     faces: wgpu::Buffer,
-    /// the radiance atlas's pages
-    radiance: Vec<wgpu::Buffer>,
 }
 
 impl Renderer {
@@ -129,7 +127,7 @@ impl Renderer {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
         let (triangles, tree) = ray_casting_mesh(&lf.render_vertices)?;
-        let (resolve_pipeline, resolve_layout, tile_layout) =
+        let (resolve_pipeline, resolve_layout, field_layout) =
             resolve_pipeline(&ctx, resident.tiles.is_some(), tree.depth)?;
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
@@ -166,56 +164,19 @@ impl Renderer {
         let ray_triangles = storage("render mesh: triangle maps", bytemuck::cast_slice(&maps));
         let triangles = storage("render mesh: triangles", bytemuck::cast_slice(&triangles));
         let pairs = storage("render mesh: BVH", bytemuck::cast_slice(&tree.pairs));
-        let tile_bind_group = match (&tile_layout, &resident.tiles) {
-            (Some(l), Some(t)) => {
-                // four page bindings; pages a light field does not have repeat page 0
-                let page = |p: usize| t.radiance.get(p).unwrap_or(&t.radiance[0]);
-                Some(ctx.bind_group(
-                    l,
-                    &[
-                        &t.directions,
-                        &t.geodesic_points,
-                        &t.geodesic_index,
-                        &t.rects,
-                        &t.index,
-                        page(0),
-                        page(1),
-                        page(2),
-                        page(3),
-                    ],
-                ))
-            }
-            _ => None,
-        };
-        let sky = lf.meta.sky.unwrap_or([0.0; 3]);
-        let p = &lf.meta.params;
-        let field = GpuField {
-            sky: [sky[0], sky[1], sky[2], 1.0],
-            cell_size: 2.0 / p.grid_resolution as f32,
-            atlas_width: lf.meta.atlas_width,
-            geodesic_frequency: p.geodesic_frequency,
-            tile_size: p.tile_size,
-            tile_face_count: lf.tiles.as_ref().map_or(0, |t| t.face_count),
-            grid_resolution: p.grid_resolution,
-            exhaustive_triangles,
-            tile_page_cells: resident.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
-            tile_cell_count: resident
-                .tiles
-                .as_ref()
-                .map_or(0, |t| t.pages.total_cells as u32),
-            texel_page_cells: resident.texel_pages.page_cells,
-            ..Default::default()
-        };
+        let field = resident.field_params(lf);
         let field_buffer = ctx.buffer_init(
             ledger,
             "light field layout",
             bytemuck::bytes_of(&field),
             wgpu::BufferUsages::UNIFORM,
         );
+        let field_bind_group = resident.bind_group(&field_layout, &field_buffer);
         let view_template = GpuView {
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
             fixed_work: 1,
+            exhaustive_triangles,
             ..Default::default()
         };
         Ok(Renderer {
@@ -223,13 +184,12 @@ impl Renderer {
             resolve_pipeline,
             resolve_layout,
             faces: resident.faces.clone(),
-            radiance: resident.total.clone(),
             view_buffer,
-            field_buffer,
             triangles,
             ray_triangles,
             pairs,
-            tile_bind_group,
+            field_bind_group,
+            view_dependent: resident.tiles.is_some(),
             normalisation: lf.meta.normalisation,
             view_template,
             target: None,
@@ -270,7 +230,6 @@ impl Renderer {
         let (image, depth) = (target("image", COLOR_FORMAT), target("depth", DEPTH_FORMAT));
         let image_view = image.create_view(&Default::default());
         let depth_view = depth.create_view(&Default::default());
-        let page = |p: usize| self.radiance.get(p).unwrap_or(&self.radiance[0]);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),
             layout: &self.resolve_layout,
@@ -297,31 +256,11 @@ impl Renderer {
                 },
                 wgpu::BindGroupEntry {
                     binding: 5,
-                    resource: page(0).as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: page(1).as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: page(2).as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: page(3).as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 9,
                     resource: self.ray_triangles.as_entire_binding(),
                 },
                 wgpu::BindGroupEntry {
-                    binding: 10,
+                    binding: 6,
                     resource: wgpu::BindingResource::TextureView(&depth_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 11,
-                    resource: self.field_buffer.as_entire_binding(),
                 },
             ],
         });
@@ -380,9 +319,7 @@ impl Renderer {
         });
         pass.set_pipeline(&self.resolve_pipeline);
         pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
-        if let Some(bg) = &self.tile_bind_group {
-            pass.set_bind_group(1, bg, &[]);
-        }
+        pass.set_bind_group(1, &self.field_bind_group, &[]);
         pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
     }
 
@@ -521,7 +458,7 @@ impl Renderer {
 
     /// Does this renderer draw a view-dependent (mirror) part?
     pub fn view_dependent(&self) -> bool {
-        self.tile_bind_group.is_some()
+        self.view_dependent
     }
 
     pub fn time_frames(
@@ -565,10 +502,12 @@ impl Renderer {
     }
 }
 
-/// The resolve pass: its pipeline, its bind group layout and, for a light field with mirror
-/// tiles, the tiles' layout. The traversal's stack is as deep as the scene's tree needs
-/// (`depth`, rounded up): local memory per thread is what a ray cast waits on (an H100 cast the
-/// 100K classroom's views 1.6x faster with 24 entries than with 64).
+/// The resolve pass: its pipeline, the layout of its own group (the view, the render mesh, the
+/// targets) and the light field's (`lightfield::bindings`). A light field with mirror tiles is
+/// drawn by `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The
+/// traversal's stack is as deep as the scene's tree needs (`depth`, rounded up): local memory
+/// per thread is what a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster
+/// with 24 entries than with 64).
 fn resolve_pipeline(
     ctx: &GpuContext,
     tiles: bool,
@@ -576,27 +515,27 @@ fn resolve_pipeline(
 ) -> Result<(
     wgpu::ComputePipeline,
     wgpu::BindGroupLayout,
-    Option<wgpu::BindGroupLayout>,
+    crate::lightfield::bindings::FieldLayout,
 )> {
     let device = &ctx.device;
     let stack = depth.next_multiple_of(8).max(16);
     let module = shaders::module_with(device, "render.wgsl", &[("PAIR_STACK", stack)])?;
-    // view, faces, triangles, BVH, image, the radiance pages, ray-casting triangles
+    // view, faces, triangles, BVH, image, ray-casting triangles, depth
     let resolve_layout = reflect::layout(device, "render.wgsl", 0)?;
-    // a diffuse-only light field binds no view-dependent path at all
-    let tile_layout = match tiles {
-        true => Some(reflect::layout(device, "render.wgsl", 1)?),
-        false => None,
-    };
-    let mut layouts = vec![&resolve_layout];
-    layouts.extend(&tile_layout);
+    let field_layout = crate::lightfield::bindings::layout(device, "render.wgsl")?;
+    if field_layout.group != 1 {
+        return Err(VlfError::Gpu(format!(
+            "shaders/render.wgsl binds the light field at group {}; the renderer binds it at 1",
+            field_layout.group
+        )));
+    }
     let entry = if tiles {
         "resolve_mixed"
     } else {
         "resolve_diffuse"
     };
-    let pipeline = ctx.compute_pipeline(&module, entry, &layouts);
-    Ok((pipeline, resolve_layout, tile_layout))
+    let pipeline = ctx.compute_pipeline(&module, entry, &[&resolve_layout, &field_layout.layout]);
+    Ok((pipeline, resolve_layout, field_layout))
 }
 
 /// The render mesh (triangles in the light field's normalised space, each with its face) as

@@ -1,7 +1,7 @@
 //! CPU twin of `shaders/visibility.wgsl` and `shaders/propagate.wgsl`, written to read like
 //! them (same names, same f32 arithmetic, same order), for tiny scenes only. Tests compare it
 //! with the GPU: layer lists must be equal and gathered radiosity equal within 1e-5. The mirror
-//! parts (`shaders/specular.wgsl`, `common/tiles.wgsl`) have their twin in `cpu/specular.rs`.
+//! parts (`shaders/specular.wgsl`, `common/light_field.wgsl`) have their twin in `cpu/specular.rs`.
 
 pub mod specular;
 

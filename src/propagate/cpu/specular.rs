@@ -1,5 +1,5 @@
 //! CPU twin of the mirror parts of transport, written to read like `shaders/specular.wgsl` and
-//! `shaders/common/tiles.wgsl` (same names, same f32 arithmetic, same order): a mirror sender's
+//! `shaders/common/light_field.wgsl` (same names, same f32 arithmetic, same order): a mirror sender's
 //! tile lookup (`sender_specular`) and the gather of one tile cell (`gather_tile`). The three
 //! directions around a mirrored direction come from `DirectionSet::lookup`, the f64 twin of
 //! the shader's geodesic lookup. Tests compare it with the GPU on tiny scenes.
