@@ -16,6 +16,7 @@
 // chains). With mirrors (mirror_direct), emitter -> mirror -> texel paths come in the second
 // iteration from mirror_light, in closed form, instead of through the mirror tiles.
 #include "common/types.wgsl"
+#include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
 
@@ -326,11 +327,12 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
         } else if follow_mirrors {
             let face = triangles[hit.tri].face;
             let f = faces[face];
-            if any(f.mirror > vec3<f32>(0.0)) && dot(f.normal, dir) < 0.0 {
+            let m = material_of(f);
+            if is_delta(m) && dot(f.normal, dir) < 0.0 {
                 let p = origin + dir * hit.t;
-                let reflected = dir - 2.0 * dot(dir, f.normal) * f.normal;
+                let reflected = mirror_direction(dir, f.normal);
                 let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face, SHADOW_GROW);
-                open += select(vec3<f32>(0.0), f.mirror, again.tri == NO_FACE);
+                open += select(vec3<f32>(0.0), mirror_reflectance(m), again.tri == NO_FACE);
             }
         }
     }
@@ -402,7 +404,7 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
                 seen += g * v;
             }
             let ratio = select(0.0, seen / expected, expected > 0.0);
-            sum += f * ratio * e.radiance.xyz * mf.mirror;
+            sum += f * ratio * e.radiance.xyz * mirror_reflectance(material_of(mf));
         }
     }
     return sum;
@@ -430,7 +432,7 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (grid.flags & GRID_FLAG_SKY) != 0u {
         sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
     }
-    next[in_page] = vec4<f32>(f.albedo * (e + sky), sky.x + sky.y + sky.z);
+    next[in_page] = vec4<f32>(diffuse_reflectance(material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
 }
 
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance
@@ -455,7 +457,7 @@ fn mirror_share(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec4<f32> {
         if f <= 0.0 {
             continue;
         }
-        let diffuse = any(mf.albedo > vec3<f32>(0.0));
+        let diffuse = any(diffuse_reflectance(material_of(mf)) > vec3<f32>(0.0));
         var seen = vec4<f32>(0.0);
         var expected = 0.0;
         for (var k = 0u; k < count; k++) {
@@ -509,7 +511,7 @@ fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     // where the directions saw mirrors alone, the rest's mean radiance is unknown: keep it
     let scale = select(1.0, (1.0 - exact) / (1.0 - discrete), discrete < 0.999);
     let mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
-    next[in_page] = vec4<f32>(gathered.xyz * scale + f.albedo * (mirrored + share.xyz), 0.0);
+    next[in_page] = vec4<f32>(gathered.xyz * scale + diffuse_reflectance(material_of(f)) * (mirrored + share.xyz), 0.0);
 }
 
 // Which texels lie inside closed geometry, such as the part of a floor under a box that stands

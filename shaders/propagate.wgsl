@@ -6,6 +6,7 @@
 // atomics, a fixed weight per texel, bit-for-bit repeatable. The CPU twin is
 // src/propagate/cpu.rs, written to read like this file.
 #include "common/types.wgsl"
+#include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
 
@@ -91,9 +92,10 @@ fn texel_balance(
             let f = faces[face_id];
             let b = balance[in_page];
             var terms = b;
-            if all(f.albedo > vec3<f32>(0.0)) {
-                let e = next[in_page].xyz / f.albedo;
-                terms = vec4<f32>(e.x + e.y + e.z, dot(f.mirror, e), b.z, b.w);
+            let m = material_of(f);
+            if all(diffuse_reflectance(m) > vec3<f32>(0.0)) {
+                let e = next[in_page].xyz / diffuse_reflectance(m);
+                terms = vec4<f32>(e.x + e.y + e.z, dot(mirror_reflectance(m), e), b.z, b.w);
             }
             value = terms * balance_weight[in_page];
         }

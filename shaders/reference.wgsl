@@ -6,6 +6,7 @@
 // pixel and sample so that a run repeats bit for bit. Each pass adds `samples_per_pass` samples per
 // pixel to running sums of radiance and of its square.
 #include "common/types.wgsl"
+#include "common/bsdf.wgsl"
 #include "common/bvh.wgsl"
 
 // mirrors reference::GpuTraceParams
@@ -38,6 +39,8 @@ struct TraceParams {
 @group(0) @binding(7) var<storage, read> lights: array<vec2<f32>>;
 // per pixel: sum of radiance, then sum of its square
 @group(0) @binding(8) var<storage, read_write> sums: array<vec4<f32>>;
+// the material table the faces index (common/bsdf.wgsl)
+@group(0) @binding(9) var<storage, read> materials: array<Material>;
 
 var<private> rng_state: u32;
 
@@ -85,12 +88,11 @@ fn triangle_uv(tri: Triangle, u: f32, v: f32) -> vec2<f32> {
 
 // Emitted radiance of the hit's front side, with the triangle's light-sampling pdf (area).
 fn emission(tri: Triangle, u: f32, v: f32) -> vec3<f32> {
-    let f = faces[tri.face];
-    return f.emission * texture_at(face_textures[tri.face].y, triangle_uv(tri, u, v));
+    return emitted(faces[tri.face]) * texture_at(face_textures[tri.face].y, triangle_uv(tri, u, v));
 }
 
 fn light_pdf_area(tri: Triangle) -> f32 {
-    let le = luminance(faces[tri.face].emission);
+    let le = luminance(emitted(faces[tri.face]));
     return le / params.light_weight_total;
 }
 
@@ -152,7 +154,7 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
         }
         let f = faces[face_id];
         let uv = triangle_uv(tri, hit.u, hit.v);
-        if face_id == tri.face && any(f.emission > vec3<f32>(0.0)) {
+        if face_id == tri.face && any(emitted(f) > vec3<f32>(0.0)) {
             let le = emission(tri, hit.u, hit.v);
             if specular {
                 result += throughput * le;
@@ -162,16 +164,17 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
                 result += throughput * le * power_heuristic(last_pdf, light_pdf);
             }
         }
-        let albedo = f.albedo * texture_at(face_textures[face_id].x, uv);
+        let m = material_of(f);
+        let albedo = diffuse_reflectance(m) * texture_at(face_textures[face_id].x, uv);
         let p_diffuse = luminance(albedo);
-        let p_mirror = luminance(f.mirror);
+        let p_mirror = luminance(mirror_reflectance(m));
         if p_diffuse + p_mirror <= 0.0 {
             break;
         }
         let origin_next = x + n * 1e-4;
         if random() * (p_diffuse + p_mirror) < p_mirror {
-            throughput *= f.mirror * ((p_diffuse + p_mirror) / p_mirror);
-            dir = dir - 2.0 * dot(dir, n) * n;
+            throughput *= mirror_reflectance(m) * ((p_diffuse + p_mirror) / p_mirror);
+            dir = mirror_direction(dir, n);
             specular = true;
         } else {
             let lobe = (p_diffuse + p_mirror) / p_diffuse;

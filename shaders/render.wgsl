@@ -23,6 +23,7 @@
 // it, each pixel's depth: the view's clip depth of the nearest point its eye rays first meet
 // (1 where they meet nothing), which the headset submits so the runtime can reproject.
 #include "common/types.wgsl"
+#include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
@@ -42,6 +43,8 @@ const LIGHT_FIELD_GROUP: u32 = 1u;
 @group(0) @binding(5) var<storage, read> ray_triangles: array<RayTriangle>;
 // the depth of what each pixel sees, in the view's clip depth (0 near, 1 far)
 @group(0) @binding(6) var depth_image: texture_storage_2d<r32float, write>;
+// the material table the faces index (common/bsdf.wgsl)
+@group(0) @binding(7) var<storage, read> materials: array<Material>;
 
 // The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
 // where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
@@ -222,12 +225,12 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
     path.radiance = vec3<f32>(0.0);
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
-        ray = ray - 2.0 * dot(ray, f.normal) * f.normal;
+        ray = mirror_direction(ray, f.normal);
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
         path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
         path.throughput = weight * s.seen;
-        weight *= f.mirror * s.seen;
+        weight *= mirror_reflectance(material_of(f)) * s.seen;
     }
     path.face = s.face;
     path.point = s.point;
@@ -298,8 +301,8 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = f0.mirror * s0.seen;
-        let m1 = f1.mirror * s1.seen * w1;
+        let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
+        let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
         sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
         sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
         if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
@@ -341,8 +344,8 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = f0.mirror * s0.seen;
-        let m1 = f1.mirror * s1.seen * w1;
+        let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
+        let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
         sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
         sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
         if reflection_traced(m0 + m1) {

@@ -5,6 +5,7 @@
 // - gather_tiles: every stored mirror tile cell reflects the radiance arriving along the
 //   mirrored direction, gathered from the three fixed directions around it (barycentric).
 #include "common/types.wgsl"
+#include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
@@ -79,7 +80,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let x = select(sample, on_plane, inside);
     // the light leaving along out_dir arrived travelling along its mirror image
     let out_dir = d.w * sign(cos_w);
-    let arriving = out_dir - 2.0 * dot(out_dir, f.normal) * f.normal;
+    let arriving = mirror_direction(out_dir, f.normal);
     let taps = lookup_direction(arriving, grid.geodesic_frequency);
     let sky_on = (grid.flags & GRID_FLAG_SKY) != 0u;
     var radiance = vec3<f32>(0.0);
@@ -113,7 +114,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     if (grid.flags & GRID_FLAG_BATCHED) != 0u {
         weight_sums[grid.texel_count + index] += found;
-        tile_next[in_page] += vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+        tile_next[in_page] += vec4<f32>(mirror_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
         return;
     }
     if found > 0.0 {
@@ -121,5 +122,5 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         sky /= found;
     }
     // w: the sky radiance this cell received, for the emitted power of the residual
-    tile_next[in_page] = vec4<f32>(f.mirror * (radiance + sky), sky.x + sky.y + sky.z);
+    tile_next[in_page] = vec4<f32>(mirror_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
 }

@@ -19,6 +19,7 @@ pub mod gpu;
 #[cfg(feature = "lab")]
 pub mod lab;
 pub mod lightfield;
+pub mod material;
 pub mod metrics;
 pub mod mirrored;
 pub mod params;

@@ -47,8 +47,11 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             w, solid_angle, u, _pad0, v, _pad1
         }),
         mirrored!(GpuFace => "Face" in "render.wgsl" {
-            normal, plane_offset, origin, texel_density, axis_a, _pad0, axis_b, flags, albedo,
-            atlas_x, emission, atlas_y, atlas_w, atlas_h, twin, tile_slot, mirror, _pad
+            normal, plane_offset, origin, texel_density, axis_a, material, axis_b, flags,
+            atlas_x, atlas_y, atlas_w, atlas_h, twin, tile_slot, _pad0, _pad1
+        }),
+        mirrored!(GpuMaterial => "Material" in "render.wgsl" {
+            diffuse, flags, mirror, _pad0, emission, _pad1
         }),
         mirrored!(GpuGrid => "GridParams" in "render.wgsl" {
             resolution, direction_count, triangle_count, triangle_base, texel_count,

@@ -152,8 +152,8 @@ fn visibility_and_gather_equal_the_cpu_twin(rim_rays: bool) {
     );
 
     // three iterations; each GPU result against the CPU gather of the same unshot input
-    let faces = prop.faces.clone();
-    let (mut unshot, _) = initial_radiance(&prepared, &faces);
+    let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
+    let (mut unshot, _) = initial_radiance(&prepared, &faces, &materials);
     for iteration in 0..3 {
         let mut grid = prop.grid;
         grid.iteration = iteration;
@@ -164,6 +164,7 @@ fn visibility_and_gather_equal_the_cpu_twin(rim_rays: bool) {
             grid: &grid,
             directions: &gdirs,
             faces: &faces,
+            materials: &materials,
             visibility: &vis,
             texel_points: &prepared.atlas.points,
             unshot: &unshot,
@@ -239,8 +240,8 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
     let (_, bvh_triangles) = vlf::propagate::scene_bvh(&prepared);
     let layout = prop.tile_layout().expect("mirror tiles").clone();
-    let faces = prop.faces.clone();
-    let (mut unshot, _) = initial_radiance(&prepared, &faces);
+    let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
+    let (mut unshot, _) = initial_radiance(&prepared, &faces, &materials);
     let mut tile_unshot = vec![[0.0f32; 4]; layout.cell_count() as usize];
     for iteration in 0..3 {
         let mut grid = prop.grid;
@@ -257,6 +258,7 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
             grid: &grid,
             directions: &gdirs,
             faces: &faces,
+            materials: &materials,
             visibility: &vis,
             texel_points: &prepared.atlas.points,
             unshot: &unshot,

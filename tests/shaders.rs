@@ -247,3 +247,33 @@ fn the_light_field_is_declared_once_and_each_stage_says_where_it_binds_it() {
         }
     }
 }
+
+#[test]
+fn every_stage_that_reads_faces_reads_their_materials_through_bsdf_wgsl() {
+    // the face records hold no material parts: a stage that binds `faces` binds the material
+    // table too, and the Material row comes from common/bsdf.wgsl only
+    let mut stages_with_faces = 0;
+    for stage in shaders::STAGES {
+        let expanded = shaders::expand(stage).unwrap();
+        let module = expanded.validate().unwrap();
+        let bound = |name: &str| {
+            (module.global_variables.iter())
+                .any(|(_, v)| v.name.as_deref() == Some(name) && v.binding.is_some())
+        };
+        if !bound("faces") {
+            continue;
+        }
+        stages_with_faces += 1;
+        assert!(bound("materials"), "{stage} binds faces but not materials");
+        for (line, (file, _)) in expanded.source.lines().zip(&expanded.line_origin) {
+            assert!(
+                !line.starts_with("struct Material") || file == "common/bsdf.wgsl",
+                "{stage}: {file} declares a Material of its own"
+            );
+        }
+    }
+    assert!(
+        stages_with_faces >= 5,
+        "only {stages_with_faces} stages bind faces"
+    );
+}

@@ -4,10 +4,13 @@
 # classroom, byte for byte (and OLD twice on Cornell: propagation is deterministic); the
 # generator's files; and `vlf bench --suite` of both, taking turns ROUNDS times (default 3) so
 # that drifts of the machine fall on both (tools/suite-compare.py compares the medians against the
-# spread of one build's own runs).
-#   tools/gpu-identity.sh OLD_VLF NEW_VLF OUT_DIR [ROUNDS]
+# spread of one build's own runs); and the drawing: the shipped 4-wall CAVE (8 views of 1920x1200)
+# walking the 100K mirror classroom and the mirror gallery at a fixed 4 eye rays per pixel
+# (fit_frame_time off), FRAMES frames (default 600) per run, the builds taking turns ROUNDS times
+# (tools/suite-compare.py lists the views' GPU time per frame beside the suite).
+#   tools/gpu-identity.sh OLD_VLF NEW_VLF OUT_DIR [ROUNDS] [FRAMES]
 set -uo pipefail
-old=$1; new=$2; out=$3; rounds=${4:-3}; work=$(mktemp -d)
+old=$1; new=$2; out=$3; rounds=${4:-3}; frames=${5:-600}; work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
 {
   "$old" generate classroom --size 10000 -o $work/gen-old >/dev/null 2>&1
@@ -28,5 +31,21 @@ quiet() { grep -v XDG_RUNTIME_DIR; }
 for r in $(seq 1 "$rounds"); do
   "$old" bench --suite --json "$out/suite-old-$r.json" 2>&1 | quiet | tail -1
   "$new" bench --suite --json "$out/suite-new-$r.json" 2>&1 | quiet | tail -1
+done
+# the walks, drawn by both builds from the same light field (propagated by OLD)
+source tools/walk-scenes.sh
+for scene in classroom-100k gallery; do
+  "$old" generate $(generate "$scene") -o "$work/$scene" 2>&1 | quiet > /dev/null
+  "$old" propagate "$work/$scene/scene.toml" -o "$work/$scene.vlf" 2>&1 | quiet > /dev/null
+  config="$work/cave-$scene.toml"
+  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$config"
+  sed -i 's/^fit_frame_time = true/fit_frame_time = false/' "$config"
+  for r in $(seq 1 "$rounds"); do
+    for build in old new; do
+      vlf=$old; [ $build = new ] && vlf=$new
+      "$vlf" cave "$config" --scene "$work/$scene.vlf" --headless --frames "$frames" \
+        --out "$work/walk" --json "$out/walk-$build-$scene-$r.json" 2>&1 | quiet | grep -E "all views, GPU" | head -1
+    done
+  done
 done
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt"

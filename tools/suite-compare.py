@@ -36,3 +36,28 @@ for i, name in enumerate(names):
             verdict = f"{spread:.3f} | {ratio:.3f} | {'within noise' if within else '**OUTSIDE NOISE**'}"
     print(f"| {name} | " + " | ".join(cells) + f" | {verdict} |")
 print(f"\n{outside} scene(s) outside the noise.")
+
+# the walks (tools/gpu-identity.sh): all 8 views' GPU milliseconds per frame, median and p99 of
+# each run, per build
+walks = sorted({p.name.split("-", 2)[2].rsplit("-", 1)[0] for p in d.glob("walk-old-*.json")})
+if walks:
+    print("\nThe drawing: the 4-wall CAVE (8 views of 1920x1200) walking each scene at a fixed 4 eye rays "
+          "per pixel, the builds taking turns; all views' GPU ms per frame (median of the runs' medians, "
+          "and of their p99s), and the verdict on the median (new's inside old's range of runs widened by 5%).\n")
+    print("| walk | runs | median old / new (ms) | p99 old / new (ms) | old's own spread | new/old | verdict |")
+    print("|---|---|---|---|---|---|---|")
+    for walk in walks:
+        med, p99 = {}, {}
+        for b in ("old", "new"):
+            rs = [json.loads(p.read_text()) for p in sorted(d.glob(f"walk-{b}-{walk}-*.json"))]
+            med[b] = [r["all_views_gpu_ms"]["median"] for r in rs]
+            p99[b] = [r["all_views_gpu_ms"]["p99"] for r in rs]
+        lo, hi = min(med["old"]) / 1.05, max(med["old"]) * 1.05
+        m = statistics.median(med["new"])
+        within = lo <= m <= hi or (min(med["new"]) <= max(med["old"]) and min(med["old"]) <= max(med["new"]))
+        outside += not within
+        print(f"| {walk} | {len(med['old'])} | {statistics.median(med['old']):.3f} / {m:.3f} | "
+              f"{statistics.median(p99['old']):.3f} / {statistics.median(p99['new']):.3f} | "
+              f"{max(med['old']) / min(med['old']):.3f} | {m / statistics.median(med['old']):.3f} | "
+              f"{'within noise' if within else '**OUTSIDE NOISE**'} |")
+    print(f"\n{outside} scene(s) or walk(s) outside the noise.")

@@ -40,12 +40,11 @@ struct Face {
     origin: vec3<f32>,
     texel_density: f32,
     axis_a: vec3<f32>,
-    _pad0: f32,
+    // the face's row of the material table (common/bsdf.wgsl: material_of)
+    material: u32,
     axis_b: vec3<f32>,
     flags: u32,
-    albedo: vec3<f32>,
     atlas_x: u32,
-    emission: vec3<f32>,
     atlas_y: u32,
     atlas_w: u32,
     atlas_h: u32,
@@ -53,8 +52,8 @@ struct Face {
     twin: u32,
     // index among the non-diffuse faces (its tiles), or NO_FACE for a diffuse-only face
     tile_slot: u32,
-    mirror: vec3<f32>,
-    _pad: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 // mirrors gpu::types::GpuGrid

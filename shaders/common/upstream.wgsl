@@ -7,6 +7,8 @@
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> directions: array<Direction>;
 @group(0) @binding(2) var<storage, read> faces: array<Face>;
+// the material table the faces index (common/bsdf.wgsl, which the including stage includes)
+@group(0) @binding(12) var<storage, read> materials: array<Material>;
 @group(0) @binding(3) var<storage, read> cell_offset: array<u32>;
 @group(0) @binding(4) var<storage, read> cell_count: array<u32>;
 @group(0) @binding(5) var<storage, read> layers: array<vec2<u32>>;
@@ -262,6 +264,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let f = faces[face_id];
+    let m = material_of(f);
     let x = point.xyz;
     let sky_on = (grid.flags & 1u) != 0u;
     var irradiance = vec3<f32>(0.0);
@@ -280,7 +283,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     var back_weight = 0.0;
     // what the mirror senders left out would deliver: the balance's irradiance on faces whose
     // next unshot radiosity cannot tell it (a channel of albedo 0: mirrors, black faces)
-    let blind = !all(f.albedo > vec3<f32>(0.0));
+    let blind = !all(diffuse_reflectance(m) > vec3<f32>(0.0));
     var mirrored_in = vec3<f32>(0.0);
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];
@@ -329,14 +332,14 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     let e = (irradiance + sky_irradiance) * norm;
     let seen = e + mirrored_in * norm;
     let shares = vec2<f32>(open_weight, back_weight) * (own_sum / PI * norm);
-    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(f.mirror, seen), shares) * grid.direction_weight);
+    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(mirror_reflectance(m), seen), shares) * grid.direction_weight);
     if batched {
         weight_sums[texel] += weight_sum * grid.direction_weight;
         let sky_raw = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out);
-        return vec4<f32>(f.albedo * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
+        return vec4<f32>(diffuse_reflectance(m) * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
     }
     let sky_share = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out) * norm;
-    return vec4<f32>(f.albedo * e * grid.direction_weight, sky_share * grid.direction_weight);
+    return vec4<f32>(diffuse_reflectance(m) * e * grid.direction_weight, sky_share * grid.direction_weight);
 }
 
 // One texel's power-balance terms (per unit area; the balance passes weight them by area),

@@ -18,6 +18,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/directions.wgsl"),
     ),
     (
+        "common/bsdf.wgsl",
+        include_str!("../../shaders/common/bsdf.wgsl"),
+    ),
+    (
         "common/light_field.wgsl",
         include_str!("../../shaders/common/light_field.wgsl"),
     ),

@@ -29,19 +29,35 @@ pub struct GpuFace {
     pub origin: [f32; 3],
     pub texel_density: f32,
     pub axis_a: [f32; 3],
-    pub _pad0: f32,
+    /// the face's material: its row of the material table (`crate::material`)
+    pub material: u32,
     pub axis_b: [f32; 3],
     pub flags: u32,
-    pub albedo: [f32; 3],
     pub atlas_x: u32,
-    pub emission: [f32; 3],
     pub atlas_y: u32,
     pub atlas_w: u32,
     pub atlas_h: u32,
     pub twin: u32,
     pub tile_slot: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// Mirrors WGSL `Material` (shaders/common/bsdf.wgsl): one row of the material table
+/// (`crate::material`), which the face records index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMaterial {
+    /// the diffuse (Lambertian) part's albedo
+    pub diffuse: [f32; 3],
+    /// `material::MATERIAL_DELTA`, `MATERIAL_DIFFUSE`
+    pub flags: u32,
+    /// the ideal mirror part's reflectance
     pub mirror: [f32; 3],
-    pub _pad: f32,
+    pub _pad0: f32,
+    /// emitted radiance (on the emitting side: `FACE_EMITTER`)
+    pub emission: [f32; 3],
+    pub _pad1: f32,
 }
 
 /// Mirrors WGSL `GridParams`.

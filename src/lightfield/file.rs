@@ -4,7 +4,7 @@
 
 use super::{LightField, LightFieldMeta};
 use crate::error::{Result, VlfError};
-use crate::gpu::types::{GpuFace, RenderVertex};
+use crate::gpu::types::{GpuFace, GpuMaterial, RenderVertex};
 use std::io::Write;
 use std::path::Path;
 
@@ -124,6 +124,110 @@ pub fn decode_sections<'a>(
     Ok(payloads)
 }
 
+/// A face as the `FACE` section stores it (format 2): the face record with its material's parts
+/// in it (the GPU keeps them apart: `GpuFace` indexes the material table). The file's layout
+/// stays the same whatever the GPU's is.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, bytemuck::Pod, bytemuck::Zeroable, PartialEq)]
+pub struct FaceRecord {
+    pub normal: [f32; 3],
+    pub plane_offset: f32,
+    pub origin: [f32; 3],
+    pub texel_density: f32,
+    pub axis_a: [f32; 3],
+    pub _pad0: f32,
+    pub axis_b: [f32; 3],
+    pub flags: u32,
+    pub albedo: [f32; 3],
+    pub atlas_x: u32,
+    /// emitted radiance on an emitting side (`FACE_EMITTER`), else 0
+    pub emission: [f32; 3],
+    pub atlas_y: u32,
+    pub atlas_w: u32,
+    pub atlas_h: u32,
+    pub twin: u32,
+    pub tile_slot: u32,
+    pub mirror: [f32; 3],
+    pub _pad: f32,
+}
+
+/// The file's face records of `faces` and the material table they index.
+pub fn face_records(faces: &[GpuFace], materials: &[GpuMaterial]) -> Vec<FaceRecord> {
+    (faces.iter())
+        .map(|f| {
+            let m = crate::material::material_of(materials, f);
+            FaceRecord {
+                normal: f.normal,
+                plane_offset: f.plane_offset,
+                origin: f.origin,
+                texel_density: f.texel_density,
+                axis_a: f.axis_a,
+                _pad0: 0.0,
+                axis_b: f.axis_b,
+                flags: f.flags,
+                albedo: m.diffuse,
+                atlas_x: f.atlas_x,
+                emission: crate::material::emitted(materials, f).to_array(),
+                atlas_y: f.atlas_y,
+                atlas_w: f.atlas_w,
+                atlas_h: f.atlas_h,
+                twin: f.twin,
+                tile_slot: f.tile_slot,
+                mirror: m.mirror,
+                _pad: 0.0,
+            }
+        })
+        .collect()
+}
+
+/// Face records back into faces and the distinct materials they use (in order of first use;
+/// a face that does not emit keeps emission 0 in its material).
+pub fn split_face_records(records: &[FaceRecord]) -> (Vec<GpuFace>, Vec<GpuMaterial>) {
+    let mut materials: Vec<GpuMaterial> = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let faces = (records.iter())
+        .map(|r| {
+            let m = GpuMaterial::new(r.albedo, r.mirror, r.emission);
+            let key: Vec<u8> = bytemuck::bytes_of(&m).to_vec();
+            let material = *index.entry(key).or_insert_with(|| {
+                materials.push(m);
+                materials.len() as u32 - 1
+            });
+            GpuFace {
+                normal: r.normal,
+                plane_offset: r.plane_offset,
+                origin: r.origin,
+                texel_density: r.texel_density,
+                axis_a: r.axis_a,
+                material,
+                axis_b: r.axis_b,
+                flags: r.flags,
+                atlas_x: r.atlas_x,
+                atlas_y: r.atlas_y,
+                atlas_w: r.atlas_w,
+                atlas_h: r.atlas_h,
+                twin: r.twin,
+                tile_slot: r.tile_slot,
+                _pad0: 0,
+                _pad1: 0,
+            }
+        })
+        .collect();
+    if materials.is_empty() {
+        materials = crate::material::material_table(&[]);
+    }
+    (faces, materials)
+}
+
+/// The faces and materials as a light field holds them: the distinct materials its faces use,
+/// in order of first use, as a `.vlf` file gives them back.
+pub fn canonical_materials(
+    faces: &[GpuFace],
+    materials: &[GpuMaterial],
+) -> (Vec<GpuFace>, Vec<GpuMaterial>) {
+    split_face_records(&face_records(faces, materials))
+}
+
 pub fn encode(lf: &LightField) -> Vec<u8> {
     let meta = serde_json::to_vec_pretty(&lf.meta).expect("metadata serialises");
     let (rects, index, tiles): (&[u8], &[u8], &[u8]) = match &lf.tiles {
@@ -134,9 +238,10 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         ),
         None => (&[], &[], &[]),
     };
+    let faces = face_records(&lf.faces, &lf.materials);
     let payloads: [&[u8]; 7] = [
         &meta,
-        bytemuck::cast_slice(&lf.faces),
+        bytemuck::cast_slice(&faces),
         bytemuck::cast_slice(&lf.render_vertices),
         bytemuck::cast_slice(&lf.total),
         rects,
@@ -210,7 +315,8 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     )?;
     let meta: LightFieldMeta = serde_json::from_slice(payloads[0])
         .map_err(|e| format!("section META is not valid metadata: {e}"))?;
-    let faces: Vec<GpuFace> = pod_vec(payloads[1], "FACE")?;
+    let records: Vec<FaceRecord> = pod_vec(payloads[1], "FACE")?;
+    let (faces, materials) = split_face_records(&records);
     let render_vertices: Vec<RenderVertex> = pod_vec(payloads[2], "RVTX")?;
     let total: Vec<[f32; 4]> = pod_vec(payloads[3], "TOTL")?;
     let rects: Vec<[u32; 4]> = pod_vec(payloads[4], "TRCT")?;
@@ -236,6 +342,7 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     let lf = LightField {
         meta,
         faces,
+        materials,
         render_vertices,
         total,
         tiles,

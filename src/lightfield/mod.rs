@@ -9,7 +9,7 @@ pub mod directions;
 pub mod file;
 pub mod tiles;
 
-use crate::gpu::types::{GpuFace, RenderVertex};
+use crate::gpu::types::{GpuFace, GpuMaterial, RenderVertex};
 use crate::gpu::{GpuContext, MemoryLedger, STORAGE};
 use crate::params::PropagationParams;
 use crate::prepare::{Normalisation, PreparedScene};
@@ -38,6 +38,8 @@ pub struct LightFieldMeta {
 pub struct LightField {
     pub meta: LightFieldMeta,
     pub faces: Vec<GpuFace>,
+    /// the material table the faces index (`crate::material`)
+    pub materials: Vec<GpuMaterial>,
     pub render_vertices: Vec<RenderVertex>,
     /// outgoing radiance per texel (rgb, w unused)
     pub total: Vec<[f32; 4]>,
@@ -99,8 +101,12 @@ impl MirrorChains {
     /// From the faces and the render mesh: a reflected ray can reach mirror B from mirror A only
     /// if part of B lies in front of A and part of A in front of B. Without such a pair one
     /// reflection is exact, and the tiles are not needed to render.
-    pub fn of(faces: &[GpuFace], vertices: &[RenderVertex]) -> MirrorChains {
-        let mirror = |f: &GpuFace| f.mirror.iter().any(|&m| m > 0.0);
+    pub fn of(
+        faces: &[GpuFace],
+        materials: &[GpuMaterial],
+        vertices: &[RenderVertex],
+    ) -> MirrorChains {
+        let mirror = |f: &GpuFace| crate::material::material_of(materials, f).is_delta();
         let mirrors: Vec<usize> = (0..faces.len()).filter(|&i| mirror(&faces[i])).collect();
         if mirrors.is_empty() {
             return MirrorChains {
@@ -147,7 +153,7 @@ impl MirrorChains {
 
 impl LightField {
     pub fn mirror_chains(&self) -> MirrorChains {
-        MirrorChains::of(&self.faces, &self.render_vertices)
+        MirrorChains::of(&self.faces, &self.materials, &self.render_vertices)
     }
 
     pub fn camera(&self, name: Option<&str>) -> crate::error::Result<&Camera> {
@@ -181,6 +187,12 @@ impl LightField {
             .min(limits.max_buffer_size);
         let texel_pages = tiles::TilePages::plan_texels(self.total.len() as u64, max_binding)?;
         let faces = ctx.buffer_init(&ledger, "faces", bytemuck::cast_slice(&self.faces), STORAGE);
+        let materials = ctx.buffer_init(
+            &ledger,
+            "materials",
+            bytemuck::cast_slice(&self.materials),
+            STORAGE,
+        );
         let total = texel_pages
             .ranges()
             .iter()
@@ -258,6 +270,7 @@ impl LightField {
         Ok(ResidentLightField {
             ctx,
             faces,
+            materials,
             total,
             texel_pages,
             tiles,
@@ -270,6 +283,8 @@ impl LightField {
 pub struct ResidentLightField {
     pub ctx: Arc<GpuContext>,
     pub faces: wgpu::Buffer,
+    /// the material table the faces index (`crate::material`)
+    pub materials: wgpu::Buffer,
     /// converged radiance per texel, in pages of at most one binding
     pub total: Vec<wgpu::Buffer>,
     pub texel_pages: tiles::TilePages,

@@ -1,13 +1,14 @@
-//! The prepared scene packed for the GPU: one `GpuFace` record per face (plane, chart, material,
-//! twin, tile slot), shared by propagation, the renderer and the reference path tracer.
+//! The prepared scene packed for the GPU: one `GpuFace` record per face (plane, chart, material
+//! index, twin, tile slot) and the material table they index (`crate::material`), shared by
+//! propagation, the renderer and the reference path tracer.
 
 use super::PreparedScene;
-use crate::gpu::types::{GpuFace, FACE_EMITTER, NO_FACE};
+use crate::gpu::types::{GpuFace, GpuMaterial, FACE_EMITTER, NO_FACE};
 
 /// Does face f have a mirror part (and so tiles)?
 pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
     (0..prepared.faces.len())
-        .map(|f| prepared.material_of(f).mirror.iter().any(|&m| m > 0.0))
+        .map(|f| prepared.material_of(f).is_delta())
         .collect()
 }
 
@@ -20,8 +21,8 @@ pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
         .iter()
         .enumerate()
         .map(|(fi, f)| {
-            let m = prepared.material_of(fi);
-            let emissive = m.emission.iter().any(|&e| e > 0.0) && !f.is_back;
+            // a two-sided surface's back does not emit
+            let emissive = prepared.material_of(fi).emits() && !f.is_back;
             let v3 = |v: glam::DVec3| [v.x as f32, v.y as f32, v.z as f32];
             GpuFace {
                 normal: v3(f.normal),
@@ -29,20 +30,23 @@ pub fn gpu_faces(prepared: &PreparedScene, tile_slot: &[u32]) -> Vec<GpuFace> {
                 origin: v3(f.origin),
                 texel_density: density,
                 axis_a: v3(f.axis_a),
-                _pad0: 0.0,
+                material: f.material,
                 axis_b: v3(f.axis_b),
                 flags: if emissive { FACE_EMITTER } else { 0 },
-                albedo: m.diffuse,
                 atlas_x: f.atlas.x,
-                emission: if f.is_back { [0.0; 3] } else { m.emission },
                 atlas_y: f.atlas.y,
                 atlas_w: f.atlas.w,
                 atlas_h: f.atlas.h,
                 twin: f.twin.unwrap_or(NO_FACE),
                 tile_slot: tile_slot[fi],
-                mirror: m.mirror,
-                _pad: 0.0,
+                _pad0: 0,
+                _pad1: 0,
             }
         })
         .collect()
+}
+
+/// The material table of a prepared scene, which its face records index.
+pub fn gpu_materials(prepared: &PreparedScene) -> Vec<GpuMaterial> {
+    crate::material::material_table(&prepared.materials)
 }

@@ -10,8 +10,11 @@
 //! iteration's texel gather leaves mirror senders out.
 
 use crate::error::Result;
-use crate::gpu::types::{GpuDirectParams, GpuEmitter, GpuFace, GpuMirrorTriangle, NO_FACE};
+use crate::gpu::types::{
+    GpuDirectParams, GpuEmitter, GpuFace, GpuMaterial, GpuMirrorTriangle, NO_FACE,
+};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
+use crate::material::material_of;
 use crate::prepare::PreparedScene;
 
 /// The emitting triangles of a scene, with each face's mean emitted radiance (over its texels:
@@ -60,11 +63,15 @@ pub fn emitters(
 }
 
 /// The triangles of faces with a mirror part: emitters seen in them are virtual emitters.
-pub fn mirror_triangles(prepared: &PreparedScene, faces: &[GpuFace]) -> Vec<GpuMirrorTriangle> {
+pub fn mirror_triangles(
+    prepared: &PreparedScene,
+    faces: &[GpuFace],
+    materials: &[GpuMaterial],
+) -> Vec<GpuMirrorTriangle> {
     prepared
         .triangles
         .iter()
-        .filter(|t| faces[t.face as usize].mirror.iter().any(|&m| m > 0.0))
+        .filter(|t| material_of(materials, &faces[t.face as usize]).is_delta())
         .map(|t| {
             let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());
             GpuMirrorTriangle {

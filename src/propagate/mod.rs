@@ -11,19 +11,20 @@ pub mod transport;
 pub mod visibility;
 
 use crate::error::{Result, VlfError};
-use crate::gpu::types::{GpuFace, NO_FACE};
+use crate::gpu::types::{GpuFace, GpuMaterial, NO_FACE};
 use crate::lightfield::directions::DirectionSet;
 use crate::prepare::PreparedScene;
 use crate::progress::Progress;
 
 pub use crate::lightfield::directions::gpu_directions;
 pub use crate::params::PropagationParams;
-pub use crate::prepare::packing::{gpu_faces, non_diffuse_faces};
+pub use crate::prepare::packing::{gpu_faces, gpu_materials, non_diffuse_faces};
 
 /// Initial state: emitters hold unshot radiosity pi*Le and show Le.
 pub fn initial_radiance(
     prepared: &PreparedScene,
     faces: &[GpuFace],
+    materials: &[GpuMaterial],
 ) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
     let n = prepared.atlas.texel_count();
     let mut unshot = vec![[0.0f32; 4]; n];
@@ -33,7 +34,7 @@ pub fn initial_radiance(
         if face == NO_FACE {
             continue;
         }
-        let mut e = faces[face as usize].emission;
+        let mut e = crate::material::emitted(materials, &faces[face as usize]).to_array();
         if let Some(t) = &prepared.atlas.texture_emission {
             e = std::array::from_fn(|k| e[k] * t[i][k]);
         }
@@ -694,7 +695,7 @@ impl<'a> Job<'a> {
     ) -> Result<Propagated> {
         let total = prop.read_total()?;
         measured.power_balance = self.power_balance(&mut prop, &total, &mut measured.warnings)?;
-        let faces = prop.faces.clone();
+        let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
         let tiles = match prop.tile_layout() {
             Some(layout) => Some(crate::lightfield::TileField {
                 rects: layout.rects.clone(),
@@ -706,7 +707,8 @@ impl<'a> Job<'a> {
         };
         let spent = Spent::of(&prop, tiles.as_ref());
         let render_vertices = crate::lightfield::render_vertices(&self.prepared);
-        let mirror_chains = crate::lightfield::MirrorChains::of(&faces, &render_vertices);
+        let mirror_chains =
+            crate::lightfield::MirrorChains::of(&faces, &materials, &render_vertices);
         let resident = prop.into_resident(mirror_chains.tiles_needed);
         resident
             .ledger
@@ -728,6 +730,7 @@ impl<'a> Job<'a> {
                 residual: measured.shooting.residual,
             },
             faces,
+            materials,
             render_vertices,
             total,
             tiles,

@@ -40,13 +40,14 @@
 
 use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
 use super::{
-    gpu_directions, gpu_faces, initial_radiance, non_diffuse_faces, BatchPlan, PropagationParams,
-    DEPTH_EPSILON,
+    gpu_directions, gpu_faces, gpu_materials, initial_radiance, non_diffuse_faces, BatchPlan,
+    PropagationParams, DEPTH_EPSILON,
 };
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{
-    GpuAccumulate, GpuDirection, GpuFace, GpuField, GpuGrid, GpuPageRange, GRID_FLAG_ACCUMULATE,
-    GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY,
+    GpuAccumulate, GpuDirection, GpuFace, GpuField, GpuGrid, GpuMaterial, GpuPageRange,
+    GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS,
+    GRID_FLAG_SKY,
 };
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
@@ -326,6 +327,8 @@ pub struct Propagator {
     pub visibility: Option<Visibility>,
     visibility_pipelines: VisibilityPipelines,
     pub faces: Vec<GpuFace>,
+    /// the material table the faces index (the distinct materials they use)
+    pub materials: Vec<GpuMaterial>,
     /// the texel arrays in pages (one for any atlas that fits one binding)
     texels: Vec<Page>,
     texel_pages: TilePages,
@@ -416,6 +419,7 @@ struct Sizes {
     fixed: Vec<GpuDirection>,
     layout: TileLayout,
     faces: Vec<GpuFace>,
+    materials: Vec<GpuMaterial>,
     texel_pages: TilePages,
     tile_cells: u64,
     tile_pages: TilePages,
@@ -442,7 +446,11 @@ impl Setup<'_> {
         } else {
             layout.face_slot.clone()
         };
-        let faces = gpu_faces(prepared, &tile_slot);
+        // the materials the faces use, each once, as the light field and its file hold them
+        let (faces, materials) = crate::lightfield::file::canonical_materials(
+            &gpu_faces(prepared, &tile_slot),
+            &gpu_materials(prepared),
+        );
         let texel_count = prepared.atlas.texel_count() as u32;
         let max_binding = max_binding(self.ctx);
         let texel_pages = TilePages::plan_texels(texel_count as u64, max_binding)?;
@@ -480,6 +488,7 @@ impl Setup<'_> {
             fixed,
             layout,
             faces,
+            materials,
             texel_pages,
             tile_cells,
             tile_pages,
@@ -561,7 +570,7 @@ impl Setup<'_> {
         &self,
         grid: &GpuGrid,
         directions: &[GpuDirection],
-        faces: &[GpuFace],
+        (faces, materials): (&[GpuFace], &[GpuMaterial]),
         texel_ranges: &[(u32, u32)],
     ) -> SceneBuffers {
         let (ctx, ledger, prepared) = (self.ctx, self.ledger, self.prepared);
@@ -592,6 +601,12 @@ impl Setup<'_> {
                 STORAGE,
             ),
             faces: ctx.buffer_init(ledger, "faces", bytemuck::cast_slice(faces), STORAGE),
+            materials: ctx.buffer_init(
+                ledger,
+                "materials",
+                bytemuck::cast_slice(materials),
+                STORAGE,
+            ),
             vertices: ctx.buffer_init(ledger, "vertices", bytemuck::cast_slice(&vertices), STORAGE),
             triangles: ctx.buffer_init(
                 ledger,
@@ -895,7 +910,7 @@ impl Setup<'_> {
     fn direct_light(
         &self,
         sky: Option<[f32; 3]>,
-        faces: &[GpuFace],
+        (faces, materials): (&[GpuFace], &[GpuMaterial]),
         unshot: &[[f32; 4]],
         layouts: [&wgpu::BindGroupLayout; 2],
     ) -> Result<Option<super::direct::DirectLight>> {
@@ -905,7 +920,7 @@ impl Setup<'_> {
         }
         let emitters = super::direct::emitters(prepared, faces, unshot);
         let mirrors = if params.mirror_direct {
-            super::direct::mirror_triangles(prepared, faces)
+            super::direct::mirror_triangles(prepared, faces, materials)
         } else {
             Vec::new()
         };
@@ -969,8 +984,9 @@ impl Propagator {
         let texel_ranges = sizes.texel_pages.ranges();
         // with batches the directions buffer holds one batch at a time
         let batch = &sizes.fixed[..plan.batch_size as usize];
-        let scene = s.scene_buffers(&grid, batch, &sizes.faces, &texel_ranges);
-        let (unshot, total) = initial_radiance(prepared, &sizes.faces);
+        let materials = (&sizes.faces[..], &sizes.materials[..]);
+        let scene = s.scene_buffers(&grid, batch, materials, &texel_ranges);
+        let (unshot, total) = initial_radiance(prepared, &sizes.faces, &sizes.materials);
         let (texels, emitted_power) = s.texel_pages(&texel_ranges, &unshot, &total);
 
         // grid, directions, faces, cell offsets, counts, layers, four pages of texel points, the
@@ -991,7 +1007,7 @@ impl Propagator {
         let (weight_sums, normalize) =
             s.batch_weight_sums(batched, grid.texel_count as u64 + sizes.tile_cells)?;
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
-        let direct = s.direct_light(sky, &sizes.faces, &unshot, [&layout0, &layout1])?;
+        let direct = s.direct_light(sky, materials, &unshot, [&layout0, &layout1])?;
         let areas = super::texel_areas(prepared);
         let emitted_exactly = (unshot.iter().zip(&areas))
             .map(|(u, a)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * a)
@@ -1012,6 +1028,7 @@ impl Propagator {
             visibility: None,
             visibility_pipelines,
             faces: sizes.faces,
+            materials: sizes.materials,
             texels,
             texel_pages: sizes.texel_pages,
             tiles,
@@ -1441,6 +1458,7 @@ impl Propagator {
                 point(3),
                 &s.bvh_triangles,
                 &s.bvh_nodes,
+                &s.materials,
             ],
         );
         let current = self.current;
@@ -1869,6 +1887,7 @@ impl Propagator {
     pub fn into_resident(self, keep_tiles: bool) -> ResidentLightField {
         let ledger = MemoryLedger::default();
         ledger.record("faces", self.scene.faces.size());
+        ledger.record("materials", self.scene.materials.size());
         for page in &self.texels {
             ledger.record("total radiance", page.state.total.size());
         }
@@ -1899,6 +1918,7 @@ impl Propagator {
         ResidentLightField {
             ctx: self.ctx,
             faces: self.scene.faces,
+            materials: self.scene.materials,
             total: self.texels.into_iter().map(|p| p.state.total).collect(),
             texel_pages: self.texel_pages,
             tiles,

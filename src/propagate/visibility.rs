@@ -12,6 +12,8 @@ pub struct SceneBuffers {
     pub grid: wgpu::Buffer,
     pub directions: wgpu::Buffer,
     pub faces: wgpu::Buffer,
+    /// the material table the faces index (`crate::material`)
+    pub materials: wgpu::Buffer,
     pub vertices: wgpu::Buffer,
     pub triangles: wgpu::Buffer,
     /// sample point per texel, in pages (see TilePages::plan_texels)

@@ -53,6 +53,8 @@ fn luminance(c: [f32; 3]) -> f32 {
 /// order, the emitters weighted by luminance x area, and the textures back to back.
 struct TraceScene {
     faces: Vec<crate::gpu::types::GpuFace>,
+    /// the material table the faces index (`crate::material`)
+    materials: Vec<crate::gpu::types::GpuMaterial>,
     triangles: Vec<GpuTriangle>,
     nodes: Vec<GpuBvhNode>,
     /// (triangle index as f32 bits, running weight)
@@ -67,6 +69,7 @@ impl TraceScene {
     fn new(scene: &Scene, prepared: &PreparedScene) -> TraceScene {
         let faces =
             crate::prepare::packing::gpu_faces(prepared, &vec![NO_FACE; prepared.faces.len()]);
+        let materials = crate::prepare::packing::gpu_materials(prepared);
         let front: Vec<&crate::prepare::PreparedTriangle> = prepared
             .triangles
             .iter()
@@ -85,7 +88,8 @@ impl TraceScene {
         let mut lights: Vec<[f32; 2]> = Vec::new();
         let mut total = 0.0f32;
         for (i, t) in triangles.iter().enumerate() {
-            let le = luminance(faces[t.face as usize].emission);
+            let le =
+                luminance(crate::material::emitted(&materials, &faces[t.face as usize]).into());
             let area = 0.5 * Vec3::from(t.e1).cross(Vec3::from(t.e2)).length();
             if le > 0.0 && area > 0.0 {
                 total += le * area;
@@ -119,6 +123,7 @@ impl TraceScene {
             .collect();
         TraceScene {
             faces,
+            materials,
             triangles,
             nodes,
             lights,
@@ -182,6 +187,13 @@ impl Tracer {
         let mut all: Vec<&wgpu::Buffer> = vec![&params];
         all.extend(buffers.iter());
         all.push(&sums);
+        let materials = ctx.buffer_init(
+            &ledger,
+            "materials",
+            bytemuck::cast_slice(&t.materials),
+            STORAGE,
+        );
+        all.push(&materials);
         let bind_group = ctx.bind_group(&layout, &all);
         Ok(Tracer {
             params,

@@ -116,6 +116,8 @@ pub struct Renderer {
     view_template: GpuView,
     target: Option<Target>,
     faces: wgpu::Buffer,
+    /// the material table the faces index
+    materials: wgpu::Buffer,
 }
 
 impl Renderer {
@@ -184,6 +186,7 @@ impl Renderer {
             resolve_pipeline,
             resolve_layout,
             faces: resident.faces.clone(),
+            materials: resident.materials.clone(),
             view_buffer,
             triangles,
             ray_triangles,
@@ -261,6 +264,10 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 6,
                     resource: wgpu::BindingResource::TextureView(&depth_view),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: self.materials.as_entire_binding(),
                 },
             ],
         });

@@ -55,49 +55,7 @@ pub struct MaterialOverride {
     pub two_sided: Option<bool>,
 }
 
-/// A material after MTL and overrides are combined.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Material {
-    pub name: String,
-    pub diffuse: [f32; 3],
-    pub mirror: [f32; 3],
-    pub emission: [f32; 3],
-    pub two_sided: bool,
-    /// `map_Kd`, multiplying `diffuse` (index into Scene::textures)
-    #[serde(default)]
-    pub diffuse_texture: Option<u32>,
-    /// `map_Ke`, multiplying `emission`
-    #[serde(default)]
-    pub emission_texture: Option<u32>,
-}
-
-impl Material {
-    /// What faces without a material get: grey diffuse (0.5), from every importer.
-    pub fn default_grey() -> Material {
-        Material {
-            name: "(default)".into(),
-            diffuse: [0.5; 3],
-            mirror: [0.0; 3],
-            emission: [0.0; 3],
-            two_sided: false,
-            diffuse_texture: None,
-            emission_texture: None,
-        }
-    }
-
-    /// Why the material would create energy (diffuse + mirror above 1 in a channel), if it would:
-    /// every importer refuses such a material with this message.
-    pub fn energy_error(&self) -> Option<String> {
-        (0..3)
-            .find(|&c| self.diffuse[c] + self.mirror[c] > 1.0 + 1e-6)
-            .map(|c| {
-                format!(
-                    "diffuse {:?} + mirror {:?} exceeds 1 in channel {c}: the surface would create energy",
-                    self.diffuse, self.mirror
-                )
-            })
-    }
-}
+pub use crate::material::Material;
 
 /// A texture in linear RGB (decoded from sRGB), row-major from the top-left texel.
 #[derive(Clone, Debug, PartialEq)]

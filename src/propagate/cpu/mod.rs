@@ -7,8 +7,10 @@ pub mod specular;
 
 use crate::bvh::GpuTriangle;
 use crate::gpu::types::{
-    GpuDirection, GpuFace, GpuGrid, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY, NO_FACE, UNRESOLVED,
+    GpuDirection, GpuFace, GpuGrid, GpuMaterial, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY, NO_FACE,
+    UNRESOLVED,
 };
+use crate::material::material_of;
 use glam::{Vec2, Vec3};
 
 pub struct CpuVisibility {
@@ -208,6 +210,8 @@ pub struct GatherInputs<'a> {
     pub grid: &'a GpuGrid,
     pub directions: &'a [GpuDirection],
     pub faces: &'a [GpuFace],
+    /// the material table the faces index (`crate::material`)
+    pub materials: &'a [GpuMaterial],
     pub visibility: &'a CpuVisibility,
     pub texel_points: &'a [[f32; 4]],
     pub unshot: &'a [[f32; 4]],
@@ -464,7 +468,7 @@ impl GatherInputs<'_> {
         };
         let e = (irradiance + sky_irradiance) * norm;
         let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
-        let next = v3(f.albedo) * e;
+        let next = material_of(self.materials, f).diffuse_reflectance() * e;
         [next.x, next.y, next.z, sky_share]
     }
 }

@@ -7,6 +7,7 @@
 use super::{v3, GatherInputs};
 use crate::gpu::types::{GpuDirection, GpuFace, GRID_FLAG_SKY, NO_FACE, UNRESOLVED};
 use crate::lightfield::directions::DirectionSet;
+use crate::material::material_of;
 use glam::{Vec2, Vec3};
 
 /// The mirror tiles as the transport binds them.
@@ -158,7 +159,7 @@ impl GatherInputs<'_> {
             radiance /= found;
             sky /= found;
         }
-        let out = v3(f.mirror) * (radiance + sky);
+        let out = material_of(self.materials, f).mirror_reflectance() * (radiance + sky);
         [out.x, out.y, out.z, sky.x + sky.y + sky.z]
     }
 }
