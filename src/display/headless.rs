@@ -2,21 +2,22 @@
 //! from one light field, frame after frame along the configured tracking; the last frame's
 //! images (and each projector's output: `<wall>-<eye>-<projector>.png`), an overview with the
 //! walls unfolded as a cross, and a frame-time report (GPU time per wall and eye from timestamp
-//! queries, of the output passes, and CPU time per frame).
+//! queries, of the output passes, and CPU time per frame). This is a driver of the frame of
+//! views (`frame/`): it keeps the walk's poses (shared through a cluster's frame lock), the
+//! waiting, the files and the report; the frame draws and accounts.
 
 use super::frame::{
-    frame_limits, labels, wall_views, worst_ratio, FrameTimes, Limit, Pass, WallView,
+    frame_limits, worst_ratio, FrameOfViews, Limit, Poses, Slots, ViewImages, WallView,
 };
 pub use super::frame::{ViewTiming, CONSTANT_FRAME_TIME};
-use super::post::{Draw, Outputs};
+use super::post::Draw;
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::framelock::{FrameLock, FrameState};
-use crate::gpu::{MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::budget::{BudgetFit, Pacer, PacerReport};
+use crate::render::budget::{BudgetFit, PacerReport};
 use crate::render::image_io::{display_image, write_image};
-use crate::render::{Frame, Renderer};
+use crate::render::Frame;
 use crate::stats::Distribution;
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
@@ -93,103 +94,27 @@ pub fn run_reporting(
     run_locked(lf, resident, config, config_path, run, None, progress)
 }
 
-/// A kept view's image and its projectors' outputs (named `<wall>-<eye>-<projector>`).
-type ViewImages = (Frame, Vec<(String, Frame)>);
-
-/// What the last frame leaves: every view's image, and each projector's output.
+/// What the last frame leaves: every view's image, and each projector's output (named
+/// `<wall>-<eye>-<projector>`).
 #[derive(Default)]
 struct Kept {
     views: Vec<Frame>,
     projectors: Vec<(String, Frame)>,
 }
 
-/// The renderer and the passes after it, drawing the views of one frame.
-struct Drawer<'a> {
-    config: &'a DisplayConfig,
-    lf: &'a LightField,
-    renderer: Renderer,
-    post: Option<Outputs>,
-    views: Vec<WallView>,
-    /// with a fit: how many eye rays each view draws in which tiles, frame by frame
-    pacer: Option<Pacer>,
-}
-
-impl Drawer<'_> {
-    /// What the frame's timestamp pairs time, in order: each view's render, then (with
-    /// outputs) each of its outputs' passes.
-    fn passes(&self) -> Vec<Pass> {
-        let mut passes = Vec::new();
-        for (v, view) in self.views.iter().enumerate() {
-            passes.push(Pass::View(v));
-            let outputs = self.post.as_ref().map_or(0, |p| p.timed_outputs(view.wall));
-            passes.extend(std::iter::repeat_n(Pass::Output, outputs));
-        }
-        passes
-    }
-
-    /// Draw one view: submitted and timed (`keep` false), or drawn again untimed and read back
-    /// with its projectors' outputs (`keep` true: the last frame's images).
-    fn draw_view(
-        &mut self,
-        v: WallView,
-        (pose, wand): (&Pose, Option<&WandPose>),
-        ts: Option<&mut Timestamps>,
-        keep: bool,
-    ) -> Result<Option<ViewImages>> {
-        let wall = &self.config.walls[v.wall];
-        let norm = &self.lf.meta.normalisation;
-        let view = super::wall_view(self.config, wall, v.side, pose, norm);
-        let [w, h] = wall.eye_pixels();
-        let Some(p) = self.post.as_ref() else {
-            if keep {
-                let frame = self.renderer.render_matrix(view.0, view.1, w, h)?.0;
-                return Ok(Some((frame, Vec::new())));
-            }
-            self.renderer.submit_matrix(view.0, view.1, w, h, ts);
-            return Ok(None);
-        };
-        let overlay = super::post::wand_overlay(self.config, wall, v.side, pose, wand, norm);
-        let draw = if keep { Draw::Everything } else { Draw::Timed };
-        p.encode(&mut self.renderer, v.wall, view, overlay.as_ref(), ts, draw);
-        if !keep {
-            return Ok(None);
-        }
-        let (frame, projectors) = p.read(v.wall)?;
-        let named = (projectors.into_iter())
-            .map(|(name, image)| (format!("{}-{}-{name}", wall.name, v.eye), image))
-            .collect();
-        Ok(Some((frame, named)))
-    }
-
-    /// Submit every view of a timed frame, back to back.
-    fn submit_timed(
-        &mut self,
-        pose: &Pose,
-        wand: Option<&WandPose>,
-        mut ts: Option<&mut Timestamps>,
-    ) -> Result<()> {
-        for i in 0..self.views.len() {
-            if let Some(p) = &self.pacer {
-                self.renderer.set_pacing(p.setting(i));
-            }
-            self.draw_view(self.views[i], (pose, wand), ts.as_deref_mut(), false)?;
-        }
-        Ok(())
-    }
-
-    /// Draw every view of the last frame again, one by one, and read the images back (not
-    /// timed).
-    fn draw_kept(&mut self, pose: &Pose, wand: Option<&WandPose>) -> Result<Kept> {
+impl Kept {
+    /// The frame's views read back (`FrameOfViews::read_back`), their projectors' outputs named.
+    fn of(config: &DisplayConfig, views: &[WallView], images: Vec<ViewImages>) -> Kept {
         let mut kept = Kept::default();
-        for i in 0..self.views.len() {
-            if let Some((frame, projectors)) =
-                self.draw_view(self.views[i], (pose, wand), None, true)?
-            {
-                kept.views.push(frame);
-                kept.projectors.extend(projectors);
-            }
+        for (v, (frame, projectors)) in views.iter().zip(images) {
+            let wall = &config.walls[v.wall].name;
+            kept.views.push(frame);
+            kept.projectors.extend(
+                (projectors.into_iter())
+                    .map(|(name, image)| (format!("{wall}-{}-{name}", v.eye), image)),
+            );
         }
-        Ok(kept)
+        kept
     }
 }
 
@@ -234,31 +159,8 @@ pub fn run_locked(
 ) -> Result<CaveReport> {
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
-    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
-    renderer.set_samples_per_pixel(config.antialiasing)?;
-    let views = wall_views(config);
-    let fit = super::frame::fit_frame_time(&mut renderer, config, &views, &poses, lf)?;
-    let specs = super::warp::load_outputs(config, config_path)?;
-    // the pass after rendering (`post.rs`), when needed: one wall image per wall
-    let wand = poses.may_have_wand(&config.tracking);
-    let walls: Vec<usize> = (0..config.walls.len()).collect();
-    let post = Outputs::needed(config, &specs, wand)
-        .then(|| Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, true))
-        .transpose()?;
-    let mut drawer = Drawer {
-        config,
-        lf,
-        renderer,
-        post,
-        views,
-        pacer: fit.as_ref().and_then(Pacer::from_fit),
-    };
-    let passes = drawer.passes();
-    let mut times = FrameTimes::new(labels(config, &drawer.views));
-    // live tracking: milliseconds from a pose's arrival to the submission of its frame
-    let mut latency = Vec::new();
-    let mut submit_ms = Vec::new();
-    let mut timestamps = crate::gpu::Timestamps::new(&resident.ctx, passes.len() as u32);
+    let mut frame =
+        FrameOfViews::cave((lf, resident), config, config_path, &poses, Slots::PerWall)?;
     let total = frames.max(1);
     let mut kept = Kept::default();
     let software = resident.ctx.summary.software;
@@ -267,41 +169,39 @@ pub fn run_locked(
     for f in 0..total {
         report_frame(progress, (f, total), began, software);
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        let tracked = Poses::Tracked {
+            pose: &pose,
+            wand: wand.as_ref(),
+            arrived: fresh,
+        };
         if f + 1 == total {
-            kept = drawer.draw_kept(&pose, wand.as_ref())?;
+            // the last frame drawn again view by view and read back (not timed)
+            let images = frame.read_back(tracked)?;
+            kept = Kept::of(config, frame.wall_views(), images);
             if let Some(l) = lock.as_deref_mut() {
                 l.swap_untimed()?;
             }
             break;
         }
-        let started = std::time::Instant::now();
-        drawer.submit_timed(&pose, wand.as_ref(), timestamps.as_mut())?;
-        submit_ms.push(started.elapsed().as_secs_f64() * 1e3);
-        if let Some(arrived) = fresh {
-            latency.push(arrived.elapsed().as_secs_f64() * 1e3);
-        }
+        // every view of a timed frame submitted back to back, then waited for
+        frame.begin(true)?;
+        frame.draw(tracked, Draw::Timed, None)?;
         resident.ctx.wait_spinning()?;
-        times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
+        let cpu_ms = frame.elapsed_ms();
         if let Some(l) = lock.as_deref_mut() {
             l.swap()?;
         }
-        if let Some(ts) = timestamps.as_mut() {
-            let ms = ts.read_ms(&resident.ctx)?;
-            times.push_gpu(&ms, &passes);
-            if let Some(p) = drawer.pacer.as_mut() {
-                super::frame::pace_views(p, &ms, &passes);
-            }
-        }
+        frame.account(cpu_ms)?;
     }
     report_frame(progress, (total, total), began, software);
     progress.finish();
-    if times.frames_timed() == 0 {
-        times.push_cpu(0.0);
+    if frame.frames_timed() == 0 {
+        frame.times_mut().push_cpu(0.0);
     }
-    let images = write_kept(config, &drawer.views, &kept, out, exr)?;
-    let views = times.views();
+    let images = write_kept(config, frame.wall_views(), &kept, out, exr)?;
+    let views = frame.times().views();
     let worst = worst_ratio(&views);
-    let cpu_frame_ms = times.cpu_ms().expect("one frame at least");
+    let cpu_frame_ms = frame.times().cpu_ms().expect("one frame at least");
     let limits = frame_limits(&views, Some(&cpu_frame_ms), config.frame_budget_ms());
     Ok(CaveReport {
         worst_p99_over_p50: worst,
@@ -310,20 +210,17 @@ pub fn run_locked(
         display: config.name.clone(),
         adapter: resident.ctx.summary.name.clone(),
         frames: total,
-        views_per_frame: drawer.views.len(),
+        views_per_frame: frame.labels().len(),
         views,
-        all_views_gpu_ms: times.frame_gpu_ms(),
+        all_views_gpu_ms: frame.times().frame_gpu_ms(),
         cpu_frame_ms,
-        outputs_gpu_ms: times.output_gpu_ms(),
-        tracking_latency_ms: (!latency.is_empty()).then(|| Distribution::of(&latency)),
-        quality: drawer.renderer.run_quality(drawer.pacer.as_ref()),
-        fit,
-        pacer: drawer.pacer.as_ref().map(Pacer::report),
+        outputs_gpu_ms: frame.times().output_gpu_ms(),
+        tracking_latency_ms: frame.latency_ms(),
+        quality: frame.quality(),
+        fit: frame.fit().cloned(),
+        pacer: frame.pacer_report(),
         images,
-        series: super::frame::FrameSeries {
-            submit_ms,
-            ..times.series()
-        },
+        series: frame.series(),
     })
 }
 

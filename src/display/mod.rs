@@ -1,11 +1,11 @@
 //! Displays: CAVE walls, power walls and desktop windows, configured in TOML under
 //! `config/displays/` (this module), with off-axis projection per wall and eye
 //! (`projection.rs`), projector warp and blend (`warp.rs`) applied with the wand ray by one GPU
-//! pass per output (`post.rs`), the frame the loops share (`frame.rs`), an eye image onto a
-//! window (`present.rs`), and the loops that draw every view: offscreen (`headless.rs`) and in
-//! windows (`window/`). The display TOML's `[cluster]` table and its checks against the walls
-//! are `cluster_config.rs`. Poses come from `crate::tracking`; a cluster of processes drives
-//! these loops through `crate::framelock` (`crate::cluster`); the headset is `crate::xr`.
+//! pass per output (`post.rs`), one frame of views as every display draws it (`frame/`), an eye
+//! image onto a window (`present.rs`), and the drivers of that frame: offscreen (`headless.rs`)
+//! and in windows (`window/`). The display TOML's `[cluster]` table and its checks against the
+//! walls are `cluster_config.rs`. Poses come from `crate::tracking`; a cluster of processes
+//! drives these loops through `crate::framelock` (`crate::cluster`); the headset is `crate::xr`.
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod cluster_config;

@@ -3,8 +3,9 @@
 //! wand's ray drawn over it (the distance from each pixel's eye ray to the wand's segment, in
 //! the light field's space, through the wall's view-projection), times the blend mask. Every
 //! pixel does the same work, so an output costs the same whatever it shows. `Outputs` holds a
-//! display's wall images and the outputs drawn from them, for `vlf cave --headless`
-//! (`headless.rs`) and its windows (`window.rs`) alike: the same pass, the same warps and masks.
+//! display's wall images and the outputs drawn from them, the sink of the CAVE's frame of views
+//! (`frame/`) for `vlf cave --headless` (`headless.rs`) and its windows (`window/`) alike: the
+//! same pass, the same warps and masks.
 
 use super::warp::{Grid, OutputSpec};
 use super::{DisplayConfig, Wall};

@@ -3,19 +3,21 @@
 //! session states, thumbstick navigation through an action set, the left eye's screenshot and
 //! the per-eye frame-time report, with when the GPU finished each frame on the runtime's clock
 //! (what the runtime's account of late and dropped frames rests on: `report::display_account`).
-//! Each eye is rendered by the CAVE's renderer (one compute pass, constant work per pixel) into
-//! an offscreen image and depth, and both eyes are put on the swapchain images by `layers`.
+//! Both eyes are a frame of views (`crate::display::frame::FrameOfViews`, their times read back
+//! frames in flight): each rendered by the CAVE's renderer (one compute pass, constant work per
+//! pixel) into an offscreen image and depth from the runtime's eye poses (`eye_view`), and both
+//! put on the swapchain images by `layers` in the frame's last encoder.
 
 use super::controls::{controls, Controls};
-use super::eyes::{copy_to_buffer, write_screenshot, Eye};
+use super::eyes::{copy_to_buffer, write_screenshot};
 use super::layers::Layers;
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, xr_error, Fov, XrOptions, XrPose, XrRuntime, VIEW_TYPE};
-use crate::display::frame::{frame_limits, FrameTimes, InFlight, Limit, ViewLabel};
+use crate::display::frame::{frame_limits, FrameOfViews, Limit, Poses, ViewLabel};
+use crate::display::post::Draw;
 use crate::display::present::present_pass;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
-use crate::render::budget::{Pacer, ProbeView};
 use crate::render::Renderer;
 use crate::tracking::navigator::Navigator;
 use crate::tracking::source::Pose;
@@ -168,6 +170,17 @@ pub fn run(
     // from here on Ctrl-C ends the session cleanly, with the report (warm-up included)
     interrupt_flag();
     super::eyes::warm_up(&ctx, &mut renderer, &eyes, (&camera, &lf), &layers)?;
+    let eyes = (eyes.into_iter())
+        .map(|e| {
+            let label = ViewLabel {
+                wall: "headset".into(),
+                eye: e.name,
+                pixels: e.size,
+            };
+            (label, e.targets)
+        })
+        .collect();
+    let frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT);
 
     let mut headset = Headset {
         instance: &instance,
@@ -176,33 +189,32 @@ pub fn run(
         frame_stream,
         setup: &setup,
         ctx: &ctx,
-        renderer,
-        eyes,
+        frame,
         layers,
         controls,
         camera: &camera,
         lf: &lf,
         runtime: &runtime,
     };
-    let mut state = LoopState::new(&ctx, &headset.eyes, runtime.clock);
+    let mut state = LoopState::new(&ctx, runtime.clock);
     let ended = headset.run_loop(&mut state, options)?;
-    let report = state.report(&headset, ended, options)?;
+    let report = state.report(&mut headset, ended, options)?;
     // the swapchains and the session go before the device they were made on
     ctx.wait()?;
     let Headset {
-        eyes,
+        frame,
         layers,
         controls,
         frame_stream,
         frame_waiter,
-        renderer,
         ..
     } = headset;
-    drop((layers, eyes));
+    drop(layers);
     drop((controls, frame_stream, frame_waiter));
     drop(setup);
     drop(session);
-    drop((renderer, resident, lf));
+    // the renderer and the eyes' images it drew into
+    drop((frame, resident, lf));
     drop(ctx);
     drop(vulkan);
     drop(instance);
@@ -217,8 +229,8 @@ struct Headset<'a> {
     frame_stream: xr::FrameStream<xr::Vulkan>,
     setup: &'a Setup,
     ctx: &'a Arc<GpuContext>,
-    renderer: Renderer,
-    eyes: Vec<Eye>,
+    /// the renderer, both eyes' images, their pacing and times (frames in flight)
+    frame: FrameOfViews<'static>,
     /// the swapchains the eyes go on
     layers: Layers,
     controls: Controls,
@@ -241,11 +253,6 @@ struct LoopState {
     shown: Vec<FrameClock>,
     /// when the GPU finished each timed frame (with the runtime's clock only)
     gpu_done: Option<GpuDone>,
-    times: FrameTimes,
-    /// with `fit_frame_time`: what the first frame probed, and the eyes' pacing after it
-    fit: Option<crate::render::budget::BudgetFit>,
-    pacer: Option<crate::render::budget::Pacer>,
-    in_flight: Option<InFlight>,
     last_display_time: Option<i64>,
     period_ms: f64,
     screenshot_written: Option<String>,
@@ -354,15 +361,7 @@ impl Drop for GpuDone {
 }
 
 impl LoopState {
-    fn new(ctx: &GpuContext, eyes: &[Eye], clock: bool) -> LoopState {
-        let labels = eyes
-            .iter()
-            .map(|e| ViewLabel {
-                wall: "headset".into(),
-                eye: e.name,
-                pixels: e.size,
-            })
-            .collect();
+    fn new(ctx: &GpuContext, clock: bool) -> LoopState {
         LoopState {
             navigator: Navigator::default(),
             room: None,
@@ -374,10 +373,6 @@ impl LoopState {
             skipped: 0,
             shown: Vec::new(),
             gpu_done: clock.then(|| GpuDone::new(&ctx.device, ctx.summary.software)),
-            times: FrameTimes::new(labels),
-            fit: None,
-            pacer: None,
-            in_flight: InFlight::new(ctx, eyes.len() as u32, FRAMES_IN_FLIGHT),
             last_display_time: None,
             period_ms: 0.0,
             screenshot_written: None,
@@ -398,17 +393,6 @@ impl LoopState {
             .clamp(0.0, 0.1);
         self.last_display_time = Some(display_time);
         dt
-    }
-
-    fn push_gpu(&mut self, done: Vec<Vec<f64>>) {
-        for ms in done {
-            if let Some(p) = self.pacer.as_mut() {
-                for (eye, &m) in ms.iter().enumerate() {
-                    p.observe(eye, m);
-                }
-            }
-            self.times.push_view_gpu(&ms);
-        }
     }
 
     /// The runtime's account of the timed frames (`display_account`), from when the GPU
@@ -459,15 +443,17 @@ impl LoopState {
         }
     }
 
-    fn report(mut self, headset: &Headset, ended: String, options: &XrOptions) -> Result<XrReport> {
+    fn report(
+        mut self,
+        headset: &mut Headset,
+        ended: String,
+        options: &XrOptions,
+    ) -> Result<XrReport> {
         // when the GPU finished the last frames, before anything here waits for the device: a
         // thread blocked in a device wait holds wgpu's device lock, and the GPU-done thread would
         // note the last frames milliseconds late (counted as a missed refresh)
         let display = self.display();
-        if let Some(f) = self.in_flight.as_mut() {
-            let done = f.finish(headset.ctx)?;
-            self.push_gpu(done);
-        }
+        headset.frame.finish()?;
         if let Some(writer) = self.screenshot_writer.take() {
             writer
                 .join()
@@ -483,7 +469,7 @@ impl LoopState {
                 path.display()
             )));
         }
-        let eyes = self.times.views();
+        let eyes = headset.frame.times().views();
         let mut limits = frame_limits(&eyes, None, None);
         limits.push(Limit::check(
             "missed display refreshes",
@@ -494,7 +480,7 @@ impl LoopState {
             limits.push(Limit::check("frames shown late", done.late as f64, 0.0));
             limits.push(Limit::check("frames dropped", done.dropped as f64, 0.0));
         }
-        let in_flight = self.in_flight.as_ref();
+        let in_flight = headset.frame.in_flight();
         Ok(XrReport {
             runtime: headset.runtime.runtime.clone(),
             system: headset.runtime.system.clone(),
@@ -522,15 +508,15 @@ impl LoopState {
             gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
             display_period_ms: display.period_ms.unwrap_or(self.period_ms),
             eyes,
-            cpu_frame_ms: self.times.cpu_ms(),
+            cpu_frame_ms: headset.frame.times().cpu_ms(),
             frames_in_flight: FRAMES_IN_FLIGHT as u32,
             overlapped_frames: in_flight.map_or(0, |f| f.overlapped),
             serial_frames: in_flight.map_or(0, |f| f.serial),
             waited_for_gpu: in_flight.map_or(0, |f| f.waited),
             limits,
-            quality: headset.renderer.run_quality(self.pacer.as_ref()),
-            pacer: self.pacer.as_ref().map(|p| p.report()),
-            fit: self.fit,
+            quality: headset.frame.quality(),
+            pacer: headset.frame.pacer_report(),
+            fit: headset.frame.fit().cloned(),
             states: self.states,
             ended,
             lost: self.lost,
@@ -640,30 +626,24 @@ impl Headset<'_> {
     /// frame is timed yet).
     fn fit_frame(
         &mut self,
-        st: &mut LoopState,
         frame_state: &xr::FrameState,
         views: &[xr::View],
         pose: &Pose,
     ) -> Result<()> {
-        let norm = &self.lf.meta.normalisation;
-        let probes: Vec<ProbeView> = (views.iter().zip(&self.eyes))
-            .map(|(view, eye)| {
-                let (view_proj, position) = eye_view(xr_pose(view), xr_fov(view), pose, norm, NEAR);
-                ProbeView {
-                    view_proj,
-                    eye: position,
-                    size: eye.size,
-                }
-            })
-            .collect();
+        let eyes = self.eye_matrices(views, pose);
         let period_ms = frame_state.predicted_display_period.as_nanos() as f64 * 1e-6;
-        let fit = self.renderer.fit_frame_time(&probes, period_ms)?;
-        // the eyes' timestamps come back FRAMES_IN_FLIGHT frames late: a gentler pacer
-        st.pacer = Pacer::from_fit(&fit).map(|p| p.lagged(FRAMES_IN_FLIGHT as u32));
-        st.fit = Some(fit);
+        (self.frame).fit_frame_time(Poses::Matrices(&eyes), period_ms)?;
         self.frame_stream
             .end(frame_state.predicted_display_time, self.setup.blend, &[])
             .map_err(xr_error("xrEndFrame"))
+    }
+
+    /// Each eye's view-projection and position in the light field's space (`eye_view`).
+    fn eye_matrices(&self, views: &[xr::View], pose: &Pose) -> Vec<(glam::Mat4, Vec3)> {
+        let norm = &self.lf.meta.normalisation;
+        (views.iter())
+            .map(|view| eye_view(xr_pose(view), xr_fov(view), pose, norm, NEAR))
+            .collect()
     }
 
     /// One frame, paced by the runtime: wait, begin, draw both eyes, end. The GPU's work is not
@@ -698,8 +678,8 @@ impl Headset<'_> {
         let navigation = crate::tracking::Navigation::default();
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
         let pose = st.navigator.apply(base);
-        if options.fit_frame_time && st.fit.is_none() {
-            return self.fit_frame(st, &frame_state, &views, &pose);
+        if options.fit_frame_time && self.frame.fit().is_none() {
+            return self.fit_frame(&frame_state, &views, &pose);
         }
         let timed = options.frames.is_none_or(|n| st.frames < n);
         if timed {
@@ -709,25 +689,16 @@ impl Headset<'_> {
                 clock: woke,
             });
         }
-        // this frame's slot of the frames in flight (timed frames only); back in `st` at the end
-        let mut in_flight = st.in_flight.take_if(|_| timed);
-        if let Some(f) = in_flight.as_mut() {
-            let done = f.begin(self.ctx)?;
-            st.push_gpu(done);
-        }
+        // a timed frame takes a slot of the frames in flight; those the GPU has finished are
+        // read (their times to the pacer and the report)
+        self.frame.begin(timed)?;
         let capture = options.screenshot.is_some() && st.frames + 1 == options.screenshot_frame;
-        let readback = self.draw_eyes(st, &mut in_flight, &views, &pose, (timed, capture))?;
-        if let Some(mut f) = in_flight {
-            f.submitted();
-            st.in_flight = Some(f);
-        }
+        let readback = self.draw_eyes(st, &views, &pose, (timed, capture))?;
         let fixed = (&frame_state, self.setup.blend, &self.setup.space);
         (self.layers).end_frame(&mut self.frame_stream, fixed, &views, DEPTH_RANGE)?;
         self.ctx.check_errors()?;
         st.frames += 1;
-        if timed {
-            st.times.push_cpu(begun.elapsed().as_secs_f64() * 1e3);
-        }
+        self.frame.account(begun.elapsed().as_secs_f64() * 1e3)?;
         if let (Some((buffer, padded_row)), Some(path)) = (readback, options.screenshot.as_ref()) {
             self.write_screenshot(st, &buffer, padded_row, path)?;
         }
@@ -751,49 +722,31 @@ impl Headset<'_> {
     fn draw_eyes(
         &mut self,
         st: &mut LoopState,
-        in_flight: &mut Option<InFlight>,
         views: &[xr::View],
         pose: &Pose,
         (timed, capture): (bool, bool),
     ) -> Result<Option<(wgpu::Buffer, u32)>> {
+        let eyes = self.eye_matrices(views, pose);
+        let left_size = self.frame.labels()[0].pixels;
+        let (ctx, layers) = (self.ctx, &mut self.layers);
         let mut readback = None;
-        let last_eye = self.eyes.len() - 1;
-        for (i, view) in views.iter().enumerate() {
-            let (view_proj, eye_position) = eye_view(
-                xr_pose(view),
-                xr_fov(view),
-                pose,
-                &self.lf.meta.normalisation,
-                NEAR,
-            );
-            if let Some(p) = &st.pacer {
-                self.renderer.set_pacing(p.setting(i));
+        let mut onto_swapchains = |encoder: &mut wgpu::CommandEncoder| -> Result<()> {
+            layers.acquire()?;
+            let (colour, depth) = layers.acquired();
+            layers.draw(encoder, &colour, &depth);
+            if capture {
+                let (texture, target) = layers.left();
+                readback = Some(copy_to_buffer(ctx, encoder, texture, left_size));
+                // the runtime expects its image back as a colour attachment: an empty pass
+                // that keeps the image leaves it in that layout
+                drop(present_pass(encoder, &target, wgpu::LoadOp::Load));
             }
-            self.renderer.set_view_matrix(view_proj, eye_position);
-            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            let timestamps = in_flight.as_mut().map(|f| f.timestamps());
-            self.renderer
-                .encode_view(&mut encoder, &self.eyes[i].targets, timestamps);
-            if i == last_eye {
-                self.layers.acquire()?;
-                let (colour, depth) = self.layers.acquired();
-                self.layers.draw(&mut encoder, &colour, &depth);
-                if capture {
-                    let (texture, target) = self.layers.left();
-                    let size = self.eyes[0].size;
-                    readback = Some(copy_to_buffer(self.ctx, &mut encoder, texture, size));
-                    // the runtime expects its image back as a colour attachment: an empty pass
-                    // that keeps the image leaves it in that layout
-                    drop(present_pass(&mut encoder, &target, wgpu::LoadOp::Load));
-                }
-                if let Some(f) = in_flight.as_mut() {
-                    f.resolve(&mut encoder);
-                }
-            }
-            let submission = self.ctx.queue.submit([encoder.finish()]);
-            if let (true, true, Some(g)) = (timed, i == last_eye, st.gpu_done.as_ref()) {
-                g.watch(st.shown.len() - 1, submission);
-            }
+            Ok(())
+        };
+        let last = Some(&mut onto_swapchains as crate::display::frame::LastPasses<'_>);
+        let submission = self.frame.draw(Poses::Matrices(&eyes), Draw::Shown, last)?;
+        if let (true, Some(s), Some(g)) = (timed, submission, st.gpu_done.as_ref()) {
+            g.watch(st.shown.len() - 1, s);
         }
         self.layers.release()?;
         Ok(readback)
@@ -808,7 +761,7 @@ impl Headset<'_> {
         padded_row: u32,
         path: &std::path::Path,
     ) -> Result<()> {
-        let size = self.eyes[0].size;
+        let size = self.frame.labels()[0].pixels;
         let bytes: Vec<u8> = self
             .ctx
             .read_buffer(buffer, padded_row as u64 * size[1] as u64)?;

@@ -5,7 +5,9 @@
 //! pixel size, its outputs drawn from it by the pass `--headless` uses (`post.rs`'s `Outputs`:
 //! each projector's warp and blend, the wand's ray), and put on the windows by
 //! `shaders/present.wgsl` (exposure, sRGB, and a status line when tracking goes quiet). Keyboard, mouse and gamepad (gilrs) navigation;
-//! Esc quits cleanly and prints the frame-time report.
+//! Esc quits cleanly and prints the frame-time report. The app drives the frame of views
+//! (`frame/`: the views drawn, paced and accounted); it keeps the events, the poses and
+//! navigation, the windows and presenting, and a cluster's frame lock.
 
 mod input;
 mod report;
@@ -14,15 +16,14 @@ mod surfaces;
 
 pub use report::WindowReport;
 
-use super::frame::{labels, wall_views, FrameTimes, Pass, WallView};
-use super::post::{Draw, Outputs};
+use super::frame::{FrameOfViews, Poses, Slots};
+use super::post::Draw;
 use super::present::PresentPipeline;
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::framelock::{FrameLock, FrameState};
-use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
+use crate::gpu::GpuContext;
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::Renderer;
 use crate::tracking::live::TrackingStatus;
 use crate::tracking::navigator::Navigator;
 use crate::tracking::source::PoseSource;
@@ -78,25 +79,15 @@ pub fn run_locked<'a>(
     })?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let poses = config.pose_source(config_path)?;
-    let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
-    renderer.set_samples_per_pixel(config.antialiasing)?;
-    // every wall and eye rendered once a frame; warp, blend and the wand ray as headless
-    let views = wall_views(config);
-    let fit = super::frame::fit_frame_time(&mut renderer, config, &views, &poses, lf)?;
-    let specs = super::warp::load_outputs(config, config_path)?;
-    let walls: Vec<usize> = views.iter().map(|v| v.wall).collect();
-    let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
-    let outputs = Outputs::new(&resident.ctx, &renderer, config, &specs, &walls, post)?;
+    // every wall and eye rendered once a frame into its own image; warp, blend and the wand
+    // ray as headless
+    let frame = FrameOfViews::cave((lf, resident), config, config_path, &poses, Slots::PerView)?;
     let mut app = App {
-        lf,
         resident,
         config,
         poses,
         options,
-        renderer,
-        times: FrameTimes::new(labels(config, &views)),
-        views,
-        outputs,
+        frame,
         windows: Vec::new(),
         present: None,
         overlay: None,
@@ -107,18 +98,12 @@ pub fn run_locked<'a>(
             .ok(),
         started: Instant::now(),
         last_frame: Instant::now(),
-        frames: 0,
         status_messages: Vec::new(),
         status_to_announce: None,
-        latency: Vec::new(),
         error: None,
         printed_done: false,
         lock,
         shown: 0,
-        pacer: fit
-            .as_ref()
-            .and_then(crate::render::budget::Pacer::from_fit),
-        fit,
     };
     event_loop
         .run_app(&mut app)
@@ -130,20 +115,13 @@ pub fn run_locked<'a>(
 }
 
 struct App<'a> {
-    /// with `fit_frame_time`: the settings probed and chosen before the first frame, and each
-    /// view's eye rays per pixel by tile, frame by frame
-    fit: Option<crate::render::budget::BudgetFit>,
-    pacer: Option<crate::render::budget::Pacer>,
-    lf: &'a LightField,
     resident: &'a ResidentLightField,
     config: &'a DisplayConfig,
     poses: PoseSource,
     options: WindowOptions,
-    renderer: Renderer,
-    /// every wall and eye, in `outputs`' slot order
-    views: Vec<WallView>,
-    /// the wall images and the outputs drawn from them (`post.rs`, shared with headless)
-    outputs: Outputs,
+    /// the renderer, every wall and eye (in the wall images' slot order) and the outputs drawn
+    /// from them (`post.rs`, shared with headless), the pacing, and every timed frame's times
+    frame: FrameOfViews<'a>,
     windows: Vec<WallWindow>,
     present: Option<PresentPipeline>,
     overlay: Option<(wgpu::Texture, wgpu::TextureView)>,
@@ -152,15 +130,10 @@ struct App<'a> {
     gamepads: Option<gilrs::Gilrs>,
     started: Instant,
     last_frame: Instant,
-    frames: u32,
-    /// every timed frame's GPU time per view (in `views` order) and CPU time
-    times: FrameTimes,
     /// status lines shown on screen (tracking gone quiet), in order
     status_messages: Vec<String>,
     /// a new condition's status line, set for the next frame and announced once presented
     status_to_announce: Option<String>,
-    /// milliseconds from a live pose's arrival to the frame drawn from it
-    latency: Vec<f64>,
     error: Option<VlfError>,
     printed_done: bool,
     /// a cluster's frame lock (`crate::cluster`); None alone
@@ -179,30 +152,9 @@ impl App<'_> {
         event_loop.exit();
     }
 
-    /// A drawn frame's view times to the pacer and, when timed, with its CPU time to the report.
-    fn account(
-        &mut self,
-        ctx: &GpuContext,
-        timestamps: Option<&mut Timestamps>,
-        started: Instant,
-        timed: bool,
-    ) -> Result<()> {
-        let view_ms = match timestamps {
-            Some(t) => t.read_ms(ctx)?,
-            None => Vec::new(),
-        };
-        if let Some(p) = self.pacer.as_mut() {
-            let passes: Vec<Pass> = (0..view_ms.len()).map(Pass::View).collect();
-            super::frame::pace_views(p, &view_ms, &passes);
-        }
-        if timed {
-            self.times.push_cpu(started.elapsed().as_secs_f64() * 1e3);
-            if !view_ms.is_empty() {
-                self.times.push_view_gpu(&view_ms);
-            }
-            self.frames += 1;
-        }
-        Ok(())
+    /// Frames timed so far.
+    fn frames(&self) -> u32 {
+        self.frame.frames_timed()
     }
 
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
@@ -259,38 +211,17 @@ impl App<'_> {
         };
         self.set_status(status);
 
-        let timed = self.options.frames.is_none_or(|n| self.frames < n);
+        let timed = self.options.frames.is_none_or(|n| self.frames() < n);
         let ctx = self.ctx().clone();
-        // the pacer needs every frame's view times, timed or not
-        let mut timestamps = if timed || self.pacer.is_some() {
-            Timestamps::new(&ctx, self.views.len() as u32)
-        } else {
-            None
-        };
-        let started = Instant::now();
         // every view rendered, and its outputs drawn, once; then each window shows its parts
-        for (slot, v) in self.views.iter().enumerate() {
-            if let Some(p) = &self.pacer {
-                self.renderer.set_pacing(p.setting(slot));
-            }
-            let wall = &self.config.walls[v.wall];
-            let norm = &self.lf.meta.normalisation;
-            let view = super::wall_view(self.config, wall, v.side, &pose, norm);
-            let overlay =
-                super::post::wand_overlay(self.config, wall, v.side, &pose, wand.as_ref(), norm);
-            self.outputs.encode(
-                &mut self.renderer,
-                slot,
-                view,
-                overlay.as_ref(),
-                timestamps.as_mut(),
-                Draw::Shown,
-            );
-        }
+        self.frame.begin(timed)?;
+        let tracked = Poses::Tracked {
+            pose: &pose,
+            wand: wand.as_ref(),
+            arrived: fresh,
+        };
+        self.frame.draw(tracked, Draw::Shown, None)?;
         let outputs = self.draw_windows(&ctx)?;
-        if let (Some(arrived), true) = (fresh, timed) {
-            self.latency.push(arrived.elapsed().as_secs_f64() * 1e3);
-        }
         // every window's frame is ready before any is shown: the walls change together (and
         // in a cluster, every rank's: drawn, then the swap barrier)
         if let Some(lock) = self.lock.as_deref_mut() {
@@ -303,10 +234,10 @@ impl App<'_> {
         }
         ctx.wait_spinning()?;
         self.announce_presented(outputs_shown);
-        self.account(&ctx, timestamps.as_mut(), started, timed)?;
+        self.frame.account(self.frame.elapsed_ms())?;
         let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {
-            if self.frames >= n {
+            if self.frames() >= n {
                 if !self.printed_done {
                     status::say(&format!(
                         "presented {n} frames on {} window(s)",

@@ -28,23 +28,22 @@ pub struct WindowReport {
 
 impl App<'_> {
     pub(super) fn report(&self) -> WindowReport {
-        let views = self.times.views();
-        let cpu_frame_ms = self.times.cpu_ms();
+        let views = self.frame.times().views();
+        let cpu_frame_ms = self.frame.times().cpu_ms();
         let limits = frame_limits(&views, cpu_frame_ms.as_ref(), self.config.frame_budget_ms());
         WindowReport {
             display: self.config.name.clone(),
             adapter: self.resident.ctx.summary.name.clone(),
             windows: self.windows.len(),
-            frames: self.frames,
+            frames: self.frames(),
             views,
             cpu_frame_ms,
             status_messages: self.status_messages.clone(),
-            tracking_latency_ms: (!self.latency.is_empty())
-                .then(|| Distribution::of(&self.latency)),
+            tracking_latency_ms: self.frame.latency_ms(),
             limits,
-            quality: self.renderer.run_quality(self.pacer.as_ref()),
-            fit: self.fit.clone(),
-            pacer: self.pacer.as_ref().map(|p| p.report()),
+            quality: self.frame.quality(),
+            fit: self.frame.fit().cloned(),
+            pacer: self.frame.pacer_report(),
         }
     }
 }

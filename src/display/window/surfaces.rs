@@ -118,8 +118,7 @@ impl App<'_> {
 
     /// The slot (view) of `wall` seen by `eye`.
     fn slot_of(&self, wall: usize, eye: &str) -> usize {
-        self.views
-            .iter()
+        (self.frame.wall_views().iter())
             .position(|v| v.wall == wall && v.eye == eye)
             .expect("a view per wall and eye")
     }
@@ -230,8 +229,9 @@ impl App<'_> {
         let ctx = self.ctx().clone();
         let overlay = self.overlay_view().clone();
         let present = (self.present.as_ref()).expect("present pipeline made with the first window");
-        let binding =
-            PresentBinding::new(&ctx, present, self.outputs.shown(slot, projector), &overlay);
+        let outputs = (self.frame.outputs())
+            .ok_or_else(|| VlfError::Display("the walls' views have no outputs".into()))?;
+        let binding = PresentBinding::new(&ctx, present, outputs.shown(slot, projector), &overlay);
         Ok(WindowPart { part, binding })
     }
 

@@ -1,0 +1,406 @@
+//! One frame of views, as every display draws it: `FrameOfViews` owns the renderer, the views
+//! (each with its report name and pixel size, `views.rs`) and where each view's image goes
+//! (`Sink`: the CAVE's wall images and the outputs drawn from them, `post.rs`; the headset's
+//! eye images), the frame-time fit and the pacer (`render/budget.rs`), and the accounting
+//! (`accounting.rs`: timestamps read at once or frames in flight, `in_flight.rs`; the times,
+//! `times.rs`). A frame is `begin`, one `draw` of every view from the frame's poses, and
+//! `account`. The loops around it are its drivers: offscreen files (`headless.rs`), windows
+//! (`window/`), the cluster's ranks through those two (`crate::cluster`) and the headset
+//! (`crate::xr`) keep only how they get their poses, their events, presentation and their
+//! reports.
+
+mod accounting;
+mod in_flight;
+mod times;
+mod views;
+
+pub use in_flight::InFlight;
+pub use times::{
+    frame_limits, worst_ratio, FrameSeries, FrameTimes, Limit, Pass, ViewTiming,
+    CONSTANT_CPU_FRAME_TIME, CONSTANT_FRAME_TIME, MAX_OVER_MEDIAN,
+};
+pub use views::{labels, wall_views, ViewLabel, WallView};
+
+use super::post::{Draw, Outputs, WandOverlay};
+use super::DisplayConfig;
+use crate::error::{Result, VlfError};
+use crate::gpu::{GpuContext, MemoryLedger};
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality};
+use crate::render::{Frame, Renderer, ViewTargets};
+use crate::stats::Distribution;
+use crate::tracking::live::WandPose;
+use crate::tracking::source::{Pose, PoseSource};
+use accounting::{Accounting, Clock};
+use glam::{Mat4, Vec3};
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Where a frame's views look from.
+#[derive(Clone, Copy)]
+pub enum Poses<'p> {
+    /// the tracked head (and wand): each wall's views through `super::wall_view`, the wand's
+    /// ray over them (`post::wand_overlay`); `arrived`, when a live pose came in
+    Tracked {
+        pose: &'p Pose,
+        wand: Option<&'p WandPose>,
+        arrived: Option<Instant>,
+    },
+    /// each view's view-projection and eye, in view order (the headset's eyes)
+    Matrices(&'p [(Mat4, Vec3)]),
+}
+
+/// Where each view's image goes.
+enum Sink {
+    /// the CAVE: view i rendered into wall image `slots[i]` of `outputs`, its outputs (warp,
+    /// blend, wand ray) drawn from it
+    Outputs { outputs: Outputs, slots: Vec<usize> },
+    /// the headset: view i rendered into its own image and depth
+    Targets(Vec<ViewTargets>),
+}
+
+/// How the CAVE's views share wall images.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Slots {
+    /// one image per wall, its eyes drawn into it one after the other (offscreen: each view is
+    /// read back before the next is drawn)
+    PerWall,
+    /// one image per view (windows show every view of a frame at once)
+    PerView,
+}
+
+/// The CAVE's walls, for turning a tracked pose into each view's matrices.
+struct Cave<'a> {
+    config: &'a DisplayConfig,
+    lf: &'a LightField,
+    views: Vec<WallView>,
+}
+
+/// A view read back: its image and its projectors' outputs (named by projector).
+pub type ViewImages = (Frame, Vec<(String, Frame)>);
+
+/// What the frame's last encoder carries besides the views (the headset's swapchain layers).
+pub type LastPasses<'f> = &'f mut dyn FnMut(&mut wgpu::CommandEncoder) -> Result<()>;
+
+/// A frame of views: the renderer, the views and their sink, the pacing and the accounting.
+pub struct FrameOfViews<'a> {
+    ctx: Arc<GpuContext>,
+    renderer: Renderer,
+    sink: Sink,
+    cave: Option<Cave<'a>>,
+    /// with `fit_frame_time`: what was probed and chosen before the first frame
+    fit: Option<BudgetFit>,
+    /// with a fit: how many eye rays each view draws in which tiles, frame by frame
+    pacer: Option<Pacer>,
+    acc: Accounting,
+}
+
+impl<'a> FrameOfViews<'a> {
+    /// A display's every wall and eye (`wall_views`), their outputs (`warp::load_outputs`; the
+    /// pass after rendering only where needed, `Outputs::needed`) and, with `fit_frame_time`,
+    /// the fit probed on the views of the first pose of `poses`. Timestamps are read serially.
+    pub fn cave(
+        (lf, resident): (&'a LightField, &ResidentLightField),
+        config: &'a DisplayConfig,
+        config_path: &Path,
+        poses: &PoseSource,
+        slots: Slots,
+    ) -> Result<FrameOfViews<'a>> {
+        let ctx = resident.ctx.clone();
+        let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+        renderer.set_samples_per_pixel(config.antialiasing)?;
+        let views = wall_views(config);
+        let specs = super::warp::load_outputs(config, config_path)?;
+        let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
+        let (walls, slots): (Vec<usize>, Vec<usize>) = match slots {
+            Slots::PerWall => (
+                (0..config.walls.len()).collect(),
+                (views.iter()).map(|v| v.wall).collect(),
+            ),
+            Slots::PerView => (
+                (views.iter()).map(|v| v.wall).collect(),
+                (0..views.len()).collect(),
+            ),
+        };
+        let outputs = Outputs::new(&ctx, &renderer, config, &specs, &walls, post)?;
+        // a timed frame's pairs: each view's render, then each of its outputs' passes
+        let pairs: usize = (slots.iter()).map(|&s| 1 + outputs.timed_outputs(s)).sum();
+        let clock = Clock::Serial(crate::gpu::Timestamps::new(&ctx, pairs as u32));
+        let mut frame = FrameOfViews {
+            acc: Accounting::new(labels(config, &views), clock),
+            ctx,
+            renderer,
+            sink: Sink::Outputs { outputs, slots },
+            cave: Some(Cave { config, lf, views }),
+            fit: None,
+            pacer: None,
+        };
+        if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
+            let (pose, _) = poses.at_fresh(0.0);
+            let first = Poses::Tracked {
+                pose: &pose,
+                wand: None,
+                arrived: None,
+            };
+            frame.fit_frame_time(first, budget)?;
+        }
+        Ok(frame)
+    }
+
+    /// Views drawn by `renderer` into their own `targets` (one per label), their times read
+    /// `frames_in_flight` frames late: the headset's eyes.
+    pub fn eyes(
+        ctx: &Arc<GpuContext>,
+        renderer: Renderer,
+        views: Vec<(ViewLabel, ViewTargets)>,
+        frames_in_flight: usize,
+    ) -> FrameOfViews<'a> {
+        let (labels, targets): (Vec<ViewLabel>, Vec<ViewTargets>) = views.into_iter().unzip();
+        let clock = Clock::InFlight {
+            depth: frames_in_flight,
+            frames: InFlight::new(ctx, labels.len() as u32, frames_in_flight),
+        };
+        FrameOfViews {
+            ctx: ctx.clone(),
+            renderer,
+            sink: Sink::Targets(targets),
+            cave: None,
+            fit: None,
+            pacer: None,
+            acc: Accounting::new(labels, clock),
+        }
+    }
+
+    /// Probe the views seen from `poses` (`render/budget.rs`) against `budget_ms`, keep the
+    /// settings chosen, and pace every frame after it; with frames in flight their times come
+    /// back that many frames late, so the pacer steps less (`Pacer::lagged`).
+    pub fn fit_frame_time(&mut self, poses: Poses<'_>, budget_ms: f64) -> Result<()> {
+        let probes = (0..self.labels().len())
+            .map(|i| {
+                let ((view_proj, eye), _) = self.view(i, &poses)?;
+                let size = self.labels()[i].pixels;
+                Ok(ProbeView {
+                    view_proj,
+                    eye,
+                    size,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let fit = self.renderer.fit_frame_time(&probes, budget_ms)?;
+        let lag = self.acc.lag() as u32;
+        self.pacer = Pacer::from_fit(&fit).map(|p| if lag > 0 { p.lagged(lag) } else { p });
+        self.fit = Some(fit);
+        Ok(())
+    }
+
+    /// View `i`'s view-projection and eye, and the wand's ray over it.
+    fn view(&self, i: usize, poses: &Poses<'_>) -> Result<((Mat4, Vec3), Option<WandOverlay>)> {
+        match (poses, &self.cave) {
+            (Poses::Matrices(m), _) => {
+                let view = m.get(i).ok_or_else(|| {
+                    VlfError::Display(format!(
+                        "{} views' matrices for {} views",
+                        m.len(),
+                        self.labels().len()
+                    ))
+                })?;
+                Ok((*view, None))
+            }
+            (Poses::Tracked { pose, wand, .. }, Some(cave)) => {
+                let v = cave.views[i];
+                let wall = &cave.config.walls[v.wall];
+                let norm = &cave.lf.meta.normalisation;
+                let view = super::wall_view(cave.config, wall, v.side, pose, norm);
+                let overlay =
+                    super::post::wand_overlay(cave.config, wall, v.side, pose, *wand, norm);
+                Ok((view, overlay))
+            }
+            (Poses::Tracked { .. }, None) => Err(VlfError::Display(
+                "a tracked pose needs walls to turn it into views; give these views' matrices"
+                    .into(),
+            )),
+        }
+    }
+
+    /// Start a frame (`timed`: it counts in the report).
+    pub fn begin(&mut self, timed: bool) -> Result<()> {
+        self.acc.begin(&self.ctx, timed, self.pacer.as_mut())
+    }
+
+    /// Encode and submit every view of the frame seen from `poses`: each with its pacing, its
+    /// view matrix, the wand's ray and its timestamps, and the outputs that `draw` names (the
+    /// CAVE's; `Draw::Timed` times them too). `last` adds its passes to the frame's last encoder
+    /// (the headset's swapchain layers). The frame's last submission, where the frame submits
+    /// one (the CAVE's outputs submit each view themselves).
+    pub fn draw(
+        &mut self,
+        poses: Poses<'_>,
+        draw: Draw,
+        mut last: Option<LastPasses<'_>>,
+    ) -> Result<Option<wgpu::SubmissionIndex>> {
+        let count = self.labels().len();
+        let mut submission = None;
+        for i in 0..count {
+            if let Some(p) = &self.pacer {
+                self.renderer.set_pacing(p.setting(i));
+            }
+            let (view, overlay) = self.view(i, &poses)?;
+            self.acc.pass(Pass::View(i));
+            match &self.sink {
+                Sink::Outputs { outputs, slots } => {
+                    if draw == Draw::Timed {
+                        for _ in 0..outputs.timed_outputs(slots[i]) {
+                            self.acc.pass(Pass::Output);
+                        }
+                    }
+                    let ts = self.acc.timestamps();
+                    outputs.encode(
+                        &mut self.renderer,
+                        slots[i],
+                        view,
+                        overlay.as_ref(),
+                        ts,
+                        draw,
+                    );
+                }
+                Sink::Targets(targets) => {
+                    self.renderer.set_view_matrix(view.0, view.1);
+                    let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                    self.renderer
+                        .encode_view(&mut encoder, &targets[i], self.acc.timestamps());
+                    if i + 1 == count {
+                        last_passes(&mut self.acc, &mut encoder, last.take())?;
+                    }
+                    submission = Some(self.ctx.queue.submit([encoder.finish()]));
+                }
+            }
+        }
+        // after the CAVE's views (submitted by their outputs), anything left gets an encoder
+        if submission.is_none() && (last.is_some() || self.acc.resolves()) {
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            last_passes(&mut self.acc, &mut encoder, last)?;
+            submission = Some(self.ctx.queue.submit([encoder.finish()]));
+        }
+        let arrived = match poses {
+            Poses::Tracked { arrived, .. } => arrived,
+            Poses::Matrices(_) => None,
+        };
+        self.acc.submitted(arrived);
+        Ok(submission)
+    }
+
+    /// Draw every view again, one by one, untimed and with every output (`Draw::Everything`),
+    /// and read each back: its image and its projectors' outputs.
+    pub fn read_back(&mut self, poses: Poses<'_>) -> Result<Vec<ViewImages>> {
+        let mut images = Vec::new();
+        for i in 0..self.labels().len() {
+            let (view, overlay) = self.view(i, &poses)?;
+            match &self.sink {
+                Sink::Outputs { outputs, slots } => {
+                    let (r, slot) = (&mut self.renderer, slots[i]);
+                    outputs.encode(r, slot, view, overlay.as_ref(), None, Draw::Everything);
+                    images.push(outputs.read(slot)?);
+                }
+                Sink::Targets(targets) => {
+                    self.renderer.set_view_matrix(view.0, view.1);
+                    let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                    self.renderer.encode_view(&mut encoder, &targets[i], None);
+                    self.ctx.queue.submit([encoder.finish()]);
+                    let image = super::post::read_texture(&self.ctx, &targets[i].image)?;
+                    images.push((image, Vec::new()));
+                }
+            }
+        }
+        Ok(images)
+    }
+
+    /// Milliseconds since the frame began.
+    pub fn elapsed_ms(&self) -> f64 {
+        self.acc.elapsed_ms()
+    }
+
+    /// After the frame: its view times to the pacer (read back now, or frames later in flight)
+    /// and, when timed, to the report with its CPU time `cpu_ms`.
+    pub fn account(&mut self, cpu_ms: f64) -> Result<()> {
+        self.acc.account(&self.ctx, cpu_ms, self.pacer.as_mut())
+    }
+
+    /// At the end of a run: the times of the frames still in flight.
+    pub fn finish(&mut self) -> Result<()> {
+        self.acc.finish(&self.ctx, self.pacer.as_mut())
+    }
+
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// The CAVE's wall images and outputs (None for the headset's eyes).
+    pub fn outputs(&self) -> Option<&Outputs> {
+        match &self.sink {
+            Sink::Outputs { outputs, .. } => Some(outputs),
+            Sink::Targets(_) => None,
+        }
+    }
+
+    /// The CAVE's walls and eyes in view order (none for the headset).
+    pub fn wall_views(&self) -> &[WallView] {
+        self.cave.as_ref().map_or(&[], |c| &c.views)
+    }
+
+    pub fn labels(&self) -> &[ViewLabel] {
+        &self.acc.times.labels
+    }
+
+    pub fn times(&self) -> &FrameTimes {
+        &self.acc.times
+    }
+
+    pub fn times_mut(&mut self) -> &mut FrameTimes {
+        &mut self.acc.times
+    }
+
+    /// Timed frames so far.
+    pub fn frames_timed(&self) -> u32 {
+        self.acc.times.frames_timed() as u32
+    }
+
+    /// Live tracking: milliseconds from a pose's arrival to its frame's submission.
+    pub fn latency_ms(&self) -> Option<Distribution> {
+        self.acc.latency_ms()
+    }
+
+    pub fn series(&self) -> FrameSeries {
+        self.acc.series()
+    }
+
+    pub fn in_flight(&self) -> Option<&InFlight> {
+        self.acc.in_flight()
+    }
+
+    /// The settings every frame was drawn with.
+    pub fn quality(&self) -> Quality {
+        self.renderer.run_quality(self.pacer.as_ref())
+    }
+
+    pub fn fit(&self) -> Option<&BudgetFit> {
+        self.fit.as_ref()
+    }
+
+    pub fn pacer_report(&self) -> Option<PacerReport> {
+        self.pacer.as_ref().map(Pacer::report)
+    }
+}
+
+/// The frame's last passes: `last`'s, and the resolve of a frame in flight's timestamps.
+fn last_passes(
+    acc: &mut Accounting,
+    encoder: &mut wgpu::CommandEncoder,
+    last: Option<LastPasses<'_>>,
+) -> Result<()> {
+    if let Some(last) = last {
+        last(encoder)?;
+    }
+    acc.resolve(encoder);
+    Ok(())
+}
