@@ -96,7 +96,7 @@ identity_dir=$(dirname "$dir")/identity
 if [ -f "$identity_dir/identity.txt" ]; then
   echo "### Two builds: the same light fields, the same speed"
   echo
-  echo "\`tools/gpu-identity.sh\` ($(cat "$identity_dir/builds.txt")): the light fields of four scenes byte for byte, and the suite of both builds, three runs each taking turns, judged against the spread of the old build's own runs."
+  echo "\`tools/gpu-identity.sh\` ($(cat "$identity_dir/builds.txt")): the light fields of four scenes byte for byte, the suite of both builds and the 4-wall CAVE's walks at a fixed 4 eye rays per pixel, three runs each taking turns, judged against the spread of the old build's own runs."
   echo
   echo '```'; cat "$identity_dir/identity.txt"; echo '```'
   echo
