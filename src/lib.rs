@@ -30,6 +30,7 @@ pub mod reference;
 pub mod render;
 pub mod scene;
 pub mod stats;
+pub mod study;
 pub mod tracking;
 pub mod verify;
 pub mod xr;

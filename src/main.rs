@@ -56,6 +56,8 @@ enum Command {
     /// Check the light field on your own model: every camera rendered from it and path-traced
     /// by `vlf reference`, compared, with error maps and the verdict in words
     Verify(cli::verify::VerifyArgs),
+    /// Draw a session log's frames (`vlf cave --headless --log DIR`) again, exactly as the run drew them: one folder of images per frame
+    Replay(cli::replay::ReplayArgs),
     /// Measure setup, visibility, propagation and rendering
     #[cfg(feature = "lab")]
     Bench(cli::lab::BenchArgs),
@@ -144,6 +146,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Export(a) => cli::export::run(a),
         Command::Demo(a) => cli::demo::run(&a.out),
         Command::Verify(a) => cli::verify::run(a),
+        Command::Replay(a) => cli::replay::run(a),
         #[cfg(feature = "lab")]
         Command::Sweep(a) => cli::lab::sweep(a),
         #[cfg(feature = "lab")]

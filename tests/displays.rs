@@ -166,20 +166,7 @@ fn headless_cave_renders_every_wall_and_eye() {
     std::fs::write(&path, text).unwrap();
     let display = DisplayConfig::load(&path).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams {
-        geodesic_frequency: 3,
-        grid_resolution: 32,
-        tile_size: 8,
-        texel_density: 8.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
-    };
+    let params = common::draft_params();
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let out = dir.path().join("out");
     let report =
@@ -234,20 +221,7 @@ output = {{ monitor = 0 }}
     std::fs::write(&path, text).unwrap();
     let display = DisplayConfig::load(&path).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams {
-        geodesic_frequency: 3,
-        grid_resolution: 32,
-        tile_size: 8,
-        texel_density: 8.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
-    };
+    let params = common::draft_params();
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the tracker streams head poses all through the run
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
@@ -343,20 +317,7 @@ fn live_osc_tracking_takes_the_latest_pose_and_holds_it_when_quiet() {
 fn fitting_the_frame_time_steps_down_until_the_views_fit() {
     let dir = tempfile::tempdir().unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams {
-        geodesic_frequency: 3,
-        grid_resolution: 32,
-        tile_size: 8,
-        texel_density: 8.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
-    };
+    let params = common::draft_params();
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     let run = |hz: &str| {
         let text = std::fs::read_to_string(config("cave-4wall.toml"))

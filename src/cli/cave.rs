@@ -37,6 +37,10 @@ pub struct CaveArgs {
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Headless: log every frame into this new folder (session.json and frames.csv: poses, what
+    /// each view was drawn with, times); `vlf replay DIR` draws the logged frames again
+    #[arg(long)]
+    log: Option<PathBuf>,
     #[command(flatten)]
     params: ParamArgs,
 }
@@ -53,6 +57,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         out,
         exr,
         json,
+        log,
         params,
     } = a;
     let (config, scene, out, params) = (config.as_path(), scene.as_path(), out.as_path(), &params);
@@ -81,6 +86,9 @@ pub fn run(a: CaveArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
+    if log.is_some() && (!headless || vlf::cluster::launched_size().is_some()) {
+        bail!("--log: a session log is written by one headless process for now (--headless, not under mpirun)");
+    }
     if !headless {
         if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
             bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
@@ -97,7 +105,16 @@ pub fn run(a: CaveArgs) -> Result<()> {
         }
         return Ok(());
     }
-    let run = (frames.unwrap_or(60), out, exr);
+    let mut session = match &log {
+        Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
+        None => None,
+    };
+    let run = vlf::display::headless::HeadlessRun {
+        frames: frames.unwrap_or(60),
+        out,
+        exr,
+        log: session.as_mut(),
+    };
     let report = vlf::display::headless::run_reporting(
         &lf,
         &resident,
@@ -116,6 +133,39 @@ pub fn run(a: CaveArgs) -> Result<()> {
         out.join("overview.png").display()
     );
     Ok(())
+}
+
+/// A new session log in `dir` for this run (`vlf::study`).
+fn session_log(
+    dir: &std::path::Path,
+    (config, scene): (&std::path::Path, &std::path::Path),
+    lf: &vlf::lightfield::LightField,
+    display: &vlf::display::DisplayConfig,
+    ctx: &GpuContext,
+) -> Result<vlf::study::SessionLog> {
+    let absolute =
+        |p: &std::path::Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    let views = vlf::display::frame::wall_views(display);
+    let meta = vlf::study::SessionMeta {
+        format: vlf::study::log::LOG_FORMAT,
+        vlf_version: env!("CARGO_PKG_VERSION").into(),
+        display_config: absolute(config),
+        light_field: absolute(scene),
+        propagation: (!scene
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("vlf")))
+        .then(|| lf.meta.params.clone()),
+        scene_hash: lf.meta.scene_hash.clone(),
+        adapter: ctx.summary.name.clone(),
+        started_unix_s: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64()),
+        views: (views.iter())
+            .map(|v| format!("{}-{}", display.walls[v.wall].name, v.eye))
+            .collect(),
+        columns: Vec::new(),
+    };
+    Ok(vlf::study::SessionLog::create(dir, meta)?)
 }
 
 /// Seconds per eye ray on lavapipe with 2 CPU cores (a view's ray cast and resolve against the

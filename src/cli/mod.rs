@@ -15,6 +15,7 @@ pub mod progress;
 pub mod propagate;
 pub mod reference;
 pub mod render;
+pub mod replay;
 pub mod track;
 pub mod verify;
 pub mod xr;

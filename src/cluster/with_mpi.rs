@@ -495,7 +495,12 @@ fn draw(
             &resident,
             &local,
             &run.config,
-            (frames, &out, run.exr),
+            headless::HeadlessRun {
+                frames,
+                out: &out,
+                exr: run.exr,
+                log: None,
+            },
             Some(link),
             &crate::progress::Silent,
         )?;

@@ -19,6 +19,8 @@ use crate::render::budget::{BudgetFit, PacerReport};
 use crate::render::image_io::{display_image, write_image};
 use crate::render::Frame;
 use crate::stats::Distribution;
+use crate::study::log::Drawn;
+use crate::study::{FrameRecord, SessionLog};
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
 use serde::Serialize;
@@ -57,6 +59,15 @@ pub struct CaveReport {
     pub series: super::frame::FrameSeries,
 }
 
+/// A headless run: `frames` frames, the last one's images into `out` (PNG, and EXR with `exr`),
+/// and with `log` every frame into a session log (`crate::study`).
+pub struct HeadlessRun<'p> {
+    pub frames: u32,
+    pub out: &'p Path,
+    pub exr: bool,
+    pub log: Option<&'p mut SessionLog>,
+}
+
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
 /// last frame is drawn again view by view and read back, its images going to `out`.
 pub fn run(
@@ -68,7 +79,12 @@ pub fn run(
     out: &Path,
     exr: bool,
 ) -> Result<CaveReport> {
-    let run = (frames, out, exr);
+    let run = HeadlessRun {
+        frames,
+        out,
+        exr,
+        log: None,
+    };
     run_locked(
         lf,
         resident,
@@ -87,24 +103,23 @@ pub fn run_reporting(
     resident: &ResidentLightField,
     config: &DisplayConfig,
     config_path: &Path,
-    (frames, out, exr): (u32, &Path, bool),
+    run: HeadlessRun<'_>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
-    let run = (frames, out, exr);
     run_locked(lf, resident, config, config_path, run, None, progress)
 }
 
 /// What the last frame leaves: every view's image, and each projector's output (named
 /// `<wall>-<eye>-<projector>`).
 #[derive(Default)]
-struct Kept {
+pub(super) struct Kept {
     views: Vec<Frame>,
     projectors: Vec<(String, Frame)>,
 }
 
 impl Kept {
     /// The frame's views read back (`FrameOfViews::read_back`), their projectors' outputs named.
-    fn of(config: &DisplayConfig, views: &[WallView], images: Vec<ViewImages>) -> Kept {
+    pub(super) fn of(config: &DisplayConfig, views: &[WallView], images: Vec<ViewImages>) -> Kept {
         let mut kept = Kept::default();
         for (v, (frame, projectors)) in views.iter().zip(images) {
             let wall = &config.walls[v.wall].name;
@@ -153,10 +168,16 @@ pub fn run_locked(
     resident: &ResidentLightField,
     config: &DisplayConfig,
     config_path: &Path,
-    (frames, out, exr): (u32, &Path, bool),
+    run: HeadlessRun<'_>,
     mut lock: Option<&mut dyn FrameLock>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
+    let HeadlessRun {
+        frames,
+        out,
+        exr,
+        mut log,
+    } = run;
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
     let mut frame =
@@ -174,9 +195,28 @@ pub fn run_locked(
             wand: wand.as_ref(),
             arrived: fresh,
         };
+        let time_s = log.as_ref().map_or(0.0, |l| l.elapsed_s());
+        let record = |frame: &FrameOfViews, drawn: Drawn| FrameRecord {
+            frame: f as u64,
+            time_s,
+            drawn,
+            pose,
+            wand,
+            gpu_ms: None,
+            cpu_ms: None,
+            views: frame.drawn().to_vec(),
+            events: String::new(),
+        };
         if f + 1 == total {
             // the last frame drawn again view by view and read back (not timed)
             let images = frame.read_back(tracked)?;
+            if let Some(log) = log.as_deref_mut() {
+                let events = format!("read back into {}", out.display());
+                log.record(&FrameRecord {
+                    events,
+                    ..record(&frame, Drawn::ReadBack)
+                })?;
+            }
             kept = Kept::of(config, frame.wall_views(), images);
             if let Some(l) = lock.as_deref_mut() {
                 l.swap_untimed()?;
@@ -192,6 +232,14 @@ pub fn run_locked(
             l.swap()?;
         }
         frame.account(cpu_ms)?;
+        if let Some(log) = log.as_deref_mut() {
+            let (gpu_ms, cpu_ms) = frame.times().last_frame_ms();
+            log.record(&FrameRecord {
+                gpu_ms,
+                cpu_ms,
+                ..record(&frame, Drawn::Timed)
+            })?;
+        }
     }
     report_frame(progress, (total, total), began, software);
     progress.finish();
@@ -246,7 +294,7 @@ fn report_frame(
 }
 
 /// The last frame's images (`<wall>-<eye>.png`, each projector's output) and the overview.
-fn write_kept(
+pub(super) fn write_kept(
     config: &DisplayConfig,
     views: &[WallView],
     kept: &Kept,

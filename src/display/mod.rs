@@ -14,6 +14,7 @@ pub mod headless;
 pub mod post;
 pub mod present;
 pub mod projection;
+pub mod replay;
 pub mod warp;
 pub mod window;
 

@@ -150,6 +150,29 @@ impl Renderer {
 
     /// The next views' tiles: `setting.high` eye rays per pixel in the share `setting.fraction`,
     /// `setting.low` in the rest.
+    /// What the next view is drawn with besides its camera (a session log records it per view
+    /// and frame; `vlf replay` restores it with `set_view_settings`).
+    pub fn view_settings(&self) -> ViewSettings {
+        let v = &self.view_template;
+        ViewSettings {
+            samples_per_pixel: v.samples_per_pixel,
+            paced_samples: v.paced_samples,
+            paced_fraction: v.paced_fraction,
+            mirror_bounces: v.mirror_bounces,
+            fixed_work: v.fixed_work,
+        }
+    }
+
+    /// Draw the next views exactly as `s` says (a logged frame, replayed).
+    pub fn set_view_settings(&mut self, s: ViewSettings) {
+        let v = &mut self.view_template;
+        v.samples_per_pixel = s.samples_per_pixel.clamp(1, super::MAX_SAMPLES);
+        v.paced_samples = s.paced_samples.clamp(1, super::MAX_SAMPLES);
+        v.paced_fraction = s.paced_fraction.clamp(0.0, 1.0);
+        v.mirror_bounces = s.mirror_bounces;
+        v.fixed_work = s.fixed_work;
+    }
+
     pub fn set_pacing(&mut self, setting: PacedSetting) {
         self.view_template.samples_per_pixel = setting.low.clamp(1, super::MAX_SAMPLES);
         self.view_template.paced_samples = setting.high.clamp(1, super::MAX_SAMPLES);
@@ -255,6 +278,17 @@ impl Renderer {
 
 /// The most eye rays per pixel the pacer gives a view that is cheap for its target.
 pub const PACED_MAX_SAMPLES: u32 = 16;
+
+/// The settings a view is drawn with besides its camera: the `GpuView` fields that frame
+/// pacing and the frame-time fit change.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+pub struct ViewSettings {
+    pub samples_per_pixel: u32,
+    pub paced_samples: u32,
+    pub paced_fraction: f32,
+    pub mirror_bounces: u32,
+    pub fixed_work: u32,
+}
 
 /// A view's tiles: `high` eye rays per pixel in the share `fraction`, `low` in the rest.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -246,3 +246,22 @@ pub fn face_corners(
     });
     corners
 }
+
+/// Small propagation settings for GPU tests on the software adapter (21 directions, a 32 x 32
+/// grid, 8 texels per unit, tolerance 1e-2, direct light with 16 samples).
+pub fn draft_params() -> vlf::propagate::PropagationParams {
+    vlf::propagate::PropagationParams {
+        geodesic_frequency: 3,
+        grid_resolution: 32,
+        tile_size: 8,
+        texel_density: 8.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+        rim_rays: false,
+    }
+}

@@ -26,7 +26,7 @@ use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
 use crate::lightfield::{LightField, ResidentLightField};
-use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality};
+use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
 use crate::render::{Frame, Renderer, ViewTargets};
 use crate::stats::Distribution;
 use crate::tracking::live::WandPose;
@@ -94,6 +94,10 @@ pub struct FrameOfViews<'a> {
     /// with a fit: how many eye rays each view draws in which tiles, frame by frame
     pacer: Option<Pacer>,
     acc: Accounting,
+    /// what each view of the last frame was drawn with (a session log records it)
+    drawn: Vec<ViewSettings>,
+    /// each view's settings given from outside instead of the pacer's (`vlf replay`)
+    forced: Option<Vec<ViewSettings>>,
 }
 
 impl<'a> FrameOfViews<'a> {
@@ -135,6 +139,8 @@ impl<'a> FrameOfViews<'a> {
             cave: Some(Cave { config, lf, views }),
             fit: None,
             pacer: None,
+            drawn: Vec::new(),
+            forced: None,
         };
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
@@ -169,6 +175,8 @@ impl<'a> FrameOfViews<'a> {
             fit: None,
             pacer: None,
             acc: Accounting::new(labels, clock),
+            drawn: Vec::new(),
+            forced: None,
         }
     }
 
@@ -241,10 +249,12 @@ impl<'a> FrameOfViews<'a> {
     ) -> Result<Option<wgpu::SubmissionIndex>> {
         let count = self.labels().len();
         let mut submission = None;
+        self.drawn.clear();
         for i in 0..count {
             if let Some(p) = &self.pacer {
                 self.renderer.set_pacing(p.setting(i));
             }
+            self.apply_forced(i);
             let (view, overlay) = self.view(i, &poses)?;
             self.acc.pass(Pass::View(i));
             match &self.sink {
@@ -294,7 +304,9 @@ impl<'a> FrameOfViews<'a> {
     /// and read each back: its image and its projectors' outputs.
     pub fn read_back(&mut self, poses: Poses<'_>) -> Result<Vec<ViewImages>> {
         let mut images = Vec::new();
+        self.drawn.clear();
         for i in 0..self.labels().len() {
+            self.apply_forced(i);
             let (view, overlay) = self.view(i, &poses)?;
             match &self.sink {
                 Sink::Outputs { outputs, slots } => {
@@ -313,6 +325,25 @@ impl<'a> FrameOfViews<'a> {
             }
         }
         Ok(images)
+    }
+
+    /// View `i`'s settings: those forced from outside, if any; then noted as drawn.
+    fn apply_forced(&mut self, i: usize) {
+        if let Some(s) = self.forced.as_ref().and_then(|f| f.get(i)) {
+            self.renderer.set_view_settings(*s);
+        }
+        self.drawn.push(self.renderer.view_settings());
+    }
+
+    /// Draw the next frames' views with these settings, view by view, instead of the pacer's
+    /// (`vlf replay`: what a logged frame was drawn with).
+    pub fn force_view_settings(&mut self, settings: Vec<ViewSettings>) {
+        self.forced = Some(settings);
+    }
+
+    /// What each view of the last frame drawn was drawn with, in view order.
+    pub fn drawn(&self) -> &[ViewSettings] {
+        &self.drawn
     }
 
     /// Milliseconds since the frame began.

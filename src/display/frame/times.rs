@@ -213,6 +213,11 @@ impl FrameTimes {
         (!self.output_gpu.is_empty()).then(|| Distribution::of(&self.output_gpu))
     }
 
+    /// The last timed frame's GPU time of all its passes, and its CPU time.
+    pub fn last_frame_ms(&self) -> (Option<f64>, Option<f64>) {
+        (self.frame_gpu.last().copied(), self.cpu.last().copied())
+    }
+
     pub fn cpu_ms(&self) -> Option<Distribution> {
         (!self.cpu.is_empty()).then(|| Distribution::of(&self.cpu))
     }

@@ -1,0 +1,64 @@
+//! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each
+//! view exactly as the live run drew it: the logged pose and wand through the same walls, and the
+//! logged settings of every view (eye rays per pixel, the paced tiles, mirror reflections) in
+//! place of the pacer's. Each frame's images go to `OUT/frame-<n>/` as the headless run writes
+//! its last frame (`<wall>-<eye>.png`, projectors' outputs, the overview).
+
+use super::frame::{FrameOfViews, Poses, Slots};
+use super::headless::{write_kept, Kept};
+use super::DisplayConfig;
+use crate::error::{Result, VlfError};
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::study::{FrameRecord, SessionMeta};
+use std::path::Path;
+
+/// Draw `frames` (of the log's `meta`) from the light field the session drew, images into
+/// `out`; `progress` hears of each. The folders written, in order.
+pub fn replay(
+    (lf, resident): (&LightField, &ResidentLightField),
+    meta: &SessionMeta,
+    frames: &[FrameRecord],
+    (out, exr): (&Path, bool),
+    progress: &dyn crate::progress::Progress,
+) -> Result<Vec<std::path::PathBuf>> {
+    let config_path = meta.display_config.as_path();
+    let mut config = DisplayConfig::load(config_path)?;
+    // the logged settings are drawn as they are: nothing is probed
+    config.fit_frame_time = false;
+    let poses = config.pose_source(config_path)?;
+    let mut frame =
+        FrameOfViews::cave((lf, resident), &config, config_path, &poses, Slots::PerWall)?;
+    let names: Vec<String> = (frame.wall_views().iter())
+        .map(|v| format!("{}-{}", config.walls[v.wall].name, v.eye))
+        .collect();
+    if names != meta.views {
+        return Err(VlfError::Display(format!(
+            "{}: its views are now {names:?}, the session drew {:?}: the display configuration changed since",
+            config_path.display(),
+            meta.views
+        )));
+    }
+    let mut written = Vec::new();
+    progress.begin(
+        frames.len() as u64,
+        "frames",
+        "drawing the logged frames again",
+    );
+    for (k, record) in frames.iter().enumerate() {
+        frame.force_view_settings(record.views.clone());
+        let poses = Poses::Tracked {
+            pose: &record.pose,
+            wand: record.wand.as_ref(),
+            arrived: None,
+        };
+        let images = frame.read_back(poses)?;
+        let kept = Kept::of(&config, frame.wall_views(), images);
+        let dir = out.join(format!("frame-{:06}", record.frame));
+        std::fs::create_dir_all(&dir).map_err(|e| VlfError::io(&dir, e))?;
+        write_kept(&config, frame.wall_views(), &kept, &dir, exr)?;
+        written.push(dir);
+        progress.advance_to(k as u64 + 1, &format!("frame {}", record.frame));
+    }
+    progress.finish();
+    Ok(written)
+}

@@ -1,0 +1,504 @@
+//! The session log (`vlf cave --log DIR`): `DIR/session.json` says what ran (the display
+//! configuration, the light field, the views, the adapter, when) and documents every column;
+//! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk
+//! at least once a second, so a crash (even SIGKILL) loses at most the last second.
+//!
+//! A row: the frame number, seconds since the session began, how the frame was drawn, the head
+//! pose in the room (after calibration) and the navigation (where the room is in the world), the
+//! wand, the frame's GPU and CPU milliseconds, and per view what it was drawn with (eye rays per
+//! pixel, the paced tiles' count and share, mirror reflections, fixed work), then the frame's
+//! events. Floats are written in Rust's shortest form that reads back to the same bits, so
+//! `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
+
+use crate::error::{Result, VlfError};
+use crate::render::budget::ViewSettings;
+use crate::tracking::pose::{Pose, WandPose};
+use glam::{Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// The log's own format version (session.json's `format`).
+pub const LOG_FORMAT: u32 = 1;
+/// The longest a row waits in memory before it is on the disk.
+pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
+
+/// What ran: `DIR/session.json`.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SessionMeta {
+    pub format: u32,
+    pub vlf_version: String,
+    /// the display configuration, as an absolute path
+    pub display_config: PathBuf,
+    /// the light field drawn: a .vlf file, or a scene.toml / glTF propagated at `vlf cave`'s
+    /// settings (propagation repeats bit for bit)
+    pub light_field: PathBuf,
+    /// where `light_field` is a scene: the settings it was propagated with (replay propagates
+    /// it again with them); None for a .vlf file
+    pub propagation: Option<crate::params::PropagationParams>,
+    /// the scene's hash (`LightFieldMeta::scene_hash`): replay checks it drew the same scene
+    pub scene_hash: String,
+    pub adapter: String,
+    /// seconds since the Unix epoch when the session began
+    pub started_unix_s: f64,
+    /// the views of every frame, in the order of the per-view columns: `<wall>-<eye>`
+    pub views: Vec<String>,
+    /// every column of frames.csv: name and meaning
+    pub columns: Vec<(String, String)>,
+}
+
+/// How a frame was drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Drawn {
+    /// submitted and timed (it counts in the frame-time report)
+    Timed,
+    /// drawn again view by view and read back (the headless run's last frame, its images)
+    ReadBack,
+}
+
+impl Drawn {
+    fn name(self) -> &'static str {
+        match self {
+            Drawn::Timed => "timed",
+            Drawn::ReadBack => "read_back",
+        }
+    }
+}
+
+/// One frame of the log.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameRecord {
+    pub frame: u64,
+    pub time_s: f64,
+    pub drawn: Drawn,
+    pub pose: Pose,
+    pub wand: Option<WandPose>,
+    /// all the frame's passes on the GPU, and the frame on the CPU (None where not timed)
+    pub gpu_ms: Option<f64>,
+    pub cpu_ms: Option<f64>,
+    /// each view's settings, in `SessionMeta::views` order
+    pub views: Vec<ViewSettings>,
+    /// what happened at this frame (free text; empty for none)
+    pub events: String,
+}
+
+/// The columns before the per-view ones, with their meaning.
+const FRAME_COLUMNS: [(&str, &str); 23] = [
+    ("frame", "frame number, from 0"),
+    (
+        "time_s",
+        "seconds since the session began, when the frame's drawing began",
+    ),
+    (
+        "drawn",
+        "timed (submitted and timed) or read_back (drawn again and read back)",
+    ),
+    (
+        "head_x",
+        "head position in the room, metres (after calibration)",
+    ),
+    ("head_y", "head position in the room, metres"),
+    ("head_z", "head position in the room, metres"),
+    ("head_qx", "head rotation, room from head, quaternion x"),
+    ("head_qy", "head rotation, quaternion y"),
+    ("head_qz", "head rotation, quaternion z"),
+    ("head_qw", "head rotation, quaternion w"),
+    (
+        "room_x",
+        "navigation: the room's origin in the world, metres",
+    ),
+    (
+        "room_y",
+        "navigation: the room's origin in the world, metres",
+    ),
+    (
+        "room_z",
+        "navigation: the room's origin in the world, metres",
+    ),
+    (
+        "room_yaw_deg",
+        "navigation: the room's turn about the world's up axis, degrees",
+    ),
+    (
+        "wand",
+        "1 where a wand pose is given, else 0 (its columns then 0)",
+    ),
+    ("wand_x", "wand position in the room, metres"),
+    ("wand_y", "wand position in the room, metres"),
+    ("wand_z", "wand position in the room, metres"),
+    ("wand_qx", "wand rotation, quaternion x"),
+    ("wand_qy", "wand rotation, quaternion y"),
+    ("wand_qz", "wand rotation, quaternion z"),
+    ("wand_qw", "wand rotation, quaternion w"),
+    (
+        "gpu_ms",
+        "all the frame's passes on the GPU (timestamps), ms; empty when not timed",
+    ),
+];
+/// After `gpu_ms`: the CPU time, then per view five columns, then the events.
+const VIEW_COLUMNS: [(&str, &str); 5] = [
+    (
+        "samples",
+        "eye rays per pixel in the view's tiles that are not paced",
+    ),
+    ("paced_samples", "eye rays per pixel in the paced tiles"),
+    (
+        "paced_fraction",
+        "the share of the view's 8x8 tiles drawn with paced_samples",
+    ),
+    ("bounces", "mirror reflections traced per eye ray"),
+    (
+        "fixed_work",
+        "1: every pixel traces its reflections whatever it sees",
+    ),
+];
+
+/// The documented columns of a log of `views`.
+fn columns(views: &[String]) -> Vec<(String, String)> {
+    let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
+        .map(|(n, m)| (n.to_string(), m.to_string()))
+        .collect();
+    out.push((
+        "cpu_ms".into(),
+        "the frame on the CPU, submission to the GPU's end, ms; empty when not timed".into(),
+    ));
+    for v in views {
+        for (n, m) in VIEW_COLUMNS {
+            out.push((format!("{v}:{n}"), format!("view {v}: {m}")));
+        }
+    }
+    out.push((
+        "events".into(),
+        "what happened at this frame, quoted".into(),
+    ));
+    out
+}
+
+/// Writes a session: `create`, then `record` every frame.
+pub struct SessionLog {
+    dir: PathBuf,
+    frames: std::io::BufWriter<std::fs::File>,
+    views: usize,
+    began: Instant,
+    last_flush: Instant,
+}
+
+impl SessionLog {
+    /// Start a session log in `dir` (made if missing). Refuses a folder that holds a log
+    /// already: a session is never written over.
+    pub fn create(dir: &Path, mut meta: SessionMeta) -> Result<SessionLog> {
+        std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
+        let (json, csv) = (dir.join("session.json"), dir.join("frames.csv"));
+        if json.exists() || csv.exists() {
+            return Err(VlfError::io(
+                &csv,
+                std::io::Error::new(
+                    std::io::ErrorKind::AlreadyExists,
+                    "a session log is there already: give --log a new folder",
+                ),
+            ));
+        }
+        meta.columns = columns(&meta.views);
+        let text = serde_json::to_string_pretty(&meta).expect("metadata serialises");
+        std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
+        let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
+        let mut frames = std::io::BufWriter::new(file);
+        let header: Vec<&str> = meta.columns.iter().map(|(n, _)| n.as_str()).collect();
+        writeln!(frames, "{}", header.join(",")).map_err(|e| VlfError::io(&csv, e))?;
+        let now = Instant::now();
+        let mut log = SessionLog {
+            dir: dir.to_path_buf(),
+            frames,
+            views: meta.views.len(),
+            began: now,
+            last_flush: now,
+        };
+        log.flush()?;
+        Ok(log)
+    }
+
+    /// Seconds since the session began.
+    pub fn elapsed_s(&self) -> f64 {
+        self.began.elapsed().as_secs_f64()
+    }
+
+    /// One frame's row; on the disk within `FLUSH_EVERY`.
+    pub fn record(&mut self, r: &FrameRecord) -> Result<()> {
+        if r.views.len() != self.views {
+            return Err(VlfError::Display(format!(
+                "a session log row of {} views for a session of {}",
+                r.views.len(),
+                self.views
+            )));
+        }
+        let row = row_text(r);
+        let csv = self.dir.join("frames.csv");
+        writeln!(self.frames, "{row}").map_err(|e| VlfError::io(&csv, e))?;
+        if self.last_flush.elapsed() >= FLUSH_EVERY {
+            self.flush()?;
+        }
+        Ok(())
+    }
+
+    /// Everything recorded so far onto the disk.
+    pub fn flush(&mut self) -> Result<()> {
+        let csv = self.dir.join("frames.csv");
+        self.frames.flush().map_err(|e| VlfError::io(&csv, e))?;
+        self.frames
+            .get_ref()
+            .sync_data()
+            .map_err(|e| VlfError::io(&csv, e))?;
+        self.last_flush = Instant::now();
+        Ok(())
+    }
+
+    /// A session log back: what ran and every frame, in order. Errors name the file and line.
+    pub fn read(dir: &Path) -> Result<(SessionMeta, Vec<FrameRecord>)> {
+        let json = dir.join("session.json");
+        let text = std::fs::read_to_string(&json).map_err(|e| VlfError::io(&json, e))?;
+        let meta: SessionMeta = serde_json::from_str(&text).map_err(|e| {
+            VlfError::Display(format!(
+                "{}: not a vlf session log ({e}); `vlf cave --log DIR` writes one",
+                json.display()
+            ))
+        })?;
+        if meta.format != LOG_FORMAT {
+            return Err(VlfError::Display(format!(
+                "{}: session log format {}, this vlf reads {LOG_FORMAT}",
+                json.display(),
+                meta.format
+            )));
+        }
+        let csv = dir.join("frames.csv");
+        let text = std::fs::read_to_string(&csv).map_err(|e| VlfError::io(&csv, e))?;
+        // every row ends with a newline: a last line without one was cut short by a crash
+        let complete = match text.ends_with('\n') {
+            true => text.as_str(),
+            false => {
+                log::warn!("{}: the last row is incomplete, left out", csv.display());
+                text.rfind('\n').map_or("", |end| &text[..=end])
+            }
+        };
+        let mut records = Vec::new();
+        for (n, line) in complete.lines().enumerate().skip(1) {
+            let r = parse_row(line, meta.views.len())
+                .map_err(|why| VlfError::Display(format!("{}:{}: {why}", csv.display(), n + 1)))?;
+            records.push(r);
+        }
+        Ok((meta, records))
+    }
+}
+
+impl Drop for SessionLog {
+    fn drop(&mut self) {
+        if let Err(e) = self.flush() {
+            log::warn!("the session log's last rows: {e}");
+        }
+    }
+}
+
+/// A row of frames.csv.
+fn row_text(r: &FrameRecord) -> String {
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
+    let (wand, wp, wq) = match &r.wand {
+        Some(w) => (1, w.position, w.rotation),
+        None => (0, Vec3::ZERO, Quat::from_xyzw(0.0, 0.0, 0.0, 0.0)),
+    };
+    let (p, q, room) = (r.pose.head, r.pose.head_rotation, r.pose.room_position);
+    let mut cells: Vec<String> = vec![
+        r.frame.to_string(),
+        r.time_s.to_string(),
+        r.drawn.name().into(),
+    ];
+    let floats = [
+        p.x,
+        p.y,
+        p.z,
+        q.x,
+        q.y,
+        q.z,
+        q.w,
+        room.x,
+        room.y,
+        room.z,
+        r.pose.room_yaw_deg,
+    ];
+    cells.extend(floats.iter().map(f32::to_string));
+    cells.push(wand.to_string());
+    let wand_floats = [wp.x, wp.y, wp.z, wq.x, wq.y, wq.z, wq.w];
+    cells.extend(wand_floats.iter().map(f32::to_string));
+    cells.push(opt(r.gpu_ms));
+    cells.push(opt(r.cpu_ms));
+    for v in &r.views {
+        cells.push(v.samples_per_pixel.to_string());
+        cells.push(v.paced_samples.to_string());
+        cells.push(v.paced_fraction.to_string());
+        cells.push(v.mirror_bounces.to_string());
+        cells.push(v.fixed_work.to_string());
+    }
+    cells.push(format!("\"{}\"", r.events.replace('"', "\"\"")));
+    cells.join(",")
+}
+
+/// A row back (`views` views), or why it is not one.
+fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, String> {
+    let fixed = FRAME_COLUMNS.len() + 1 + views * VIEW_COLUMNS.len();
+    let mut parts = line.splitn(fixed + 1, ',');
+    let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
+    let events = parts.next().ok_or("fewer columns than the header")?;
+    let events = (events.strip_prefix('"').and_then(|e| e.strip_suffix('"')))
+        .ok_or("the events column is not quoted")?
+        .replace("\"\"", "\"");
+    let f = |i: usize| -> std::result::Result<f32, String> {
+        cells[i]
+            .parse()
+            .map_err(|_| format!("column {} is not a number: {:?}", i + 1, cells[i]))
+    };
+    let u = |i: usize| -> std::result::Result<u32, String> {
+        cells[i]
+            .parse()
+            .map_err(|_| format!("column {} is not a count: {:?}", i + 1, cells[i]))
+    };
+    let opt = |i: usize| -> std::result::Result<Option<f64>, String> {
+        match cells[i] {
+            "" => Ok(None),
+            c => c
+                .parse()
+                .map(Some)
+                .map_err(|_| format!("column {} is not a number", i + 1)),
+        }
+    };
+    let drawn = match cells[2] {
+        "timed" => Drawn::Timed,
+        "read_back" => Drawn::ReadBack,
+        other => {
+            return Err(format!(
+                "column 3: {other:?} is neither timed nor read_back"
+            ))
+        }
+    };
+    let pose = Pose {
+        head: Vec3::new(f(3)?, f(4)?, f(5)?),
+        head_rotation: Quat::from_xyzw(f(6)?, f(7)?, f(8)?, f(9)?),
+        room_position: Vec3::new(f(10)?, f(11)?, f(12)?),
+        room_yaw_deg: f(13)?,
+    };
+    let wand = match u(14)? {
+        1 => Some(WandPose {
+            position: Vec3::new(f(15)?, f(16)?, f(17)?),
+            rotation: Quat::from_xyzw(f(18)?, f(19)?, f(20)?, f(21)?),
+        }),
+        _ => None,
+    };
+    let base = FRAME_COLUMNS.len() + 1;
+    let views = (0..views)
+        .map(|k| {
+            let c = base + k * VIEW_COLUMNS.len();
+            Ok(ViewSettings {
+                samples_per_pixel: u(c)?,
+                paced_samples: u(c + 1)?,
+                paced_fraction: f(c + 2)?,
+                mirror_bounces: u(c + 3)?,
+                fixed_work: u(c + 4)?,
+            })
+        })
+        .collect::<std::result::Result<Vec<_>, String>>()?;
+    Ok(FrameRecord {
+        frame: cells[0]
+            .parse()
+            .map_err(|_| "column 1 is not a frame number")?,
+        time_s: cells[1].parse().map_err(|_| "column 2 is not a time")?,
+        drawn,
+        pose,
+        wand,
+        gpu_ms: opt(22)?,
+        cpu_ms: opt(23)?,
+        views,
+        events,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(frame: u64, wand: bool) -> FrameRecord {
+        let s = ViewSettings {
+            samples_per_pixel: 2,
+            paced_samples: 4,
+            paced_fraction: 0.123_456_79,
+            mirror_bounces: 1,
+            fixed_work: 0,
+        };
+        FrameRecord {
+            frame,
+            time_s: 0.1 * frame as f64,
+            drawn: Drawn::Timed,
+            pose: Pose {
+                head: Vec3::new(0.1, 1.7, -0.3),
+                head_rotation: Quat::from_rotation_y(0.3),
+                room_position: Vec3::new(1.0, 0.0, 2.0),
+                room_yaw_deg: 12.5,
+            },
+            wand: wand.then(|| WandPose {
+                position: Vec3::new(0.2, 1.2, -0.5),
+                rotation: Quat::from_rotation_x(-0.2),
+            }),
+            gpu_ms: Some(1.25),
+            cpu_ms: None,
+            views: vec![s, ViewSettings { fixed_work: 1, ..s }],
+            events: "condition \"GI off\", trial 3".into(),
+        }
+    }
+
+    fn meta() -> SessionMeta {
+        SessionMeta {
+            format: LOG_FORMAT,
+            vlf_version: "test".into(),
+            display_config: "/x/cave.toml".into(),
+            light_field: "/x/scene.vlf".into(),
+            propagation: None,
+            scene_hash: "0".into(),
+            adapter: "test".into(),
+            started_unix_s: 0.0,
+            views: vec!["front-left".into(), "front-right".into()],
+            columns: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_log_reads_back_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let rows = vec![record(0, true), record(1, false)];
+        {
+            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+            for r in &rows {
+                log.record(r).unwrap();
+            }
+        }
+        let (m, back) = SessionLog::read(dir.path()).unwrap();
+        assert_eq!(back, rows);
+        assert_eq!(m.columns.len(), 24 + 2 * 5 + 1);
+        // a second session is never written over the first
+        assert!(SessionLog::create(dir.path(), meta()).is_err());
+    }
+
+    #[test]
+    fn a_row_cut_short_at_the_end_is_left_out_and_a_bad_row_elsewhere_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        {
+            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+            log.record(&record(0, true)).unwrap();
+            log.record(&record(1, true)).unwrap();
+        }
+        let csv = dir.path().join("frames.csv");
+        let text = std::fs::read_to_string(&csv).unwrap();
+        std::fs::write(&csv, &text[..text.len() - 20]).unwrap();
+        assert_eq!(SessionLog::read(dir.path()).unwrap().1.len(), 1);
+        std::fs::write(&csv, text.replacen(",timed,", ",later,", 1)).unwrap();
+        let e = SessionLog::read(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("frames.csv:2") && e.contains("later"), "{e}");
+    }
+}

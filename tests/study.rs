@@ -1,0 +1,190 @@
+//! The session log and exact replay (`vlf cave --headless --log DIR`, `vlf replay DIR`): a short
+//! paced CAVE walk on the software adapter, logged, then drawn again from the log; the replayed
+//! last frame is pixel-identical to the images the live run read back.
+
+mod common;
+
+use common::{draft_params, gpu, repo_path};
+use std::process::Command;
+use vlf::display::DisplayConfig;
+use vlf::progress::Silent;
+use vlf::study::log::{Drawn, LOG_FORMAT};
+use vlf::study::{SessionLog, SessionMeta};
+
+/// The shipped walking CAVE at 96x60 per eye, paced against a 1 Hz refresh (so the pacer gives
+/// views different eye rays per pixel frame by frame), its walk by absolute path.
+fn walking_cave(dir: &std::path::Path) -> std::path::PathBuf {
+    let walk = repo_path("config/paths/cornell-walk.toml");
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-walk.toml"))
+        .unwrap()
+        .replace("pixels = [1920, 1200]", "pixels = [96, 60]")
+        .replace("refresh_hz = 120", "refresh_hz = 1")
+        .replace(
+            "path = \"../paths/cornell-walk.toml\"",
+            &format!("path = {:?}", walk.display().to_string()),
+        );
+    let path = dir.join("cave.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn same_pixels(a: &std::path::Path, b: &std::path::Path) {
+    let (x, y) = (
+        vlf::render::image_io::read_exr(a).unwrap(),
+        vlf::render::image_io::read_exr(b).unwrap(),
+    );
+    assert_eq!((x.width, x.height), (y.width, y.height));
+    let differ = x
+        .pixels
+        .iter()
+        .zip(&y.pixels)
+        .filter(|(p, q)| p != q)
+        .count();
+    assert_eq!(
+        differ,
+        0,
+        "{} and {}: {differ} pixels differ",
+        a.display(),
+        b.display()
+    );
+}
+
+#[test]
+fn a_logged_session_replays_pixel_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = walking_cave(dir.path());
+    let display = DisplayConfig::load(&config).unwrap();
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let vlf_path = dir.path().join("cornell.vlf");
+    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
+    let views: Vec<String> = (vlf::display::frame::wall_views(&display).iter())
+        .map(|v| format!("{}-{}", display.walls[v.wall].name, v.eye))
+        .collect();
+    let meta = SessionMeta {
+        format: LOG_FORMAT,
+        vlf_version: "test".into(),
+        display_config: config.clone(),
+        light_field: vlf_path,
+        propagation: None,
+        scene_hash: lf.meta.scene_hash.clone(),
+        adapter: gpu().summary.name.clone(),
+        started_unix_s: 0.0,
+        views,
+        columns: Vec::new(),
+    };
+    let log_dir = dir.path().join("log");
+    let live = dir.path().join("live");
+    {
+        let mut log = SessionLog::create(&log_dir, meta).unwrap();
+        let run = vlf::display::headless::HeadlessRun {
+            frames: 4,
+            out: &live,
+            exr: true,
+            log: Some(&mut log),
+        };
+        vlf::display::headless::run_reporting(&lf, &resident, &display, &config, run, &Silent)
+            .unwrap();
+    }
+    let (meta, records) = SessionLog::read(&log_dir).unwrap();
+    assert_eq!(records.len(), 4);
+    assert!(records[..3]
+        .iter()
+        .all(|r| r.drawn == Drawn::Timed && r.cpu_ms.is_some()));
+    assert_eq!(records[3].drawn, Drawn::ReadBack);
+    assert!(records.iter().all(|r| r.views.len() == 8));
+    // the walk moves the head from frame to frame
+    assert_ne!(records[0].pose, records[3].pose);
+
+    // the library's replay of the last frame, from the log alone
+    let (lf2, resident2) = {
+        let lf = vlf::lightfield::file::load(&meta.light_field).unwrap();
+        let resident = lf.upload(gpu()).unwrap();
+        (lf, resident)
+    };
+    let again = dir.path().join("again");
+    let folders = vlf::display::replay::replay(
+        (&lf2, &resident2),
+        &meta,
+        &records[3..],
+        (&again, true),
+        &Silent,
+    )
+    .unwrap();
+    assert_eq!(folders, [again.join("frame-000003")]);
+    for view in &meta.views {
+        same_pixels(
+            &live.join(format!("{view}.exr")),
+            &folders[0].join(format!("{view}.exr")),
+        );
+    }
+
+    // and the command line's: every frame, one folder each, the last one the same again
+    let cli_out = dir.path().join("cli");
+    let status = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["replay", log_dir.to_str().unwrap(), "--exr", "--out"])
+        .arg(&cli_out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for f in 0..4 {
+        assert!(cli_out
+            .join(format!("frame-00000{f}/front-left.png"))
+            .exists());
+    }
+    same_pixels(
+        &live.join("front-left.exr"),
+        &cli_out.join("frame-000003/front-left.exr"),
+    );
+    // a bad range is refused, naming it
+    let bad = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["replay", log_dir.to_str().unwrap(), "--frames", "9..12"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("no logged frame"));
+}
+
+#[test]
+fn a_session_log_survives_sigkill() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = walking_cave(dir.path());
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let vlf_path = dir.path().join("cornell.vlf");
+    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
+    let log_dir = dir.path().join("log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args([
+            "cave",
+            config.to_str().unwrap(),
+            "--headless",
+            "--frames",
+            "100000",
+        ])
+        .arg("--scene")
+        .arg(&vlf_path)
+        .arg("--log")
+        .arg(&log_dir)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // wait for rows on the disk (flushed at least once a second), then kill without warning
+    let csv = log_dir.join("frames.csv");
+    let began = std::time::Instant::now();
+    while std::fs::read_to_string(&csv).map_or(0, |t| t.lines().count()) < 4 {
+        assert!(began.elapsed().as_secs() < 120, "no rows after 2 minutes");
+        std::thread::sleep(std::time::Duration::from_millis(200));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(700));
+    child.kill().unwrap(); // SIGKILL
+    child.wait().unwrap();
+    let (meta, records) = SessionLog::read(&log_dir).unwrap();
+    assert_eq!(meta.views.len(), 8);
+    assert!(records.len() >= 3, "{} rows", records.len());
+    assert!((records.iter().enumerate()).all(|(i, r)| r.frame == i as u64));
+}
