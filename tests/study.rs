@@ -83,6 +83,7 @@ fn a_logged_session_replays_pixel_identical() {
             out: &live,
             exr: true,
             log: Some(&mut log),
+            control: None,
         };
         vlf::display::headless::run_reporting(&lf, &resident, &display, &config, run, &Silent)
             .unwrap();
@@ -187,4 +188,85 @@ fn a_session_log_survives_sigkill() {
     assert_eq!(meta.views.len(), 8);
     assert!(records.len() >= 3, "{} rows", records.len());
     assert!((records.iter().enumerate()).all(|(i, r)| r.frame == i as u64));
+}
+
+/// The shipped Python example drives a headless run over `--control`: every command is
+/// acknowledged with the frame it took effect in, a bad one is refused and changes nothing,
+/// `teleport` moves the room from its frame on (in the log too), `stop` ends the run.
+#[test]
+fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let config = walking_cave(dir.path());
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let vlf_path = dir.path().join("cornell.vlf");
+    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
+    let log_dir = dir.path().join("log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args([
+            "cave",
+            config.to_str().unwrap(),
+            "--headless",
+            "--frames",
+            "100000",
+        ])
+        .args(["--control", "127.0.0.1:0", "--scene"])
+        .arg(&vlf_path)
+        .arg("--log")
+        .arg(&log_dir)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut addr = String::new();
+    let mut line = String::new();
+    while stderr.read_line(&mut line).unwrap() > 0 {
+        if let Some(a) = line.strip_prefix("control: listening on ") {
+            addr = a.trim().to_string();
+            break;
+        }
+        line.clear();
+    }
+    assert!(!addr.is_empty(), "vlf cave never said where it listens");
+    // the rest of stderr drained, so the run never blocks on it
+    std::thread::spawn(move || for _ in stderr.lines() {});
+    let script = repo_path("tools/study/control_example.py");
+    let out = Command::new("python3").arg(&script).arg(&addr).output().unwrap_or_else(|e| {
+        panic!("python3 runs the example script ({e}); install Python 3 (tools/setup.sh test does)")
+    });
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
+    let replies: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
+        .collect();
+    assert_eq!(replies.len(), 7);
+    let frame = |i: usize| replies[i]["frame"].as_u64().unwrap();
+    assert!(
+        replies.iter().enumerate().all(|(i, r)| r["ok"] == (i != 3)),
+        "{replies:?}"
+    );
+    assert!(replies[3]["error"].as_str().unwrap().contains("fly"));
+    assert!((0..6)
+        .filter(|&i| i != 3)
+        .all(|i| frame(i) <= frame(i + 1 + (i == 2) as usize)));
+    assert_eq!(replies[4]["room"], serde_json::json!([0.5, 0.0, 0.25]));
+    assert_eq!(replies[4]["room_yaw_deg"], serde_json::json!(30.0));
+    // the log: the events in the rows of their frames, the room moved from the teleport on
+    let (_, records) = SessionLog::read(&log_dir).unwrap();
+    let last = records.last().unwrap();
+    assert_eq!((last.frame, last.drawn), (frame(6), Drawn::ReadBack));
+    let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();
+    assert!(at(frame(1)).events.contains("trial 1 begins"));
+    let teleported = frame(2);
+    assert!(records.iter().all(
+        |r| (r.pose.room_position == glam::Vec3::new(0.5, 0.0, 0.25)) == (r.frame >= teleported)
+    ));
 }

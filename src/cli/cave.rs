@@ -41,6 +41,11 @@ pub struct CaveArgs {
     /// each view was drawn with, times); `vlf replay DIR` draws the logged frames again
     #[arg(long)]
     log: Option<PathBuf>,
+    /// Headless: take an experiment script's commands over TCP on this address (host:port; port
+    /// 0 takes a free one): one JSON command per line, each acknowledged with the frame it took
+    /// effect in (docs/guide/studies.md)
+    #[arg(long)]
+    control: Option<String>,
     #[command(flatten)]
     params: ParamArgs,
 }
@@ -58,6 +63,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         exr,
         json,
         log,
+        control,
         params,
     } = a;
     let (config, scene, out, params) = (config.as_path(), scene.as_path(), out.as_path(), &params);
@@ -86,8 +92,12 @@ pub fn run(a: CaveArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
-    if log.is_some() && (!headless || vlf::cluster::launched_size().is_some()) {
-        bail!("--log: a session log is written by one headless process for now (--headless, not under mpirun)");
+    if (log.is_some() || control.is_some())
+        && (!headless || vlf::cluster::launched_size().is_some())
+    {
+        bail!(
+            "--log and --control: for one headless process for now (--headless, not under mpirun)"
+        );
     }
     if !headless {
         if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
@@ -109,11 +119,20 @@ pub fn run(a: CaveArgs) -> Result<()> {
         Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
         None => None,
     };
+    let control = match &control {
+        Some(addr) => {
+            let server = vlf::study::ControlServer::bind(addr)?;
+            eprintln!("control: listening on {}", server.addr);
+            Some(server)
+        }
+        None => None,
+    };
     let run = vlf::display::headless::HeadlessRun {
         frames: frames.unwrap_or(60),
         out,
         exr,
         log: session.as_mut(),
+        control: control.as_ref(),
     };
     let report = vlf::display::headless::run_reporting(
         &lf,

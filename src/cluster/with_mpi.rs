@@ -500,6 +500,7 @@ fn draw(
                 out: &out,
                 exr: run.exr,
                 log: None,
+                control: None,
             },
             Some(link),
             &crate::progress::Silent,

@@ -20,7 +20,7 @@ use crate::render::image_io::{display_image, write_image};
 use crate::render::Frame;
 use crate::stats::Distribution;
 use crate::study::log::Drawn;
-use crate::study::{FrameRecord, SessionLog};
+use crate::study::{ControlServer, FrameRecord, Session, SessionLog};
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
 use serde::Serialize;
@@ -60,12 +60,14 @@ pub struct CaveReport {
 }
 
 /// A headless run: `frames` frames, the last one's images into `out` (PNG, and EXR with `exr`),
-/// and with `log` every frame into a session log (`crate::study`).
+/// with `log` every frame into a session log, and with `control` an experiment script's
+/// commands (`crate::study`; its `stop` makes the frame it arrives in the last).
 pub struct HeadlessRun<'p> {
     pub frames: u32,
     pub out: &'p Path,
     pub exr: bool,
     pub log: Option<&'p mut SessionLog>,
+    pub control: Option<&'p ControlServer>,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -84,6 +86,7 @@ pub fn run(
         out,
         exr,
         log: None,
+        control: None,
     };
     run_locked(
         lf,
@@ -176,8 +179,10 @@ pub fn run_locked(
         frames,
         out,
         exr,
-        mut log,
+        log,
+        control,
     } = run;
+    let mut session = Session::new(log, control);
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
     let mut frame =
@@ -187,15 +192,18 @@ pub fn run_locked(
     let software = resident.ctx.summary.software;
     let began = std::time::Instant::now();
     progress.begin(total as u64, "frames", "drawing every wall and eye");
+    let mut drawn_frames = total;
     for f in 0..total {
         report_frame(progress, (f, total), began, software);
+        session.begin_frame();
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        let pose = session.pose(pose);
         let tracked = Poses::Tracked {
             pose: &pose,
             wand: wand.as_ref(),
             arrived: fresh,
         };
-        let time_s = log.as_ref().map_or(0.0, |l| l.elapsed_s());
+        let time_s = session.time_s();
         let record = |frame: &FrameOfViews, drawn: Drawn| FrameRecord {
             frame: f as u64,
             time_s,
@@ -207,16 +215,12 @@ pub fn run_locked(
             views: frame.drawn().to_vec(),
             events: String::new(),
         };
-        if f + 1 == total {
+        if f + 1 == total || session.stop {
             // the last frame drawn again view by view and read back (not timed)
             let images = frame.read_back(tracked)?;
-            if let Some(log) = log.as_deref_mut() {
-                let events = format!("read back into {}", out.display());
-                log.record(&FrameRecord {
-                    events,
-                    ..record(&frame, Drawn::ReadBack)
-                })?;
-            }
+            let note = format!("read back into {}", out.display());
+            session.end_frame(record(&frame, Drawn::ReadBack), Some(note))?;
+            drawn_frames = f + 1;
             kept = Kept::of(config, frame.wall_views(), images);
             if let Some(l) = lock.as_deref_mut() {
                 l.swap_untimed()?;
@@ -232,16 +236,15 @@ pub fn run_locked(
             l.swap()?;
         }
         frame.account(cpu_ms)?;
-        if let Some(log) = log.as_deref_mut() {
-            let (gpu_ms, cpu_ms) = frame.times().last_frame_ms();
-            log.record(&FrameRecord {
-                gpu_ms,
-                cpu_ms,
-                ..record(&frame, Drawn::Timed)
-            })?;
-        }
+        let (gpu_ms, cpu_ms) = frame.times().last_frame_ms();
+        let row = FrameRecord {
+            gpu_ms,
+            cpu_ms,
+            ..record(&frame, Drawn::Timed)
+        };
+        session.end_frame(row, None)?;
     }
-    report_frame(progress, (total, total), began, software);
+    report_frame(progress, (drawn_frames, drawn_frames), began, software);
     progress.finish();
     if frame.frames_timed() == 0 {
         frame.times_mut().push_cpu(0.0);
@@ -257,7 +260,7 @@ pub fn run_locked(
         limits,
         display: config.name.clone(),
         adapter: resident.ctx.summary.name.clone(),
-        frames: total,
+        frames: drawn_frames,
         views_per_frame: frame.labels().len(),
         views,
         all_views_gpu_ms: frame.times().frame_gpu_ms(),
