@@ -28,6 +28,32 @@ fn walking_cave(dir: &std::path::Path) -> std::path::PathBuf {
     path
 }
 
+/// A draft Cornell light field saved in `dir`, and `vlf cave --headless` on the walking CAVE
+/// (`walking_cave`) drawing it for up to 100000 frames with a session log in `dir/log`.
+fn long_headless_run(dir: &std::path::Path) -> Command {
+    let config = walking_cave(dir);
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let vlf_path = dir.join("cornell.vlf");
+    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
+    let mut cave = Command::new(env!("CARGO_BIN_EXE_vlf"));
+    cave.args([
+        "cave",
+        config.to_str().unwrap(),
+        "--headless",
+        "--frames",
+        "100000",
+    ])
+    .arg("--scene")
+    .arg(&vlf_path)
+    .arg("--log")
+    .arg(dir.join("log"))
+    .arg("--out")
+    .arg(dir.join("out"))
+    .stdout(std::process::Stdio::null());
+    cave
+}
+
 fn same_pixels(a: &std::path::Path, b: &std::path::Path) {
     let (x, y) = (
         vlf::render::image_io::read_exr(a).unwrap(),
@@ -150,27 +176,8 @@ fn a_logged_session_replays_pixel_identical() {
 #[test]
 fn a_session_log_survives_sigkill() {
     let dir = tempfile::tempdir().unwrap();
-    let config = walking_cave(dir.path());
-    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
-    let vlf_path = dir.path().join("cornell.vlf");
-    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
     let log_dir = dir.path().join("log");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .args([
-            "cave",
-            config.to_str().unwrap(),
-            "--headless",
-            "--frames",
-            "100000",
-        ])
-        .arg("--scene")
-        .arg(&vlf_path)
-        .arg("--log")
-        .arg(&log_dir)
-        .arg("--out")
-        .arg(dir.path().join("out"))
-        .stdout(std::process::Stdio::null())
+    let mut child = long_headless_run(dir.path())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
@@ -197,27 +204,9 @@ fn a_session_log_survives_sigkill() {
 fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
-    let config = walking_cave(dir.path());
-    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
-    let vlf_path = dir.path().join("cornell.vlf");
-    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
     let log_dir = dir.path().join("log");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .args([
-            "cave",
-            config.to_str().unwrap(),
-            "--headless",
-            "--frames",
-            "100000",
-        ])
-        .args(["--control", "127.0.0.1:0", "--scene"])
-        .arg(&vlf_path)
-        .arg("--log")
-        .arg(&log_dir)
-        .arg("--out")
-        .arg(dir.path().join("out"))
-        .stdout(std::process::Stdio::null())
+    let mut child = long_headless_run(dir.path())
+        .args(["--control", "127.0.0.1:0"])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
