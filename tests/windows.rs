@@ -724,3 +724,64 @@ fn srgb_decode(c: u8) -> f64 {
         ((c + 0.055) / 1.055).powf(2.4)
     }
 }
+
+/// The windows too keep a session log (`vlf cave --log DIR`, windowed): a row per frame shown,
+/// with every view's settings, that `vlf replay` draws again.
+#[test]
+fn a_windowed_session_is_logged_and_replays() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let (_xvfb, display) = start_xvfb();
+    let dir = tempfile::tempdir().unwrap();
+    let (dir, log_dir) = (dir.path(), dir.path().join("log"));
+    let lf = dir.join("cornell.vlf");
+    let scene = "scenes/cornell/scene.toml";
+    vlf(&[
+        "propagate",
+        scene,
+        "--quality",
+        "draft",
+        "-o",
+        lf.to_str().unwrap(),
+    ]);
+    let text = std::fs::read_to_string("config/displays/desktop.toml")
+        .unwrap()
+        .replace("pixels = [1280, 720]", "pixels = [160, 90]");
+    let config = dir.join("cave.toml");
+    std::fs::write(&config, text).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["cave", config.to_str().unwrap(), "--frames", "3", "--scene"])
+        .arg(&lf)
+        .arg("--log")
+        .arg(&log_dir)
+        .env("DISPLAY", &display)
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let (meta, rows) = vlf::study::SessionLog::read(&log_dir).unwrap();
+    let views = meta.views.len();
+    assert!(
+        views >= 1 && rows.len() >= 3,
+        "{views} views, {} rows",
+        rows.len()
+    );
+    assert!(rows
+        .iter()
+        .all(|r| r.drawn == vlf::study::log::Drawn::Shown && r.views.len() == views));
+    assert!(
+        rows[..3].iter().all(|r| r.cpu_ms.is_some()),
+        "the 3 frames asked for are timed"
+    );
+    let out = dir.join("replay");
+    vlf(&[
+        "replay",
+        log_dir.to_str().unwrap(),
+        "--frames",
+        "2",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let image = format!("frame-000002/{}.png", meta.views[0]);
+    assert!(out.join(&image).exists(), "{image}");
+}

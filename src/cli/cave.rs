@@ -37,11 +37,11 @@ pub struct CaveArgs {
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Headless: log every frame into this new folder (session.json and frames.csv: poses, what
+    /// Log every frame into this new folder (session.json and frames.csv: poses, what
     /// each view was drawn with, times); `vlf replay DIR` draws the logged frames again
     #[arg(long)]
     log: Option<PathBuf>,
-    /// Headless: take an experiment script's commands over TCP on this address (host:port; port
+    /// Take an experiment script's commands over TCP on this address (host:port; port
     /// 0 takes a free one): one JSON command per line, each acknowledged with the frame it took
     /// effect in (docs/guide/studies.md)
     #[arg(long)]
@@ -92,28 +92,8 @@ pub fn run(a: CaveArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
-    if (log.is_some() || control.is_some())
-        && (!headless || vlf::cluster::launched_size().is_some())
-    {
-        bail!(
-            "--log and --control: for one headless process for now (--headless, not under mpirun)"
-        );
-    }
-    if !headless {
-        if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
-            bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
-        }
-        let options = vlf::display::window::WindowOptions {
-            frames,
-            hold: std::time::Duration::from_secs_f64(hold_seconds),
-            exposure,
-        };
-        let report = vlf::display::window::run(&lf, &resident, &display, config, options)?;
-        print!("{}", report.table());
-        if let Some(path) = json {
-            write_json(&path, &report)?;
-        }
-        return Ok(());
+    if (log.is_some() || control.is_some()) && vlf::cluster::launched_size().is_some() {
+        bail!("--log and --control: for one process for now, not under mpirun");
     }
     let mut session = match &log {
         Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
@@ -127,6 +107,25 @@ pub fn run(a: CaveArgs) -> Result<()> {
         }
         None => None,
     };
+    if !headless {
+        if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
+            bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
+        }
+        let options = vlf::display::window::WindowOptions {
+            frames,
+            hold: std::time::Duration::from_secs_f64(hold_seconds),
+            exposure,
+        };
+        let study = vlf::study::Session::new(session.as_mut(), control.as_ref());
+        let report = vlf::display::window::run_locked(
+            &lf, &resident, &display, config, options, None, study,
+        )?;
+        print!("{}", report.table());
+        if let Some(path) = json {
+            write_json(&path, &report)?;
+        }
+        return Ok(());
+    }
     let run = vlf::display::headless::HeadlessRun {
         frames: frames.unwrap_or(60),
         out,

@@ -513,7 +513,16 @@ fn draw(
             hold: run.hold,
             exposure: run.exposure,
         };
-        let report = window::run_locked(&lf, &resident, &local, &run.config, options, Some(link))?;
+        let session = crate::study::Session::new(None, None);
+        let report = window::run_locked(
+            &lf,
+            &resident,
+            &local,
+            &run.config,
+            options,
+            Some(link),
+            session,
+        )?;
         Ok(report.views)
     }
 }

@@ -56,6 +56,8 @@ pub enum Drawn {
     Timed,
     /// drawn again view by view and read back (the headless run's last frame, its images)
     ReadBack,
+    /// drawn and presented on the windows
+    Shown,
 }
 
 impl Drawn {
@@ -63,6 +65,7 @@ impl Drawn {
         match self {
             Drawn::Timed => "timed",
             Drawn::ReadBack => "read_back",
+            Drawn::Shown => "shown",
         }
     }
 }
@@ -93,7 +96,7 @@ const FRAME_COLUMNS: [(&str, &str); 23] = [
     ),
     (
         "drawn",
-        "timed (submitted and timed) or read_back (drawn again and read back)",
+        "timed (submitted and timed), read_back (drawn again and read back) or shown (presented on the windows)",
     ),
     (
         "head_x",
@@ -373,9 +376,10 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
     let drawn = match cells[2] {
         "timed" => Drawn::Timed,
         "read_back" => Drawn::ReadBack,
+        "shown" => Drawn::Shown,
         other => {
             return Err(format!(
-                "column 3: {other:?} is neither timed nor read_back"
+                "column 3: {other:?} is not timed, read_back or shown"
             ))
         }
     };

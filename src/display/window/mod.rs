@@ -26,6 +26,7 @@ use crate::gpu::GpuContext;
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::tracking::live::TrackingStatus;
 use crate::tracking::navigator::Navigator;
+use crate::tracking::pose::{Pose, WandPose};
 use crate::tracking::source::PoseSource;
 use std::path::Path;
 use std::sync::Arc;
@@ -53,12 +54,14 @@ pub fn run(
     config_path: &Path,
     options: WindowOptions,
 ) -> Result<WindowReport> {
-    run_locked(lf, resident, config, config_path, options, None)
+    let session = crate::study::Session::new(None, None);
+    run_locked(lf, resident, config, config_path, options, None, session)
 }
 
 /// `run` as one rank of a cluster (`crate::cluster`): each frame's pose and exposure come from
 /// `lock.share`, every rank waits at `lock.swap` before presenting; only rank 0 takes input
-/// and decides when to stop (the others stop when its state says so).
+/// and decides when to stop (the others stop when its state says so). `session`: the session
+/// log and the experiment script's commands (`crate::study`), frame by frame.
 pub fn run_locked<'a>(
     lf: &'a LightField,
     resident: &'a ResidentLightField,
@@ -66,6 +69,7 @@ pub fn run_locked<'a>(
     config_path: &Path,
     options: WindowOptions,
     lock: Option<&'a mut dyn FrameLock>,
+    session: crate::study::Session<'a>,
 ) -> Result<WindowReport> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(VlfError::Display(
@@ -104,6 +108,7 @@ pub fn run_locked<'a>(
         printed_done: false,
         lock,
         shown: 0,
+        session,
     };
     event_loop
         .run_app(&mut app)
@@ -140,6 +145,8 @@ struct App<'a> {
     lock: Option<&'a mut dyn FrameLock>,
     /// frames drawn (the frame number shared with a cluster)
     shown: u64,
+    /// the session log and the experiment script's commands
+    session: crate::study::Session<'a>,
 }
 
 impl App<'_> {
@@ -153,6 +160,26 @@ impl App<'_> {
     }
 
     /// Frames timed so far.
+    /// The frame just shown into the session log (`shown - 1`), with its times when timed.
+    fn log_frame(&mut self, timed: bool, (pose, wand): (Pose, Option<WandPose>)) -> Result<()> {
+        let (gpu_ms, cpu_ms) = match timed {
+            true => self.frame.times().last_frame_ms(),
+            false => (None, None),
+        };
+        let record = crate::study::FrameRecord {
+            frame: self.shown - 1,
+            time_s: self.session.time_s(),
+            drawn: crate::study::log::Drawn::Shown,
+            pose,
+            wand,
+            gpu_ms,
+            cpu_ms,
+            views: self.frame.drawn().to_vec(),
+            events: String::new(),
+        };
+        self.session.end_frame(record, None)
+    }
+
     fn frames(&self) -> u32 {
         self.frame.frames_timed()
     }
@@ -187,7 +214,8 @@ impl App<'_> {
         };
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
-        let mut pose = self.navigator.apply(base);
+        self.session.begin_frame();
+        let mut pose = self.session.pose(self.navigator.apply(base));
         let mut wand = wand;
         if let Some(lock) = self.lock.as_deref_mut() {
             let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
@@ -235,6 +263,10 @@ impl App<'_> {
         ctx.wait_spinning()?;
         self.announce_presented(outputs_shown);
         self.frame.account(self.frame.elapsed_ms())?;
+        self.log_frame(timed, (pose, wand))?;
+        if self.session.stop {
+            event_loop.exit();
+        }
         let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {
             if self.frames() >= n {
