@@ -236,26 +236,32 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     let replies: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
         .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
         .collect();
-    assert_eq!(replies.len(), 7);
+    // state, trial, event, teleport, a refused command, state, event, stop
+    assert_eq!(replies.len(), 8);
     let frame = |i: usize| replies[i]["frame"].as_u64().unwrap();
     assert!(
-        replies.iter().enumerate().all(|(i, r)| r["ok"] == (i != 3)),
+        replies.iter().enumerate().all(|(i, r)| r["ok"] == (i != 4)),
         "{replies:?}"
     );
-    assert!(replies[3]["error"].as_str().unwrap().contains("fly"));
-    assert!((0..6)
-        .filter(|&i| i != 3)
-        .all(|i| frame(i) <= frame(i + 1 + (i == 2) as usize)));
-    assert_eq!(replies[4]["room"], serde_json::json!([0.5, 0.0, 0.25]));
-    assert_eq!(replies[4]["room_yaw_deg"], serde_json::json!(30.0));
-    // the log: the events in the rows of their frames, the room moved from the teleport on
+    assert!(replies[4]["error"].as_str().unwrap().contains("fly"));
+    let answered: Vec<u64> = [0, 1, 2, 3, 5, 6, 7].map(frame).to_vec();
+    assert!(answered.windows(2).all(|w| w[0] <= w[1]), "{answered:?}");
+    assert_eq!(replies[5]["room"], serde_json::json!([0.5, 0.0, 0.25]));
+    assert_eq!(replies[5]["room_yaw_deg"], serde_json::json!(30.0));
+    // the log: the events in the rows of their frames, the trial from its frame on, the room
+    // moved from the teleport on, and every timed frame's pose age at submission
     let (_, records) = SessionLog::read(&log_dir).unwrap();
     let last = records.last().unwrap();
-    assert_eq!((last.frame, last.drawn), (frame(6), Drawn::ReadBack));
+    assert_eq!((last.frame, last.drawn), (frame(7), Drawn::ReadBack));
     let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();
-    assert!(at(frame(1)).events.contains("trial 1 begins"));
-    let teleported = frame(2);
+    assert!(at(frame(2)).events.contains("trial 1 begins"));
+    assert!(records
+        .iter()
+        .all(|r| (r.block, r.trial) == if r.frame >= frame(1) { (1, 1) } else { (0, 0) }));
+    let teleported = frame(3);
     assert!(records.iter().all(
         |r| (r.pose.room_position == glam::Vec3::new(0.5, 0.0, 0.25)) == (r.frame >= teleported)
     ));
+    assert!((records.iter().filter(|r| r.drawn == Drawn::Timed))
+        .all(|r| r.pose_to_submit_ms.is_some_and(|ms| ms >= 0.0)));
 }

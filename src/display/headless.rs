@@ -198,6 +198,8 @@ pub fn run_locked(
         session.begin_frame();
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         let pose = session.pose(pose);
+        // when the pose came in (live tracking), or was sampled
+        let sampled = fresh.unwrap_or_else(std::time::Instant::now);
         let tracked = Poses::Tracked {
             pose: &pose,
             wand: wand.as_ref(),
@@ -212,6 +214,9 @@ pub fn run_locked(
             wand,
             gpu_ms: None,
             cpu_ms: None,
+            block: 0,
+            trial: 0,
+            pose_to_submit_ms: None,
             views: frame.drawn().to_vec(),
             events: String::new(),
         };
@@ -230,6 +235,7 @@ pub fn run_locked(
         // every view of a timed frame submitted back to back, then waited for
         frame.begin(true)?;
         frame.draw(tracked, Draw::Timed, None)?;
+        let pose_to_submit_ms = Some(sampled.elapsed().as_secs_f64() * 1e3);
         resident.ctx.wait_spinning()?;
         let cpu_ms = frame.elapsed_ms();
         if let Some(l) = lock.as_deref_mut() {
@@ -240,6 +246,7 @@ pub fn run_locked(
         let row = FrameRecord {
             gpu_ms,
             cpu_ms,
+            pose_to_submit_ms,
             ..record(&frame, Drawn::Timed)
         };
         session.end_frame(row, None)?;

@@ -7,6 +7,8 @@
 //!   that frame;
 //! - `{"cmd": "teleport", "position": [x, y, z], "yaw_deg": a}`: the room's place in the world
 //!   from that frame on (the tracked head moves with it);
+//! - `{"cmd": "trial", "block": 1, "trial": 3}`: the experiment's block and trial, in every
+//!   row of the session log from that frame on;
 //! - `{"cmd": "log", "on": false}`: stop (or resume) writing rows to the session log;
 //! - `{"cmd": "state"}`: the frame, the head and the room, the log's state;
 //! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last.
@@ -27,6 +29,7 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 pub enum Command {
     Event { text: String },
     Teleport { position: [f32; 3], yaw_deg: f32 },
+    Trial { block: u32, trial: u32 },
     Log { on: bool },
     State,
     Stop,
@@ -37,6 +40,7 @@ impl Command {
         match self {
             Command::Event { .. } => "event",
             Command::Teleport { .. } => "teleport",
+            Command::Trial { .. } => "trial",
             Command::Log { .. } => "log",
             Command::State => "state",
             Command::Stop => "stop",
@@ -152,7 +156,7 @@ fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
 pub fn parse(line: &str) -> std::result::Result<Command, String> {
     let command: Command = serde_json::from_str(line).map_err(|e| {
         format!(
-            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, log, state, stop)"
+            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop)"
         )
     })?;
     if let Command::Teleport { position, yaw_deg } = &command {

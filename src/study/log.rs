@@ -81,6 +81,12 @@ pub struct FrameRecord {
     /// all the frame's passes on the GPU, and the frame on the CPU (None where not timed)
     pub gpu_ms: Option<f64>,
     pub cpu_ms: Option<f64>,
+    /// the experiment's block and trial as the script last set them (0 before it does)
+    pub block: u32,
+    pub trial: u32,
+    /// from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's
+    /// submission to the GPU, ms (None where not measured: a frame read back)
+    pub pose_to_submit_ms: Option<f64>,
     /// each view's settings, in `SessionMeta::views` order
     pub views: Vec<ViewSettings>,
     /// what happened at this frame (free text; empty for none)
@@ -140,7 +146,10 @@ const FRAME_COLUMNS: [(&str, &str); 23] = [
         "all the frame's passes on the GPU (timestamps), ms; empty when not timed",
     ),
 ];
-/// After `gpu_ms`: the CPU time, then per view five columns, then the events.
+/// After `gpu_ms`: the CPU time, the block, the trial and the pose's age at submission (the
+/// extra columns), then per view five columns, then the events.
+const EXTRA_COLUMNS: usize = 4;
+/// Each view's columns.
 const VIEW_COLUMNS: [(&str, &str); 5] = [
     (
         "samples",
@@ -166,6 +175,18 @@ fn columns(views: &[String]) -> Vec<(String, String)> {
     out.push((
         "cpu_ms".into(),
         "the frame on the CPU, submission to the GPU's end, ms; empty when not timed".into(),
+    ));
+    out.push((
+        "block".into(),
+        "the experiment's block, as the script's `trial` command last set it (0 before)".into(),
+    ));
+    out.push((
+        "trial".into(),
+        "the experiment's trial in its block (0 before the script sets one)".into(),
+    ));
+    out.push((
+        "pose_to_submit_ms".into(),
+        "from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's submission to the GPU, ms; the photons follow after the GPU's time and the display's scan-out; empty where not measured".into(),
     ));
     for v in views {
         for (n, m) in VIEW_COLUMNS {
@@ -334,6 +355,9 @@ fn row_text(r: &FrameRecord) -> String {
     cells.extend(wand_floats.iter().map(f32::to_string));
     cells.push(opt(r.gpu_ms));
     cells.push(opt(r.cpu_ms));
+    cells.push(r.block.to_string());
+    cells.push(r.trial.to_string());
+    cells.push(opt(r.pose_to_submit_ms));
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -347,7 +371,7 @@ fn row_text(r: &FrameRecord) -> String {
 
 /// A row back (`views` views), or why it is not one.
 fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, String> {
-    let fixed = FRAME_COLUMNS.len() + 1 + views * VIEW_COLUMNS.len();
+    let fixed = FRAME_COLUMNS.len() + EXTRA_COLUMNS + views * VIEW_COLUMNS.len();
     let mut parts = line.splitn(fixed + 1, ',');
     let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
     let events = parts.next().ok_or("fewer columns than the header")?;
@@ -396,7 +420,7 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
         }),
         _ => None,
     };
-    let base = FRAME_COLUMNS.len() + 1;
+    let base = FRAME_COLUMNS.len() + EXTRA_COLUMNS;
     let views = (0..views)
         .map(|k| {
             let c = base + k * VIEW_COLUMNS.len();
@@ -419,6 +443,9 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
         wand,
         gpu_ms: opt(22)?,
         cpu_ms: opt(23)?,
+        block: u(24)?,
+        trial: u(25)?,
+        pose_to_submit_ms: opt(26)?,
         views,
         events,
     })
@@ -452,6 +479,9 @@ mod tests {
             }),
             gpu_ms: Some(1.25),
             cpu_ms: None,
+            block: 2,
+            trial: 7,
+            pose_to_submit_ms: Some(0.731),
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
         }
@@ -484,7 +514,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 24 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 23 + EXTRA_COLUMNS + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }

@@ -17,6 +17,8 @@ pub struct Session<'p> {
     teleport: Option<(Vec3, f32)>,
     /// rows go to the log (`log` turns it off and on)
     logging: bool,
+    /// the experiment's block and trial (`trial`)
+    trial: (u32, u32),
     /// the script asked the run to end with this frame
     pub stop: bool,
     /// this frame's commands, acknowledged at its end
@@ -32,6 +34,7 @@ impl<'p> Session<'p> {
             control,
             teleport: None,
             logging: true,
+            trial: (0, 0),
             stop: false,
             pending: Vec::new(),
             events: Vec::new(),
@@ -50,6 +53,10 @@ impl<'p> Session<'p> {
                     self.teleport = Some((Vec3::from(*position), *yaw_deg));
                     self.events
                         .push(format!("teleport to {position:?}, yaw {yaw_deg} deg"));
+                }
+                Command::Trial { block, trial } => {
+                    self.trial = (*block, *trial);
+                    self.events.push(format!("block {block} trial {trial}"));
                 }
                 Command::Log { on } => {
                     self.logging = *on;
@@ -85,6 +92,7 @@ impl<'p> Session<'p> {
     pub fn end_frame(&mut self, mut record: FrameRecord, note: Option<String>) -> Result<()> {
         self.events.extend(note);
         record.events = std::mem::take(&mut self.events).join("; ");
+        (record.block, record.trial) = self.trial;
         if let (Some(log), true) = (self.log.as_deref_mut(), self.logging) {
             log.record(&record)?;
         }

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """A minimal experiment script for `vlf cave --control ADDR` (docs/guide/studies.md): connects,
-marks a trial, teleports the room, asks for the state, shows a refused command, and ends the run.
+starts block 1 trial 1, marks it, teleports the room, asks for the state, shows a refused command, and ends the run.
 Each command is one JSON object per line; each reply is one JSON line with the frame number the
 command took effect in (or ok: false and the reason). Prints every reply as a JSON line.
 
@@ -25,6 +25,7 @@ def main(addr: str) -> None:
             return reply
 
         send({"cmd": "state"})
+        send({"cmd": "trial", "block": 1, "trial": 1})
         send({"cmd": "event", "text": "trial 1 begins"})
         send({"cmd": "teleport", "position": [0.5, 0.0, 0.25], "yaw_deg": 30.0})
         send({"cmd": "fly", "to": "the moon"})  # refused: nothing changes

@@ -161,7 +161,12 @@ impl App<'_> {
 
     /// Frames timed so far.
     /// The frame just shown into the session log (`shown - 1`), with its times when timed.
-    fn log_frame(&mut self, timed: bool, (pose, wand): (Pose, Option<WandPose>)) -> Result<()> {
+    /// `pose_to_submit_ms`: from the pose's arrival or sampling to the frame's submission.
+    fn log_frame(
+        &mut self,
+        (timed, pose_to_submit_ms): (bool, f64),
+        (pose, wand): (Pose, Option<WandPose>),
+    ) -> Result<()> {
         let (gpu_ms, cpu_ms) = match timed {
             true => self.frame.times().last_frame_ms(),
             false => (None, None),
@@ -174,6 +179,9 @@ impl App<'_> {
             wand,
             gpu_ms,
             cpu_ms,
+            block: 0,
+            trial: 0,
+            pose_to_submit_ms: Some(pose_to_submit_ms),
             views: self.frame.drawn().to_vec(),
             events: String::new(),
         };
@@ -189,6 +197,7 @@ impl App<'_> {
         let dt = (now - self.last_frame).as_secs_f32().min(0.1);
         self.last_frame = now;
         let pad = self.poll_gamepads();
+        let sampled = Instant::now();
         let (base, tracking, fresh, wand) = match &self.poses {
             PoseSource::Scripted(s) => {
                 let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
@@ -249,6 +258,7 @@ impl App<'_> {
             arrived: fresh,
         };
         self.frame.draw(tracked, Draw::Shown, None)?;
+        let pose_to_submit_ms = fresh.unwrap_or(sampled).elapsed().as_secs_f64() * 1e3;
         let outputs = self.draw_windows(&ctx)?;
         // every window's frame is ready before any is shown: the walls change together (and
         // in a cluster, every rank's: drawn, then the swap barrier)
@@ -263,7 +273,7 @@ impl App<'_> {
         ctx.wait_spinning()?;
         self.announce_presented(outputs_shown);
         self.frame.account(self.frame.elapsed_ms())?;
-        self.log_frame(timed, (pose, wand))?;
+        self.log_frame((timed, pose_to_submit_ms), (pose, wand))?;
         if self.session.stop {
             event_loop.exit();
         }
