@@ -86,7 +86,7 @@ fn a_logged_session_replays_pixel_identical() {
     let vlf_path = dir.path().join("cornell.vlf");
     vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
     let views: Vec<String> = (vlf::display::frame::wall_views(&display).iter())
-        .map(|v| format!("{}-{}", display.walls[v.wall].name, v.eye))
+        .map(|v| v.name(&display))
         .collect();
     let meta = SessionMeta {
         format: LOG_FORMAT,

@@ -596,20 +596,7 @@ fn shipped(rel: &str) -> PathBuf {
 fn headless_writes_every_projector_and_draws_the_wand() {
     let dir = tempfile::tempdir().unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = vlf::propagate::PropagationParams {
-        geodesic_frequency: 3,
-        grid_resolution: 32,
-        tile_size: 8,
-        texel_density: 8.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
-    };
+    let params = common::draft_params();
     let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     // the shipped wall at small pixels, with a third, identity projector
     let text = std::fs::read_to_string(shipped("wall-2projectors.toml")).unwrap();

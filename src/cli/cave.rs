@@ -169,18 +169,13 @@ fn session_log(
         vlf_version: env!("CARGO_PKG_VERSION").into(),
         display_config: absolute(config),
         light_field: absolute(scene),
-        propagation: (!scene
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("vlf")))
-        .then(|| lf.meta.params.clone()),
+        propagation: (!vlf::lightfield::file::is_vlf_path(scene)).then(|| lf.meta.params.clone()),
         scene_hash: lf.meta.scene_hash.clone(),
         adapter: ctx.summary.name.clone(),
         started_unix_s: std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0.0, |d| d.as_secs_f64()),
-        views: (views.iter())
-            .map(|v| format!("{}-{}", display.walls[v.wall].name, v.eye))
-            .collect(),
+        views: (views.iter()).map(|v| v.name(display)).collect(),
         columns: Vec::new(),
     };
     Ok(vlf::study::SessionLog::create(dir, meta)?)

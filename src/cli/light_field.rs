@@ -19,10 +19,7 @@ pub fn light_field_for(
     lightfield: Option<&Path>,
     params: &ParamArgs,
 ) -> Result<(LightField, ResidentLightField)> {
-    let is_vlf = input
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
-    if is_vlf {
+    if file::is_vlf_path(input) {
         let lf = file::load(input)?;
         let resident = lf.upload(ctx.clone())?;
         return Ok((lf, resident));

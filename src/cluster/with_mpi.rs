@@ -445,7 +445,7 @@ fn draw(
     make: &mut MakeLightField,
     adapter: &mut String,
 ) -> Result<Vec<ViewTiming>> {
-    let is_vlf = (run.scene.extension()).is_some_and(|e| e.eq_ignore_ascii_case("vlf"));
+    let is_vlf = crate::lightfield::file::is_vlf_path(&run.scene);
     let can_read = is_vlf
         && cluster.light_field != LightFieldShare::Broadcast
         && std::fs::File::open(&run.scene).is_ok();

@@ -125,11 +125,10 @@ impl Kept {
     pub(super) fn of(config: &DisplayConfig, views: &[WallView], images: Vec<ViewImages>) -> Kept {
         let mut kept = Kept::default();
         for (v, (frame, projectors)) in views.iter().zip(images) {
-            let wall = &config.walls[v.wall].name;
+            let view = v.name(config);
             kept.views.push(frame);
             kept.projectors.extend(
-                (projectors.into_iter())
-                    .map(|(name, image)| (format!("{wall}-{}-{name}", v.eye), image)),
+                (projectors.into_iter()).map(|(name, image)| (format!("{view}-{name}"), image)),
             );
         }
         kept
@@ -311,16 +310,7 @@ pub(super) fn write_kept(
     out: &Path,
     exr: bool,
 ) -> Result<Vec<String>> {
-    let named = kept.views.iter().zip(views).map(
-        |(
-            image,
-            &WallView {
-                wall: wall_index,
-                eye,
-                ..
-            },
-        )| { (format!("{}-{eye}", config.walls[wall_index].name), image) },
-    );
+    let named = (kept.views.iter().zip(views)).map(|(image, v)| (v.name(config), image));
     let projectors = kept
         .projectors
         .iter()

@@ -29,7 +29,7 @@ pub fn replay(
     let mut frame =
         FrameOfViews::cave((lf, resident), &config, config_path, &poses, Slots::PerWall)?;
     let names: Vec<String> = (frame.wall_views().iter())
-        .map(|v| format!("{}-{}", config.walls[v.wall].name, v.eye))
+        .map(|v| v.name(&config))
         .collect();
     if names != meta.views {
         return Err(VlfError::Display(format!(

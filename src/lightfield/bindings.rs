@@ -8,7 +8,7 @@
 
 use super::{LightField, ResidentLightField};
 use crate::error::Result;
-use crate::gpu::types::GpuField;
+use crate::gpu::types::{GpuField, GpuGrid};
 use crate::gpu::{reflect, GpuContext, MemoryLedger};
 
 /// The name of the layout uniform in `common/light_field.wgsl`: the binding the group is found by.
@@ -69,12 +69,8 @@ pub fn bind_group(
     layout: &FieldLayout,
     buffers: &FieldBuffers,
 ) -> wgpu::BindGroup {
-    let placeholder = ctx.buffer_zeroed(
-        &MemoryLedger::default(),
-        "light field: no tiles",
-        64,
-        crate::gpu::STORAGE,
-    );
+    // made only for a light field without tiles (propagation binds a field every iteration)
+    let placeholder;
     let atlas = &buffers.atlas;
     let (directions, points, index_table, rects, index, tiles) = match &buffers.tiles {
         Some(t) => (
@@ -85,14 +81,12 @@ pub fn bind_group(
             t.index,
             t.radiance.clone(),
         ),
-        None => (
-            &placeholder,
-            &placeholder,
-            &placeholder,
-            &placeholder,
-            &placeholder,
-            vec![&placeholder],
-        ),
+        None => {
+            let (ledger, name) = (&MemoryLedger::default(), "light field: no tiles");
+            placeholder = ctx.buffer_zeroed(ledger, name, 64, crate::gpu::STORAGE);
+            let p = &placeholder;
+            (p, p, p, p, p, vec![p])
+        }
     };
     // in the order common/light_field.wgsl declares them: binding k is the k-th
     let all = [
@@ -122,6 +116,25 @@ pub fn bind_group(
         layout: &layout.layout,
         entries: &entries,
     })
+}
+
+/// The layout uniform of the light field being propagated, as `common/light_field.wgsl` reads
+/// it, from the propagation grid's values (transport binds its unshot state with it): so a
+/// change to `Field` stays in this module.
+pub fn field_of_grid(grid: &GpuGrid) -> GpuField {
+    GpuField {
+        sky: [grid.sky[0], grid.sky[1], grid.sky[2], 1.0],
+        cell_size: grid.cell_size,
+        atlas_width: grid.atlas_width,
+        geodesic_frequency: grid.geodesic_frequency,
+        tile_size: grid.tile_size,
+        tile_face_count: grid.tile_face_count,
+        grid_resolution: grid.resolution,
+        tile_page_cells: grid.tile_page_cells,
+        tile_cell_count: grid.tile_cell_count,
+        texel_page_cells: grid.texel_page_cells,
+        ..Default::default()
+    }
 }
 
 impl ResidentLightField {

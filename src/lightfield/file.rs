@@ -257,6 +257,12 @@ pub fn save(lf: &LightField, path: &Path) -> Result<()> {
     write_atomic(path, &encode(lf))
 }
 
+/// Whether `path` names a light field file (`.vlf`, any case) rather than a scene to propagate.
+pub fn is_vlf_path(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vlf"))
+}
+
 pub fn load(path: &Path) -> Result<LightField> {
     let bytes = std::fs::read(path).map_err(|e| VlfError::io(path, e))?;
     decode(&bytes).map_err(|message| VlfError::LightFieldFile {

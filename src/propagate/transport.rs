@@ -45,9 +45,8 @@ use super::{
 };
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{
-    GpuAccumulate, GpuDirection, GpuFace, GpuField, GpuGrid, GpuMaterial, GpuPageRange,
-    GRID_FLAG_ACCUMULATE, GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS,
-    GRID_FLAG_SKY,
+    GpuAccumulate, GpuDirection, GpuFace, GpuGrid, GpuMaterial, GpuPageRange, GRID_FLAG_ACCUMULATE,
+    GRID_FLAG_BATCHED, GRID_FLAG_NO_MIRROR_SENDERS, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY,
 };
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::lightfield::directions::DirectionSet;
@@ -713,7 +712,7 @@ impl Setup<'_> {
             ("geodesic points", bytemuck::cast_slice(&points)),
             ("geodesic index", bytemuck::cast_slice(&index)),
         ];
-        let field = field_params(grid);
+        let field = crate::lightfield::bindings::field_of_grid(grid);
         let uniform = wgpu::BufferUsages::UNIFORM;
         let tiles = Tiles {
             pages,
@@ -1924,23 +1923,5 @@ impl Propagator {
             tiles,
             ledger,
         }
-    }
-}
-
-/// The layout uniform of the light field being propagated, as `common/light_field.wgsl` reads
-/// it: the grid's own values, so the tiles are looked up exactly as before the module existed.
-fn field_params(grid: &GpuGrid) -> GpuField {
-    GpuField {
-        sky: [grid.sky[0], grid.sky[1], grid.sky[2], 1.0],
-        cell_size: grid.cell_size,
-        atlas_width: grid.atlas_width,
-        geodesic_frequency: grid.geodesic_frequency,
-        tile_size: grid.tile_size,
-        tile_face_count: grid.tile_face_count,
-        grid_resolution: grid.resolution,
-        tile_page_cells: grid.tile_page_cells,
-        tile_cell_count: grid.tile_cell_count,
-        texel_page_cells: grid.texel_page_cells,
-        ..Default::default()
     }
 }

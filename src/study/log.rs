@@ -61,6 +61,8 @@ pub enum Drawn {
 }
 
 impl Drawn {
+    const ALL: [Drawn; 3] = [Drawn::Timed, Drawn::ReadBack, Drawn::Shown];
+
     fn name(self) -> &'static str {
         match self {
             Drawn::Timed => "timed",
@@ -94,7 +96,7 @@ pub struct FrameRecord {
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 23] = [
+const FRAME_COLUMNS: [(&str, &str); 27] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -145,11 +147,24 @@ const FRAME_COLUMNS: [(&str, &str); 23] = [
         "gpu_ms",
         "all the frame's passes on the GPU (timestamps), ms; empty when not timed",
     ),
+    (
+        "cpu_ms",
+        "the frame on the CPU, submission to the GPU's end, ms; empty when not timed",
+    ),
+    (
+        "block",
+        "the experiment's block, as the script's `trial` command last set it (0 before)",
+    ),
+    (
+        "trial",
+        "the experiment's trial in its block (0 before the script sets one)",
+    ),
+    (
+        "pose_to_submit_ms",
+        "from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's submission to the GPU, ms; the photons follow after the GPU's time and the display's scan-out; empty where not measured",
+    ),
 ];
-/// After `gpu_ms`: the CPU time, the block, the trial and the pose's age at submission (the
-/// extra columns), then per view five columns, then the events.
-const EXTRA_COLUMNS: usize = 4;
-/// Each view's columns.
+/// Each view's columns, after the frame's; then the events.
 const VIEW_COLUMNS: [(&str, &str); 5] = [
     (
         "samples",
@@ -172,22 +187,6 @@ fn columns(views: &[String]) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
         .map(|(n, m)| (n.to_string(), m.to_string()))
         .collect();
-    out.push((
-        "cpu_ms".into(),
-        "the frame on the CPU, submission to the GPU's end, ms; empty when not timed".into(),
-    ));
-    out.push((
-        "block".into(),
-        "the experiment's block, as the script's `trial` command last set it (0 before)".into(),
-    ));
-    out.push((
-        "trial".into(),
-        "the experiment's trial in its block (0 before the script sets one)".into(),
-    ));
-    out.push((
-        "pose_to_submit_ms".into(),
-        "from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's submission to the GPU, ms; the photons follow after the GPU's time and the display's scan-out; empty where not measured".into(),
-    ));
     for v in views {
         for (n, m) in VIEW_COLUMNS {
             out.push((format!("{v}:{n}"), format!("view {v}: {m}")));
@@ -371,7 +370,7 @@ fn row_text(r: &FrameRecord) -> String {
 
 /// A row back (`views` views), or why it is not one.
 fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, String> {
-    let fixed = FRAME_COLUMNS.len() + EXTRA_COLUMNS + views * VIEW_COLUMNS.len();
+    let fixed = FRAME_COLUMNS.len() + views * VIEW_COLUMNS.len();
     let mut parts = line.splitn(fixed + 1, ',');
     let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
     let events = parts.next().ok_or("fewer columns than the header")?;
@@ -397,16 +396,9 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
                 .map_err(|_| format!("column {} is not a number", i + 1)),
         }
     };
-    let drawn = match cells[2] {
-        "timed" => Drawn::Timed,
-        "read_back" => Drawn::ReadBack,
-        "shown" => Drawn::Shown,
-        other => {
-            return Err(format!(
-                "column 3: {other:?} is not timed, read_back or shown"
-            ))
-        }
-    };
+    let drawn = (Drawn::ALL.into_iter())
+        .find(|d| d.name() == cells[2])
+        .ok_or_else(|| format!("column 3: {:?} is not timed, read_back or shown", cells[2]))?;
     let pose = Pose {
         head: Vec3::new(f(3)?, f(4)?, f(5)?),
         head_rotation: Quat::from_xyzw(f(6)?, f(7)?, f(8)?, f(9)?),
@@ -420,7 +412,7 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
         }),
         _ => None,
     };
-    let base = FRAME_COLUMNS.len() + EXTRA_COLUMNS;
+    let base = FRAME_COLUMNS.len();
     let views = (0..views)
         .map(|k| {
             let c = base + k * VIEW_COLUMNS.len();
@@ -514,7 +506,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 23 + EXTRA_COLUMNS + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 27 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }

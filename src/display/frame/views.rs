@@ -10,6 +10,13 @@ pub struct WallView {
     pub side: f32,
 }
 
+impl WallView {
+    /// `<wall>-<eye>`: the view's images and its columns in a session log are named so.
+    pub fn name(&self, config: &crate::display::DisplayConfig) -> String {
+        format!("{}-{}", config.walls[self.wall].name, self.eye)
+    }
+}
+
 /// Every wall's eyes, in wall order.
 pub fn wall_views(config: &crate::display::DisplayConfig) -> Vec<WallView> {
     (config.walls.iter().enumerate())
