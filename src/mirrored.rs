@@ -61,7 +61,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         }),
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
-            paced_fraction, fixed_work, exhaustive_triangles, _pad0, _pad1, _pad2
+            paced_fraction, fixed_work, exhaustive_triangles, moving_root, moving_first, _pad2
         }),
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,
@@ -94,6 +94,17 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             v0, face, e1, _pad0, e2, _pad1, uv01, uv2
         }),
         mirrored!(GpuBvhNode => "BvhNode" in "reference.wgsl" { lo, index, hi, count }),
+        mirrored!(GpuMovingParams => "MovingParams" in "moving.wgsl" {
+            vertex_count, triangle_count, first_triangle, first_pair
+        }),
+        mirrored!(GpuMovingVertex => "MovingVertex" in "moving.wgsl" {
+            position, normal, joints, weights
+        }),
+        mirrored!(GpuMovingTriangle => "MovingTriangle" in "render.wgsl" { n0, n1, n2 }),
+        mirrored!(GpuMovingMaterial => "MovingMaterial" in "render.wgsl" { albedo, emission }),
+        mirrored!(GpuProbeGrid => "ProbeGrid" in "probes.wgsl" {
+            origin, rays, spacing, _pad0, counts, _pad1
+        }),
         mirrored!(GpuBvhPair => "BvhPair" in "render.wgsl" {
             lo_left, left, hi_left, right, lo_right, _pad0, hi_right, _pad1
         }),

@@ -115,8 +115,10 @@ struct View {
     fixed_work: u32,
     // > 0: the mesh is this small, and every eye ray tests every triangle
     exhaustive_triangles: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // the moving objects' tree: its root pair (NO_NODE: none) and its first triangle, after the
+    // scene's in `pairs` and `ray_triangles` (src/render/dynamic.rs)
+    moving_root: u32,
+    moving_first: u32,
     _pad2: u32,
 }
 

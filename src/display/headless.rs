@@ -163,6 +163,18 @@ fn frame_pose<'l>(
     })
 }
 
+/// Frame `f`'s time for keyframed objects: the scripted walk's time where the poses are
+/// scripted (objects move with the walk), else frame `f` of the refresh rate (60 Hz unless
+/// given), so that a headless run draws the same frames every time.
+fn object_time(poses: &PoseSource, config: &DisplayConfig, (f, total): (u32, u32)) -> f64 {
+    match poses {
+        PoseSource::Scripted(s) if total > 1 => {
+            (s.duration() * f as f32 / (total - 1) as f32) as f64
+        }
+        _ => f as f64 / config.refresh_hz.unwrap_or(60.0) as f64,
+    }
+}
+
 /// `run` as one rank of a cluster (`crate::cluster`): each frame's pose comes from `lock.share`,
 /// and `lock.swap` waits for every rank once the frame is drawn.
 pub fn run_locked(
@@ -196,6 +208,7 @@ pub fn run_locked(
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        frame.set_object_time(object_time(&poses, config, (f, total)));
         let pose = session.pose(pose);
         // when the pose came in (live tracking), or was sampled
         let sampled = fresh.unwrap_or_else(std::time::Instant::now);

@@ -60,6 +60,13 @@ pub struct DisplayConfig {
     pub wand_ray: post::WandRay,
     #[serde(rename = "wall")]
     pub walls: Vec<Wall>,
+    /// moving things drawn into the light field: props on the head or wand, keyframed objects,
+    /// the participant's avatar (`crate::dynamic`)
+    #[serde(default, rename = "object", skip_serializing_if = "Vec::is_empty")]
+    pub objects: Vec<crate::dynamic::ObjectConfig>,
+    /// the irradiance probes that light the moving objects (`render::probes`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub probes: Option<crate::render::probes::ProbeSettings>,
     /// several processes, one CAVE (`mpirun`; `cluster_config.rs`, `crate::cluster`): walls per rank, lost-rank timeout
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cluster: Option<cluster_config::ClusterConfig>,
@@ -190,6 +197,10 @@ impl DisplayConfig {
     pub fn validate(&self) -> std::result::Result<(), String> {
         if self.walls.is_empty() {
             return Err("[[wall]]: at least one wall is needed".into());
+        }
+        crate::dynamic::check_objects(&self.objects)?;
+        if let Some(p) = &self.probes {
+            p.check()?;
         }
         if !(1..=crate::render::MAX_SAMPLES).contains(&self.antialiasing) {
             return Err(format!(

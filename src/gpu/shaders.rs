@@ -60,7 +60,21 @@ pub const SOURCES: &[(&str, &str)] = &[
         "reference.wgsl",
         include_str!("../../shaders/reference.wgsl"),
     ),
+    (
+        "common/scene_cast.wgsl",
+        include_str!("../../shaders/common/scene_cast.wgsl"),
+    ),
+    (
+        "common/irradiance.wgsl",
+        include_str!("../../shaders/common/irradiance.wgsl"),
+    ),
+    (
+        "common/moving_surface.wgsl",
+        include_str!("../../shaders/common/moving_surface.wgsl"),
+    ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+    ("moving.wgsl", include_str!("../../shaders/moving.wgsl")),
+    ("probes.wgsl", include_str!("../../shaders/probes.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
     (
         "common/fullscreen.wgsl",
@@ -88,6 +102,8 @@ pub const STAGES: &[&str] = &[
     "normalize.wgsl",
     "texture.wgsl",
     "render.wgsl",
+    "moving.wgsl",
+    "probes.wgsl",
     "present.wgsl",
     "xr_eye.wgsl",
     "xr_multiview.wgsl",

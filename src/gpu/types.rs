@@ -143,8 +143,10 @@ pub struct GpuView {
     pub fixed_work: u32,
     /// > 0: the mesh is this small, and every eye ray tests every triangle
     pub exhaustive_triangles: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    /// the moving objects' tree: its root pair (`u32::MAX`: none) and first triangle, after the
+    /// scene's in the pairs and triangle buffers (`render::dynamic`)
+    pub moving_root: u32,
+    pub moving_first: u32,
     pub _pad2: u32,
 }
 
@@ -261,4 +263,56 @@ impl GpuRayTriangle {
             w: row(2),
         }
     }
+}
+
+/// Mirrors WGSL `MovingParams` (shaders/moving.wgsl): the moving objects' counts, and where
+/// their triangles and tree start in the renderer's buffers.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMovingParams {
+    pub vertex_count: u32,
+    pub triangle_count: u32,
+    pub first_triangle: u32,
+    pub first_pair: u32,
+}
+
+/// Mirrors WGSL `MovingVertex` (shaders/moving.wgsl): a vertex at rest with its joints.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMovingVertex {
+    pub position: [f32; 4],
+    pub normal: [f32; 4],
+    pub joints: [u32; 4],
+    pub weights: [f32; 4],
+}
+
+/// Mirrors WGSL `MovingTriangle` (shaders/common/moving_surface.wgsl): corner normals, and the
+/// material's index in `n0[3]`'s bits (written by the GPU).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMovingTriangle {
+    pub n0: [f32; 4],
+    pub n1: [f32; 4],
+    pub n2: [f32; 4],
+}
+
+/// Mirrors WGSL `MovingMaterial` (shaders/common/moving_surface.wgsl).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMovingMaterial {
+    pub albedo: [f32; 4],
+    pub emission: [f32; 4],
+}
+
+/// Mirrors WGSL `ProbeGrid` (shaders/common/irradiance.wgsl): probe (i, j, k) at
+/// origin + spacing * (i, j, k), `rays` per probe when baked.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuProbeGrid {
+    pub origin: [f32; 3],
+    pub rays: u32,
+    pub spacing: [f32; 3],
+    pub _pad0: u32,
+    pub counts: [u32; 3],
+    pub _pad1: u32,
 }

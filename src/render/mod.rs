@@ -4,6 +4,8 @@
 
 pub mod budget;
 pub mod image_io;
+pub mod moving;
+pub mod probes;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
@@ -118,6 +120,18 @@ pub struct Renderer {
     faces: wgpu::Buffer,
     /// the material table the faces index
     materials: wgpu::Buffer,
+    /// the moving objects' group (their shading records, materials and the irradiance probes;
+    /// placeholders without objects) and their GPU state
+    moving_group: wgpu::BindGroup,
+    moving: Option<moving::MovingObjects>,
+    probes: Option<probes::Probes>,
+}
+
+/// Moving objects for a renderer: their rest-pose mesh and how the probes that light them are
+/// laid out.
+pub struct ObjectsToDraw<'a> {
+    pub mesh: &'a crate::dynamic::MovingMesh,
+    pub probes: probes::ProbeSettings,
 }
 
 impl Renderer {
@@ -126,17 +140,20 @@ impl Renderer {
         lf: &LightField,
         ledger: &MemoryLedger,
     ) -> Result<Renderer> {
+        Renderer::with_objects(resident, lf, ledger, None)
+    }
+
+    /// A renderer that also draws moving objects: their triangles and tree after the scene's in
+    /// the casting buffers, and the probes that light them baked from the light field here.
+    pub fn with_objects(
+        resident: &ResidentLightField,
+        lf: &LightField,
+        ledger: &MemoryLedger,
+        objects: Option<ObjectsToDraw>,
+    ) -> Result<Renderer> {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
-        let (triangles, tree) = ray_casting_mesh(&lf.render_vertices)?;
-        let (resolve_pipeline, resolve_layout, field_layout) =
-            resolve_pipeline(&ctx, resident.tiles.is_some(), tree.depth)?;
-        let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("view"),
-            size: std::mem::size_of::<GpuView>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let (mut triangles, mut tree) = ray_casting_mesh(&lf.render_vertices)?;
         // `VLF_EXHAUSTIVE_TRIANGLES` (a test hook) moves the threshold: the tests render one
         // scene both ways and compare
         let threshold = std::env::var("VLF_EXHAUSTIVE_TRIANGLES")
@@ -148,6 +165,36 @@ impl Renderer {
         } else {
             0
         };
+        let mut maps: Vec<GpuRayTriangle> = triangles
+            .iter()
+            .map(|t| {
+                let a = Vec3::from(t.v0);
+                GpuRayTriangle::new(a, a + Vec3::from(t.e1), a + Vec3::from(t.e2))
+            })
+            .collect();
+        let plan = match &objects {
+            Some(o) => {
+                let plan = moving::MovingPlan::new(
+                    o.mesh,
+                    triangles.len() as u32,
+                    tree.pairs.len() as u32,
+                )?;
+                triangles.extend_from_slice(&plan.records);
+                maps.extend_from_slice(&plan.maps);
+                tree.pairs.extend_from_slice(&plan.pairs);
+                tree.depth = tree.depth.max(plan.depth);
+                Some(plan)
+            }
+            None => None,
+        };
+        let stack = tree.depth.next_multiple_of(8).max(16);
+        let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, resident.tiles.is_some(), stack)?;
+        let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("view"),
+            size: std::mem::size_of::<GpuView>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let storage = |label, bytes: &[u8]| {
             ledger.record(label, bytes.len() as u64);
             device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -156,13 +203,6 @@ impl Renderer {
                 usage: wgpu::BufferUsages::STORAGE,
             })
         };
-        let maps: Vec<GpuRayTriangle> = triangles
-            .iter()
-            .map(|t| {
-                let a = Vec3::from(t.v0);
-                GpuRayTriangle::new(a, a + Vec3::from(t.e1), a + Vec3::from(t.e2))
-            })
-            .collect();
         let ray_triangles = storage("render mesh: triangle maps", bytemuck::cast_slice(&maps));
         let triangles = storage("render mesh: triangles", bytemuck::cast_slice(&triangles));
         let pairs = storage("render mesh: BVH", bytemuck::cast_slice(&tree.pairs));
@@ -173,18 +213,21 @@ impl Renderer {
             bytemuck::bytes_of(&field),
             wgpu::BufferUsages::UNIFORM,
         );
-        let field_bind_group = resident.bind_group(&field_layout, &field_buffer);
+        let field_bind_group = resident.bind_group(&layouts.field, &field_buffer);
         let view_template = GpuView {
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
             fixed_work: 1,
             exhaustive_triangles,
+            moving_root: u32::MAX,
+            moving_first: 0,
             ..Default::default()
         };
-        Ok(Renderer {
+        let mut renderer = Renderer {
             ctx: ctx.clone(),
             resolve_pipeline,
-            resolve_layout,
+            moving_group: placeholder_moving_group(&ctx, &layouts.moving),
+            resolve_layout: layouts.view,
             faces: resident.faces.clone(),
             materials: resident.materials.clone(),
             view_buffer,
@@ -196,7 +239,76 @@ impl Renderer {
             normalisation: lf.meta.normalisation,
             view_template,
             target: None,
-        })
+            moving: None,
+            probes: None,
+        };
+        if let (Some(o), Some(plan)) = (objects, plan) {
+            renderer.add_objects(resident, lf, ledger, (o, &plan), (&field_buffer, stack))?;
+            renderer.moving_group = moving_group(&ctx, &layouts.moving, &renderer);
+        }
+        Ok(renderer)
+    }
+
+    /// Upload the moving objects planned in `plan` and bake the probes that light them.
+    fn add_objects(
+        &mut self,
+        resident: &ResidentLightField,
+        lf: &LightField,
+        ledger: &MemoryLedger,
+        (objects, plan): (ObjectsToDraw, &moving::MovingPlan),
+        (field_buffer, stack): (&wgpu::Buffer, u32),
+    ) -> Result<()> {
+        let (lo, hi) = (lf.render_vertices.iter()).fold(
+            (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+            |(lo, hi), v| (lo.min(v.position.into()), hi.max(v.position.into())),
+        );
+        let grid = probes::probe_grid(lo, hi, &objects.probes);
+        let inputs = probes::BakeInputs {
+            view: &self.view_template,
+            faces: &self.faces,
+            triangles: &self.triangles,
+            pairs: &self.pairs,
+            ray_triangles: &self.ray_triangles,
+            materials: &self.materials,
+            resident,
+            field: field_buffer,
+            stack,
+        };
+        self.probes = Some(probes::bake(&self.ctx, ledger, grid, &inputs)?);
+        let moving = moving::MovingObjects::new(
+            &self.ctx,
+            ledger,
+            objects.mesh,
+            plan,
+            (&self.ray_triangles, &self.pairs),
+            self.normalisation,
+        )?;
+        self.view_template.moving_root = moving.root_pair;
+        self.view_template.moving_first = moving.first_triangle;
+        self.moving = Some(moving);
+        Ok(())
+    }
+
+    /// Pose the moving objects for the views drawn next: `joints` are their joint matrices in
+    /// world metres (`dynamic::Objects::joint_matrices`). Submitted at once; nothing without
+    /// objects.
+    pub fn pose_objects(&self, joints: &[Mat4]) {
+        if let Some(m) = &self.moving {
+            m.set_joints(&self.ctx.queue, joints);
+            let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+            m.encode(&mut encoder);
+            self.ctx.queue.submit([encoder.finish()]);
+        }
+    }
+
+    /// Whether this renderer draws moving objects.
+    pub fn has_objects(&self) -> bool {
+        self.moving.is_some()
+    }
+
+    /// The irradiance probes' grid, where there are moving objects to light.
+    pub fn probe_grid(&self) -> Option<crate::gpu::types::GpuProbeGrid> {
+        self.probes.as_ref().map(|p| p.grid)
     }
 
     /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre).
@@ -327,6 +439,7 @@ impl Renderer {
         pass.set_pipeline(&self.resolve_pipeline);
         pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
         pass.set_bind_group(1, &self.field_bind_group, &[]);
+        pass.set_bind_group(2, &self.moving_group, &[]);
         pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
     }
 
@@ -509,31 +622,33 @@ impl Renderer {
     }
 }
 
-/// The resolve pass: its pipeline, the layout of its own group (the view, the render mesh, the
-/// targets) and the light field's (`lightfield::bindings`). A light field with mirror tiles is
-/// drawn by `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The
-/// traversal's stack is as deep as the scene's tree needs (`depth`, rounded up): local memory
-/// per thread is what a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster
-/// with 24 entries than with 64).
+/// The resolve pass's bind group layouts: its own group (the view, the render mesh, the
+/// targets), the light field's (`lightfield::bindings`) and the moving objects'.
+struct ResolveLayouts {
+    view: wgpu::BindGroupLayout,
+    field: crate::lightfield::bindings::FieldLayout,
+    moving: wgpu::BindGroupLayout,
+}
+
+/// The resolve pass: its pipeline and layouts. A light field with mirror tiles is drawn by
+/// `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The traversal's
+/// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
+/// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
+/// with 64).
 fn resolve_pipeline(
     ctx: &GpuContext,
     tiles: bool,
-    depth: u32,
-) -> Result<(
-    wgpu::ComputePipeline,
-    wgpu::BindGroupLayout,
-    crate::lightfield::bindings::FieldLayout,
-)> {
+    stack: u32,
+) -> Result<(wgpu::ComputePipeline, ResolveLayouts)> {
     let device = &ctx.device;
-    let stack = depth.next_multiple_of(8).max(16);
     let module = shaders::module_with(device, "render.wgsl", &[("PAIR_STACK", stack)])?;
-    // view, faces, triangles, BVH, image, ray-casting triangles, depth
-    let resolve_layout = reflect::layout(device, "render.wgsl", 0)?;
-    let field_layout = crate::lightfield::bindings::layout(device, "render.wgsl")?;
-    if field_layout.group != 1 {
+    let view = reflect::layout(device, "render.wgsl", 0)?;
+    let field = crate::lightfield::bindings::layout(device, "render.wgsl")?;
+    let moving = reflect::layout(device, "render.wgsl", 2)?;
+    if field.group != 1 {
         return Err(VlfError::Gpu(format!(
             "shaders/render.wgsl binds the light field at group {}; the renderer binds it at 1",
-            field_layout.group
+            field.group
         )));
     }
     let entry = if tiles {
@@ -541,8 +656,49 @@ fn resolve_pipeline(
     } else {
         "resolve_diffuse"
     };
-    let pipeline = ctx.compute_pipeline(&module, entry, &[&resolve_layout, &field_layout.layout]);
-    Ok((pipeline, resolve_layout, field_layout))
+    let pipeline = ctx.compute_pipeline(&module, entry, &[&view, &field.layout, &moving]);
+    Ok((
+        pipeline,
+        ResolveLayouts {
+            view,
+            field,
+            moving,
+        },
+    ))
+}
+
+/// The moving objects' group of the resolve pass: their shading records, materials and probes.
+fn moving_group(
+    ctx: &GpuContext,
+    layout: &wgpu::BindGroupLayout,
+    renderer: &Renderer,
+) -> wgpu::BindGroup {
+    match (&renderer.moving, &renderer.probes) {
+        (Some(m), Some(p)) => ctx.bind_group(
+            layout,
+            &[&m.shading, &m.materials, &p.grid_buffer, &p.coefficients],
+        ),
+        _ => placeholder_moving_group(ctx, layout),
+    }
+}
+
+/// The same group for a renderer without moving objects: placeholders, never read.
+fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+    let ledger = MemoryLedger::default();
+    let storage = ctx.buffer_init(
+        &ledger,
+        "no moving objects",
+        &[0u8; 64],
+        wgpu::BufferUsages::STORAGE,
+    );
+    let grid = crate::gpu::types::GpuProbeGrid::default();
+    let uniform = ctx.buffer_init(
+        &ledger,
+        "no probes",
+        bytemuck::bytes_of(&grid),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    ctx.bind_group(layout, &[&storage, &storage, &uniform, &storage])
 }
 
 /// The render mesh (triangles in the light field's normalised space, each with its face) as

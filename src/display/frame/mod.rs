@@ -23,11 +23,12 @@ pub use views::{labels, wall_views, ViewLabel, WallView};
 
 use super::post::{Draw, Outputs, WandOverlay};
 use super::DisplayConfig;
+use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
-use crate::render::{Frame, Renderer, ViewTargets};
+use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
 use crate::stats::Distribution;
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
@@ -98,6 +99,10 @@ pub struct FrameOfViews<'a> {
     drawn: Vec<ViewSettings>,
     /// each view's settings given from outside instead of the pacer's (`vlf replay`)
     forced: Option<Vec<ViewSettings>>,
+    /// the display's moving objects (`crate::dynamic`), posed before each frame's views, and the
+    /// time that moves the keyframed ones
+    objects: Option<Objects>,
+    object_time: f64,
 }
 
 impl<'a> FrameOfViews<'a> {
@@ -112,7 +117,15 @@ impl<'a> FrameOfViews<'a> {
         slots: Slots,
     ) -> Result<FrameOfViews<'a>> {
         let ctx = resident.ctx.clone();
-        let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+        let objects = match config.objects.is_empty() {
+            true => None,
+            false => Some(Objects::load(&config.objects, config_path)?),
+        };
+        let to_draw = objects.as_ref().map(|o| ObjectsToDraw {
+            mesh: o.mesh(),
+            probes: config.probes.unwrap_or_default(),
+        });
+        let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
@@ -141,6 +154,8 @@ impl<'a> FrameOfViews<'a> {
             pacer: None,
             drawn: Vec::new(),
             forced: None,
+            objects,
+            object_time: 0.0,
         };
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
@@ -149,6 +164,8 @@ impl<'a> FrameOfViews<'a> {
                 wand: None,
                 arrived: None,
             };
+            // the views probed as they will be drawn: with the objects where they start
+            frame.pose_objects(&first);
             frame.fit_frame_time(first, budget)?;
         }
         Ok(frame)
@@ -177,6 +194,29 @@ impl<'a> FrameOfViews<'a> {
             acc: Accounting::new(labels, clock),
             drawn: Vec::new(),
             forced: None,
+            objects: None,
+            object_time: 0.0,
+        }
+    }
+
+    /// The moving objects (a study shows and hides them), where the display has any.
+    pub fn objects_mut(&mut self) -> Option<&mut Objects> {
+        self.objects.as_mut()
+    }
+
+    /// The time (seconds from the start of the run) that moves keyframed objects in the frames
+    /// drawn next.
+    pub fn set_object_time(&mut self, seconds: f64) {
+        self.object_time = seconds;
+    }
+
+    /// Pose the moving objects where `poses` and the object time put them (tracked poses only:
+    /// the headset's eye matrices carry no head for them to follow).
+    fn pose_objects(&self, poses: &Poses<'_>) {
+        if let (Some(objects), Poses::Tracked { pose, wand, .. }) = (&self.objects, poses) {
+            let tracked = Tracked::from_pose(pose, *wand, self.object_time);
+            self.renderer
+                .pose_objects(&objects.joint_matrices(&tracked));
         }
     }
 
@@ -250,6 +290,7 @@ impl<'a> FrameOfViews<'a> {
         let count = self.labels().len();
         let mut submission = None;
         self.drawn.clear();
+        self.pose_objects(&poses);
         for i in 0..count {
             if let Some(p) = &self.pacer {
                 self.renderer.set_pacing(p.setting(i));
@@ -305,6 +346,7 @@ impl<'a> FrameOfViews<'a> {
     pub fn read_back(&mut self, poses: Poses<'_>) -> Result<Vec<ViewImages>> {
         let mut images = Vec::new();
         self.drawn.clear();
+        self.pose_objects(&poses);
         for i in 0..self.labels().len() {
             self.apply_forced(i);
             let (view, overlay) = self.view(i, &poses)?;

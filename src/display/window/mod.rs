@@ -252,6 +252,8 @@ impl App<'_> {
         let ctx = self.ctx().clone();
         // every view rendered, and its outputs drawn, once; then each window shows its parts
         self.frame.begin(timed)?;
+        self.frame
+            .set_object_time(self.started.elapsed().as_secs_f64());
         let tracked = Poses::Tracked {
             pose: &pose,
             wand: wand.as_ref(),

@@ -1,0 +1,158 @@
+//! The display TOML's `[[object]]` tables: a moving thing drawn into the light field, what mesh it
+//! is, what moves it (a tracked target, keyframes in the world, or the avatar's rig) and whether
+//! it is shown. Unknown keys are refused; `check` names the table and key of a bad value.
+
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// One moving object.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectConfig {
+    /// how a study's script names it (`show`/`hide` over the control connection)
+    pub name: String,
+    /// a glTF/.glb or OBJ mesh in metres, relative to the display config; for `kind = "avatar"`
+    /// a glTF with one skin (`dynamic::avatar`)
+    pub mesh: PathBuf,
+    #[serde(default)]
+    pub kind: ObjectKind,
+    /// what moves it; an avatar always follows the head (and the wand as its right hand)
+    #[serde(default)]
+    pub follow: Follow,
+    /// where it sits relative to what it follows (metres; for `world`, in the world)
+    #[serde(default)]
+    pub position: [f32; 3],
+    #[serde(default)]
+    pub yaw_deg: f32,
+    #[serde(default)]
+    pub pitch_deg: f32,
+    #[serde(default)]
+    pub roll_deg: f32,
+    /// uniform scale of the mesh
+    #[serde(default = "one")]
+    pub scale: f32,
+    /// `follow = "world"`: placements over time (seconds from the start), interpolated; after
+    /// the last one it holds, or starts again with `repeat`
+    #[serde(default, rename = "keyframe", skip_serializing_if = "Vec::is_empty")]
+    pub keyframes: Vec<ObjectKeyframe>,
+    #[serde(default)]
+    pub repeat: bool,
+    /// shown from the first frame (a study switches it at run time)
+    #[serde(default = "yes")]
+    pub visible: bool,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+fn yes() -> bool {
+    true
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ObjectKind {
+    /// one rigid mesh
+    #[default]
+    Rigid,
+    /// a skinned glTF body on the participant: under the tracked head, arms to the hands
+    Avatar,
+}
+
+#[derive(Clone, Copy, Debug, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Follow {
+    /// placed in the world (with keyframes: animated)
+    #[default]
+    World,
+    /// the tracked head (a helmet, a head-mounted lamp)
+    Head,
+    /// the tracked wand (a prop in the hand)
+    Wand,
+}
+
+/// A placement at time `t` seconds: position (metres) and yaw, pitch, roll (degrees, as the
+/// head's: yaw about +y, then pitch about x, then roll about z).
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectKeyframe {
+    pub t: f32,
+    #[serde(default)]
+    pub position: [f32; 3],
+    #[serde(default)]
+    pub yaw_deg: f32,
+    #[serde(default)]
+    pub pitch_deg: f32,
+    #[serde(default)]
+    pub roll_deg: f32,
+}
+
+impl ObjectConfig {
+    /// Whether the values make sense; the error names the table (`object "name"`) and the key.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let at = format!("[[object]] \"{}\": ", self.name);
+        if self.name.trim().is_empty() {
+            return Err("[[object]]: name must not be empty".into());
+        }
+        let angles = [self.yaw_deg, self.pitch_deg, self.roll_deg];
+        if !self.position.iter().chain(&angles).all(|v| v.is_finite()) {
+            return Err(format!("{at}position and angles must be finite numbers"));
+        }
+        if !(self.scale.is_finite() && self.scale > 0.0) {
+            return Err(format!("{at}scale = {}: must be above 0", self.scale));
+        }
+        if !self.keyframes.is_empty() && self.follow != Follow::World {
+            return Err(format!(
+                "{at}keyframes move an object in the world: give follow = \"world\" or drop them"
+            ));
+        }
+        if self.kind == ObjectKind::Avatar && !self.keyframes.is_empty() {
+            return Err(format!(
+                "{at}an avatar follows the tracked head: drop its keyframes"
+            ));
+        }
+        for pair in self.keyframes.windows(2) {
+            if pair[1].t <= pair[0].t || pair[1].t.is_nan() {
+                return Err(format!(
+                    "{at}keyframe times must increase ({} then {})",
+                    pair[0].t, pair[1].t
+                ));
+            }
+        }
+        let frames = self.keyframes.iter();
+        for k in frames {
+            let values = [k.t, k.yaw_deg, k.pitch_deg, k.roll_deg];
+            if !k.position.iter().chain(&values).all(|v| v.is_finite()) {
+                return Err(format!(
+                    "{at}keyframe at t = {}: values must be finite",
+                    k.t
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every object's checks, and no two with one name.
+pub fn check_objects(objects: &[ObjectConfig]) -> std::result::Result<(), String> {
+    for (i, o) in objects.iter().enumerate() {
+        o.check()?;
+        if objects[..i].iter().any(|p| p.name == o.name) {
+            return Err(format!(
+                "[[object]] \"{}\": two objects share this name",
+                o.name
+            ));
+        }
+    }
+    let avatars = objects
+        .iter()
+        .filter(|o| o.kind == ObjectKind::Avatar)
+        .count();
+    if avatars > 1 {
+        return Err(format!(
+            "[[object]]: {avatars} avatars; one participant is tracked, give one"
+        ));
+    }
+    Ok(())
+}

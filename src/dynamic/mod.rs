@@ -1,0 +1,163 @@
+//! Dynamic objects: moving things drawn into the static light field, each frame where the
+//! participant or the script puts them. A display config lists them (`[[object]]`, `config.rs`):
+//! rigid meshes that follow the tracked head or wand or move by keyframes in the world
+//! (`motion.rs`), and the participant's skinned avatar (`avatar/`). Here they become one mesh in
+//! its rest pose (`mesh.rs`) and, frame by frame, the joint matrices that pose it; the renderer
+//! skins, refits and shades them on the GPU (`render::moving`, `render::probes`). Nothing here
+//! touches the GPU.
+
+pub mod config;
+pub mod mesh;
+pub mod motion;
+
+pub use config::{check_objects, Follow, ObjectConfig, ObjectKind};
+pub use mesh::{MovingMaterial, MovingMesh, RestVertex, RigidMesh};
+
+use crate::error::{Result, VlfError};
+use crate::tracking::pose::head_rotation_from_angles;
+use crate::tracking::{Pose, WandPose};
+use glam::{Affine3A, Mat4, Quat, Vec3};
+use std::path::Path;
+
+/// Where the tracked things are in one frame, in the world (metres), and the time that moves
+/// keyframed objects (seconds from the start of the run).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tracked {
+    pub time: f64,
+    /// world from head: the point between the eyes' tracked frame (looks along -z)
+    pub head: Affine3A,
+    /// world from wand (points along -z), where one is tracked
+    pub wand: Option<Affine3A>,
+}
+
+impl Tracked {
+    /// The tracked head and wand of `pose` moved into the world by its navigation.
+    pub fn from_pose(pose: &Pose, wand: Option<&WandPose>, time: f64) -> Tracked {
+        let room = Quat::from_rotation_y(pose.room_yaw_deg.to_radians());
+        let head = Affine3A::from_rotation_translation(
+            room * pose.head_rotation,
+            pose.room_to_world(pose.head),
+        );
+        let wand = wand.map(|w| {
+            Affine3A::from_rotation_translation(room * w.rotation, pose.room_to_world(w.position))
+        });
+        Tracked { time, head, wand }
+    }
+}
+
+/// The loaded objects: their configs, one rest-pose mesh of them all, which are shown.
+pub struct Objects {
+    configs: Vec<ObjectConfig>,
+    /// each object's first joint matrix in `joint_matrices`
+    first_joint: Vec<u32>,
+    visible: Vec<bool>,
+    mesh: MovingMesh,
+}
+
+impl Objects {
+    /// Load every object's mesh (paths relative to `config_path`'s folder); an error names the
+    /// config, the object and the problem.
+    pub fn load(configs: &[ObjectConfig], config_path: &Path) -> Result<Objects> {
+        let config_error = |message: String| VlfError::Config {
+            path: config_path.to_path_buf(),
+            message,
+        };
+        check_objects(configs).map_err(config_error)?;
+        let dir = config_path.parent().unwrap_or(Path::new("."));
+        let mut mesh = MovingMesh::default();
+        let mut first_joint = Vec::new();
+        for (i, o) in configs.iter().enumerate() {
+            let path = dir.join(&o.mesh);
+            let joint = mesh.joint_count;
+            first_joint.push(joint);
+            match o.kind {
+                ObjectKind::Rigid => {
+                    let part = RigidMesh::load(&path).map_err(|e| {
+                        config_error(format!(
+                            "[[object]] \"{}\": mesh {}: {e}",
+                            o.name,
+                            path.display()
+                        ))
+                    })?;
+                    mesh.push_rigid(&part, i as u32, joint);
+                }
+                ObjectKind::Avatar => {
+                    return Err(config_error(format!(
+                        "[[object]] \"{}\": kind = \"avatar\" is not built into this binary",
+                        o.name
+                    )))
+                }
+            }
+        }
+        Ok(Objects {
+            visible: configs.iter().map(|o| o.visible).collect(),
+            configs: configs.to_vec(),
+            first_joint,
+            mesh,
+        })
+    }
+
+    pub fn mesh(&self) -> &MovingMesh {
+        &self.mesh
+    }
+
+    pub fn configs(&self) -> &[ObjectConfig] {
+        &self.configs
+    }
+
+    /// Show or hide the object called `name`; an error lists the names there are.
+    pub fn set_visible(&mut self, name: &str, visible: bool) -> std::result::Result<(), String> {
+        match self.configs.iter().position(|o| o.name == name) {
+            Some(i) => {
+                self.visible[i] = visible;
+                Ok(())
+            }
+            None => Err(format!(
+                "no object called \"{name}\" (there are: {})",
+                (self.configs.iter())
+                    .map(|o| format!("\"{}\"", o.name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )),
+        }
+    }
+
+    /// Whether each object is shown, in config order.
+    pub fn visible(&self) -> &[bool] {
+        &self.visible
+    }
+
+    /// Every joint matrix for this frame (world metres from each object's rest pose); a hidden
+    /// object's are zero, which the GPU reads as "not there".
+    pub fn joint_matrices(&self, tracked: &Tracked) -> Vec<Mat4> {
+        let mut matrices = vec![Mat4::ZERO; self.mesh.joint_count as usize];
+        for (i, o) in self.configs.iter().enumerate() {
+            if !self.visible[i] {
+                continue;
+            }
+            let first = self.first_joint[i] as usize;
+            match o.kind {
+                ObjectKind::Rigid => matrices[first] = Mat4::from(rigid_placement(o, tracked)),
+                ObjectKind::Avatar => {}
+            }
+        }
+        matrices
+    }
+}
+
+/// A rigid object's world placement: what it follows, then its own offset, angles and scale.
+pub fn rigid_placement(o: &ObjectConfig, tracked: &Tracked) -> Affine3A {
+    let base = match o.follow {
+        Follow::World if o.keyframes.is_empty() => Affine3A::IDENTITY,
+        Follow::World => motion::keyframed(&o.keyframes, tracked.time, o.repeat),
+        Follow::Head => tracked.head,
+        // no wand tracked this frame: the prop waits at the head
+        Follow::Wand => tracked.wand.unwrap_or(tracked.head),
+    };
+    let local = Affine3A::from_scale_rotation_translation(
+        Vec3::splat(o.scale),
+        head_rotation_from_angles(o.yaw_deg, o.pitch_deg, o.roll_deg),
+        Vec3::from(o.position),
+    );
+    base * local
+}
