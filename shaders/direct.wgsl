@@ -15,6 +15,7 @@
 // cells still receive the emitters through the light field (they carry mirror -> mirror
 // chains). With mirrors (mirror_direct), emitter -> mirror -> texel paths come in the second
 // iteration from mirror_light, in closed form, instead of through the mirror tiles.
+#include "common/sampling.wgsl"
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
@@ -72,12 +73,6 @@ const RAY_OFFSET: f32 = 1e-4;
 // shadow rays meet triangles grown by this much (common/bvh.wgsl, intersect_grown)
 const SHADOW_GROW: f32 = 1e-4;
 
-fn hash(x: u32) -> u32 {
-    var h = x * 747796405u + 2891336453u;
-    h = ((h >> ((h >> 28u) + 4u)) ^ h) * 277803737u;
-    return (h >> 22u) ^ h;
-}
-
 // A texel's seed from its face and its place in the face's chart, not from its index in the
 // atlas: a texel gets the same shadow rays however the atlas is packed (the backs of two-sided
 // surfaces, packed with the rest, must not change the noise of the fronts' direct light).
@@ -87,18 +82,6 @@ fn texel_seed(texel: u32, face_id: u32, f: Face) -> u32 {
     return hash(hash(face_id) ^ (local_x | (local_y << 16u)));
 }
 
-fn unit_float(bits: u32) -> f32 {
-    return f32(bits >> 8u) * (1.0 / 16777216.0);
-}
-
-fn radical_inverse(k: u32) -> f32 {
-    return unit_float(reverseBits(k));
-}
-
-// Point `k` of an `n`-point Hammersley set, rotated (Cranley-Patterson) by `shift`.
-fn hammersley(k: u32, n: u32, shift: vec2<f32>) -> vec2<f32> {
-    return fract(vec2<f32>((f32(k) + 0.5) / f32(n), radical_inverse(k)) + shift);
-}
 
 // A convex polygon relative to the receiver: a triangle clipped by up to five planes (the
 // receiver's hemisphere; for a virtual emitter also the mirror's plane and the three sides of

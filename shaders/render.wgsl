@@ -28,6 +28,7 @@
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
 #include "common/ray.wgsl"
+#include "common/sampling.wgsl"
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
@@ -56,6 +57,16 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
     return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
 }
 
+// What surface `s` (of face `f`) shows: the light field's radiance there, less the direct light
+// moving objects take from it (none without them), or what a ray that met no face shows.
+fn shown(s: Surface, f: Face, seed: u32) -> vec3<f32> {
+    var radiance = atlas_radiance(f, s.point);
+    if view.moving_root != NO_NODE && s.seen > 0.0 {
+        radiance = max(radiance - moving_shadow(f, s.point, seed), vec3<f32>(0.0));
+    }
+    return radiance * s.seen + s.background;
+}
+
 // One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
 // chain ends: the last surface, its direction of travel and the weight still carried (for the
 // tiles, in resolve_mixed).
@@ -72,7 +83,7 @@ struct Path {
 // The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
 // every one traced whatever it carries, with the weights relative to the light leaving `first`
 // by its mirror (the caller multiplies by that mirror's reflectance).
-fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
+fn mirror_chain(first: Surface, ray_in: vec3<f32>, seed: u32) -> Path {
     var s = first;
     var ray = ray_in;
     var f = faces[s.face];
@@ -84,7 +95,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
         ray = mirror_direction(ray, f.normal);
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
-        path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
+        path.radiance += weight * shown(s, f, seed + b);
         path.throughput = weight * s.seen;
         weight *= mirror_reflectance(material_of(f)) * s.seen;
     }
@@ -159,8 +170,9 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
-        sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
+        let seed = hash(gid.x ^ hash(gid.y ^ hash(k)));
+        sum += shown(s0, f0, seed);
+        sum += shown(s1, f1, seed + 1u) * w1;
         if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
@@ -168,7 +180,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
                 s = s1;
             }
             let ray = select(r0[1], r1[1], use_second);
-            sum += (m0 + m1) * mirror_chain(s, ray).radiance;
+            sum += (m0 + m1) * mirror_chain(s, ray, seed + 2u).radiance;
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
@@ -202,15 +214,16 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        sum += atlas_radiance(f0, s0.point) * s0.seen + s0.background;
-        sum += (atlas_radiance(f1, s1.point) * s1.seen + s1.background) * w1;
+        let seed = hash(gid.x ^ hash(gid.y ^ hash(k)));
+        sum += shown(s0, f0, seed);
+        sum += shown(s1, f1, seed + 1u) * w1;
         if reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
             if use_second {
                 s = s1;
             }
-            let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
+            let chain = mirror_chain(s, select(r0[1], r1[1], use_second), seed + 2u);
             let f = faces[chain.face];
             // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
             let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);

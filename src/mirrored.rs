@@ -103,7 +103,8 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuMovingTriangle => "MovingTriangle" in "render.wgsl" { n0, n1, n2 }),
         mirrored!(GpuMovingMaterial => "MovingMaterial" in "render.wgsl" { albedo, emission }),
         mirrored!(GpuProbeGrid => "ProbeGrid" in "probes.wgsl" {
-            origin, rays, spacing, _pad0, counts, _pad1
+            origin, rays, spacing, emitter_count, counts, shadow_samples, sky_shadow_samples, _pad0,
+            _pad1, _pad2
         }),
         mirrored!(GpuBvhPair => "BvhPair" in "render.wgsl" {
             lo_left, left, hi_left, right, lo_right, _pad0, hi_right, _pad1

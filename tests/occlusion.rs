@@ -8,7 +8,7 @@
 
 mod common;
 
-use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
+use common::{clip_convex, face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::{DVec2, DVec3};
 use vlf::prepare::PreparedScene;
 use vlf::progress::Silent;
@@ -30,38 +30,6 @@ fn params() -> PropagationParams {
         mirror_direct: false,
         rim_rays: false,
     }
-}
-
-/// Sutherland-Hodgman: the part of convex `subject` inside convex `clip` (both counter-clockwise
-/// in the xz-plane seen from +y, or both clockwise).
-fn clip_convex(subject: &[DVec2], clip: &[DVec2]) -> Vec<DVec2> {
-    let orientation = |p: &[DVec2]| {
-        (0..p.len())
-            .map(|i| p[i].perp_dot(p[(i + 1) % p.len()]))
-            .sum::<f64>()
-            .signum()
-    };
-    let sign = orientation(clip);
-    let mut out = subject.to_vec();
-    for i in 0..clip.len() {
-        let (a, b) = (clip[i], clip[(i + 1) % clip.len()]);
-        let inside = |p: DVec2| sign * (b - a).perp_dot(p - a) >= 0.0;
-        let input = std::mem::take(&mut out);
-        for j in 0..input.len() {
-            let (p, q) = (input[j], input[(j + 1) % input.len()]);
-            if inside(p) {
-                out.push(p);
-            }
-            if inside(p) != inside(q) {
-                let (dp, dq) = ((b - a).perp_dot(p - a), (b - a).perp_dot(q - a));
-                out.push(p + (q - p) * (dp / (dp - dq)));
-            }
-        }
-        if out.is_empty() {
-            break;
-        }
-    }
-    out
 }
 
 struct Texel {

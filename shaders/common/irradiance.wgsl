@@ -5,14 +5,20 @@
 // clamped cosine (Ramamoorthi & Hanrahan 2001): exact for any radiance of order <= 2, e.g. the
 // uniform radiance of a closed furnace.
 
-// mirrors gpu::types::GpuProbeGrid: probe (i, j, k) sits at origin + spacing * (i, j, k)
+// mirrors gpu::types::GpuProbeGrid: probe (i, j, k) sits at origin + spacing * (i, j, k); and
+// the moving objects' shadows (common/moving_surface.wgsl): the emitting triangles, shadow rays
+// per eye ray to each of them and to the sky
 struct ProbeGrid {
     origin: vec3<f32>,
     rays: u32,
     spacing: vec3<f32>,
-    _pad0: u32,
+    emitter_count: u32,
     counts: vec3<u32>,
+    shadow_samples: u32,
+    sky_shadow_samples: u32,
+    _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 // coefficients per probe, each a vec4: rgb, and in the first one's w the share of the probe's

@@ -21,6 +21,19 @@ struct MovingMaterial {
 @group(2) @binding(1) var<storage, read> moving_materials: array<MovingMaterial>;
 @group(2) @binding(2) var<uniform> probe_grid: ProbeGrid;
 @group(2) @binding(3) var<storage, read> probes: array<vec4<f32>>;
+// the scene's emitting triangles (probe_grid.emitter_count of them), which the shadows sample
+@group(2) @binding(4) var<storage, read> emitters: array<Emitter>;
+
+// mirrors gpu::types::GpuEmitter: one emitting triangle and its radiance
+struct Emitter {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    textured: u32,
+    e2: vec3<f32>,
+    _pad0: u32,
+    radiance: vec4<f32>,
+}
 
 // Probe `probe`'s irradiance for the basis `b` (irradiance_basis), never negative (order 2
 // rings where the light is sharp).
@@ -74,4 +87,88 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     n = normalize(select(n, -n, dot(n, ray) > 0.0));
     let material = moving_materials[bitcast<u32>(m.n0.w)];
     return material.albedo.xyz / PI * irradiance_at(point, n) + material.emission.xyz;
+}
+
+// Whether the scene (not the moving objects) blocks the segment from `origin` along `ray` (unit)
+// before `reach`.
+fn scene_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
+    var hit = Hit(reach, NO_FACE, 0.0, 0.0);
+    if view.exhaustive_triangles > 0u {
+        for (var i = 0u; i < view.exhaustive_triangles; i++) {
+            let t = ray_triangle(origin, ray, ray_triangles[i]);
+            if t > 1e-5 && t < reach {
+                return true;
+            }
+        }
+        return false;
+    }
+    hit = cast_bvh(origin, ray, 0u, hit);
+    return hit.tri != NO_FACE && hit.t < reach;
+}
+
+// Whether a moving object blocks it.
+fn moving_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
+    let hit = cast_bvh(origin, ray, view.moving_root, Hit(reach, NO_FACE, 0.0, 0.0));
+    return hit.tri != NO_FACE && hit.t < reach;
+}
+
+// The direct light the moving objects take away from point p of static face f, as radiance
+// leaving p (the light field holds it; the renderer subtracts it): per emitting triangle,
+// probe_grid.shadow_samples points on it (a Hammersley set rotated per eye ray by `seed`), and
+// probe_grid.sky_shadow_samples cosine-weighted directions to the sky; a sample counts where a
+// moving object is in the way and the scene is not (the light field never had what the scene
+// blocks). The indirect light the objects block, and the light they reflect onto the scene, are
+// left as the light field has them.
+fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
+    if view.moving_root == NO_NODE {
+        return vec3<f32>(0.0);
+    }
+    let albedo = diffuse_reflectance(material_of(f));
+    if max(albedo.x, max(albedo.y, albedo.z)) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let origin = p + f.normal * 1e-5;
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
+    var blocked = vec3<f32>(0.0);
+    let n = probe_grid.shadow_samples;
+    for (var e = 0u; e < probe_grid.emitter_count * select(0u, 1u, n > 0u); e++) {
+        let em = emitters[e];
+        let across = cross(em.e1, em.e2);
+        let area = 0.5 * length(across);
+        let normal = normalize(across);
+        for (var k = 0u; k < n; k++) {
+            let u = hammersley(k, n, shift);
+            let r = sqrt(u.x);
+            let q = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r);
+            let d = q - origin;
+            let dist = length(d);
+            let ray = d / dist;
+            let cos_p = dot(f.normal, ray);
+            let cos_e = -dot(normal, ray);
+            if cos_p <= 0.0 || cos_e <= 0.0 {
+                continue;
+            }
+            let reach = dist * (1.0 - 1e-4);
+            if moving_blocks(origin, ray, reach) && !scene_blocks(origin, ray, reach) {
+                blocked += em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * f32(n)));
+            }
+        }
+    }
+    let m = probe_grid.sky_shadow_samples;
+    if field.sky.w > 0.0 && max(field.sky.x, max(field.sky.y, field.sky.z)) > 0.0 {
+        // a frame around the normal for cosine-weighted directions
+        let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(f.normal.x) > 0.9));
+        let a = normalize(cross(f.normal, t));
+        let b = cross(f.normal, a);
+        for (var k = 0u; k < m; k++) {
+            let u = hammersley(k, m, shift.yx);
+            let r = sqrt(u.x);
+            let phi = 2.0 * PI * u.y;
+            let ray = a * (r * cos(phi)) + b * (r * sin(phi)) + f.normal * sqrt(max(0.0, 1.0 - u.x));
+            if moving_blocks(origin, ray, 1e30) && !scene_blocks(origin, ray, 1e30) {
+                blocked += field.sky.xyz * (PI / f32(m));
+            }
+        }
+    }
+    return albedo / PI * blocked;
 }

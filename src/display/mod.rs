@@ -64,9 +64,9 @@ pub struct DisplayConfig {
     /// the participant's avatar (`crate::dynamic`)
     #[serde(default, rename = "object", skip_serializing_if = "Vec::is_empty")]
     pub objects: Vec<crate::dynamic::ObjectConfig>,
-    /// the irradiance probes that light the moving objects (`render::probes`)
+    /// how the moving objects are lit and shadow the scene (`render::probes`)
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub probes: Option<crate::render::probes::ProbeSettings>,
+    pub object_lighting: Option<crate::render::probes::ObjectLighting>,
     /// several processes, one CAVE (`mpirun`; `cluster_config.rs`, `crate::cluster`): walls per rank, lost-rank timeout
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cluster: Option<cluster_config::ClusterConfig>,
@@ -199,8 +199,8 @@ impl DisplayConfig {
             return Err("[[wall]]: at least one wall is needed".into());
         }
         crate::dynamic::check_objects(&self.objects)?;
-        if let Some(p) = &self.probes {
-            p.check()?;
+        if let Some(l) = &self.object_lighting {
+            l.check()?;
         }
         if !(1..=crate::render::MAX_SAMPLES).contains(&self.antialiasing) {
             return Err(format!(

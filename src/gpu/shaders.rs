@@ -61,6 +61,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/reference.wgsl"),
     ),
     (
+        "common/sampling.wgsl",
+        include_str!("../../shaders/common/sampling.wgsl"),
+    ),
+    (
         "common/scene_cast.wgsl",
         include_str!("../../shaders/common/scene_cast.wgsl"),
     ),

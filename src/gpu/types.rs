@@ -305,14 +305,19 @@ pub struct GpuMovingMaterial {
 }
 
 /// Mirrors WGSL `ProbeGrid` (shaders/common/irradiance.wgsl): probe (i, j, k) at
-/// origin + spacing * (i, j, k), `rays` per probe when baked.
+/// origin + spacing * (i, j, k), `rays` per probe when baked; and the moving objects' shadows:
+/// the emitting triangles and the shadow rays per eye ray to each and to the sky.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuProbeGrid {
     pub origin: [f32; 3],
     pub rays: u32,
     pub spacing: [f32; 3],
-    pub _pad0: u32,
+    pub emitter_count: u32,
     pub counts: [u32; 3],
+    pub shadow_samples: u32,
+    pub sky_shadow_samples: u32,
+    pub _pad0: u32,
     pub _pad1: u32,
+    pub _pad2: u32,
 }

@@ -131,7 +131,7 @@ pub struct Renderer {
 /// laid out.
 pub struct ObjectsToDraw<'a> {
     pub mesh: &'a crate::dynamic::MovingMesh,
-    pub probes: probes::ProbeSettings,
+    pub lighting: probes::ObjectLighting,
 }
 
 impl Renderer {
@@ -262,7 +262,11 @@ impl Renderer {
             (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
             |(lo, hi), v| (lo.min(v.position.into()), hi.max(v.position.into())),
         );
-        let grid = probes::probe_grid(lo, hi, &objects.probes);
+        let emitters = probes::emitters(lf);
+        let grid = crate::gpu::types::GpuProbeGrid {
+            emitter_count: emitters.len() as u32,
+            ..probes::probe_grid(lo, hi, &objects.lighting)
+        };
         let inputs = probes::BakeInputs {
             view: &self.view_template,
             faces: &self.faces,
@@ -273,6 +277,7 @@ impl Renderer {
             resident,
             field: field_buffer,
             stack,
+            emitters: &emitters,
         };
         self.probes = Some(probes::bake(&self.ctx, ledger, grid, &inputs)?);
         let moving = moving::MovingObjects::new(
@@ -676,7 +681,13 @@ fn moving_group(
     match (&renderer.moving, &renderer.probes) {
         (Some(m), Some(p)) => ctx.bind_group(
             layout,
-            &[&m.shading, &m.materials, &p.grid_buffer, &p.coefficients],
+            &[
+                &m.shading,
+                &m.materials,
+                &p.grid_buffer,
+                &p.coefficients,
+                &p.emitters,
+            ],
         ),
         _ => placeholder_moving_group(ctx, layout),
     }
@@ -698,7 +709,7 @@ fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) ->
         bytemuck::bytes_of(&grid),
         wgpu::BufferUsages::UNIFORM,
     );
-    ctx.bind_group(layout, &[&storage, &storage, &uniform, &storage])
+    ctx.bind_group(layout, &[&storage, &storage, &uniform, &storage, &storage])
 }
 
 /// The render mesh (triangles in the light field's normalised space, each with its face) as

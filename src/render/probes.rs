@@ -9,16 +9,23 @@ use crate::gpu::types::{GpuProbeGrid, GpuView};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use glam::Vec3;
 
-/// How the probes are laid out and baked.
+/// How moving objects are lit and shadow the scene: the probes that light them (how many along
+/// the scene's longest side, rays each) and the shadow rays they cast per pixel (per emitting
+/// triangle, and toward the sky); the display TOML's `[object_lighting]`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
-pub struct ProbeSettings {
-    /// probes along the scene box's longest side (the others in proportion, at least 2)
+pub struct ObjectLighting {
     #[serde(default = "default_resolution")]
-    pub resolution: u32,
-    /// rays per probe (a multiple of 64)
+    pub probe_resolution: u32,
+    /// a multiple of 64
     #[serde(default = "default_rays")]
-    pub rays: u32,
+    pub probe_rays: u32,
+    /// shadow rays per eye ray and emitting triangle (0: the objects cast no shadow)
+    #[serde(default = "default_shadow_samples")]
+    pub shadow_samples: u32,
+    /// shadow rays per eye ray toward the sky, where the scene has one
+    #[serde(default = "default_shadow_samples")]
+    pub sky_shadow_samples: u32,
 }
 
 fn default_resolution() -> u32 {
@@ -29,28 +36,43 @@ fn default_rays() -> u32 {
     1024
 }
 
-impl Default for ProbeSettings {
+fn default_shadow_samples() -> u32 {
+    4
+}
+
+impl Default for ObjectLighting {
     fn default() -> Self {
-        ProbeSettings {
-            resolution: default_resolution(),
-            rays: default_rays(),
+        ObjectLighting {
+            probe_resolution: default_resolution(),
+            probe_rays: default_rays(),
+            shadow_samples: default_shadow_samples(),
+            sky_shadow_samples: default_shadow_samples(),
         }
     }
 }
 
-impl ProbeSettings {
+impl ObjectLighting {
     pub fn check(&self) -> std::result::Result<(), String> {
-        if !(2..=128).contains(&self.resolution) {
+        let at = "[object_lighting]";
+        if !(2..=128).contains(&self.probe_resolution) {
             return Err(format!(
-                "[probes] resolution = {}: use 2 to 128",
-                self.resolution
+                "{at} probe_resolution = {}: use 2 to 128",
+                self.probe_resolution
             ));
         }
-        if self.rays == 0 || !self.rays.is_multiple_of(64) || self.rays > 65536 {
+        let rays = self.probe_rays;
+        if rays == 0 || !rays.is_multiple_of(64) || rays > 65536 {
             return Err(format!(
-                "[probes] rays = {}: use a multiple of 64 up to 65536",
-                self.rays
+                "{at} probe_rays = {rays}: use a multiple of 64 up to 65536"
             ));
+        }
+        for (key, n) in [
+            ("shadow_samples", self.shadow_samples),
+            ("sky_shadow_samples", self.sky_shadow_samples),
+        ] {
+            if n > 256 {
+                return Err(format!("{at} {key} = {n}: use 0 (none) to 256"));
+            }
         }
         Ok(())
     }
@@ -58,16 +80,18 @@ impl ProbeSettings {
 
 /// The grid over the box `lo`..`hi` (normalised space): cells as cubic as the box allows, probes
 /// at the cells' centres.
-pub fn probe_grid(lo: Vec3, hi: Vec3, settings: &ProbeSettings) -> GpuProbeGrid {
+pub fn probe_grid(lo: Vec3, hi: Vec3, settings: &ObjectLighting) -> GpuProbeGrid {
     let extent = (hi - lo).max(Vec3::splat(1e-6));
-    let cell = extent.max_element() / settings.resolution as f32;
+    let cell = extent.max_element() / settings.probe_resolution as f32;
     let counts = (extent / cell).ceil().as_uvec3().max(glam::UVec3::splat(2));
     let spacing = extent / counts.as_vec3();
     GpuProbeGrid {
         origin: (lo + spacing * 0.5).into(),
-        rays: settings.rays,
+        rays: settings.probe_rays,
         spacing: spacing.into(),
         counts: counts.into(),
+        shadow_samples: settings.shadow_samples,
+        sky_shadow_samples: settings.sky_shadow_samples,
         ..Default::default()
     }
 }
@@ -77,6 +101,8 @@ pub struct Probes {
     pub grid: GpuProbeGrid,
     pub grid_buffer: wgpu::Buffer,
     pub coefficients: wgpu::Buffer,
+    /// the emitting triangles the shadows sample (`emitters`)
+    pub emitters: wgpu::Buffer,
 }
 
 /// What the bake reads: the renderer's scene buffers (group 0 of probes.wgsl, as render.wgsl
@@ -92,6 +118,7 @@ pub struct BakeInputs<'a> {
     pub resident: &'a crate::lightfield::ResidentLightField,
     pub field: &'a wgpu::Buffer,
     pub stack: u32,
+    pub emitters: &'a [crate::gpu::types::GpuEmitter],
 }
 
 /// Bake `grid`'s probes from the light field and wait for them.
@@ -151,9 +178,39 @@ pub fn bake(
     ctx.queue.submit([encoder.finish()]);
     ctx.wait()
         .map_err(|e| VlfError::Gpu(format!("baking {count} irradiance probes: {e}")))?;
+    let emitters = ctx.buffer_init(
+        ledger,
+        "moving: emitters",
+        bytemuck::cast_slice(inputs.emitters),
+        STORAGE,
+    );
     Ok(Probes {
         grid,
         grid_buffer,
         coefficients,
+        emitters,
     })
+}
+
+/// The scene's emitting triangles as the moving objects' shadows sample them (normalised space,
+/// each with its face's material emission; a map_Ke texture is not read: its face's factor is).
+pub fn emitters(lf: &crate::lightfield::LightField) -> Vec<crate::gpu::types::GpuEmitter> {
+    (lf.render_vertices.chunks_exact(3))
+        .filter_map(|t| {
+            let face = lf.faces.get(t[0].face as usize)?;
+            let e = lf.materials.get(face.material as usize)?.emission;
+            if e.iter().all(|c| *c <= 0.0) {
+                return None;
+            }
+            let [a, b, c] = [0, 1, 2].map(|k| Vec3::from(t[k].position));
+            Some(crate::gpu::types::GpuEmitter {
+                v0: a.into(),
+                face: t[0].face,
+                e1: (b - a).into(),
+                e2: (c - a).into(),
+                radiance: [e[0], e[1], e[2], e[0] + e[1] + e[2]],
+                ..Default::default()
+            })
+        })
+        .collect()
 }

@@ -199,6 +199,38 @@ pub fn gltf_basic_materials() -> serde_json::Value {
     ])
 }
 
+/// Sutherland-Hodgman: the part of convex `subject` inside convex `clip` (both counter-clockwise
+/// in the xz-plane seen from +y, or both clockwise).
+pub fn clip_convex(subject: &[glam::DVec2], clip: &[glam::DVec2]) -> Vec<glam::DVec2> {
+    let orientation = |p: &[glam::DVec2]| {
+        (0..p.len())
+            .map(|i| p[i].perp_dot(p[(i + 1) % p.len()]))
+            .sum::<f64>()
+            .signum()
+    };
+    let sign = orientation(clip);
+    let mut out = subject.to_vec();
+    for i in 0..clip.len() {
+        let (a, b) = (clip[i], clip[(i + 1) % clip.len()]);
+        let inside = |p: glam::DVec2| sign * (b - a).perp_dot(p - a) >= 0.0;
+        let input = std::mem::take(&mut out);
+        for j in 0..input.len() {
+            let (p, q) = (input[j], input[(j + 1) % input.len()]);
+            if inside(p) {
+                out.push(p);
+            }
+            if inside(p) != inside(q) {
+                let (dp, dq) = ((b - a).perp_dot(p - a), (b - a).perp_dot(q - a));
+                out.push(p + (q - p) * (dp / (dp - dq)));
+            }
+        }
+        if out.is_empty() {
+            break;
+        }
+    }
+    out
+}
+
 /// Irradiance at x (normal n) from a convex polygon of unit radiance wholly above x's horizon:
 /// Lambert's formula, in f64 (the closed form the direct-light tests compare with).
 pub fn polygon_irradiance(x: glam::DVec3, n: glam::DVec3, corners: &[glam::DVec3]) -> f64 {

@@ -123,7 +123,7 @@ impl<'a> FrameOfViews<'a> {
         };
         let to_draw = objects.as_ref().map(|o| ObjectsToDraw {
             mesh: o.mesh(),
-            probes: config.probes.unwrap_or_default(),
+            lighting: config.object_lighting.unwrap_or_default(),
         });
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
