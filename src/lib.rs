@@ -12,6 +12,7 @@ pub mod bvh;
 pub mod cluster;
 pub mod color;
 pub mod display;
+pub mod dynamic;
 pub mod error;
 pub mod export;
 pub mod framelock;

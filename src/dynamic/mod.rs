@@ -1,0 +1,2 @@
+//! Dynamic objects (placeholder on this branch).
+pub mod avatar;
