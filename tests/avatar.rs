@@ -52,7 +52,7 @@ fn edit_glb(bytes: &[u8], edit: impl Fn(String) -> String) -> Vec<u8> {
     let json_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
     let json = String::from_utf8(bytes[20..20 + json_len].to_vec()).unwrap();
     let mut new_json = edit(json).into_bytes();
-    while new_json.len() % 4 != 0 {
+    while !new_json.len().is_multiple_of(4) {
         new_json.push(b' ');
     }
     let bin = &bytes[20 + json_len..];
@@ -366,7 +366,8 @@ fn bad_input_is_an_error_naming_the_file_and_the_problem() {
     );
 
     let shipped = std::fs::read(repo("assets/avatar/mannequin.glb")).unwrap();
-    let cases: [(&str, fn(String) -> String, &[&str]); 3] = [
+    type Edit = fn(String) -> String;
+    let cases: [(&str, Edit, &[&str]); 3] = [
         (
             "noweights.glb",
             |j| j.replace(r#","WEIGHTS_0":3"#, ""),
