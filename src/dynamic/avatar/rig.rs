@@ -6,7 +6,9 @@
 //!   the way from the head joint forward to the front of the face (+z), at the head joint's x.
 //! - The body stands upright under the head with its yaw following the head's: model space
 //!   (+y up, facing +z) is turned about +y by the head's yaw plus half a turn (OpenXR looks
-//!   along -z), and placed so that the posed eyes' point lands on the tracked head.
+//!   along -z), and placed so that the posed eyes' point lands on the tracked head. So the
+//!   body shifts a little as the head pitches about its joint, and a participant who crouches
+//!   gets an avatar that sinks into the floor (the legs have no IK yet).
 //! - The head joint takes the head's full orientation, its pitch and roll relative to the body.
 //! - Each arm: analytic two-bone IK from the upper arm's joint to the hand target, the elbow
 //!   bent towards a pole down, outwards and back (model space `(±0.4, -1, -0.4)`); out of reach
