@@ -62,6 +62,39 @@ impl MovingMesh {
         self.joint_count = self.joint_count.max(joint + 1);
     }
 
+    /// Append a skinned mesh (`avatar::SkinnedMesh`) as object `object`, its joints numbered from
+    /// `first_joint` (`joint_count` of them).
+    pub fn push_skinned(
+        &mut self,
+        part: &super::avatar::SkinnedMesh,
+        object: u32,
+        first_joint: u32,
+        joint_count: u32,
+    ) {
+        let first = self.vertices.len() as u32;
+        let material_base = self.materials.len() as u32;
+        for (i, p) in part.positions.iter().enumerate() {
+            self.vertices.push(RestVertex {
+                position: *p,
+                normal: part.normals.get(i).copied().unwrap_or(Vec3::Y),
+                joints: part.joints[i].map(|j| j + first_joint),
+                weights: part.weights[i],
+            });
+        }
+        self.triangles
+            .extend(part.triangles.iter().map(|t| t.map(|i| i + first)));
+        self.triangle_object
+            .extend(std::iter::repeat_n(object, part.triangles.len()));
+        self.triangle_material
+            .extend(part.triangle_material.iter().map(|m| m + material_base));
+        self.materials
+            .extend(part.materials.iter().map(|m| MovingMaterial {
+                albedo: m.base_color,
+                emission: m.emission,
+            }));
+        self.joint_count = self.joint_count.max(first_joint + joint_count);
+    }
+
     /// The rest pose's corners of every triangle (for the tree built once over it).
     pub fn corners(&self) -> Vec<[Vec3; 3]> {
         (self.triangles.iter())

@@ -6,6 +6,7 @@
 //! skins, refits and shades them on the GPU (`render::moving`, `render::probes`). Nothing here
 //! touches the GPU.
 
+pub mod avatar;
 pub mod config;
 pub mod mesh;
 pub mod motion;
@@ -14,6 +15,7 @@ pub use config::{check_objects, Follow, ObjectConfig, ObjectKind};
 pub use mesh::{MovingMaterial, MovingMesh, RestVertex, RigidMesh};
 
 use crate::error::{Result, VlfError};
+use avatar::Avatar;
 use crate::tracking::pose::head_rotation_from_angles;
 use crate::tracking::{Pose, WandPose};
 use glam::{Affine3A, Mat4, Quat, Vec3};
@@ -52,6 +54,8 @@ pub struct Objects {
     first_joint: Vec<u32>,
     visible: Vec<bool>,
     mesh: MovingMesh,
+    /// the participant's body, where one is configured (one at most: `check_objects`)
+    avatar: Option<Avatar>,
 }
 
 impl Objects {
@@ -66,6 +70,7 @@ impl Objects {
         let dir = config_path.parent().unwrap_or(Path::new("."));
         let mut mesh = MovingMesh::default();
         let mut first_joint = Vec::new();
+        let mut avatar = None;
         for (i, o) in configs.iter().enumerate() {
             let path = dir.join(&o.mesh);
             let joint = mesh.joint_count;
@@ -82,10 +87,11 @@ impl Objects {
                     mesh.push_rigid(&part, i as u32, joint);
                 }
                 ObjectKind::Avatar => {
-                    return Err(config_error(format!(
-                        "[[object]] \"{}\": kind = \"avatar\" is not built into this binary",
-                        o.name
-                    )))
+                    let body = Avatar::load(&path).map_err(|e| {
+                        config_error(format!("[[object]] \"{}\": avatar: {e}", o.name))
+                    })?;
+                    mesh.push_skinned(&body.mesh, i as u32, joint, body.joint_count() as u32);
+                    avatar = Some(body);
                 }
             }
         }
@@ -94,6 +100,7 @@ impl Objects {
             configs: configs.to_vec(),
             first_joint,
             mesh,
+            avatar,
         })
     }
 
@@ -138,7 +145,12 @@ impl Objects {
             let first = self.first_joint[i] as usize;
             match o.kind {
                 ObjectKind::Rigid => matrices[first] = Mat4::from(rigid_placement(o, tracked)),
-                ObjectKind::Avatar => {}
+                ObjectKind::Avatar => {
+                    if let Some(body) = &self.avatar {
+                        let pose = body.pose(tracked.head, None, tracked.wand);
+                        matrices[first..first + pose.len()].copy_from_slice(&pose);
+                    }
+                }
             }
         }
         matrices

@@ -151,7 +151,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
 
 /// Parse and validate. The crate's validation indexes the POSITION accessor before checking
 /// that it exists (gltf-json 1.4 panics there): that index is checked first.
-fn parse(bytes: &[u8]) -> std::result::Result<::gltf::Gltf, String> {
+pub(crate) fn parse(bytes: &[u8]) -> std::result::Result<::gltf::Gltf, String> {
     let raw = ::gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gltf_message(&e))?;
     let json = raw.document.as_json();
     for (m, mesh) in json.meshes.iter().enumerate() {
@@ -228,7 +228,7 @@ fn report_walk(path: &Path, walk: &Walk, warnings: &mut Vec<String>) {
 }
 
 /// Every buffer's bytes: the GLB chunk, a data: URI or a file beside the model.
-fn load_buffers(
+pub(crate) fn load_buffers(
     doc: &::gltf::Document,
     blob: Option<&[u8]>,
     dir: &Path,
@@ -561,7 +561,7 @@ fn read_primitive(
 }
 
 /// Triangles (as corner indices) from a list, strip or fan.
-fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
+pub(crate) fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
     match mode {
         Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
             .map(|i| {
@@ -580,7 +580,7 @@ fn assemble(mode: Mode, idx: &[u32]) -> Vec<[u32; 3]> {
 }
 
 /// Index accessor values, each checked against the vertex count.
-fn read_indices(
+pub(crate) fn read_indices(
     a: &::gltf::Accessor,
     buffers: &[Vec<u8>],
     vertices: usize,
@@ -656,7 +656,7 @@ fn check_span(
 
 /// An accessor's values as f32, `dims` per element, with every byte range checked. Integer
 /// components are normalised when the accessor says so. Sparse substitutions are applied.
-fn read_accessor(
+pub(crate) fn read_accessor(
     a: &::gltf::Accessor,
     buffers: &[Vec<u8>],
     dims: usize,
