@@ -41,6 +41,15 @@ for name in "${names[@]}"; do
       "$vlf" cave "$work/wand.toml" --scene "$(lf scenes/cornell/scene.toml)" --headless --frames 2 \
         --out "$work/wand" >&2
       cp "$work/wand/front-left.png" "$out/cave-wand-ray.png" ;;
+    cave-body-mirror | cave-body-floor)
+      # the participant's body (config/displays/cave-4wall-body.toml) in the mirror Cornell box:
+      # the front wall shows it in the tall box's mirror, the floor its own body and shadow
+      sed 's/pixels = \[1920, 1200\]/pixels = [960, 600]/' config/displays/cave-4wall-body.toml \
+        | sed "s|^mesh = \"../../assets|mesh = \"$PWD/assets|" > "$work/body.toml"
+      [ -d "$work/body" ] || "$vlf" cave "$work/body.toml" --scene "$(lf scenes/cornell-mirror/scene.toml)" --headless \
+        --frames 2 --out "$work/body" >&2
+      wall=front; [ "$name" = cave-body-floor ] && wall=floor
+      cp "$work/body/$wall-left.png" "$out/$name.png" ;;
     cave-xvfb)
       # the windowed CAVE test's own screenshot (Xvfb, two windows, tracking gone quiet)
       VLF_MAKING_PICTURES=1 cargo test --release --features mpi --test windows -- --exact \

@@ -102,13 +102,13 @@ fn scene_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
         }
         return false;
     }
-    hit = cast_bvh(origin, ray, 0u, hit);
+    hit = cast_bvh(origin, ray, 0u, hit, false);
     return hit.tri != NO_FACE && hit.t < reach;
 }
 
 // Whether a moving object blocks it.
 fn moving_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
-    let hit = cast_bvh(origin, ray, view.moving_root, Hit(reach, NO_FACE, 0.0, 0.0));
+    let hit = cast_bvh(origin, ray, view.moving_root, Hit(reach, NO_FACE, 0.0, 0.0), false);
     return hit.tri != NO_FACE && hit.t < reach;
 }
 

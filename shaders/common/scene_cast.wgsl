@@ -44,11 +44,11 @@ const NO_NODE: u32 = 0xffffffffu;
 const PAIR_STACK: u32 = 64u;
 
 // Closest hit through the BVH whose root pair is `root` (the scene's at 0, the moving objects'
-// after it), nearer than `nearest`. Internal nodes are walked in a loop of their own (into the nearer
+// after it), nearer than `nearest`; with `cull_backs`, triangles met from behind are passed by. Internal nodes are walked in a loop of their own (into the nearer
 // child the ray enters, the farther one onto the stack with its entry distance), leaves tested
 // after it, so the threads of a warp stay in step through the internal levels; an entry a hit
 // found since has made too far is dropped when popped without reading anything.
-fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, nearest: Hit) -> Hit {
+fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, nearest: Hit, cull_backs: bool) -> Hit {
     var hit = nearest;
     let safe = select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
@@ -82,8 +82,12 @@ fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, nearest: Hit) -> Hit {
             let first = node >> 5u;
             let end = first + (node & 31u);
             for (var i = first; i < end; i++) {
-                let t = ray_triangle(origin, ray, ray_triangles[i]);
-                if t > 1e-5 && closer(t, i, hit) {
+                let tri = ray_triangles[i];
+                let t = ray_triangle(origin, ray, tri);
+                // a closed moving mesh seen from inside (the eyes in the avatar's own head)
+                // shows nothing: its backs are skipped
+                let culled = cull_backs && dot(tri.w.xyz, ray) > 0.0;
+                if t > 1e-5 && !culled && closer(t, i, hit) {
                     hit.t = t;
                     hit.tri = i;
                 }
@@ -143,11 +147,12 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
             hit.tri = select(hit.tri, j, found_j);
         }
     } else {
-        hit = cast_bvh(origin, ray, 0u, hit);
+        hit = cast_bvh(origin, ray, 0u, hit, false);
     }
-    // the moving objects' tree, refitted every frame, after the scene's (none: NO_NODE)
+    // the moving objects' tree, refitted every frame, after the scene's (none: NO_NODE); their
+    // backs are not seen (from inside a body, the world)
     if view.moving_root != NO_NODE {
-        hit = cast_bvh(origin, ray, view.moving_root, hit);
+        hit = cast_bvh(origin, ray, view.moving_root, hit, true);
     }
     var out: Surface;
     var id = SKY;

@@ -40,6 +40,9 @@ pub struct CaveReport {
     /// GPU milliseconds per frame of the passes after rendering (warp, blend, wand ray: one per
     /// projector, or per wall without projectors); None when there are none or no timestamps
     pub outputs_gpu_ms: Option<Distribution>,
+    /// GPU milliseconds per frame of the moving objects' update (skinning, triangles, refit);
+    /// None without objects or timestamps
+    pub objects_gpu_ms: Option<Distribution>,
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
     pub constant_frame_time: Option<bool>,
@@ -285,6 +288,7 @@ pub fn run_locked(
         all_views_gpu_ms: frame.times().frame_gpu_ms(),
         cpu_frame_ms,
         outputs_gpu_ms: frame.times().output_gpu_ms(),
+        objects_gpu_ms: frame.times().objects_gpu_ms(),
         tracking_latency_ms: frame.latency_ms(),
         quality: frame.quality(),
         fit: frame.fit().cloned(),
@@ -439,6 +443,12 @@ impl CaveReport {
         if let Some(d) = &self.outputs_gpu_ms {
             s.push_str(&format!(
                 "  of which outputs (warp, blend, wand ray), GPU: median {:.3} ms, p99 {:.3} ms\n",
+                d.median, d.p99
+            ));
+        }
+        if let Some(d) = &self.objects_gpu_ms {
+            s.push_str(&format!(
+                "  moving objects' update (skin, refit), GPU: median {:.3} ms, p99 {:.3} ms\n",
                 d.median, d.p99
             ));
         }

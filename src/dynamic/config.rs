@@ -28,7 +28,7 @@ pub struct ObjectConfig {
     pub pitch_deg: f32,
     #[serde(default)]
     pub roll_deg: f32,
-    /// uniform scale of the mesh
+    /// uniform scale of the mesh (an avatar's about the tracked head: a body to fit the scene)
     #[serde(default = "one")]
     pub scale: f32,
     /// `follow = "world"`: placements over time (seconds from the start), interpolated; after

@@ -15,9 +15,9 @@ pub use config::{check_objects, Follow, ObjectConfig, ObjectKind};
 pub use mesh::{MovingMaterial, MovingMesh, RestVertex, RigidMesh};
 
 use crate::error::{Result, VlfError};
-use avatar::Avatar;
 use crate::tracking::pose::head_rotation_from_angles;
 use crate::tracking::{Pose, WandPose};
+use avatar::Avatar;
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use std::path::Path;
 
@@ -147,8 +147,16 @@ impl Objects {
                 ObjectKind::Rigid => matrices[first] = Mat4::from(rigid_placement(o, tracked)),
                 ObjectKind::Avatar => {
                     if let Some(body) = &self.avatar {
+                        // `scale` shrinks or grows the body about the tracked head (the eyes
+                        // stay where they are tracked)
+                        let head = Vec3::from(tracked.head.translation);
+                        let about_head = Mat4::from_translation(head)
+                            * Mat4::from_scale(Vec3::splat(o.scale))
+                            * Mat4::from_translation(-head);
                         let pose = body.pose(tracked.head, None, tracked.wand);
-                        matrices[first..first + pose.len()].copy_from_slice(&pose);
+                        for (slot, m) in matrices[first..].iter_mut().zip(pose) {
+                            *slot = about_head * m;
+                        }
                     }
                 }
             }

@@ -295,13 +295,13 @@ impl Renderer {
     }
 
     /// Pose the moving objects for the views drawn next: `joints` are their joint matrices in
-    /// world metres (`dynamic::Objects::joint_matrices`). Submitted at once; nothing without
-    /// objects.
-    pub fn pose_objects(&self, joints: &[Mat4]) {
+    /// world metres (`dynamic::Objects::joint_matrices`). Submitted at once, its GPU time in
+    /// `timestamps` where given; nothing without objects.
+    pub fn pose_objects(&self, joints: &[Mat4], timestamps: Option<&mut Timestamps>) {
         if let Some(m) = &self.moving {
             m.set_joints(&self.ctx.queue, joints);
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            m.encode(&mut encoder);
+            m.encode(&mut encoder, timestamps);
             self.ctx.queue.submit([encoder.finish()]);
         }
     }

@@ -277,10 +277,14 @@ impl MovingObjects {
     }
 
     /// Skin, write the triangles and refit: one compute pass of 2 + levels dispatches.
-    pub fn encode(&self, encoder: &mut wgpu::CommandEncoder) {
+    pub fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        timestamps: Option<&mut crate::gpu::Timestamps>,
+    ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("moving objects"),
-            timestamp_writes: None,
+            timestamp_writes: timestamps.and_then(|t| t.compute_writes()),
         });
         pass.set_bind_group(0, &self.group, &[]);
         pass.set_bind_group(1, &self.levels[0].0, &[]);

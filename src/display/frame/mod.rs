@@ -142,7 +142,10 @@ impl<'a> FrameOfViews<'a> {
         };
         let outputs = Outputs::new(&ctx, &renderer, config, &specs, &walls, post)?;
         // a timed frame's pairs: each view's render, then each of its outputs' passes
-        let pairs: usize = (slots.iter()).map(|&s| 1 + outputs.timed_outputs(s)).sum();
+        let pairs: usize = (slots.iter())
+            .map(|&s| 1 + outputs.timed_outputs(s))
+            .sum::<usize>()
+            + usize::from(objects.is_some());
         let clock = Clock::Serial(crate::gpu::Timestamps::new(&ctx, pairs as u32));
         let mut frame = FrameOfViews {
             acc: Accounting::new(labels(config, &views), clock),
@@ -165,7 +168,7 @@ impl<'a> FrameOfViews<'a> {
                 arrived: None,
             };
             // the views probed as they will be drawn: with the objects where they start
-            frame.pose_objects(&first);
+            frame.pose_objects(&first, false);
             frame.fit_frame_time(first, budget)?;
         }
         Ok(frame)
@@ -211,12 +214,20 @@ impl<'a> FrameOfViews<'a> {
     }
 
     /// Pose the moving objects where `poses` and the object time put them (tracked poses only:
-    /// the headset's eye matrices carry no head for them to follow).
-    fn pose_objects(&self, poses: &Poses<'_>) {
+    /// the headset's eye matrices carry no head for them to follow); `timed`: its GPU time counts
+    /// in the frame's.
+    fn pose_objects(&mut self, poses: &Poses<'_>, timed: bool) {
         if let (Some(objects), Poses::Tracked { pose, wand, .. }) = (&self.objects, poses) {
             let tracked = Tracked::from_pose(pose, *wand, self.object_time);
-            self.renderer
-                .pose_objects(&objects.joint_matrices(&tracked));
+            let joints = objects.joint_matrices(&tracked);
+            let timestamps = match timed {
+                true => {
+                    self.acc.pass(Pass::Objects);
+                    self.acc.timestamps()
+                }
+                false => None,
+            };
+            self.renderer.pose_objects(&joints, timestamps);
         }
     }
 
@@ -290,7 +301,7 @@ impl<'a> FrameOfViews<'a> {
         let count = self.labels().len();
         let mut submission = None;
         self.drawn.clear();
-        self.pose_objects(&poses);
+        self.pose_objects(&poses, draw == Draw::Timed);
         for i in 0..count {
             if let Some(p) = &self.pacer {
                 self.renderer.set_pacing(p.setting(i));
@@ -346,7 +357,7 @@ impl<'a> FrameOfViews<'a> {
     pub fn read_back(&mut self, poses: Poses<'_>) -> Result<Vec<ViewImages>> {
         let mut images = Vec::new();
         self.drawn.clear();
-        self.pose_objects(&poses);
+        self.pose_objects(&poses, false);
         for i in 0..self.labels().len() {
             self.apply_forced(i);
             let (view, overlay) = self.view(i, &poses)?;

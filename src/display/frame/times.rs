@@ -144,6 +144,8 @@ pub enum Pass {
     View(usize),
     /// a pass after rendering (warp, blend, wand ray, present)
     Output,
+    /// the moving objects' skinning and refit, before the views
+    Objects,
 }
 
 /// Every frame's times, per view and in all.
@@ -151,6 +153,7 @@ pub struct FrameTimes {
     pub labels: Vec<ViewLabel>,
     gpu: Vec<Vec<f64>>,
     output_gpu: Vec<f64>,
+    objects_gpu: Vec<f64>,
     frame_gpu: Vec<f64>,
     cpu: Vec<f64>,
 }
@@ -161,6 +164,7 @@ impl FrameTimes {
             gpu: vec![Vec::new(); labels.len()],
             labels,
             output_gpu: Vec::new(),
+            objects_gpu: Vec::new(),
             frame_gpu: Vec::new(),
             cpu: Vec::new(),
         }
@@ -173,6 +177,7 @@ impl FrameTimes {
             match pass {
                 Pass::View(v) => self.gpu[v].push(ms),
                 Pass::Output => *output.get_or_insert(0.0) += ms,
+                Pass::Objects => self.objects_gpu.push(ms),
             }
         }
         // every pass of the frame, views and outputs
@@ -207,6 +212,11 @@ impl FrameTimes {
     /// GPU time of all of a frame's passes
     pub fn frame_gpu_ms(&self) -> Option<Distribution> {
         (!self.frame_gpu.is_empty()).then(|| Distribution::of(&self.frame_gpu))
+    }
+
+    /// GPU time of the moving objects' update per frame (None without objects)
+    pub fn objects_gpu_ms(&self) -> Option<Distribution> {
+        (!self.objects_gpu.is_empty()).then(|| Distribution::of(&self.objects_gpu))
     }
 
     pub fn output_gpu_ms(&self) -> Option<Distribution> {

@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Runs on the lent NVIDIA machine: the participant's body in the shipped walk CAVE (issue 28).
+# The 4-wall stereo CAVE of config/displays/cave-4wall-walk.toml (8 views of 1920x1200, 120 Hz,
+# paced as shipped) walks the scripted walks through the generated 100K- and 1M-triangle mirror
+# classrooms three times: without moving objects, with the shipped avatar on the walking head
+# (assets/avatar/mannequin.glb, 4,456 triangles), and with the avatar and a 200K-triangle prop
+# carried in front of it (a sphere of 199,712 triangles: the update's size the issue asks for).
+# Reports (JSON + text, the last frame's overview) into OUT_DIR/body.tar; the reports' "moving
+# objects' update" line is the skinning + triangles + refit pass's GPU time per frame.
+# SCENES (default "classroom-100k classroom-1m") picks the walks; WORK=dir reuses light fields.
+#   tools/gpu-body.sh VLF_BINARY OUT_DIR [FRAMES]
+set -uo pipefail
+vlf=$1; out=$2; frames=${3:-600}; work=${WORK:-$(mktemp -d)}; mkdir -p $work
+quiet() { grep -v XDG_RUNTIME_DIR; }
+source "$(dirname "$0")/walk-scenes.sh"
+# the prop: a UV sphere of radius 0.15 m, 353 rings x 283 segments x 2 = 199,712 triangles
+python3 - $work/prop.obj <<'PY'
+import math, sys
+rings, segments, r = 353, 283, 0.15
+lines = ["mtllib prop.mtl", "usemtl prop"]
+for i in range(rings + 1):
+    t = math.pi * i / rings
+    for j in range(segments):
+        p = 2 * math.pi * j / segments
+        lines.append(f"v {r*math.sin(t)*math.cos(p):.6f} {r*math.cos(t):.6f} {r*math.sin(t)*math.sin(p):.6f}")
+for i in range(rings):
+    for j in range(segments):
+        a, b = i * segments + j + 1, i * segments + (j + 1) % segments + 1
+        c, d = a + segments, b + segments
+        lines += [f"f {a} {b} {c}", f"f {b} {d} {c}"]
+open(sys.argv[1], "w").write("\n".join(lines) + "\n")
+open(sys.argv[1].replace(".obj", ".mtl"), "w").write("newmtl prop\nKd 0.7 0.5 0.2\n")
+PY
+body="[[object]]
+name = \"body\"
+kind = \"avatar\"
+mesh = \"$PWD/assets/avatar/mannequin.glb\""
+prop="[[object]]
+name = \"prop\"
+mesh = \"$work/prop.obj\"
+follow = \"head\"
+position = [0.25, -0.35, -0.45]"
+for scene in ${SCENES:-classroom-100k classroom-1m}; do
+  if [ ! -f $work/$scene.vlf ]; then
+    "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
+    "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
+  fi
+  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene-none.toml
+  { cat $work/cave-$scene-none.toml; echo; echo "$body"; } > $work/cave-$scene-body.toml
+  { cat $work/cave-$scene-body.toml; echo; echo "$prop"; } > $work/cave-$scene-body-prop.toml
+  for variant in none body body-prop; do
+    "$vlf" cave $work/cave-$scene-$variant.toml --scene $work/$scene.vlf --headless --frames $frames \
+      --out $work/out-$scene-$variant --json $work/cave-$scene-$variant.json 2>&1 | quiet \
+      | tee $work/cave-$scene-$variant.txt | grep -E "moving|all views|CPU frame|eye rays|limit"
+    cp $work/out-$scene-$variant/overview.png $work/cave-$scene-$variant-overview.png
+  done
+done
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt
+echo "${VLF_COMMIT:-unknown}" > $work/commit.txt
+date -u +%Y-%m-%dT%H:%M:%SZ > $work/date.txt
+(cd $work && tar cf "$out/body.tar" gpu.txt commit.txt date.txt cave-*.json cave-*.txt cave-*-overview.png)
