@@ -31,7 +31,8 @@ struct Emitter {
     e1: vec3<f32>,
     textured: u32,
     e2: vec3<f32>,
-    _pad0: u32,
+    // the share of the emitters' power up to and with this triangle
+    cumulative: f32,
     radiance: vec4<f32>,
 }
 
@@ -112,10 +113,27 @@ fn moving_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
     return hit.tri != NO_FACE && hit.t < reach;
 }
 
+// The emitting triangle whose power share holds `u` (0..1): the first whose cumulative share
+// is above it.
+fn pick_emitter(u: f32) -> u32 {
+    var lo = 0u;
+    var hi = probe_grid.emitter_count - 1u;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emitters[mid].cumulative > u {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
 // The direct light the moving objects take away from point p of static face f, as radiance
-// leaving p (the light field holds it; the renderer subtracts it): per emitting triangle,
-// probe_grid.shadow_samples points on it (a Hammersley set rotated per eye ray by `seed`), and
-// probe_grid.sky_shadow_samples cosine-weighted directions to the sky; a sample counts where a
+// leaving p (the light field holds it; the renderer subtracts it): probe_grid.shadow_samples
+// shadow rays to the emitters, each to a point on a triangle picked by its share of their power
+// (one rotated Hammersley set over all of them: the same cost whatever the number of lights), and
+// probe_grid.sky_shadow_samples cosine-weighted directions to the sky; a ray counts where a
 // moving object is in the way and the scene is not (the light field never had what the scene
 // blocks). The indirect light the objects block, and the light they reflect onto the scene, are
 // left as the light field has them.
@@ -130,28 +148,30 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
     let origin = p + f.normal * 1e-5;
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
     var blocked = vec3<f32>(0.0);
-    let n = probe_grid.shadow_samples;
-    for (var e = 0u; e < probe_grid.emitter_count * select(0u, 1u, n > 0u); e++) {
+    let n = select(probe_grid.shadow_samples, 0u, probe_grid.emitter_count == 0u);
+    for (var k = 0u; k < n; k++) {
+        // the sample's first coordinate picks the triangle and, stretched over the triangle's
+        // share, places the point on it: the set stays stratified on every triangle
+        let u = hammersley(k, n, shift);
+        let e = pick_emitter(u.x);
         let em = emitters[e];
+        let previous = select(0.0, emitters[max(e, 1u) - 1u].cumulative, e > 0u);
+        let chance = em.cumulative - previous;
         let across = cross(em.e1, em.e2);
         let area = 0.5 * length(across);
-        let normal = normalize(across);
-        for (var k = 0u; k < n; k++) {
-            let u = hammersley(k, n, shift);
-            let r = sqrt(u.x);
-            let q = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r);
-            let d = q - origin;
-            let dist = length(d);
-            let ray = d / dist;
-            let cos_p = dot(f.normal, ray);
-            let cos_e = -dot(normal, ray);
-            if cos_p <= 0.0 || cos_e <= 0.0 {
-                continue;
-            }
-            let reach = dist * (1.0 - 1e-4);
-            if moving_blocks(origin, ray, reach) && !scene_blocks(origin, ray, reach) {
-                blocked += em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * f32(n)));
-            }
+        let r = sqrt(clamp((u.x - previous) / max(chance, 1e-30), 0.0, 1.0));
+        let q = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r);
+        let d = q - origin;
+        let dist = length(d);
+        let ray = d / dist;
+        let cos_p = dot(f.normal, ray);
+        let cos_e = -dot(across / (2.0 * area), ray);
+        if cos_p <= 0.0 || cos_e <= 0.0 || chance <= 0.0 {
+            continue;
+        }
+        let reach = dist * (1.0 - 1e-4);
+        if moving_blocks(origin, ray, reach) && !scene_blocks(origin, ray, reach) {
+            blocked += em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * chance * f32(n)));
         }
     }
     let m = probe_grid.sky_shadow_samples;

@@ -203,7 +203,9 @@ pub struct GpuEmitter {
     /// 1 where the emission varies over the face (map_Ke)
     pub textured: u32,
     pub e2: [f32; 3],
-    pub _pad0: u32,
+    /// the moving objects' shadow rays (`render::probes::emitters`): the share of the emitters'
+    /// power up to and with this triangle (direct light leaves it 0)
+    pub cumulative: f32,
     /// mean emitted radiance over the face, r+g+b in w
     pub radiance: [f32; 4],
 }

@@ -20,11 +20,12 @@ pub struct ObjectLighting {
     /// a multiple of 64
     #[serde(default = "default_rays")]
     pub probe_rays: u32,
-    /// shadow rays per eye ray and emitting triangle (0: the objects cast no shadow)
+    /// shadow rays per eye ray to the emitters, each to a triangle picked by power (0: the
+    /// objects cast no shadow from emitters)
     #[serde(default = "default_shadow_samples")]
     pub shadow_samples: u32,
     /// shadow rays per eye ray toward the sky, where the scene has one
-    #[serde(default = "default_shadow_samples")]
+    #[serde(default = "default_sky_shadow_samples")]
     pub sky_shadow_samples: u32,
 }
 
@@ -37,6 +38,10 @@ fn default_rays() -> u32 {
 }
 
 fn default_shadow_samples() -> u32 {
+    8
+}
+
+fn default_sky_shadow_samples() -> u32 {
     4
 }
 
@@ -46,7 +51,7 @@ impl Default for ObjectLighting {
             probe_resolution: default_resolution(),
             probe_rays: default_rays(),
             shadow_samples: default_shadow_samples(),
-            sky_shadow_samples: default_shadow_samples(),
+            sky_shadow_samples: default_sky_shadow_samples(),
         }
     }
 }
@@ -193,9 +198,11 @@ pub fn bake(
 }
 
 /// The scene's emitting triangles as the moving objects' shadows sample them (normalised space,
-/// each with its face's material emission; a map_Ke texture is not read: its face's factor is).
+/// each with its face's material emission; a map_Ke texture is not read: its face's factor is),
+/// each with the share of the emitted power (radiance x area) up to and with it: a shadow ray
+/// picks its triangle by power, so a scene of many lights costs what one of few does.
 pub fn emitters(lf: &crate::lightfield::LightField) -> Vec<crate::gpu::types::GpuEmitter> {
-    (lf.render_vertices.chunks_exact(3))
+    let mut out: Vec<crate::gpu::types::GpuEmitter> = (lf.render_vertices.chunks_exact(3))
         .filter_map(|t| {
             let face = lf.faces.get(t[0].face as usize)?;
             let e = lf.materials.get(face.material as usize)?.emission;
@@ -212,5 +219,24 @@ pub fn emitters(lf: &crate::lightfield::LightField) -> Vec<crate::gpu::types::Gp
                 ..Default::default()
             })
         })
-        .collect()
+        .collect();
+    let power = |e: &crate::gpu::types::GpuEmitter| {
+        let area = 0.5 * Vec3::from(e.e1).cross(Vec3::from(e.e2)).length() as f64;
+        area * e.radiance[3] as f64
+    };
+    let total: f64 = out.iter().map(power).sum();
+    let mut sum = 0.0;
+    for e in &mut out {
+        sum += power(e);
+        e.cumulative = if total > 0.0 {
+            (sum / total) as f32
+        } else {
+            1.0
+        };
+    }
+    if let Some(last) = out.last_mut() {
+        last.cumulative = 1.0;
+    }
+    // triangles of no area carry no power and are never picked
+    out
 }
