@@ -13,6 +13,8 @@
 #include "common/irradiance.wgsl"
 
 const LIGHT_FIELD_GROUP: u32 = 1u;
+// the probes see the static scene only
+const MOVING_OBJECTS: u32 = 0u;
 
 // the view's only use here: the mesh's casting mode (exhaustive_triangles) and no moving tree
 @group(0) @binding(0) var<uniform> view: View;

@@ -35,6 +35,8 @@
 
 // the light field's bindings (common/light_field.wgsl: layout, atlas, directions, tiles)
 const LIGHT_FIELD_GROUP: u32 = 1u;
+// 1: the pipeline draws moving objects (src/render/mod.rs sets 0 for a renderer without them)
+const MOVING_OBJECTS: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -61,7 +63,7 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 // moving objects take from it (none without them), or what a ray that met no face shows.
 fn shown(s: Surface, f: Face, seed: u32) -> vec3<f32> {
     var radiance = atlas_radiance(f, s.point);
-    if view.moving_root != NO_NODE && s.seen > 0.0 {
+    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && s.seen > 0.0 {
         radiance = max(radiance - moving_shadow(f, s.point, seed), vec3<f32>(0.0));
     }
     return radiance * s.seen + s.background;

@@ -4,7 +4,9 @@
 # paced as shipped) walks the scripted walks through the generated 100K- and 1M-triangle mirror
 # classrooms three times: without moving objects, with the shipped avatar on the walking head
 # (assets/avatar/mannequin.glb, 4,456 triangles), and with the avatar and a 200K-triangle prop
-# carried in front of it (a sphere of 199,712 triangles: the update's size the issue asks for).
+# carried in front of it (a sphere of 199,712 triangles: the update's size the issue asks for);
+# and the avatar without its shadows (what they cost). VARIANTS picks some of
+# "none body body-noshadow body-prop".
 # Reports (JSON + text, the last frame's overview) into OUT_DIR/body.tar; the reports' "moving
 # objects' update" line is the skinning + triangles + refit pass's GPU time per frame.
 # SCENES (default "classroom-100k classroom-1m") picks the walks; WORK=dir reuses light fields.
@@ -48,7 +50,9 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
   sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene-none.toml
   { cat $work/cave-$scene-none.toml; echo; echo "$body"; } > $work/cave-$scene-body.toml
   { cat $work/cave-$scene-body.toml; echo; echo "$prop"; } > $work/cave-$scene-body-prop.toml
-  for variant in none body body-prop; do
+  # what the shadows cost: the body without them
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadow_samples = 0"; echo "sky_shadow_samples = 0"; } > $work/cave-$scene-body-noshadow.toml
+  for variant in ${VARIANTS:-none body body-noshadow body-prop}; do
     "$vlf" cave $work/cave-$scene-$variant.toml --scene $work/$scene.vlf --headless --frames $frames \
       --out $work/out-$scene-$variant --json $work/cave-$scene-$variant.json 2>&1 | quiet \
       | tee $work/cave-$scene-$variant.txt | grep -E "moving|all views|CPU frame|eye rays|limit"

@@ -4,7 +4,9 @@
 // (src/render/dynamic.rs refits their tree every frame) share the buffers. The including file
 // binds `view: View`, `faces`, `triangles`, `pairs`, `ray_triangles` and the light field
 // (`field.sky`), and defines `moving_radiance(triangle, point, ray) -> vec3<f32>`: what a moving
-// object's triangle shows (a stage without moving objects returns black).
+// object's triangle shows (a stage without moving objects returns black), and
+// `const MOVING_OBJECTS: u32`: 0 compiles the moving objects' code out of the pipeline (a scene
+// without them pays nothing for it, not even registers), 1 keeps it.
 
 // mirrors gpu::types::GpuRayTriangle
 struct RayTriangle {
@@ -151,7 +153,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     }
     // the moving objects' tree, refitted every frame, after the scene's (none: NO_NODE); their
     // backs are not seen (from inside a body, the world)
-    if view.moving_root != NO_NODE {
+    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE {
         hit = cast_bvh(origin, ray, view.moving_root, hit, true);
     }
     var out: Surface;

@@ -188,7 +188,8 @@ impl Renderer {
             None => None,
         };
         let stack = tree.depth.next_multiple_of(8).max(16);
-        let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, resident.tiles.is_some(), stack)?;
+        let (resolve_pipeline, layouts) =
+            resolve_pipeline(&ctx, resident.tiles.is_some(), stack, plan.is_some())?;
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: std::mem::size_of::<GpuView>() as u64,
@@ -639,14 +640,16 @@ struct ResolveLayouts {
 /// `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The traversal's
 /// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
-/// with 64).
+/// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0).
 fn resolve_pipeline(
     ctx: &GpuContext,
     tiles: bool,
     stack: u32,
+    moving: bool,
 ) -> Result<(wgpu::ComputePipeline, ResolveLayouts)> {
     let device = &ctx.device;
-    let module = shaders::module_with(device, "render.wgsl", &[("PAIR_STACK", stack)])?;
+    let constants = [("PAIR_STACK", stack), ("MOVING_OBJECTS", u32::from(moving))];
+    let module = shaders::module_with(device, "render.wgsl", &constants)?;
     let view = reflect::layout(device, "render.wgsl", 0)?;
     let field = crate::lightfield::bindings::layout(device, "render.wgsl")?;
     let moving = reflect::layout(device, "render.wgsl", 2)?;
