@@ -13,11 +13,12 @@ use vlf::progress::Silent;
 use vlf::render::Frame;
 
 /// A one-wall display looking along -z from a head at (0, 0, 0.35) through a 0.2 x 0.2 m wall at
-/// z = 0.15, `pixels` square, with `objects` (TOML `[[object]]` tables) and small probes.
+/// z = 0.15, `pixels` square, with `objects` (TOML `[[object]]` tables), small probes and no
+/// shadows (these tests look at the objects; the shadow test has its own display).
 fn display(dir: &Path, pixels: u32, aa: u32, objects: &str) -> (std::path::PathBuf, DisplayConfig) {
     let text = format!(
         "name = \"objects test\"\nantialiasing = {aa}\n\n[tracking]\nsource = \"static\"\nhead = [0.0, 0.0, 0.35]\n\n\
-         [object_lighting]\nprobe_resolution = 6\nprobe_rays = 256\n\n\
+         [object_lighting]\nprobe_resolution = 6\nprobe_rays = 256\nshadow_samples = 0\nsky_shadow_samples = 0\n\n\
          [[wall]]\nname = \"front\"\nlower_left = [-0.1, -0.1, 0.15]\nlower_right = [0.1, -0.1, 0.15]\n\
          upper_left = [-0.1, 0.1, 0.15]\npixels = [{pixels}, {pixels}]\noutput = {{ monitor = 0 }}\n\n{objects}"
     );
