@@ -59,14 +59,22 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
     return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
 }
 
-// What surface `s` (of face `f`) shows: the light field's radiance there, less the direct light
-// moving objects take from it (none without them), or what a ray that met no face shows.
-fn shown(s: Surface, f: Face, seed: u32) -> vec3<f32> {
-    var radiance = atlas_radiance(f, s.point);
-    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && s.seen > 0.0 {
-        radiance = max(radiance - moving_shadow(f, s.point, seed), vec3<f32>(0.0));
+// What a pair of eye rays shows where they first meet the scene (s0 on face f0, s1 on f1; w1 the
+// second's weight): the light field's radiance, less the direct light moving objects take from
+// it (none without them: evaluated once per pair, at the first ray's point, or the second's
+// where the first meets no face, and taken from the ray that meets that face), or what a ray
+// that met no face shows. Surfaces seen in mirrors keep the light field's radiance.
+fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, w1: f32, seed: u32) -> vec3<f32> {
+    var r0 = atlas_radiance(f0, s0.point);
+    var r1 = atlas_radiance(f1, s1.point);
+    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && s0.seen + s1.seen > 0.0 {
+        let first = s0.seen > 0.0;
+        let face = select(s1.face, s0.face, first);
+        let shadow = moving_shadow(faces[face], select(s1.point, s0.point, first), seed);
+        r0 = select(r0, max(r0 - shadow, vec3<f32>(0.0)), s0.face == face);
+        r1 = select(r1, max(r1 - shadow, vec3<f32>(0.0)), s1.face == face);
     }
-    return radiance * s.seen + s.background;
+    return r0 * s0.seen + s0.background + (r1 * s1.seen + s1.background) * w1;
 }
 
 // One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
@@ -85,7 +93,7 @@ struct Path {
 // The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
 // every one traced whatever it carries, with the weights relative to the light leaving `first`
 // by its mirror (the caller multiplies by that mirror's reflectance).
-fn mirror_chain(first: Surface, ray_in: vec3<f32>, seed: u32) -> Path {
+fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
     var s = first;
     var ray = ray_in;
     var f = faces[s.face];
@@ -97,7 +105,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, seed: u32) -> Path {
         ray = mirror_direction(ray, f.normal);
         s = cast_ray(s.point + f.normal * 1e-5, ray);
         f = faces[s.face];
-        path.radiance += weight * shown(s, f, seed + b);
+        path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
         path.throughput = weight * s.seen;
         weight *= mirror_reflectance(material_of(f)) * s.seen;
     }
@@ -172,9 +180,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        let seed = hash(gid.x ^ hash(gid.y ^ hash(k)));
-        sum += shown(s0, f0, seed);
-        sum += shown(s1, f1, seed + 1u) * w1;
+        sum += pair_shown(s0, f0, s1, f1, w1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
@@ -182,7 +188,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
                 s = s1;
             }
             let ray = select(r0[1], r1[1], use_second);
-            sum += (m0 + m1) * mirror_chain(s, ray, seed + 2u).radiance;
+            sum += (m0 + m1) * mirror_chain(s, ray).radiance;
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
@@ -216,16 +222,14 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        let seed = hash(gid.x ^ hash(gid.y ^ hash(k)));
-        sum += shown(s0, f0, seed);
-        sum += shown(s1, f1, seed + 1u) * w1;
+        sum += pair_shown(s0, f0, s1, f1, w1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         if reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
             if use_second {
                 s = s1;
             }
-            let chain = mirror_chain(s, select(r0[1], r1[1], use_second), seed + 2u);
+            let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
             let f = faces[chain.face];
             // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
             let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);

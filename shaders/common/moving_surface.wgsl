@@ -90,26 +90,10 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     return material.albedo.xyz / PI * irradiance_at(point, n) + material.emission.xyz;
 }
 
-// Whether the scene (not the moving objects) blocks the segment from `origin` along `ray` (unit)
-// before `reach`.
-fn scene_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
-    var hit = Hit(reach, NO_FACE, 0.0, 0.0);
-    if view.exhaustive_triangles > 0u {
-        for (var i = 0u; i < view.exhaustive_triangles; i++) {
-            let t = ray_triangle(origin, ray, ray_triangles[i]);
-            if t > 1e-5 && t < reach {
-                return true;
-            }
-        }
-        return false;
-    }
-    hit = cast_bvh(origin, ray, 0u, hit, false);
-    return hit.tri != NO_FACE && hit.t < reach;
-}
-
-// Whether a moving object blocks it.
-fn moving_blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> bool {
-    let hit = cast_bvh(origin, ray, view.moving_root, Hit(reach, NO_FACE, 0.0, 0.0), false);
+// Whether the tree at `root` (the scene's, 0, or the moving objects') blocks the segment from
+// `origin` along `ray` (unit) before `reach`.
+fn blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32, root: u32) -> bool {
+    let hit = cast_bvh(origin, ray, root, NO_NODE, Hit(reach, NO_FACE, 0.0, 0.0), false);
     return hit.tri != NO_FACE && hit.t < reach;
 }
 
@@ -138,57 +122,71 @@ fn pick_emitter(u: f32) -> u32 {
 // blocks). The indirect light the objects block, and the light they reflect onto the scene, are
 // left as the light field has them.
 fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
-    if view.moving_root == NO_NODE {
-        return vec3<f32>(0.0);
-    }
     let albedo = diffuse_reflectance(material_of(f));
-    if max(albedo.x, max(albedo.y, albedo.z)) <= 0.0 {
+    if view.moving_root == NO_NODE || max(albedo.x, max(albedo.y, albedo.z)) <= 0.0 {
         return vec3<f32>(0.0);
     }
     let origin = p + f.normal * 1e-5;
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
-    var blocked = vec3<f32>(0.0);
     let n = select(probe_grid.shadow_samples, 0u, probe_grid.emitter_count == 0u);
-    for (var k = 0u; k < n; k++) {
-        // the sample's first coordinate picks the triangle and, stretched over the triangle's
-        // share, places the point on it: the set stays stratified on every triangle
-        let u = hammersley(k, n, shift);
-        let e = pick_emitter(u.x);
-        let em = emitters[e];
-        let previous = select(0.0, emitters[max(e, 1u) - 1u].cumulative, e > 0u);
-        let chance = em.cumulative - previous;
-        let across = cross(em.e1, em.e2);
-        let area = 0.5 * length(across);
-        let r = sqrt(clamp((u.x - previous) / max(chance, 1e-30), 0.0, 1.0));
-        let q = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r);
-        let d = q - origin;
-        let dist = length(d);
-        let ray = d / dist;
-        let cos_p = dot(f.normal, ray);
-        let cos_e = -dot(across / (2.0 * area), ray);
-        if cos_p <= 0.0 || cos_e <= 0.0 || chance <= 0.0 {
-            continue;
+    let sky = field.sky.xyz;
+    let m = select(0u, probe_grid.sky_shadow_samples, max(sky.x, max(sky.y, sky.z)) > 0.0);
+    // a frame around the normal for the sky's cosine-weighted directions
+    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(f.normal.x) > 0.9));
+    let a = normalize(cross(f.normal, t));
+    let b = cross(f.normal, a);
+    var blocked = vec3<f32>(0.0);
+    // one ray cast in the loop (its code once in the pipeline): each sample's ray first against
+    // the moving objects, and where they block it, again against the scene
+    var k = 0u;
+    var against_scene = false;
+    loop {
+        if k >= n + m {
+            break;
         }
-        let reach = dist * (1.0 - 1e-4);
-        if moving_blocks(origin, ray, reach) && !scene_blocks(origin, ray, reach) {
-            blocked += em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * chance * f32(n)));
-        }
-    }
-    let m = probe_grid.sky_shadow_samples;
-    if field.sky.w > 0.0 && max(field.sky.x, max(field.sky.y, field.sky.z)) > 0.0 {
-        // a frame around the normal for cosine-weighted directions
-        let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(f.normal.x) > 0.9));
-        let a = normalize(cross(f.normal, t));
-        let b = cross(f.normal, a);
-        for (var k = 0u; k < m; k++) {
-            let u = hammersley(k, m, shift.yx);
+        var ray: vec3<f32>;
+        var reach = 1e30;
+        var carried = vec3<f32>(0.0);
+        if k < n {
+            // the sample's first coordinate picks the triangle and, stretched over the
+            // triangle's share, places the point on it: the set stays stratified on every one
+            let u = hammersley(k, n, shift);
+            let e = pick_emitter(u.x);
+            let em = emitters[e];
+            let previous = select(0.0, emitters[max(e, 1u) - 1u].cumulative, e > 0u);
+            let chance = em.cumulative - previous;
+            let across = cross(em.e1, em.e2);
+            let area = 0.5 * length(across);
+            let r = sqrt(clamp((u.x - previous) / max(chance, 1e-30), 0.0, 1.0));
+            let d = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r) - origin;
+            let dist = length(d);
+            ray = d / dist;
+            reach = dist * (1.0 - 1e-4);
+            let cos_p = dot(f.normal, ray);
+            let cos_e = -dot(across, ray) / (2.0 * area);
+            let usable = cos_p > 0.0 && cos_e > 0.0 && chance > 0.0;
+            carried = select(vec3<f32>(0.0), em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * chance * f32(n))), usable);
+        } else {
+            let u = hammersley(k - n, m, shift.yx);
             let r = sqrt(u.x);
             let phi = 2.0 * PI * u.y;
-            let ray = a * (r * cos(phi)) + b * (r * sin(phi)) + f.normal * sqrt(max(0.0, 1.0 - u.x));
-            if moving_blocks(origin, ray, 1e30) && !scene_blocks(origin, ray, 1e30) {
-                blocked += field.sky.xyz * (PI / f32(m));
-            }
+            ray = a * (r * cos(phi)) + b * (r * sin(phi)) + f.normal * sqrt(max(0.0, 1.0 - u.x));
+            carried = sky * (PI / f32(m));
         }
+        if max(carried.x, max(carried.y, carried.z)) <= 0.0 {
+            k += 1u;
+            continue;
+        }
+        let hit = blocks(origin, ray, reach, select(view.moving_root, 0u, against_scene));
+        if !against_scene && hit {
+            against_scene = true;
+            continue;
+        }
+        if against_scene && !hit {
+            blocked += carried;
+        }
+        against_scene = false;
+        k += 1u;
     }
     return albedo / PI * blocked;
 }

@@ -45,19 +45,27 @@ const NO_NODE: u32 = 0xffffffffu;
 // to what the scene's tree needs (bvh::BvhPairs::depth), since every entry is local memory
 const PAIR_STACK: u32 = 64u;
 
-// Closest hit through the BVH whose root pair is `root` (the scene's at 0, the moving objects'
-// after it), nearer than `nearest`; with `cull_backs`, triangles met from behind are passed by. Internal nodes are walked in a loop of their own (into the nearer
+// Closest hit, nearer than `nearest`, through the tree whose root pair is `root` (the scene's at
+// 0; NO_NODE: none) and then the one at `then` (the moving objects', after the scene's; NO_NODE:
+// none): one traversal and one stack for both, `then` waiting on the stack from the start. With
+// `cull_moving_backs`, moving triangles met from behind are passed by (the eyes sit inside the
+// avatar's head). Internal nodes are walked in a loop of their own (into the nearer
 // child the ray enters, the farther one onto the stack with its entry distance), leaves tested
 // after it, so the threads of a warp stay in step through the internal levels; an entry a hit
 // found since has made too far is dropped when popped without reading anything.
-fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, nearest: Hit, cull_backs: bool) -> Hit {
+fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, then: u32, nearest: Hit, cull_moving_backs: bool) -> Hit {
     var hit = nearest;
     let safe = select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
     let inv_dir = 1.0 / safe;
     var stack: array<u32, PAIR_STACK>;
     var entry: array<f32, PAIR_STACK>;
     var top = 0u;
-    var node = root << 5u;
+    if MOVING_OBJECTS != 0u && then != NO_NODE {
+        stack[0] = then << 5u;
+        entry[0] = 0.0;
+        top = 1u;
+    }
+    var node = select(root << 5u, NO_NODE, root == NO_NODE);
     loop {
         while node != NO_NODE && (node & 31u) == 0u {
             let p = pairs[node >> 5u];
@@ -86,9 +94,7 @@ fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, nearest: Hit, cull_bac
             for (var i = first; i < end; i++) {
                 let tri = ray_triangles[i];
                 let t = ray_triangle(origin, ray, tri);
-                // a closed moving mesh seen from inside (the eyes in the avatar's own head)
-                // shows nothing: its backs are skipped
-                let culled = cull_backs && dot(tri.w.xyz, ray) > 0.0;
+                let culled = MOVING_OBJECTS != 0u && cull_moving_backs && i >= view.moving_first && dot(tri.w.xyz, ray) > 0.0;
                 if t > 1e-5 && !culled && closer(t, i, hit) {
                     hit.t = t;
                     hit.tri = i;
@@ -148,20 +154,20 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
             hit.t = select(hit.t, tj, found_j);
             hit.tri = select(hit.tri, j, found_j);
         }
-    } else {
-        hit = cast_bvh(origin, ray, 0u, hit, false);
     }
-    // the moving objects' tree, refitted every frame, after the scene's (none: NO_NODE); their
-    // backs are not seen (from inside a body, the world)
-    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE {
-        hit = cast_bvh(origin, ray, view.moving_root, hit, true);
+    // the scene's tree (a small mesh was tested above), then the moving objects', refitted every
+    // frame (none: NO_NODE), whose backs are not seen (from inside a body, the world)
+    let root = select(0u, NO_NODE, view.exhaustive_triangles > 0u);
+    let then = select(NO_NODE, view.moving_root, MOVING_OBJECTS != 0u);
+    if root != NO_NODE || then != NO_NODE {
+        hit = cast_bvh(origin, ray, root, then, hit, true);
     }
     var out: Surface;
     var id = SKY;
     var moving = false;
     if hit.tri != NO_FACE {
         let face = triangles[hit.tri].face;
-        moving = face == MOVING_FACE;
+        moving = MOVING_OBJECTS != 0u && face == MOVING_FACE;
         let f = select(face, 0u, moving);
         // the back of a one-sided face absorbs: its twin is NO_FACE, black
         id = select(faces[f].twin, f, dot(faces[f].normal, ray) < 0.0);
@@ -173,7 +179,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
     out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
     out.background = select(vec3<f32>(0.0), field.sky.xyz, id == SKY);
-    if moving {
+    if MOVING_OBJECTS != 0u && moving {
         out.background = moving_radiance(hit.tri - view.moving_first, out.point, ray);
     }
     return out;
