@@ -38,8 +38,8 @@ struct Emitter {
     // 1: the emission varies over the face (map_Ke): read it from the atlas
     textured: u32,
     e2: vec3<f32>,
-    // the moving objects' shadow rays' selection (render/probes.rs; 0 here)
-    cumulative: f32,
+    // the moving objects' shadow rays' chance of picking it (render/probes.rs; 0 here)
+    chance: f32,
     // mean emitted radiance over the face (rgb), and its r+g+b in w
     radiance: vec4<f32>,
 }

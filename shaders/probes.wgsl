@@ -55,7 +55,9 @@ fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
         let r = cast_ray(s.point + f.normal * 1e-5, reflected);
         radiance += mirror * (atlas_radiance(faces[r.face], r.point) * r.seen + r.background);
     }
-    return vec4<f32>(radiance, s.back);
+    // a one-sided back: black, with a point (the sky's stand-in point is the origin)
+    let back = s.seen == 0.0 && all(s.background == vec3<f32>(0.0)) && any(s.point != origin);
+    return vec4<f32>(radiance, select(0.0, 1.0, back));
 }
 
 var<workgroup> partial: array<array<vec4<f32>, 9>, 64>;

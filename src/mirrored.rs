@@ -74,7 +74,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuPageRange => "PageRange" in "specular.wgsl" { base, cells, _pad0, _pad1 }),
         mirrored!(GpuRayTriangle => "RayTriangle" in "render.wgsl" { u, v, w }),
         mirrored!(GpuEmitter => "Emitter" in "direct.wgsl" {
-            v0, face, e1, textured, e2, cumulative, radiance
+            v0, face, e1, textured, e2, chance, radiance
         }),
         mirrored!(GpuMirrorTriangle => "MirrorTriangle" in "direct.wgsl" {
             v0, face, e1, _pad0, e2, _pad1

@@ -21,8 +21,10 @@ struct MovingMaterial {
 @group(2) @binding(1) var<storage, read> moving_materials: array<MovingMaterial>;
 @group(2) @binding(2) var<uniform> probe_grid: ProbeGrid;
 @group(2) @binding(3) var<storage, read> probes: array<vec4<f32>>;
-// the scene's emitting triangles (probe_grid.emitter_count of them), which the shadows sample
+// the scene's emitting triangles (probe_grid.emitter_count of them), which the shadows sample,
+// and their alias table (render/probes.rs alias_table: [threshold, alias bits, 0, 0])
 @group(2) @binding(4) var<storage, read> emitters: array<Emitter>;
+@group(2) @binding(5) var<storage, read> emitter_alias: array<vec4<f32>>;
 
 // mirrors gpu::types::GpuEmitter: one emitting triangle and its radiance
 struct Emitter {
@@ -31,8 +33,8 @@ struct Emitter {
     e1: vec3<f32>,
     textured: u32,
     e2: vec3<f32>,
-    // the share of the emitters' power up to and with this triangle
-    cumulative: f32,
+    // this triangle's share of the emitters' power: the chance a shadow ray picks it
+    chance: f32,
     radiance: vec4<f32>,
 }
 
@@ -97,20 +99,20 @@ fn blocks(origin: vec3<f32>, ray: vec3<f32>, reach: f32, root: u32) -> bool {
     return hit.tri != NO_FACE && hit.t < reach;
 }
 
-// The emitting triangle whose power share holds `u` (0..1): the first whose cumulative share
-// is above it.
-fn pick_emitter(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = probe_grid.emitter_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if emitters[mid].cumulative > u {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
+// The emitting triangle for `u` (0..1), picked with its share of the power in one step through
+// the alias table, and `u` stretched back over 0..1 within that pick (the sample set stays
+// stratified on every triangle).
+fn pick_emitter(u: f32) -> vec2<f32> {
+    let n = probe_grid.emitter_count;
+    let x = u * f32(n);
+    let i = min(u32(x), n - 1u);
+    let frac = clamp(x - f32(i), 0.0, 1.0);
+    let entry = emitter_alias[i];
+    let threshold = entry.x;
+    if frac < threshold {
+        return vec2<f32>(bitcast<f32>(i), frac / threshold);
     }
-    return lo;
+    return vec2<f32>(entry.y, (frac - threshold) / max(1.0 - threshold, 1e-30));
 }
 
 // The direct light the moving objects take away from point p of static face f, as radiance
@@ -148,16 +150,15 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
         var reach = 1e30;
         var carried = vec3<f32>(0.0);
         if k < n {
-            // the sample's first coordinate picks the triangle and, stretched over the
-            // triangle's share, places the point on it: the set stays stratified on every one
+            // the sample's first coordinate picks the triangle and, stretched back, places the
+            // point on it
             let u = hammersley(k, n, shift);
-            let e = pick_emitter(u.x);
-            let em = emitters[e];
-            let previous = select(0.0, emitters[max(e, 1u) - 1u].cumulative, e > 0u);
-            let chance = em.cumulative - previous;
+            let picked = pick_emitter(u.x);
+            let em = emitters[bitcast<u32>(picked.x)];
+            let chance = em.chance;
             let across = cross(em.e1, em.e2);
             let area = 0.5 * length(across);
-            let r = sqrt(clamp((u.x - previous) / max(chance, 1e-30), 0.0, 1.0));
+            let r = sqrt(clamp(picked.y, 0.0, 1.0));
             let d = em.v0 + em.e1 * (1.0 - r) + em.e2 * (u.y * r) - origin;
             let dist = length(d);
             ray = d / dist;

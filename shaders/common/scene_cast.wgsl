@@ -133,8 +133,6 @@ struct Surface {
     // radiance (moving_radiance)
     background: vec3<f32>,
     point: vec3<f32>,
-    // 1 where the ray meets the back of a one-sided face (a probe inside closed geometry)
-    back: f32,
 }
 
 fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
@@ -175,7 +173,6 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     let none = id == NO_FACE || id == SKY || moving;
     out.seen = select(1.0, 0.0, none);
     out.face = select(id, 0u, none);
-    out.back = select(0.0, 1.0, id == NO_FACE && !moving);
     // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
     out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
     out.background = select(vec3<f32>(0.0), field.sky.xyz, id == SKY);

@@ -203,9 +203,9 @@ pub struct GpuEmitter {
     /// 1 where the emission varies over the face (map_Ke)
     pub textured: u32,
     pub e2: [f32; 3],
-    /// the moving objects' shadow rays (`render::probes::emitters`): the share of the emitters'
-    /// power up to and with this triangle (direct light leaves it 0)
-    pub cumulative: f32,
+    /// the moving objects' shadow rays (`render::probes::emitters`): this triangle's share of
+    /// the emitters' power, the chance a shadow ray picks it (direct light leaves it 0)
+    pub chance: f32,
     /// mean emitted radiance over the face, r+g+b in w
     pub radiance: [f32; 4],
 }

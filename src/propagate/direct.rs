@@ -55,7 +55,7 @@ pub fn emitters(
             e1: (b - a).into(),
             textured: u32::from(hi - lo > 1e-6 * hi),
             e2: (c - a).into(),
-            cumulative: 0.0,
+            chance: 0.0,
             radiance: [mean[0], mean[1], mean[2], mean[0] + mean[1] + mean[2]],
         });
     }

@@ -690,6 +690,7 @@ fn moving_group(
                 &p.grid_buffer,
                 &p.coefficients,
                 &p.emitters,
+                &p.emitter_alias,
             ],
         ),
         _ => placeholder_moving_group(ctx, layout),
@@ -712,7 +713,10 @@ fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) ->
         bytemuck::bytes_of(&grid),
         wgpu::BufferUsages::UNIFORM,
     );
-    ctx.bind_group(layout, &[&storage, &storage, &uniform, &storage, &storage])
+    ctx.bind_group(
+        layout,
+        &[&storage, &storage, &uniform, &storage, &storage, &storage],
+    )
 }
 
 /// The render mesh (triangles in the light field's normalised space, each with its face) as

@@ -106,8 +106,9 @@ pub struct Probes {
     pub grid: GpuProbeGrid,
     pub grid_buffer: wgpu::Buffer,
     pub coefficients: wgpu::Buffer,
-    /// the emitting triangles the shadows sample (`emitters`)
+    /// the emitting triangles the shadows sample (`emitters`) and their alias table
     pub emitters: wgpu::Buffer,
+    pub emitter_alias: wgpu::Buffer,
 }
 
 /// What the bake reads: the renderer's scene buffers (group 0 of probes.wgsl, as render.wgsl
@@ -189,18 +190,26 @@ pub fn bake(
         bytemuck::cast_slice(inputs.emitters),
         STORAGE,
     );
+    let chances: Vec<f32> = inputs.emitters.iter().map(|e| e.chance).collect();
+    let emitter_alias = ctx.buffer_init(
+        ledger,
+        "moving: emitter alias table",
+        bytemuck::cast_slice(&alias_table(&chances)),
+        STORAGE,
+    );
     Ok(Probes {
         grid,
         grid_buffer,
         coefficients,
         emitters,
+        emitter_alias,
     })
 }
 
 /// The scene's emitting triangles as the moving objects' shadows sample them (normalised space,
 /// each with its face's material emission; a map_Ke texture is not read: its face's factor is),
-/// each with the share of the emitted power (radiance x area) up to and with it: a shadow ray
-/// picks its triangle by power, so a scene of many lights costs what one of few does.
+/// each with its share of the emitted power (radiance x area): a shadow ray picks its triangle
+/// by power (`alias_table`), so a scene of many lights costs what one of few does.
 pub fn emitters(lf: &crate::lightfield::LightField) -> Vec<crate::gpu::types::GpuEmitter> {
     let mut out: Vec<crate::gpu::types::GpuEmitter> = (lf.render_vertices.chunks_exact(3))
         .filter_map(|t| {
@@ -225,18 +234,66 @@ pub fn emitters(lf: &crate::lightfield::LightField) -> Vec<crate::gpu::types::Gp
         area * e.radiance[3] as f64
     };
     let total: f64 = out.iter().map(power).sum();
-    let mut sum = 0.0;
     for e in &mut out {
-        sum += power(e);
-        e.cumulative = if total > 0.0 {
-            (sum / total) as f32
+        e.chance = if total > 0.0 {
+            (power(e) / total) as f32
         } else {
-            1.0
+            0.0
         };
-    }
-    if let Some(last) = out.last_mut() {
-        last.cumulative = 1.0;
     }
     // triangles of no area carry no power and are never picked
     out
+}
+
+/// Walker's alias table (Vose's construction) for picking emitter i with chance `chances[i]` in
+/// one step: entry i is [threshold, alias as f32 bits, 0, 0]; a uniform u in [0, n) picks
+/// floor(u) if its fraction is below the threshold, else the alias.
+pub fn alias_table(chances: &[f32]) -> Vec<[f32; 4]> {
+    let n = chances.len();
+    let total: f64 = chances.iter().map(|&c| c as f64).sum();
+    let mut scaled: Vec<f64> = (chances.iter())
+        .map(|&c| {
+            if total > 0.0 {
+                c as f64 * n as f64 / total
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let mut table = vec![[1.0f32, 0.0, 0.0, 0.0]; n];
+    for (i, t) in table.iter_mut().enumerate() {
+        t[1] = f32::from_bits(i as u32);
+    }
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+    while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+        table[s] = [scaled[s] as f32, f32::from_bits(l as u32), 0.0, 0.0];
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    table
+}
+
+#[cfg(test)]
+mod tests {
+    use super::alias_table;
+
+    /// Each entry's chance, read back from the table as the shader picks: entry i keeps its
+    /// threshold of the 1/n that lands on it and hands the rest to its alias.
+    #[test]
+    fn the_alias_table_picks_each_emitter_with_its_chance() {
+        let chances = [0.1f32, 0.6, 0.05, 0.25];
+        let table = alias_table(&chances);
+        let n = chances.len() as f64;
+        let mut picked = [0.0f64; 4];
+        for (i, t) in table.iter().enumerate() {
+            picked[i] += t[0] as f64 / n;
+            picked[t[1].to_bits() as usize] += (1.0 - t[0] as f64) / n;
+        }
+        for (p, c) in picked.iter().zip(chances) {
+            assert!((p - c as f64).abs() < 1e-6, "{picked:?} against {chances:?}");
+        }
+    }
 }
