@@ -129,6 +129,18 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let origin = p + f.normal * 1e-5;
+    // the moving objects' two top boxes (one load, the same for every pixel): a point they are
+    // wholly below the horizon of gets no shadow, and a shadow ray that enters neither is not cast
+    let top = pairs[view.moving_root];
+    let lo = min(top.lo_left, top.lo_right);
+    // an empty side is a "never" box (moving.wgsl): the other side's corner stands for it
+    let left_empty = top.lo_left.x >= 1e37;
+    let right_empty = top.lo_right.x >= 1e37;
+    let hi = max(select(top.hi_left, top.hi_right, left_empty), select(top.hi_right, top.hi_left, right_empty));
+    let reach_corner = select(lo, hi, f.normal > vec3<f32>(0.0));
+    if (left_empty && right_empty) || dot(reach_corner - origin, f.normal) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
     let n = select(probe_grid.shadow_samples, 0u, probe_grid.emitter_count == 0u);
     let sky = field.sky.xyz;
@@ -174,7 +186,9 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
             ray = a * (r * cos(phi)) + b * (r * sin(phi)) + f.normal * sqrt(max(0.0, 1.0 - u.x));
             carried = sky * (PI / f32(m));
         }
-        if max(carried.x, max(carried.y, carried.z)) <= 0.0 {
+        let inv = 1.0 / select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
+        let enters = box_entry(top.lo_left, top.hi_left, origin, inv, reach) >= 0.0 || box_entry(top.lo_right, top.hi_right, origin, inv, reach) >= 0.0;
+        if max(carried.x, max(carried.y, carried.z)) <= 0.0 || (!against_scene && !enters) {
             k += 1u;
             continue;
         }
