@@ -20,7 +20,7 @@ use crate::render::image_io::{display_image, write_image};
 use crate::render::Frame;
 use crate::stats::Distribution;
 use crate::study::log::Drawn;
-use crate::study::{ControlServer, FrameRecord, Session, SessionLog};
+use crate::study::{ControlServer, FrameRecord, LslOutlets, Session, SessionLog};
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
 use serde::Serialize;
@@ -61,13 +61,15 @@ pub struct CaveReport {
 
 /// A headless run: `frames` frames, the last one's images into `out` (PNG, and EXR with `exr`),
 /// with `log` every frame into a session log, and with `control` an experiment script's
-/// commands (`crate::study`; its `stop` makes the frame it arrives in the last).
+/// commands (`crate::study`; its `stop` makes the frame it arrives in the last), and with `lsl`
+/// every frame on LSL outlets (its frames then held to the display's refresh rate).
 pub struct HeadlessRun<'p> {
     pub frames: u32,
     pub out: &'p Path,
     pub exr: bool,
     pub log: Option<&'p mut SessionLog>,
     pub control: Option<&'p ControlServer>,
+    pub lsl: Option<LslOutlets>,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -87,6 +89,7 @@ pub fn run(
         exr,
         log: None,
         control: None,
+        lsl: None,
     };
     run_locked(
         lf,
@@ -180,8 +183,9 @@ pub fn run_locked(
         exr,
         log,
         control,
+        lsl,
     } = run;
-    let mut session = Session::new(log, control);
+    let mut session = Session::new(log, control).with_display(config.refresh_hz, lsl);
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
     let mut frame =
@@ -196,9 +200,9 @@ pub fn run_locked(
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
-        let pose = session.pose(pose);
         // when the pose came in (live tracking), or was sampled
         let sampled = fresh.unwrap_or_else(std::time::Instant::now);
+        let pose = session.pose(pose, sampled);
         let tracked = Poses::Tracked {
             pose: &pose,
             wand: wand.as_ref(),

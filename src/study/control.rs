@@ -19,12 +19,12 @@
 
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{unbounded, Receiver, Sender};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 
 /// A command, as a line of JSON names it.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Command {
     Event { text: String },
@@ -55,17 +55,18 @@ pub struct Pending {
 }
 
 impl Pending {
-    /// Took effect at `frame`; `extra` adds fields to the reply (`state`'s).
-    pub fn ack(self, frame: u64, extra: serde_json::Map<String, serde_json::Value>) {
+    /// Took effect at `frame`; `extra` adds fields to the reply (`state`'s). Returns the reply
+    /// as sent.
+    pub fn ack(self, frame: u64, extra: serde_json::Map<String, serde_json::Value>) -> String {
         let mut reply = serde_json::Map::new();
         reply.insert("ok".into(), true.into());
         reply.insert("cmd".into(), self.command.name().into());
         reply.insert("frame".into(), frame.into());
         reply.extend(extra);
+        let reply = serde_json::Value::Object(reply).to_string();
         // a client that went away hears nothing; the run goes on
-        let _ = self
-            .reply
-            .send(serde_json::Value::Object(reply).to_string());
+        let _ = self.reply.send(reply.clone());
+        reply
     }
 }
 
@@ -73,6 +74,8 @@ impl Pending {
 pub struct ControlServer {
     pub addr: SocketAddr,
     commands: Receiver<Pending>,
+    /// the lines refused, with their replies (for the LSL event stream)
+    refused: Receiver<(String, String)>,
 }
 
 impl ControlServer {
@@ -87,20 +90,22 @@ impl ControlServer {
             .local_addr()
             .map_err(|e| VlfError::Display(format!("--control {addr}: {e}")))?;
         let (sender, commands) = unbounded();
+        let (refusals, refused) = unbounded();
         std::thread::Builder::new()
             .name("vlf control: accept".into())
             .spawn(move || {
                 for stream in listener.incoming().flatten() {
-                    let sender = sender.clone();
+                    let senders = (sender.clone(), refusals.clone());
                     let _ = std::thread::Builder::new()
                         .name("vlf control: client".into())
-                        .spawn(move || serve_client(stream, sender));
+                        .spawn(move || serve_client(stream, senders));
                 }
             })
             .map_err(|e| VlfError::Display(format!("control thread: {e}")))?;
         Ok(ControlServer {
             addr: local,
             commands,
+            refused,
         })
     }
 
@@ -108,10 +113,19 @@ impl ControlServer {
     pub fn take(&self) -> Vec<Pending> {
         self.commands.try_iter().collect()
     }
+
+    /// The lines refused since the last call, each with its reply (never waits).
+    pub fn take_refused(&self) -> Vec<(String, String)> {
+        self.refused.try_iter().collect()
+    }
 }
 
-/// One client: its lines parsed into commands for the frame loop, its replies written back.
-fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
+/// One client: its lines parsed into commands for the frame loop, its replies written back; a
+/// refused line, with its reply, to `refusals` too.
+fn serve_client(
+    stream: TcpStream,
+    (commands, refusals): (Sender<Pending>, Sender<(String, String)>),
+) {
     let Ok(mut writer) = stream.try_clone() else {
         return;
     };
@@ -143,8 +157,9 @@ fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
                 }
             }
             Err(error) => {
-                let refused = serde_json::json!({ "ok": false, "error": error });
-                let _ = reply.send(refused.to_string());
+                let refused = serde_json::json!({ "ok": false, "error": error }).to_string();
+                let _ = refusals.send((line.clone(), refused.clone()));
+                let _ = reply.send(refused);
             }
         }
     }

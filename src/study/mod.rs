@@ -3,12 +3,15 @@
 //! (`vlf cave --log DIR`), and read back by `vlf replay`, which draws the logged frames again
 //! exactly as the run drew them. `control.rs`: an experiment script's commands over TCP (`vlf
 //! cave --control ADDR`), each acknowledged with the frame it took effect in. `session.rs`: the
-//! two, frame by frame, as the display loops call them.
+//! two, frame by frame, as the display loops call them. `lsl.rs`: the frames' poses, times and
+//! events on Lab Streaming Layer outlets (`vlf cave --lsl`).
 
 pub mod control;
 pub mod log;
+pub mod lsl;
 pub mod session;
 
 pub use control::ControlServer;
 pub use log::{FrameRecord, SessionLog, SessionMeta};
+pub use lsl::LslOutlets;
 pub use session::Session;

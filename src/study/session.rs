@@ -2,13 +2,16 @@
 //! effect at the start of a frame, the frame's row goes to the session log (`log.rs`) at its
 //! end with the events of that frame, and each command is acknowledged with the frame's number.
 //! The display loops call `begin_frame`, `pose` and `end_frame`; without a log or a control
-//! connection each does nothing.
+//! connection each does nothing. With LSL outlets (`lsl.rs`) every frame's pose, times and
+//! events go out on them as well, in LSL's clock.
 
 use super::control::{Command, ControlServer, Pending};
 use super::log::{FrameRecord, SessionLog};
+use super::lsl::{FrameSample, LslOutlets};
 use crate::error::Result;
 use crate::tracking::pose::Pose;
 use glam::Vec3;
+use std::time::{Duration, Instant};
 
 pub struct Session<'p> {
     log: Option<&'p mut SessionLog>,
@@ -25,6 +28,13 @@ pub struct Session<'p> {
     pending: Vec<Pending>,
     events: Vec<String>,
     time_s: f64,
+    /// the LSL outlets (`vlf cave --lsl`), and this frame's command markers for them
+    lsl: Option<LslOutlets>,
+    markers: Vec<String>,
+    /// the display's refresh period: the photons follow the GPU's end by one (None: unknown)
+    refresh: Option<Duration>,
+    /// when this frame's pose was sampled, or arrived from the tracker
+    pose_at: Option<Instant>,
 }
 
 impl<'p> Session<'p> {
@@ -39,13 +49,35 @@ impl<'p> Session<'p> {
             pending: Vec::new(),
             events: Vec::new(),
             time_s: 0.0,
+            lsl: None,
+            markers: Vec::new(),
+            refresh: None,
+            pose_at: None,
         }
+    }
+
+    /// The display's refresh rate (`DisplayConfig::refresh_hz`), for each frame's predicted
+    /// photon time, and LSL outlets to send every frame on.
+    pub fn with_display(mut self, refresh_hz: Option<f32>, lsl: Option<LslOutlets>) -> Self {
+        self.refresh = refresh_hz.map(|hz| Duration::from_secs_f64(1.0 / hz as f64));
+        self.lsl = lsl;
+        self
     }
 
     /// A frame begins: what the script sent since the last one takes effect now.
     pub fn begin_frame(&mut self) {
+        if let Some(lsl) = &mut self.lsl {
+            lsl.pace();
+        }
         self.time_s = self.log.as_ref().map_or(0.0, |l| l.elapsed_s());
+        self.pose_at = None;
         let Some(control) = self.control else { return };
+        for (line, reply) in control.take_refused() {
+            if self.lsl.is_some() {
+                let command = serde_json::Value::String(line);
+                self.markers.push(command_marker(command, &reply));
+            }
+        }
         for p in control.take() {
             match &p.command {
                 Command::Event { text } => self.events.push(text.clone()),
@@ -73,8 +105,10 @@ impl<'p> Session<'p> {
         }
     }
 
-    /// The frame's pose as the script has placed the room.
-    pub fn pose(&self, mut pose: Pose) -> Pose {
+    /// The frame's pose as the script has placed the room; `sampled`: when it was sampled, or
+    /// arrived from the tracker.
+    pub fn pose(&mut self, mut pose: Pose, sampled: Instant) -> Pose {
+        self.pose_at = Some(sampled);
         if let Some((position, yaw)) = self.teleport {
             pose.room_position = position;
             pose.room_yaw_deg = yaw;
@@ -87,16 +121,47 @@ impl<'p> Session<'p> {
         self.time_s
     }
 
-    /// The frame is drawn: its row (with its events, and `note` among them) to the log, and
-    /// its commands acknowledged with its number and pose.
+    /// The frame is drawn (the loops call this once its GPU work is done): its row (with its
+    /// events, and `note` among them) to the log, its commands acknowledged with its number
+    /// and pose, and all of it to the LSL outlets.
     pub fn end_frame(&mut self, mut record: FrameRecord, note: Option<String>) -> Result<()> {
+        // the photons of a frame shown (timed or presented) one refresh after the GPU's end
+        let shown = record.pose_to_submit_ms.is_some();
+        let due = Instant::now() + self.refresh.unwrap_or_default();
         self.events.extend(note);
-        record.events = std::mem::take(&mut self.events).join("; ");
+        let events = std::mem::take(&mut self.events);
+        record.events = events.join("; ");
         (record.block, record.trial) = self.trial;
         if let (Some(log), true) = (self.log.as_deref_mut(), self.logging) {
             log.record(&record)?;
         }
-        for p in self.pending.drain(..) {
+        self.acknowledge(&record);
+        let Some(lsl) = &self.lsl else {
+            return Ok(());
+        };
+        let late = match (record.cpu_ms, self.refresh) {
+            (Some(ms), Some(period)) => {
+                let refreshes = ms / (period.as_secs_f64() * 1e3);
+                Some((refreshes > 1.0, (refreshes.ceil() as u32).saturating_sub(1)))
+            }
+            _ => None,
+        };
+        let sample = FrameSample {
+            record: &record,
+            pose_at: self.pose_at.unwrap_or_else(Instant::now),
+            due,
+            shown,
+            late,
+        };
+        let mut markers = events;
+        markers.append(&mut self.markers);
+        lsl.frame(&sample, &markers)
+    }
+
+    /// This frame's commands acknowledged with its number (and `state` with its pose); each
+    /// with its reply a marker for LSL.
+    fn acknowledge(&mut self, record: &FrameRecord) {
+        for p in std::mem::take(&mut self.pending) {
             let mut extra = serde_json::Map::new();
             if p.command == Command::State {
                 let (h, r) = (record.pose.head, record.pose.room_position);
@@ -108,8 +173,17 @@ impl<'p> Session<'p> {
                     (self.log.is_some() && self.logging).into(),
                 );
             }
-            p.ack(record.frame, extra);
+            let command = serde_json::to_value(&p.command).unwrap_or_default();
+            let reply = p.ack(record.frame, extra);
+            if self.lsl.is_some() {
+                self.markers.push(command_marker(command, &reply));
+            }
         }
-        Ok(())
     }
+}
+
+/// A command and its reply as one marker: `{"command": ..., "reply": ...}`.
+fn command_marker(command: serde_json::Value, reply: &str) -> String {
+    let reply: serde_json::Value = serde_json::from_str(reply).unwrap_or(reply.into());
+    serde_json::json!({ "command": command, "reply": reply }).to_string()
 }

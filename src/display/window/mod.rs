@@ -224,7 +224,7 @@ impl App<'_> {
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         self.session.begin_frame();
-        let mut pose = self.session.pose(self.navigator.apply(base));
+        let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
         let mut wand = wand;
         if let Some(lock) = self.lock.as_deref_mut() {
             let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
