@@ -54,6 +54,22 @@ fn long_headless_run(dir: &std::path::Path) -> Command {
     cave
 }
 
+/// `tools/study/parquet_check.py`: the log's frames.parquet read with pyarrow equals its
+/// frames.csv row for row (a prefix of it after a SIGKILL); its counts.
+fn parquet_matches_csv(log_dir: &std::path::Path) -> serde_json::Value {
+    let out = Command::new("python3")
+        .arg(repo_path("tools/study/parquet_check.py"))
+        .arg(log_dir)
+        .output()
+        .unwrap_or_else(|e| panic!("python3 runs parquet_check.py ({e}); install Python 3 and pyarrow (bash tools/setup.sh test)"));
+    assert!(
+        out.status.success(),
+        "frames.parquet against frames.csv (pyarrow missing? `bash tools/setup.sh test` installs it):\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 fn same_pixels(a: &std::path::Path, b: &std::path::Path) {
     let (x, y) = (
         vlf::render::image_io::read_exr(a).unwrap(),
@@ -117,6 +133,8 @@ fn a_logged_session_replays_pixel_identical() {
     }
     let (meta, records) = SessionLog::read(&log_dir).unwrap();
     assert_eq!(records.len(), 4);
+    // closed cleanly: the Parquet has every row
+    assert_eq!(parquet_matches_csv(&log_dir)["parquet_rows"], 4);
     assert!(records[..3]
         .iter()
         .all(|r| r.drawn == Drawn::Timed && r.cpu_ms.is_some()));
@@ -196,6 +214,9 @@ fn a_session_log_survives_sigkill() {
     assert_eq!(meta.views.len(), 8);
     assert!(records.len() >= 3, "{} rows", records.len());
     assert!((records.iter().enumerate()).all(|(i, r)| r.frame == i as u64));
+    // every Parquet part closed before the kill reads back, equal to the CSV's rows
+    let parquet = parquet_matches_csv(&log_dir);
+    assert!(parquet["parquet_rows"].as_u64().unwrap() >= 1, "{parquet}");
 }
 
 /// The shipped Python example drives a headless run over `--control`: every command is
@@ -252,6 +273,8 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     // the log: the events in the rows of their frames, the trial from its frame on, the room
     // moved from the teleport on, and every timed frame's pose age at submission
     let (_, records) = SessionLog::read(&log_dir).unwrap();
+    let parquet = parquet_matches_csv(&log_dir);
+    assert_eq!(parquet["parquet_rows"], records.len(), "{parquet}");
     let last = records.last().unwrap();
     assert_eq!((last.frame, last.drawn), (frame(7), Drawn::ReadBack));
     let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();

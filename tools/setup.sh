@@ -10,8 +10,9 @@
 #   bash tools/setup.sh test   the demo's, and what only the tests use: Xvfb, ImageMagick's
 #                              `import` and xdotool (the windowed CAVE test), the OpenXR loader
 #                              (tests/xr.rs), Mitsuba 3 + numpy (the independent reference,
-#                              tests/mitsuba.rs), pygltflib (tests/gltf.rs) and pylsl (the LSL
-#                              outlets read back, tests/study.rs; its wheel brings liblsl)
+#                              tests/mitsuba.rs), pygltflib (tests/gltf.rs), pylsl (the LSL
+#                              outlets read back, tests/study.rs; its wheel brings liblsl) and
+#                              pyarrow (the session log's Parquet read back, tests/study.rs)
 set -euo pipefail
 mode=${1:-test}
 case "$mode" in
@@ -70,4 +71,5 @@ if [ "$mode" = test ]; then
   pip_install "mitsuba, numpy" mitsuba numpy
   pip_install pygltflib pygltflib
   pip_install pylsl pylsl
+  pip_install pyarrow pyarrow
 fi

@@ -37,8 +37,8 @@ pub struct CaveArgs {
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Log every frame into this new folder (session.json and frames.csv: poses, what
-    /// each view was drawn with, times); `vlf replay DIR` draws the logged frames again
+    /// Log every frame into this new folder (session.json, frames.csv and frames.parquet/:
+    /// poses, what each view was drawn with, times); `vlf replay DIR` draws them again
     #[arg(long)]
     log: Option<PathBuf>,
     /// Take an experiment script's commands over TCP on this address (host:port; port

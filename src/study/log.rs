@@ -1,7 +1,8 @@
 //! The session log (`vlf cave --log DIR`): `DIR/session.json` says what ran (the display
 //! configuration, the light field, the views, the adapter, when) and documents every column;
 //! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk
-//! at least once a second, so a crash (even SIGKILL) loses at most the last second.
+//! at least once a second, so a crash (even SIGKILL) loses at most the last second; the same
+//! rows go to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
 //!
 //! A row: the frame number, seconds since the session began, how the frame was drawn, the head
 //! pose in the room (after calibration) and the navigation (where the room is in the world), the
@@ -9,6 +10,8 @@
 //! pixel, the paced tiles' count and share, mirror reflections, fixed work), then the frame's
 //! events. Floats are written in Rust's shortest form that reads back to the same bits, so
 //! `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
+
+pub mod parquet;
 
 use crate::error::{Result, VlfError};
 use crate::render::budget::ViewSettings;
@@ -63,7 +66,7 @@ pub enum Drawn {
 impl Drawn {
     const ALL: [Drawn; 3] = [Drawn::Timed, Drawn::ReadBack, Drawn::Shown];
 
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Drawn::Timed => "timed",
             Drawn::ReadBack => "read_back",
@@ -183,7 +186,7 @@ const VIEW_COLUMNS: [(&str, &str); 5] = [
 ];
 
 /// The documented columns of a log of `views`.
-fn columns(views: &[String]) -> Vec<(String, String)> {
+pub(crate) fn columns(views: &[String]) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
         .map(|(n, m)| (n.to_string(), m.to_string()))
         .collect();
@@ -203,6 +206,7 @@ fn columns(views: &[String]) -> Vec<(String, String)> {
 pub struct SessionLog {
     dir: PathBuf,
     frames: std::io::BufWriter<std::fs::File>,
+    parquet: parquet::FramesParquet,
     views: usize,
     began: Instant,
     last_flush: Instant,
@@ -214,7 +218,8 @@ impl SessionLog {
     pub fn create(dir: &Path, mut meta: SessionMeta) -> Result<SessionLog> {
         std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
         let (json, csv) = (dir.join("session.json"), dir.join("frames.csv"));
-        if json.exists() || csv.exists() {
+        let parquet = dir.join(parquet::PARQUET_DIR);
+        if json.exists() || csv.exists() || parquet.exists() {
             return Err(VlfError::io(
                 &csv,
                 std::io::Error::new(
@@ -228,12 +233,13 @@ impl SessionLog {
         std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
         let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
         let mut frames = std::io::BufWriter::new(file);
-        let header: Vec<&str> = meta.columns.iter().map(|(n, _)| n.as_str()).collect();
+        let header: Vec<String> = meta.columns.iter().map(|(n, _)| n.clone()).collect();
         writeln!(frames, "{}", header.join(",")).map_err(|e| VlfError::io(&csv, e))?;
         let now = Instant::now();
         let mut log = SessionLog {
             dir: dir.to_path_buf(),
             frames,
+            parquet: parquet::FramesParquet::create(dir, header)?,
             views: meta.views.len(),
             began: now,
             last_flush: now,
@@ -259,6 +265,7 @@ impl SessionLog {
         let row = row_text(r);
         let csv = self.dir.join("frames.csv");
         writeln!(self.frames, "{row}").map_err(|e| VlfError::io(&csv, e))?;
+        self.parquet.push(r);
         if self.last_flush.elapsed() >= FLUSH_EVERY {
             self.flush()?;
         }
@@ -273,6 +280,7 @@ impl SessionLog {
             .get_ref()
             .sync_data()
             .map_err(|e| VlfError::io(&csv, e))?;
+        self.parquet.flush()?;
         self.last_flush = Instant::now();
         Ok(())
     }
