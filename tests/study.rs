@@ -227,8 +227,11 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let log_dir = dir.path().join("log");
+    let report = dir.path().join("report.json");
     let mut child = long_headless_run(dir.path())
         .args(["--control", "127.0.0.1:0"])
+        .arg("--json")
+        .arg(&report)
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -288,6 +291,23 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     ));
     assert!((records.iter().filter(|r| r.drawn == Drawn::Timed))
         .all(|r| r.pose_to_submit_ms.is_some_and(|ms| ms >= 0.0)));
+    // motion to photon: the predicted photons a refresh period (1 s here) after the GPU's end,
+    // in every timed row and, as p50/p99, in the report
+    assert!((records.iter().filter(|r| r.drawn == Drawn::Timed))
+        .all(|r| r.pose_to_photon_ms.unwrap() >= r.pose_to_submit_ms.unwrap() + 1000.0));
+    assert_eq!(last.pose_to_photon_ms, None);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let m = &report["motion_to_photon"];
+    let timed = records.iter().filter(|r| r.drawn == Drawn::Timed).count();
+    assert_eq!(m["pose_to_photon_ms"]["samples"], timed, "{m}");
+    assert_eq!(m["refresh_ms"], 1000.0);
+    let p50 = |k: &str| m[k]["median"].as_f64().unwrap();
+    assert!(
+        p50("pose_to_photon_ms") >= p50("pose_to_submit_ms") + 1000.0,
+        "{m}"
+    );
+    assert!(m["pose_to_photon_ms"]["p99"].as_f64().unwrap() >= p50("pose_to_photon_ms"));
 }
 
 /// A one-wall display of 64x36 pixels at 10 Hz walking a scripted path with a wand, in `dir`,
@@ -380,7 +400,7 @@ fn lsl_outlets_carry_every_frame_as_the_session_log_has_it() {
         .arg("--out")
         .arg(dir.path().join("out"))
         .env("LSLAPICFG", &lsl_cfg)
-        .stdout(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -398,7 +418,15 @@ fn lsl_outlets_carry_every_frame_as_the_session_log_has_it() {
             String::from_utf8_lossy(&out.stderr)
         );
     }
-    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
+    let run = child.wait_with_output().unwrap();
+    assert!(run.status.success(), "stop ends the run cleanly");
+    // the report's summary: motion to photon at the 10 Hz display's prediction
+    let summary = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        summary.contains("motion to photon (")
+            && summary.contains("predicted: GPU end + one refresh, 100.000 ms"),
+        "{summary}"
+    );
     let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let (_, records) = SessionLog::read(&log_dir).unwrap();
     check_lsl_streams(&got, &records);
@@ -483,9 +511,10 @@ fn check_lsl_streams(got: &serde_json::Value, records: &[vlf::study::FrameRecord
         );
         // the pose's age at the photons: a refresh period (100 ms) after the GPU's end
         let photon = num(&v[18]);
-        match r.drawn {
-            vlf::study::log::Drawn::Timed => assert!((100.0..1000.0).contains(&photon), "{photon}"),
-            _ => assert!(photon.is_nan()),
+        // the same on the stream and in the log; a refresh period (100 ms) after the GPU's end
+        match r.pose_to_photon_ms {
+            Some(ms) => assert!(photon as f32 == ms as f32 && (100.0..1000.0).contains(&photon)),
+            None => assert!(photon.is_nan() && r.drawn == vlf::study::log::Drawn::ReadBack),
         }
         // LSL's clock against the session log's: the same steps between frames
         if i > 0 {

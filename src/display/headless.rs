@@ -49,6 +49,8 @@ pub struct CaveReport {
     /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
     /// drawn from it (timed frames; None without live tracking or without a new pose)
     pub tracking_latency_ms: Option<Distribution>,
+    /// every timed frame's pose to submission and to predicted photons (`crate::study`)
+    pub motion_to_photon: Option<crate::study::MotionToPhoton>,
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
     pub quality: crate::render::budget::Quality,
     pub fit: Option<BudgetFit>,
@@ -220,6 +222,7 @@ pub fn run_locked(
             block: 0,
             trial: 0,
             pose_to_submit_ms: None,
+            pose_to_photon_ms: None,
             views: frame.drawn().to_vec(),
             events: String::new(),
         };
@@ -277,6 +280,7 @@ pub fn run_locked(
         cpu_frame_ms,
         outputs_gpu_ms: frame.times().output_gpu_ms(),
         tracking_latency_ms: frame.latency_ms(),
+        motion_to_photon: session.motion_to_photon(),
         quality: frame.quality(),
         fit: frame.fit().cloned(),
         pacer: frame.pacer_report(),
@@ -439,6 +443,9 @@ impl CaveReport {
         ));
         if let Some(d) = &self.tracking_latency_ms {
             s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
+        }
+        if let Some(m) = &self.motion_to_photon {
+            s.push_str(&m.line());
         }
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
             s.push_str(&format!(

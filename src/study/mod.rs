@@ -14,4 +14,4 @@ pub mod session;
 pub use control::ControlServer;
 pub use log::{FrameRecord, SessionLog, SessionMeta};
 pub use lsl::LslOutlets;
-pub use session::Session;
+pub use session::{MotionToPhoton, Session};

@@ -9,6 +9,7 @@ use super::control::{Command, ControlServer, Pending};
 use super::log::{FrameRecord, SessionLog};
 use super::lsl::{FrameSample, LslOutlets};
 use crate::error::Result;
+use crate::stats::Distribution;
 use crate::tracking::pose::Pose;
 use glam::Vec3;
 use std::time::{Duration, Instant};
@@ -35,6 +36,35 @@ pub struct Session<'p> {
     refresh: Option<Duration>,
     /// when this frame's pose was sampled, or arrived from the tracker
     pose_at: Option<Instant>,
+    /// every timed frame's pose_to_submit_ms and pose_to_photon_ms, for the report
+    latencies: Vec<(f64, f64)>,
+}
+
+/// Motion to photon over a run's timed frames, in `vlf cave`'s report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MotionToPhoton {
+    /// from the pose's arrival (live tracking) or sampling to the frame's submission, ms
+    pub pose_to_submit_ms: Distribution,
+    /// from the same to the frame's predicted photons: its GPU end plus one refresh period
+    /// (without `refresh_hz`, the GPU end alone: a lower bound), ms
+    pub pose_to_photon_ms: Distribution,
+    /// the refresh period the prediction adds, ms (None: the display gives no `refresh_hz`)
+    pub refresh_ms: Option<f64>,
+}
+
+impl MotionToPhoton {
+    /// The report's line.
+    pub fn line(&self) -> String {
+        let (s, p) = (&self.pose_to_submit_ms, &self.pose_to_photon_ms);
+        let model = match self.refresh_ms {
+            Some(ms) => format!("GPU end + one refresh, {ms:.3} ms"),
+            None => "GPU end; no refresh_hz: a lower bound".into(),
+        };
+        format!(
+            "  motion to photon ({} frames): pose -> submitted p50 {:.3} ms, p99 {:.3} ms; pose -> photons (predicted: {model}) p50 {:.3} ms, p99 {:.3} ms\n",
+            s.samples, s.median, s.p99, p.median, p.p99
+        )
+    }
 }
 
 impl<'p> Session<'p> {
@@ -53,6 +83,7 @@ impl<'p> Session<'p> {
             markers: Vec::new(),
             refresh: None,
             pose_at: None,
+            latencies: Vec::new(),
         }
     }
 
@@ -116,6 +147,19 @@ impl<'p> Session<'p> {
         pose
     }
 
+    /// Motion to photon over the timed frames so far (None before one).
+    pub fn motion_to_photon(&self) -> Option<MotionToPhoton> {
+        if self.latencies.is_empty() {
+            return None;
+        }
+        let (submit, photon): (Vec<f64>, Vec<f64>) = self.latencies.iter().copied().unzip();
+        Some(MotionToPhoton {
+            pose_to_submit_ms: Distribution::of(&submit),
+            pose_to_photon_ms: Distribution::of(&photon),
+            refresh_ms: self.refresh.map(|p| p.as_secs_f64() * 1e3),
+        })
+    }
+
     /// Seconds since the session began, when this frame began (0 without a log).
     pub fn time_s(&self) -> f64 {
         self.time_s
@@ -128,6 +172,16 @@ impl<'p> Session<'p> {
         // the photons of a frame shown (timed or presented) one refresh after the GPU's end
         let shown = record.pose_to_submit_ms.is_some();
         let due = Instant::now() + self.refresh.unwrap_or_default();
+        if let (true, Some(pose_at)) = (shown, self.pose_at) {
+            record.pose_to_photon_ms = Some(due.duration_since(pose_at).as_secs_f64() * 1e3);
+        }
+        if let (Some(submit), Some(photon), Some(_)) = (
+            record.pose_to_submit_ms,
+            record.pose_to_photon_ms,
+            record.cpu_ms,
+        ) {
+            self.latencies.push((submit, photon));
+        }
         self.events.extend(note);
         let events = std::mem::take(&mut self.events);
         record.events = events.join("; ");

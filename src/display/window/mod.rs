@@ -182,6 +182,7 @@ impl App<'_> {
             block: 0,
             trial: 0,
             pose_to_submit_ms: Some(pose_to_submit_ms),
+            pose_to_photon_ms: None,
             views: self.frame.drawn().to_vec(),
             events: String::new(),
         };

@@ -130,6 +130,7 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     columns.push(u32s(rows, |r| r.block));
     columns.push(u32s(rows, |r| r.trial));
     columns.push(opt_f64s(rows, |r| r.pose_to_submit_ms));
+    columns.push(opt_f64s(rows, |r| r.pose_to_photon_ms));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -184,6 +185,7 @@ mod tests {
             block: 1,
             trial: 2,
             pose_to_submit_ms: Some(0.25),
+            pose_to_photon_ms: Some(8.5),
             views: Vec::new(),
             events: "a \"quoted\" event".into(),
         }
