@@ -11,7 +11,10 @@
 //!   row of the session log from that frame on;
 //! - `{"cmd": "log", "on": false}`: stop (or resume) writing rows to the session log;
 //! - `{"cmd": "state"}`: the frame, the head and the room, the log's state;
-//! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last.
+//! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last;
+//! - `{"cmd": "flash"}`: a latency test for a photodiode: every wall full white for that frame,
+//!   then black until `{"cmd": "flash", "end": true}` brings the scene back (the windows; the
+//!   views are drawn all the while, so the frame time does not change).
 //!
 //! Replies: `{"ok": true, "cmd": ..., "frame": N, ...}` or `{"ok": false, "error": "..."}`. A
 //! client that goes away changes nothing on screen. Every client has a thread of its own; the
@@ -27,12 +30,26 @@ use std::net::{SocketAddr, TcpListener, TcpStream};
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Command {
-    Event { text: String },
-    Teleport { position: [f32; 3], yaw_deg: f32 },
-    Trial { block: u32, trial: u32 },
-    Log { on: bool },
+    Event {
+        text: String,
+    },
+    Teleport {
+        position: [f32; 3],
+        yaw_deg: f32,
+    },
+    Trial {
+        block: u32,
+        trial: u32,
+    },
+    Log {
+        on: bool,
+    },
     State,
     Stop,
+    Flash {
+        #[serde(default)]
+        end: bool,
+    },
 }
 
 impl Command {
@@ -44,6 +61,7 @@ impl Command {
             Command::Log { .. } => "log",
             Command::State => "state",
             Command::Stop => "stop",
+            Command::Flash { .. } => "flash",
         }
     }
 }
@@ -171,7 +189,7 @@ fn serve_client(
 pub fn parse(line: &str) -> std::result::Result<Command, String> {
     let command: Command = serde_json::from_str(line).map_err(|e| {
         format!(
-            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop)"
+            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop, flash)"
         )
     })?;
     if let Command::Teleport { position, yaw_deg } = &command {
@@ -195,6 +213,14 @@ mod tests {
             })
         );
         assert_eq!(parse(r#"{"cmd":"stop"}"#), Ok(Command::Stop));
+        assert_eq!(
+            parse(r#"{"cmd":"flash"}"#),
+            Ok(Command::Flash { end: false })
+        );
+        assert_eq!(
+            parse(r#"{"cmd":"flash","end":true}"#),
+            Ok(Command::Flash { end: true })
+        );
         let unknown = parse(r#"{"cmd": "fly"}"#).unwrap_err();
         assert!(
             unknown.contains("fly") && unknown.contains("commands:"),

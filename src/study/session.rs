@@ -38,6 +38,8 @@ pub struct Session<'p> {
     pose_at: Option<Instant>,
     /// every timed frame's pose_to_submit_ms and pose_to_photon_ms, for the report
     latencies: Vec<(f64, f64)>,
+    /// the latency test (`flash`): Some(true) white walls this frame, Some(false) black
+    flash: Option<bool>,
 }
 
 /// Motion to photon over a run's timed frames, in `vlf cave`'s report.
@@ -84,6 +86,7 @@ impl<'p> Session<'p> {
             refresh: None,
             pose_at: None,
             latencies: Vec::new(),
+            flash: None,
         }
     }
 
@@ -102,6 +105,10 @@ impl<'p> Session<'p> {
         }
         self.time_s = self.log.as_ref().map_or(0.0, |l| l.elapsed_s());
         self.pose_at = None;
+        // a flash lasts one frame; the walls stay black until the test ends
+        if self.flash == Some(true) {
+            self.flash = Some(false);
+        }
         let Some(control) = self.control else { return };
         for (line, reply) in control.take_refused() {
             if self.lsl.is_some() {
@@ -127,6 +134,11 @@ impl<'p> Session<'p> {
                         .push(format!("log {}", if *on { "on" } else { "off" }));
                 }
                 Command::State => {}
+                Command::Flash { end } => {
+                    self.flash = (!end).then_some(true);
+                    self.events
+                        .push(if *end { "flash end" } else { "flash" }.into());
+                }
                 Command::Stop => {
                     self.stop = true;
                     self.events.push("stop".into());
@@ -145,6 +157,12 @@ impl<'p> Session<'p> {
             pose.room_yaw_deg = yaw;
         }
         pose
+    }
+
+    /// The latency test's walls this frame: Some(true) full white, Some(false) black, None the
+    /// scene (`flash`).
+    pub fn flash(&self) -> Option<bool> {
+        self.flash
     }
 
     /// Motion to photon over the timed frames so far (None before one).
@@ -240,4 +258,80 @@ impl<'p> Session<'p> {
 fn command_marker(command: serde_json::Value, reply: &str) -> String {
     let reply: serde_json::Value = serde_json::from_str(reply).unwrap_or(reply.into());
     serde_json::json!({ "command": command, "reply": reply }).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::log::Drawn;
+    use std::io::{BufRead, Write};
+
+    fn record(frame: u64) -> FrameRecord {
+        FrameRecord {
+            frame,
+            time_s: 0.0,
+            drawn: Drawn::Shown,
+            pose: Pose {
+                head: Vec3::ZERO,
+                head_rotation: glam::Quat::IDENTITY,
+                room_position: Vec3::ZERO,
+                room_yaw_deg: 0.0,
+            },
+            wand: None,
+            gpu_ms: None,
+            cpu_ms: None,
+            block: 0,
+            trial: 0,
+            pose_to_submit_ms: Some(0.1),
+            pose_to_photon_ms: None,
+            views: Vec::new(),
+            events: String::new(),
+        }
+    }
+
+    /// Frames from `*frame` on until a command has arrived and taken effect; its reply.
+    fn until_reply(
+        session: &mut Session<'_>,
+        frame: &mut u64,
+        replies: &mut impl BufRead,
+        walls: &mut Vec<Option<bool>>,
+    ) -> serde_json::Value {
+        loop {
+            session.begin_frame();
+            walls.push(session.flash());
+            let took = !session.pending.is_empty();
+            session.end_frame(record(*frame), None).unwrap();
+            *frame += 1;
+            if took {
+                let mut line = String::new();
+                replies.read_line(&mut line).unwrap();
+                return serde_json::from_str(&line).unwrap();
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    #[test]
+    fn a_flash_whitens_one_frame_then_the_walls_stay_black_until_the_test_ends() {
+        let server = ControlServer::bind("127.0.0.1:0").unwrap();
+        let mut session = Session::new(None, Some(&server));
+        let mut client = std::net::TcpStream::connect(server.addr).unwrap();
+        let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+        let (mut frame, mut walls) = (0, Vec::new());
+        writeln!(client, r#"{{"cmd": "flash"}}"#).unwrap();
+        let flash = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        assert_eq!(
+            (flash["ok"].as_bool(), flash["cmd"].as_str()),
+            (Some(true), Some("flash"))
+        );
+        let white = flash["frame"].as_u64().unwrap() as usize;
+        assert_eq!(walls[white], Some(true));
+        assert!(walls[..white].iter().all(|w| w.is_none()));
+        writeln!(client, r#"{{"cmd": "flash", "end": true}}"#).unwrap();
+        let end = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        let back = end["frame"].as_u64().unwrap() as usize;
+        assert!(back > white);
+        assert!(walls[white + 1..back].iter().all(|w| *w == Some(false)));
+        assert_eq!(walls[back], None);
+    }
 }

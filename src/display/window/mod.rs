@@ -260,7 +260,7 @@ impl App<'_> {
         };
         self.frame.draw(tracked, Draw::Shown, None)?;
         let pose_to_submit_ms = fresh.unwrap_or(sampled).elapsed().as_secs_f64() * 1e3;
-        let outputs = self.draw_windows(&ctx)?;
+        let outputs = self.draw_windows(&ctx, self.session.flash())?;
         // every window's frame is ready before any is shown: the walls change together (and
         // in a cluster, every rank's: drawn, then the swap barrier)
         if let Some(lock) = self.lock.as_deref_mut() {
