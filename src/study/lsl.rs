@@ -4,8 +4,8 @@
 //!
 //! - `vlf.pose` (type `MoCap`, float32, the display's refresh rate): one sample per frame, the
 //!   head and the wand (position and rotation in the room, NaN without a wand), the room's place
-//!   in the world, the pose's age at the predicted photon time and the frame number (`POSE_CHANNELS`),
-//!   stamped with the time the pose was sampled (or arrived from the tracker);
+//!   in the world, the pose's age at the predicted photon time and the frame number
+//!   (`POSE_CHANNELS`), stamped with the time the pose was sampled (or arrived from the tracker);
 //! - `vlf.frames` (type `Markers`, double, the refresh rate): one sample per frame, the frame
 //!   number, its predicted display time in LSL's clock (NaN for a frame read back, not shown),
 //!   its GPU and CPU milliseconds, whether it was late and how many refreshes it missed

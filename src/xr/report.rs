@@ -53,7 +53,8 @@ pub struct XrReport {
     pub gpu_done_before_display_ms: Option<Distribution>,
     /// per timed frame: from its head pose (xrLocateViews, predicted by the runtime for the
     /// frame's display time) to that predicted display time: motion to photon as the runtime
-    /// predicts it (None: the runtime cannot convert the system clock to XrTime)
+    /// predicts it; negative where the pose was located after it, a prediction already past (a
+    /// late frame). None: the runtime cannot convert the system clock to XrTime
     pub pose_to_photon_ms: Option<Distribution>,
     /// frames whose GPU work finished after their predicted display time: late for any
     /// compositor
