@@ -54,6 +54,22 @@ fn long_headless_run(dir: &std::path::Path) -> Command {
     cave
 }
 
+/// `tools/study/parquet_check.py`: the log's frames.parquet read with pyarrow equals its
+/// frames.csv row for row (a prefix of it after a SIGKILL); its counts.
+fn parquet_matches_csv(log_dir: &std::path::Path) -> serde_json::Value {
+    let out = Command::new("python3")
+        .arg(repo_path("tools/study/parquet_check.py"))
+        .arg(log_dir)
+        .output()
+        .unwrap_or_else(|e| panic!("python3 runs parquet_check.py ({e}); install Python 3 and pyarrow (bash tools/setup.sh test)"));
+    assert!(
+        out.status.success(),
+        "frames.parquet against frames.csv (pyarrow missing? `bash tools/setup.sh test` installs it):\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
 fn same_pixels(a: &std::path::Path, b: &std::path::Path) {
     let (x, y) = (
         vlf::render::image_io::read_exr(a).unwrap(),
@@ -110,12 +126,15 @@ fn a_logged_session_replays_pixel_identical() {
             exr: true,
             log: Some(&mut log),
             control: None,
+            lsl: None,
         };
         vlf::display::headless::run_reporting(&lf, &resident, &display, &config, run, &Silent)
             .unwrap();
     }
     let (meta, records) = SessionLog::read(&log_dir).unwrap();
     assert_eq!(records.len(), 4);
+    // closed cleanly: the Parquet has every row
+    assert_eq!(parquet_matches_csv(&log_dir)["parquet_rows"], 4);
     assert!(records[..3]
         .iter()
         .all(|r| r.drawn == Drawn::Timed && r.cpu_ms.is_some()));
@@ -195,6 +214,9 @@ fn a_session_log_survives_sigkill() {
     assert_eq!(meta.views.len(), 8);
     assert!(records.len() >= 3, "{} rows", records.len());
     assert!((records.iter().enumerate()).all(|(i, r)| r.frame == i as u64));
+    // every Parquet part closed before the kill reads back, equal to the CSV's rows
+    let parquet = parquet_matches_csv(&log_dir);
+    assert!(parquet["parquet_rows"].as_u64().unwrap() >= 1, "{parquet}");
 }
 
 /// The shipped Python example drives a headless run over `--control`: every command is
@@ -205,8 +227,11 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     use std::io::BufRead;
     let dir = tempfile::tempdir().unwrap();
     let log_dir = dir.path().join("log");
+    let report = dir.path().join("report.json");
     let mut child = long_headless_run(dir.path())
         .args(["--control", "127.0.0.1:0"])
+        .arg("--json")
+        .arg(&report)
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -251,6 +276,8 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     // the log: the events in the rows of their frames, the trial from its frame on, the room
     // moved from the teleport on, and every timed frame's pose age at submission
     let (_, records) = SessionLog::read(&log_dir).unwrap();
+    let parquet = parquet_matches_csv(&log_dir);
+    assert_eq!(parquet["parquet_rows"], records.len(), "{parquet}");
     let last = records.last().unwrap();
     assert_eq!((last.frame, last.drawn), (frame(7), Drawn::ReadBack));
     let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();
@@ -264,4 +291,273 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     ));
     assert!((records.iter().filter(|r| r.drawn == Drawn::Timed))
         .all(|r| r.pose_to_submit_ms.is_some_and(|ms| ms >= 0.0)));
+    // motion to photon: the predicted photons a refresh period (1 s here) after the GPU's end,
+    // in every timed row and, as p50/p99, in the report
+    assert!((records.iter().filter(|r| r.drawn == Drawn::Timed))
+        .all(|r| r.pose_to_photon_ms.unwrap() >= r.pose_to_submit_ms.unwrap() + 1000.0));
+    assert_eq!(last.pose_to_photon_ms, None);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let m = &report["motion_to_photon"];
+    let timed = records.iter().filter(|r| r.drawn == Drawn::Timed).count();
+    assert_eq!(m["pose_to_photon_ms"]["samples"], timed, "{m}");
+    assert_eq!(m["refresh_ms"], 1000.0);
+    let p50 = |k: &str| m[k]["median"].as_f64().unwrap();
+    assert!(
+        p50("pose_to_photon_ms") >= p50("pose_to_submit_ms") + 1000.0,
+        "{m}"
+    );
+    assert!(m["pose_to_photon_ms"]["p99"].as_f64().unwrap() >= p50("pose_to_photon_ms"));
+}
+
+/// A one-wall display of 64x36 pixels at 10 Hz walking a scripted path with a wand, in `dir`,
+/// and the liblsl configuration that keeps LSL's traffic on this machine (`lsl_api.cfg`).
+fn small_lsl_display(dir: &std::path::Path) -> (std::path::PathBuf, std::path::PathBuf) {
+    let walk = dir.join("walk.toml");
+    let key = |t: f32, head: [f32; 3], pos: [f32; 3], wand: ([f32; 3], f32, f32)| {
+        format!(
+            "[[keyframe]]\nt = {t:?}\nhead = {head:?}\nposition = {pos:?}\nyaw_deg = {:?}\n\
+             wand_position = {:?}\nwand_yaw_deg = {:?}\nwand_pitch_deg = {:?}\n",
+            t * 6.0,
+            wand.0,
+            wand.1,
+            wand.2
+        )
+    };
+    let text = key(
+        0.0,
+        [0.0, 1.2, 0.3],
+        [0.0, 0.0, 2.2],
+        ([0.25, 1.0, 0.0], 25.0, 12.0),
+    ) + &key(
+        4.0,
+        [0.1, 1.1, 0.2],
+        [0.2, -0.1, 0.5],
+        ([0.3, 1.1, -0.1], 5.0, -10.0),
+    );
+    std::fs::write(&walk, text).unwrap();
+    let config = dir.join("small.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "name = \"lsl-test\"\nrefresh_hz = 10\n[start_pose]\nposition = [0.0, 0.0, 2.2]\n\
+             [tracking]\nsource = \"scripted\"\npath = {:?}\n[[wall]]\nname = \"front\"\n\
+             lower_left = [-0.3, 1.13, 0.0]\nlower_right = [0.3, 1.13, 0.0]\n\
+             upper_left = [-0.3, 1.47, 0.0]\npixels = [64, 36]\n\
+             output = {{ monitor = 0, window = [100, 100] }}\n",
+            walk.display().to_string()
+        ),
+    )
+    .unwrap();
+    // machine scope: liblsl resolves streams on 127.0.0.1 only, and no IPv6
+    let cfg = dir.join("lsl_api.cfg");
+    std::fs::write(
+        &cfg,
+        "[ports]\nIPv6 = disable\n[multicast]\nResolveScope = machine\n",
+    )
+    .unwrap();
+    (config, cfg)
+}
+
+/// The address a `vlf cave --control` child says it listens on (its stderr, drained after).
+fn control_address(child: &mut std::process::Child) -> String {
+    use std::io::BufRead;
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    while stderr.read_line(&mut line).unwrap() > 0 {
+        if let Some(a) = line.strip_prefix("control: listening on ") {
+            let addr = a.trim().to_string();
+            std::thread::spawn(move || for _ in stderr.lines() {});
+            return addr;
+        }
+        line.clear();
+    }
+    panic!("vlf cave never said where it listens");
+}
+
+/// `vlf cave --headless --lsl`: the shipped pylsl example (tools/study/lsl_example.py) reads
+/// vlf.pose, vlf.frames and vlf.events while it sends an event, a trial and stop over
+/// `--control`; the streams declare the display's rate and carry it, their timestamps rise
+/// inside the run's LSL clock window, every pose sample is the session log's row of its frame
+/// bit for bit, and the commands and their replies are markers at their frames' display times.
+#[test]
+fn lsl_outlets_carry_every_frame_as_the_session_log_has_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (config, lsl_cfg) = small_lsl_display(dir.path());
+    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let vlf_path = dir.path().join("cornell.vlf");
+    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
+    let log_dir = dir.path().join("log");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("cave")
+        .arg(&config)
+        .args(["--headless", "--lsl", "--frames", "100000"])
+        .args(["--control", "127.0.0.1:0", "--scene"])
+        .arg(&vlf_path)
+        .arg("--log")
+        .arg(&log_dir)
+        .arg("--out")
+        .arg(dir.path().join("out"))
+        .env("LSLAPICFG", &lsl_cfg)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let addr = control_address(&mut child);
+    let out = Command::new("python3")
+        .arg(repo_path("tools/study/lsl_example.py"))
+        .args([&addr, "4"])
+        .env("LSLAPICFG", &lsl_cfg)
+        .output()
+        .unwrap_or_else(|e| panic!("python3 runs the LSL example ({e}); install Python 3 and pylsl (bash tools/setup.sh test)"));
+    if !out.status.success() {
+        let _ = child.kill();
+        panic!(
+            "tools/study/lsl_example.py failed (pylsl missing? `bash tools/setup.sh test` installs it):\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let run = child.wait_with_output().unwrap();
+    assert!(run.status.success(), "stop ends the run cleanly");
+    // the report's summary: motion to photon at the 10 Hz display's prediction
+    let summary = String::from_utf8_lossy(&run.stdout);
+    assert!(
+        summary.contains("motion to photon (")
+            && summary.contains("predicted: GPU end + one refresh, 100.000 ms"),
+        "{summary}"
+    );
+    let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (_, records) = SessionLog::read(&log_dir).unwrap();
+    check_lsl_streams(&got, &records);
+}
+
+/// What `lsl_example.py` read (`got`) against the session log's rows.
+fn check_lsl_streams(got: &serde_json::Value, records: &[vlf::study::FrameRecord]) {
+    use vlf::study::lsl::{FRAME_CHANNELS, POSE_CHANNELS};
+    let stream = |name: &str| &got["streams"][name];
+    let samples = |name: &str| -> Vec<(f64, Vec<serde_json::Value>)> {
+        (stream(name)["samples"].as_array().unwrap().iter())
+            .map(|s| (s[0].as_f64().unwrap(), s[1].as_array().unwrap().clone()))
+            .collect()
+    };
+    let num = |v: &serde_json::Value| v.as_f64().unwrap_or(f64::NAN);
+    let (began, ended) = (
+        got["clock"][0].as_f64().unwrap(),
+        got["clock"][1].as_f64().unwrap(),
+    );
+    let labels = |n: &str| serde_json::json!(n);
+    assert_eq!(stream("vlf.pose")["rate"], 10.0);
+    assert_eq!(stream("vlf.frames")["rate"], 10.0);
+    assert_eq!(stream("vlf.events")["rate"], 0.0);
+    let pose_labels: Vec<_> = POSE_CHANNELS.iter().map(|c| labels(c.0)).collect();
+    assert_eq!(stream("vlf.pose")["labels"], serde_json::json!(pose_labels));
+    let frame_labels: Vec<_> = FRAME_CHANNELS.iter().map(|c| labels(c.0)).collect();
+    assert_eq!(
+        stream("vlf.frames")["labels"],
+        serde_json::json!(frame_labels)
+    );
+
+    let poses = samples("vlf.pose");
+    assert!(
+        poses.len() >= 25,
+        "{} pose samples in 4 s at 10 Hz",
+        poses.len()
+    );
+    assert!(
+        poses.windows(2).all(|w| w[0].0 < w[1].0),
+        "pose timestamps rise"
+    );
+    // sampled after the reader began (one frame's slack: the first may be just before its
+    // inlet opened), before it ended
+    assert!(poses.iter().all(|p| p.0 > began - 0.2 && p.0 < ended));
+    let span = poses.last().unwrap().0 - poses[0].0;
+    let rate = (poses.len() - 1) as f64 / span;
+    assert!(
+        (rate - 10.0).abs() < 1.0,
+        "pose stream at {rate:.2} Hz, declared 10"
+    );
+    let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();
+    let mut worst_clock_error = 0.0f64;
+    for (i, (t, v)) in poses.iter().enumerate() {
+        let r = at(num(&v[19]) as u64);
+        let (h, q, room) = (r.pose.head, r.pose.head_rotation, r.pose.room_position);
+        let w = r.wand.expect("the walk has a wand");
+        let expect = [
+            h.x,
+            h.y,
+            h.z,
+            q.x,
+            q.y,
+            q.z,
+            q.w,
+            w.position.x,
+            w.position.y,
+            w.position.z,
+            w.rotation.x,
+            w.rotation.y,
+            w.rotation.z,
+            w.rotation.w,
+            room.x,
+            room.y,
+            room.z,
+            r.pose.room_yaw_deg,
+        ];
+        let sent: Vec<f32> = v[..18].iter().map(|x| num(x) as f32).collect();
+        assert_eq!(
+            sent, expect,
+            "frame {}: pose sample against frames.csv",
+            r.frame
+        );
+        // the pose's age at the photons: a refresh period (100 ms) after the GPU's end
+        let photon = num(&v[18]);
+        // the same on the stream and in the log; a refresh period (100 ms) after the GPU's end
+        match r.pose_to_photon_ms {
+            Some(ms) => assert!(photon as f32 == ms as f32 && (100.0..1000.0).contains(&photon)),
+            None => assert!(photon.is_nan() && r.drawn == vlf::study::log::Drawn::ReadBack),
+        }
+        // LSL's clock against the session log's: the same steps between frames
+        if i > 0 {
+            let r0 = at(num(&poses[i - 1].1[19]) as u64);
+            let error = ((t - poses[i - 1].0) - (r.time_s - r0.time_s)).abs();
+            worst_clock_error = worst_clock_error.max(error);
+        }
+    }
+    eprintln!("LSL pose stream: {} samples, {rate:.3} Hz (declared 10), steps against the session log's within {:.3} ms", poses.len(), worst_clock_error * 1e3);
+    assert!(worst_clock_error < 0.005, "{worst_clock_error} s");
+
+    let frames = samples("vlf.frames");
+    let mut shown_at = std::collections::BTreeMap::new();
+    for (t, v) in &frames {
+        let r = at(num(&v[0]) as u64);
+        assert_eq!(num(&v[2]).is_nan(), r.gpu_ms.is_none());
+        if let (Some(gpu), Some(cpu)) = (r.gpu_ms, r.cpu_ms) {
+            assert_eq!((num(&v[1]), num(&v[2]), num(&v[3])), (*t, gpu, cpu));
+            assert_eq!(num(&v[4]), if cpu > 100.0 { 1.0 } else { 0.0 });
+        }
+        shown_at.insert(r.frame, *t);
+    }
+    assert!(frames
+        .windows(2)
+        .all(|w| w[0].0 < w[1].0 && num(&w[0].1[0]) + 1.0 == num(&w[1].1[0])));
+
+    // the markers: the script's event at the display time of the frame that acknowledged it
+    let replies = got["replies"].as_array().unwrap();
+    let events = samples("vlf.events");
+    let text = |e: &(f64, Vec<serde_json::Value>)| e.1[0].as_str().unwrap().to_string();
+    let event_frame = replies[0]["frame"].as_u64().unwrap();
+    let marker = events
+        .iter()
+        .find(|e| text(e) == "lsl check: stimulus on")
+        .expect("the event on vlf.events");
+    assert_eq!(Some(&marker.0), shown_at.get(&event_frame));
+    assert!(events.iter().any(|e| text(e) == "block 2 trial 5"));
+    let commands: Vec<serde_json::Value> = (events.iter())
+        .filter_map(|e| serde_json::from_str::<serde_json::Value>(&text(e)).ok())
+        .collect();
+    assert_eq!(commands.len(), 3, "{commands:?}");
+    for (c, reply) in commands.iter().zip(replies) {
+        assert_eq!(&c["reply"], reply);
+    }
+    assert_eq!(commands[0]["command"]["text"], "lsl check: stimulus on");
 }

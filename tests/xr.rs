@@ -327,10 +327,18 @@ fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
         "{}",
         s.report
     );
+    // motion to photon as the runtime predicts it: each timed frame's pose located before its
+    // predicted display time
+    let photon = &s.report["pose_to_photon_ms"];
+    assert!(
+        photon["samples"] == 24 && photon["min"].as_f64().unwrap() > 0.0,
+        "{photon}"
+    );
     for needle in [
         "eye    pixels",
         "left ",
         "right ",
+        "motion to photon (head pose located -> predicted display time)",
         "missed display refreshes",
         "after their predicted display time",
         "session states: idle -> ready",

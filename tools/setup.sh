@@ -3,13 +3,16 @@
 # two commands:
 #   bash tools/setup.sh demo   what `vlf demo` needs to build and run: a wgpu adapter (a real
 #                              GPU's Vulkan driver, or else Mesa's software Vulkan, lavapipe),
-#                              libudev for gamepads (gilrs), and Open MPI + libclang, because
+#                              libudev for gamepads (gilrs), cmake (the `lsl` crate builds
+#                              liblsl, src/study/lsl.rs), and Open MPI + libclang, because
 #                              the demo and the tests share one build (`--features mpi`, the
 #                              CAVE cluster), so the test command does not rebuild the crate
 #   bash tools/setup.sh test   the demo's, and what only the tests use: Xvfb, ImageMagick's
 #                              `import` and xdotool (the windowed CAVE test), the OpenXR loader
 #                              (tests/xr.rs), Mitsuba 3 + numpy (the independent reference,
-#                              tests/mitsuba.rs) and pygltflib (tests/gltf.rs)
+#                              tests/mitsuba.rs), pygltflib (tests/gltf.rs), pylsl (the LSL
+#                              outlets read back, tests/study.rs; its wheel brings liblsl) and
+#                              pyarrow (the session log's Parquet read back, tests/study.rs)
 set -euo pipefail
 mode=${1:-test}
 case "$mode" in
@@ -45,6 +48,7 @@ have_icd || missing+=(mesa-vulkan-drivers libvulkan1)
 { command -v pkg-config >/dev/null && pkg-config --exists libudev; } || missing+=(pkg-config libudev-dev)
 { command -v mpirun >/dev/null && command -v mpicc >/dev/null; } || missing+=(openmpi-bin libopenmpi-dev)
 { ldconfig -p 2>/dev/null | grep -q 'libclang[-.0-9]*\.so'; } || missing+=(libclang-dev)
+command -v cmake >/dev/null || missing+=(cmake)
 if [ "$mode" = test ]; then
   command -v Xvfb >/dev/null || missing+=(xvfb)
   command -v import >/dev/null || missing+=(imagemagick)
@@ -53,7 +57,7 @@ if [ "$mode" = test ]; then
 fi
 if [ ${#missing[@]} != 0 ]; then
   if ! command -v apt-get >/dev/null; then
-    echo "tools/setup.sh: missing ${missing[*]} and no apt-get; install them (a Vulkan driver or Mesa's lavapipe, libudev, Open MPI, libclang; for the tests Xvfb, ImageMagick, xdotool, the OpenXR loader) with your distribution's tools" >&2
+    echo "tools/setup.sh: missing ${missing[*]} and no apt-get; install them (a Vulkan driver or Mesa's lavapipe, libudev, cmake, Open MPI, libclang; for the tests Xvfb, ImageMagick, xdotool, the OpenXR loader) with your distribution's tools" >&2
     exit 1
   fi
   SUDO=""
@@ -66,4 +70,6 @@ fi
 if [ "$mode" = test ]; then
   pip_install "mitsuba, numpy" mitsuba numpy
   pip_install pygltflib pygltflib
+  pip_install pylsl pylsl
+  pip_install pyarrow pyarrow
 fi

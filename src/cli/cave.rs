@@ -37,8 +37,8 @@ pub struct CaveArgs {
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Log every frame into this new folder (session.json and frames.csv: poses, what
-    /// each view was drawn with, times); `vlf replay DIR` draws the logged frames again
+    /// Log every frame into this new folder (session.json, frames.csv and frames.parquet/:
+    /// poses, what each view was drawn with, times); `vlf replay DIR` draws them again
     #[arg(long)]
     log: Option<PathBuf>,
     /// Take an experiment script's commands over TCP on this address (host:port; port
@@ -46,6 +46,10 @@ pub struct CaveArgs {
     /// effect in (docs/guide/studies.md)
     #[arg(long)]
     control: Option<String>,
+    /// Send every frame's poses and times, and the events, on Lab Streaming Layer outlets
+    /// (vlf.pose, vlf.frames, vlf.events) for LabRecorder (docs/guide/studies.md)
+    #[arg(long)]
+    lsl: bool,
     #[command(flatten)]
     params: ParamArgs,
 }
@@ -64,6 +68,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         json,
         log,
         control,
+        lsl,
         params,
     } = a;
     let (config, scene, out, params) = (config.as_path(), scene.as_path(), out.as_path(), &params);
@@ -92,9 +97,17 @@ pub fn run(a: CaveArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
-    if (log.is_some() || control.is_some()) && vlf::cluster::launched_size().is_some() {
-        bail!("--log and --control: for one process for now, not under mpirun");
+    if (log.is_some() || control.is_some() || lsl) && vlf::cluster::launched_size().is_some() {
+        bail!("--log, --control and --lsl: for one process for now, not under mpirun");
     }
+    let lsl = match lsl {
+        true => Some(vlf::study::LslOutlets::open(
+            &display.name,
+            display.refresh_hz,
+            headless,
+        )?),
+        false => None,
+    };
     let mut session = match &log {
         Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
         None => None,
@@ -116,7 +129,8 @@ pub fn run(a: CaveArgs) -> Result<()> {
             hold: std::time::Duration::from_secs_f64(hold_seconds),
             exposure,
         };
-        let study = vlf::study::Session::new(session.as_mut(), control.as_ref());
+        let study = vlf::study::Session::new(session.as_mut(), control.as_ref())
+            .with_display(display.refresh_hz, lsl);
         let report = vlf::display::window::run_locked(
             &lf, &resident, &display, config, options, None, study,
         )?;
@@ -132,6 +146,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         exr,
         log: session.as_mut(),
         control: control.as_ref(),
+        lsl,
     };
     let report = vlf::display::headless::run_reporting(
         &lf,

@@ -501,6 +501,7 @@ fn draw(
                 exr: run.exr,
                 log: None,
                 control: None,
+                lsl: None,
             },
             Some(link),
             &crate::progress::Silent,

@@ -20,7 +20,7 @@ use crate::render::image_io::{display_image, write_image};
 use crate::render::Frame;
 use crate::stats::Distribution;
 use crate::study::log::Drawn;
-use crate::study::{ControlServer, FrameRecord, Session, SessionLog};
+use crate::study::{ControlServer, FrameRecord, LslOutlets, Session, SessionLog};
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
 use serde::Serialize;
@@ -52,6 +52,8 @@ pub struct CaveReport {
     /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
     /// drawn from it (timed frames; None without live tracking or without a new pose)
     pub tracking_latency_ms: Option<Distribution>,
+    /// every timed frame's pose to submission and to predicted photons (`crate::study`)
+    pub motion_to_photon: Option<crate::study::MotionToPhoton>,
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
     pub quality: crate::render::budget::Quality,
     pub fit: Option<BudgetFit>,
@@ -64,13 +66,15 @@ pub struct CaveReport {
 
 /// A headless run: `frames` frames, the last one's images into `out` (PNG, and EXR with `exr`),
 /// with `log` every frame into a session log, and with `control` an experiment script's
-/// commands (`crate::study`; its `stop` makes the frame it arrives in the last).
+/// commands (`crate::study`; its `stop` makes the frame it arrives in the last), and with `lsl`
+/// every frame on LSL outlets (its frames then held to the display's refresh rate).
 pub struct HeadlessRun<'p> {
     pub frames: u32,
     pub out: &'p Path,
     pub exr: bool,
     pub log: Option<&'p mut SessionLog>,
     pub control: Option<&'p ControlServer>,
+    pub lsl: Option<LslOutlets>,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -90,6 +94,7 @@ pub fn run(
         exr,
         log: None,
         control: None,
+        lsl: None,
     };
     run_locked(
         lf,
@@ -195,8 +200,9 @@ pub fn run_locked(
         exr,
         log,
         control,
+        lsl,
     } = run;
-    let mut session = Session::new(log, control);
+    let mut session = Session::new(log, control).with_display(config.refresh_hz, lsl);
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
     let mut frame =
@@ -212,9 +218,9 @@ pub fn run_locked(
         session.begin_frame();
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         frame.set_object_time(object_time(&poses, config, (f, total)));
-        let pose = session.pose(pose);
         // when the pose came in (live tracking), or was sampled
         let sampled = fresh.unwrap_or_else(std::time::Instant::now);
+        let pose = session.pose(pose, sampled);
         let tracked = Poses::Tracked {
             pose: &pose,
             wand: wand.as_ref(),
@@ -232,6 +238,7 @@ pub fn run_locked(
             block: 0,
             trial: 0,
             pose_to_submit_ms: None,
+            pose_to_photon_ms: None,
             views: frame.drawn().to_vec(),
             events: String::new(),
         };
@@ -290,6 +297,7 @@ pub fn run_locked(
         outputs_gpu_ms: frame.times().output_gpu_ms(),
         objects_gpu_ms: frame.times().objects_gpu_ms(),
         tracking_latency_ms: frame.latency_ms(),
+        motion_to_photon: session.motion_to_photon(),
         quality: frame.quality(),
         fit: frame.fit().cloned(),
         pacer: frame.pacer_report(),
@@ -458,6 +466,9 @@ impl CaveReport {
         ));
         if let Some(d) = &self.tracking_latency_ms {
             s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
+        }
+        if let Some(m) = &self.motion_to_photon {
+            s.push_str(&m.line());
         }
         if let (Some(w), Some(ok)) = (self.worst_p99_over_p50, self.constant_frame_time) {
             s.push_str(&format!(

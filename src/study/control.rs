@@ -11,7 +11,10 @@
 //!   row of the session log from that frame on;
 //! - `{"cmd": "log", "on": false}`: stop (or resume) writing rows to the session log;
 //! - `{"cmd": "state"}`: the frame, the head and the room, the log's state;
-//! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last.
+//! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last;
+//! - `{"cmd": "flash"}`: a latency test for a photodiode: every wall full white for that frame,
+//!   then black until `{"cmd": "flash", "end": true}` brings the scene back (the windows; the
+//!   views are drawn all the while, so the frame time does not change).
 //!
 //! Replies: `{"ok": true, "cmd": ..., "frame": N, ...}` or `{"ok": false, "error": "..."}`. A
 //! client that goes away changes nothing on screen. Every client has a thread of its own; the
@@ -19,20 +22,34 @@
 
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{unbounded, Receiver, Sender};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::io::{BufRead, BufReader, Write};
 use std::net::{SocketAddr, TcpListener, TcpStream};
 
 /// A command, as a line of JSON names it.
-#[derive(Clone, Debug, Deserialize, PartialEq)]
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(tag = "cmd", rename_all = "snake_case", deny_unknown_fields)]
 pub enum Command {
-    Event { text: String },
-    Teleport { position: [f32; 3], yaw_deg: f32 },
-    Trial { block: u32, trial: u32 },
-    Log { on: bool },
+    Event {
+        text: String,
+    },
+    Teleport {
+        position: [f32; 3],
+        yaw_deg: f32,
+    },
+    Trial {
+        block: u32,
+        trial: u32,
+    },
+    Log {
+        on: bool,
+    },
     State,
     Stop,
+    Flash {
+        #[serde(default)]
+        end: bool,
+    },
 }
 
 impl Command {
@@ -44,6 +61,7 @@ impl Command {
             Command::Log { .. } => "log",
             Command::State => "state",
             Command::Stop => "stop",
+            Command::Flash { .. } => "flash",
         }
     }
 }
@@ -55,17 +73,18 @@ pub struct Pending {
 }
 
 impl Pending {
-    /// Took effect at `frame`; `extra` adds fields to the reply (`state`'s).
-    pub fn ack(self, frame: u64, extra: serde_json::Map<String, serde_json::Value>) {
+    /// Took effect at `frame`; `extra` adds fields to the reply (`state`'s). Returns the reply
+    /// as sent.
+    pub fn ack(self, frame: u64, extra: serde_json::Map<String, serde_json::Value>) -> String {
         let mut reply = serde_json::Map::new();
         reply.insert("ok".into(), true.into());
         reply.insert("cmd".into(), self.command.name().into());
         reply.insert("frame".into(), frame.into());
         reply.extend(extra);
+        let reply = serde_json::Value::Object(reply).to_string();
         // a client that went away hears nothing; the run goes on
-        let _ = self
-            .reply
-            .send(serde_json::Value::Object(reply).to_string());
+        let _ = self.reply.send(reply.clone());
+        reply
     }
 }
 
@@ -73,6 +92,8 @@ impl Pending {
 pub struct ControlServer {
     pub addr: SocketAddr,
     commands: Receiver<Pending>,
+    /// the lines refused, with their replies (for the LSL event stream)
+    refused: Receiver<(String, String)>,
 }
 
 impl ControlServer {
@@ -87,20 +108,22 @@ impl ControlServer {
             .local_addr()
             .map_err(|e| VlfError::Display(format!("--control {addr}: {e}")))?;
         let (sender, commands) = unbounded();
+        let (refusals, refused) = unbounded();
         std::thread::Builder::new()
             .name("vlf control: accept".into())
             .spawn(move || {
                 for stream in listener.incoming().flatten() {
-                    let sender = sender.clone();
+                    let senders = (sender.clone(), refusals.clone());
                     let _ = std::thread::Builder::new()
                         .name("vlf control: client".into())
-                        .spawn(move || serve_client(stream, sender));
+                        .spawn(move || serve_client(stream, senders));
                 }
             })
             .map_err(|e| VlfError::Display(format!("control thread: {e}")))?;
         Ok(ControlServer {
             addr: local,
             commands,
+            refused,
         })
     }
 
@@ -108,10 +131,19 @@ impl ControlServer {
     pub fn take(&self) -> Vec<Pending> {
         self.commands.try_iter().collect()
     }
+
+    /// The lines refused since the last call, each with its reply (never waits).
+    pub fn take_refused(&self) -> Vec<(String, String)> {
+        self.refused.try_iter().collect()
+    }
 }
 
-/// One client: its lines parsed into commands for the frame loop, its replies written back.
-fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
+/// One client: its lines parsed into commands for the frame loop, its replies written back; a
+/// refused line, with its reply, to `refusals` too.
+fn serve_client(
+    stream: TcpStream,
+    (commands, refusals): (Sender<Pending>, Sender<(String, String)>),
+) {
     let Ok(mut writer) = stream.try_clone() else {
         return;
     };
@@ -143,8 +175,9 @@ fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
                 }
             }
             Err(error) => {
-                let refused = serde_json::json!({ "ok": false, "error": error });
-                let _ = reply.send(refused.to_string());
+                let refused = serde_json::json!({ "ok": false, "error": error }).to_string();
+                let _ = refusals.send((line.clone(), refused.clone()));
+                let _ = reply.send(refused);
             }
         }
     }
@@ -156,7 +189,7 @@ fn serve_client(stream: TcpStream, commands: Sender<Pending>) {
 pub fn parse(line: &str) -> std::result::Result<Command, String> {
     let command: Command = serde_json::from_str(line).map_err(|e| {
         format!(
-            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop)"
+            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop, flash)"
         )
     })?;
     if let Command::Teleport { position, yaw_deg } = &command {
@@ -180,6 +213,14 @@ mod tests {
             })
         );
         assert_eq!(parse(r#"{"cmd":"stop"}"#), Ok(Command::Stop));
+        assert_eq!(
+            parse(r#"{"cmd":"flash"}"#),
+            Ok(Command::Flash { end: false })
+        );
+        assert_eq!(
+            parse(r#"{"cmd":"flash","end":true}"#),
+            Ok(Command::Flash { end: true })
+        );
         let unknown = parse(r#"{"cmd": "fly"}"#).unwrap_err();
         assert!(
             unknown.contains("fly") && unknown.contains("commands:"),

@@ -1,7 +1,8 @@
 //! The session log (`vlf cave --log DIR`): `DIR/session.json` says what ran (the display
 //! configuration, the light field, the views, the adapter, when) and documents every column;
 //! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk
-//! at least once a second, so a crash (even SIGKILL) loses at most the last second.
+//! at least once a second, so a crash (even SIGKILL) loses at most the last second; the same
+//! rows go to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
 //!
 //! A row: the frame number, seconds since the session began, how the frame was drawn, the head
 //! pose in the room (after calibration) and the navigation (where the room is in the world), the
@@ -9,6 +10,8 @@
 //! pixel, the paced tiles' count and share, mirror reflections, fixed work), then the frame's
 //! events. Floats are written in Rust's shortest form that reads back to the same bits, so
 //! `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
+
+pub mod parquet;
 
 use crate::error::{Result, VlfError};
 use crate::render::budget::ViewSettings;
@@ -19,8 +22,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// The log's own format version (session.json's `format`).
-pub const LOG_FORMAT: u32 = 1;
+/// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`;
+/// `SessionLog::read` reads 1 too (without it).
+pub const LOG_FORMAT: u32 = 2;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -63,7 +67,7 @@ pub enum Drawn {
 impl Drawn {
     const ALL: [Drawn; 3] = [Drawn::Timed, Drawn::ReadBack, Drawn::Shown];
 
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Drawn::Timed => "timed",
             Drawn::ReadBack => "read_back",
@@ -89,6 +93,9 @@ pub struct FrameRecord {
     /// from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's
     /// submission to the GPU, ms (None where not measured: a frame read back)
     pub pose_to_submit_ms: Option<f64>,
+    /// from the same to the frame's predicted photons (its GPU end plus one refresh period),
+    /// ms (None where not shown: a frame read back)
+    pub pose_to_photon_ms: Option<f64>,
     /// each view's settings, in `SessionMeta::views` order
     pub views: Vec<ViewSettings>,
     /// what happened at this frame (free text; empty for none)
@@ -96,7 +103,7 @@ pub struct FrameRecord {
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 27] = [
+const FRAME_COLUMNS: [(&str, &str); 28] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -163,6 +170,10 @@ const FRAME_COLUMNS: [(&str, &str); 27] = [
         "pose_to_submit_ms",
         "from the pose's arrival (live tracking) or sampling (scripted, static) to the frame's submission to the GPU, ms; the photons follow after the GPU's time and the display's scan-out; empty where not measured",
     ),
+    (
+        "pose_to_photon_ms",
+        "from the same to the frame's predicted photons: its GPU end plus one refresh period (half a period on average to the vertical blank, half to scan out to the picture's middle; the GPU end alone without refresh_hz; a projector's input lag comes on top), ms; empty where not shown",
+    ),
 ];
 /// Each view's columns, after the frame's; then the events.
 const VIEW_COLUMNS: [(&str, &str); 5] = [
@@ -183,7 +194,7 @@ const VIEW_COLUMNS: [(&str, &str); 5] = [
 ];
 
 /// The documented columns of a log of `views`.
-fn columns(views: &[String]) -> Vec<(String, String)> {
+pub(crate) fn columns(views: &[String]) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
         .map(|(n, m)| (n.to_string(), m.to_string()))
         .collect();
@@ -203,6 +214,7 @@ fn columns(views: &[String]) -> Vec<(String, String)> {
 pub struct SessionLog {
     dir: PathBuf,
     frames: std::io::BufWriter<std::fs::File>,
+    parquet: parquet::FramesParquet,
     views: usize,
     began: Instant,
     last_flush: Instant,
@@ -214,7 +226,8 @@ impl SessionLog {
     pub fn create(dir: &Path, mut meta: SessionMeta) -> Result<SessionLog> {
         std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
         let (json, csv) = (dir.join("session.json"), dir.join("frames.csv"));
-        if json.exists() || csv.exists() {
+        let parquet = dir.join(parquet::PARQUET_DIR);
+        if json.exists() || csv.exists() || parquet.exists() {
             return Err(VlfError::io(
                 &csv,
                 std::io::Error::new(
@@ -228,12 +241,13 @@ impl SessionLog {
         std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
         let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
         let mut frames = std::io::BufWriter::new(file);
-        let header: Vec<&str> = meta.columns.iter().map(|(n, _)| n.as_str()).collect();
+        let header: Vec<String> = meta.columns.iter().map(|(n, _)| n.clone()).collect();
         writeln!(frames, "{}", header.join(",")).map_err(|e| VlfError::io(&csv, e))?;
         let now = Instant::now();
         let mut log = SessionLog {
             dir: dir.to_path_buf(),
             frames,
+            parquet: parquet::FramesParquet::create(dir, header)?,
             views: meta.views.len(),
             began: now,
             last_flush: now,
@@ -259,6 +273,7 @@ impl SessionLog {
         let row = row_text(r);
         let csv = self.dir.join("frames.csv");
         writeln!(self.frames, "{row}").map_err(|e| VlfError::io(&csv, e))?;
+        self.parquet.push(r);
         if self.last_flush.elapsed() >= FLUSH_EVERY {
             self.flush()?;
         }
@@ -273,6 +288,7 @@ impl SessionLog {
             .get_ref()
             .sync_data()
             .map_err(|e| VlfError::io(&csv, e))?;
+        self.parquet.flush()?;
         self.last_flush = Instant::now();
         Ok(())
     }
@@ -287,9 +303,9 @@ impl SessionLog {
                 json.display()
             ))
         })?;
-        if meta.format != LOG_FORMAT {
+        if !(1..=LOG_FORMAT).contains(&meta.format) {
             return Err(VlfError::Display(format!(
-                "{}: session log format {}, this vlf reads {LOG_FORMAT}",
+                "{}: session log format {}, this vlf reads 1 to {LOG_FORMAT}: read it with the vlf that wrote it",
                 json.display(),
                 meta.format
             )));
@@ -306,7 +322,9 @@ impl SessionLog {
         };
         let mut records = Vec::new();
         for (n, line) in complete.lines().enumerate().skip(1) {
-            let r = parse_row(line, meta.views.len())
+            // format 1: the frame's columns without the last, pose_to_photon_ms
+            let frame_columns = FRAME_COLUMNS.len() - (meta.format == 1) as usize;
+            let r = parse_row(line, (frame_columns, meta.views.len()))
                 .map_err(|why| VlfError::Display(format!("{}:{}: {why}", csv.display(), n + 1)))?;
             records.push(r);
         }
@@ -357,6 +375,7 @@ fn row_text(r: &FrameRecord) -> String {
     cells.push(r.block.to_string());
     cells.push(r.trial.to_string());
     cells.push(opt(r.pose_to_submit_ms));
+    cells.push(opt(r.pose_to_photon_ms));
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -368,9 +387,12 @@ fn row_text(r: &FrameRecord) -> String {
     cells.join(",")
 }
 
-/// A row back (`views` views), or why it is not one.
-fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, String> {
-    let fixed = FRAME_COLUMNS.len() + views * VIEW_COLUMNS.len();
+/// A row back (`frame_columns` of `FRAME_COLUMNS`, then `views` views), or why it is not one.
+fn parse_row(
+    line: &str,
+    (frame_columns, views): (usize, usize),
+) -> std::result::Result<FrameRecord, String> {
+    let fixed = frame_columns + views * VIEW_COLUMNS.len();
     let mut parts = line.splitn(fixed + 1, ',');
     let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
     let events = parts.next().ok_or("fewer columns than the header")?;
@@ -412,7 +434,7 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
         }),
         _ => None,
     };
-    let base = FRAME_COLUMNS.len();
+    let base = frame_columns;
     let views = (0..views)
         .map(|k| {
             let c = base + k * VIEW_COLUMNS.len();
@@ -438,6 +460,7 @@ fn parse_row(line: &str, views: usize) -> std::result::Result<FrameRecord, Strin
         block: u(24)?,
         trial: u(25)?,
         pose_to_submit_ms: opt(26)?,
+        pose_to_photon_ms: if frame_columns > 27 { opt(27)? } else { None },
         views,
         events,
     })
@@ -474,6 +497,7 @@ mod tests {
             block: 2,
             trial: 7,
             pose_to_submit_ms: Some(0.731),
+            pose_to_photon_ms: Some(9.125),
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
         }
@@ -506,9 +530,39 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 27 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 28 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
+    }
+
+    #[test]
+    fn a_format_1_log_without_pose_to_photon_still_reads() {
+        let dir = tempfile::tempdir().unwrap();
+        {
+            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+            log.record(&record(0, true)).unwrap();
+        }
+        // as format 1 wrote it: no pose_to_photon_ms (the 28th column)
+        let (json, csv) = (
+            dir.path().join("session.json"),
+            dir.path().join("frames.csv"),
+        );
+        let text = std::fs::read_to_string(&json).unwrap();
+        std::fs::write(&json, text.replace("\"format\": 2", "\"format\": 1")).unwrap();
+        let lines: Vec<String> = (std::fs::read_to_string(&csv).unwrap().lines())
+            .map(|l| {
+                let mut cells: Vec<&str> = l.split(',').collect();
+                cells.remove(27);
+                cells.join(",") + "\n"
+            })
+            .collect();
+        std::fs::write(&csv, lines.concat()).unwrap();
+        let back = SessionLog::read(dir.path()).unwrap().1;
+        let expect = FrameRecord {
+            pose_to_photon_ms: None,
+            ..record(0, true)
+        };
+        assert_eq!(back, [expect]);
     }
 
     #[test]

@@ -2,13 +2,17 @@
 //! effect at the start of a frame, the frame's row goes to the session log (`log.rs`) at its
 //! end with the events of that frame, and each command is acknowledged with the frame's number.
 //! The display loops call `begin_frame`, `pose` and `end_frame`; without a log or a control
-//! connection each does nothing.
+//! connection each does nothing. With LSL outlets (`lsl.rs`) every frame's pose, times and
+//! events go out on them as well, in LSL's clock.
 
 use super::control::{Command, ControlServer, Pending};
 use super::log::{FrameRecord, SessionLog};
+use super::lsl::{FrameSample, LslOutlets};
 use crate::error::Result;
+use crate::stats::Distribution;
 use crate::tracking::pose::Pose;
 use glam::Vec3;
+use std::time::{Duration, Instant};
 
 pub struct Session<'p> {
     log: Option<&'p mut SessionLog>,
@@ -25,6 +29,44 @@ pub struct Session<'p> {
     pending: Vec<Pending>,
     events: Vec<String>,
     time_s: f64,
+    /// the LSL outlets (`vlf cave --lsl`), and this frame's command markers for them
+    lsl: Option<LslOutlets>,
+    markers: Vec<String>,
+    /// the display's refresh period: the photons follow the GPU's end by one (None: unknown)
+    refresh: Option<Duration>,
+    /// when this frame's pose was sampled, or arrived from the tracker
+    pose_at: Option<Instant>,
+    /// every timed frame's pose_to_submit_ms and pose_to_photon_ms, for the report
+    latencies: Vec<(f64, f64)>,
+    /// the latency test (`flash`): Some(true) white walls this frame, Some(false) black
+    flash: Option<bool>,
+}
+
+/// Motion to photon over a run's timed frames, in `vlf cave`'s report.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MotionToPhoton {
+    /// from the pose's arrival (live tracking) or sampling to the frame's submission, ms
+    pub pose_to_submit_ms: Distribution,
+    /// from the same to the frame's predicted photons: its GPU end plus one refresh period
+    /// (without `refresh_hz`, the GPU end alone: a lower bound), ms
+    pub pose_to_photon_ms: Distribution,
+    /// the refresh period the prediction adds, ms (None: the display gives no `refresh_hz`)
+    pub refresh_ms: Option<f64>,
+}
+
+impl MotionToPhoton {
+    /// The report's line.
+    pub fn line(&self) -> String {
+        let (s, p) = (&self.pose_to_submit_ms, &self.pose_to_photon_ms);
+        let model = match self.refresh_ms {
+            Some(ms) => format!("GPU end + one refresh, {ms:.3} ms"),
+            None => "GPU end; no refresh_hz: a lower bound".into(),
+        };
+        format!(
+            "  motion to photon ({} frames): pose -> submitted p50 {:.3} ms, p99 {:.3} ms; pose -> photons (predicted: {model}) p50 {:.3} ms, p99 {:.3} ms\n",
+            s.samples, s.median, s.p99, p.median, p.p99
+        )
+    }
 }
 
 impl<'p> Session<'p> {
@@ -39,13 +81,41 @@ impl<'p> Session<'p> {
             pending: Vec::new(),
             events: Vec::new(),
             time_s: 0.0,
+            lsl: None,
+            markers: Vec::new(),
+            refresh: None,
+            pose_at: None,
+            latencies: Vec::new(),
+            flash: None,
         }
+    }
+
+    /// The display's refresh rate (`DisplayConfig::refresh_hz`), for each frame's predicted
+    /// photon time, and LSL outlets to send every frame on.
+    pub fn with_display(mut self, refresh_hz: Option<f32>, lsl: Option<LslOutlets>) -> Self {
+        self.refresh = refresh_hz.map(|hz| Duration::from_secs_f64(1.0 / hz as f64));
+        self.lsl = lsl;
+        self
     }
 
     /// A frame begins: what the script sent since the last one takes effect now.
     pub fn begin_frame(&mut self) {
+        if let Some(lsl) = &mut self.lsl {
+            lsl.pace();
+        }
         self.time_s = self.log.as_ref().map_or(0.0, |l| l.elapsed_s());
+        self.pose_at = None;
+        // a flash lasts one frame; the walls stay black until the test ends
+        if self.flash == Some(true) {
+            self.flash = Some(false);
+        }
         let Some(control) = self.control else { return };
+        for (line, reply) in control.take_refused() {
+            if self.lsl.is_some() {
+                let command = serde_json::Value::String(line);
+                self.markers.push(command_marker(command, &reply));
+            }
+        }
         for p in control.take() {
             match &p.command {
                 Command::Event { text } => self.events.push(text.clone()),
@@ -64,6 +134,11 @@ impl<'p> Session<'p> {
                         .push(format!("log {}", if *on { "on" } else { "off" }));
                 }
                 Command::State => {}
+                Command::Flash { end } => {
+                    self.flash = (!end).then_some(true);
+                    self.events
+                        .push(if *end { "flash end" } else { "flash" }.into());
+                }
                 Command::Stop => {
                     self.stop = true;
                     self.events.push("stop".into());
@@ -73,8 +148,10 @@ impl<'p> Session<'p> {
         }
     }
 
-    /// The frame's pose as the script has placed the room.
-    pub fn pose(&self, mut pose: Pose) -> Pose {
+    /// The frame's pose as the script has placed the room; `sampled`: when it was sampled, or
+    /// arrived from the tracker.
+    pub fn pose(&mut self, mut pose: Pose, sampled: Instant) -> Pose {
+        self.pose_at = Some(sampled);
         if let Some((position, yaw)) = self.teleport {
             pose.room_position = position;
             pose.room_yaw_deg = yaw;
@@ -82,21 +159,81 @@ impl<'p> Session<'p> {
         pose
     }
 
+    /// The latency test's walls this frame: Some(true) full white, Some(false) black, None the
+    /// scene (`flash`).
+    pub fn flash(&self) -> Option<bool> {
+        self.flash
+    }
+
+    /// Motion to photon over the timed frames so far (None before one).
+    pub fn motion_to_photon(&self) -> Option<MotionToPhoton> {
+        if self.latencies.is_empty() {
+            return None;
+        }
+        let (submit, photon): (Vec<f64>, Vec<f64>) = self.latencies.iter().copied().unzip();
+        Some(MotionToPhoton {
+            pose_to_submit_ms: Distribution::of(&submit),
+            pose_to_photon_ms: Distribution::of(&photon),
+            refresh_ms: self.refresh.map(|p| p.as_secs_f64() * 1e3),
+        })
+    }
+
     /// Seconds since the session began, when this frame began (0 without a log).
     pub fn time_s(&self) -> f64 {
         self.time_s
     }
 
-    /// The frame is drawn: its row (with its events, and `note` among them) to the log, and
-    /// its commands acknowledged with its number and pose.
+    /// The frame is drawn (the loops call this once its GPU work is done): its row (with its
+    /// events, and `note` among them) to the log, its commands acknowledged with its number
+    /// and pose, and all of it to the LSL outlets.
     pub fn end_frame(&mut self, mut record: FrameRecord, note: Option<String>) -> Result<()> {
+        // the photons of a frame shown (timed or presented) one refresh after the GPU's end
+        let shown = record.pose_to_submit_ms.is_some();
+        let due = Instant::now() + self.refresh.unwrap_or_default();
+        if let (true, Some(pose_at)) = (shown, self.pose_at) {
+            record.pose_to_photon_ms = Some(due.duration_since(pose_at).as_secs_f64() * 1e3);
+        }
+        if let (Some(submit), Some(photon), Some(_)) = (
+            record.pose_to_submit_ms,
+            record.pose_to_photon_ms,
+            record.cpu_ms,
+        ) {
+            self.latencies.push((submit, photon));
+        }
         self.events.extend(note);
-        record.events = std::mem::take(&mut self.events).join("; ");
+        let events = std::mem::take(&mut self.events);
+        record.events = events.join("; ");
         (record.block, record.trial) = self.trial;
         if let (Some(log), true) = (self.log.as_deref_mut(), self.logging) {
             log.record(&record)?;
         }
-        for p in self.pending.drain(..) {
+        self.acknowledge(&record);
+        let Some(lsl) = &self.lsl else {
+            return Ok(());
+        };
+        let late = match (record.cpu_ms, self.refresh) {
+            (Some(ms), Some(period)) => {
+                let refreshes = ms / (period.as_secs_f64() * 1e3);
+                Some((refreshes > 1.0, (refreshes.ceil() as u32).saturating_sub(1)))
+            }
+            _ => None,
+        };
+        let sample = FrameSample {
+            record: &record,
+            pose_at: self.pose_at.unwrap_or_else(Instant::now),
+            due,
+            shown,
+            late,
+        };
+        let mut markers = events;
+        markers.append(&mut self.markers);
+        lsl.frame(&sample, &markers)
+    }
+
+    /// This frame's commands acknowledged with its number (and `state` with its pose); each
+    /// with its reply a marker for LSL.
+    fn acknowledge(&mut self, record: &FrameRecord) {
+        for p in std::mem::take(&mut self.pending) {
             let mut extra = serde_json::Map::new();
             if p.command == Command::State {
                 let (h, r) = (record.pose.head, record.pose.room_position);
@@ -108,8 +245,93 @@ impl<'p> Session<'p> {
                     (self.log.is_some() && self.logging).into(),
                 );
             }
-            p.ack(record.frame, extra);
+            let command = serde_json::to_value(&p.command).unwrap_or_default();
+            let reply = p.ack(record.frame, extra);
+            if self.lsl.is_some() {
+                self.markers.push(command_marker(command, &reply));
+            }
         }
-        Ok(())
+    }
+}
+
+/// A command and its reply as one marker: `{"command": ..., "reply": ...}`.
+fn command_marker(command: serde_json::Value, reply: &str) -> String {
+    let reply: serde_json::Value = serde_json::from_str(reply).unwrap_or(reply.into());
+    serde_json::json!({ "command": command, "reply": reply }).to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::study::log::Drawn;
+    use std::io::{BufRead, Write};
+
+    fn record(frame: u64) -> FrameRecord {
+        FrameRecord {
+            frame,
+            time_s: 0.0,
+            drawn: Drawn::Shown,
+            pose: Pose {
+                head: Vec3::ZERO,
+                head_rotation: glam::Quat::IDENTITY,
+                room_position: Vec3::ZERO,
+                room_yaw_deg: 0.0,
+            },
+            wand: None,
+            gpu_ms: None,
+            cpu_ms: None,
+            block: 0,
+            trial: 0,
+            pose_to_submit_ms: Some(0.1),
+            pose_to_photon_ms: None,
+            views: Vec::new(),
+            events: String::new(),
+        }
+    }
+
+    /// Frames from `*frame` on until a command has arrived and taken effect; its reply.
+    fn until_reply(
+        session: &mut Session<'_>,
+        frame: &mut u64,
+        replies: &mut impl BufRead,
+        walls: &mut Vec<Option<bool>>,
+    ) -> serde_json::Value {
+        loop {
+            session.begin_frame();
+            walls.push(session.flash());
+            let took = !session.pending.is_empty();
+            session.end_frame(record(*frame), None).unwrap();
+            *frame += 1;
+            if took {
+                let mut line = String::new();
+                replies.read_line(&mut line).unwrap();
+                return serde_json::from_str(&line).unwrap();
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+    }
+
+    #[test]
+    fn a_flash_whitens_one_frame_then_the_walls_stay_black_until_the_test_ends() {
+        let server = ControlServer::bind("127.0.0.1:0").unwrap();
+        let mut session = Session::new(None, Some(&server));
+        let mut client = std::net::TcpStream::connect(server.addr).unwrap();
+        let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+        let (mut frame, mut walls) = (0, Vec::new());
+        writeln!(client, r#"{{"cmd": "flash"}}"#).unwrap();
+        let flash = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        assert_eq!(
+            (flash["ok"].as_bool(), flash["cmd"].as_str()),
+            (Some(true), Some("flash"))
+        );
+        let white = flash["frame"].as_u64().unwrap() as usize;
+        assert_eq!(walls[white], Some(true));
+        assert!(walls[..white].iter().all(|w| w.is_none()));
+        writeln!(client, r#"{{"cmd": "flash", "end": true}}"#).unwrap();
+        let end = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        let back = end["frame"].as_u64().unwrap() as usize;
+        assert!(back > white);
+        assert!(walls[white + 1..back].iter().all(|w| *w == Some(false)));
+        assert_eq!(walls[back], None);
     }
 }

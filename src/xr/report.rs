@@ -51,6 +51,11 @@ pub struct XrReport {
     /// per timed frame: its predicted display time minus when its GPU work finished (negative:
     /// finished after it)
     pub gpu_done_before_display_ms: Option<Distribution>,
+    /// per timed frame: from its head pose (xrLocateViews, predicted by the runtime for the
+    /// frame's display time) to that predicted display time: motion to photon as the runtime
+    /// predicts it; negative where the pose was located after it, a prediction already past (a
+    /// late frame). None: the runtime cannot convert the system clock to XrTime
+    pub pose_to_photon_ms: Option<Distribution>,
     /// frames whose GPU work finished after their predicted display time: late for any
     /// compositor
     pub gpu_done_after_display: Option<u64>,
@@ -121,6 +126,12 @@ impl XrReport {
             s.push_str(&format!(
                 "GPU done before the predicted display time: min {:.2} ms, p50 {:.2} ms, max {:.2} ms; {after} frames finished on the GPU after it\n",
                 d.min, d.median, d.max
+            ));
+        }
+        if let Some(d) = &self.pose_to_photon_ms {
+            s.push_str(&format!(
+                "motion to photon (head pose located -> predicted display time): p50 {:.2} ms, p99 {:.2} ms\n",
+                d.median, d.p99
             ));
         }
         if !self.missed_after_frames.is_empty() {

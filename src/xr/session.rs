@@ -267,6 +267,9 @@ struct Display {
     period_ms: Option<f64>,
     /// with the runtime's clock: what depends on when the GPU finished each frame
     done: Option<DisplayDone>,
+    /// with the runtime's clock: per timed frame, from its pose (xrLocateViews) to its
+    /// predicted display time, ms
+    pose_to_photon_ms: Option<crate::stats::Distribution>,
 }
 
 struct DisplayDone {
@@ -284,6 +287,8 @@ struct FrameClock {
     display_ns: i64,
     period_ns: i64,
     clock: Option<(Instant, i64)>,
+    /// when xrLocateViews gave the frame's head pose (predicted for its display time)
+    located: Instant,
 }
 
 /// When the GPU finished each timed frame: a thread polls for the frame's last submission and
@@ -436,10 +441,20 @@ impl LoopState {
             }
         });
         let period_ms = (!frames.is_empty()).then_some(period as f64 * 1e-6);
+        // the pose's time on the runtime's clock, through the clock pair taken at xrWaitFrame
+        let photon_ms = |f: &FrameClock| {
+            let (then, xr_then) = f.clock?;
+            let located = xr_then + f.located.saturating_duration_since(then).as_nanos() as i64;
+            Some((f.display_ns - located) as f64 * 1e-6)
+        };
+        let photon: Option<Vec<f64>> = self.shown.iter().map(photon_ms).collect();
         Display {
             account,
             period_ms,
             done,
+            pose_to_photon_ms: photon
+                .filter(|p| !p.is_empty())
+                .map(|p| crate::stats::Distribution::of(&p)),
         }
     }
 
@@ -505,6 +520,7 @@ impl LoopState {
             dropped_frames: display.done.as_ref().map(|d| d.dropped),
             compositor_lead_ms: display.done.as_ref().map(|d| d.lead_ms),
             gpu_done_before_display_ms: display.done.as_ref().map(|d| d.before_display_ms.clone()),
+            pose_to_photon_ms: display.pose_to_photon_ms.clone(),
             gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
             display_period_ms: display.period_ms.unwrap_or(self.period_ms),
             eyes,
@@ -672,6 +688,7 @@ impl Headset<'_> {
                 &self.setup.space,
             )
             .map_err(xr_error("xrLocateViews"))?;
+        let located = Instant::now();
         let base = *st
             .room
             .get_or_insert_with(|| start_room(self.camera, &views));
@@ -687,6 +704,7 @@ impl Headset<'_> {
                 display_ns: frame_state.predicted_display_time.as_nanos(),
                 period_ns: frame_state.predicted_display_period.as_nanos(),
                 clock: woke,
+                located,
             });
         }
         // a timed frame takes a slot of the frames in flight; those the GPU has finished are

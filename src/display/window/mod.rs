@@ -182,6 +182,7 @@ impl App<'_> {
             block: 0,
             trial: 0,
             pose_to_submit_ms: Some(pose_to_submit_ms),
+            pose_to_photon_ms: None,
             views: self.frame.drawn().to_vec(),
             events: String::new(),
         };
@@ -224,7 +225,7 @@ impl App<'_> {
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         self.session.begin_frame();
-        let mut pose = self.session.pose(self.navigator.apply(base));
+        let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
         let mut wand = wand;
         if let Some(lock) = self.lock.as_deref_mut() {
             let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
@@ -261,7 +262,7 @@ impl App<'_> {
         };
         self.frame.draw(tracked, Draw::Shown, None)?;
         let pose_to_submit_ms = fresh.unwrap_or(sampled).elapsed().as_secs_f64() * 1e3;
-        let outputs = self.draw_windows(&ctx)?;
+        let outputs = self.draw_windows(&ctx, self.session.flash())?;
         // every window's frame is ready before any is shown: the walls change together (and
         // in a cluster, every rank's: drawn, then the swap barrier)
         if let Some(lock) = self.lock.as_deref_mut() {

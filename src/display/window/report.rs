@@ -18,6 +18,8 @@ pub struct WindowReport {
     /// live tracking: milliseconds from a pose's arrival to the submission of the first frame
     /// drawn from it (None without live tracking)
     pub tracking_latency_ms: Option<Distribution>,
+    /// every timed frame's pose to submission and to predicted photons (`crate::study`)
+    pub motion_to_photon: Option<crate::study::MotionToPhoton>,
     /// the frames judged by the limits (per-view and frame p99/p50, max/median, refresh)
     pub limits: Vec<Limit>,
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
@@ -40,6 +42,7 @@ impl App<'_> {
             cpu_frame_ms,
             status_messages: self.status_messages.clone(),
             tracking_latency_ms: self.frame.latency_ms(),
+            motion_to_photon: self.session.motion_to_photon(),
             limits,
             quality: self.frame.quality(),
             fit: self.frame.fit().cloned(),
@@ -71,6 +74,9 @@ impl WindowReport {
         }
         if let Some(d) = &self.tracking_latency_ms {
             s.push_str(&format!("  tracking latency (pose received -> frame submitted): p50 {:.3} ms, p99 {:.3} ms ({} poses)\n", d.median, d.p99, d.samples));
+        }
+        if let Some(m) = &self.motion_to_photon {
+            s.push_str(&m.line());
         }
         for m in &self.status_messages {
             s.push_str(&format!("  shown on screen: {m}\n"));

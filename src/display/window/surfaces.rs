@@ -237,7 +237,12 @@ impl App<'_> {
 
     /// Each window's parts drawn from the views' images onto its next surface texture, and
     /// submitted; the textures to present (a window without one this frame is left out).
-    pub(super) fn draw_windows(&mut self, ctx: &GpuContext) -> Result<Vec<wgpu::SurfaceTexture>> {
+    /// `flash`: the latency test's walls instead of the views (Some(true) white, else black).
+    pub(super) fn draw_windows(
+        &mut self,
+        ctx: &GpuContext,
+        flash: Option<bool>,
+    ) -> Result<Vec<wgpu::SurfaceTexture>> {
         let present = self.present.as_ref().expect("windows open");
         let mut outputs = Vec::new();
         for w in &mut self.windows {
@@ -260,10 +265,13 @@ impl App<'_> {
             let view = texture.texture.create_view(&Default::default());
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             {
-                let mut pass =
-                    present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(wgpu::Color::BLACK));
+                let clear = match flash {
+                    Some(true) => wgpu::Color::WHITE,
+                    _ => wgpu::Color::BLACK,
+                };
+                let mut pass = present_pass(&mut encoder, &view, wgpu::LoadOp::Clear(clear));
                 pass.set_pipeline(&present.pipeline);
-                for p in &w.parts {
+                for p in w.parts.iter().filter(|_| flash.is_none()) {
                     let (origin, size) = viewport(w.stereo, p.part, width, height);
                     pass.set_viewport(origin[0], origin[1], size[0], size[1], 0.0, 1.0);
                     pass.set_bind_group(0, &p.binding.bind_group, &[]);
