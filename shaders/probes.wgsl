@@ -46,13 +46,13 @@ fn fibonacci_direction(k: u32, n: u32) -> vec3<f32> {
 // atlas where it lands, and what one mirror reflection there shows. w: 1 where the ray met the
 // back of a one-sided face.
 fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
-    let s = cast_ray(origin, ray);
+    let s = cast_ray(origin, ray, false);
     let f = faces[s.face];
     var radiance = atlas_radiance(f, s.point) * s.seen + s.background;
     let mirror = mirror_reflectance(material_of(f)) * s.seen;
     if max(mirror.x, max(mirror.y, mirror.z)) > 0.0 {
         let reflected = mirror_direction(ray, f.normal);
-        let r = cast_ray(s.point + f.normal * 1e-5, reflected);
+        let r = cast_ray(s.point + f.normal * 1e-5, reflected, false);
         radiance += mirror * (atlas_radiance(faces[r.face], r.point) * r.seen + r.background);
     }
     // a one-sided back: black, with a point (the sky's stand-in point is the origin)

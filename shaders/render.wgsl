@@ -67,7 +67,7 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, w1: f32, seed: u32) -> vec3<f32> {
     var r0 = atlas_radiance(f0, s0.point);
     var r1 = atlas_radiance(f1, s1.point);
-    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && s0.seen + s1.seen > 0.0 {
+    if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && (view.moving_flags & 1u) != 0u && s0.seen + s1.seen > 0.0 {
         let first = s0.seen > 0.0;
         let face = select(s1.face, s0.face, first);
         let shadow = moving_shadow(faces[face], select(s1.point, s0.point, first), seed);
@@ -103,7 +103,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         ray = mirror_direction(ray, f.normal);
-        s = cast_ray(s.point + f.normal * 1e-5, ray);
+        s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];
         path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
         path.throughput = weight * s.seen;
@@ -168,12 +168,12 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let w1 = select(0.0, 1.0, k + 1u < n);
         let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
         let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
-        let s0 = cast_ray(r0[0], r0[1]);
+        let s0 = cast_ray(r0[0], r0[1], true);
         // an odd count's last pair has one eye ray: r1 is r0, so is what it meets (no second
         // cast: 1 eye ray per pixel costs one cast and one reflection, not two casts)
         var s1 = s0;
         if k + 1u < n {
-            s1 = cast_ray(r1[0], r1[1]);
+            s1 = cast_ray(r1[0], r1[1], true);
         }
         depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];
@@ -212,10 +212,10 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let w1 = select(0.0, 1.0, k + 1u < n);
         let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
         let r1 = eye_ray(gid.xy, sample_offset(min(k + 1u, n - 1u), n), size);
-        let s0 = cast_ray(r0[0], r0[1]);
+        let s0 = cast_ray(r0[0], r0[1], true);
         var s1 = s0;
         if k + 1u < n {
-            s1 = cast_ray(r1[0], r1[1]);
+            s1 = cast_ray(r1[0], r1[1], true);
         }
         depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
         let f0 = faces[s0.face];

@@ -61,7 +61,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         }),
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
-            paced_fraction, fixed_work, exhaustive_triangles, moving_root, moving_first, _pad2
+            paced_fraction, fixed_work, exhaustive_triangles, moving_root, moving_first, moving_flags
         }),
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,

@@ -11,6 +11,7 @@ use vlf::display::frame::{FrameOfViews, Poses, Slots};
 use vlf::display::DisplayConfig;
 use vlf::progress::Silent;
 use vlf::render::Frame;
+use vlf::study::session::ObjectChange;
 
 /// A one-wall display looking along -z from a head at (0, 0, 0.35) through a 0.2 x 0.2 m wall at
 /// z = 0.15, `pixels` square, with `objects` (TOML `[[object]]` tables), small probes and no
@@ -45,22 +46,19 @@ fn object_table(name: &str, mesh: &str) -> String {
     format!("[[object]]\nname = \"{name}\"\nmesh = \"{mesh}\"\n\n")
 }
 
-/// Every view of the display drawn once from its static head, read back.
+/// Every view of the display drawn once from its static head after a study's `changes`, read
+/// back.
 fn draw(
     lf: &vlf::lightfield::LightField,
     resident: &vlf::lightfield::ResidentLightField,
     (path, config): (&Path, &DisplayConfig),
-    hide: Option<&str>,
+    changes: &[ObjectChange],
 ) -> Frame {
     let poses = config.pose_source(path).unwrap();
     let mut frame =
         FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall).unwrap();
-    if let Some(name) = hide {
-        frame
-            .objects_mut()
-            .unwrap()
-            .set_visible(name, false)
-            .unwrap();
+    for change in changes {
+        frame.change_objects(change);
     }
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
@@ -111,7 +109,7 @@ fn an_object_in_a_closed_furnace_shows_rho_le_over_one_minus_rho_plus_its_emissi
     );
     let objects = object_table("grey", "grey.obj") + &object_table("glowing", "glowing.obj");
     let (path, config) = display(dir.path(), 32, 4, &objects);
-    let image = draw(&lf, &resident, (&path, &config), None);
+    let image = draw(&lf, &resident, (&path, &config), &[]);
     let wall = pixel(&image, 16, 2)[0] as f64;
     let grey = pixel(&image, 10, 16)[0] as f64;
     let glowing = pixel(&image, 22, 16)[0] as f64;
@@ -130,7 +128,12 @@ fn an_object_in_a_closed_furnace_shows_rho_le_over_one_minus_rho_plus_its_emissi
         "the glowing cube shows {glowing}, not 1.5"
     );
     // hidden, the cube leaves the wall behind it
-    let hidden = draw(&lf, &resident, (&path, &config), Some("grey"));
+    let hidden = draw(
+        &lf,
+        &resident,
+        (&path, &config),
+        &[ObjectChange::Visible("grey".into(), false)],
+    );
     let behind = pixel(&hidden, 10, 16)[0] as f64;
     assert!(
         within(behind, 2.0) < 0.01,
@@ -217,7 +220,7 @@ fn an_object_is_seen_in_a_mirror_where_geometry_puts_its_reflection() {
         0.0,
     );
     let (path, config) = display(dir.path(), 64, 16, &object_table("cube", "cube.obj"));
-    let image = draw(&lf, &resident, (&path, &config), None);
+    let image = draw(&lf, &resident, (&path, &config), &[]);
     // the wall's pixels: x_screen = -0.1 .. 0.1 over 64 columns; a point (X, Z) projects from the
     // eye (0, 0.35) onto z = 0.15 at x = X * 0.2 / (0.35 - Z)
     let column = |x: f64, z: f64| (x * 0.2 / (0.35 - z) + 0.1) / 0.2 * 64.0;
@@ -248,6 +251,21 @@ fn an_object_is_seen_in_a_mirror_where_geometry_puts_its_reflection() {
         (seen_direct - direct).abs() < 0.25,
         "the cube's edge is at {seen_direct:.2} px, geometry puts it at {direct:.2} px"
     );
+    // reflections off (a study's condition): the mirror shows the room behind the cube again,
+    // the cube itself stays
+    let off = draw(
+        &lf,
+        &resident,
+        (&path, &config),
+        &[ObjectChange::Reflections(false)],
+    );
+    let x = ((reflected + column(0.2, -0.95)) / 2.0) as u32;
+    let behind = pixel(&off, x, y)[0] as f64;
+    assert!(
+        (behind - mirror_bg).abs() < 0.05 * mirror_bg,
+        "reflections off: {behind} against {mirror_bg}"
+    );
+    assert_eq!(pixel(&off, 60, y), pixel(&image, 60, y));
 }
 
 /// The scene of tests/occlusion.rs without its static blocker (a 2 x 2 m floor of albedo 0.5
@@ -320,8 +338,16 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
     let path = dir.path().join("display.toml");
     std::fs::write(&path, text).unwrap();
     let config = DisplayConfig::load(&path).unwrap();
-    let with = draw(&lf, &resident, (&path, &config), None);
-    let without = draw(&lf, &resident, (&path, &config), Some("blocker"));
+    let with = draw(&lf, &resident, (&path, &config), &[]);
+    let hide = ObjectChange::Visible("blocker".into(), false);
+    let without = draw(&lf, &resident, (&path, &config), &[hide]);
+    // switched off (a study's condition), the blocker stays in view and takes no light
+    let unshadowed = draw(
+        &lf,
+        &resident,
+        (&path, &config),
+        &[ObjectChange::Shadows(false)],
+    );
     // the closed form, in metres, for the floor point each pixel's centre sees
     let corners_of = |name: &str, mesh: &vlf::scene::Scene| -> Vec<DVec3> {
         let m = mesh.materials.iter().position(|m| m.name == name).unwrap() as u32;
@@ -377,6 +403,11 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
                 0.0
             };
             let taken = (pixel(&without, x, y)[0] - pixel(&with, x, y)[0]) as f64;
+            assert_eq!(
+                pixel(&without, x, y),
+                pixel(&unshadowed, x, y),
+                "shadows off still shadow"
+            );
             brightest = brightest.max(full);
             rows.push((taken, blocked, full));
         }

@@ -135,7 +135,9 @@ struct Surface {
     point: vec3<f32>,
 }
 
-fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
+// `with_moving`: the moving objects are there to be met (eye rays; reflections where the view
+// shows them in mirrors).
+fn cast_ray(origin: vec3<f32>, ray: vec3<f32>, with_moving: bool) -> Surface {
     var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
     if view.exhaustive_triangles > 0u {
         // a small mesh: every ray tests every triangle, the same work for every ray
@@ -156,7 +158,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     // the scene's tree (a small mesh was tested above), then the moving objects', refitted every
     // frame (none: NO_NODE), whose backs are not seen (from inside a body, the world)
     let root = select(0u, NO_NODE, view.exhaustive_triangles > 0u);
-    let then = select(NO_NODE, view.moving_root, MOVING_OBJECTS != 0u);
+    let then = select(NO_NODE, view.moving_root, MOVING_OBJECTS != 0u && with_moving);
     if root != NO_NODE || then != NO_NODE {
         hit = cast_bvh(origin, ray, root, then, hit, true);
     }

@@ -119,7 +119,8 @@ struct View {
     // scene's in `pairs` and `ray_triangles` (src/render/dynamic.rs)
     moving_root: u32,
     moving_first: u32,
-    _pad2: u32,
+    // the moving objects' switches: 1 their shadows, 2 seen in mirrors (gpu::types)
+    moving_flags: u32,
 }
 
 // mirrors gpu::types::GpuField: the layout of the light field a stage reads and the scene's

@@ -130,7 +130,8 @@ pub fn run(a: CaveArgs) -> Result<()> {
             exposure,
         };
         let study = vlf::study::Session::new(session.as_mut(), control.as_ref())
-            .with_display(display.refresh_hz, lsl);
+            .with_display(display.refresh_hz, lsl)
+            .with_objects(display.objects.iter().map(|o| o.name.clone()).collect());
         let report = vlf::display::window::run_locked(
             &lf, &resident, &display, config, options, None, study,
         )?;

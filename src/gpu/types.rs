@@ -147,8 +147,14 @@ pub struct GpuView {
     /// scene's in the pairs and triangle buffers (`render::dynamic`)
     pub moving_root: u32,
     pub moving_first: u32,
-    pub _pad2: u32,
+    /// the moving objects' switches: `MOVING_SHADOWS`, `MOVING_IN_MIRRORS`
+    pub moving_flags: u32,
 }
+
+/// `GpuView::moving_flags`: the moving objects take direct light from the scene (their shadows).
+pub const MOVING_SHADOWS: u32 = 1;
+/// `GpuView::moving_flags`: reflections off the scene's mirrors show the moving objects.
+pub const MOVING_IN_MIRRORS: u32 = 2;
 
 /// Mirrors WGSL `Field`: the layout of the light field a stage reads, and the scene's sky
 /// (`shaders/common/light_field.wgsl`; made by `lightfield::bindings`), the same for every view.

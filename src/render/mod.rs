@@ -222,6 +222,7 @@ impl Renderer {
             exhaustive_triangles,
             moving_root: u32::MAX,
             moving_first: 0,
+            moving_flags: crate::gpu::types::MOVING_SHADOWS | crate::gpu::types::MOVING_IN_MIRRORS,
             ..Default::default()
         };
         let mut renderer = Renderer {
@@ -305,6 +306,14 @@ impl Renderer {
             m.encode(&mut encoder, timestamps);
             self.ctx.queue.submit([encoder.finish()]);
         }
+    }
+
+    /// The moving objects' switches (a study's conditions): their shadows on the scene, and
+    /// whether mirrors show them.
+    pub fn set_object_switches(&mut self, shadows: bool, in_mirrors: bool) {
+        use crate::gpu::types::{MOVING_IN_MIRRORS, MOVING_SHADOWS};
+        self.view_template.moving_flags = if shadows { MOVING_SHADOWS } else { 0 }
+            | if in_mirrors { MOVING_IN_MIRRORS } else { 0 };
     }
 
     /// Whether this renderer draws moving objects.

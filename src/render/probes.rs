@@ -293,7 +293,10 @@ mod tests {
             picked[t[1].to_bits() as usize] += (1.0 - t[0] as f64) / n;
         }
         for (p, c) in picked.iter().zip(chances) {
-            assert!((p - c as f64).abs() < 1e-6, "{picked:?} against {chances:?}");
+            assert!(
+                (p - c as f64).abs() < 1e-6,
+                "{picked:?} against {chances:?}"
+            );
         }
     }
 }

@@ -50,6 +50,20 @@ pub enum Command {
         #[serde(default)]
         end: bool,
     },
+    /// show or hide a moving object (the display config's `[[object]]` name)
+    Show {
+        object: String,
+    },
+    Hide {
+        object: String,
+    },
+    /// the moving objects' shadows on the scene, and their reflections in its mirrors
+    Shadows {
+        on: bool,
+    },
+    Reflections {
+        on: bool,
+    },
 }
 
 impl Command {
@@ -62,6 +76,10 @@ impl Command {
             Command::State => "state",
             Command::Stop => "stop",
             Command::Flash { .. } => "flash",
+            Command::Show { .. } => "show",
+            Command::Hide { .. } => "hide",
+            Command::Shadows { .. } => "shadows",
+            Command::Reflections { .. } => "reflections",
         }
     }
 }
@@ -83,6 +101,15 @@ impl Pending {
         reply.extend(extra);
         let reply = serde_json::Value::Object(reply).to_string();
         // a client that went away hears nothing; the run goes on
+        let _ = self.reply.send(reply.clone());
+        reply
+    }
+
+    /// Refused when the frame loop took it (a name the run does not know): nothing changed.
+    /// Returns the reply as sent.
+    pub fn refuse(self, error: &str) -> String {
+        let reply = serde_json::json!({"ok": false, "cmd": self.command.name(), "error": error});
+        let reply = reply.to_string();
         let _ = self.reply.send(reply.clone());
         reply
     }

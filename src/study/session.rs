@@ -40,6 +40,17 @@ pub struct Session<'p> {
     latencies: Vec<(f64, f64)>,
     /// the latency test (`flash`): Some(true) white walls this frame, Some(false) black
     flash: Option<bool>,
+    /// the display's moving objects by name, and this frame's changes to them for the display
+    objects: Vec<String>,
+    object_changes: Vec<ObjectChange>,
+}
+
+/// A change the script made to the moving objects, for the display to apply this frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ObjectChange {
+    Visible(String, bool),
+    Shadows(bool),
+    Reflections(bool),
 }
 
 /// Motion to photon over a run's timed frames, in `vlf cave`'s report.
@@ -87,7 +98,20 @@ impl<'p> Session<'p> {
             pose_at: None,
             latencies: Vec::new(),
             flash: None,
+            objects: Vec::new(),
+            object_changes: Vec::new(),
         }
+    }
+
+    /// The names of the display's moving objects (`show`/`hide` refuse any other).
+    pub fn with_objects(mut self, names: Vec<String>) -> Self {
+        self.objects = names;
+        self
+    }
+
+    /// This frame's changes to the moving objects, in the order the script sent them.
+    pub fn take_object_changes(&mut self) -> Vec<ObjectChange> {
+        std::mem::take(&mut self.object_changes)
     }
 
     /// The display's refresh rate (`DisplayConfig::refresh_hz`), for each frame's predicted
@@ -117,6 +141,13 @@ impl<'p> Session<'p> {
             }
         }
         for p in control.take() {
+            if let Err(error) = self.object_command(&p.command) {
+                let reply = p.refuse(&error);
+                if self.lsl.is_some() {
+                    self.markers.push(reply);
+                }
+                continue;
+            }
             match &p.command {
                 Command::Event { text } => self.events.push(text.clone()),
                 Command::Teleport { position, yaw_deg } => {
@@ -143,9 +174,44 @@ impl<'p> Session<'p> {
                     self.stop = true;
                     self.events.push("stop".into());
                 }
+                // taken by object_command
+                Command::Show { .. }
+                | Command::Hide { .. }
+                | Command::Shadows { .. }
+                | Command::Reflections { .. } => {}
             }
             self.pending.push(p);
         }
+    }
+
+    /// A command on the moving objects: noted as this frame's change and event; Err (nothing
+    /// changed) for a name the display has no object of.
+    fn object_command(&mut self, command: &Command) -> std::result::Result<(), String> {
+        let change = match command {
+            Command::Show { object } | Command::Hide { object } => {
+                if !self.objects.contains(object) {
+                    return Err(format!(
+                        "no moving object called {object:?} (the display config's [[object]] names: {})",
+                        if self.objects.is_empty() { "none".into() } else { self.objects.join(", ") }
+                    ));
+                }
+                ObjectChange::Visible(object.clone(), matches!(command, Command::Show { .. }))
+            }
+            Command::Shadows { on } => ObjectChange::Shadows(*on),
+            Command::Reflections { on } => ObjectChange::Reflections(*on),
+            _ => return Ok(()),
+        };
+        self.events.push(match &change {
+            ObjectChange::Visible(name, on) => {
+                format!("{} {name}", if *on { "show" } else { "hide" })
+            }
+            ObjectChange::Shadows(on) => format!("shadows {}", if *on { "on" } else { "off" }),
+            ObjectChange::Reflections(on) => {
+                format!("reflections {}", if *on { "on" } else { "off" })
+            }
+        });
+        self.object_changes.push(change);
+        Ok(())
     }
 
     /// The frame's pose as the script has placed the room; `sampled`: when it was sampled, or
@@ -333,5 +399,55 @@ mod tests {
         assert!(back > white);
         assert!(walls[white + 1..back].iter().all(|w| *w == Some(false)));
         assert_eq!(walls[back], None);
+    }
+
+    #[test]
+    fn object_commands_reach_the_display_and_an_unknown_object_is_refused() {
+        let server = ControlServer::bind("127.0.0.1:0").unwrap();
+        let mut session = Session::new(None, Some(&server)).with_objects(vec!["body".into()]);
+        let mut client = std::net::TcpStream::connect(server.addr).unwrap();
+        client
+            .set_read_timeout(Some(Duration::from_millis(20)))
+            .unwrap();
+        let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+        for line in [
+            r#"{"cmd": "hide", "object": "chair"}"#,
+            r#"{"cmd": "hide", "object": "body"}"#,
+            r#"{"cmd": "shadows", "on": false}"#,
+            r#"{"cmd": "reflections", "on": false}"#,
+        ] {
+            writeln!(client, "{line}").unwrap();
+        }
+        let (mut changes, mut lines) = (Vec::new(), Vec::new());
+        for frame in 0..400 {
+            session.begin_frame();
+            changes.extend(session.take_object_changes());
+            session.end_frame(record(frame), None).unwrap();
+            let mut line = String::new();
+            while replies.read_line(&mut line).is_ok_and(|n| n > 0) {
+                lines.push(serde_json::from_str::<serde_json::Value>(&line).unwrap());
+                line.clear();
+            }
+            if lines.len() == 4 {
+                break;
+            }
+        }
+        assert_eq!(
+            changes,
+            [
+                ObjectChange::Visible("body".into(), false),
+                ObjectChange::Shadows(false),
+                ObjectChange::Reflections(false)
+            ]
+        );
+        assert_eq!(lines.len(), 4, "{lines:?}");
+        let refused = &lines[0];
+        let error = refused["error"].as_str().unwrap();
+        assert_eq!(refused["ok"].as_bool(), Some(false));
+        assert!(error.contains("chair") && error.contains("body"), "{error}");
+        for ack in &lines[1..] {
+            assert_eq!(ack["ok"].as_bool(), Some(true), "{ack}");
+            assert!(ack["frame"].as_u64().is_some());
+        }
     }
 }

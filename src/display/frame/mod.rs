@@ -30,6 +30,7 @@ use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
 use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
 use crate::stats::Distribution;
+use crate::study::session::ObjectChange;
 use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
 use accounting::{Accounting, Clock};
@@ -103,6 +104,8 @@ pub struct FrameOfViews<'a> {
     /// time that moves the keyframed ones
     objects: Option<Objects>,
     object_time: f64,
+    /// their shadows on the scene, their reflections in its mirrors (a study switches them)
+    object_switches: (bool, bool),
 }
 
 impl<'a> FrameOfViews<'a> {
@@ -159,6 +162,7 @@ impl<'a> FrameOfViews<'a> {
             forced: None,
             objects,
             object_time: 0.0,
+            object_switches: (true, true),
         };
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
@@ -199,12 +203,29 @@ impl<'a> FrameOfViews<'a> {
             forced: None,
             objects: None,
             object_time: 0.0,
+            object_switches: (true, true),
         }
     }
 
     /// The moving objects (a study shows and hides them), where the display has any.
     pub fn objects_mut(&mut self) -> Option<&mut Objects> {
         self.objects.as_mut()
+    }
+
+    /// A study's change to the moving objects, from the next frame drawn (names were checked
+    /// against the display's objects when the command came).
+    pub fn change_objects(&mut self, change: &ObjectChange) {
+        match change {
+            ObjectChange::Visible(name, on) => {
+                if let Some(o) = self.objects.as_mut() {
+                    let _ = o.set_visible(name, *on);
+                }
+            }
+            ObjectChange::Shadows(on) => self.object_switches.0 = *on,
+            ObjectChange::Reflections(on) => self.object_switches.1 = *on,
+        }
+        let (shadows, in_mirrors) = self.object_switches;
+        self.renderer.set_object_switches(shadows, in_mirrors);
     }
 
     /// The time (seconds from the start of the run) that moves keyframed objects in the frames
