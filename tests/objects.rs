@@ -57,9 +57,7 @@ fn draw(
     let poses = config.pose_source(path).unwrap();
     let mut frame =
         FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall).unwrap();
-    for change in changes {
-        frame.change_objects(change);
-    }
+    frame.change_objects(changes);
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
         pose: &pose,

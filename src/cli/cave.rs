@@ -131,7 +131,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         };
         let study = vlf::study::Session::new(session.as_mut(), control.as_ref())
             .with_display(display.refresh_hz, lsl)
-            .with_objects(display.objects.iter().map(|o| o.name.clone()).collect());
+            .with_objects(display.object_names());
         let report = vlf::display::window::run_locked(
             &lf, &resident, &display, config, options, None, study,
         )?;

@@ -194,17 +194,10 @@ pub fn run_locked(
     mut lock: Option<&mut dyn FrameLock>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
-    let HeadlessRun {
-        frames,
-        out,
-        exr,
-        log,
-        control,
-        lsl,
-    } = run;
-    let mut session = Session::new(log, control)
-        .with_display(config.refresh_hz, lsl)
-        .with_objects(config.objects.iter().map(|o| o.name.clone()).collect());
+    let (frames, out, exr) = (run.frames, run.out, run.exr);
+    let mut session = (Session::new(run.log, run.control))
+        .with_display(config.refresh_hz, run.lsl)
+        .with_objects(config.object_names());
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
     let poses = config.pose_source(config_path)?;
     let mut frame =
@@ -218,9 +211,7 @@ pub fn run_locked(
     for f in 0..total {
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
-        for change in session.take_object_changes() {
-            frame.change_objects(&change);
-        }
+        frame.change_objects(&session.take_object_changes());
         let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         frame.set_object_time(object_time(&poses, config, (f, total)));
         // when the pose came in (live tracking), or was sampled

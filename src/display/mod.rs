@@ -169,6 +169,11 @@ impl DisplayConfig {
         PoseSource::from_config(&self.tracking, &self.start_pose, config_path)
     }
 
+    /// The moving objects' names (a study shows and hides them by name).
+    pub fn object_names(&self) -> Vec<String> {
+        self.objects.iter().map(|o| o.name.clone()).collect()
+    }
+
     /// One refresh period in milliseconds, where `refresh_hz` is given.
     pub fn frame_budget_ms(&self) -> Option<f64> {
         self.refresh_hz.map(|hz| 1000.0 / hz as f64)

@@ -212,9 +212,13 @@ impl<'a> FrameOfViews<'a> {
         self.objects.as_mut()
     }
 
-    /// A study's change to the moving objects, from the next frame drawn (names were checked
-    /// against the display's objects when the command came).
-    pub fn change_objects(&mut self, change: &ObjectChange) {
+    /// A study's changes to the moving objects, from the next frame drawn (names were checked
+    /// against the display's objects when the commands came).
+    pub fn change_objects(&mut self, changes: &[ObjectChange]) {
+        changes.iter().for_each(|c| self.change_object(c));
+    }
+
+    fn change_object(&mut self, change: &ObjectChange) {
         match change {
             ObjectChange::Visible(name, on) => {
                 if let Some(o) = self.objects.as_mut() {

@@ -225,9 +225,8 @@ impl App<'_> {
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         self.session.begin_frame();
-        for change in self.session.take_object_changes() {
-            self.frame.change_objects(&change);
-        }
+        self.frame
+            .change_objects(&self.session.take_object_changes());
         let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
         let mut wand = wand;
         if let Some(lock) = self.lock.as_deref_mut() {
