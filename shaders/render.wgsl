@@ -59,12 +59,12 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
     return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
 }
 
-// What a pair of eye rays shows where they first meet the scene (s0 on face f0, s1 on f1; w1 the
-// second's weight): the light field's radiance, less the direct light moving objects take from
+// What each of a pair of eye rays shows where it first meets the scene (s0 on face f0, s1 on
+// f1): the light field's radiance, less the direct light moving objects take from
 // it (none without them: evaluated once per pair, at the first ray's point, or the second's
 // where the first meets no face, and taken from the ray that meets that face), or what a ray
 // that met no face shows. Surfaces seen in mirrors keep the light field's radiance.
-fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, w1: f32, seed: u32) -> vec3<f32> {
+fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, seed: u32) -> array<vec3<f32>, 2> {
     var r0 = atlas_radiance(f0, s0.point);
     var r1 = atlas_radiance(f1, s1.point);
     if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && (view.moving_flags & 1u) != 0u && s0.seen + s1.seen > 0.0 {
@@ -74,7 +74,7 @@ fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, w1: f32, seed: u32) 
         r0 = select(r0, max(r0 - shadow, vec3<f32>(0.0)), s0.face == face);
         r1 = select(r1, max(r1 - shadow, vec3<f32>(0.0)), s1.face == face);
     }
-    return r0 * s0.seen + s0.background + (r1 * s1.seen + s1.background) * w1;
+    return array<vec3<f32>, 2>(r0 * s0.seen + s0.background, r1 * s1.seen + s1.background);
 }
 
 // One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
@@ -180,7 +180,9 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        sum += pair_shown(s0, f0, s1, f1, w1, hash(gid.x ^ hash(gid.y ^ hash(k))));
+        let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
+        sum += shown[0];
+        sum += shown[1] * w1;
         if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
@@ -222,7 +224,9 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
         let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
-        sum += pair_shown(s0, f0, s1, f1, w1, hash(gid.x ^ hash(gid.y ^ hash(k))));
+        let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
+        sum += shown[0];
+        sum += shown[1] * w1;
         if reflection_traced(m0 + m1) {
             let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
             var s = s0;
