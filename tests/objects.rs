@@ -438,3 +438,37 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
     assert!(worst(&umbra) < 0.035, "the umbra is off");
     assert!(worst(&penumbra) < 0.035, "the penumbra is off");
 }
+
+/// The shipped body config (config/displays/cave-4wall-body.toml) loads its avatar (the shipped
+/// mannequin) and the wand's ray, and poses them where its tracked head and wand are: the ray's
+/// rigid placement is the wand's, its beam running 10 m along the wand's -z.
+#[test]
+fn the_shipped_body_config_puts_the_avatar_and_the_wand_ray_on_the_participant() {
+    let path = repo_path("config/displays/cave-4wall-body.toml");
+    let config = DisplayConfig::load(&path).unwrap();
+    let objects = vlf::dynamic::Objects::load(&config.objects, &path).unwrap();
+    assert_eq!(config.object_names(), ["body", "wand ray"]);
+    let mesh = objects.mesh();
+    assert!(
+        mesh.triangles.len() > 4000,
+        "{} triangles",
+        mesh.triangles.len()
+    );
+    // 19 joints of the mannequin and one for the ray
+    assert_eq!(mesh.joint_count, 20);
+    let poses = config.pose_source(&path).unwrap();
+    let pose = poses.at(0.0);
+    let wand = poses.wand_at(&config.tracking, 0.0).unwrap();
+    let tracked = vlf::dynamic::Tracked::from_pose(&pose, Some(&wand), 0.0);
+    let joints = objects.joint_matrices(&tracked);
+    assert!(joints
+        .iter()
+        .all(|m| m.is_finite() && *m != glam::Mat4::ZERO));
+    let ray = joints[19];
+    let start = ray.transform_point3(glam::Vec3::ZERO);
+    let end = ray.transform_point3(glam::Vec3::new(0.0, 0.0, -10.0));
+    let wand_at = glam::Vec3::from(tracked.wand.unwrap().translation);
+    assert!(start.distance(wand_at) < 1e-5);
+    let along = tracked.wand.unwrap().transform_vector3(-glam::Vec3::Z);
+    assert!(((end - start).normalize() - along).length() < 1e-5);
+}
