@@ -30,20 +30,6 @@ fn texel_rim_rays() -> bool {
     return false;
 }
 
-// mirrors propagate::direct::GpuEmitter: one emitting triangle
-struct Emitter {
-    v0: vec3<f32>,
-    face: u32,
-    e1: vec3<f32>,
-    // 1: the emission varies over the face (map_Ke): read it from the atlas
-    textured: u32,
-    e2: vec3<f32>,
-    // the moving objects' shadow rays' chance of picking it (render/probes.rs; 0 here)
-    chance: f32,
-    // mean emitted radiance over the face (rgb), and its r+g+b in w
-    radiance: vec4<f32>,
-}
-
 // mirrors gpu::types::GpuDirectParams
 struct DirectParams {
     emitter_count: u32,
@@ -82,7 +68,6 @@ fn texel_seed(texel: u32, face_id: u32, f: Face) -> u32 {
     let local_y = texel / grid.atlas_width - f.atlas_y;
     return hash(hash(face_id) ^ (local_x | (local_y << 16u)));
 }
-
 
 // A convex polygon relative to the receiver: a triangle clipped by up to five planes (the
 // receiver's hemisphere; for a virtual emitter also the mirror's plane and the three sides of

@@ -24,32 +24,6 @@ struct MovingVertex {
     weights: vec4<f32>,
 }
 
-// mirrors gpu::types::GpuRayTriangle
-struct RayTriangle {
-    u: vec4<f32>,
-    v: vec4<f32>,
-    w: vec4<f32>,
-}
-
-// mirrors bvh::GpuBvhPair
-struct BvhPair {
-    lo_left: vec3<f32>,
-    left: u32,
-    hi_left: vec3<f32>,
-    right: u32,
-    lo_right: vec3<f32>,
-    _pad0: u32,
-    hi_right: vec3<f32>,
-    _pad1: u32,
-}
-
-// mirrors gpu::types::GpuMovingTriangle (common/moving_surface.wgsl)
-struct MovingTriangle {
-    n0: vec4<f32>,
-    n1: vec4<f32>,
-    n2: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> params: MovingParams;
 @group(0) @binding(1) var<storage, read> rest: array<MovingVertex>;
 // joint matrices into the light field's normalised space; a hidden object's are all zero

@@ -3,14 +3,6 @@
 // (common/irradiance.wgsl) at the smooth normal of the triangle's skinned corners. The renderer
 // binds this group; cast_ray (common/scene_cast.wgsl) calls moving_radiance.
 
-// mirrors gpu::types::GpuMovingTriangle: the corners' normals in normalised space, and in n0's
-// w the triangle's material (bits of a u32)
-struct MovingTriangle {
-    n0: vec4<f32>,
-    n1: vec4<f32>,
-    n2: vec4<f32>,
-}
-
 // mirrors gpu::types::GpuMovingMaterial
 struct MovingMaterial {
     albedo: vec4<f32>,
@@ -25,18 +17,6 @@ struct MovingMaterial {
 // and their alias table (render/probes.rs alias_table: [threshold, alias bits, 0, 0])
 @group(2) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(2) @binding(5) var<storage, read> emitter_alias: array<vec4<f32>>;
-
-// mirrors gpu::types::GpuEmitter: one emitting triangle and its radiance
-struct Emitter {
-    v0: vec3<f32>,
-    face: u32,
-    e1: vec3<f32>,
-    textured: u32,
-    e2: vec3<f32>,
-    // this triangle's share of the emitters' power: the chance a shadow ray picks it
-    chance: f32,
-    radiance: vec4<f32>,
-}
 
 // Probe `probe`'s irradiance for the basis `b` (irradiance_basis), never negative (order 2
 // rings where the light is sharp).

@@ -8,13 +8,6 @@
 // `const MOVING_OBJECTS: u32`: 0 compiles the moving objects' code out of the pipeline (a scene
 // without them pays nothing for it, not even registers), 1 keeps it.
 
-// mirrors gpu::types::GpuRayTriangle
-struct RayTriangle {
-    u: vec4<f32>,
-    v: vec4<f32>,
-    w: vec4<f32>,
-}
-
 // Where the ray meets the triangle's plane, and whether inside it, by the triangle's affine map
 // to the unit triangle (Baldwin & Weber 2016): four dot products and no branch.
 fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
@@ -23,20 +16,6 @@ fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
     let u = dot(tri.u.xyz, h) + tri.u.w;
     let v = dot(tri.v.xyz, h) + tri.v.w;
     return select(-1.0, t, u >= 0.0 && v >= 0.0 && u + v <= 1.0);
-}
-
-// Mirrors bvh::GpuBvhPair: an internal node of the BVH as its two children, each a box and a
-// reference: (pair << 5) for an internal child, (first triangle << 5) | count for a leaf.
-// Opening a node is one 64-byte read with both boxes in it.
-struct BvhPair {
-    lo_left: vec3<f32>,
-    left: u32,
-    hi_left: vec3<f32>,
-    right: u32,
-    lo_right: vec3<f32>,
-    _pad0: u32,
-    hi_right: vec3<f32>,
-    _pad1: u32,
 }
 
 // no node: the traversal is done

@@ -163,3 +163,49 @@ struct PresentParams {
     show_overlay: u32,
     _pad0: u32,
 }
+
+// mirrors gpu::types::GpuRayTriangle: a triangle as the rows u, v, w of its affine map (world ->
+// the triangle's barycentric u, v and its plane distance w)
+struct RayTriangle {
+    u: vec4<f32>,
+    v: vec4<f32>,
+    w: vec4<f32>,
+}
+
+// Mirrors bvh::GpuBvhPair: an internal node of the BVH as its two children, each a box and a
+// reference: (pair << 5) for an internal child, (first triangle << 5) | count for a leaf.
+// Opening a node is one 64-byte read with both boxes in it.
+struct BvhPair {
+    lo_left: vec3<f32>,
+    left: u32,
+    hi_left: vec3<f32>,
+    right: u32,
+    lo_right: vec3<f32>,
+    _pad0: u32,
+    hi_right: vec3<f32>,
+    _pad1: u32,
+}
+
+// mirrors gpu::types::GpuMovingTriangle: the corners' normals in normalised space, and in n0's
+// w the triangle's material (bits of a u32)
+struct MovingTriangle {
+    n0: vec4<f32>,
+    n1: vec4<f32>,
+    n2: vec4<f32>,
+}
+
+// mirrors gpu::types::GpuEmitter: one emitting triangle (direct.wgsl's direct light; the moving
+// objects' shadow rays, common/moving_surface.wgsl)
+struct Emitter {
+    v0: vec3<f32>,
+    face: u32,
+    e1: vec3<f32>,
+    // 1: the emission varies over the face (map_Ke): read it from the atlas
+    textured: u32,
+    e2: vec3<f32>,
+    // this triangle's share of the emitters' power: the chance a moving object's shadow ray
+    // picks it (render/probes.rs; 0 for direct light)
+    chance: f32,
+    // mean emitted radiance over the face (rgb), and its r+g+b in w
+    radiance: vec4<f32>,
+}

@@ -39,60 +39,41 @@ pub struct MovingMesh {
 impl MovingMesh {
     /// Append a rigid mesh hanging on joint `joint`, as object `object`.
     pub fn push_rigid(&mut self, part: &RigidMesh, object: u32, joint: u32) {
-        let first = self.vertices.len() as u32;
-        let material_base = self.materials.len() as u32;
-        self.vertices.extend(
-            part.positions
-                .iter()
-                .zip(&part.normals)
-                .map(|(p, n)| RestVertex {
-                    position: *p,
-                    normal: *n,
-                    joints: [joint, 0, 0, 0],
-                    weights: [1.0, 0.0, 0.0, 0.0],
-                }),
+        let vertices = (part.positions.iter().zip(&part.normals)).map(|(p, n)| RestVertex {
+            position: *p,
+            normal: *n,
+            joints: [joint, 0, 0, 0],
+            weights: [1.0, 0.0, 0.0, 0.0],
+        });
+        let part_triangles = (&part.triangles[..], &part.triangle_material[..]);
+        self.push_part(
+            vertices,
+            part_triangles,
+            object,
+            part.materials.iter().copied(),
         );
-        self.triangles
-            .extend(part.triangles.iter().map(|t| t.map(|i| i + first)));
-        self.triangle_object
-            .extend(std::iter::repeat_n(object, part.triangles.len()));
-        self.triangle_material
-            .extend(part.triangle_material.iter().map(|m| m + material_base));
-        self.materials.extend_from_slice(&part.materials);
         self.joint_count = self.joint_count.max(joint + 1);
     }
 
-    /// Append a skinned mesh (`avatar::SkinnedMesh`) as object `object`, its joints numbered from
-    /// `first_joint` (`joint_count` of them).
-    pub fn push_skinned(
+    /// Append one object's part: its vertices, its triangles (indices into those vertices) with
+    /// their materials (indices into `materials`), all as object `object`.
+    pub fn push_part(
         &mut self,
-        part: &super::avatar::SkinnedMesh,
+        vertices: impl IntoIterator<Item = RestVertex>,
+        (triangles, triangle_material): (&[[u32; 3]], &[u32]),
         object: u32,
-        first_joint: u32,
-        joint_count: u32,
+        materials: impl IntoIterator<Item = MovingMaterial>,
     ) {
         let first = self.vertices.len() as u32;
         let material_base = self.materials.len() as u32;
-        for (i, p) in part.positions.iter().enumerate() {
-            self.vertices.push(RestVertex {
-                position: *p,
-                normal: part.normals.get(i).copied().unwrap_or(Vec3::Y),
-                joints: part.joints[i].map(|j| j + first_joint),
-                weights: part.weights[i],
-            });
-        }
+        self.vertices.extend(vertices);
         self.triangles
-            .extend(part.triangles.iter().map(|t| t.map(|i| i + first)));
+            .extend(triangles.iter().map(|t| t.map(|i| i + first)));
         self.triangle_object
-            .extend(std::iter::repeat_n(object, part.triangles.len()));
+            .extend(std::iter::repeat_n(object, triangles.len()));
         self.triangle_material
-            .extend(part.triangle_material.iter().map(|m| m + material_base));
-        self.materials
-            .extend(part.materials.iter().map(|m| MovingMaterial {
-                albedo: m.base_color,
-                emission: m.emission,
-            }));
-        self.joint_count = self.joint_count.max(first_joint + joint_count);
+            .extend(triangle_material.iter().map(|m| m + material_base));
+        self.materials.extend(materials);
     }
 
     /// The rest pose's corners of every triangle (for the tree built once over it).

@@ -90,7 +90,12 @@ impl Objects {
                     let body = Avatar::load(&path).map_err(|e| {
                         config_error(format!("[[object]] \"{}\": avatar: {e}", o.name))
                     })?;
-                    mesh.push_skinned(&body.mesh, i as u32, joint, body.joint_count() as u32);
+                    push_skinned(
+                        &mut mesh,
+                        &body.mesh,
+                        i as u32,
+                        (joint, body.joint_count() as u32),
+                    );
                     avatar = Some(body);
                 }
             }
@@ -180,4 +185,27 @@ pub fn rigid_placement(o: &ObjectConfig, tracked: &Tracked) -> Affine3A {
         Vec3::from(o.position),
     );
     base * local
+}
+
+/// Append a skinned mesh (`avatar::SkinnedMesh`) to `mesh` as object `object`, its joints
+/// numbered from `first_joint` (`joint_count` of them).
+fn push_skinned(
+    mesh: &mut MovingMesh,
+    part: &avatar::SkinnedMesh,
+    object: u32,
+    (first_joint, joint_count): (u32, u32),
+) {
+    let vertices = (part.positions.iter().enumerate()).map(|(i, p)| RestVertex {
+        position: *p,
+        normal: part.normals.get(i).copied().unwrap_or(Vec3::Y),
+        joints: part.joints[i].map(|j| j + first_joint),
+        weights: part.weights[i],
+    });
+    let materials = (part.materials.iter()).map(|m| MovingMaterial {
+        albedo: m.base_color,
+        emission: m.emission,
+    });
+    let triangles = (&part.triangles[..], &part.triangle_material[..]);
+    mesh.push_part(vertices, triangles, object, materials);
+    mesh.joint_count = mesh.joint_count.max(first_joint + joint_count);
 }

@@ -328,7 +328,8 @@ fn read_primitive(
                 n.len() / 3
             ))
         }
-        None => smooth_normals(&positions, &triangles),
+        // a primitive without NORMAL: area-weighted vertex normals
+        None => crate::dynamic::mesh::smooth_normals(&positions, &triangles),
     };
     Ok(Part {
         positions,
@@ -348,20 +349,4 @@ fn renormalise(w: &[f32]) -> [f32; 4] {
     } else {
         [1.0, 0.0, 0.0, 0.0]
     }
-}
-
-/// Area-weighted vertex normals, for a primitive without NORMAL.
-pub(super) fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut normals = vec![Vec3::ZERO; positions.len()];
-    for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
-        let n = (b - a).cross(c - a);
-        for i in t {
-            normals[*i as usize] += n;
-        }
-    }
-    normals
-        .into_iter()
-        .map(|n| n.try_normalize().unwrap_or(Vec3::Y))
-        .collect()
 }
