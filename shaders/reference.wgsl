@@ -8,6 +8,7 @@
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/bvh.wgsl"
+#include "common/textures.wgsl"
 
 // mirrors reference::GpuTraceParams
 struct TraceParams {
@@ -34,7 +35,7 @@ struct TraceParams {
 @group(0) @binding(4) var<storage, read> face_textures: array<vec4<u32>>;
 // per texture: (first texel, width, height, -)
 @group(0) @binding(5) var<storage, read> texture_info: array<vec4<u32>>;
-@group(0) @binding(6) var<storage, read> texels: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read> texture_texels: array<vec4<f32>>;
 // per emitting triangle: (triangle index as bits, cumulative weight)
 @group(0) @binding(7) var<storage, read> lights: array<vec2<f32>>;
 // per pixel: sum of radiance, then sum of its square
@@ -55,35 +56,12 @@ fn random() -> f32 {
     return f32(rng_state >> 8u) / 16777216.0;
 }
 
-fn texture_at(texture: u32, uv: vec2<f32>) -> vec3<f32> {
-    if texture == NO_FACE {
-        return vec3<f32>(1.0);
-    }
-    let info = texture_info[texture];
-    let size = vec2<f32>(f32(info.y), f32(info.z));
-    // bilinear with wrapping; v = 0 is the image's bottom row (OBJ convention)
-    let p = vec2<f32>(fract(uv.x), 1.0 - fract(uv.y)) * size - 0.5;
-    let p0 = floor(p);
-    let f = p - p0;
-    let w = i32(info.y);
-    let h = i32(info.z);
-    let x0 = (i32(p0.x) % w + w) % w;
-    let y0 = (i32(p0.y) % h + h) % h;
-    let x1 = (x0 + 1) % w;
-    let y1 = (y0 + 1) % h;
-    let a = texels[info.x + u32(y0 * w + x0)].xyz;
-    let b = texels[info.x + u32(y0 * w + x1)].xyz;
-    let c = texels[info.x + u32(y1 * w + x0)].xyz;
-    let d = texels[info.x + u32(y1 * w + x1)].xyz;
-    return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
-}
-
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3<f32>(0.2126, 0.7152, 0.0722));
 }
 
 fn triangle_uv(tri: Triangle, u: f32, v: f32) -> vec2<f32> {
-    return tri.uv01.xy * (1.0 - u - v) + tri.uv01.zw * u + tri.uv2.xy * v;
+    return corners_uv(tri.uv01, tri.uv2.xy, u, v);
 }
 
 // Emitted radiance of the hit's front side, with the triangle's light-sampling pdf (area).

@@ -27,6 +27,7 @@
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
+#include "common/textures.wgsl"
 #include "common/ray.wgsl"
 #include "common/sampling.wgsl"
 #include "common/scene_cast.wgsl"
@@ -37,6 +38,8 @@
 const LIGHT_FIELD_GROUP: u32 = 1u;
 // 1: the pipeline draws moving objects (src/render/mod.rs sets 0 for a renderer without them)
 const MOVING_OBJECTS: u32 = 1u;
+// 1: the light field has texture detail, read per pixel (src/render/mod.rs sets 0 without it)
+const SURFACE_TEXTURES: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -59,14 +62,32 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
     return select(clamp(clip.z / clip.w, 0.0, 1.0), 1.0, all(point == origin));
 }
 
+// The radiance leaving the point surface `s` (on face f) shows: the atlas's, and on a face with
+// a diffuse texture that does not emit, with the texture at the point (texture detail:
+// common/light_field.wgsl, atlas_radiance_detailed).
+fn surface_radiance(f: Face, s: Surface) -> vec3<f32> {
+    if SURFACE_TEXTURES != 0u {
+        let texture = face_textures[s.face].x;
+        if texture != NO_FACE && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
+            let map = ray_triangles[s.triangle];
+            let u = dot(map.u.xyz, s.point) + map.u.w;
+            let v = dot(map.v.xyz, s.point) + map.v.w;
+            let tri = triangles[s.triangle];
+            let albedo = texture_at(texture, corners_uv(tri.uv01, tri.uv2.xy, u, v));
+            return atlas_radiance_detailed(f, s.point, albedo);
+        }
+    }
+    return atlas_radiance(f, s.point);
+}
+
 // What each of a pair of eye rays shows where it first meets the scene (s0 on face f0, s1 on
 // f1): the light field's radiance, less the direct light moving objects take from
 // it (none without them: evaluated once per pair, at the first ray's point, or the second's
 // where the first meets no face, and taken from the ray that meets that face), or what a ray
 // that met no face shows. Surfaces seen in mirrors keep the light field's radiance.
 fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, seed: u32) -> array<vec3<f32>, 2> {
-    var r0 = atlas_radiance(f0, s0.point);
-    var r1 = atlas_radiance(f1, s1.point);
+    var r0 = surface_radiance(f0, s0);
+    var r1 = surface_radiance(f1, s1);
     if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && (view.moving_flags & 1u) != 0u && s0.seen + s1.seen > 0.0 {
         let first = s0.seen > 0.0;
         let face = select(s1.face, s0.face, first);
@@ -105,7 +126,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
         ray = mirror_direction(ray, f.normal);
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];
-        path.radiance += weight * (atlas_radiance(f, s.point) * s.seen + s.background);
+        path.radiance += weight * (surface_radiance(f, s) * s.seen + s.background);
         path.throughput = weight * s.seen;
         weight *= mirror_reflectance(material_of(f)) * s.seen;
     }

@@ -9,20 +9,7 @@ use vlf::scene::Scene;
 
 fn small_light_field() -> (Scene, LightField) {
     let scene = Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let params = PropagationParams {
-        geodesic_frequency: 2,
-        grid_resolution: 16,
-        tile_size: 8,
-        texel_density: 4.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
-    };
+    let params = small_light_field_params();
     let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
     (scene, lf)
 }
@@ -122,4 +109,62 @@ fn a_failed_save_keeps_the_previous_file() {
     let bad = dir.path().join("no/such/folder/keep.vlf");
     assert!(file::save(&lf, &bad).is_err());
     assert_eq!(std::fs::read(&path).unwrap(), before);
+}
+
+#[test]
+fn texture_detail_round_trips_and_version_2_files_still_load() {
+    // a textured scene keeps its texture detail through a file
+    let scene = Scene::load(&repo_path("scenes/textured-room/scene.toml")).unwrap();
+    let params = small_light_field_params();
+    let (lf, _, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
+    let detail = lf
+        .detail
+        .as_ref()
+        .expect("the textured room has texture detail");
+    assert_eq!(detail.texel_albedo.len(), lf.total.len());
+    let bytes = file::encode(&lf);
+    assert_eq!(file::decode(&bytes).unwrap(), lf);
+    // a bad texture record is named
+    let mut bad = lf.clone();
+    bad.detail.as_mut().unwrap().textures.info[0][1] = 1 << 20;
+    let e = decode_err(&file::encode(&bad));
+    assert!(e.contains("texture 0 lies outside its texels"), "{e}");
+
+    // a file written before the detail (format 2: its first seven sections) loads, without it
+    let (_, untextured) = small_light_field();
+    let encoded = file::encode(&untextured);
+    let sections = file::decode_sections(
+        &encoded,
+        file::MAGIC,
+        file::FORMAT_VERSION,
+        &[
+            b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL",
+            b"FTEX", b"RUVS", b"TALB",
+        ],
+        "test",
+    )
+    .unwrap();
+    let tags = [
+        b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT",
+    ];
+    let old: Vec<(&[u8; 4], &[u8])> = tags.into_iter().zip(sections).collect();
+    let old_bytes = file::encode_sections(file::MAGIC, 2, &old);
+    assert_eq!(file::decode(&old_bytes).unwrap(), untextured);
+}
+
+fn small_light_field_params() -> PropagationParams {
+    PropagationParams {
+        geodesic_frequency: 2,
+        grid_resolution: 16,
+        tile_size: 8,
+        texel_density: 4.0,
+        tolerance: 1e-2,
+        max_iterations: 20,
+        perturb: 1,
+        accelerate: true,
+        memory_budget_mib: None,
+        direct_samples: 16,
+        mirror_direct: false,
+        rim_rays: false,
+    }
 }

@@ -31,6 +31,13 @@
 @group(LIGHT_FIELD_GROUP) @binding(11) var<storage, read> tile_radiance_1: array<vec4<f32>>;
 @group(LIGHT_FIELD_GROUP) @binding(12) var<storage, read> tile_radiance_2: array<vec4<f32>>;
 @group(LIGHT_FIELD_GROUP) @binding(13) var<storage, read> tile_radiance_3: array<vec4<f32>>;
+// the texture detail (src/lightfield/textures.rs), read only by a renderer whose light field has
+// diffuse textures: per atlas texel the texture factor propagation used (rgb as half floats);
+// per face (diffuse texture, emission texture, -, -); the textures (common/textures.wgsl)
+@group(LIGHT_FIELD_GROUP) @binding(14) var<storage, read> texel_albedo: array<vec2<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(15) var<storage, read> face_textures: array<vec4<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(16) var<storage, read> texture_info: array<vec4<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(17) var<storage, read> texture_texels: array<vec4<f32>>;
 
 // Texel `texel` of the atlas.
 fn atlas_texel(texel: u32) -> vec4<f32> {
@@ -49,6 +56,38 @@ fn atlas_texel(texel: u32) -> vec4<f32> {
 // the box. A light field without marks (w = 0 everywhere: the paper's settings, older files)
 // interpolates all four.
 fn atlas_radiance(f: Face, p: vec3<f32>) -> vec3<f32> {
+    return atlas_radiance_at(f, p, false, vec3<f32>(1.0));
+}
+
+// The same with the material at the point (texture detail, src/lightfield/textures.rs): each
+// tap's radiance divided by the texture factor its texel was propagated with, times `albedo`,
+// the texture at p. That is the texel's irradiance times the material where the ray lands, so a
+// texture finer than the atlas keeps its detail and the texel keeps its mean. Only for a light
+// field with texture detail, on a face with a diffuse texture that does not emit.
+fn atlas_radiance_detailed(f: Face, p: vec3<f32>, albedo: vec3<f32>) -> vec3<f32> {
+    return atlas_radiance_at(f, p, true, albedo);
+}
+
+// The half float in the low 16 bits of `h` (unpack2x16float needs a device capability that
+// not every adapter has; infinities and NaN do not occur in texture factors).
+fn half_float(h: u32) -> f32 {
+    let sign = (h & 0x8000u) << 16u;
+    let exponent = (h >> 10u) & 31u;
+    let mantissa = h & 1023u;
+    let subnormal = f32(mantissa) * 5.9604645e-8;
+    let normal = bitcast<f32>(sign | ((exponent + 112u) << 23u) | (mantissa << 13u));
+    return select(normal, select(subnormal, -subnormal, sign != 0u), exponent == 0u);
+}
+
+// A channel the texel's factor leaves (almost) black says nothing of the irradiance: it keeps
+// its radiance.
+fn with_albedo(radiance: vec3<f32>, texel: u32, albedo: vec3<f32>) -> vec3<f32> {
+    let packed = texel_albedo[texel];
+    let factor = vec3<f32>(half_float(packed.x), half_float(packed.x >> 16u), half_float(packed.y));
+    return select(radiance, radiance / factor * albedo, factor > vec3<f32>(1e-3));
+}
+
+fn atlas_radiance_at(f: Face, p: vec3<f32>, detailed: bool, albedo: vec3<f32>) -> vec3<f32> {
     let taps = atlas_taps(f, p, field.atlas_width);
     let r0 = atlas_texel(taps.index.x);
     let r1 = atlas_texel(taps.index.y);
@@ -57,6 +96,9 @@ fn atlas_radiance(f: Face, p: vec3<f32>) -> vec3<f32> {
     let marked = taps.weight * vec4<f32>(r0.w, r1.w, r2.w, r3.w);
     let sum = marked.x + marked.y + marked.z + marked.w;
     let w = select(taps.weight, marked / sum, sum > 1e-6);
+    if detailed {
+        return with_albedo(r0.xyz, taps.index.x, albedo) * w.x + with_albedo(r1.xyz, taps.index.y, albedo) * w.y + with_albedo(r2.xyz, taps.index.z, albedo) * w.z + with_albedo(r3.xyz, taps.index.w, albedo) * w.w;
+    }
     return r0.xyz * w.x + r1.xyz * w.y + r2.xyz * w.z + r3.xyz * w.w;
 }
 

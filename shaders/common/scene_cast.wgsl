@@ -112,6 +112,9 @@ struct Surface {
     // radiance (moving_radiance)
     background: vec3<f32>,
     point: vec3<f32>,
+    // the triangle met (in `triangles` and `ray_triangles`; 0 where none), for the texture at
+    // the point
+    triangle: u32,
 }
 
 // `with_moving`: the moving objects are there to be met (eye rays; reflections where the view
@@ -157,6 +160,7 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>, with_moving: bool) -> Surface {
     // a stand-in point where the ray meets nothing: lookups stay finite, and are dropped
     out.point = select(origin + ray * hit.t, origin, hit.tri == NO_FACE);
     out.background = select(vec3<f32>(0.0), field.sky.xyz, id == SKY);
+    out.triangle = select(hit.tri, 0u, hit.tri == NO_FACE);
     if MOVING_OBJECTS != 0u && moving {
         out.background = moving_radiance(hit.tri - view.moving_first, out.point, ray);
     }

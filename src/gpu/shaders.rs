@@ -61,6 +61,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/reference.wgsl"),
     ),
     (
+        "common/textures.wgsl",
+        include_str!("../../shaders/common/textures.wgsl"),
+    ),
+    (
         "common/sampling.wgsl",
         include_str!("../../shaders/common/sampling.wgsl"),
     ),

@@ -13,6 +13,8 @@ use crate::gpu::{reflect, GpuContext, MemoryLedger};
 
 /// The name of the layout uniform in `common/light_field.wgsl`: the binding the group is found by.
 const FIELD_BINDING_NAME: &str = "field";
+/// The first of the texture detail's bindings in `common/light_field.wgsl`.
+const DETAIL_BINDINGS: u32 = 14;
 
 /// What a bind group of the light field binds: its layout uniform (`GpuField`), the radiance
 /// atlas in pages, and the mirror tiles where the light field has them.
@@ -20,6 +22,8 @@ pub struct FieldBuffers<'a> {
     pub field: &'a wgpu::Buffer,
     pub atlas: Vec<&'a wgpu::Buffer>,
     pub tiles: Option<FieldTiles<'a>>,
+    /// the texture detail (`textures::ResidentDetail`), where the light field has it
+    pub detail: Option<&'a super::textures::ResidentDetail>,
 }
 
 /// The view-dependent part: the fixed directions the tiles live in, the geodesic lookup, the
@@ -63,14 +67,17 @@ fn page<'a>(pages: &[&'a wgpu::Buffer], p: usize) -> &'a wgpu::Buffer {
 /// The light field's bind group for `layout` (from `layout`). The atlas and the tiles have up
 /// to `tiles::MAX_TILE_PAGES` pages: those a light field does not have repeat page 0. Without
 /// tiles (a diffuse-only light field) the tile bindings hold one small placeholder, which the
-/// diffuse entry points never read.
+/// diffuse entry points never read; so do the texture detail's without detail (a renderer
+/// without it compiles its reads out).
 pub fn bind_group(
     ctx: &GpuContext,
     layout: &FieldLayout,
     buffers: &FieldBuffers,
 ) -> wgpu::BindGroup {
-    // made only for a light field without tiles (propagation binds a field every iteration)
+    // made only for a light field without tiles or detail (propagation binds a field every
+    // iteration)
     let placeholder;
+    let no_detail;
     let atlas = &buffers.atlas;
     let (directions, points, index_table, rects, index, tiles) = match &buffers.tiles {
         Some(t) => (
@@ -88,6 +95,22 @@ pub fn bind_group(
             (p, p, p, p, p, vec![p])
         }
     };
+    let needs_detail = layout.bindings.iter().any(|&b| b >= DETAIL_BINDINGS);
+    let detail: [&wgpu::Buffer; 4] = match buffers.detail.filter(|_| needs_detail) {
+        Some(d) => [
+            &d.texel_albedo,
+            &d.face_textures,
+            &d.texture_info,
+            &d.texels,
+        ],
+        None if needs_detail => {
+            let (ledger, name) = (&MemoryLedger::default(), "light field: no texture detail");
+            no_detail = ctx.buffer_zeroed(ledger, name, 64, crate::gpu::STORAGE);
+            [&no_detail; 4]
+        }
+        // not bound: any buffer stands in the list
+        None => [buffers.field; 4],
+    };
     // in the order common/light_field.wgsl declares them: binding k is the k-th
     let all = [
         buffers.field,
@@ -104,6 +127,10 @@ pub fn bind_group(
         page(&tiles, 1),
         page(&tiles, 2),
         page(&tiles, 3),
+        detail[0],
+        detail[1],
+        detail[2],
+        detail[3],
     ];
     let entries: Vec<wgpu::BindGroupEntry> = (layout.bindings.iter())
         .map(|&binding| wgpu::BindGroupEntry {
@@ -172,6 +199,7 @@ impl ResidentLightField {
             field,
             atlas: self.total.iter().collect(),
             tiles,
+            detail: self.detail.as_ref(),
         };
         bind_group(&self.ctx, layout, &buffers)
     }

@@ -9,11 +9,18 @@ use std::io::Write;
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
+/// Files of this version (before the texture detail) are still read: they have the first
+/// `SECTIONS_V2` sections.
+const OLDEST_READ_VERSION: u32 = 2;
+const SECTIONS_V2: usize = 7;
 /// Metadata, faces, render mesh, texel radiance, then the mirror tiles (empty when diffuse-only):
-/// rectangles, index, radiance.
-const SECTIONS: [&[u8; 4]; 7] = [
-    b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT",
+/// rectangles, index, radiance; then the texture detail (empty without diffuse textures,
+/// `textures::SurfaceDetail`): texture records, texels, face textures, render triangles' texture
+/// coordinates, texel factors.
+const SECTIONS: [&[u8; 4]; 12] = [
+    b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL", b"FTEX",
+    b"RUVS", b"TALB",
 ];
 
 /// The container: magic, version, then (tag, length, CRC32, payload) per section.
@@ -239,7 +246,9 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         None => (&[], &[], &[]),
     };
     let faces = face_records(&lf.faces, &lf.materials);
-    let payloads: [&[u8]; 7] = [
+    let none = super::textures::SurfaceDetail::default();
+    let detail = lf.detail.as_ref().unwrap_or(&none);
+    let payloads: [&[u8]; 12] = [
         &meta,
         bytemuck::cast_slice(&faces),
         bytemuck::cast_slice(&lf.render_vertices),
@@ -247,6 +256,11 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         rects,
         index,
         tiles,
+        bytemuck::cast_slice(&detail.textures.info),
+        bytemuck::cast_slice(&detail.textures.texels),
+        bytemuck::cast_slice(&detail.textures.face_textures),
+        bytemuck::cast_slice(&detail.triangle_uv),
+        bytemuck::cast_slice(&detail.texel_albedo),
     ];
     let sections: Vec<(&[u8; 4], &[u8])> = SECTIONS.iter().copied().zip(payloads).collect();
     encode_sections(MAGIC, FORMAT_VERSION, &sections)
@@ -312,13 +326,13 @@ fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<
 }
 
 pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
-    let payloads = decode_sections(
-        bytes,
-        MAGIC,
-        FORMAT_VERSION,
-        &SECTIONS,
-        "vlf light field file",
-    )?;
+    // a version 2 file (no texture detail) is read as it was written
+    let old = bytes.get(8..12) == Some(&OLDEST_READ_VERSION.to_le_bytes()[..]);
+    let (version, tags) = match old {
+        true => (OLDEST_READ_VERSION, &SECTIONS[..SECTIONS_V2]),
+        false => (FORMAT_VERSION, &SECTIONS[..]),
+    };
+    let payloads = decode_sections(bytes, MAGIC, version, tags, "vlf light field file")?;
     let meta: LightFieldMeta = serde_json::from_slice(payloads[0])
         .map_err(|e| format!("section META is not valid metadata: {e}"))?;
     let records: Vec<FaceRecord> = pod_vec(payloads[1], "FACE")?;
@@ -345,6 +359,11 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
             total: tile_total,
         })
     };
+    let detail = if old {
+        None
+    } else {
+        decode_detail(&payloads[7..])?
+    };
     let lf = LightField {
         meta,
         faces,
@@ -352,9 +371,31 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
         render_vertices,
         total,
         tiles,
+        detail,
     };
     check_consistency(&lf)?;
+    if let Some(d) = &lf.detail {
+        d.check(lf.render_vertices.len() / 3, lf.total.len(), lf.faces.len())?;
+    }
     Ok(lf)
+}
+
+/// The texture detail's sections (all empty: none).
+fn decode_detail(
+    payloads: &[&[u8]],
+) -> std::result::Result<Option<super::textures::SurfaceDetail>, String> {
+    if payloads.iter().all(|p| p.is_empty()) {
+        return Ok(None);
+    }
+    Ok(Some(super::textures::SurfaceDetail {
+        textures: super::textures::SurfaceTextures {
+            info: pod_vec(payloads[0], "TXIN")?,
+            texels: pod_vec(payloads[1], "TXTL")?,
+            face_textures: pod_vec(payloads[2], "FTEX")?,
+        },
+        triangle_uv: pod_vec(payloads[3], "RUVS")?,
+        texel_albedo: pod_vec(payloads[4], "TALB")?,
+    }))
 }
 
 /// Everything a GPU lookup could index must be in range.

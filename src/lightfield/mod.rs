@@ -7,6 +7,7 @@ pub mod atlas_lookup;
 pub mod bindings;
 pub mod directions;
 pub mod file;
+pub mod textures;
 pub mod tiles;
 
 use crate::gpu::types::{GpuFace, GpuMaterial, RenderVertex};
@@ -45,6 +46,8 @@ pub struct LightField {
     pub total: Vec<[f32; 4]>,
     /// mirror radiance, for scenes with non-diffuse faces
     pub tiles: Option<TileField>,
+    /// the diffuse textures at full resolution, for scenes that have them (`textures`)
+    pub detail: Option<textures::SurfaceDetail>,
 }
 
 /// The view-dependent part: tile tables and converged mirror radiance per tile cell.
@@ -267,7 +270,7 @@ impl LightField {
                 })
             }
         };
-        Ok(ResidentLightField {
+        let mut resident = ResidentLightField {
             ctx,
             faces,
             materials,
@@ -275,7 +278,10 @@ impl LightField {
             texel_pages,
             tiles,
             ledger,
-        })
+            detail: None,
+        };
+        resident.upload_detail(self);
+        Ok(resident)
     }
 }
 
@@ -291,6 +297,23 @@ pub struct ResidentLightField {
     /// the view-dependent part; None for a diffuse-only scene
     pub tiles: Option<ResidentTiles>,
     pub ledger: MemoryLedger,
+    /// the textures at full resolution; None for a scene without diffuse textures, or where
+    /// they exceed a storage binding of the device (then views show them at texel resolution)
+    pub detail: Option<textures::ResidentDetail>,
+}
+
+impl ResidentLightField {
+    /// Upload `lf`'s texture detail, where it has any: a device that cannot bind it draws the
+    /// textures at texel resolution, and says so once.
+    pub fn upload_detail(&mut self, lf: &LightField) {
+        let Some(detail) = &lf.detail else {
+            return;
+        };
+        match detail.upload(&self.ctx, &self.ledger) {
+            Ok(d) => self.detail = Some(d),
+            Err(why) => log::warn!("textures are drawn at texel resolution: {why}"),
+        }
+    }
 }
 
 pub struct ResidentTiles {

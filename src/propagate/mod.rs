@@ -709,7 +709,7 @@ impl<'a> Job<'a> {
         let render_vertices = crate::lightfield::render_vertices(&self.prepared);
         let mirror_chains =
             crate::lightfield::MirrorChains::of(&faces, &materials, &render_vertices);
-        let resident = prop.into_resident(mirror_chains.tiles_needed);
+        let mut resident = prop.into_resident(mirror_chains.tiles_needed);
         resident
             .ledger
             .record("render mesh", (render_vertices.len() * 16) as u64);
@@ -734,7 +734,9 @@ impl<'a> Job<'a> {
             render_vertices,
             total,
             tiles,
+            detail: crate::lightfield::textures::SurfaceDetail::of(scene, prepared),
         };
+        resident.upload_detail(&lf);
         let report = self.report(ctx, measured, spent, &resident, mirror_chains);
         Ok((lf, resident, report))
     }

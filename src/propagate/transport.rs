@@ -1562,6 +1562,7 @@ impl Propagator {
                     .map(|p| &p.state.radiance[current])
                     .collect(),
             }),
+            detail: None,
         };
         crate::lightfield::bindings::bind_group(&self.ctx, &t.field_layout, &buffers)
     }
@@ -1922,6 +1923,7 @@ impl Propagator {
             texel_pages: self.texel_pages,
             tiles,
             ledger,
+            detail: None,
         }
     }
 }

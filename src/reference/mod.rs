@@ -60,9 +60,8 @@ struct TraceScene {
     /// (triangle index as f32 bits, running weight)
     lights: Vec<[f32; 2]>,
     light_weight_total: f32,
-    texture_info: Vec<[u32; 4]>,
-    texels: Vec<[f32; 4]>,
-    face_textures: Vec<[u32; 4]>,
+    /// the textures back to back, and which face uses which
+    textures: crate::lightfield::textures::SurfaceTextures,
 }
 
 impl TraceScene {
@@ -96,31 +95,7 @@ impl TraceScene {
                 lights.push([f32::from_bits(i as u32), total]);
             }
         }
-        // textures, texel arrays back to back
-        let mut texture_info: Vec<[u32; 4]> = Vec::new();
-        let mut texels: Vec<[f32; 4]> = Vec::new();
-        for t in &scene.textures {
-            texture_info.push([texels.len() as u32, t.width, t.height, 0]);
-            texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
-        }
-        // a face is textured where the light field's atlas textures it: only when every one of
-        // its triangles has texture coordinates (prepare::atlas), else its material's colour
-        let mut has_uv = vec![true; prepared.faces.len()];
-        for t in &prepared.triangles {
-            has_uv[t.face as usize] &= t.uv.is_some();
-        }
-        let face_textures: Vec<[u32; 4]> = (prepared.faces.iter().zip(&has_uv))
-            .map(|(f, &uv)| {
-                let m = &scene.materials[f.material as usize];
-                let texture = |which: Option<u32>| which.filter(|_| uv).unwrap_or(NO_FACE);
-                [
-                    texture(m.diffuse_texture),
-                    texture(m.emission_texture),
-                    0,
-                    0,
-                ]
-            })
-            .collect();
+        let textures = crate::lightfield::textures::SurfaceTextures::of(scene, prepared);
         TraceScene {
             faces,
             materials,
@@ -128,9 +103,7 @@ impl TraceScene {
             nodes,
             lights,
             light_weight_total: total,
-            texture_info,
-            texels,
-            face_textures,
+            textures,
         }
     }
 }
@@ -168,16 +141,21 @@ impl Tracer {
             ctx.buffer_init(
                 &ledger,
                 "face textures",
-                bytemuck::cast_slice(&t.face_textures),
+                bytemuck::cast_slice(&t.textures.face_textures),
                 STORAGE,
             ),
             ctx.buffer_init(
                 &ledger,
                 "texture info",
-                bytemuck::cast_slice(&t.texture_info),
+                bytemuck::cast_slice(&t.textures.info),
                 STORAGE,
             ),
-            ctx.buffer_init(&ledger, "texels", bytemuck::cast_slice(&t.texels), STORAGE),
+            ctx.buffer_init(
+                &ledger,
+                "texels",
+                bytemuck::cast_slice(&t.textures.texels),
+                STORAGE,
+            ),
             ctx.buffer_init(&ledger, "lights", bytemuck::cast_slice(&t.lights), STORAGE),
         ];
         let sums = ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE);

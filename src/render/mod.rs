@@ -153,7 +153,9 @@ impl Renderer {
     ) -> Result<Renderer> {
         let ctx = resident.ctx.clone();
         let device = &ctx.device;
-        let (mut triangles, mut tree) = ray_casting_mesh(&lf.render_vertices)?;
+        // the texture detail where the light field has it and the device took it
+        let detail = lf.detail.as_ref().filter(|_| resident.detail.is_some());
+        let (mut triangles, mut tree) = ray_casting_mesh(&lf.render_vertices, detail)?;
         // `VLF_EXHAUSTIVE_TRIANGLES` (a test hook) moves the threshold: the tests render one
         // scene both ways and compare
         let threshold = std::env::var("VLF_EXHAUSTIVE_TRIANGLES")
@@ -188,8 +190,13 @@ impl Renderer {
             None => None,
         };
         let stack = tree.depth.next_multiple_of(8).max(16);
-        let (resolve_pipeline, layouts) =
-            resolve_pipeline(&ctx, resident.tiles.is_some(), stack, plan.is_some())?;
+        let (resolve_pipeline, layouts) = resolve_pipeline(
+            &ctx,
+            resident.tiles.is_some(),
+            stack,
+            plan.is_some(),
+            detail.is_some(),
+        )?;
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: std::mem::size_of::<GpuView>() as u64,
@@ -649,15 +656,21 @@ struct ResolveLayouts {
 /// `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The traversal's
 /// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
-/// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0).
+/// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0), and so is
+/// the texture detail's without it (`SURFACE_TEXTURES` 0).
 fn resolve_pipeline(
     ctx: &GpuContext,
     tiles: bool,
     stack: u32,
     moving: bool,
+    textured: bool,
 ) -> Result<(wgpu::ComputePipeline, ResolveLayouts)> {
     let device = &ctx.device;
-    let constants = [("PAIR_STACK", stack), ("MOVING_OBJECTS", u32::from(moving))];
+    let constants = [
+        ("PAIR_STACK", stack),
+        ("MOVING_OBJECTS", u32::from(moving)),
+        ("SURFACE_TEXTURES", u32::from(textured)),
+    ];
     let module = shaders::module_with(device, "render.wgsl", &constants)?;
     let view = reflect::layout(device, "render.wgsl", 0)?;
     let field = crate::lightfield::bindings::layout(device, "render.wgsl")?;
@@ -728,14 +741,16 @@ fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) ->
     )
 }
 
-/// The render mesh (triangles in the light field's normalised space, each with its face) as
-/// ray-casting triangles in BVH order, and the BVH.
+/// The render mesh (triangles in the light field's normalised space, each with its face and,
+/// with texture detail, its texture coordinates) as ray-casting triangles in BVH order, and the
+/// BVH.
 /// Meshes up to this size are ray cast exhaustively (every ray tests every triangle): the same
 /// work for every pixel, and on an H200 cheaper than the BVH for meshes this small.
 pub const EXHAUSTIVE_TRIANGLES: usize = 256;
 
 fn ray_casting_mesh(
     vertices: &[RenderVertex],
+    detail: Option<&crate::lightfield::textures::SurfaceDetail>,
 ) -> Result<(Vec<crate::bvh::GpuTriangle>, crate::bvh::BvhPairs)> {
     let corners: Vec<[Vec3; 3]> = vertices
         .chunks_exact(3)
@@ -751,8 +766,8 @@ fn ray_casting_mesh(
             ),
         });
     }
-    let (nodes, triangles) =
-        crate::bvh::bvh_triangles(&corners, |i| vertices[i * 3].face, |_| [[0.0; 2]; 3]);
+    let uv = |i: usize| detail.map_or([[0.0; 2]; 3], |d| d.corners_uv(i));
+    let (nodes, triangles) = crate::bvh::bvh_triangles(&corners, |i| vertices[i * 3].face, uv);
     // an empty mesh casts no ray through the tree (it is cast exhaustively): one unused pair
     let pairs = crate::bvh::bvh_pairs(&nodes).unwrap_or(crate::bvh::BvhPairs {
         pairs: vec![Default::default()],

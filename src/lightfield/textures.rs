@@ -1,0 +1,231 @@
+//! Surface detail finer than a texel: the scene's diffuse textures at full resolution, read per
+//! pixel when a view is drawn. The atlas holds one radiosity per texel, B = albedo x
+//! texture(texel) x E, so a wallpaper or a parquet floor drawn from it alone is blurred to texel
+//! size. With the detail the renderer shows, at a point x of a textured face,
+//! (B / texture(texel)) x texture(x), per tap of the bilinear lookup: the texel's irradiance times
+//! the material at the point, what a path tracer shows up to the irradiance's own resolution
+//! (`shaders/common/light_field.wgsl`: `atlas_radiance_detailed`; textures sampled by
+//! `shaders/common/textures.wgsl`, which the path tracer uses too).
+//!
+//! A light field keeps the detail only when some face has a diffuse texture (the rest pay
+//! nothing): the textures, which face uses which, each render triangle's texture coordinates and
+//! each atlas texel's texture factor, the value propagation multiplied its radiosity by. Emitting
+//! faces keep their texel radiance (their atlas holds emission too).
+
+use crate::gpu::types::NO_FACE;
+use crate::gpu::{GpuContext, MemoryLedger, STORAGE};
+use crate::prepare::PreparedScene;
+use crate::scene::Scene;
+
+/// The textures as the GPU samples them (`shaders/common/textures.wgsl`): texel arrays back to
+/// back, and per face which of them it uses.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceTextures {
+    /// per texture: (first texel, width, height, 0)
+    pub info: Vec<[u32; 4]>,
+    /// every texture's texels (linear rgb, w = 1), row by row from the image's top
+    pub texels: Vec<[f32; 4]>,
+    /// per face: (diffuse texture, emission texture, 0, 0), NO_FACE for none
+    pub face_textures: Vec<[u32; 4]>,
+}
+
+impl SurfaceTextures {
+    /// The scene's textures and the faces that use them. A face is textured where the light
+    /// field's atlas textures it: only when every one of its triangles has texture coordinates
+    /// (`prepare::atlas`), else it shows its material's colour.
+    pub fn of(scene: &Scene, prepared: &PreparedScene) -> SurfaceTextures {
+        let mut info: Vec<[u32; 4]> = Vec::new();
+        let mut texels: Vec<[f32; 4]> = Vec::new();
+        for t in &scene.textures {
+            info.push([texels.len() as u32, t.width, t.height, 0]);
+            texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
+        }
+        let mut has_uv = vec![true; prepared.faces.len()];
+        for t in &prepared.triangles {
+            has_uv[t.face as usize] &= t.uv.is_some();
+        }
+        let face_textures = (prepared.faces.iter().zip(&has_uv))
+            .map(|(f, &uv)| {
+                let m = &scene.materials[f.material as usize];
+                let texture = |which: Option<u32>| which.filter(|_| uv).unwrap_or(NO_FACE);
+                [
+                    texture(m.diffuse_texture),
+                    texture(m.emission_texture),
+                    0,
+                    0,
+                ]
+            })
+            .collect();
+        SurfaceTextures {
+            info,
+            texels,
+            face_textures,
+        }
+    }
+
+    /// Whether some face has a diffuse texture.
+    pub fn any_diffuse(&self) -> bool {
+        self.face_textures.iter().any(|t| t[0] != NO_FACE)
+    }
+}
+
+/// What a light field keeps to draw textures per pixel (see the module's header).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceDetail {
+    pub textures: SurfaceTextures,
+    /// per render triangle (`LightField::render_vertices`, three at a time): its corners'
+    /// texture coordinates (zero where it has none)
+    pub triangle_uv: Vec<[f32; 6]>,
+    /// per atlas texel: the texture factor propagation multiplied its radiosity by (rgb as half
+    /// floats: r | g << 16, b), 1 on untextured faces
+    pub texel_albedo: Vec<[u32; 2]>,
+}
+
+/// Three floats as half floats, two to a word.
+pub fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
+    let h = |x: f32| half::f16::from_f32(x).to_bits() as u32;
+    [h(c[0]) | (h(c[1]) << 16), h(c[2])]
+}
+
+/// The inverse of `pack_half_rgb` (w = 1).
+pub fn unpack_half_rgb(p: [u32; 2]) -> [f32; 4] {
+    let f = |bits: u32| half::f16::from_bits((bits & 0xffff) as u16).to_f32();
+    [f(p[0]), f(p[0] >> 16), f(p[1]), 1.0]
+}
+
+impl SurfaceDetail {
+    /// The detail of a prepared scene, or None where no face has a diffuse texture.
+    pub fn of(scene: &Scene, prepared: &PreparedScene) -> Option<SurfaceDetail> {
+        let textures = SurfaceTextures::of(scene, prepared);
+        let albedo = prepared.atlas.texture_albedo.as_ref()?;
+        if !textures.any_diffuse() {
+            return None;
+        }
+        let triangle_uv = (prepared.triangles.iter())
+            .filter(|t| !prepared.faces[t.face as usize].is_back)
+            .map(|t| {
+                let uv = t.uv.unwrap_or([[0.0; 2]; 3]);
+                [uv[0][0], uv[0][1], uv[1][0], uv[1][1], uv[2][0], uv[2][1]]
+            })
+            .collect();
+        Some(SurfaceDetail {
+            textures,
+            triangle_uv,
+            texel_albedo: albedo.iter().map(|&a| pack_half_rgb(a)).collect(),
+        })
+    }
+
+    /// Texture coordinates of render triangle `i`'s corners.
+    pub fn corners_uv(&self, i: usize) -> [[f32; 2]; 3] {
+        let t = self.triangle_uv.get(i).copied().unwrap_or([0.0; 6]);
+        [[t[0], t[1]], [t[2], t[3]], [t[4], t[5]]]
+    }
+
+    pub fn bytes(&self) -> u64 {
+        (self.textures.info.len() * 16
+            + self.textures.texels.len() * 16
+            + self.textures.face_textures.len() * 16
+            + self.triangle_uv.len() * 24
+            + self.texel_albedo.len() * 8) as u64
+    }
+
+    /// Upload what the renderer binds (the render triangles carry their texture coordinates
+    /// themselves, `render::Renderer`). None, with the reason, where one array would exceed a
+    /// storage binding of this device: the view is then drawn at texel resolution.
+    pub fn upload(
+        &self,
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+    ) -> std::result::Result<ResidentDetail, String> {
+        let limits = ctx.limits();
+        let max = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        let arrays: [(&str, &[u8]); 4] = [
+            (
+                "texture detail: texel albedo",
+                bytemuck::cast_slice(&self.texel_albedo),
+            ),
+            (
+                "texture detail: face textures",
+                bytemuck::cast_slice(&self.textures.face_textures),
+            ),
+            (
+                "texture detail: texture info",
+                bytemuck::cast_slice(&self.textures.info),
+            ),
+            (
+                "texture detail: texels",
+                bytemuck::cast_slice(&self.textures.texels),
+            ),
+        ];
+        if let Some((name, bytes)) = arrays.iter().find(|(_, b)| b.len() as u64 > max) {
+            return Err(format!(
+                "{name} takes {} MiB, more than one storage binding of this device holds ({} MiB)",
+                bytes.len() >> 20,
+                max >> 20
+            ));
+        }
+        let [albedo, faces, info, texels] =
+            arrays.map(|(name, bytes)| ctx.buffer_init(ledger, name, bytes, STORAGE));
+        Ok(ResidentDetail {
+            texel_albedo: albedo,
+            face_textures: faces,
+            texture_info: info,
+            texels,
+        })
+    }
+
+    /// Check the detail against the light field it belongs to: one texture coordinate record
+    /// per render triangle, one factor per atlas texel, one texture record per face, texel
+    /// ranges inside the texel array.
+    pub fn check(
+        &self,
+        triangles: usize,
+        texels: usize,
+        faces: usize,
+    ) -> std::result::Result<(), String> {
+        let bad = |message: String| Err(message);
+        if self.triangle_uv.len() != triangles {
+            return bad(format!(
+                "texture detail: {} triangle records for {triangles} render triangles",
+                self.triangle_uv.len()
+            ));
+        }
+        if self.texel_albedo.len() != texels {
+            return bad(format!(
+                "texture detail: {} texel factors for {texels} atlas texels",
+                self.texel_albedo.len()
+            ));
+        }
+        if self.textures.face_textures.len() != faces {
+            return bad(format!(
+                "texture detail: {} face records for {faces} faces",
+                self.textures.face_textures.len()
+            ));
+        }
+        let n = self.textures.texels.len() as u64;
+        for (k, i) in self.textures.info.iter().enumerate() {
+            if i[0] as u64 + i[1] as u64 * i[2] as u64 > n || i[1] == 0 || i[2] == 0 {
+                return bad(format!(
+                    "texture detail: texture {k} lies outside its texels"
+                ));
+            }
+        }
+        let textures = self.textures.info.len() as u32;
+        if (self.textures.face_textures.iter().flat_map(|t| &t[..2]))
+            .any(|&t| t != NO_FACE && t >= textures)
+        {
+            return bad("texture detail: a face names a texture that is not there".into());
+        }
+        Ok(())
+    }
+}
+
+/// The detail on the GPU, in the order `shaders/common/light_field.wgsl` binds it.
+pub struct ResidentDetail {
+    pub texel_albedo: wgpu::Buffer,
+    pub face_textures: wgpu::Buffer,
+    pub texture_info: wgpu::Buffer,
+    pub texels: wgpu::Buffer,
+}
