@@ -277,7 +277,7 @@ struct LoopState {
     waiting_since: Instant,
     /// the first drawn frame's predicted display time: keyframed objects' time counts from it
     first_display_ns: Option<i64>,
-    /// frames whose left and right grips the runtime located
+    /// frames drawn whose left and right grips the runtime located
     grips_located: [u32; 2],
     /// the last frame's navigated pose and what its objects followed
     last_tracked: Option<(Pose, Tracked)>,
@@ -754,6 +754,10 @@ impl Headset<'_> {
         if options.fit_frame_time && self.frame.fit().is_none() {
             return self.fit_frame(&frame_state, &views, (&pose, tracked.as_ref()));
         }
+        if let Some(t) = &tracked {
+            st.grips_located[0] += u32::from(t.left_hand.is_some());
+            st.grips_located[1] += u32::from(t.wand.is_some());
+        }
         let timed = options.frames.is_none_or(|n| st.frames < n);
         if timed {
             st.shown.push(FrameClock {
@@ -794,9 +798,6 @@ impl Headset<'_> {
             return Ok(None);
         };
         let hands = grips.locate(&self.setup.space, display_time)?;
-        for (count, hand) in st.grips_located.iter_mut().zip(&hands) {
-            *count += u32::from(hand.is_some());
-        }
         let eye = |v: &xr::View| {
             let XrPose {
                 orientation,
