@@ -472,3 +472,43 @@ fn the_shipped_body_config_puts_the_avatar_and_the_wand_ray_on_the_participant()
     let along = tracked.wand.unwrap().transform_vector3(-glam::Vec3::Z);
     assert!(((end - start).normalize() - along).length() < 1e-5);
 }
+
+/// The shipped headset body (config/headset/body.toml) loads the mannequin and, from a head and
+/// two controllers' grips located in the stage and a navigated room, puts its hands on the grips
+/// in the world (within 1 mm); a grip the runtime does not locate leaves that arm hanging.
+#[test]
+fn the_shipped_headset_body_puts_the_hands_on_the_controllers_grips() {
+    use glam::{Affine3A, Quat, Vec3};
+    use vlf::xr::body::{head_between, stage_pose, tracked, ObjectsFile};
+    let path = repo_path("config/headset/body.toml");
+    let file = ObjectsFile::load(&path).unwrap();
+    let objects = vlf::dynamic::Objects::load(&file.objects, &path).unwrap();
+    assert_eq!(objects.configs().len(), 1);
+    let turn = Quat::from_rotation_y(0.4);
+    let head = head_between([
+        (turn, Vec3::new(0.1, 1.65, 0.2) - turn * Vec3::X * 0.032),
+        (turn, Vec3::new(0.1, 1.65, 0.2) + turn * Vec3::X * 0.032),
+    ]);
+    // the room walked 2 m and turned a quarter: the hands go with it
+    let room = vlf::tracking::Pose::new(Vec3::ZERO, Vec3::new(2.0, 0.0, -1.0), 90.0);
+    let left = stage_pose(Quat::from_rotation_x(0.5), Vec3::new(-0.25, 1.3, -0.1));
+    let right = stage_pose(Quat::from_rotation_z(0.3), Vec3::new(0.2, 1.2, -0.2));
+    let world = |a: Affine3A| {
+        Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(std::f32::consts::FRAC_PI_2),
+            room.room_position,
+        ) * a
+    };
+    let both = tracked(&room, head, [Some(left), Some(right)], 0.0);
+    let [l, r] = objects.avatar_hands(&both).unwrap();
+    assert!(l.distance(world(left).translation.into()) < 1e-3, "{l}");
+    assert!(r.distance(world(right).translation.into()) < 1e-3, "{r}");
+    let one = tracked(&room, head, [None, Some(right)], 0.0);
+    let [hanging, r] = objects.avatar_hands(&one).unwrap();
+    assert!(r.distance(world(right).translation.into()) < 1e-3, "{r}");
+    let eyes: Vec3 = world(head).translation.into();
+    assert!(
+        eyes.y - hanging.y > 0.6,
+        "the untracked hand at {hanging}, the eyes at {eyes}"
+    );
+}

@@ -890,3 +890,281 @@ fn a_runtime_refusing_array_swapchains_gets_one_per_eye_and_the_report_says_why(
         insist.stderr
     );
 }
+
+/// The shipped headset body (config/headset/body.toml).
+fn headset_body() -> String {
+    concat!(env!("CARGO_MANIFEST_DIR"), "/config/headset/body.toml").to_string()
+}
+
+/// The scripted grips (stage metres, and yaw, pitch, roll in degrees): both hands reach forward
+/// and down into the left eye's view.
+const LEFT_GRIP: ([f32; 3], [f32; 3]) = ([-0.2, 1.4, -0.4], [0.0, 30.0, 0.0]);
+const RIGHT_GRIP: ([f32; 3], [f32; 3]) = ([0.15, 1.35, -0.35], [-20.0, 10.0, 5.0]);
+
+fn grip_env((p, a): ([f32; 3], [f32; 3])) -> String {
+    format!("{},{},{},{},{},{}", p[0], p[1], p[2], a[0], a[1], a[2])
+}
+
+/// A scripted grip as the runtime reports it in the stage.
+fn stage_grip((p, a): ([f32; 3], [f32; 3])) -> glam::Affine3A {
+    let rotation = glam::Quat::from_rotation_y(a[0].to_radians())
+        * glam::Quat::from_rotation_x(a[1].to_radians())
+        * glam::Quat::from_rotation_z(a[2].to_radians());
+    glam::Affine3A::from_rotation_translation(rotation, Vec3::from(p))
+}
+
+fn vec3(v: &serde_json::Value) -> Vec3 {
+    let f = |i: usize| v[i].as_f64().unwrap_or(f64::NAN) as f32;
+    Vec3::new(f(0), f(1), f(2))
+}
+
+fn world_pose(v: &serde_json::Value) -> Option<glam::Affine3A> {
+    let p = &v["position"];
+    let o = &v["orientation"];
+    (!v.is_null()).then(|| {
+        let q = glam::Quat::from_xyzw(
+            o[0].as_f64().unwrap() as f32,
+            o[1].as_f64().unwrap() as f32,
+            o[2].as_f64().unwrap() as f32,
+            o[3].as_f64().unwrap() as f32,
+        );
+        glam::Affine3A::from_rotation_translation(q, vec3(p))
+    })
+}
+
+/// The body's last frame as the report gives it: the world from the stage, the head, the grips
+/// and the avatar's hands; each grip checked against the scripted one moved into the world.
+fn body_of(s: &Session, grips: [Option<([f32; 3], [f32; 3])>; 2]) -> serde_json::Value {
+    let body = s.report["body"].clone();
+    let frames = s.report["frames"].as_u64().unwrap();
+    assert_eq!(body["objects"], serde_json::json!(["body"]), "{body}");
+    let last = body["last"].clone();
+    let world = glam::Affine3A::from_rotation_translation(
+        glam::Quat::from_rotation_y((last["room_yaw_deg"].as_f64().unwrap() as f32).to_radians()),
+        vec3(&last["room_position"]),
+    );
+    // the still head: between the eyes at 1.6 m, looking along the stage's -z
+    let head = world_pose(&last["head"]).unwrap();
+    let expected = world * glam::Affine3A::from_translation(Vec3::new(0.0, 1.6, 0.0));
+    assert!(head.abs_diff_eq(expected, 1e-4), "{head:?} {expected:?}");
+    for (side, grip) in ["left", "right"].iter().zip(grips) {
+        let located = body[format!("frames_with_{side}_grip")].as_u64().unwrap();
+        let reported = world_pose(&last[format!("{side}_grip")]);
+        match grip {
+            Some(g) => {
+                assert_eq!(located, frames, "{side}: {body}");
+                let reported = reported.expect("a located grip in the report");
+                let expected = world * stage_grip(g);
+                assert!(
+                    reported.abs_diff_eq(expected, 1e-4),
+                    "{side} grip {reported:?}, scripted {expected:?}"
+                );
+            }
+            None => assert!(located == 0 && reported.is_none(), "{side}: {body}"),
+        }
+    }
+    last
+}
+
+/// The avatar's hand joints from the same head and grips, posed here on the CPU by the shipped
+/// avatar; the report's hands must agree within 1 mm.
+fn check_hands_against_the_rig(last: &serde_json::Value) -> [Vec3; 2] {
+    let avatar = vlf::dynamic::avatar::Avatar::load(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/avatar/mannequin.glb"),
+    )
+    .unwrap();
+    let head = world_pose(&last["head"]).unwrap();
+    let (left, right) = (
+        world_pose(&last["left_grip"]),
+        world_pose(&last["right_grip"]),
+    );
+    let joints = avatar.pose_joints(head, left, right);
+    let hands = [
+        vlf::dynamic::avatar::Role::HandLeft,
+        vlf::dynamic::avatar::Role::HandRight,
+    ]
+    .map(|r| Vec3::from(joints[avatar.joint(r).unwrap()].translation));
+    let reported = [
+        vec3(&last["avatar_hands"][0]),
+        vec3(&last["avatar_hands"][1]),
+    ];
+    for (cpu, drawn) in hands.iter().zip(&reported) {
+        assert!(
+            cpu.distance(*drawn) < 1e-3,
+            "posed here {cpu}, drawn {drawn}"
+        );
+    }
+    reported
+}
+
+/// Where a stage point falls in the still head's left eye image, in pixels.
+fn in_left_eye(point: Vec3, [width, height]: [u32; 2]) -> (i32, i32) {
+    let fov = Fov {
+        angle_left: -0.942,
+        angle_right: 0.698,
+        angle_up: 0.768,
+        angle_down: -0.855,
+    };
+    let eye = XrPose {
+        orientation: [0.0, 0.0, 0.0, 1.0],
+        position: [-0.032, 1.6, 0.0],
+    };
+    let clip = projection_from_fov(fov, 0.05, 100.0) * view_from_pose(eye) * point.extend(1.0);
+    let ndc = clip.truncate() / clip.w;
+    (
+        ((ndc.x + 1.0) * 0.5 * width as f32) as i32,
+        ((1.0 - ndc.y) * 0.5 * height as f32) as i32,
+    )
+}
+
+#[test]
+fn the_headset_draws_the_body_with_its_hands_on_the_controllers_grips() {
+    let (left, right) = (grip_env(LEFT_GRIP), grip_env(RIGHT_GRIP));
+    let grips = [
+        ("VLF_TEST_XR_LEFT_GRIP", left.as_str()),
+        ("VLF_TEST_XR_RIGHT_GRIP", right.as_str()),
+    ];
+    let body = headset_body();
+    let with = still_session("body", &["--objects", &body], &grips);
+    let without = still_session("no-body", &[], &grips);
+    assert!(without.report.get("body").is_none(), "{}", without.report);
+    assert!(
+        with.stdout
+            .contains("objects: body; left grip located in 6 frames, right grip in 6 of 6"),
+        "{}",
+        with.stdout
+    );
+    let last = body_of(&with, [Some(LEFT_GRIP), Some(RIGHT_GRIP)]);
+    let hands = check_hands_against_the_rig(&last);
+    // both grips are within the arms' reach: the hands are on them
+    for (hand, grip) in hands.iter().zip(["left_grip", "right_grip"]) {
+        let at = world_pose(&last[grip]).unwrap().translation;
+        assert!(
+            hand.distance(at.into()) < 1e-3,
+            "{grip}: hand at {hand}, grip at {at}"
+        );
+    }
+    // the picture: where each hand is, the body is drawn; above the eyes' height (the arms are
+    // all below it, and they shadow nothing the eye sees there) the picture is the same
+    let (a, b) = (with.screenshot.unwrap(), without.screenshot.unwrap());
+    let size = [a.width(), a.height()];
+    let differs = |x: i32, y: i32| {
+        let (p, q) = (
+            a.get_pixel(x as u32, y as u32),
+            b.get_pixel(x as u32, y as u32),
+        );
+        (0..3).map(|c| p[c].abs_diff(q[c])).max().unwrap_or(0)
+    };
+    for g in [LEFT_GRIP, RIGHT_GRIP] {
+        let (x, y) = in_left_eye(Vec3::from(g.0), size);
+        let near: Vec<u8> = (-3..=3)
+            .flat_map(|dy| (-3..=3).map(move |dx| (x + dx, y + dy)))
+            .map(|(x, y)| differs(x, y))
+            .collect();
+        let changed = near.iter().filter(|&&d| d > 24).count();
+        println!(
+            "grip {:?} at pixel ({x}, {y}): {changed} of 49 pixels around it changed",
+            g.0
+        );
+        assert!(
+            changed >= 40,
+            "the hand at {:?} is not drawn at ({x}, {y})",
+            g.0
+        );
+    }
+    let (_, horizon) = in_left_eye(Vec3::new(0.0, 1.6, -1.0), size);
+    let above = (0..horizon - 2)
+        .flat_map(|y| (0..size[0] as i32).map(move |x| (x, y)))
+        .map(|(x, y)| differs(x, y))
+        .max()
+        .unwrap_or(0);
+    let below = (horizon..size[1] as i32)
+        .flat_map(|y| (0..size[0] as i32).map(move |x| (x, y)))
+        .filter(|&(x, y)| differs(x, y) > 24)
+        .count();
+    println!("above the eyes' height (rows 0..{}) the largest difference is {above}; below, {below} pixels changed", horizon - 2);
+    assert_eq!(
+        above, 0,
+        "the body changed the picture above the eyes' height"
+    );
+    assert!(below > 500, "{below} pixels of the arms");
+}
+
+#[test]
+fn an_untracked_controllers_arm_hangs() {
+    let right = grip_env(RIGHT_GRIP);
+    let body = headset_body();
+    let s = still_session(
+        "body-one-hand",
+        &["--objects", &body],
+        &[("VLF_TEST_XR_RIGHT_GRIP", right.as_str())],
+    );
+    let last = body_of(&s, [None, Some(RIGHT_GRIP)]);
+    let [left, right] = check_hands_against_the_rig(&last);
+    let head = world_pose(&last["head"]).unwrap().translation;
+    let right_grip = world_pose(&last["right_grip"]).unwrap().translation;
+    assert!(right.distance(right_grip.into()) < 1e-3);
+    // the left hand hangs: beside the body, well below the shoulders, not ahead of it
+    let below_eyes = head.y - left.y;
+    println!(
+        "the hanging left hand: {below_eyes} m below the eyes, {} m to the left",
+        head.x - left.x
+    );
+    assert!(below_eyes > 0.6, "{left} under a head at {head}");
+    assert!(
+        head.x - left.x > 0.1 && (left.z - head.z).abs() < 0.2,
+        "{left}"
+    );
+}
+
+#[test]
+fn a_bad_key_in_the_objects_file_is_named_before_any_runtime_starts() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-bad-objects");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("body.toml");
+    let text = std::fs::read_to_string(headset_body()).unwrap().replace(
+        "../../assets",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/assets"),
+    );
+    for (bad, needle) in [
+        (text.replace("scale = 1.0", "scael = 1.0"), "scael"),
+        (
+            text.replace("shadow_samples = 4", "shadow_samples = 4\nprobe_rays = 100"),
+            "probe_rays = 100",
+        ),
+        (
+            text.replace(
+                "kind = \"avatar\"",
+                "kind = \"avatar\"\nfollow = \"left_foot\"",
+            ),
+            "left_foot",
+        ),
+    ] {
+        std::fs::write(&path, bad).unwrap();
+        // no loader: the file is read first
+        let (ok, err) = {
+            let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
+                .args(["xr", "--scene"])
+                .arg(cornell())
+                .arg("--objects")
+                .arg(&path)
+                .env("VLF_OPENXR_LOADER", "/nonexistent/libopenxr_loader.so.1")
+                .output()
+                .unwrap();
+            (
+                out.status.success(),
+                String::from_utf8_lossy(&out.stderr).into_owned(),
+            )
+        };
+        println!("{err}");
+        assert!(!ok && !err.contains("panicked"), "{err}");
+        assert!(
+            err.contains("body.toml") && err.contains(needle),
+            "{needle} not named: {err}"
+        );
+        assert!(
+            !err.contains("OpenXR loader"),
+            "the runtime was tried first: {err}"
+        );
+    }
+}

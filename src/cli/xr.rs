@@ -44,6 +44,11 @@ pub struct XrArgs {
     /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
     #[arg(long, value_enum, default_value = "auto")]
     swapchains: vlf::xr::Swapchains,
+    /// Moving objects that follow the headset and controllers: a TOML with a display config's
+    /// [[object]] and [object_lighting] tables (e.g. config/headset/body.toml: the participant's
+    /// body, its hands on the controllers' grips)
+    #[arg(long)]
+    objects: Option<PathBuf>,
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -64,6 +69,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         aa,
         fit_frame_time,
         swapchains,
+        objects,
         json,
         params,
     } = a;
@@ -77,6 +83,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         antialiasing: aa,
         fit_frame_time,
         swapchains,
+        objects,
     };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {

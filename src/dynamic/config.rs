@@ -16,7 +16,8 @@ pub struct ObjectConfig {
     pub mesh: PathBuf,
     #[serde(default)]
     pub kind: ObjectKind,
-    /// what moves it; an avatar always follows the head (and the wand as its right hand)
+    /// what moves it; an avatar always follows the head (the wand as its right hand, the
+    /// tracked left hand as its left)
     #[serde(default)]
     pub follow: Follow,
     /// where it sits relative to what it follows (metres; for `world`, in the world)
@@ -68,8 +69,11 @@ pub enum Follow {
     World,
     /// the tracked head (a helmet, a head-mounted lamp)
     Head,
-    /// the tracked wand (a prop in the hand)
+    /// the tracked wand (a prop in the hand); in the headset, the right controller's grip
     Wand,
+    /// the tracked left hand: in the headset, the left controller's grip
+    #[serde(rename = "left_hand")]
+    LeftHand,
 }
 
 /// A placement at time `t` seconds: position (metres) and yaw, pitch, roll (degrees, as the

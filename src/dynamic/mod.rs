@@ -28,8 +28,12 @@ pub struct Tracked {
     pub time: f64,
     /// world from head: the point between the eyes' tracked frame (looks along -z)
     pub head: Affine3A,
-    /// world from wand (points along -z), where one is tracked
+    /// world from wand (points along -z), where one is tracked: the right hand (the headset's
+    /// right controller's grip)
     pub wand: Option<Affine3A>,
+    /// world from the left hand (the headset's left controller's grip: -z along the hand, as the
+    /// wand), where one is tracked
+    pub left_hand: Option<Affine3A>,
 }
 
 impl Tracked {
@@ -43,7 +47,12 @@ impl Tracked {
         let wand = wand.map(|w| {
             Affine3A::from_rotation_translation(room * w.rotation, pose.room_to_world(w.position))
         });
-        Tracked { time, head, wand }
+        Tracked {
+            time,
+            head,
+            wand,
+            left_hand: None,
+        }
     }
 }
 
@@ -117,6 +126,23 @@ impl Objects {
         &self.configs
     }
 
+    /// The avatar's left and right hand joints in the world as `tracked` poses them (its
+    /// `scale` included), where an avatar is configured and shown.
+    pub fn avatar_hands(&self, tracked: &Tracked) -> Option<[Vec3; 2]> {
+        let body = self.avatar.as_ref()?;
+        let i = (self.configs.iter()).position(|o| o.kind == ObjectKind::Avatar)?;
+        if !self.visible[i] {
+            return None;
+        }
+        let matrices = self.joint_matrices(tracked);
+        let joints = body.joint_positions(&matrices[self.first_joint[i] as usize..]);
+        let hand = |role| body.joint(role).map(|j| joints[j]);
+        Some([
+            hand(avatar::Role::HandLeft)?,
+            hand(avatar::Role::HandRight)?,
+        ])
+    }
+
     /// Show or hide the object called `name`; an error lists the names there are.
     pub fn set_visible(&mut self, name: &str, visible: bool) -> std::result::Result<(), String> {
         match self.configs.iter().position(|o| o.name == name) {
@@ -158,7 +184,7 @@ impl Objects {
                         let about_head = Mat4::from_translation(head)
                             * Mat4::from_scale(Vec3::splat(o.scale))
                             * Mat4::from_translation(-head);
-                        let pose = body.pose(tracked.head, None, tracked.wand);
+                        let pose = body.pose(tracked.head, tracked.left_hand, tracked.wand);
                         for (slot, m) in matrices[first..].iter_mut().zip(pose) {
                             *slot = about_head * m;
                         }
@@ -176,8 +202,9 @@ pub fn rigid_placement(o: &ObjectConfig, tracked: &Tracked) -> Affine3A {
         Follow::World if o.keyframes.is_empty() => Affine3A::IDENTITY,
         Follow::World => motion::keyframed(&o.keyframes, tracked.time, o.repeat),
         Follow::Head => tracked.head,
-        // no wand tracked this frame: the prop waits at the head
+        // no hand tracked this frame: the prop waits at the head
         Follow::Wand => tracked.wand.unwrap_or(tracked.head),
+        Follow::LeftHand => tracked.left_hand.unwrap_or(tracked.head),
     };
     let local = Affine3A::from_scale_rotation_translation(
         Vec3::splat(o.scale),

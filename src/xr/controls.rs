@@ -1,9 +1,12 @@
 //! Thumbstick navigation in the headset: an action set bound to the controllers the runtime
-//! knows (Touch, Index, Windows Mixed Reality, Vive), read every frame into the navigator.
+//! knows (Touch, Index, Windows Mixed Reality, Vive), read every frame into the navigator; and
+//! the controllers' grip poses (those and the Khronos simple controller), located every frame
+//! for the body's hands (`body.rs`).
 
 use super::xr_error;
 use crate::error::Result;
 use crate::tracking::navigator::Navigator;
+use glam::{Affine3A, Quat, Vec3};
 use openxr as xr;
 
 /// Thumbstick navigation: left stick walks and strafes, right stick turns (x) and rises or
@@ -14,6 +17,8 @@ pub(super) struct Controls {
     turn: xr::Action<xr::Vector2f>,
     reset: xr::Action<bool>,
     fly: xr::Action<bool>,
+    /// the left and right controllers' grip poses
+    grips: [xr::Action<xr::Posef>; 2],
     pub(super) profiles: Vec<String>,
     /// the buttons last frame: a press acts once
     reset_was_down: bool,
@@ -37,6 +42,10 @@ pub(super) fn controls(instance: &xr::Instance) -> Result<Controls> {
     let fly = set
         .create_action::<bool>("fly", "Toggle flying", &[])
         .map_err(&err)?;
+    let grips = [("left", "Left hand"), ("right", "Right hand")]
+        .map(|(side, label)| set.create_action::<xr::Posef>(&format!("{side}_grip"), label, &[]));
+    let [left_grip, right_grip] = grips;
+    let grips = [left_grip.map_err(&err)?, right_grip.map_err(&err)?];
     let path = |p: &str| instance.string_to_path(p).map_err(xr_error("path"));
     // (profile, walk, turn, reset, fly): thumbsticks where the controller has them, the
     // trackpad on Vive wands
@@ -71,16 +80,27 @@ pub(super) fn controls(instance: &xr::Instance) -> Result<Controls> {
         ),
     ];
     let mut profiles = Vec::new();
-    for (profile, walk_input, turn_input, reset_input, fly_input) in suggestions {
-        let bindings = [
-            xr::Binding::new(&walk, path(&format!("/user/hand/left/input/{walk_input}"))?),
-            xr::Binding::new(
-                &turn,
-                path(&format!("/user/hand/right/input/{turn_input}"))?,
-            ),
-            xr::Binding::new(&reset, path(reset_input)?),
-            xr::Binding::new(&fly, path(fly_input)?),
+    let navigation = suggestions
+        .map(|(profile, walk, turn, reset, fly)| (profile, Some((walk, turn, reset, fly))));
+    // the simple controller has no stick: its grips only
+    let simple = ("/interaction_profiles/khr/simple_controller", None);
+    for (profile, sticks) in navigation.into_iter().chain([simple]) {
+        // a profile's suggestions replace its earlier ones: the grips go with the sticks
+        let mut bindings = vec![
+            xr::Binding::new(&grips[0], path("/user/hand/left/input/grip/pose")?),
+            xr::Binding::new(&grips[1], path("/user/hand/right/input/grip/pose")?),
         ];
+        if let Some((walk_input, turn_input, reset_input, fly_input)) = sticks {
+            bindings.extend([
+                xr::Binding::new(&walk, path(&format!("/user/hand/left/input/{walk_input}"))?),
+                xr::Binding::new(
+                    &turn,
+                    path(&format!("/user/hand/right/input/{turn_input}"))?,
+                ),
+                xr::Binding::new(&reset, path(reset_input)?),
+                xr::Binding::new(&fly, path(fly_input)?),
+            ]);
+        }
         // a runtime that does not know a profile refuses it; the others still work
         match instance.suggest_interaction_profile_bindings(path(profile)?, &bindings) {
             Ok(()) => profiles.push(
@@ -102,13 +122,54 @@ pub(super) fn controls(instance: &xr::Instance) -> Result<Controls> {
         turn,
         reset,
         fly,
+        grips,
         profiles,
         reset_was_down: false,
         fly_was_down: false,
     })
 }
 
+/// The controllers' grip spaces, for locating the hands in the reference space each frame.
+pub(super) struct Grips {
+    spaces: [xr::Space; 2],
+}
+
+impl Grips {
+    /// The left and right grips in `base` at `time`, each None where the runtime does not know
+    /// both its position and its orientation (an untracked hand hangs: `dynamic::avatar`).
+    pub(super) fn locate(&self, base: &xr::Space, time: xr::Time) -> Result<[Option<Affine3A>; 2]> {
+        let mut hands = [None; 2];
+        for (hand, space) in hands.iter_mut().zip(&self.spaces) {
+            let location = space
+                .locate(base, time)
+                .map_err(xr_error("xrLocateSpace"))?;
+            let valid =
+                xr::SpaceLocationFlags::POSITION_VALID | xr::SpaceLocationFlags::ORIENTATION_VALID;
+            if location.location_flags.contains(valid) {
+                let (o, p) = (location.pose.orientation, location.pose.position);
+                let rotation = Quat::from_xyzw(o.x, o.y, o.z, o.w);
+                if rotation.is_finite() && rotation.length() > 1e-3 {
+                    *hand = Some(super::body::stage_pose(rotation, Vec3::new(p.x, p.y, p.z)));
+                }
+            }
+        }
+        Ok(hands)
+    }
+}
+
 impl Controls {
+    /// The grips' spaces in `session` (after the action set is attached).
+    pub(super) fn grip_spaces(&self, session: &xr::Session<xr::Vulkan>) -> Result<Grips> {
+        let space = |action: &xr::Action<xr::Posef>| {
+            action
+                .create_space(session.clone(), xr::Path::NULL, xr::Posef::IDENTITY)
+                .map_err(xr_error("xrCreateActionSpace"))
+        };
+        Ok(Grips {
+            spaces: [space(&self.grips[0])?, space(&self.grips[1])?],
+        })
+    }
+
     /// This frame's sticks as the navigator's axes [strafe right, back, turn right, sink]; a
     /// press of reset or fly acts on `navigator` once.
     pub(super) fn read(

@@ -3,8 +3,10 @@
 //! XR_KHR_vulkan_enable2 and a head-mounted system (or says what is missing and how to install
 //! and select a runtime), and holds the view math: OpenXR's asymmetric field of view to a
 //! projection, OpenXR poses to the renderer's views. `vulkan` builds wgpu on the Vulkan
-//! instance and device the runtime creates; `session` runs the frame loop.
+//! instance and device the runtime creates; `session` runs the frame loop; `body` is the moving
+//! objects' file and what they follow (the head and the controllers' grips).
 
+pub mod body;
 mod controls;
 mod eye_pass;
 mod eyes;
@@ -47,6 +49,8 @@ pub struct XrOptions {
     pub fit_frame_time: bool,
     /// one array swapchain for both eyes, or one per eye
     pub swapchains: Swapchains,
+    /// a file of moving objects (`body::ObjectsFile`): the participant's body, props in the hands
+    pub objects: Option<std::path::PathBuf>,
 }
 
 fn xr_error(what: &str) -> impl Fn(openxr::sys::Result) -> VlfError + '_ {
@@ -223,14 +227,29 @@ pub fn find_runtime(
     Ok((instance, system, runtime))
 }
 
-/// `vlf xr`: the loader and runtime are checked before the light field is made (so a machine
-/// without a headset learns it at once), then the light field is made on the runtime's device
-/// by `make_light_field` and the session runs until the runtime ends it.
+/// `vlf xr`: the objects (`--objects`), the loader and the runtime are checked before the light
+/// field is made (so a machine without a headset learns it at once), then the light field is
+/// made on the runtime's device by `make_light_field` and the session runs until the runtime
+/// ends it.
 pub fn run_headset(
     make_light_field: &mut MakeLightField<'_>,
     options: &XrOptions,
 ) -> Result<XrReport> {
+    // the objects' file and meshes first: a mistake in them is found before any runtime starts
+    let objects = match &options.objects {
+        Some(path) => {
+            let file = body::ObjectsFile::load(path)?;
+            let objects = crate::dynamic::Objects::load(&file.objects, path)?;
+            Some((objects, file.object_lighting.unwrap_or_default()))
+        }
+        None => None,
+    };
     let entry = load_loader()?;
     let (instance, system, runtime) = find_runtime(&entry)?;
-    session::run(instance, system, runtime, make_light_field, options)
+    session::run(
+        (instance, system, runtime),
+        make_light_field,
+        objects,
+        options,
+    )
 }

@@ -25,6 +25,9 @@ pub struct XrReport {
     /// the depth layer in words, or why the runtime got none
     pub depth: String,
     pub interaction_profiles: Vec<String>,
+    /// with `--objects`: the hands tracked and the last frame's body (`body::BodyReport`)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub body: Option<super::body::BodyReport>,
     /// frames rendered and submitted
     pub frames: u32,
     /// frames the runtime said not to render (should_render false)
@@ -104,6 +107,15 @@ impl XrReport {
             self.frames, self.frames_skipped, self.missed_frames, self.display_period_ms, self.prediction_gaps
         ));
         s.push_str(&format!("eyes drawn with {}\n", self.quality));
+        if let Some(b) = &self.body {
+            s.push_str(&format!(
+                "objects: {}; left grip located in {} frames, right grip in {} of {}\n",
+                b.objects.join(", "),
+                b.frames_with_left_grip,
+                b.frames_with_right_grip,
+                self.frames
+            ));
+        }
         if let Some(fit) = &self.fit {
             s += &format!("{}\n", fit.summary());
         }

@@ -8,7 +8,8 @@
 //! pixel) into an offscreen image and depth from the runtime's eye poses (`eye_view`), and both
 //! put on the swapchain images by `layers` in the frame's last encoder.
 
-use super::controls::{controls, Controls};
+use super::body::{self, BodyFrame, BodyReport};
+use super::controls::{controls, Controls, Grips};
 use super::eyes::{copy_to_buffer, write_screenshot};
 use super::layers::Layers;
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
@@ -16,9 +17,11 @@ use super::{eye_view, xr_error, Fov, XrOptions, XrPose, XrRuntime, VIEW_TYPE};
 use crate::display::frame::{frame_limits, FrameOfViews, Limit, Poses, ViewLabel};
 use crate::display::post::Draw;
 use crate::display::present::present_pass;
+use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
-use crate::render::Renderer;
+use crate::render::probes::ObjectLighting;
+use crate::render::{ObjectsToDraw, Renderer};
 use crate::tracking::navigator::Navigator;
 use crate::tracking::source::Pose;
 use glam::{Quat, Vec3};
@@ -125,12 +128,12 @@ fn setup(
 const FRAMES_IN_FLIGHT: usize = 2;
 
 /// Run the session until the runtime ends it (or `options.frames` have been shown). The light
-/// field is made on the runtime's device by `make_light_field`.
+/// field is made on the runtime's device by `make_light_field`; the moving `objects` (with how
+/// they are lit), where given, follow the head and the controllers.
 pub fn run(
-    instance: xr::Instance,
-    system: xr::SystemId,
-    runtime: XrRuntime,
+    (instance, system, runtime): (xr::Instance, xr::SystemId, XrRuntime),
     make_light_field: &mut super::MakeLightField<'_>,
+    objects: Option<(Objects, ObjectLighting)>,
     options: &XrOptions,
 ) -> Result<XrReport> {
     let vulkan = super::vulkan::create(&instance, system)?;
@@ -141,7 +144,11 @@ pub fn run(
     );
     let (lf, resident) = make_light_field(&ctx)?;
     let camera = lf.camera(options.camera.as_deref())?.clone();
-    let mut renderer = Renderer::new(&resident, &lf, &MemoryLedger::default())?;
+    let to_draw = objects.as_ref().map(|(o, lighting)| ObjectsToDraw {
+        mesh: o.mesh(),
+        lighting: *lighting,
+    });
+    let mut renderer = Renderer::with_objects(&resident, &lf, &MemoryLedger::default(), to_draw)?;
     renderer.set_samples_per_pixel(options.antialiasing)?;
     let controls = controls(&instance)?;
 
@@ -153,6 +160,11 @@ pub fn run(
     session
         .attach_action_sets(&[&controls.set])
         .map_err(xr_error("xrAttachSessionActionSets"))?;
+    // the hands are located only for objects to follow
+    let grips = match objects {
+        Some(_) => Some(controls.grip_spaces(&session)?),
+        None => None,
+    };
     let setup = setup(&instance, system, &session, &runtime)?;
     let eyes = super::eyes::create((&instance, system), &renderer, options)?;
     let layers = Layers::create(
@@ -180,7 +192,8 @@ pub fn run(
             (label, e.targets)
         })
         .collect();
-    let frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT);
+    let objects = objects.map(|(o, _)| o);
+    let frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT, objects);
 
     let mut headset = Headset {
         instance: &instance,
@@ -192,6 +205,7 @@ pub fn run(
         frame,
         layers,
         controls,
+        grips,
         camera: &camera,
         lf: &lf,
         runtime: &runtime,
@@ -205,12 +219,13 @@ pub fn run(
         frame,
         layers,
         controls,
+        grips,
         frame_stream,
         frame_waiter,
         ..
     } = headset;
     drop(layers);
-    drop((controls, frame_stream, frame_waiter));
+    drop((grips, controls, frame_stream, frame_waiter));
     drop(setup);
     drop(session);
     // the renderer and the eyes' images it drew into
@@ -234,6 +249,8 @@ struct Headset<'a> {
     /// the swapchains the eyes go on
     layers: Layers,
     controls: Controls,
+    /// the controllers' grip spaces, where objects follow the hands
+    grips: Option<Grips>,
     camera: &'a crate::scene::Camera,
     lf: &'a crate::lightfield::LightField,
     runtime: &'a XrRuntime,
@@ -258,6 +275,12 @@ struct LoopState {
     screenshot_written: Option<String>,
     screenshot_writer: Option<std::thread::JoinHandle<Result<()>>>,
     waiting_since: Instant,
+    /// the first drawn frame's predicted display time: keyframed objects' time counts from it
+    first_display_ns: Option<i64>,
+    /// frames drawn whose left and right grips the runtime located
+    grips_located: [u32; 2],
+    /// the last frame's navigated pose and what its objects followed
+    last_tracked: Option<(Pose, Tracked)>,
 }
 
 /// What the display showed of the timed frames (`display_account`).
@@ -383,6 +406,9 @@ impl LoopState {
             screenshot_written: None,
             screenshot_writer: None,
             waiting_since: Instant::now(),
+            first_display_ns: None,
+            grips_located: [0; 2],
+            last_tracked: None,
         }
     }
 
@@ -511,6 +537,7 @@ impl LoopState {
             depth_submitted: headset.layers.depth_format.is_ok(),
             depth: headset.layers.depth_text(DEPTH_RANGE),
             interaction_profiles: headset.controls.profiles.clone(),
+            body: self.body_report(headset),
             frames: self.frames,
             frames_skipped: self.skipped,
             missed_frames: display.account.missed,
@@ -537,6 +564,30 @@ impl LoopState {
             ended,
             lost: self.lost,
             screenshot: self.screenshot_written,
+        })
+    }
+}
+
+impl LoopState {
+    /// With objects: how often the hands were tracked, and where the last frame put the head,
+    /// the grips and the avatar's hands.
+    fn body_report(&self, headset: &Headset) -> Option<BodyReport> {
+        let objects = headset.frame.objects()?;
+        let last = self.last_tracked.as_ref().map(|(pose, tracked)| BodyFrame {
+            room_position: pose.room_position.to_array(),
+            room_yaw_deg: pose.room_yaw_deg,
+            head: tracked.head.into(),
+            left_grip: tracked.left_hand.map(Into::into),
+            right_grip: tracked.wand.map(Into::into),
+            avatar_hands: objects
+                .avatar_hands(tracked)
+                .map(|hands| hands.map(|h| h.to_array())),
+        });
+        Some(BodyReport {
+            objects: (objects.configs().iter()).map(|o| o.name.clone()).collect(),
+            frames_with_left_grip: self.grips_located[0],
+            frames_with_right_grip: self.grips_located[1],
+            last,
         })
     }
 }
@@ -644,11 +695,15 @@ impl Headset<'_> {
         &mut self,
         frame_state: &xr::FrameState,
         views: &[xr::View],
-        pose: &Pose,
+        (pose, tracked): (&Pose, Option<&Tracked>),
     ) -> Result<()> {
-        let eyes = self.eye_matrices(views, pose);
+        let matrices = self.eye_matrices(views, pose);
         let period_ms = frame_state.predicted_display_period.as_nanos() as f64 * 1e-6;
-        (self.frame).fit_frame_time(Poses::Matrices(&eyes), period_ms)?;
+        let eyes = Poses::Eyes {
+            matrices: &matrices,
+            tracked,
+        };
+        (self.frame).fit_frame_time(eyes, period_ms)?;
         self.frame_stream
             .end(frame_state.predicted_display_time, self.setup.blend, &[])
             .map_err(xr_error("xrEndFrame"))
@@ -695,8 +750,13 @@ impl Headset<'_> {
         let navigation = crate::tracking::Navigation::default();
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
         let pose = st.navigator.apply(base);
+        let tracked = self.track_body(st, &views, &pose, frame_state.predicted_display_time)?;
         if options.fit_frame_time && self.frame.fit().is_none() {
-            return self.fit_frame(&frame_state, &views, &pose);
+            return self.fit_frame(&frame_state, &views, (&pose, tracked.as_ref()));
+        }
+        if let Some(t) = &tracked {
+            st.grips_located[0] += u32::from(t.left_hand.is_some());
+            st.grips_located[1] += u32::from(t.wand.is_some());
         }
         let timed = options.frames.is_none_or(|n| st.frames < n);
         if timed {
@@ -711,7 +771,8 @@ impl Headset<'_> {
         // read (their times to the pacer and the report)
         self.frame.begin(timed)?;
         let capture = options.screenshot.is_some() && st.frames + 1 == options.screenshot_frame;
-        let readback = self.draw_eyes(st, &views, &pose, (timed, capture))?;
+        let poses = (&pose, tracked.as_ref());
+        let readback = self.draw_eyes(st, &views, poses, (timed, capture))?;
         let fixed = (&frame_state, self.setup.blend, &self.setup.space);
         (self.layers).end_frame(&mut self.frame_stream, fixed, &views, DEPTH_RANGE)?;
         self.ctx.check_errors()?;
@@ -721,6 +782,36 @@ impl Headset<'_> {
             self.write_screenshot(st, &buffer, padded_row, path)?;
         }
         Ok(())
+    }
+
+    /// With objects: what they follow at this frame's display time (the head between the eyes,
+    /// the controllers' grips, in the world through the navigated `pose`), and the object time
+    /// from the first frame's display time.
+    fn track_body(
+        &mut self,
+        st: &mut LoopState,
+        views: &[xr::View],
+        pose: &Pose,
+        display_time: xr::Time,
+    ) -> Result<Option<Tracked>> {
+        let Some(grips) = &self.grips else {
+            return Ok(None);
+        };
+        let hands = grips.locate(&self.setup.space, display_time)?;
+        let eye = |v: &xr::View| {
+            let XrPose {
+                orientation,
+                position,
+            } = xr_pose(v);
+            (Quat::from_array(orientation), Vec3::from(position))
+        };
+        let head = body::head_between([eye(&views[0]), eye(&views[1])]);
+        let first = *st.first_display_ns.get_or_insert(display_time.as_nanos());
+        let seconds = (display_time.as_nanos() - first) as f64 * 1e-9;
+        self.frame.set_object_time(seconds);
+        let tracked = body::tracked(pose, head, hands, seconds);
+        st.last_tracked = Some((*pose, tracked));
+        Ok(Some(tracked))
     }
 
     /// Now on this process's monotonic clock and on the runtime's (None without
@@ -741,10 +832,10 @@ impl Headset<'_> {
         &mut self,
         st: &mut LoopState,
         views: &[xr::View],
-        pose: &Pose,
+        (pose, tracked): (&Pose, Option<&Tracked>),
         (timed, capture): (bool, bool),
     ) -> Result<Option<(wgpu::Buffer, u32)>> {
-        let eyes = self.eye_matrices(views, pose);
+        let matrices = self.eye_matrices(views, pose);
         let left_size = self.frame.labels()[0].pixels;
         let (ctx, layers) = (self.ctx, &mut self.layers);
         let mut readback = None;
@@ -762,7 +853,11 @@ impl Headset<'_> {
             Ok(())
         };
         let last = Some(&mut onto_swapchains as crate::display::frame::LastPasses<'_>);
-        let submission = self.frame.draw(Poses::Matrices(&eyes), Draw::Shown, last)?;
+        let eyes = Poses::Eyes {
+            matrices: &matrices,
+            tracked,
+        };
+        let submission = self.frame.draw(eyes, Draw::Shown, last)?;
         if let (true, Some(s), Some(g)) = (timed, submission, st.gpu_done.as_ref()) {
             g.watch(st.shown.len() - 1, s);
         }

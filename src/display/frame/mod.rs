@@ -49,8 +49,13 @@ pub enum Poses<'p> {
         wand: Option<&'p WandPose>,
         arrived: Option<Instant>,
     },
-    /// each view's view-projection and eye, in view order (the headset's eyes)
-    Matrices(&'p [(Mat4, Vec3)]),
+    /// each view's view-projection and eye, in view order (the headset's eyes), and what the
+    /// moving objects follow in the world (the headset's head and hands; its `time` is replaced
+    /// by the object time)
+    Eyes {
+        matrices: &'p [(Mat4, Vec3)],
+        tracked: Option<&'p Tracked>,
+    },
 }
 
 /// Where each view's image goes.
@@ -179,12 +184,14 @@ impl<'a> FrameOfViews<'a> {
     }
 
     /// Views drawn by `renderer` into their own `targets` (one per label), their times read
-    /// `frames_in_flight` frames late: the headset's eyes.
+    /// `frames_in_flight` frames late: the headset's eyes; with the `objects` the renderer was
+    /// made for (`Renderer::with_objects`), posed from each frame's `Poses::Eyes::tracked`.
     pub fn eyes(
         ctx: &Arc<GpuContext>,
         renderer: Renderer,
         views: Vec<(ViewLabel, ViewTargets)>,
         frames_in_flight: usize,
+        objects: Option<Objects>,
     ) -> FrameOfViews<'a> {
         let (labels, targets): (Vec<ViewLabel>, Vec<ViewTargets>) = views.into_iter().unzip();
         let clock = Clock::InFlight {
@@ -201,10 +208,15 @@ impl<'a> FrameOfViews<'a> {
             acc: Accounting::new(labels, clock),
             drawn: Vec::new(),
             forced: None,
-            objects: None,
+            objects,
             object_time: 0.0,
             object_switches: (true, true),
         }
+    }
+
+    /// The moving objects, where the display has any.
+    pub fn objects(&self) -> Option<&Objects> {
+        self.objects.as_ref()
     }
 
     /// The moving objects (a study shows and hides them), where the display has any.
@@ -238,12 +250,25 @@ impl<'a> FrameOfViews<'a> {
         self.object_time = seconds;
     }
 
-    /// Pose the moving objects where `poses` and the object time put them (tracked poses only:
-    /// the headset's eye matrices carry no head for them to follow); `timed`: its GPU time counts
-    /// in the frame's.
+    /// What the moving objects follow in `poses` at the object time: the CAVE's tracked pose, or
+    /// the headset's head and hands (None: eyes given without them).
+    pub fn tracked(&self, poses: &Poses<'_>) -> Option<Tracked> {
+        match poses {
+            Poses::Tracked { pose, wand, .. } => {
+                Some(Tracked::from_pose(pose, *wand, self.object_time))
+            }
+            Poses::Eyes { tracked, .. } => tracked.map(|t| Tracked {
+                time: self.object_time,
+                ..*t
+            }),
+        }
+    }
+
+    /// Pose the moving objects where `poses` and the object time put them; `timed`: its GPU
+    /// time counts in the frame's.
     fn pose_objects(&mut self, poses: &Poses<'_>, timed: bool) {
-        if let (Some(objects), Poses::Tracked { pose, wand, .. }) = (&self.objects, poses) {
-            let tracked = Tracked::from_pose(pose, *wand, self.object_time);
+        let tracked = self.tracked(poses);
+        if let (Some(objects), Some(tracked)) = (&self.objects, tracked) {
             let joints = objects.joint_matrices(&tracked);
             let timestamps = match timed {
                 true => {
@@ -281,7 +306,7 @@ impl<'a> FrameOfViews<'a> {
     /// View `i`'s view-projection and eye, and the wand's ray over it.
     fn view(&self, i: usize, poses: &Poses<'_>) -> Result<((Mat4, Vec3), Option<WandOverlay>)> {
         match (poses, &self.cave) {
-            (Poses::Matrices(m), _) => {
+            (Poses::Eyes { matrices: m, .. }, _) => {
                 let view = m.get(i).ok_or_else(|| {
                     VlfError::Display(format!(
                         "{} views' matrices for {} views",
@@ -371,7 +396,7 @@ impl<'a> FrameOfViews<'a> {
         }
         let arrived = match poses {
             Poses::Tracked { arrived, .. } => arrived,
-            Poses::Matrices(_) => None,
+            Poses::Eyes { .. } => None,
         };
         self.acc.submitted(arrived);
         Ok(submission)

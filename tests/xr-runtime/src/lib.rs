@@ -9,7 +9,9 @@
 //!   on that grid, so a slow application misses refreshes;
 //! - a head at 1.6 m on the stage, swaying slowly, eyes 64 mm apart, asymmetric fields of view;
 //! - Oculus Touch controllers whose thumbsticks read `VLF_TEST_XR_LEFT_STICK` /
-//!   `VLF_TEST_XR_RIGHT_STICK` ("x,y", default 0,0);
+//!   `VLF_TEST_XR_RIGHT_STICK` ("x,y", default 0,0), and whose grip poses (action spaces
+//!   located in the stage or local space) read `VLF_TEST_XR_LEFT_GRIP` / `VLF_TEST_XR_RIGHT_GRIP`
+//!   ("x,y,z" stage metres, or "x,y,z,yaw,pitch,roll" with degrees; unset: not tracked);
 //! - `VLF_TEST_XR_EYE_PIXELS` ("WxH", default 256x224) recommended per eye;
 //! - `VLF_TEST_XR_STILL_HEAD` set: the head stands still (two runs see the same views);
 //! - `VLF_TEST_XR_LOCKSTEP` set: the display waits for the application, one refresh per frame
@@ -149,6 +151,8 @@ pub(crate) struct Runtime {
     pub(crate) sessions: HashMap<u64, Session>,
     pub(crate) swapchains: HashMap<u64, Swapchain>,
     pub(crate) spaces: HashMap<u64, xr::ReferenceSpaceType>,
+    /// action space -> its pose action
+    pub(crate) action_spaces: HashMap<u64, u64>,
     pub(crate) paths: Vec<String>,
     pub(crate) action_sets: HashMap<u64, String>,
     /// action -> (set, type, bindings in the simulated controller's profile)
@@ -168,6 +172,7 @@ pub(crate) static RUNTIME: LazyLock<Mutex<Runtime>> = LazyLock::new(|| {
         sessions: HashMap::new(),
         swapchains: HashMap::new(),
         spaces: HashMap::new(),
+        action_spaces: HashMap::new(),
         paths: vec![String::new()],
         action_sets: HashMap::new(),
         actions: HashMap::new(),
@@ -327,6 +332,8 @@ unsafe extern "system" fn get_instance_proc_addr(
         "xrEnumerateReferenceSpaces" => EnumerateReferenceSpaces = enumerate_reference_spaces,
         "xrCreateReferenceSpace" => CreateReferenceSpace = create_reference_space,
         "xrDestroySpace" => DestroySpace = destroy_space,
+        "xrCreateActionSpace" => CreateActionSpace = create_action_space,
+        "xrLocateSpace" => LocateSpace = locate_space,
         "xrEnumerateSwapchainFormats" => EnumerateSwapchainFormats = enumerate_swapchain_formats,
         "xrCreateSwapchain" => CreateSwapchain = create_swapchain,
         "xrDestroySwapchain" => DestroySwapchain = destroy_swapchain,
@@ -377,11 +384,9 @@ unsafe extern "system" fn unsupported() -> xr::Result {
 }
 
 /// The OpenXR 1.0 core functions not implemented above.
-pub(crate) const CORE_1_0: [&str; 12] = [
+pub(crate) const CORE_1_0: [&str; 10] = [
     "xrStructureTypeToString",
     "xrGetReferenceSpaceBoundsRect",
-    "xrCreateActionSpace",
-    "xrLocateSpace",
     "xrGetViewConfigurationProperties",
     "xrGetActionStateFloat",
     "xrGetActionStatePose",

@@ -264,10 +264,110 @@ pub(crate) unsafe extern "system" fn create_reference_space(
 }
 
 pub(crate) unsafe extern "system" fn destroy_space(space: xr::Space) -> xr::Result {
-    match runtime().spaces.remove(&space.into_raw()) {
-        Some(_) => xr::Result::SUCCESS,
-        None => xr::Result::ERROR_HANDLE_INVALID,
+    let mut rt = runtime();
+    let reference = rt.spaces.remove(&space.into_raw()).is_some();
+    let action = rt.action_spaces.remove(&space.into_raw()).is_some();
+    match reference || action {
+        true => xr::Result::SUCCESS,
+        false => xr::Result::ERROR_HANDLE_INVALID,
     }
+}
+
+pub(crate) unsafe extern "system" fn create_action_space(
+    session: xr::Session,
+    info: *const xr::ActionSpaceCreateInfo,
+    space: *mut xr::Space,
+) -> xr::Result {
+    let mut rt = runtime();
+    if !rt.sessions.contains_key(&session.into_raw()) {
+        return xr::Result::ERROR_HANDLE_INVALID;
+    }
+    let action = (*info).action.into_raw();
+    match rt.actions.get(&action) {
+        None => return xr::Result::ERROR_HANDLE_INVALID,
+        Some((_, ty, _)) if *ty != xr::ActionType::POSE_INPUT => {
+            return xr::Result::ERROR_ACTION_TYPE_MISMATCH
+        }
+        Some(_) => {}
+    }
+    let h = rt.handle();
+    rt.action_spaces.insert(h, action);
+    *space = xr::Space::from_raw(h);
+    xr::Result::SUCCESS
+}
+
+/// A controller's grip in the stage as `VLF_TEST_XR_LEFT_GRIP` / `VLF_TEST_XR_RIGHT_GRIP` script
+/// it: "x,y,z" metres, or "x,y,z,yaw,pitch,roll" with degrees as the head's (yaw about +y, then
+/// pitch about x, then roll about z; identity points along -z). Unset: not tracked.
+pub(crate) fn scripted_grip(binding: &str) -> Option<([f32; 3], [f32; 4])> {
+    let name = match binding {
+        "/user/hand/left/input/grip/pose" => "VLF_TEST_XR_LEFT_GRIP",
+        "/user/hand/right/input/grip/pose" => "VLF_TEST_XR_RIGHT_GRIP",
+        _ => return None,
+    };
+    let numbers: Vec<f32> = (std::env::var(name).ok()?.split(','))
+        .map(|v| v.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .ok()?;
+    let (position, angles) = match numbers.as_slice() {
+        [x, y, z] => ([*x, *y, *z], [0.0; 3]),
+        [x, y, z, yaw, pitch, roll] => ([*x, *y, *z], [*yaw, *pitch, *roll]),
+        _ => return None,
+    };
+    let half = |deg: f32| (deg.to_radians() / 2.0).sin_cos();
+    let ((sy, cy), (sp, cp), (sr, cr)) = (half(angles[0]), half(angles[1]), half(angles[2]));
+    // q = yaw(y) * pitch(x) * roll(z), as x, y, z, w
+    let x = cy * sp * cr + sy * cp * sr;
+    let y = sy * cp * cr - cy * sp * sr;
+    let z = cy * cp * sr - sy * sp * cr;
+    let w = cy * cp * cr + sy * sp * sr;
+    Some((position, [x, y, z, w]))
+}
+
+pub(crate) unsafe extern "system" fn locate_space(
+    space: xr::Space,
+    base: xr::Space,
+    time: xr::Time,
+    location: *mut xr::SpaceLocation,
+) -> xr::Result {
+    let rt = runtime();
+    let (Some(action), Some(base)) = (
+        rt.action_spaces.get(&space.into_raw()),
+        rt.spaces.get(&base.into_raw()),
+    ) else {
+        // the simulated controllers are located in a reference space; nothing else is
+        return xr::Result::ERROR_HANDLE_INVALID;
+    };
+    if time.as_nanos() <= 0 {
+        return xr::Result::ERROR_TIME_INVALID;
+    }
+    let focused = (rt.sessions.values()).any(|s| s.state == xr::SessionState::FOCUSED);
+    let bound = rt.actions.get(action).and_then(|a| a.2.first());
+    let grip = bound.filter(|_| focused).and_then(|b| scripted_grip(b));
+    let out = &mut *location;
+    out.location_flags = xr::SpaceLocationFlags::EMPTY;
+    out.pose = xr::Posef::IDENTITY;
+    if let Some((mut position, [x, y, z, w])) = grip {
+        match *base {
+            xr::ReferenceSpaceType::STAGE => {}
+            // LOCAL's origin is at the head's height (`locate_views`)
+            xr::ReferenceSpaceType::LOCAL => position[1] -= head(0.0).0[1],
+            _ => return xr::Result::SUCCESS,
+        }
+        out.location_flags = xr::SpaceLocationFlags::POSITION_VALID
+            | xr::SpaceLocationFlags::ORIENTATION_VALID
+            | xr::SpaceLocationFlags::POSITION_TRACKED
+            | xr::SpaceLocationFlags::ORIENTATION_TRACKED;
+        out.pose = xr::Posef {
+            orientation: xr::Quaternionf { x, y, z, w },
+            position: xr::Vector3f {
+                x: position[0],
+                y: position[1],
+                z: position[2],
+            },
+        };
+    }
+    xr::Result::SUCCESS
 }
 
 /// The simulated head at display time `t` (seconds) in the stage: standing at 1.6 m, swaying
