@@ -25,7 +25,14 @@ pub struct MitsubaExport {
 
 /// Writes `out_dir/<camera>.xml`, `geometry.xml`, `meshes/*.ply` and `textures/*.exr` for the
 /// scene at `scene_toml`, with `python` (e.g. "python3") running the embedded exporter.
-pub fn mitsuba(scene_toml: &Path, out_dir: &Path, python: &str) -> Result<MitsubaExport> {
+/// `extra_obj`: an OBJ (with its MTL) added as ordinary geometry, the moving objects at a frozen
+/// pose (`dynamic::MovingMesh::posed_obj`).
+pub fn mitsuba(
+    scene_toml: &Path,
+    out_dir: &Path,
+    python: &str,
+    extra_obj: Option<&Path>,
+) -> Result<MitsubaExport> {
     if !scene_toml.is_file() {
         return Err(VlfError::Io {
             path: scene_toml.to_path_buf(),
@@ -42,18 +49,21 @@ pub fn mitsuba(scene_toml: &Path, out_dir: &Path, python: &str) -> Result<Mitsub
         path: script.clone(),
         source,
     })?;
-    let output = Command::new(python)
+    let mut command = Command::new(python);
+    command
         .arg(&script)
         .arg(scene_toml)
         .arg("--export")
-        .arg(out_dir)
-        .output()
-        .map_err(|e| {
-            exporter_err(format!(
-                "cannot run `{python}` ({e}): the exporter is Python; install Python 3.11 or \
+        .arg(out_dir);
+    if let Some(obj) = extra_obj {
+        command.arg("--extra-obj").arg(obj);
+    }
+    let output = command.output().map_err(|e| {
+        exporter_err(format!(
+            "cannot run `{python}` ({e}): the exporter is Python; install Python 3.11 or \
                  newer, then `pip install mitsuba numpy`"
-            ))
-        })?;
+        ))
+    })?;
     let stderr = String::from_utf8_lossy(&output.stderr);
     if !output.status.success() {
         // the exporter ends with "error: ..." (or a traceback): pass on its last line only

@@ -16,6 +16,7 @@ pub mod propagate;
 pub mod reference;
 pub mod render;
 pub mod replay;
+pub mod still_objects;
 pub mod track;
 pub mod verify;
 pub mod xr;

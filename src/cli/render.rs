@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 use vlf::gpu::GpuContext;
-use vlf::render::{image_io, Renderer};
+use vlf::render::{image_io, ObjectsToDraw, Renderer};
 
 /// `vlf render`'s arguments.
 #[derive(Args)]
@@ -34,6 +34,10 @@ pub struct RenderArgs {
     /// out.exr (linear radiance) or out.png (tonemapped)
     #[arg(short, long)]
     output: PathBuf,
+    /// Also draw these moving objects (a TOML of `[[object]]` and `[object_lighting]` tables, as
+    /// `vlf xr --objects` takes), posed with the camera as the tracked head and no hand tracked
+    #[arg(long)]
+    objects: Option<PathBuf>,
     #[command(flatten)]
     params: ParamArgs,
 }
@@ -49,7 +53,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
         light_field_for(&ctx, &args.input, args.lightfield.as_deref(), &args.params)?;
     let cam = lf.camera(args.camera.as_deref())?.clone();
     let [w, h] = args.size.unwrap_or(cam.size);
-    let mut renderer = Renderer::new(&resident, &lf, &resident.ledger)?;
+    let still = match &args.objects {
+        Some(path) => Some(super::still_objects::still_objects(path, &cam)?),
+        None => None,
+    };
+    let draw = still.as_ref().map(|s| ObjectsToDraw {
+        mesh: s.objects.mesh(),
+        lighting: s.file.object_lighting.unwrap_or_default(),
+    });
+    let mut renderer = Renderer::with_objects(&resident, &lf, &resident.ledger, draw)?;
+    if let Some(s) = &still {
+        renderer.pose_objects(&s.joints, None);
+    }
     renderer.set_samples_per_pixel(args.aa)?;
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
     image_io::write_image(&frame, &args.output, args.exposure)?;

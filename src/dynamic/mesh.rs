@@ -4,7 +4,7 @@
 
 use crate::error::Result;
 use crate::scene::Scene;
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 use std::path::Path;
 
 /// A vertex at rest: object space (metres), the joints whose matrices move it and their weights.
@@ -149,4 +149,59 @@ pub fn smooth_normals(positions: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
         .into_iter()
         .map(|n| n.try_normalize().unwrap_or(Vec3::Y))
         .collect()
+}
+
+impl MovingMesh {
+    /// Every vertex where `joints` (world metres from rest, one per joint: `Objects::
+    /// joint_matrices`) put it, as the GPU skins it (`shaders/moving.wgsl`).
+    pub fn posed_positions(&self, joints: &[Mat4]) -> Vec<Vec3> {
+        (self.vertices.iter())
+            .map(|v| {
+                let mut p = Vec3::ZERO;
+                for (&j, &w) in v.joints.iter().zip(&v.weights) {
+                    if w != 0.0 {
+                        let m = joints.get(j as usize).copied().unwrap_or(Mat4::ZERO);
+                        p += w * m.transform_point3(v.position);
+                    }
+                }
+                p
+            })
+            .collect()
+    }
+
+    /// The mesh at the pose `joints` give, as OBJ and MTL text (world metres; one MTL material
+    /// per moving material, `Kd` its albedo and `Ke` its emission; `mtl_file` is what the OBJ's
+    /// `mtllib` names). Triangles of hidden objects (`visible` false) are left out: a frozen pose
+    /// for a reference renderer (`vlf export mitsuba --objects`).
+    pub fn posed_obj(&self, joints: &[Mat4], visible: &[bool], mtl_file: &str) -> (String, String) {
+        use std::fmt::Write;
+        let positions = self.posed_positions(joints);
+        let mut obj =
+            format!("# moving objects at a frozen pose, written by vlf\nmtllib {mtl_file}\n");
+        for p in &positions {
+            let _ = writeln!(obj, "v {} {} {}", p.x, p.y, p.z);
+        }
+        let mut current = u32::MAX;
+        for (t, tri) in self.triangles.iter().enumerate() {
+            let object = self.triangle_object[t] as usize;
+            if !visible.get(object).copied().unwrap_or(true) {
+                continue;
+            }
+            if self.triangle_material[t] != current {
+                current = self.triangle_material[t];
+                let _ = writeln!(obj, "usemtl moving{current}");
+            }
+            let _ = writeln!(obj, "f {} {} {}", tri[0] + 1, tri[1] + 1, tri[2] + 1);
+        }
+        let mut mtl = String::new();
+        for (i, m) in self.materials.iter().enumerate() {
+            let [r, g, b] = m.albedo;
+            let [er, eg, eb] = m.emission;
+            let _ = writeln!(
+                mtl,
+                "newmtl moving{i}\nKd {r} {g} {b}\nKe {er} {eg} {eb}\nKs 0 0 0\n"
+            );
+        }
+        (obj, mtl)
+    }
 }

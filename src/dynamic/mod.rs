@@ -54,6 +54,18 @@ impl Tracked {
             left_hand: None,
         }
     }
+
+    /// A still: the head at `eye` looking at `target` (a camera's placement), no hand tracked,
+    /// keyframes at time 0 (`vlf render --objects`, `vlf export mitsuba --objects`).
+    pub fn looking(eye: Vec3, target: Vec3, up: Vec3) -> Tracked {
+        let view = Affine3A::look_at_rh(eye, target, up);
+        Tracked {
+            time: 0.0,
+            head: view.inverse(),
+            wand: None,
+            left_hand: None,
+        }
+    }
 }
 
 /// The loaded objects: their configs, one rest-pose mesh of them all, which are shown.

@@ -468,6 +468,15 @@ fn classroom(target_triangles: u64, mirrors: bool) -> (Mesh, String, String) {
         DVec3::new(-size.x * 0.1, 1.0, -size.z / 2.0),
         60.0,
     ));
+    if mirrors {
+        // facing the mirror from the aisle: what stands in the room shows in it
+        toml.push_str(&camera(
+            "mirror",
+            DVec3::new(size.x * 0.1, 1.6, size.z / 2.0 - 4.5),
+            DVec3::new(0.0, 1.3, size.z / 2.0),
+            60.0,
+        ));
+    }
     let description = format!(
         "classroom: {sets} desks and chairs, box sides cut {t}x{t}, {}",
         if mirrors {

@@ -5,6 +5,7 @@
 pub mod budget;
 pub mod image_io;
 pub mod moving;
+pub mod objects_file;
 pub mod probes;
 
 use crate::error::{Result, VlfError};

@@ -5,52 +5,11 @@
 //! hand) and the left controller's grip as the left hand, all moved into the world by the
 //! navigation that places the eyes (`eye_view`).
 
-use crate::dynamic::{check_objects, ObjectConfig, Tracked};
-use crate::error::{Result, VlfError};
-use crate::render::probes::ObjectLighting;
+use crate::dynamic::Tracked;
+pub use crate::render::objects_file::ObjectsFile;
 use crate::tracking::Pose;
 use glam::{Affine3A, Quat, Vec3};
-use serde::{Deserialize, Serialize};
-use std::path::Path;
-
-/// A file of moving objects for the headset: a display config's object tables, nothing else
-/// (unknown keys are refused).
-#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ObjectsFile {
-    #[serde(default, rename = "object")]
-    pub objects: Vec<ObjectConfig>,
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub object_lighting: Option<ObjectLighting>,
-}
-
-impl ObjectsFile {
-    /// Read and check a file of objects; an error names the file and the table and key (the
-    /// meshes are loaded later, relative to this file, by `dynamic::Objects::load`).
-    pub fn load(path: &Path) -> Result<ObjectsFile> {
-        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
-        ObjectsFile::parse(&text, path)
-    }
-
-    pub fn parse(text: &str, path: &Path) -> Result<ObjectsFile> {
-        let err = |message: String| VlfError::Config {
-            path: path.to_path_buf(),
-            message,
-        };
-        let file: ObjectsFile =
-            toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
-        if file.objects.is_empty() {
-            return Err(err(
-                "no [[object]] table: give at least one (name, mesh, kind, follow, ...)".into(),
-            ));
-        }
-        check_objects(&file.objects).map_err(err)?;
-        if let Some(l) = &file.object_lighting {
-            l.check().map_err(err)?;
-        }
-        Ok(file)
-    }
-}
+use serde::Serialize;
 
 /// A pose located in the app's reference space (the stage): world-from-thing once the stage is
 /// placed in the world.
@@ -156,15 +115,5 @@ mod tests {
         let wand = Vec3::from(t.wand.unwrap().translation);
         assert!((wand - Vec3::new(0.5, 1.0, 2.0)).length() < 1e-5, "{wand}");
         assert!(t.left_hand.is_none());
-    }
-
-    #[test]
-    fn a_bad_key_is_named_with_the_file() {
-        let path = Path::new("body.toml");
-        let text = "[[object]]\nname = \"body\"\nmesh = \"m.glb\"\nfollow_me = \"head\"\n";
-        let e = ObjectsFile::parse(text, path).unwrap_err().to_string();
-        assert!(e.contains("body.toml") && e.contains("follow_me"), "{e}");
-        let e = ObjectsFile::parse("", path).unwrap_err().to_string();
-        assert!(e.contains("[[object]]"), "{e}");
     }
 }

@@ -940,6 +940,21 @@ def build(scene):
     return built
 
 
+def merge_extra_obj(built, path):
+    """Add an OBJ's triangles as ordinary one-sided geometry with its own MTL materials (named
+    "object: NAME"): the moving objects at a frozen pose (`vlf export mitsuba --objects`), so the
+    reference has the full solution with them (the light they block and the light they reflect)."""
+    extra = build_obj({"mesh": path, "overrides": {}, "cameras": []})
+    for name, m in extra["materials"].items():
+        built["materials"]["object: " + name] = dict(m, name="object: " + name)
+    for (name, uv), arrays in extra["groups"].items():
+        built["groups"][("object: " + name, uv)] = arrays
+    built["images"].update(extra["images"])
+    built["warnings"] = sorted(set(built["warnings"]) | {"extra mesh: " + w for w in extra["warnings"]})
+    lo, hi = built["bounds"]
+    built["bounds"] = (np.minimum(lo, extra["bounds"][0]), np.maximum(hi, extra["bounds"][1]))
+
+
 def _image_file_loader(path):
     cache = []
 
@@ -1478,6 +1493,8 @@ def main(argv=None):
     ap.add_argument("--exposure", type=float, default=1.0)
     ap.add_argument("--export", metavar="DIR", help="write a standalone Mitsuba scene: DIR/<camera>.xml, geometry.xml, meshes/, textures/")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--extra-obj", metavar="OBJ", help="add this OBJ (with its MTL) as ordinary geometry: "
+                    "the moving objects at a frozen pose, as `vlf export mitsuba --objects` writes them")
     ap.add_argument("--dump-json", metavar="FILE", help="write the scene as built (materials, triangles, cameras) as JSON, "
                     "for comparing with vlf's importer (tests/mitsuba.rs)")
     a = ap.parse_args(argv)
@@ -1491,6 +1508,8 @@ def main(argv=None):
     mi.set_variant(a.variant)
     scene = load_scene_toml(a.scene)
     built = build(scene)
+    if a.extra_obj:
+        merge_extra_obj(built, a.extra_obj)
     for w in built["warnings"]:
         print(f"warning: {w}", file=sys.stderr)
 
