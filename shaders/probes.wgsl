@@ -2,7 +2,8 @@
 // workgroup per probe of the grid (common/irradiance.wgsl), whose 64 threads cast
 // PROBE_RAYS rays on a spherical Fibonacci set through the scene exactly as eye rays are cast
 // (common/scene_cast.wgsl; the moving objects are not in it), read the radiance where each lands
-// (the atlas, and one mirror reflection) and project it on the nine spherical harmonics.
+// (the atlas, and one mirror reflection; not the direct light a moving surface samples itself)
+// and project it on the nine spherical harmonics.
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
@@ -44,11 +45,16 @@ fn fibonacci_direction(k: u32, n: u32) -> vec3<f32> {
 
 // The radiance arriving at `origin` from direction -`ray` (what a ray along `ray` meets): the
 // atlas where it lands, and what one mirror reflection there shows. w: 1 where the ray met the
-// back of a one-sided face.
+// back of a one-sided face. The light a moving surface samples itself, with shadow rays
+// (common/moving_surface.wgsl, moving_direct), is left out: an emitter's own emission where the
+// ray meets one (with probe_grid.shadow_samples), the sky where it meets the sky (with
+// probe_grid.sky_shadow_samples). What mirrors show of them stays (no shadow ray samples it).
 fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
     let s = cast_ray(origin, ray, false);
     let f = faces[s.face];
-    var radiance = atlas_radiance(f, s.point) * s.seen + s.background;
+    let own_emission = select(vec3<f32>(0.0), emitted(f), probe_grid.shadow_samples > 0u && s.seen > 0.0);
+    let sky_sampled = probe_grid.sky_shadow_samples > 0u && s.seen == 0.0;
+    var radiance = max(atlas_radiance(f, s.point) - own_emission, vec3<f32>(0.0)) * s.seen + select(s.background, vec3<f32>(0.0), sky_sampled);
     let mirror = mirror_reflectance(material_of(f)) * s.seen;
     if max(mirror.x, max(mirror.y, mirror.z)) > 0.0 {
         let reflected = mirror_direction(ray, f.normal);

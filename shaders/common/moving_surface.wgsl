@@ -1,6 +1,8 @@
 // What a moving object shows where a ray meets it (src/render/moving.rs): its own albedo and
-// emission, lit by the converged static light field through the irradiance probes
-// (common/irradiance.wgsl) at the smooth normal of the triangle's skinned corners. The renderer
+// emission, lit by the converged static light field at the smooth normal of the triangle's
+// skinned corners: the direct light of the emitters and the sky by shadow rays against the scene
+// and the moving objects themselves (their own shadows on each other and on themselves), the
+// rest through the irradiance probes (common/irradiance.wgsl, baked without that direct light). The renderer
 // binds this group; cast_ray (common/scene_cast.wgsl) calls moving_radiance.
 
 // mirrors gpu::types::GpuMovingMaterial
@@ -69,7 +71,9 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     // the side the ray sees
     n = normalize(select(n, -n, dot(n, ray) > 0.0));
     let material = moving_materials[bitcast<u32>(m.n0.w)];
-    return material.albedo.xyz / PI * irradiance_at(point, n) + material.emission.xyz;
+    let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
+    let direct = direct_samples(point + n * 1e-3, n, seed, false);
+    return material.albedo.xyz / PI * (irradiance_at(point, n) + direct) + material.emission.xyz;
 }
 
 // Whether the tree at `root` (the scene's, 0, or the moving objects') blocks the segment from
@@ -108,7 +112,18 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
     if view.moving_root == NO_NODE || max(albedo.x, max(albedo.y, albedo.z)) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let origin = p + f.normal * 1e-5;
+    return albedo / PI * direct_samples(p + f.normal * 1e-5, f.normal, seed, true);
+}
+
+// The direct irradiance at `origin` (facing `normal`) over probe_grid.shadow_samples shadow rays
+// to the emitters, each to a point on a triangle picked by its share of their power (one rotated
+// Hammersley set over all of them: the same cost whatever the number of lights), and
+// probe_grid.sky_shadow_samples cosine-weighted directions to the sky, counting the samples a
+// moving object blocks and the scene does not (`blocked_only`: what the objects take from a
+// static surface, moving_shadow) or those neither blocks (what reaches a moving surface). Each
+// sample casts its ray against the moving objects first, and against the scene only where that
+// decided it counts.
+fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only: bool) -> vec3<f32> {
     // the moving objects' two top boxes (one load, the same for every pixel): a point they are
     // wholly below the horizon of gets no shadow, and a shadow ray that enters neither is not cast
     let top = pairs[view.moving_root];
@@ -117,8 +132,8 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
     let left_empty = top.lo_left.x >= 1e37;
     let right_empty = top.lo_right.x >= 1e37;
     let hi = max(select(top.hi_left, top.hi_right, left_empty), select(top.hi_right, top.hi_left, right_empty));
-    let reach_corner = select(lo, hi, f.normal > vec3<f32>(0.0));
-    if (left_empty && right_empty) || dot(reach_corner - origin, f.normal) <= 0.0 {
+    let reach_corner = select(lo, hi, normal > vec3<f32>(0.0));
+    if blocked_only && ((left_empty && right_empty) || dot(reach_corner - origin, normal) <= 0.0) {
         return vec3<f32>(0.0);
     }
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
@@ -126,10 +141,10 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
     let sky = field.sky.xyz;
     let m = select(0u, probe_grid.sky_shadow_samples, max(sky.x, max(sky.y, sky.z)) > 0.0);
     // a frame around the normal for the sky's cosine-weighted directions
-    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(f.normal.x) > 0.9));
-    let a = normalize(cross(f.normal, t));
-    let b = cross(f.normal, a);
-    var blocked = vec3<f32>(0.0);
+    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
+    let a = normalize(cross(normal, t));
+    let b = cross(normal, a);
+    var counted = vec3<f32>(0.0);
     // one ray cast in the loop (its code once in the pipeline): each sample's ray first against
     // the moving objects, and where they block it, again against the scene
     var k = 0u;
@@ -155,7 +170,7 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
             let dist = length(d);
             ray = d / dist;
             reach = dist * (1.0 - 1e-4);
-            let cos_p = dot(f.normal, ray);
+            let cos_p = dot(normal, ray);
             let cos_e = -dot(across, ray) / (2.0 * area);
             let usable = cos_p > 0.0 && cos_e > 0.0 && chance > 0.0;
             carried = select(vec3<f32>(0.0), em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * chance * f32(n))), usable);
@@ -163,25 +178,26 @@ fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
             let u = hammersley(k - n, m, shift.yx);
             let r = sqrt(u.x);
             let phi = 2.0 * PI * u.y;
-            ray = a * (r * cos(phi)) + b * (r * sin(phi)) + f.normal * sqrt(max(0.0, 1.0 - u.x));
+            ray = a * (r * cos(phi)) + b * (r * sin(phi)) + normal * sqrt(max(0.0, 1.0 - u.x));
             carried = sky * (PI / f32(m));
         }
         let inv = 1.0 / select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
         let enters = box_entry(top.lo_left, top.hi_left, origin, inv, reach) >= 0.0 || box_entry(top.lo_right, top.hi_right, origin, inv, reach) >= 0.0;
-        if max(carried.x, max(carried.y, carried.z)) <= 0.0 || (!against_scene && !enters) {
+        if max(carried.x, max(carried.y, carried.z)) <= 0.0 || (blocked_only && !against_scene && !enters) {
             k += 1u;
             continue;
         }
-        let hit = blocks(origin, ray, reach, select(view.moving_root, 0u, against_scene));
-        if !against_scene && hit {
+        // a ray that misses the objects' boxes is not cast against them
+        let hit = select(enters && blocks(origin, ray, reach, view.moving_root), blocks(origin, ray, reach, 0u), against_scene);
+        if !against_scene && hit == blocked_only {
             against_scene = true;
             continue;
         }
         if against_scene && !hit {
-            blocked += carried;
+            counted += carried;
         }
         against_scene = false;
         k += 1u;
     }
-    return albedo / PI * blocked;
+    return counted;
 }
