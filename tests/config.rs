@@ -58,16 +58,18 @@ fn errors_name_the_file_and_key() {
     );
 }
 
-/// Every shipped file of headset objects (config/headset/, `vlf xr --objects`) parses and its
-/// meshes load.
+/// Every shipped file of objects (config/headset/, `vlf xr --objects`; config/objects/, `vlf
+/// render --objects`) parses and its meshes load.
 #[test]
-fn every_shipped_headset_objects_file_parses_and_loads() {
+fn every_shipped_objects_file_parses_and_loads() {
     let mut n = 0;
-    for entry in std::fs::read_dir(config("headset")).unwrap() {
+    let files = (std::fs::read_dir(config("headset")).unwrap())
+        .chain(std::fs::read_dir(config("objects")).unwrap());
+    for entry in files {
         let path = entry.unwrap().path();
         let file = vlf::xr::body::ObjectsFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
         vlf::dynamic::Objects::load(&file.objects, &path).unwrap_or_else(|e| panic!("{e}"));
         n += 1;
     }
-    assert!(n >= 1);
+    assert!(n >= 3);
 }

@@ -214,6 +214,46 @@ fn vlf_export_mitsuba_writes_a_scene_per_camera() {
     assert!(err.contains("no/such/scene.toml"), "{err}");
 }
 
+/// `vlf export mitsuba --objects` writes the figure at the pose `vlf render --objects` draws it
+/// (the mannequin scaled to 0.38 and standing at its configured place, every vertex of its
+/// mesh), and the exporter adds it to the scene as ordinary geometry with its own materials.
+#[test]
+fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mts");
+    let objects = repo_path("config/objects/cornell-mirror-figure.toml");
+    let run = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["export", "mitsuba"])
+        .arg(repo_path("scenes/cornell-mirror/scene.toml"))
+        .arg("--objects")
+        .arg(&objects)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{stderr}\n{HOW_TO_GET_MITSUBA}");
+    let obj = std::fs::read_to_string(out.join("objects.obj")).unwrap();
+    let vertices: Vec<[f32; 3]> = (obj.lines())
+        .filter_map(|l| l.strip_prefix("v "))
+        .map(|l| {
+            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect();
+    let file = vlf::xr::body::ObjectsFile::load(&objects).unwrap();
+    let loaded = vlf::dynamic::Objects::load(&file.objects, &objects).unwrap();
+    assert_eq!(vertices.len(), loaded.mesh().vertices.len());
+    // the mannequin (1.75 m) at 0.38 stands on the floor at (-0.25, 0, 0.45)
+    let lo = vertices.iter().fold([f32::MAX; 3], |m, v| [0, 1, 2].map(|i| m[i].min(v[i])));
+    let hi = vertices.iter().fold([f32::MIN; 3], |m, v| [0, 1, 2].map(|i| m[i].max(v[i])));
+    assert!(lo[1].abs() < 0.02 && (hi[1] - 0.38 * 1.75).abs() < 0.03, "{lo:?} {hi:?}");
+    let centre = [(lo[0] + hi[0]) / 2.0, (lo[2] + hi[2]) / 2.0];
+    assert!((centre[0] + 0.25).abs() < 0.15 && (centre[1] - 0.45).abs() < 0.15, "{centre:?}");
+    let geometry = std::fs::read_to_string(out.join("geometry.xml")).unwrap();
+    assert!(geometry.contains("object__moving0"), "{geometry}");
+}
+
 /// Runs `python3 SCRIPT ARGS...` (a repository script), failing with its stderr and how to get
 /// what it needs. Returns its stderr.
 fn python(script: &str, args: &[&std::ffi::OsStr]) -> String {
