@@ -61,7 +61,7 @@ fn draw(
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
         pose: &pose,
-        wand: None,
+        held: &Default::default(),
         arrived: None,
     };
     frame.read_back(tracked).unwrap().remove(0).0
@@ -458,8 +458,9 @@ fn the_shipped_body_config_puts_the_avatar_and_the_wand_ray_on_the_participant()
     assert_eq!(mesh.joint_count, 20);
     let poses = config.pose_source(&path).unwrap();
     let pose = poses.at(0.0);
-    let wand = poses.wand_at(&config.tracking, 0.0).unwrap();
-    let tracked = vlf::dynamic::Tracked::from_pose(&pose, Some(&wand), 0.0);
+    let held = poses.held_at(&config.tracking, 0.0);
+    assert!(held.wand.is_some());
+    let tracked = vlf::dynamic::Tracked::from_pose(&pose, &held, 0.0);
     let joints = objects.joint_matrices(&tracked);
     assert!(joints
         .iter()
