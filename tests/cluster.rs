@@ -653,9 +653,8 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
         wand: Some(hand(0.3)),
         left_hand: Some(hand(-0.3)),
     };
-    let through_bytes = |s: FrameState| -> FrameState {
-        bytemuck::pod_read_unaligned(&bytemuck::bytes_of(&s).to_vec())
-    };
+    let through_bytes =
+        |s: FrameState| -> FrameState { bytemuck::pod_read_unaligned(bytemuck::bytes_of(&s)) };
     let state = through_bytes(FrameState::new(7, &pose, held, 1.5));
     assert_eq!(
         (state.frame, state.pose(), state.held(), state.exposure),

@@ -183,7 +183,6 @@ impl TrackingConfig {
     }
 
     /// The static head's orientation (identity for the other sources).
-
     pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
         match self {
             TrackingConfig::Static {

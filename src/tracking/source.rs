@@ -176,6 +176,8 @@ impl ScriptedPath {
 
 /// The pose source of a display configuration, for headless runs (`config_path` resolves a
 /// scripted path relative to the configuration file).
+// one per run, never copied about: the live tracker's size (its latest state inline) costs nothing
+#[allow(clippy::large_enum_variant)]
 pub enum PoseSource {
     Static(Pose),
     Scripted(ScriptedPath),
