@@ -91,15 +91,24 @@ fn same_pixels(a: &std::path::Path, b: &std::path::Path) {
     );
 }
 
-#[test]
-fn a_logged_session_replays_pixel_identical() {
-    let dir = tempfile::tempdir().unwrap();
-    let config = walking_cave(dir.path());
-    let display = DisplayConfig::load(&config).unwrap();
+/// A draft Cornell light field saved in `dir`, and `frames` frames of the display at `config`
+/// drawn headless from it with a session log in `dir/log` and the last frame's images (EXR too)
+/// in `dir/live`: the light field, and the log read back.
+fn logged_cornell_run(
+    dir: &std::path::Path,
+    config: &std::path::Path,
+    frames: u32,
+) -> (
+    vlf::lightfield::LightField,
+    vlf::lightfield::ResidentLightField,
+    SessionMeta,
+    Vec<vlf::study::FrameRecord>,
+) {
+    let display = DisplayConfig::load(config).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let (lf, resident, _) =
         vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
-    let vlf_path = dir.path().join("cornell.vlf");
+    let vlf_path = dir.join("cornell.vlf");
     vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
     let views: Vec<String> = (vlf::display::frame::wall_views(&display).iter())
         .map(|v| v.name(&display))
@@ -107,7 +116,7 @@ fn a_logged_session_replays_pixel_identical() {
     let meta = SessionMeta {
         format: LOG_FORMAT,
         vlf_version: "test".into(),
-        display_config: config.clone(),
+        display_config: config.to_path_buf(),
         light_field: vlf_path,
         propagation: None,
         scene_hash: lf.meta.scene_hash.clone(),
@@ -116,22 +125,30 @@ fn a_logged_session_replays_pixel_identical() {
         views,
         columns: Vec::new(),
     };
-    let log_dir = dir.path().join("log");
-    let live = dir.path().join("live");
+    let log_dir = dir.join("log");
     {
         let mut log = SessionLog::create(&log_dir, meta).unwrap();
         let run = vlf::display::headless::HeadlessRun {
-            frames: 4,
-            out: &live,
+            frames,
+            out: &dir.join("live"),
             exr: true,
             log: Some(&mut log),
             control: None,
             lsl: None,
         };
-        vlf::display::headless::run_reporting(&lf, &resident, &display, &config, run, &Silent)
+        vlf::display::headless::run_reporting(&lf, &resident, &display, config, run, &Silent)
             .unwrap();
     }
     let (meta, records) = SessionLog::read(&log_dir).unwrap();
+    (lf, resident, meta, records)
+}
+
+#[test]
+fn a_logged_session_replays_pixel_identical() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = walking_cave(dir.path());
+    let (_, _, meta, records) = logged_cornell_run(dir.path(), &config, 4);
+    let (log_dir, live) = (dir.path().join("log"), dir.path().join("live"));
     assert_eq!(records.len(), 4);
     // closed cleanly: the Parquet has every row
     assert_eq!(parquet_matches_csv(&log_dir)["parquet_rows"], 4);
@@ -597,42 +614,8 @@ fn a_scripted_left_hand_is_logged_and_replayed_on_the_avatar() {
         ),
     )
     .unwrap();
-    let display = DisplayConfig::load(&config).unwrap();
-    let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
-    let (lf, resident, _) =
-        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
-    let vlf_path = dir.path().join("cornell.vlf");
-    vlf::lightfield::file::save(&lf, &vlf_path).unwrap();
-    let views: Vec<String> = (vlf::display::frame::wall_views(&display).iter())
-        .map(|v| v.name(&display))
-        .collect();
-    let meta = SessionMeta {
-        format: LOG_FORMAT,
-        vlf_version: "test".into(),
-        display_config: config.clone(),
-        light_field: vlf_path,
-        propagation: None,
-        scene_hash: lf.meta.scene_hash.clone(),
-        adapter: gpu().summary.name.clone(),
-        started_unix_s: 0.0,
-        views,
-        columns: Vec::new(),
-    };
+    let (lf, resident, meta, records) = logged_cornell_run(dir.path(), &config, 3);
     let (log_dir, live) = (dir.path().join("log"), dir.path().join("live"));
-    {
-        let mut log = SessionLog::create(&log_dir, meta).unwrap();
-        let run = vlf::display::headless::HeadlessRun {
-            frames: 3,
-            out: &live,
-            exr: true,
-            log: Some(&mut log),
-            control: None,
-            lsl: None,
-        };
-        vlf::display::headless::run_reporting(&lf, &resident, &display, &config, run, &Silent)
-            .unwrap();
-    }
-    let (meta, records) = SessionLog::read(&log_dir).unwrap();
     assert!(meta.columns.iter().any(|(n, _)| n == "left_hand_qw"));
     // the three frames spread over the 2 s walk: its left hand at 0, 1 and 2 s
     let path = vlf::tracking::source::ScriptedPath::load(&walk).unwrap();

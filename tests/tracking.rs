@@ -514,22 +514,31 @@ fn wait_state(
     }
 }
 
+/// The live tracker of a display configuration with a live source.
+fn live_tracker(config: &DisplayConfig) -> vlf::tracking::live::LiveTracker {
+    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
+        panic!("a live source")
+    };
+    tracker.into_inner().unwrap()
+}
+
+/// Sends a text packet to a UDP port on this machine.
+fn udp_sender(port: u16) -> impl Fn(&str) {
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    move |text: &str| {
+        socket
+            .send_to(text.as_bytes(), ("127.0.0.1", port))
+            .unwrap();
+    }
+}
+
 #[test]
 fn dtrack_bodies_and_flysticks_reach_the_room() {
     use vlf::tracking::live::TrackingStatus;
     let config = calibrated("dtrack", "axes = \"z_up\"\nhead_id = 1\nwand_id = 1").unwrap();
-    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
-        panic!("a live source")
-    };
-    let mut tracker = tracker.into_inner().unwrap();
+    let mut tracker = live_tracker(&config);
     assert_eq!(tracker.latest_state().1, TrackingStatus::Waiting);
-    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    let port = tracker.port;
-    let send = |text: &str| {
-        socket
-            .send_to(text.as_bytes(), ("127.0.0.1", port))
-            .unwrap();
-    };
+    let send = udp_sender(tracker.port);
     let head_body =
         Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
     let wand_body = Quat::from_rotation_z(-45f32.to_radians());
@@ -1035,17 +1044,8 @@ fn a_dtrack_left_hand_moves_the_avatars_left_hand_and_its_props() {
         dtrack_cave_with_a_left_hand("axes = \"z_up\"\nhead_id = 1\nwand_id = 1\nleft_hand_id = 3")
             .unwrap();
     let path = Path::new("cave.toml");
-    let PoseSource::Live(tracker) = config.pose_source(path).unwrap() else {
-        panic!("a live source")
-    };
-    let mut tracker = tracker.into_inner().unwrap();
-    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    let port = tracker.port;
-    let send = |text: &str| {
-        socket
-            .send_to(text.as_bytes(), ("127.0.0.1", port))
-            .unwrap();
-    };
+    let mut tracker = live_tracker(&config);
+    let send = udp_sender(tracker.port);
     // the head turned 20 degrees left, the left hand pitched 30 degrees up (in the tracker's
     // z-up frame: about its z and x axes)
     let head_body = Quat::from_rotation_z(20f32.to_radians());

@@ -588,38 +588,25 @@ mod tests {
     }
 
     #[test]
-    fn a_format_1_log_without_pose_to_photon_still_reads() {
-        let dir = tempfile::tempdir().unwrap();
-        {
-            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
-            log.record(&record(0, true)).unwrap();
+    fn format_1_and_2_logs_without_the_newer_columns_still_read() {
+        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's;
+        // format 2: the frame's columns end at pose_to_photon_ms
+        let photon = record(0, true).pose_to_photon_ms;
+        for (format, dropped, pose_to_photon_ms) in [(1, 27..36, None), (2, 28..36, photon)] {
+            let dir = tempfile::tempdir().unwrap();
+            {
+                let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+                log.record(&record(0, true)).unwrap();
+            }
+            as_older_format(dir.path(), format, dropped);
+            let back = SessionLog::read(dir.path()).unwrap().1;
+            let expect = FrameRecord {
+                pose_to_photon_ms,
+                left_hand: None,
+                ..record(0, true)
+            };
+            assert_eq!(back, [expect], "format {format}");
         }
-        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's
-        as_older_format(dir.path(), 1, 27..36);
-        let back = SessionLog::read(dir.path()).unwrap().1;
-        let expect = FrameRecord {
-            pose_to_photon_ms: None,
-            left_hand: None,
-            ..record(0, true)
-        };
-        assert_eq!(back, [expect]);
-    }
-
-    #[test]
-    fn a_format_2_log_without_the_left_hand_still_reads() {
-        let dir = tempfile::tempdir().unwrap();
-        {
-            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
-            log.record(&record(0, true)).unwrap();
-        }
-        // as format 2 wrote it: the frame's columns end at pose_to_photon_ms
-        as_older_format(dir.path(), 2, 28..36);
-        let back = SessionLog::read(dir.path()).unwrap().1;
-        let expect = FrameRecord {
-            left_hand: None,
-            ..record(0, true)
-        };
-        assert_eq!(back, [expect]);
     }
 
     #[test]

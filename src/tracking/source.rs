@@ -243,41 +243,22 @@ impl PoseSource {
     /// The tracked wand at `t`, if any (a static wand comes from the configuration's
     /// `tracking`; a live source's wand once one has been seen).
     pub fn wand_at(&self, tracking: &TrackingConfig, t: f32) -> Option<WandPose> {
-        match self {
-            PoseSource::Static(_) => tracking.static_wand().ok().flatten(),
-            PoseSource::Scripted(s) => s.wand_at(t),
-            PoseSource::Live(tracker) => {
-                tracker
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .latest_state()
-                    .0
-                    .wand
-            }
-        }
+        self.held_at(tracking, t).wand
     }
 
-    /// The tracked left hand at `t`, if any (static: the configuration's `tracking`; scripted:
-    /// the keyframes'; live: the last one seen, held while it is out of view as the wand is).
-    pub fn left_hand_at(&self, tracking: &TrackingConfig, t: f32) -> Option<WandPose> {
-        match self {
-            PoseSource::Static(_) => tracking.static_left_hand().ok().flatten(),
-            PoseSource::Scripted(s) => s.left_hand_at(t),
-            PoseSource::Live(tracker) => {
-                tracker
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
-                    .latest_state()
-                    .0
-                    .left_hand
-            }
-        }
-    }
-
-    /// The wand and the left hand at `t` (`wand_at`, `left_hand_at`; a live source's both from
-    /// one state).
+    /// The wand and the left hand at `t`, each where tracked: static, the configuration's
+    /// `tracking`; scripted, the keyframes'; live, both from one state, each the last one seen
+    /// (a hand out of view is held where it was, as the wand is).
     pub fn held_at(&self, tracking: &TrackingConfig, t: f32) -> HeldPoses {
         match self {
+            PoseSource::Static(_) => HeldPoses {
+                wand: tracking.static_wand().ok().flatten(),
+                left_hand: tracking.static_left_hand().ok().flatten(),
+            },
+            PoseSource::Scripted(s) => HeldPoses {
+                wand: s.wand_at(t),
+                left_hand: s.left_hand_at(t),
+            },
             PoseSource::Live(tracker) => {
                 let state = (tracker.lock().unwrap_or_else(|e| e.into_inner()))
                     .latest_state()
@@ -287,10 +268,6 @@ impl PoseSource {
                     left_hand: state.left_hand,
                 }
             }
-            other => HeldPoses {
-                wand: other.wand_at(tracking, t),
-                left_hand: other.left_hand_at(tracking, t),
-            },
         }
     }
 
