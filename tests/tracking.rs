@@ -2,7 +2,9 @@
 //! the CAVE's walls matches the geometry, computed here independently by intersecting each
 //! eye's line of sight with the wall; orientations from static, scripted and OSC sources), the
 //! room-from-tracker calibration, the live sources (DTrack2 ASCII and OSC on loopback UDP, VRPN
-//! over loopback TCP; latest wins, quiet holds), `vlf track`, and wand navigation.
+//! over loopback TCP; latest wins, quiet holds), the left hand from each of them and from static
+//! and scripted heads (onto the avatar's left hand and a left-hand prop), `vlf track`, and wand
+//! navigation.
 
 mod common;
 use common::*;
@@ -726,7 +728,8 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
         .port();
     let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-dtrack.toml"))
         .unwrap()
-        .replace("port = 5000", &format!("port = {port}"));
+        .replace("port = 5000", &format!("port = {port}"))
+        .replace("# left_hand_id = 2", "left_hand_id = 2");
     let path = dir.path().join("cave.toml");
     std::fs::write(&path, text).unwrap();
     let started = std::time::Instant::now();
@@ -740,7 +743,7 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     let identity = dtrack_matrix(Quat::IDENTITY);
     // stream for a second (the listener may start after the first packets), then go quiet
     while started.elapsed() < std::time::Duration::from_secs(1) {
-        let packet = format!("fr 7\r\n6d 1 [0 1.000][100.0 2000.0 1700.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
+        let packet = format!("fr 7\r\n6d 2 [0 1.000][100.0 2000.0 1700.0][{identity}] [2 1.000][-200.0 2000.0 1200.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
         socket
             .send_to(packet.as_bytes(), ("127.0.0.1", port))
             .unwrap();
@@ -770,7 +773,8 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     );
     assert!(
         stdout.contains("wand (  0.000,   1.000,   0.000)")
-            && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"),
+            && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)")
+            && stdout.contains("left_hand ( -0.200,   1.200,  -2.000)"),
         "{stdout}"
     );
     assert!(
