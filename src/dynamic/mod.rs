@@ -180,12 +180,22 @@ impl Objects {
                 ObjectKind::Avatar => {
                     if let Some(body) = &self.avatar {
                         // `scale` shrinks or grows the body about the tracked head (the eyes
-                        // stay where they are tracked)
+                        // stay where they are tracked); the arms reach for the hands as far
+                        // from the head unscaled, so that once scaled the hands are on them
                         let head = Vec3::from(tracked.head.translation);
                         let about_head = Mat4::from_translation(head)
                             * Mat4::from_scale(Vec3::splat(o.scale))
                             * Mat4::from_translation(-head);
-                        let pose = body.pose(tracked.head, tracked.left_hand, tracked.wand);
+                        let unscaled = |mut hand: Affine3A| {
+                            let from_head = Vec3::from(hand.translation) - head;
+                            hand.translation = (head + from_head / o.scale).into();
+                            hand
+                        };
+                        let pose = body.pose(
+                            tracked.head,
+                            tracked.left_hand.map(unscaled),
+                            tracked.wand.map(unscaled),
+                        );
                         for (slot, m) in matrices[first..].iter_mut().zip(pose) {
                             *slot = about_head * m;
                         }
