@@ -1,10 +1,9 @@
 //! The frame lock between the drawing loops and a cluster (`crate::cluster`): the state rank 0
-//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation,
-//! exposure) and
-//! what the headless and windowed loops call (`FrameLock`: share the state at the start of a
+//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation, exposure)
+//! and what the headless and windowed loops call (`FrameLock`: share the state at the start of a
 //! frame, then a swap barrier just before present). It sits below both: the display's loops
-//! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names
-//! the other's module for it.
+//! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names the
+//! other's module for it.
 
 use crate::error::Result;
 use crate::tracking::{HeldPoses, Pose, WandPose};

@@ -1,8 +1,9 @@
-//! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each
-//! view exactly as the live run drew it: the logged pose, wand and left hand through the same walls (the moving objects on them), and the
-//! logged settings of every view (eye rays per pixel, the paced tiles, mirror reflections) in
-//! place of the pacer's. Each frame's images go to `OUT/frame-<n>/` as the headless run writes
-//! its last frame (`<wall>-<eye>.png`, projectors' outputs, the overview).
+//! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each view
+//! exactly as the live run drew it: the logged pose, wand and left hand through the same walls (the
+//! moving objects on them), and the logged settings of every view (eye rays per pixel, the paced
+//! tiles, mirror reflections) in place of the pacer's. Each frame's images go to `OUT/frame-<n>/`
+//! as the headless run writes its last frame (`<wall>-<eye>.png`, projectors' outputs, the
+//! overview).
 
 use super::frame::{FrameOfViews, Poses, Slots};
 use super::headless::{write_kept, Kept};

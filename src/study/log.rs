@@ -1,15 +1,15 @@
 //! The session log (`vlf cave --log DIR`): `DIR/session.json` says what ran (the display
 //! configuration, the light field, the views, the adapter, when) and documents every column;
-//! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk
-//! at least once a second, so a crash (even SIGKILL) loses at most the last second; the same
-//! rows go to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
+//! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk at
+//! least once a second, so a crash (even SIGKILL) loses at most the last second; the same rows go
+//! to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
 //!
-//! A row: the frame number, seconds since the session began, how the frame was drawn, the head
-//! pose in the room (after calibration) and the navigation (where the room is in the world), the
-//! wand, the frame's GPU and CPU milliseconds, the latencies, the left hand, and per view what
-//! it was drawn with (eye rays per pixel, the paced tiles' count and share, mirror reflections,
-//! fixed work), then the frame's events. Floats are written in Rust's shortest form that reads back to the same bits, so
-//! `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
+//! A row: the frame number, seconds since the session began, how the frame was drawn, the head pose
+//! in the room (after calibration) and the navigation (where the room is in the world), the wand,
+//! the frame's GPU and CPU milliseconds, the latencies, the left hand, and per view what it was
+//! drawn with (eye rays per pixel, the paced tiles' count and share, mirror reflections, fixed
+//! work), then the frame's events. Floats are written in Rust's shortest form that reads back to
+//! the same bits, so `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
 
 pub mod parquet;
 

@@ -2,8 +2,8 @@
 //! VRPN server's TCP stream, `vrpn.rs`), a parser (`osc.rs`, `dtrack.rs`) turns each into
 //! measurements in the tracker's frame, the
 //! calibration (`calibration.rs`) moves them into the room, and the merged state (head, wand,
-//! left hand, buttons, joystick, navigation) goes to the renderer through a crossbeam channel. The
-//! renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
+//! left hand, buttons, joystick, navigation) goes to the renderer through a crossbeam channel.
+//! The renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
 //! source that goes quiet leaves the last state in place, and the tracker says so (status,
 //! and the log once).
 

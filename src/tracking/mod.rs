@@ -1,8 +1,8 @@
-//! Tracking: where the head, the wand and the left hand are, and how the user moves through the scene. The
-//! display TOML's `[tracking]`, `[start_pose]` and `[navigation]` tables (this module); the pose
-//! types (`pose.rs`); the pose source a display's loops draw from, static, scripted or live
-//! (`source.rs`, and `vlf track`); live sources (`live.rs`: the receiving thread and its state)
-//! with their protocols (`osc.rs`, `dtrack.rs`, `vrpn.rs`) and the room calibration
+//! Tracking: where the head, the wand and the left hand are, and how the user moves through the
+//! scene. The display TOML's `[tracking]`, `[start_pose]` and `[navigation]` tables (this module);
+//! the pose types (`pose.rs`); the pose source a display's loops draw from, static, scripted or
+//! live (`source.rs`, and `vlf track`); live sources (`live.rs`: the receiving thread and its
+//! state) with their protocols (`osc.rs`, `dtrack.rs`, `vrpn.rs`) and the room calibration
 //! (`calibration.rs`); the tracked wand (`wand.rs`) and navigation added to the tracked pose
 //! (`navigator.rs`). Nothing here draws: the displays (`crate::display`), the cluster and the
 //! headset read poses from here.
