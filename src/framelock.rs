@@ -1,15 +1,15 @@
 //! The frame lock between the drawing loops and a cluster (`crate::cluster`): the state rank 0
-//! broadcasts every frame (`FrameState`: frame number, head, wand, navigation, exposure) and
-//! what the headless and windowed loops call (`FrameLock`: share the state at the start of a
+//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation, exposure)
+//! and what the headless and windowed loops call (`FrameLock`: share the state at the start of a
 //! frame, then a swap barrier just before present). It sits below both: the display's loops
-//! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names
-//! the other's module for it.
+//! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names the
+//! other's module for it.
 
 use crate::error::Result;
-use crate::tracking::{Pose, WandPose};
+use crate::tracking::{HeldPoses, Pose, WandPose};
 use glam::{Quat, Vec3};
 
-/// What every rank draws a frame from, as rank 0 broadcasts it (88 bytes).
+/// What every rank draws a frame from, as rank 0 broadcasts it (120 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameState {
@@ -21,15 +21,22 @@ pub struct FrameState {
     pub wand_position: [f32; 3],
     pub wand_rotation: [f32; 4],
     pub exposure: f32,
-    /// bit 0: the run ends (nothing to draw); bit 1: a wand is tracked
+    /// bit 0: the run ends (nothing to draw); bit 1: a wand is tracked; bit 2: a left hand is
     pub flags: u32,
+    pub left_hand_position: [f32; 3],
+    pub left_hand_rotation: [f32; 4],
+    /// zero: keeps the state a whole number of its 8-byte frame number (no implicit padding)
+    pub padding: u32,
 }
 
 const QUIT: u32 = 1;
 const HAS_WAND: u32 = 2;
+const HAS_LEFT_HAND: u32 = 4;
 
 impl FrameState {
-    pub fn new(frame: u64, pose: &Pose, wand: Option<&WandPose>, exposure: f32) -> FrameState {
+    pub fn new(frame: u64, pose: &Pose, held: HeldPoses, exposure: f32) -> FrameState {
+        let (wand, left_hand) = (held.wand.as_ref(), held.left_hand.as_ref());
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
         FrameState {
             frame,
             head: pose.head.into(),
@@ -39,13 +46,21 @@ impl FrameState {
             wand_position: wand.map_or([0.0; 3], |w| w.position.into()),
             wand_rotation: wand.map_or([0.0, 0.0, 0.0, 1.0], |w| w.rotation.to_array()),
             exposure,
-            flags: if wand.is_some() { HAS_WAND } else { 0 },
+            flags: flag(wand.is_some(), HAS_WAND) | flag(left_hand.is_some(), HAS_LEFT_HAND),
+            left_hand_position: left_hand.map_or([0.0; 3], |h| h.position.into()),
+            left_hand_rotation: left_hand.map_or([0.0, 0.0, 0.0, 1.0], |h| h.rotation.to_array()),
+            padding: 0,
         }
     }
     pub fn quit(frame: u64) -> FrameState {
         FrameState {
             flags: QUIT,
-            ..FrameState::new(frame, &Pose::new(Vec3::ZERO, Vec3::ZERO, 0.0), None, 1.0)
+            ..FrameState::new(
+                frame,
+                &Pose::new(Vec3::ZERO, Vec3::ZERO, 0.0),
+                HeldPoses::default(),
+                1.0,
+            )
         }
     }
     pub fn is_quit(&self) -> bool {
@@ -65,7 +80,20 @@ impl FrameState {
             rotation: Quat::from_array(self.wand_rotation),
         })
     }
-    /// CRC-32 of everything but the frame number: equal poses, wands and exposure.
+    pub fn left_hand(&self) -> Option<WandPose> {
+        (self.flags & HAS_LEFT_HAND != 0).then(|| WandPose {
+            position: Vec3::from(self.left_hand_position),
+            rotation: Quat::from_array(self.left_hand_rotation),
+        })
+    }
+    /// The wand and the left hand.
+    pub fn held(&self) -> HeldPoses {
+        HeldPoses {
+            wand: self.wand(),
+            left_hand: self.left_hand(),
+        }
+    }
+    /// CRC-32 of everything but the frame number: equal poses, wands, left hands and exposure.
     pub fn pose_digest(&self) -> u32 {
         crc32fast::hash(&bytemuck::bytes_of(self)[8..])
     }

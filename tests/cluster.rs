@@ -2,7 +2,8 @@
 //! headless and in windows under Xvfb: every rank presents the same frame numbers with the same
 //! (scripted, moving) poses; a wand ray crossing from the front wall (rank 1) to the left wall
 //! (rank 2) meets itself at the seam within 1 px; a killed rank and a hung rank end the run
-//! naming the lost rank within the timeout. Needs Open MPI's mpirun and a build with
+//! naming the lost rank within the timeout; the state rank 0 broadcasts carries the wand and the
+//! left hand through its bytes. Needs Open MPI's mpirun and a build with
 //! `--features mpi` (tools/test.sh passes it); without either the tests fail saying so, they
 //! never skip.
 
@@ -627,4 +628,59 @@ fn each_rank_on_a_host_takes_its_own_gpu() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("gpu") && e.contains("local-rank"), "{e}");
+}
+
+/// The state rank 0 broadcasts, as bytes and back (as `cluster::with_mpi` sends it): the head,
+/// the navigation, the wand and the left hand arrive as sent, an untracked hand stays
+/// untracked, and the digest the ranks compare tells a moved left hand apart.
+#[test]
+fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
+    use glam::{Quat, Vec3};
+    use vlf::framelock::FrameState;
+    use vlf::tracking::{HeldPoses, Pose, WandPose};
+    assert_eq!(std::mem::size_of::<FrameState>(), 120);
+    let pose = Pose {
+        head: Vec3::new(0.1, 1.7, -0.2),
+        head_rotation: Quat::from_rotation_y(0.4),
+        room_position: Vec3::new(1.0, 0.0, 2.0),
+        room_yaw_deg: 30.0,
+    };
+    let hand = |x: f32| WandPose {
+        position: Vec3::new(x, 1.2, -0.4),
+        rotation: Quat::from_rotation_x(0.3),
+    };
+    let held = HeldPoses {
+        wand: Some(hand(0.3)),
+        left_hand: Some(hand(-0.3)),
+    };
+    let through_bytes =
+        |s: FrameState| -> FrameState { bytemuck::pod_read_unaligned(bytemuck::bytes_of(&s)) };
+    let state = through_bytes(FrameState::new(7, &pose, held, 1.5));
+    assert_eq!(
+        (state.frame, state.pose(), state.held(), state.exposure),
+        (7, pose, held, 1.5)
+    );
+    assert!(!state.is_quit());
+    for only in [
+        HeldPoses {
+            left_hand: None,
+            ..held
+        },
+        HeldPoses { wand: None, ..held },
+        HeldPoses::default(),
+    ] {
+        assert_eq!(
+            through_bytes(FrameState::new(8, &pose, only, 1.0)).held(),
+            only
+        );
+    }
+    let moved = HeldPoses {
+        left_hand: Some(hand(-0.31)),
+        ..held
+    };
+    assert_ne!(
+        FrameState::new(7, &pose, held, 1.5).pose_digest(),
+        FrameState::new(7, &pose, moved, 1.5).pose_digest()
+    );
+    assert!(through_bytes(FrameState::quit(9)).is_quit());
 }

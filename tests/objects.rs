@@ -61,7 +61,7 @@ fn draw(
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
         pose: &pose,
-        wand: None,
+        held: &Default::default(),
         arrived: None,
     };
     frame.read_back(tracked).unwrap().remove(0).0
@@ -440,8 +440,9 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
 }
 
 /// The shipped body config (config/displays/cave-4wall-body.toml) loads its avatar (the shipped
-/// mannequin) and the wand's ray, and poses them where its tracked head and wand are: the ray's
-/// rigid placement is the wand's, its beam running 10 m along the wand's -z.
+/// mannequin) and the wand's ray, and poses them where its tracked head, wand and left hand are
+/// (the hands within 1 mm): the ray's rigid placement is the wand's, its beam running 10 m along
+/// the wand's -z.
 #[test]
 fn the_shipped_body_config_puts_the_avatar_and_the_wand_ray_on_the_participant() {
     let path = repo_path("config/displays/cave-4wall-body.toml");
@@ -458,12 +459,18 @@ fn the_shipped_body_config_puts_the_avatar_and_the_wand_ray_on_the_participant()
     assert_eq!(mesh.joint_count, 20);
     let poses = config.pose_source(&path).unwrap();
     let pose = poses.at(0.0);
-    let wand = poses.wand_at(&config.tracking, 0.0).unwrap();
-    let tracked = vlf::dynamic::Tracked::from_pose(&pose, Some(&wand), 0.0);
+    let held = poses.held_at(&config.tracking, 0.0);
+    assert!(held.wand.is_some() && held.left_hand.is_some());
+    let tracked = vlf::dynamic::Tracked::from_pose(&pose, &held, 0.0);
     let joints = objects.joint_matrices(&tracked);
     assert!(joints
         .iter()
         .all(|m| m.is_finite() && *m != glam::Mat4::ZERO));
+    // the static left hand: the avatar's left hand on it, as the right is on the wand
+    let [left, right] = objects.avatar_hands(&tracked).unwrap();
+    let hand = |a: Option<glam::Affine3A>| glam::Vec3::from(a.unwrap().translation);
+    assert!(left.distance(hand(tracked.left_hand)) < 1e-3, "{left}");
+    assert!(right.distance(hand(tracked.wand)) < 1e-3, "{right}");
     let ray = joints[19];
     let start = ray.transform_point3(glam::Vec3::ZERO);
     let end = ray.transform_point3(glam::Vec3::new(0.0, 0.0, -10.0));

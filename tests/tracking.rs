@@ -2,7 +2,9 @@
 //! the CAVE's walls matches the geometry, computed here independently by intersecting each
 //! eye's line of sight with the wall; orientations from static, scripted and OSC sources), the
 //! room-from-tracker calibration, the live sources (DTrack2 ASCII and OSC on loopback UDP, VRPN
-//! over loopback TCP; latest wins, quiet holds), `vlf track`, and wand navigation.
+//! over loopback TCP; latest wins, quiet holds), the left hand from each of them and from static
+//! and scripted heads (onto the avatar's left hand and a left-hand prop), `vlf track`, and wand
+//! navigation.
 
 mod common;
 use common::*;
@@ -514,22 +516,31 @@ fn wait_state(
     }
 }
 
+/// The live tracker of a display configuration with a live source.
+fn live_tracker(config: &DisplayConfig) -> vlf::tracking::live::LiveTracker {
+    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
+        panic!("a live source")
+    };
+    tracker.into_inner().unwrap()
+}
+
+/// Sends a text packet to a UDP port on this machine.
+fn udp_sender(port: u16) -> impl Fn(&str) {
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    move |text: &str| {
+        socket
+            .send_to(text.as_bytes(), ("127.0.0.1", port))
+            .unwrap();
+    }
+}
+
 #[test]
 fn dtrack_bodies_and_flysticks_reach_the_room() {
     use vlf::tracking::live::TrackingStatus;
     let config = calibrated("dtrack", "axes = \"z_up\"\nhead_id = 1\nwand_id = 1").unwrap();
-    let PoseSource::Live(tracker) = config.pose_source(Path::new("cave.toml")).unwrap() else {
-        panic!("a live source")
-    };
-    let mut tracker = tracker.into_inner().unwrap();
+    let mut tracker = live_tracker(&config);
     assert_eq!(tracker.latest_state().1, TrackingStatus::Waiting);
-    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
-    let port = tracker.port;
-    let send = |text: &str| {
-        socket
-            .send_to(text.as_bytes(), ("127.0.0.1", port))
-            .unwrap();
-    };
+    let send = udp_sender(tracker.port);
     let head_body =
         Quat::from_rotation_z(30f32.to_radians()) * Quat::from_rotation_x(-60f32.to_radians());
     let wand_body = Quat::from_rotation_z(-45f32.to_radians());
@@ -717,7 +728,8 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
         .port();
     let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall-dtrack.toml"))
         .unwrap()
-        .replace("port = 5000", &format!("port = {port}"));
+        .replace("port = 5000", &format!("port = {port}"))
+        .replace("# left_hand_id = 2", "left_hand_id = 2");
     let path = dir.path().join("cave.toml");
     std::fs::write(&path, text).unwrap();
     let started = std::time::Instant::now();
@@ -731,7 +743,7 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     let identity = dtrack_matrix(Quat::IDENTITY);
     // stream for a second (the listener may start after the first packets), then go quiet
     while started.elapsed() < std::time::Duration::from_secs(1) {
-        let packet = format!("fr 7\r\n6d 1 [0 1.000][100.0 2000.0 1700.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
+        let packet = format!("fr 7\r\n6d 2 [0 1.000][100.0 2000.0 1700.0][{identity}] [2 1.000][-200.0 2000.0 1200.0][{identity}]\r\n6df2 1 1 [0 1.000 6 2][0 0 1000.0][{identity}][2 0.00 1.00]\r\n");
         socket
             .send_to(packet.as_bytes(), ("127.0.0.1", port))
             .unwrap();
@@ -761,7 +773,8 @@ fn vlf_track_prints_poses_and_buttons_as_they_arrive() {
     );
     assert!(
         stdout.contains("wand (  0.000,   1.000,   0.000)")
-            && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)"),
+            && stdout.contains("buttons [1]  joystick ( 0.00,  1.00)")
+            && stdout.contains("left_hand ( -0.200,   1.200,  -2.000)"),
         "{stdout}"
     );
     assert!(
@@ -1000,4 +1013,247 @@ proptest::proptest! {
             }
         }
     }
+}
+
+/// A CAVE on DTrack with a left hand (body 3) and the participant's body: the shipped mannequin
+/// and a prop that follows the left hand, at `path` (the meshes by absolute path).
+fn dtrack_cave_with_a_left_hand(calibration: &str) -> Result<DisplayConfig, String> {
+    let objects = format!(
+        "\n[[object]]\nname = \"body\"\nkind = \"avatar\"\nmesh = {:?}\n\n\
+         [[object]]\nname = \"cup\"\nmesh = {:?}\nfollow = \"left_hand\"\nposition = [0.0, 0.05, 0.0]\n",
+        repo_path("assets/avatar/mannequin.glb").display().to_string(),
+        repo_path("assets/wand/ray.obj").display().to_string(),
+    );
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap();
+    let tracking = format!(
+        "[tracking]\nsource = \"dtrack\"\nport = 0\n\n[tracking.calibration]\n{calibration}\n"
+    );
+    let text = text.replace(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]",
+        &tracking,
+    ) + &objects;
+    DisplayConfig::parse(&text, Path::new("cave.toml")).map_err(|e| e.to_string())
+}
+
+/// DTrack body 3 as the left hand (`left_hand_id = 3`, z up, millimetres): calibrated into the
+/// room like the wand, held while out of view, and the avatar's left hand (posed on the CPU)
+/// and a `follow = "left_hand"` prop land on it in the world within 1 mm, as do they from the
+/// frame state a cluster's rank 0 broadcasts.
+#[test]
+fn a_dtrack_left_hand_moves_the_avatars_left_hand_and_its_props() {
+    use vlf::dynamic::{rigid_placement, Objects, Tracked};
+    use vlf::framelock::FrameState;
+    use vlf::tracking::HeldPoses;
+    let config =
+        dtrack_cave_with_a_left_hand("axes = \"z_up\"\nhead_id = 1\nwand_id = 1\nleft_hand_id = 3")
+            .unwrap();
+    let path = Path::new("cave.toml");
+    let mut tracker = live_tracker(&config);
+    let send = udp_sender(tracker.port);
+    // the head turned 20 degrees left, the left hand pitched 30 degrees up (in the tracker's
+    // z-up frame: about its z and x axes)
+    let head_body = Quat::from_rotation_z(20f32.to_radians());
+    let hand_body = Quat::from_rotation_x(30f32.to_radians());
+    let identity = dtrack_matrix(Quat::IDENTITY);
+    let frame = |hand_quality: f32, hand_mm: [f32; 3]| {
+        let [x, y, z] = hand_mm;
+        format!(
+            "fr 7\r\n6d 2 [1 1.000][100.0 2000.0 1700.0 0 0 0][{}] [3 {hand_quality}][{x} {y} {z} 0 0 0][{}]\r\n\
+             6df2 1 1 [1 1.000 6 2][250.0 2200.0 1200.0][{identity}][0 0.0 0.0]\r\n",
+            dtrack_matrix(head_body),
+            dtrack_matrix(hand_body)
+        )
+    };
+    send(&frame(1.0, [-150.0, 2250.0, 1300.0]));
+    let state = wait_state(&mut tracker, "the left hand", |s| s.left_hand.is_some());
+    let hand = state.left_hand.unwrap();
+    // tracker (x, y, z) mm, z up -> room (x, z, -y) metres
+    assert!(
+        (hand.position - Vec3::new(-0.15, 1.3, -2.25)).length() < 1e-5,
+        "{hand:?}"
+    );
+    assert!(
+        same(hand.rotation, Quat::from_rotation_x(30f32.to_radians())),
+        "{hand:?}"
+    );
+    assert!(state.wand.is_some(), "the Flystick is still the wand");
+
+    // out of view (quality -1) elsewhere: the hand stays where it was last tracked
+    send(&frame(-1.0, [900.0, 900.0, 900.0]));
+    let s = tracker
+        .next(std::time::Duration::from_secs(5))
+        .expect("the frame without the hand");
+    assert_eq!(s.state.left_hand, Some(hand));
+
+    let objects = Objects::load(&config.objects, path).unwrap();
+    let held = HeldPoses {
+        wand: state.wand,
+        left_hand: state.left_hand,
+    };
+    // the room navigated: the hand goes with it
+    let pose = Pose {
+        room_position: Vec3::new(0.5, 0.0, 2.2),
+        room_yaw_deg: 35.0,
+        ..state.pose
+    };
+    let in_world = pose.room_to_world(hand.position);
+    // what a cluster's every rank draws from: rank 0's state, as bytes
+    let shared: FrameState =
+        bytemuck::pod_read_unaligned(bytemuck::bytes_of(&FrameState::new(3, &pose, held, 1.0)));
+    for (what, tracked) in [
+        ("rank 0", Tracked::from_pose(&pose, &held, 0.0)),
+        (
+            "the shared state",
+            Tracked::from_pose(&shared.pose(), &shared.held(), 0.0),
+        ),
+    ] {
+        let left = Vec3::from(tracked.left_hand.expect("a left hand").translation);
+        assert!(left.distance(in_world) < 1e-5, "{what}: {left}");
+        let [avatar_left, avatar_right] = objects.avatar_hands(&tracked).unwrap();
+        assert!(
+            avatar_left.distance(in_world) < 1e-3,
+            "{what}: the avatar's left hand at {avatar_left}, the tracked one at {in_world}"
+        );
+        let wand = Vec3::from(tracked.wand.unwrap().translation);
+        assert!(avatar_right.distance(wand) < 1e-3, "{what}: {avatar_right}");
+        // the cup sits 5 cm along the hand's own up
+        let cup = rigid_placement(&config.objects[1], &tracked);
+        let expect = tracked
+            .left_hand
+            .unwrap()
+            .transform_point3(Vec3::new(0.0, 0.05, 0.0));
+        assert!(
+            Vec3::from(cup.translation).distance(expect) < 1e-5,
+            "{what}: {cup:?}"
+        );
+    }
+    // without a left hand the arm hangs and the cup waits at the head
+    let no_hand = Tracked::from_pose(
+        &pose,
+        &HeldPoses {
+            left_hand: None,
+            ..held
+        },
+        0.0,
+    );
+    let [hanging, _] = objects.avatar_hands(&no_hand).unwrap();
+    assert!(hanging.distance(in_world) > 0.1, "{hanging}");
+    let cup = rigid_placement(&config.objects[1], &no_hand);
+    let at_head = no_hand.head.transform_point3(Vec3::new(0.0, 0.05, 0.0));
+    assert!(Vec3::from(cup.translation).distance(at_head) < 1e-5);
+}
+
+#[test]
+fn left_hand_ids_and_names_are_checked_at_load() {
+    // the head's body cannot be the left hand too
+    let e = dtrack_cave_with_a_left_hand("head_id = 2\nleft_hand_id = 2").unwrap_err();
+    assert!(
+        e.contains("tracking.calibration.left_hand_id") && e.contains("head_id"),
+        "{e}"
+    );
+    // a VRPN sensor is one thing: the wand's (1 by default) is not the left hand
+    let e = with_tracking(
+        "[tracking]\nsource = \"vrpn\"\nserver = \"localhost\"\ndevice = \"DTrack\"\n\n[tracking.calibration]\nleft_hand_id = 1",
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("tracking.calibration.left_hand_id") && e.contains("wand_id"),
+        "{e}"
+    );
+    // a DTrack Flystick is numbered apart from the bodies: body 1 may be the left hand
+    dtrack_cave_with_a_left_hand("head_id = 0\nwand_id = 1\nleft_hand_id = 1").unwrap();
+    // an object following a target nobody tracks: the key, and the targets there are
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap()
+        + "\n[[object]]\nname = \"prop\"\nmesh = \"prop.obj\"\nfollow = \"right_foot\"\n";
+    let e = DisplayConfig::parse(&text, Path::new("cave.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("follow") && e.contains("right_foot") && e.contains("`left_hand`"),
+        "{e}"
+    );
+    // a static left hand: the keys the wand has, checked alike
+    let e = with_tracking(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nleft_hand_yaw_deg = 10.0",
+    )
+    .unwrap_err();
+    assert!(e.contains("tracking.left_hand_position"), "{e}");
+    let config = with_tracking(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\nleft_hand_position = [-0.2, 1.0, 0.0]\nleft_hand_pitch_deg = 90.0",
+    )
+    .unwrap();
+    let hand = config.tracking.static_left_hand().unwrap().unwrap();
+    assert!((hand.rotation * Vec3::NEG_Z - Vec3::Y).length() < 1e-6);
+    let held = config
+        .pose_source(Path::new("cave.toml"))
+        .unwrap()
+        .held_at(&config.tracking, 0.0);
+    assert_eq!((held.wand, held.left_hand), (None, Some(hand)));
+}
+
+/// The left hand over OSC (`/vlf/left_hand`), VRPN (sensor `left_hand_id`) and a scripted path
+/// (keyframes' `left_hand_position`, interpolated like the wand's).
+#[test]
+fn osc_vrpn_and_scripted_paths_give_the_left_hand() {
+    use vlf::tracking::calibration::RoomFromTracker;
+    use vlf::tracking::live::Measurement;
+    let q = Quat::from_rotation_y(0.3);
+    let message = rosc::OscPacket::Message(rosc::OscMessage {
+        addr: "/vlf/left_hand".into(),
+        args: [-0.3, 1.1, -0.4, q.x, q.y, q.z, q.w]
+            .into_iter()
+            .map(rosc::OscType::Float)
+            .collect(),
+    });
+    let mut out = Vec::new();
+    let ids = RoomFromTracker::default();
+    vlf::tracking::osc::parse(&rosc::encoder::encode(&message).unwrap(), &ids, &mut out).unwrap();
+    assert_eq!(
+        out,
+        [Measurement::LeftHand {
+            position: Vec3::new(-0.3, 1.1, -0.4),
+            rotation: q
+        }]
+    );
+    // VRPN: sensor 2 only once it is configured as the left hand
+    let payload = &vrpn_pose(1, 2, [-0.3, 1.1, -0.4], q)[24..];
+    out.clear();
+    vlf::tracking::vrpn::decode("vrpn_Tracker Pos_Quat", payload, &ids, &mut out).unwrap();
+    assert!(out.is_empty(), "{out:?}");
+    let ids = RoomFromTracker {
+        left_hand_id: Some(2),
+        ..ids
+    };
+    vlf::tracking::vrpn::decode("vrpn_Tracker Pos_Quat", payload, &ids, &mut out).unwrap();
+    assert!(
+        matches!(out[..], [Measurement::LeftHand { position, rotation }]
+            if (position - Vec3::new(-0.3, 1.1, -0.4)).length() < 1e-6 && same(rotation, q)),
+        "{out:?}"
+    );
+    // a scripted path: the left hand moves between keyframes that give it
+    let dir = tempfile::tempdir().unwrap();
+    let walk = dir.path().join("walk.toml");
+    std::fs::write(
+        &walk,
+        "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\nleft_hand_position = [-0.2, 1.0, 0.0]\n\n\
+         [[keyframe]]\nt = 2.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\nleft_hand_position = [-0.2, 1.4, 0.0]\nleft_hand_yaw_deg = 90.0\n",
+    )
+    .unwrap();
+    let path = vlf::tracking::source::ScriptedPath::load(&walk).unwrap();
+    let half = path.left_hand_at(1.0).unwrap();
+    assert!((half.position - Vec3::new(-0.2, 1.2, 0.0)).length() < 1e-6);
+    assert!(same(
+        half.rotation,
+        Quat::from_rotation_y(45f32.to_radians())
+    ));
+    assert_eq!(path.wand_at(1.0), None);
+    std::fs::write(
+        &walk,
+        "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\nleft_hand_orientation = [0.0, 0.0, 0.0, 1.0]\n",
+    )
+    .unwrap();
+    let e = vlf::tracking::source::ScriptedPath::load(&walk)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("keyframe[0].left_hand_position"), "{e}");
 }

@@ -131,6 +131,10 @@ pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> 
             wand_yaw_deg: None,
             wand_pitch_deg: None,
             wand_orientation: None,
+            left_hand_position: None,
+            left_hand_yaw_deg: None,
+            left_hand_pitch_deg: None,
+            left_hand_orientation: None,
         };
     }
     local

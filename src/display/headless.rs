@@ -21,8 +21,8 @@ use crate::render::Frame;
 use crate::stats::Distribution;
 use crate::study::log::Drawn;
 use crate::study::{ControlServer, FrameRecord, LslOutlets, Session, SessionLog};
-use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
+use crate::tracking::HeldPoses;
 use serde::Serialize;
 use std::path::Path;
 
@@ -150,7 +150,7 @@ fn frame_pose<'l>(
     config: &DisplayConfig,
     (f, total): (u32, u32),
     lock: Option<&mut (dyn FrameLock + 'l)>,
-) -> Result<(Pose, Option<WandPose>, Option<std::time::Instant>)> {
+) -> Result<(Pose, HeldPoses, Option<std::time::Instant>)> {
     let duration = match poses {
         PoseSource::Scripted(s) => s.duration(),
         PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
@@ -161,13 +161,13 @@ fn frame_pose<'l>(
         0.0
     };
     let (pose, fresh) = poses.at_fresh(t);
-    let wand = poses.wand_at(&config.tracking, t);
+    let held = poses.held_at(&config.tracking, t);
     Ok(match lock {
         Some(l) => {
-            let s = l.share(FrameState::new(f as u64, &pose, wand.as_ref(), 1.0))?;
-            (s.pose(), s.wand(), fresh)
+            let s = l.share(FrameState::new(f as u64, &pose, held, 1.0))?;
+            (s.pose(), s.held(), fresh)
         }
-        None => (pose, wand, fresh),
+        None => (pose, held, fresh),
     })
 }
 
@@ -212,14 +212,14 @@ pub fn run_locked(
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
         frame.change_objects(&session.take_object_changes());
-        let (pose, wand, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        let (pose, held, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         frame.set_object_time(object_time(&poses, config, (f, total)));
         // when the pose came in (live tracking), or was sampled
         let sampled = fresh.unwrap_or_else(std::time::Instant::now);
         let pose = session.pose(pose, sampled);
         let tracked = Poses::Tracked {
             pose: &pose,
-            wand: wand.as_ref(),
+            held: &held,
             arrived: fresh,
         };
         let time_s = session.time_s();
@@ -228,7 +228,8 @@ pub fn run_locked(
             time_s,
             drawn,
             pose,
-            wand,
+            wand: held.wand,
+            left_hand: held.left_hand,
             gpu_ms: None,
             cpu_ms: None,
             block: 0,

@@ -278,6 +278,7 @@ impl DisplayConfig {
         }
         self.tracking.static_head_rotation()?;
         self.tracking.static_wand()?;
+        self.tracking.static_left_hand()?;
         self.wand_ray.validate()?;
         for (i, w) in self.walls.iter().enumerate() {
             warp::validate_projectors(w).map_err(|e| format!("wall[{i}] ({:?}).{e}", w.name))?;

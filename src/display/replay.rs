@@ -1,8 +1,9 @@
-//! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each
-//! view exactly as the live run drew it: the logged pose and wand through the same walls, and the
-//! logged settings of every view (eye rays per pixel, the paced tiles, mirror reflections) in
-//! place of the pacer's. Each frame's images go to `OUT/frame-<n>/` as the headless run writes
-//! its last frame (`<wall>-<eye>.png`, projectors' outputs, the overview).
+//! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each view
+//! exactly as the live run drew it: the logged pose, wand and left hand through the same walls (the
+//! moving objects on them), and the logged settings of every view (eye rays per pixel, the paced
+//! tiles, mirror reflections) in place of the pacer's. Each frame's images go to `OUT/frame-<n>/`
+//! as the headless run writes its last frame (`<wall>-<eye>.png`, projectors' outputs, the
+//! overview).
 
 use super::frame::{FrameOfViews, Poses, Slots};
 use super::headless::{write_kept, Kept};
@@ -10,6 +11,7 @@ use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::study::{FrameRecord, SessionMeta};
+use crate::tracking::HeldPoses;
 use std::path::Path;
 
 /// Draw `frames` (of the log's `meta`) from the light field the session drew, images into
@@ -46,9 +48,13 @@ pub fn replay(
     );
     for (k, record) in frames.iter().enumerate() {
         frame.force_view_settings(record.views.clone());
+        let held = HeldPoses {
+            wand: record.wand,
+            left_hand: record.left_hand,
+        };
         let poses = Poses::Tracked {
             pose: &record.pose,
-            wand: record.wand.as_ref(),
+            held: &held,
             arrived: None,
         };
         let images = frame.read_back(poses)?;

@@ -29,7 +29,8 @@ pub struct ObjectConfig {
     pub pitch_deg: f32,
     #[serde(default)]
     pub roll_deg: f32,
-    /// uniform scale of the mesh (an avatar's about the tracked head: a body to fit the scene)
+    /// uniform scale of the mesh (an avatar's about the tracked head: a body to fit the scene,
+    /// its hands still on the tracked ones)
     #[serde(default = "one")]
     pub scale: f32,
     /// `follow = "world"`: placements over time (seconds from the start), interpolated; after

@@ -1,6 +1,6 @@
 //! Dynamic objects: moving things drawn into the static light field, each frame where the
 //! participant or the script puts them. A display config lists them (`[[object]]`, `config.rs`):
-//! rigid meshes that follow the tracked head or wand or move by keyframes in the world
+//! rigid meshes that follow the tracked head, wand or left hand or move by keyframes in the world
 //! (`motion.rs`), and the participant's skinned avatar (`avatar/`). Here they become one mesh in
 //! its rest pose (`mesh.rs`) and, frame by frame, the joint matrices that pose it; the renderer
 //! skins, refits and shades them on the GPU (`render::moving`, `render::probes`). Nothing here
@@ -16,7 +16,7 @@ pub use mesh::{MovingMaterial, MovingMesh, RestVertex, RigidMesh};
 
 use crate::error::{Result, VlfError};
 use crate::tracking::pose::head_rotation_from_angles;
-use crate::tracking::{Pose, WandPose};
+use crate::tracking::{HeldPoses, Pose, WandPose};
 use avatar::Avatar;
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use std::path::Path;
@@ -31,27 +31,28 @@ pub struct Tracked {
     /// world from wand (points along -z), where one is tracked: the right hand (the headset's
     /// right controller's grip)
     pub wand: Option<Affine3A>,
-    /// world from the left hand (the headset's left controller's grip: -z along the hand, as the
-    /// wand), where one is tracked
+    /// world from the left hand (the CAVE's tracked left hand, the headset's left controller's
+    /// grip: -z along the hand, as the wand), where one is tracked
     pub left_hand: Option<Affine3A>,
 }
 
 impl Tracked {
-    /// The tracked head and wand of `pose` moved into the world by its navigation.
-    pub fn from_pose(pose: &Pose, wand: Option<&WandPose>, time: f64) -> Tracked {
+    /// The tracked head, wand and left hand of `pose` and `held` (room) moved into the world by
+    /// the pose's navigation.
+    pub fn from_pose(pose: &Pose, held: &HeldPoses, time: f64) -> Tracked {
         let room = Quat::from_rotation_y(pose.room_yaw_deg.to_radians());
         let head = Affine3A::from_rotation_translation(
             room * pose.head_rotation,
             pose.room_to_world(pose.head),
         );
-        let wand = wand.map(|w| {
-            Affine3A::from_rotation_translation(room * w.rotation, pose.room_to_world(w.position))
-        });
+        let in_world = |h: &WandPose| {
+            Affine3A::from_rotation_translation(room * h.rotation, pose.room_to_world(h.position))
+        };
         Tracked {
             time,
             head,
-            wand,
-            left_hand: None,
+            wand: held.wand.as_ref().map(in_world),
+            left_hand: held.left_hand.as_ref().map(in_world),
         }
     }
 
@@ -191,12 +192,22 @@ impl Objects {
                 ObjectKind::Avatar => {
                     if let Some(body) = &self.avatar {
                         // `scale` shrinks or grows the body about the tracked head (the eyes
-                        // stay where they are tracked)
+                        // stay where they are tracked); the arms reach for the hands as far
+                        // from the head unscaled, so that once scaled the hands are on them
                         let head = Vec3::from(tracked.head.translation);
                         let about_head = Mat4::from_translation(head)
                             * Mat4::from_scale(Vec3::splat(o.scale))
                             * Mat4::from_translation(-head);
-                        let pose = body.pose(tracked.head, tracked.left_hand, tracked.wand);
+                        let unscaled = |mut hand: Affine3A| {
+                            let from_head = Vec3::from(hand.translation) - head;
+                            hand.translation = (head + from_head / o.scale).into();
+                            hand
+                        };
+                        let pose = body.pose(
+                            tracked.head,
+                            tracked.left_hand.map(unscaled),
+                            tracked.wand.map(unscaled),
+                        );
                         for (slot, m) in matrices[first..].iter_mut().zip(pose) {
                             *slot = about_head * m;
                         }

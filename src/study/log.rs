@@ -1,15 +1,15 @@
 //! The session log (`vlf cave --log DIR`): `DIR/session.json` says what ran (the display
 //! configuration, the light field, the views, the adapter, when) and documents every column;
-//! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk
-//! at least once a second, so a crash (even SIGKILL) loses at most the last second; the same
-//! rows go to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
+//! `DIR/frames.csv` has one row per frame drawn, written as the run goes and flushed to the disk at
+//! least once a second, so a crash (even SIGKILL) loses at most the last second; the same rows go
+//! to `DIR/frames.parquet/` (`log/parquet.rs`), a part each time the CSV is flushed.
 //!
-//! A row: the frame number, seconds since the session began, how the frame was drawn, the head
-//! pose in the room (after calibration) and the navigation (where the room is in the world), the
-//! wand, the frame's GPU and CPU milliseconds, and per view what it was drawn with (eye rays per
-//! pixel, the paced tiles' count and share, mirror reflections, fixed work), then the frame's
-//! events. Floats are written in Rust's shortest form that reads back to the same bits, so
-//! `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
+//! A row: the frame number, seconds since the session began, how the frame was drawn, the head pose
+//! in the room (after calibration) and the navigation (where the room is in the world), the wand,
+//! the frame's GPU and CPU milliseconds, the latencies, the left hand, and per view what it was
+//! drawn with (eye rays per pixel, the paced tiles' count and share, mirror reflections, fixed
+//! work), then the frame's events. Floats are written in Rust's shortest form that reads back to
+//! the same bits, so `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
 
 pub mod parquet;
 
@@ -22,9 +22,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-/// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`;
-/// `SessionLog::read` reads 1 too (without it).
-pub const LOG_FORMAT: u32 = 2;
+/// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
+/// left hand's columns after it; `SessionLog::read` reads 1 and 2 too (without them).
+pub const LOG_FORMAT: u32 = 3;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -84,6 +84,8 @@ pub struct FrameRecord {
     pub drawn: Drawn,
     pub pose: Pose,
     pub wand: Option<WandPose>,
+    /// the tracked left hand in the room, where one is given
+    pub left_hand: Option<WandPose>,
     /// all the frame's passes on the GPU, and the frame on the CPU (None where not timed)
     pub gpu_ms: Option<f64>,
     pub cpu_ms: Option<f64>,
@@ -103,7 +105,7 @@ pub struct FrameRecord {
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 28] = [
+const FRAME_COLUMNS: [(&str, &str); 36] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -174,7 +176,38 @@ const FRAME_COLUMNS: [(&str, &str); 28] = [
         "pose_to_photon_ms",
         "from the same to the frame's predicted photons: its GPU end plus one refresh period (half a period on average to the vertical blank, half to scan out to the picture's middle; the GPU end alone without refresh_hz; a projector's input lag comes on top), ms; empty where not shown",
     ),
+    (
+        "left_hand",
+        "1 where a left hand pose is given, else 0 (its columns then 0)",
+    ),
+    ("left_hand_x", "left hand position in the room, metres"),
+    ("left_hand_y", "left hand position in the room, metres"),
+    ("left_hand_z", "left hand position in the room, metres"),
+    ("left_hand_qx", "left hand rotation, quaternion x"),
+    ("left_hand_qy", "left hand rotation, quaternion y"),
+    ("left_hand_qz", "left hand rotation, quaternion z"),
+    ("left_hand_qw", "left hand rotation, quaternion w"),
 ];
+
+/// How many of `FRAME_COLUMNS` a log of `format` has: 1 lacks pose_to_photon_ms, 2 the left
+/// hand's eight.
+fn frame_columns(format: u32) -> usize {
+    match format {
+        1 => 27,
+        2 => 28,
+        _ => FRAME_COLUMNS.len(),
+    }
+}
+
+/// A wand's or hand's columns: 1 and its position and rotation, or 0 and zeros.
+fn held_cells(held: Option<&WandPose>) -> impl Iterator<Item = String> {
+    let (given, p, q) = match held {
+        Some(w) => (1, w.position, w.rotation),
+        None => (0, Vec3::ZERO, Quat::from_xyzw(0.0, 0.0, 0.0, 0.0)),
+    };
+    let floats = [p.x, p.y, p.z, q.x, q.y, q.z, q.w];
+    std::iter::once(given.to_string()).chain(floats.map(|v| v.to_string()))
+}
 /// Each view's columns, after the frame's; then the events.
 const VIEW_COLUMNS: [(&str, &str); 5] = [
     (
@@ -322,9 +355,7 @@ impl SessionLog {
         };
         let mut records = Vec::new();
         for (n, line) in complete.lines().enumerate().skip(1) {
-            // format 1: the frame's columns without the last, pose_to_photon_ms
-            let frame_columns = FRAME_COLUMNS.len() - (meta.format == 1) as usize;
-            let r = parse_row(line, (frame_columns, meta.views.len()))
+            let r = parse_row(line, (frame_columns(meta.format), meta.views.len()))
                 .map_err(|why| VlfError::Display(format!("{}:{}: {why}", csv.display(), n + 1)))?;
             records.push(r);
         }
@@ -343,10 +374,6 @@ impl Drop for SessionLog {
 /// A row of frames.csv.
 fn row_text(r: &FrameRecord) -> String {
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
-    let (wand, wp, wq) = match &r.wand {
-        Some(w) => (1, w.position, w.rotation),
-        None => (0, Vec3::ZERO, Quat::from_xyzw(0.0, 0.0, 0.0, 0.0)),
-    };
     let (p, q, room) = (r.pose.head, r.pose.head_rotation, r.pose.room_position);
     let mut cells: Vec<String> = vec![
         r.frame.to_string(),
@@ -367,15 +394,14 @@ fn row_text(r: &FrameRecord) -> String {
         r.pose.room_yaw_deg,
     ];
     cells.extend(floats.iter().map(f32::to_string));
-    cells.push(wand.to_string());
-    let wand_floats = [wp.x, wp.y, wp.z, wq.x, wq.y, wq.z, wq.w];
-    cells.extend(wand_floats.iter().map(f32::to_string));
+    cells.extend(held_cells(r.wand.as_ref()));
     cells.push(opt(r.gpu_ms));
     cells.push(opt(r.cpu_ms));
     cells.push(r.block.to_string());
     cells.push(r.trial.to_string());
     cells.push(opt(r.pose_to_submit_ms));
     cells.push(opt(r.pose_to_photon_ms));
+    cells.extend(held_cells(r.left_hand.as_ref()));
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -427,12 +453,15 @@ fn parse_row(
         room_position: Vec3::new(f(10)?, f(11)?, f(12)?),
         room_yaw_deg: f(13)?,
     };
-    let wand = match u(14)? {
-        1 => Some(WandPose {
-            position: Vec3::new(f(15)?, f(16)?, f(17)?),
-            rotation: Quat::from_xyzw(f(18)?, f(19)?, f(20)?, f(21)?),
-        }),
-        _ => None,
+    // a wand's or hand's eight columns from `c` (a log without them: none)
+    let held = |c: usize| -> std::result::Result<Option<WandPose>, String> {
+        if c + 8 > frame_columns || u(c)? != 1 {
+            return Ok(None);
+        }
+        Ok(Some(WandPose {
+            position: Vec3::new(f(c + 1)?, f(c + 2)?, f(c + 3)?),
+            rotation: Quat::from_xyzw(f(c + 4)?, f(c + 5)?, f(c + 6)?, f(c + 7)?),
+        }))
     };
     let base = frame_columns;
     let views = (0..views)
@@ -454,7 +483,8 @@ fn parse_row(
         time_s: cells[1].parse().map_err(|_| "column 2 is not a time")?,
         drawn,
         pose,
-        wand,
+        wand: held(14)?,
+        left_hand: held(28)?,
         gpu_ms: opt(22)?,
         cpu_ms: opt(23)?,
         block: u(24)?,
@@ -491,6 +521,10 @@ mod tests {
             wand: wand.then(|| WandPose {
                 position: Vec3::new(0.2, 1.2, -0.5),
                 rotation: Quat::from_rotation_x(-0.2),
+            }),
+            left_hand: wand.then(|| WandPose {
+                position: Vec3::new(-0.3, 1.1, -0.4),
+                rotation: Quat::from_rotation_z(0.7),
             }),
             gpu_ms: Some(1.25),
             cpu_ms: None,
@@ -530,39 +564,49 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 28 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 36 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
 
-    #[test]
-    fn a_format_1_log_without_pose_to_photon_still_reads() {
-        let dir = tempfile::tempdir().unwrap();
-        {
-            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
-            log.record(&record(0, true)).unwrap();
-        }
-        // as format 1 wrote it: no pose_to_photon_ms (the 28th column)
-        let (json, csv) = (
-            dir.path().join("session.json"),
-            dir.path().join("frames.csv"),
-        );
+    /// A log written now, rewritten as an older format wrote it: session.json's `format` and
+    /// the frame columns `dropped` (0-based) taken out of every line of frames.csv.
+    fn as_older_format(dir: &Path, format: u32, dropped: std::ops::Range<usize>) {
+        let (json, csv) = (dir.join("session.json"), dir.join("frames.csv"));
         let text = std::fs::read_to_string(&json).unwrap();
-        std::fs::write(&json, text.replace("\"format\": 2", "\"format\": 1")).unwrap();
+        let now = format!("\"format\": {LOG_FORMAT}");
+        assert!(text.contains(&now));
+        std::fs::write(&json, text.replace(&now, &format!("\"format\": {format}"))).unwrap();
         let lines: Vec<String> = (std::fs::read_to_string(&csv).unwrap().lines())
             .map(|l| {
                 let mut cells: Vec<&str> = l.split(',').collect();
-                cells.remove(27);
+                cells.drain(dropped.clone());
                 cells.join(",") + "\n"
             })
             .collect();
         std::fs::write(&csv, lines.concat()).unwrap();
-        let back = SessionLog::read(dir.path()).unwrap().1;
-        let expect = FrameRecord {
-            pose_to_photon_ms: None,
-            ..record(0, true)
-        };
-        assert_eq!(back, [expect]);
+    }
+
+    #[test]
+    fn format_1_and_2_logs_without_the_newer_columns_still_read() {
+        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's;
+        // format 2: the frame's columns end at pose_to_photon_ms
+        let photon = record(0, true).pose_to_photon_ms;
+        for (format, dropped, pose_to_photon_ms) in [(1, 27..36, None), (2, 28..36, photon)] {
+            let dir = tempfile::tempdir().unwrap();
+            {
+                let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+                log.record(&record(0, true)).unwrap();
+            }
+            as_older_format(dir.path(), format, dropped);
+            let back = SessionLog::read(dir.path()).unwrap().1;
+            let expect = FrameRecord {
+                pose_to_photon_ms,
+                left_hand: None,
+                ..record(0, true)
+            };
+            assert_eq!(back, [expect], "format {format}");
+        }
     }
 
     #[test]

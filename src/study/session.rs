@@ -344,6 +344,7 @@ mod tests {
                 room_yaw_deg: 0.0,
             },
             wand: None,
+            left_hand: None,
             gpu_ms: None,
             cpu_ms: None,
             block: 0,

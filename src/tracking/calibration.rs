@@ -4,9 +4,9 @@
 //! `translation + rotation * axes * (unit_scale * p)`, and a tracked body's orientation q
 //! becomes `rotation * axes * q * axes^-1` (a body aligned with the tracker's axes is a head
 //! looking along the tracker's forward axis, expressed in the room's convention). It also says
-//! which sensor or body is the head and which the wand.
+//! which sensor or body is the head, which the wand and which, if any, the left hand.
 
-use super::pose::{head_rotation_from_angles, Pose};
+use super::pose::{head_rotation_from_angles, Pose, WandPose};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -42,6 +42,9 @@ pub struct Calibration {
     pub head_id: Option<u32>,
     /// the wand's Flystick (DTrack `6df2`) or sensor (VRPN) id; default: DTrack 0, VRPN 1
     pub wand_id: Option<u32>,
+    /// the left hand's body (DTrack `6d`) or sensor (VRPN) id; none by default (no left hand
+    /// tracked; OSC sends it as `/vlf/left_hand` without an id)
+    pub left_hand_id: Option<u32>,
 }
 
 /// A calibration resolved for one source: the transform and the ids.
@@ -55,6 +58,7 @@ pub struct RoomFromTracker {
     pub scale: f32,
     pub head_id: u32,
     pub wand_id: u32,
+    pub left_hand_id: Option<u32>,
 }
 
 impl Default for RoomFromTracker {
@@ -66,6 +70,7 @@ impl Default for RoomFromTracker {
             scale: 1.0,
             head_id: 0,
             wand_id: 1,
+            left_hand_id: None,
         }
     }
 }
@@ -126,13 +131,20 @@ impl Calibration {
             // tracker (x, y, z) with z up -> room (x, z, -y)
             Axes::ZUp => Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
         };
+        let head_id = self.head_id.unwrap_or(0);
+        if self.left_hand_id == Some(head_id) {
+            return Err(format!(
+                "{at}.left_hand_id: {head_id} is the head's id (head_id): give the left hand's own body or sensor"
+            ));
+        }
         Ok(RoomFromTracker {
             translation: Vec3::from(self.translation),
             rotation: rotation * axes,
             axes,
             scale,
-            head_id: self.head_id.unwrap_or(0),
+            head_id,
             wand_id: self.wand_id.unwrap_or(default_wand),
+            left_hand_id: self.left_hand_id,
         })
     }
 }
@@ -146,6 +158,14 @@ impl RoomFromTracker {
     /// A tracked body's orientation in the room.
     pub fn orientation(&self, q: Quat) -> Quat {
         (self.rotation * q * self.axes.inverse()).normalize()
+    }
+
+    /// A tracked wand or hand (position and orientation in the tracker's frame) in the room.
+    pub fn held(&self, position: Vec3, rotation: Quat) -> WandPose {
+        WandPose {
+            position: self.position(position),
+            rotation: self.orientation(rotation),
+        }
     }
 
     /// A tracked head (position and orientation in the tracker's frame) as the head of `pose`.

@@ -3,7 +3,8 @@
 //!
 //! - `6d n [id qu][sx sy sz (eta theta phi)][b0 .. b8] ...`: n standard bodies, quality `qu`
 //!   (negative: not tracked), position in millimetres, rotation matrix column by column
-//!   (b0 b1 b2 is the first column); body `head_id` is the head;
+//!   (b0 b1 b2 is the first column); body `head_id` is the head, body `left_hand_id` (if
+//!   configured) the left hand;
 //! - `6df2 ndef n [id qu nbt nct][sx sy sz][b0 .. b8][bt0 .. ct0 ct1 ..] ...`: n Flysticks
 //!   with `nbt` buttons (32 to an integer, bit i button i: 0 the trigger) and `nct` controllers
 //!   (joystick x, y in -1..1); Flystick `wand_id` is the wand;
@@ -16,8 +17,8 @@ use super::calibration::RoomFromTracker;
 use super::live::Measurement;
 use glam::{Mat3, Quat, Vec3};
 
-/// Read one DTrack2 packet into measurements of the head (body `head_id`) and the wand
-/// (Flystick `wand_id`): its pose, buttons and joystick.
+/// Read one DTrack2 packet into measurements of the head (body `head_id`), the left hand (body
+/// `left_hand_id`) and the wand (Flystick `wand_id`): its pose, buttons and joystick.
 pub fn parse(
     packet: &[u8],
     ids: &RoomFromTracker,
@@ -32,7 +33,7 @@ pub fn parse(
     {
         let (kind, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
         let result = match kind {
-            "6d" => bodies(rest, ids.head_id, out),
+            "6d" => bodies(rest, (ids.head_id, ids.left_hand_id), out),
             "6df2" => flysticks2(rest, ids.wand_id, out),
             "6df" => flysticks1(rest, ids.wand_id, out),
             _ => Ok(()),
@@ -118,7 +119,13 @@ fn id_quality(block: &[f64], fields: usize) -> std::result::Result<(u32, f64), S
     Ok((block[0] as u32, block[1]))
 }
 
-fn bodies(rest: &str, head_id: u32, out: &mut Vec<Measurement>) -> std::result::Result<(), String> {
+/// The standard bodies of a `6d` line: the head's and the left hand's (where one is configured)
+/// poses, each only while tracked (a body out of view keeps its last pose).
+fn bodies(
+    rest: &str,
+    (head_id, left_hand_id): (u32, Option<u32>),
+    out: &mut Vec<Measurement>,
+) -> std::result::Result<(), String> {
     let (header, blocks) = split(rest)?;
     let n = count(&header, 0)?;
     if blocks.len() != 3 * n {
@@ -131,11 +138,16 @@ fn bodies(rest: &str, head_id: u32, out: &mut Vec<Measurement>) -> std::result::
     for body in blocks.chunks(3) {
         let (id, quality) = id_quality(&body[0], 2)?;
         let (position, rotation) = pose(&body[1], &body[2])?;
-        if id == head_id && quality >= 0.0 {
+        if quality < 0.0 {
+            continue;
+        }
+        if id == head_id {
             out.push(Measurement::Head {
                 position,
                 rotation: Some(rotation),
             });
+        } else if left_hand_id == Some(id) {
+            out.push(Measurement::LeftHand { position, rotation });
         }
     }
     Ok(())

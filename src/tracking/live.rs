@@ -2,8 +2,8 @@
 //! VRPN server's TCP stream, `vrpn.rs`), a parser (`osc.rs`, `dtrack.rs`) turns each into
 //! measurements in the tracker's frame, the
 //! calibration (`calibration.rs`) moves them into the room, and the merged state (head, wand,
-//! buttons, joystick, navigation) goes to the renderer through a crossbeam channel. The
-//! renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
+//! left hand, buttons, joystick, navigation) goes to the renderer through a crossbeam channel.
+//! The renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
 //! source that goes quiet leaves the last state in place, and the tracker says so (status,
 //! and the log once).
 
@@ -36,6 +36,9 @@ pub use super::pose::WandPose;
 pub struct LiveState {
     pub pose: Pose,
     pub wand: Option<WandPose>,
+    /// the left hand (as the wand: identity points along -z), once one has been seen; held
+    /// where it was last tracked, as the wand is
+    pub left_hand: Option<WandPose>,
     /// bit i: button i held
     pub buttons: u64,
     /// the wand's joystick: x right, y up (forward), -1..1
@@ -47,6 +50,7 @@ impl LiveState {
         LiveState {
             pose,
             wand: None,
+            left_hand: None,
             buttons: 0,
             joystick: [0.0; 2],
         }
@@ -62,6 +66,10 @@ pub enum Measurement {
         rotation: Option<Quat>,
     },
     Wand {
+        position: Vec3,
+        rotation: Quat,
+    },
+    LeftHand {
         position: Vec3,
         rotation: Quat,
     },
@@ -87,10 +95,10 @@ impl LiveState {
                 calibration.head(&mut self.pose, position, rotation)
             }
             Measurement::Wand { position, rotation } => {
-                self.wand = Some(WandPose {
-                    position: calibration.position(position),
-                    rotation: calibration.orientation(rotation),
-                })
+                self.wand = Some(calibration.held(position, rotation))
+            }
+            Measurement::LeftHand { position, rotation } => {
+                self.left_hand = Some(calibration.held(position, rotation))
             }
             Measurement::Buttons(mask) => self.buttons = mask,
             Measurement::Button { index, pressed } if index < 64 => {
@@ -323,8 +331,8 @@ fn receive(socket: UdpSocket, mut feed: Feed, parse: Parser, name: &str) {
 }
 
 /// One state as `vlf track` prints it: seconds since the start, head and wand (room metres,
-/// yaw/pitch/roll degrees as `pose::head_rotation_from_angles` takes them), buttons held,
-/// joystick.
+/// yaw/pitch/roll degrees as `pose::head_rotation_from_angles` takes them), the left hand where
+/// one has been seen, buttons held, joystick.
 pub fn describe(t: f64, state: &LiveState) -> String {
     let angles = |q: Quat| {
         let (yaw, pitch, roll) = q.to_euler(glam::EulerRot::YXZ);
@@ -347,6 +355,13 @@ pub fn describe(t: f64, state: &LiveState) -> String {
     match &state.wand {
         Some(w) => line.push_str(&format!("  wand {} {}", at(w.position), angles(w.rotation))),
         None => line.push_str("  wand -"),
+    }
+    if let Some(h) = &state.left_hand {
+        line.push_str(&format!(
+            "  left_hand {} {}",
+            at(h.position),
+            angles(h.rotation)
+        ));
     }
     let held: Vec<String> = (0..64)
         .filter(|i| state.buttons & (1 << i) != 0)

@@ -1,8 +1,8 @@
-//! Tracking: where the head and the wand are, and how the user moves through the scene. The
-//! display TOML's `[tracking]`, `[start_pose]` and `[navigation]` tables (this module); the pose
-//! types (`pose.rs`); the pose source a display's loops draw from, static, scripted or live
-//! (`source.rs`, and `vlf track`); live sources (`live.rs`: the receiving thread and its state)
-//! with their protocols (`osc.rs`, `dtrack.rs`, `vrpn.rs`) and the room calibration
+//! Tracking: where the head, the wand and the left hand are, and how the user moves through the
+//! scene. The display TOML's `[tracking]`, `[start_pose]` and `[navigation]` tables (this module);
+//! the pose types (`pose.rs`); the pose source a display's loops draw from, static, scripted or
+//! live (`source.rs`, and `vlf track`); live sources (`live.rs`: the receiving thread and its
+//! state) with their protocols (`osc.rs`, `dtrack.rs`, `vrpn.rs`) and the room calibration
 //! (`calibration.rs`); the tracked wand (`wand.rs`) and navigation added to the tracked pose
 //! (`navigator.rs`). Nothing here draws: the displays (`crate::display`), the cluster and the
 //! headset read poses from here.
@@ -17,7 +17,7 @@ pub mod source;
 pub mod vrpn;
 pub mod wand;
 
-pub use pose::{Pose, WandPose};
+pub use pose::{HeldPoses, Pose, WandPose};
 
 use crate::error::{Result, VlfError};
 use serde::{Deserialize, Serialize};
@@ -48,6 +48,12 @@ pub enum TrackingConfig {
         wand_yaw_deg: Option<f32>,
         wand_pitch_deg: Option<f32>,
         wand_orientation: Option<[f32; 4]>,
+        /// a tracked left hand held still (room metres, the same keys as the wand's): the
+        /// avatar's left hand and `follow = "left_hand"` objects go there
+        left_hand_position: Option<[f32; 3]>,
+        left_hand_yaw_deg: Option<f32>,
+        left_hand_pitch_deg: Option<f32>,
+        left_hand_orientation: Option<[f32; 4]>,
     },
     /// keyframed head and navigation poses (a TOML file, path relative to the config)
     Scripted { path: PathBuf },
@@ -84,6 +90,10 @@ impl Default for TrackingConfig {
             wand_yaw_deg: None,
             wand_pitch_deg: None,
             wand_orientation: None,
+            left_hand_position: None,
+            left_hand_yaw_deg: None,
+            left_hand_pitch_deg: None,
+            left_hand_orientation: None,
         }
     }
 }
@@ -132,7 +142,6 @@ impl LiveSource {
 }
 
 impl TrackingConfig {
-    /// The static head's orientation (identity for the other sources).
     /// The static wand, if one is configured.
     pub fn static_wand(&self) -> std::result::Result<Option<live::WandPose>, String> {
         match self {
@@ -142,7 +151,8 @@ impl TrackingConfig {
                 wand_pitch_deg,
                 wand_orientation,
                 ..
-            } => wand::wand_pose(
+            } => wand::held_pose(
+                "wand",
                 *wand_position,
                 [*wand_yaw_deg, *wand_pitch_deg],
                 *wand_orientation,
@@ -152,6 +162,27 @@ impl TrackingConfig {
         }
     }
 
+    /// The static left hand, if one is configured.
+    pub fn static_left_hand(&self) -> std::result::Result<Option<live::WandPose>, String> {
+        match self {
+            TrackingConfig::Static {
+                left_hand_position,
+                left_hand_yaw_deg,
+                left_hand_pitch_deg,
+                left_hand_orientation,
+                ..
+            } => wand::held_pose(
+                "left_hand",
+                *left_hand_position,
+                [*left_hand_yaw_deg, *left_hand_pitch_deg],
+                *left_hand_orientation,
+                "tracking.",
+            ),
+            _ => Ok(None),
+        }
+    }
+
+    /// The static head's orientation (identity for the other sources).
     pub fn static_head_rotation(&self) -> std::result::Result<glam::Quat, String> {
         match self {
             TrackingConfig::Static {
@@ -170,7 +201,8 @@ impl TrackingConfig {
     }
 
     /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
-    /// and wand id) and packet parser; None for static and scripted heads.
+    /// and wand id; VRPN's sensors checked apart) and packet parser; None for static and
+    /// scripted heads.
     pub fn live(&self) -> Option<LiveSource> {
         let udp =
             |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
@@ -200,7 +232,7 @@ impl TrackingConfig {
             } => Some(LiveSource {
                 protocol: "VRPN",
                 address: format!("{device}@{server}"),
-                calibration: calibration.resolve(1.0, 1),
+                calibration: calibration.resolve(1.0, 1).and_then(vrpn::distinct_sensors),
                 kind: LiveKind::Vrpn {
                     server: server.clone(),
                     device: device.clone(),

@@ -5,6 +5,7 @@
 //!   `/vlf/head x y z qx qy qz qw` gives the orientation too (a quaternion, identity looking
 //!   along -z with y up);
 //! - `/vlf/wand x y z qx qy qz qw`: the wand (identity points along -z);
+//! - `/vlf/left_hand x y z qx qy qz qw`: the left hand (as the wand: identity points along -z);
 //! - `/vlf/button i state`: button i (0..63) pressed (state non-zero) or released;
 //! - `/vlf/joystick x y`: the wand's joystick, -1..1 (x right, y forward);
 //! - `/vlf/room x y z yaw_deg`: navigation, where the room stands in the world (not calibrated).
@@ -78,6 +79,12 @@ fn collect(packet: &rosc::OscPacket, out: &mut Vec<Measurement>) {
                 }
                 ("/vlf/wand", [x, y, z, q @ ..]) if q.len() == 4 => {
                     quaternion(q).map(|q| Measurement::Wand {
+                        position: Vec3::new(*x, *y, *z),
+                        rotation: q,
+                    })
+                }
+                ("/vlf/left_hand", [x, y, z, q @ ..]) if q.len() == 4 => {
+                    quaternion(q).map(|q| Measurement::LeftHand {
                         position: Vec3::new(*x, *y, *z),
                         rotation: q,
                     })

@@ -1,5 +1,6 @@
 //! The poses every tracking source produces and every consumer reads: the viewer's `Pose` (head
-//! in the room, room in the world) and a tracked wand's `WandPose`, with head orientations from
+//! in the room, room in the world), a tracked wand's or hand's `WandPose` and the two of a frame
+//! (`HeldPoses`), with head orientations from
 //! configuration angles or quaternions. Below tracking, calibration, live sources and the wand,
 //! so that none of them depends on another for these types.
 
@@ -87,4 +88,12 @@ pub fn head_rotation(
 pub struct WandPose {
     pub position: Vec3,
     pub rotation: Quat,
+}
+
+/// What the participant holds up in one frame, in the room: the wand (the right hand) and the
+/// left hand, each where tracked.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct HeldPoses {
+    pub wand: Option<WandPose>,
+    pub left_hand: Option<WandPose>,
 }

@@ -1,7 +1,7 @@
 //! The pose source a display's loops draw from (`PoseSource`): a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand), or live poses (`live.rs`: OSC, DTrack, VRPN).
+//! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand and a left hand), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
-pub use super::pose::{head_rotation, head_rotation_from_angles, Pose, WandPose};
+pub use super::pose::{head_rotation, head_rotation_from_angles, HeldPoses, Pose, WandPose};
 use super::{StartPose, TrackingConfig};
 use crate::error::{Result, VlfError};
 use glam::{Quat, Vec3};
@@ -29,6 +29,18 @@ pub struct Keyframe {
     pub wand_yaw_deg: Option<f32>,
     pub wand_pitch_deg: Option<f32>,
     pub wand_orientation: Option<[f32; 4]>,
+    /// a tracked left hand at this moment (room metres, the same keys as the wand's)
+    pub left_hand_position: Option<[f32; 3]>,
+    pub left_hand_yaw_deg: Option<f32>,
+    pub left_hand_pitch_deg: Option<f32>,
+    pub left_hand_orientation: Option<[f32; 4]>,
+}
+
+/// Which held thing of a keyframe: the wand's keys or the left hand's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HeldKind {
+    Wand,
+    LeftHand,
 }
 
 impl Keyframe {
@@ -39,13 +51,23 @@ impl Keyframe {
             "",
         )
     }
-    fn wand(&self) -> std::result::Result<Option<WandPose>, String> {
-        super::wand::wand_pose(
-            self.wand_position,
-            [self.wand_yaw_deg, self.wand_pitch_deg],
-            self.wand_orientation,
-            "",
-        )
+    fn held(&self, which: HeldKind) -> std::result::Result<Option<WandPose>, String> {
+        match which {
+            HeldKind::Wand => super::wand::held_pose(
+                "wand",
+                self.wand_position,
+                [self.wand_yaw_deg, self.wand_pitch_deg],
+                self.wand_orientation,
+                "",
+            ),
+            HeldKind::LeftHand => super::wand::held_pose(
+                "left_hand",
+                self.left_hand_position,
+                [self.left_hand_yaw_deg, self.left_hand_pitch_deg],
+                self.left_hand_orientation,
+                "",
+            ),
+        }
     }
 }
 
@@ -73,7 +95,10 @@ impl ScriptedPath {
         for (i, k) in p.keyframes.iter().enumerate() {
             k.head_rotation()
                 .map_err(|e| err(format!("keyframe[{i}].{e}")))?;
-            k.wand().map_err(|e| err(format!("keyframe[{i}].{e}")))?;
+            for which in [HeldKind::Wand, HeldKind::LeftHand] {
+                k.held(which)
+                    .map_err(|e| err(format!("keyframe[{i}].{e}")))?;
+            }
         }
         for (i, w) in p.keyframes.windows(2).enumerate() {
             if w[1].t <= w[0].t {
@@ -112,11 +137,20 @@ impl ScriptedPath {
     /// The wand at `t`: shown from a keyframe with a wand until the next keyframe, moving
     /// towards that one's wand if it has one (slerped), held otherwise.
     pub fn wand_at(&self, t: f32) -> Option<WandPose> {
+        self.held_at(HeldKind::Wand, t)
+    }
+
+    /// The left hand at `t`, as the wand (`wand_at`) from the keyframes' left hands.
+    pub fn left_hand_at(&self, t: f32) -> Option<WandPose> {
+        self.held_at(HeldKind::LeftHand, t)
+    }
+
+    fn held_at(&self, which: HeldKind, t: f32) -> Option<WandPose> {
         let k = &self.keyframes;
         let i = k.iter().rposition(|f| f.t <= t).unwrap_or(0);
         let (a, b) = (&k[i], &k[(i + 1).min(k.len() - 1)]);
-        let wa = a.wand().ok().flatten()?;
-        let Some(wb) = b.wand().ok().flatten() else {
+        let wa = a.held(which).ok().flatten()?;
+        let Some(wb) = b.held(which).ok().flatten() else {
             return Some(wa);
         };
         let s = if b.t > a.t {
@@ -142,6 +176,8 @@ impl ScriptedPath {
 
 /// The pose source of a display configuration, for headless runs (`config_path` resolves a
 /// scripted path relative to the configuration file).
+// one per run, never copied about: the live tracker's size (its latest state inline) costs nothing
+#[allow(clippy::large_enum_variant)]
 pub enum PoseSource {
     Static(Pose),
     Scripted(ScriptedPath),
@@ -207,16 +243,30 @@ impl PoseSource {
     /// The tracked wand at `t`, if any (a static wand comes from the configuration's
     /// `tracking`; a live source's wand once one has been seen).
     pub fn wand_at(&self, tracking: &TrackingConfig, t: f32) -> Option<WandPose> {
+        self.held_at(tracking, t).wand
+    }
+
+    /// The wand and the left hand at `t`, each where tracked: static, the configuration's
+    /// `tracking`; scripted, the keyframes'; live, both from one state, each the last one seen
+    /// (a hand out of view is held where it was, as the wand is).
+    pub fn held_at(&self, tracking: &TrackingConfig, t: f32) -> HeldPoses {
         match self {
-            PoseSource::Static(_) => tracking.static_wand().ok().flatten(),
-            PoseSource::Scripted(s) => s.wand_at(t),
+            PoseSource::Static(_) => HeldPoses {
+                wand: tracking.static_wand().ok().flatten(),
+                left_hand: tracking.static_left_hand().ok().flatten(),
+            },
+            PoseSource::Scripted(s) => HeldPoses {
+                wand: s.wand_at(t),
+                left_hand: s.left_hand_at(t),
+            },
             PoseSource::Live(tracker) => {
-                tracker
-                    .lock()
-                    .unwrap_or_else(|e| e.into_inner())
+                let state = (tracker.lock().unwrap_or_else(|e| e.into_inner()))
                     .latest_state()
-                    .0
-                    .wand
+                    .0;
+                HeldPoses {
+                    wand: state.wand,
+                    left_hand: state.left_hand,
+                }
             }
         }
     }

@@ -31,8 +31,8 @@ use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, V
 use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
 use crate::stats::Distribution;
 use crate::study::session::ObjectChange;
-use crate::tracking::live::WandPose;
 use crate::tracking::source::{Pose, PoseSource};
+use crate::tracking::HeldPoses;
 use accounting::{Accounting, Clock};
 use glam::{Mat4, Vec3};
 use std::path::Path;
@@ -42,11 +42,12 @@ use std::time::Instant;
 /// Where a frame's views look from.
 #[derive(Clone, Copy)]
 pub enum Poses<'p> {
-    /// the tracked head (and wand): each wall's views through `super::wall_view`, the wand's
-    /// ray over them (`post::wand_overlay`); `arrived`, when a live pose came in
+    /// the tracked head (and the wand and left hand, room): each wall's views through
+    /// `super::wall_view`, the wand's ray over them (`post::wand_overlay`), the moving objects
+    /// on the head and hands; `arrived`, when a live pose came in
     Tracked {
         pose: &'p Pose,
-        wand: Option<&'p WandPose>,
+        held: &'p HeldPoses,
         arrived: Option<Instant>,
     },
     /// each view's view-projection and eye, in view order (the headset's eyes), and what the
@@ -171,9 +172,11 @@ impl<'a> FrameOfViews<'a> {
         };
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
+            // (the hands untracked, as before the first frame of a live source)
+            let held = HeldPoses::default();
             let first = Poses::Tracked {
                 pose: &pose,
-                wand: None,
+                held: &held,
                 arrived: None,
             };
             // the views probed as they will be drawn: with the objects where they start
@@ -254,8 +257,8 @@ impl<'a> FrameOfViews<'a> {
     /// the headset's head and hands (None: eyes given without them).
     pub fn tracked(&self, poses: &Poses<'_>) -> Option<Tracked> {
         match poses {
-            Poses::Tracked { pose, wand, .. } => {
-                Some(Tracked::from_pose(pose, *wand, self.object_time))
+            Poses::Tracked { pose, held, .. } => {
+                Some(Tracked::from_pose(pose, held, self.object_time))
             }
             Poses::Eyes { tracked, .. } => tracked.map(|t| Tracked {
                 time: self.object_time,
@@ -316,13 +319,14 @@ impl<'a> FrameOfViews<'a> {
                 })?;
                 Ok((*view, None))
             }
-            (Poses::Tracked { pose, wand, .. }, Some(cave)) => {
+            (Poses::Tracked { pose, held, .. }, Some(cave)) => {
                 let v = cave.views[i];
                 let wall = &cave.config.walls[v.wall];
                 let norm = &cave.lf.meta.normalisation;
                 let view = super::wall_view(cave.config, wall, v.side, pose, norm);
+                let wand = held.wand.as_ref();
                 let overlay =
-                    super::post::wand_overlay(cave.config, wall, v.side, pose, *wand, norm);
+                    super::post::wand_overlay(cave.config, wall, v.side, pose, wand, norm);
                 Ok((view, overlay))
             }
             (Poses::Tracked { .. }, None) => Err(VlfError::Display(

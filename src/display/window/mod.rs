@@ -26,7 +26,7 @@ use crate::gpu::GpuContext;
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::tracking::live::TrackingStatus;
 use crate::tracking::navigator::Navigator;
-use crate::tracking::pose::{Pose, WandPose};
+use crate::tracking::pose::{HeldPoses, Pose};
 use crate::tracking::source::PoseSource;
 use std::path::Path;
 use std::sync::Arc;
@@ -165,7 +165,7 @@ impl App<'_> {
     fn log_frame(
         &mut self,
         (timed, pose_to_submit_ms): (bool, f64),
-        (pose, wand): (Pose, Option<WandPose>),
+        (pose, held): (Pose, HeldPoses),
     ) -> Result<()> {
         let (gpu_ms, cpu_ms) = match timed {
             true => self.frame.times().last_frame_ms(),
@@ -176,7 +176,8 @@ impl App<'_> {
             time_s: self.session.time_s(),
             drawn: crate::study::log::Drawn::Shown,
             pose,
-            wand,
+            wand: held.wand,
+            left_hand: held.left_hand,
             gpu_ms,
             cpu_ms,
             block: 0,
@@ -199,10 +200,14 @@ impl App<'_> {
         self.last_frame = now;
         let pad = self.poll_gamepads();
         let sampled = Instant::now();
-        let (base, tracking, fresh, wand) = match &self.poses {
+        let (base, tracking, fresh, held) = match &self.poses {
             PoseSource::Scripted(s) => {
                 let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
-                (s.at(t), None, None, s.wand_at(t))
+                let held = HeldPoses {
+                    wand: s.wand_at(t),
+                    left_hand: s.left_hand_at(t),
+                };
+                (s.at(t), None, None, held)
             }
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
@@ -213,13 +218,17 @@ impl App<'_> {
                     &self.config.navigation,
                     dt,
                 );
-                (state.pose, Some(status), tracker.take_fresh(), state.wand)
+                let held = HeldPoses {
+                    wand: state.wand,
+                    left_hand: state.left_hand,
+                };
+                (state.pose, Some(status), tracker.take_fresh(), held)
             }
             other => (
                 other.at(0.0),
                 None,
                 None,
-                other.wand_at(&self.config.tracking, 0.0),
+                other.held_at(&self.config.tracking, 0.0),
             ),
         };
         self.navigator
@@ -228,15 +237,15 @@ impl App<'_> {
         self.frame
             .change_objects(&self.session.take_object_changes());
         let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
-        let mut wand = wand;
+        let mut held = held;
         if let Some(lock) = self.lock.as_deref_mut() {
-            let s = FrameState::new(self.shown, &pose, wand.as_ref(), self.options.exposure);
+            let s = FrameState::new(self.shown, &pose, held, self.options.exposure);
             let s = lock.share(s)?;
             if s.is_quit() {
                 event_loop.exit();
                 return Ok(());
             }
-            (pose, wand, self.options.exposure) = (s.pose(), s.wand(), s.exposure);
+            (pose, held, self.options.exposure) = (s.pose(), s.held(), s.exposure);
         }
         self.shown += 1;
         let status = match (tracking, &self.config.tracking) {
@@ -259,7 +268,7 @@ impl App<'_> {
             .set_object_time(self.started.elapsed().as_secs_f64());
         let tracked = Poses::Tracked {
             pose: &pose,
-            wand: wand.as_ref(),
+            held: &held,
             arrived: fresh,
         };
         self.frame.draw(tracked, Draw::Shown, None)?;
@@ -278,7 +287,7 @@ impl App<'_> {
         ctx.wait_spinning()?;
         self.announce_presented(outputs_shown);
         self.frame.account(self.frame.elapsed_ms())?;
-        self.log_frame((timed, pose_to_submit_ms), (pose, wand))?;
+        self.log_frame((timed, pose_to_submit_ms), (pose, held))?;
         if self.session.stop {
             event_loop.exit();
         }

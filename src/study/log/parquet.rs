@@ -11,6 +11,7 @@
 
 use super::FrameRecord;
 use crate::error::{Result, VlfError};
+use crate::tracking::pose::WandPose;
 use arrow_array::{
     ArrayRef, Float32Array, Float64Array, RecordBatch, StringArray, UInt32Array, UInt64Array,
 };
@@ -83,6 +84,26 @@ fn opt_f64s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> Option<f64>) -> Ar
     Arc::new(Float64Array::from(rows.iter().map(f).collect::<Vec<_>>()))
 }
 
+/// A wand's or hand's eight columns: 1 where given, then its position and rotation (the CSV's
+/// zeros where not).
+fn held_columns(
+    rows: &[FrameRecord],
+    held: fn(&FrameRecord) -> Option<&WandPose>,
+) -> Vec<ArrayRef> {
+    let parts: [fn(&WandPose) -> f32; 7] = [
+        |w| w.position.x,
+        |w| w.position.y,
+        |w| w.position.z,
+        |w| w.rotation.x,
+        |w| w.rotation.y,
+        |w| w.rotation.z,
+        |w| w.rotation.w,
+    ];
+    let mut columns = vec![u32s(rows, |r| held(r).is_some() as u32)];
+    columns.extend(parts.map(|part| f32s(rows, |r| held(r).map_or(0.0, part))));
+    columns
+}
+
 /// `rows` as one batch, its columns in frames.csv's order (`names`), typed: counts as u32 (the
 /// frame u64), positions, rotations and shares as f32, times as f64 (null where the CSV is
 /// empty), `drawn` and `events` as text.
@@ -110,27 +131,14 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
         |r| r.pose.room_yaw_deg,
     ];
     columns.extend(pose.iter().map(|f| f32s(rows, f)));
-    columns.push(u32s(rows, |r| r.wand.is_some() as u32));
-    // the CSV's zeros where there is no wand
-    let wand = |f: fn(&crate::tracking::pose::WandPose) -> f32| {
-        move |r: &FrameRecord| r.wand.as_ref().map_or(0.0, f)
-    };
-    let wands: [fn(&crate::tracking::pose::WandPose) -> f32; 7] = [
-        |w| w.position.x,
-        |w| w.position.y,
-        |w| w.position.z,
-        |w| w.rotation.x,
-        |w| w.rotation.y,
-        |w| w.rotation.z,
-        |w| w.rotation.w,
-    ];
-    columns.extend(wands.iter().map(|f| f32s(rows, wand(*f))));
+    columns.extend(held_columns(rows, |r| r.wand.as_ref()));
     columns.push(opt_f64s(rows, |r| r.gpu_ms));
     columns.push(opt_f64s(rows, |r| r.cpu_ms));
     columns.push(u32s(rows, |r| r.block));
     columns.push(u32s(rows, |r| r.trial));
     columns.push(opt_f64s(rows, |r| r.pose_to_submit_ms));
     columns.push(opt_f64s(rows, |r| r.pose_to_photon_ms));
+    columns.extend(held_columns(rows, |r| r.left_hand.as_ref()));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -180,6 +188,7 @@ mod tests {
                 room_yaw_deg: 15.0,
             },
             wand: None,
+            left_hand: None,
             gpu_ms: (frame > 0).then_some(1.5),
             cpu_ms: None,
             block: 1,
