@@ -245,11 +245,21 @@ fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
     let loaded = vlf::dynamic::Objects::load(&file.objects, &objects).unwrap();
     assert_eq!(vertices.len(), loaded.mesh().vertices.len());
     // the mannequin (1.75 m) at 0.38 stands on the floor at (-0.25, 0, 0.45)
-    let lo = vertices.iter().fold([f32::MAX; 3], |m, v| [0, 1, 2].map(|i| m[i].min(v[i])));
-    let hi = vertices.iter().fold([f32::MIN; 3], |m, v| [0, 1, 2].map(|i| m[i].max(v[i])));
-    assert!(lo[1].abs() < 0.02 && (hi[1] - 0.38 * 1.75).abs() < 0.03, "{lo:?} {hi:?}");
+    let lo = vertices
+        .iter()
+        .fold([f32::MAX; 3], |m, v| [0, 1, 2].map(|i| m[i].min(v[i])));
+    let hi = vertices
+        .iter()
+        .fold([f32::MIN; 3], |m, v| [0, 1, 2].map(|i| m[i].max(v[i])));
+    assert!(
+        lo[1].abs() < 0.02 && (hi[1] - 0.38 * 1.75).abs() < 0.03,
+        "{lo:?} {hi:?}"
+    );
     let centre = [(lo[0] + hi[0]) / 2.0, (lo[2] + hi[2]) / 2.0];
-    assert!((centre[0] + 0.25).abs() < 0.15 && (centre[1] - 0.45).abs() < 0.15, "{centre:?}");
+    assert!(
+        (centre[0] + 0.25).abs() < 0.15 && (centre[1] - 0.45).abs() < 0.15,
+        "{centre:?}"
+    );
     let geometry = std::fs::read_to_string(out.join("geometry.xml")).unwrap();
     assert!(geometry.contains("object__moving0"), "{geometry}");
 }
