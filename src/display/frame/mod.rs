@@ -135,6 +135,7 @@ impl<'a> FrameOfViews<'a> {
         });
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
+        renderer.set_first_hits(config.first_hits)?;
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
         let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
