@@ -299,7 +299,14 @@ impl<'a> FrameOfViews<'a> {
             .collect::<Result<Vec<_>>>()?;
         let fit = self.renderer.fit_frame_time(&probes, budget_ms)?;
         let lag = self.acc.lag() as u32;
-        self.pacer = Pacer::from_fit(&fit).map(|p| if lag > 0 { p.lagged(lag) } else { p });
+        let most = self.renderer.paced_max_samples();
+        self.pacer = Pacer::from_fit(&fit).map(|p| p.capped(most)).map(|p| {
+            if lag > 0 {
+                p.lagged(lag)
+            } else {
+                p
+            }
+        });
         self.fit = Some(fit);
         Ok(())
     }
