@@ -196,6 +196,66 @@ fn paced_tiles_read_fewer_samples_the_same_way_both_ways() {
     assert!(difference(&full, &b).share > 0.01);
 }
 
+/// Each pixel's depth (the view's clip depth of the nearest first hit, which the headset
+/// submits) of `camera`'s view drawn by `renderer`, `size`, read back.
+fn depth_image(
+    renderer: &mut Renderer,
+    lf: &LightField,
+    camera: &vlf::scene::Camera,
+    [width, height]: [u32; 2],
+) -> Vec<f32> {
+    let ctx = gpu();
+    let norm = &lf.meta.normalisation;
+    let view_proj = vlf::render::view_projection(camera, norm, width, height);
+    renderer.set_view_matrix(view_proj, norm.to_unit(camera.eye).as_vec3());
+    let targets = renderer.view_targets(width, height);
+    let padded_row = (width * 4).next_multiple_of(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT);
+    let bytes = padded_row as u64 * height as u64;
+    let readback = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("depth readback"),
+        size: bytes,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    renderer.encode_view(&mut encoder, &targets, None);
+    let size = [width, height];
+    vlf::gpu::copy_texture_to_buffer(&mut encoder, &targets.depth, &readback, padded_row, size);
+    ctx.queue.submit([encoder.finish()]);
+    let rows: Vec<f32> = ctx.read_buffer(&readback, bytes).unwrap();
+    (rows.chunks(padded_row as usize / 4))
+        .flat_map(|row| row[..width as usize].to_vec())
+        .collect()
+}
+
+/// The depth image the headset submits is the same both ways but on triangle edges (a sample
+/// on another surface changes its pixel's nearest first hit).
+#[test]
+fn raster_first_hits_give_the_same_depth_image() {
+    let (lf, resident) = shipped("cornell-mirror");
+    let [mut rays, mut raster] = both_ways(&lf, &resident, None);
+    for camera in &lf.meta.cameras {
+        let a = depth_image(&mut rays, &lf, camera, [160, 120]);
+        let b = depth_image(&mut raster, &lf, camera, [160, 120]);
+        let differing = (a.iter().zip(&b))
+            .filter(|(a, b)| (*a - *b).abs() > 1e-6)
+            .count();
+        let share = differing as f64 / a.len() as f64;
+        eprintln!(
+            "depth, camera {}: {:.3}% of pixels differ",
+            camera.name,
+            share * 100.0
+        );
+        assert!(a.iter().any(|&d| d < 1.0), "nothing seen");
+        assert!(
+            share <= 0.005,
+            "camera {}: {:.3}% of depths differ",
+            camera.name,
+            share * 100.0
+        );
+    }
+}
+
 /// Raster first hits need an MSAA count the adapter takes, and say so naming the setting.
 #[test]
 fn raster_first_hits_refuse_a_sample_count_the_adapter_does_not_take() {
