@@ -256,7 +256,8 @@ fn raster_first_hits_give_the_same_depth_image() {
     }
 }
 
-/// Raster first hits need an MSAA count the adapter takes, and say so naming the setting.
+/// Raster first hits need an MSAA count the adapter takes, and say so naming the setting; a
+/// pixel then draws no more eye rays than the visibility buffer has samples.
 #[test]
 fn raster_first_hits_refuse_a_sample_count_the_adapter_does_not_take() {
     let (lf, resident) = shipped("cornell");
@@ -268,6 +269,12 @@ fn raster_first_hits_refuse_a_sample_count_the_adapter_does_not_take() {
         .unwrap()
         .to_string();
     assert!(e.contains("first_hits") && e.contains('3'), "{e}");
+    // and once drawn with 4 samples, no pixel reads more
+    r.set_samples_per_pixel(SAMPLES).unwrap();
+    r.set_first_hits(FirstHits::Raster).unwrap();
+    let e = r.set_samples_per_pixel(8).err().unwrap().to_string();
+    assert!(e.contains("aa") && e.contains('8'), "{e}");
+    r.set_samples_per_pixel(1).unwrap();
 }
 
 /// Moving objects are seen the same way: a furnace with a mirror for its back wall, a cube in

@@ -350,12 +350,23 @@ impl Renderer {
         self.probes.as_ref().map(|p| p.grid)
     }
 
-    /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre).
+    /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre); with raster
+    /// first hits no more than the visibility buffer's MSAA samples.
     pub fn set_samples_per_pixel(&mut self, n: u32) -> Result<()> {
         if !(1..=MAX_SAMPLES).contains(&n) {
             return Err(VlfError::Parameter {
                 name: "aa",
                 message: format!("{n} eye rays per pixel: use 1 (off) to {MAX_SAMPLES}"),
+            });
+        }
+        if let Some(raster) = self.raster.as_ref().filter(|r| n > r.samples) {
+            return Err(VlfError::Parameter {
+                name: "aa",
+                message: format!(
+                    "{n} eye rays per pixel: raster first hits read at most the visibility \
+                     buffer's {} MSAA samples (set the count before `first_hits`)",
+                    raster.samples
+                ),
             });
         }
         self.view_template.samples_per_pixel = n;
