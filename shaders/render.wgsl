@@ -19,6 +19,10 @@
 //   be longer than that (facing mirrors), resolve_mixed ends it with the mirror tiles: the
 //   three fixed directions around the reflected ray, looked up in the face's tiles (a diffuse
 //   or sky sample does the same lookups on a stand-in, times zero).
+// With raster first hits (src/render/raster.rs, RASTER_FIRST_HITS 1) the eye rays' first hits
+// come from a visibility buffer the hardware rasteriser drew before this pass
+// (visibility_raster.wgsl): each MSAA sample names the triangle its eye ray meets, the ray meets
+// that triangle's plane at the exact point, and everything after the first hit is the same.
 // Output is linear radiance; tonemapping happens at display (present.wgsl) or on the CPU. Beside
 // it, each pixel's depth: the view's clip depth of the nearest point its eye rays first meet
 // (1 where they meet nothing), which the headset submits so the runtime can reproject.
@@ -40,6 +44,9 @@ const LIGHT_FIELD_GROUP: u32 = 1u;
 const MOVING_OBJECTS: u32 = 1u;
 // 1: the light field has texture detail, read per pixel (src/render/mod.rs sets 0 without it)
 const SURFACE_TEXTURES: u32 = 1u;
+// 1: eye rays take their first hits from `visibility` (raster first hits); 0: they cast rays
+// (src/render/mod.rs sets it)
+const RASTER_FIRST_HITS: u32 = 0u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -54,6 +61,9 @@ const SURFACE_TEXTURES: u32 = 1u;
 @group(0) @binding(6) var depth_image: texture_storage_2d<r32float, write>;
 // the material table the faces index (common/bsdf.wgsl)
 @group(0) @binding(7) var<storage, read> materials: array<Material>;
+// raster first hits: per MSAA sample, the triangle its eye ray meets first plus one (0: none),
+// in two 16-bit halves (visibility_raster.wgsl); a placeholder that is never read without them
+@group(0) @binding(8) var visibility: texture_multisampled_2d<u32>;
 
 // The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
 // where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
@@ -153,14 +163,72 @@ fn sample_offset(k: u32, n: u32) -> vec2<f32> {
     return fract(vec2<f32>((f32(k) + 0.5) / count, f32(reverseBits(k) >> 8u) * (1.0 / 16777216.0) + 0.5 / count));
 }
 
+// The standard sample positions of 1, 2, 4, 8 and 16 MSAA samples (Vulkan's
+// standardSampleLocations, Direct3D's standard patterns; 0..1 from the pixel's top-left corner):
+// those of count c from entry c - 1.
+const MSAA_POSITIONS: array<vec2<f32>, 31> = array<vec2<f32>, 31>(
+    vec2<f32>(0.5, 0.5),
+    vec2<f32>(0.75, 0.75), vec2<f32>(0.25, 0.25),
+    vec2<f32>(0.375, 0.125), vec2<f32>(0.875, 0.375), vec2<f32>(0.125, 0.625), vec2<f32>(0.625, 0.875),
+    vec2<f32>(0.5625, 0.3125), vec2<f32>(0.4375, 0.6875), vec2<f32>(0.8125, 0.5625), vec2<f32>(0.3125, 0.1875),
+    vec2<f32>(0.1875, 0.8125), vec2<f32>(0.0625, 0.4375), vec2<f32>(0.6875, 0.9375), vec2<f32>(0.9375, 0.0625),
+    vec2<f32>(0.5625, 0.5625), vec2<f32>(0.4375, 0.3125), vec2<f32>(0.3125, 0.625), vec2<f32>(0.75, 0.4375),
+    vec2<f32>(0.1875, 0.375), vec2<f32>(0.625, 0.8125), vec2<f32>(0.8125, 0.6875), vec2<f32>(0.6875, 0.1875),
+    vec2<f32>(0.375, 0.875), vec2<f32>(0.5, 0.0625), vec2<f32>(0.25, 0.125), vec2<f32>(0.125, 0.75),
+    vec2<f32>(0.0, 0.5), vec2<f32>(0.9375, 0.25), vec2<f32>(0.875, 0.9375), vec2<f32>(0.0625, 0.0),
+);
+
+// The MSAA sample that eye ray k takes (view.msaa_samples of them): with 4, the diagonal pair
+// first (0 and 3, centred on the pixel), so a paced tile that reads two of them is not lopsided.
+fn msaa_sample(k: u32) -> u32 {
+    let diagonal_first = array<u32, 4>(0u, 3u, 1u, 2u);
+    return select(k, diagonal_first[k & 3u], view.msaa_samples == 4u);
+}
+
+// Where eye ray k of n goes through its pixel: the Hammersley set, or with view.msaa_samples
+// the standard MSAA positions (n of them at most: see tile_samples).
+fn sample_position(k: u32, n: u32) -> vec2<f32> {
+    if view.msaa_samples > 0u {
+        return MSAA_POSITIONS[view.msaa_samples - 1u + msaa_sample(k)];
+    }
+    return sample_offset(k, n);
+}
+
 // Eye rays per pixel of the 8x8 tile `tile`: samples_per_pixel, or paced_samples for the share
 // paced_fraction of the tiles (frame pacing holds a view's time by that share). A tile's rank
 // is its place in a rank-1 lattice (the R2 sequence's), so any share is spread evenly over the
-// view, and a tile changes only when the share crosses its rank.
+// view, and a tile changes only when the share crosses its rank. On MSAA positions no more than
+// there are samples (a paced tile reads fewer of them, never more).
 fn tile_samples(tile: vec2<u32>) -> u32 {
     let rank = fract(f32(tile.x) * 0.7548776662 + f32(tile.y) * 0.5698402910);
     let n = select(view.samples_per_pixel, view.paced_samples, rank < view.paced_fraction);
-    return max(n, 1u);
+    return min(max(n, 1u), select(0xffffffffu, view.msaa_samples, view.msaa_samples > 0u));
+}
+
+// Eye ray k of pixel `pixel` and the surface it meets first.
+struct EyeHit {
+    origin: vec3<f32>,
+    ray: vec3<f32>,
+    surface: Surface,
+}
+
+// Eye ray k of n of pixel `pixel` (of a view `size`) and what it meets first: cast through the
+// scene, or with raster first hits read from the visibility buffer, the triangle's plane met
+// where cast_ray would meet it (the same point, face and texels).
+fn first_hit(pixel: vec2<u32>, k: u32, n: u32, size: vec2<u32>) -> EyeHit {
+    let r = eye_ray(pixel, sample_position(k, n), size);
+    if RASTER_FIRST_HITS == 0u {
+        return EyeHit(r[0], r[1], cast_ray(r[0], r[1], true));
+    }
+    let halves = textureLoad(visibility, pixel, msaa_sample(k)).xy;
+    let id = halves.x | (halves.y << 16u);
+    var hit = Hit(1e30, NO_FACE, 0.0, 0.0);
+    if id != 0u {
+        let plane = ray_triangles[id - 1u].w;
+        hit.t = -(dot(plane.xyz, r[0]) + plane.w) / dot(plane.xyz, r[1]);
+        hit.tri = id - 1u;
+    }
+    return EyeHit(r[0], r[1], hit_surface(hit, r[0], r[1]));
 }
 
 // Whether a pair of eye rays traces its reflection chain: always with view.fixed_work (every
@@ -185,18 +253,17 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
     var depth = 1.0;
     for (var k = 0u; k < n; k += 2u) {
         // an odd count's last pair repeats its ray with weight 0
-        let second = min(k + 1u, n - 1u);
         let w1 = select(0.0, 1.0, k + 1u < n);
-        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
-        let r1 = eye_ray(gid.xy, sample_offset(second, n), size);
-        let s0 = cast_ray(r0[0], r0[1], true);
-        // an odd count's last pair has one eye ray: r1 is r0, so is what it meets (no second
-        // cast: 1 eye ray per pixel costs one cast and one reflection, not two casts)
-        var s1 = s0;
+        let h0 = first_hit(gid.xy, k, n, size);
+        // an odd count's last pair has one eye ray: h1 is h0 (no second cast: 1 eye ray per
+        // pixel costs one cast and one reflection, not two casts)
+        var h1 = h0;
         if k + 1u < n {
-            s1 = cast_ray(r1[0], r1[1], true);
+            h1 = first_hit(gid.xy, k + 1u, n, size);
         }
-        depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
+        let s0 = h0.surface;
+        let s1 = h1.surface;
+        depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
@@ -210,7 +277,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
             if use_second {
                 s = s1;
             }
-            let ray = select(r0[1], r1[1], use_second);
+            let ray = select(h0.ray, h1.ray, use_second);
             sum += (m0 + m1) * mirror_chain(s, ray).radiance;
         }
     }
@@ -233,14 +300,14 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
     var depth = 1.0;
     for (var k = 0u; k < n; k += 2u) {
         let w1 = select(0.0, 1.0, k + 1u < n);
-        let r0 = eye_ray(gid.xy, sample_offset(k, n), size);
-        let r1 = eye_ray(gid.xy, sample_offset(min(k + 1u, n - 1u), n), size);
-        let s0 = cast_ray(r0[0], r0[1], true);
-        var s1 = s0;
+        let h0 = first_hit(gid.xy, k, n, size);
+        var h1 = h0;
         if k + 1u < n {
-            s1 = cast_ray(r1[0], r1[1], true);
+            h1 = first_hit(gid.xy, k + 1u, n, size);
         }
-        depth = min(depth, min(eye_depth(r0[0], s0.point), eye_depth(r1[0], s1.point)));
+        let s0 = h0.surface;
+        let s1 = h1.surface;
+        depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
         let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
@@ -254,7 +321,7 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
             if use_second {
                 s = s1;
             }
-            let chain = mirror_chain(s, select(r0[1], r1[1], use_second));
+            let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second));
             let f = faces[chain.face];
             // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
             let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);

@@ -73,3 +73,33 @@ fn every_shipped_objects_file_parses_and_loads() {
     }
     assert!(n >= 3);
 }
+
+/// The display TOML's `first_hits`: "rays" (the default) or "raster"; any other value is
+/// refused naming the key and the file.
+#[test]
+fn a_display_takes_first_hits_and_refuses_an_unknown_value_naming_the_key() {
+    use vlf::display::DisplayConfig;
+    use vlf::render::raster::FirstHits;
+    let shipped = config("displays/cave-4wall-walk.toml");
+    let text = std::fs::read_to_string(&shipped).unwrap();
+    let path = Path::new("cave-first-hits.toml");
+    let with = |value: &str| {
+        // a top-level key, before the file's first table
+        let (head, tables) = text.split_at(text.find("\n[").unwrap());
+        format!("{head}\nfirst_hits = {value}\n{tables}")
+    };
+    let first_hits = |value: &str| DisplayConfig::parse(&with(value), path).map(|c| c.first_hits);
+    assert_eq!(
+        DisplayConfig::parse(&text, path).unwrap().first_hits,
+        FirstHits::Rays
+    );
+    assert_eq!(first_hits("\"rays\"").unwrap(), FirstHits::Rays);
+    assert_eq!(first_hits("\"raster\"").unwrap(), FirstHits::Raster);
+    for bad in ["\"bvh\"", "\"Raster\"", "4"] {
+        let e = first_hits(bad).unwrap_err().to_string();
+        assert!(
+            e.contains("cave-first-hits.toml") && e.contains("first_hits"),
+            "{bad}: {e}"
+        );
+    }
+}

@@ -29,19 +29,6 @@ fn display(dir: &Path, pixels: u32, aa: u32, objects: &str) -> (std::path::PathB
     (path, config)
 }
 
-/// An OBJ cube of half-size `h` at `c` with one material, as `name`.obj + .mtl in `dir`.
-fn cube_object(dir: &Path, name: &str, c: DVec3, h: f64, kd: f32, ke: f32) {
-    let mut obj = ObjBuilder::default();
-    obj.cube("thing", c, h, false);
-    std::fs::write(
-        dir.join(format!("{name}.obj")),
-        obj.text(&format!("{name}.mtl")),
-    )
-    .unwrap();
-    let mtl = format!("newmtl thing\nKd {kd} {kd} {kd}\nKe {ke} {ke} {ke}\nKs 0 0 0\n");
-    std::fs::write(dir.join(format!("{name}.mtl")), mtl).unwrap();
-}
-
 fn object_table(name: &str, mesh: &str) -> String {
     format!("[[object]]\nname = \"{name}\"\nmesh = \"{mesh}\"\n\n")
 }
@@ -170,42 +157,7 @@ fn first_edge(f: &Frame, y: u32, from: u32, bright: f64, dark: f64) -> f64 {
 #[test]
 fn an_object_is_seen_in_a_mirror_where_geometry_puts_its_reflection() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = ObjBuilder::default();
-    for (axis, sign) in [
-        (DVec3::X, 1.0),
-        (DVec3::X, -1.0),
-        (DVec3::Y, 1.0),
-        (DVec3::Y, -1.0),
-        (DVec3::Z, 1.0),
-    ] {
-        let outward = axis * sign;
-        obj.quad("wall", outward * 0.5, -outward, [1.0, 1.0], 0.0);
-    }
-    obj.quad(
-        "mirror",
-        DVec3::new(0.0, 0.0, -0.5),
-        DVec3::Z,
-        [1.0, 1.0],
-        0.0,
-    );
-    let materials = [
-        Mat {
-            name: "wall",
-            kd: [0.5; 3],
-            ke: [1.0; 3],
-        },
-        Mat {
-            name: "mirror",
-            kd: [0.0; 3],
-            ke: [0.0; 3],
-        },
-    ];
-    let scene = load_scene(
-        dir.path(),
-        &obj,
-        &materials,
-        "[materials.mirror]\nmirror = [0.9, 0.9, 0.9]\n",
-    );
+    let scene = mirror_furnace(dir.path());
     let (lf, resident, _) =
         vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
     // a cube of half-size 0.05 at (0.15, 0, 0): its left face x = 0.10 faces the eye's side

@@ -144,6 +144,12 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>, with_moving: bool) -> Surface {
     if root != NO_NODE || then != NO_NODE {
         hit = cast_bvh(origin, ray, root, then, hit, true);
     }
+    return hit_surface(hit, origin, ray);
+}
+
+// The surface a ray from `origin` along `ray` meets at `hit` (hit.tri NO_FACE: none), as
+// cast_ray finds it, or as the visibility buffer names it (render.wgsl, raster_first_hit).
+fn hit_surface(hit: Hit, origin: vec3<f32>, ray: vec3<f32>) -> Surface {
     var out: Surface;
     var id = SKY;
     var moving = false;

@@ -121,6 +121,13 @@ struct View {
     moving_first: u32,
     // the moving objects' switches: 1 their shadows, 2 seen in mirrors (gpu::types)
     moving_flags: u32,
+    // 0: eye rays on the Hammersley set (render.wgsl, sample_offset); 2, 4, 8 or 16: on the
+    // standard positions of that many MSAA samples (render.wgsl, msaa_position), as the
+    // visibility buffer of raster first hits has them (src/render/raster.rs)
+    msaa_samples: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // mirrors gpu::types::GpuField: the layout of the light field a stage reads and the scene's

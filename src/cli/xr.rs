@@ -40,6 +40,11 @@ pub struct XrArgs {
     /// eye's eye rays per pixel follow its GPU time (frame pacing)
     #[arg(long)]
     fit_frame_time: bool,
+    /// First hits of the eye rays: rays (cast through the BVH) or raster (a visibility buffer
+    /// drawn by the rasteriser, one MSAA sample per eye ray: --aa must be an MSAA count the
+    /// adapter takes, 4 on every one)
+    #[arg(long, default_value = "rays")]
+    first_hits: vlf::render::raster::FirstHits,
     /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
     /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
     #[arg(long, value_enum, default_value = "auto")]
@@ -68,6 +73,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         resolution_scale,
         aa,
         fit_frame_time,
+        first_hits,
         swapchains,
         objects,
         json,
@@ -82,6 +88,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         resolution_scale,
         antialiasing: aa,
         fit_frame_time,
+        first_hits,
         swapchains,
         objects,
     };

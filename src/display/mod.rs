@@ -55,6 +55,14 @@ pub struct DisplayConfig {
     /// and the run keeps those settings (`render/budget.rs`); the report says what was chosen
     #[serde(default)]
     pub fit_frame_time: bool,
+    /// how eye rays find their first hits: "rays" (cast through the BVH) or "raster" (a
+    /// visibility buffer drawn by the rasteriser with `antialiasing` MSAA samples per pixel, one
+    /// per eye ray: `render/raster.rs`); reflections are traced either way
+    #[serde(
+        default,
+        skip_serializing_if = "crate::render::raster::FirstHits::is_rays"
+    )]
+    pub first_hits: crate::render::raster::FirstHits,
     /// the tracked wand's ray, drawn on every wall (`post.rs`)
     #[serde(default)]
     pub wand_ray: post::WandRay,

@@ -191,6 +191,8 @@ impl GpuContext {
         if timestamps {
             required_features |= wgpu::Features::TIMESTAMP_QUERY;
         }
+        // MSAA counts past the guaranteed 4x for raster first hits (render::raster)
+        required_features |= supported & wgpu::Features::TEXTURE_ADAPTER_SPECIFIC_FORMAT_FEATURES;
         // Ask for everything the adapter offers: big scenes need big storage bindings.
         let required_limits = adapter.limits();
         adapter
@@ -533,6 +535,30 @@ impl Timestamps {
             beginning_of_pass_write_index: Some(a),
             end_of_pass_write_index: Some(b),
         })
+    }
+
+    /// One pair spanning two passes: its first timestamp at the start of a render pass, its
+    /// second at the end of the compute pass after it (a view drawn by raster first hits and
+    /// its resolve, timed as one).
+    pub fn spanning_writes(
+        &mut self,
+    ) -> Option<(
+        wgpu::RenderPassTimestampWrites<'_>,
+        wgpu::ComputePassTimestampWrites<'_>,
+    )> {
+        let (a, b) = self.next_pair()?;
+        Some((
+            wgpu::RenderPassTimestampWrites {
+                query_set: &self.query_set,
+                beginning_of_pass_write_index: Some(a),
+                end_of_pass_write_index: None,
+            },
+            wgpu::ComputePassTimestampWrites {
+                query_set: &self.query_set,
+                beginning_of_pass_write_index: None,
+                end_of_pass_write_index: Some(b),
+            },
+        ))
     }
 
     pub fn render_writes(&mut self) -> Option<wgpu::RenderPassTimestampWrites<'_>> {

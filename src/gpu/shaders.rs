@@ -81,6 +81,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/moving_surface.wgsl"),
     ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+    (
+        "visibility_raster.wgsl",
+        include_str!("../../shaders/visibility_raster.wgsl"),
+    ),
     ("moving.wgsl", include_str!("../../shaders/moving.wgsl")),
     ("probes.wgsl", include_str!("../../shaders/probes.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
@@ -110,6 +114,7 @@ pub const STAGES: &[&str] = &[
     "normalize.wgsl",
     "texture.wgsl",
     "render.wgsl",
+    "visibility_raster.wgsl",
     "moving.wgsl",
     "probes.wgsl",
     "present.wgsl",

@@ -149,6 +149,12 @@ pub struct GpuView {
     pub moving_first: u32,
     /// the moving objects' switches: `MOVING_SHADOWS`, `MOVING_IN_MIRRORS`
     pub moving_flags: u32,
+    /// 0: eye rays on the Hammersley set; 2, 4, 8 or 16: on the standard positions of that many
+    /// MSAA samples, as the visibility buffer of raster first hits has them (`render::raster`)
+    pub msaa_samples: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// `GpuView::moving_flags`: the moving objects take direct light from the scene (their shadows).

@@ -37,6 +37,9 @@ pub struct Quality {
     /// eye rays per pixel in the tiles frame pacing picks (= eye_rays_per_pixel unpaced)
     pub paced_eye_rays_per_pixel: u32,
     pub mirror_bounces: u32,
+    /// how eye rays find their first hits (left out of reports: rays)
+    #[serde(skip_serializing_if = "super::raster::FirstHits::is_rays")]
+    pub first_hits: super::raster::FirstHits,
 }
 
 impl std::fmt::Display for Quality {
@@ -47,11 +50,15 @@ impl std::fmt::Display for Quality {
             self.mirror_bounces,
         );
         match paced == n {
-            true => write!(f, "{n} eye ray(s) per pixel, {b} mirror reflection(s)"),
+            true => write!(f, "{n} eye ray(s) per pixel, {b} mirror reflection(s)")?,
             false => write!(
                 f,
                 "{n} to {paced} eye rays per pixel (paced by tile), {b} mirror reflection(s)"
-            ),
+            )?,
+        }
+        match self.first_hits {
+            super::raster::FirstHits::Rays => Ok(()),
+            super::raster::FirstHits::Raster => write!(f, ", raster first hits"),
         }
     }
 }
@@ -120,12 +127,22 @@ impl Renderer {
     /// What a run draws with: its pacer's range where it has one, else the current settings.
     pub fn run_quality(&self, pacer: Option<&Pacer>) -> Quality {
         match pacer {
-            Some(_) => Quality {
+            Some(p) => Quality {
                 eye_rays_per_pixel: 1,
-                paced_eye_rays_per_pixel: PACED_MAX_SAMPLES,
+                paced_eye_rays_per_pixel: p.max_samples,
                 mirror_bounces: self.view_template.mirror_bounces,
+                first_hits: self.first_hits(),
             },
             None => self.quality(),
+        }
+    }
+
+    /// The most eye rays per pixel the pacer may give a tile: PACED_MAX_SAMPLES, or with
+    /// raster first hits the visibility buffer's MSAA samples (a tile reads no more).
+    pub fn paced_max_samples(&self) -> u32 {
+        match self.view_template.msaa_samples {
+            0 => PACED_MAX_SAMPLES,
+            samples => samples.min(PACED_MAX_SAMPLES),
         }
     }
 
@@ -134,6 +151,7 @@ impl Renderer {
             eye_rays_per_pixel: self.view_template.samples_per_pixel,
             paced_eye_rays_per_pixel: self.view_template.paced_samples,
             mirror_bounces: self.view_template.mirror_bounces,
+            first_hits: self.first_hits(),
         }
     }
 
@@ -311,6 +329,8 @@ pub struct Pacer {
     /// eye rays per pixel each frame, averaged over the view's tiles
     history: Vec<Vec<f32>>,
     gain: f64,
+    /// the most eye rays per pixel a tile gets (`Renderer::paced_max_samples`)
+    max_samples: u32,
 }
 /// What the pacer did over a run, per view: eye rays per pixel, averaged over its tiles.
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -369,7 +389,14 @@ impl Pacer {
             fraction: vec![0.0; views],
             history: vec![Vec::new(); views],
             gain: PACER_GAIN,
+            max_samples: PACED_MAX_SAMPLES,
         })
+    }
+
+    /// No tile above `max_samples` eye rays per pixel (raster first hits: the MSAA samples).
+    pub fn capped(mut self, max_samples: u32) -> Pacer {
+        self.max_samples = max_samples.clamp(1, PACED_MAX_SAMPLES);
+        self
     }
 
     /// For a loop whose GPU times arrive `frames` frames after the frame was drawn (frames in
@@ -395,7 +422,7 @@ impl Pacer {
         self.history[view].push((low as f64 * (1.0 + given)) as f32);
         let level_ms = self.per_ray_ms[view] * low as f64;
         let mut fraction = given + self.gain * (self.target_ms[view] - gpu_ms) / level_ms;
-        if fraction > 1.0 && low * 2 < PACED_MAX_SAMPLES {
+        if fraction > 1.0 && low * 2 < self.max_samples {
             // up a level, whose share costs twice as much
             self.low[view] = low * 2;
             fraction = (fraction - 1.0) / 2.0;

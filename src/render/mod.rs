@@ -7,6 +7,7 @@ pub mod image_io;
 pub mod moving;
 pub mod objects_file;
 pub mod probes;
+pub mod raster;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
@@ -92,6 +93,8 @@ pub struct ViewTargets {
     /// `DEPTH_FORMAT`, the same size
     pub depth: wgpu::Texture,
     pub depth_view: wgpu::TextureView,
+    /// with raster first hits, the visibility buffer the view's eye rays read
+    raster: Option<raster::RasterTargets>,
     resolve_bind_group: wgpu::BindGroup,
 }
 
@@ -105,6 +108,14 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
+    /// what the resolve pipeline was compiled for (the raster one is compiled from it)
+    variant: ResolveVariant,
+    /// with raster first hits, the pass that draws each view's visibility buffer first
+    raster: Option<raster::RasterPass>,
+    /// the visibility binding of views drawn by ray casting (never read)
+    placeholder_visibility: wgpu::TextureView,
+    /// the scene's triangles and the moving objects' after them
+    triangle_count: u32,
     view_buffer: wgpu::Buffer,
     /// the render mesh as ray-casting triangles, and their BVH as child pairs
     triangles: wgpu::Buffer,
@@ -191,13 +202,15 @@ impl Renderer {
             None => None,
         };
         let stack = tree.depth.next_multiple_of(8).max(16);
-        let (resolve_pipeline, layouts) = resolve_pipeline(
-            &ctx,
-            resident.tiles.is_some(),
+        let variant = ResolveVariant {
+            tiles: resident.tiles.is_some(),
             stack,
-            plan.is_some(),
-            detail.is_some(),
-        )?;
+            moving: plan.is_some(),
+            textured: detail.is_some(),
+            raster: false,
+        };
+        let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
+        let triangle_count = triangles.len() as u32;
         let view_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("view"),
             size: std::mem::size_of::<GpuView>() as u64,
@@ -236,6 +249,10 @@ impl Renderer {
         let mut renderer = Renderer {
             ctx: ctx.clone(),
             resolve_pipeline,
+            variant,
+            raster: None,
+            placeholder_visibility: raster::placeholder_visibility(device),
+            triangle_count,
             moving_group: placeholder_moving_group(&ctx, &layouts.moving),
             resolve_layout: layouts.view,
             faces: resident.faces.clone(),
@@ -334,12 +351,23 @@ impl Renderer {
         self.probes.as_ref().map(|p| p.grid)
     }
 
-    /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre).
+    /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre); with raster
+    /// first hits no more than the visibility buffer's MSAA samples.
     pub fn set_samples_per_pixel(&mut self, n: u32) -> Result<()> {
         if !(1..=MAX_SAMPLES).contains(&n) {
             return Err(VlfError::Parameter {
                 name: "aa",
                 message: format!("{n} eye rays per pixel: use 1 (off) to {MAX_SAMPLES}"),
+            });
+        }
+        if let Some(raster) = self.raster.as_ref().filter(|r| n > r.samples) {
+            return Err(VlfError::Parameter {
+                name: "aa",
+                message: format!(
+                    "{n} eye rays per pixel: raster first hits read at most the visibility \
+                     buffer's {} MSAA samples (set the count before `first_hits`)",
+                    raster.samples
+                ),
             });
         }
         self.view_template.samples_per_pixel = n;
@@ -351,6 +379,60 @@ impl Renderer {
 
     pub fn samples_per_pixel(&self) -> u32 {
         self.view_template.samples_per_pixel
+    }
+
+    /// How eye rays find their first hits. With `Raster` each view is drawn by the rasteriser
+    /// into a visibility buffer of as many MSAA samples as the eye rays per pixel now (one of
+    /// `raster::msaa_counts`; a paced tile reads fewer of them, never more), and its eye rays go
+    /// through the samples' standard positions. Set it before making view targets: those made
+    /// before have no visibility buffer and are drawn by ray casting.
+    pub fn set_first_hits(&mut self, hits: raster::FirstHits) -> Result<()> {
+        self.target = None;
+        self.raster = None;
+        self.view_template.msaa_samples = 0;
+        if hits == raster::FirstHits::Raster {
+            let samples = self.view_template.samples_per_pixel;
+            let variant = ResolveVariant {
+                raster: true,
+                ..self.variant
+            };
+            let (resolve, _) = resolve_pipeline(&self.ctx, variant)?;
+            let inputs = raster::RasterInputs {
+                view: &self.view_buffer,
+                triangles: &self.triangles,
+                ray_triangles: &self.ray_triangles,
+                triangle_count: self.triangle_count,
+                moving: self.variant.moving,
+            };
+            self.raster = Some(raster::RasterPass::new(
+                &self.ctx, samples, &inputs, resolve,
+            )?);
+            self.view_template.msaa_samples = samples;
+        }
+        Ok(())
+    }
+
+    pub fn first_hits(&self) -> raster::FirstHits {
+        match self.raster {
+            Some(_) => raster::FirstHits::Raster,
+            None => raster::FirstHits::Rays,
+        }
+    }
+
+    /// Cast eye rays through the standard positions of `samples` MSAA samples (0: the
+    /// Hammersley set), as raster first hits have them: the two ways compared sample by sample
+    /// (tests/raster.rs). Ray casting only.
+    pub fn set_msaa_sample_positions(&mut self, samples: u32) -> Result<()> {
+        if ![0, 1, 2, 4, 8, 16].contains(&samples) || self.raster.is_some() {
+            return Err(VlfError::Parameter {
+                name: "first_hits",
+                message: format!(
+                    "MSAA positions of {samples} samples for cast eye rays: use 0, 1, 2, 4, 8 or                      16, with ray-cast first hits"
+                ),
+            });
+        }
+        self.view_template.msaa_samples = samples;
+        Ok(())
     }
 
     /// Mirror reflections traced per eye ray (0 without mirrors).
@@ -368,6 +450,10 @@ impl Renderer {
         let (image, depth) = (target("image", COLOR_FORMAT), target("depth", DEPTH_FORMAT));
         let image_view = image.create_view(&Default::default());
         let depth_view = depth.create_view(&Default::default());
+        let raster = (self.raster.as_ref()).map(|r| r.targets(device, [width, height]));
+        let visibility = raster
+            .as_ref()
+            .map_or(&self.placeholder_visibility, |r| &r.visibility);
         let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("view"),
             layout: &self.resolve_layout,
@@ -404,6 +490,10 @@ impl Renderer {
                     binding: 7,
                     resource: self.materials.as_entire_binding(),
                 },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::TextureView(visibility),
+                },
             ],
         });
         ViewTargets {
@@ -413,6 +503,7 @@ impl Renderer {
             image_view,
             depth,
             depth_view,
+            raster,
             resolve_bind_group,
         }
     }
@@ -448,18 +539,30 @@ impl Renderer {
         self.encode_view(encoder, &target.targets, timestamps);
     }
 
-    /// Draw the view last set with `set_view_matrix` into `targets`: one compute pass.
+    /// Draw the view last set with `set_view_matrix` into `targets`: one compute pass, after
+    /// the raster pass of its visibility buffer with raster first hits (timed as one).
     pub fn encode_view(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         targets: &ViewTargets,
         timestamps: Option<&mut Timestamps>,
     ) {
+        let (pipeline, timestamp_writes) = match (&self.raster, &targets.raster) {
+            (Some(raster), Some(visibility)) if raster.samples == visibility.samples => {
+                let (begin, end) = timestamps.and_then(|t| t.spanning_writes()).unzip();
+                raster.encode(encoder, visibility, begin);
+                (&raster.resolve, end)
+            }
+            _ => (
+                &self.resolve_pipeline,
+                timestamps.and_then(|t| t.compute_writes()),
+            ),
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("view"),
-            timestamp_writes: timestamps.and_then(|t| t.compute_writes()),
+            timestamp_writes,
         });
-        pass.set_pipeline(&self.resolve_pipeline);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
         pass.set_bind_group(1, &self.field_bind_group, &[]);
         pass.set_bind_group(2, &self.moving_group, &[]);
@@ -653,24 +756,45 @@ struct ResolveLayouts {
     moving: wgpu::BindGroupLayout,
 }
 
+/// What a resolve pipeline is compiled for.
+#[derive(Clone, Copy)]
+struct ResolveVariant {
+    /// the light field has mirror tiles
+    tiles: bool,
+    /// the traversal stack's entries
+    stack: u32,
+    /// the renderer draws moving objects
+    moving: bool,
+    /// the light field has texture detail
+    textured: bool,
+    /// eye rays read their first hits from a visibility buffer (`raster`)
+    raster: bool,
+}
+
 /// The resolve pass: its pipeline and layouts. A light field with mirror tiles is drawn by
 /// `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The traversal's
 /// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
 /// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0), and so is
-/// the texture detail's without it (`SURFACE_TEXTURES` 0).
+/// the texture detail's without it (`SURFACE_TEXTURES` 0), and the visibility buffer's reads
+/// without raster first hits (`RASTER_FIRST_HITS` 0).
 fn resolve_pipeline(
     ctx: &GpuContext,
-    tiles: bool,
-    stack: u32,
-    moving: bool,
-    textured: bool,
+    variant: ResolveVariant,
 ) -> Result<(wgpu::ComputePipeline, ResolveLayouts)> {
     let device = &ctx.device;
+    let ResolveVariant {
+        tiles,
+        stack,
+        moving,
+        textured,
+        raster,
+    } = variant;
     let constants = [
         ("PAIR_STACK", stack),
         ("MOVING_OBJECTS", u32::from(moving)),
         ("SURFACE_TEXTURES", u32::from(textured)),
+        ("RASTER_FIRST_HITS", u32::from(raster)),
     ];
     let module = shaders::module_with(device, "render.wgsl", &constants)?;
     let view = reflect::layout(device, "render.wgsl", 0)?;

@@ -47,6 +47,8 @@ pub struct XrOptions {
     pub antialiasing: u32,
     /// probe the eyes in the first frame and pace them after (render/budget.rs)
     pub fit_frame_time: bool,
+    /// how eye rays find their first hits (`render::raster`)
+    pub first_hits: crate::render::raster::FirstHits,
     /// one array swapchain for both eyes, or one per eye
     pub swapchains: Swapchains,
     /// a file of moving objects (`body::ObjectsFile`): the participant's body, props in the hands

@@ -150,6 +150,7 @@ pub fn run(
     });
     let mut renderer = Renderer::with_objects(&resident, &lf, &MemoryLedger::default(), to_draw)?;
     renderer.set_samples_per_pixel(options.antialiasing)?;
+    renderer.set_first_hits(options.first_hits)?;
     let controls = controls(&instance)?;
 
     // SAFETY: the session info names the instance, device and queue the runtime created for

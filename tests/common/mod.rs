@@ -297,3 +297,59 @@ pub fn draft_params() -> vlf::propagate::PropagationParams {
         rim_rays: false,
     }
 }
+
+/// An OBJ cube of half-size `h` at `c` with one material, as `name`.obj + .mtl in `dir` (a
+/// moving object's mesh).
+pub fn cube_object(dir: &Path, name: &str, c: glam::DVec3, h: f64, kd: f32, ke: f32) {
+    let mut obj = ObjBuilder::default();
+    obj.cube("thing", c, h, false);
+    std::fs::write(
+        dir.join(format!("{name}.obj")),
+        obj.text(&format!("{name}.mtl")),
+    )
+    .unwrap();
+    let mtl = format!("newmtl thing\nKd {kd} {kd} {kd}\nKe {ke} {ke} {ke}\nKs 0 0 0\n");
+    std::fs::write(dir.join(format!("{name}.mtl")), mtl).unwrap();
+}
+
+/// The furnace of side 1 around the origin (walls emitting Le = 1 with albedo 0.5) with a mirror
+/// of reflectance 0.9 for its back wall (z = -0.5), written to `dir` and loaded.
+pub fn mirror_furnace(dir: &Path) -> vlf::scene::Scene {
+    use glam::DVec3;
+    let mut obj = ObjBuilder::default();
+    for (axis, sign) in [
+        (DVec3::X, 1.0),
+        (DVec3::X, -1.0),
+        (DVec3::Y, 1.0),
+        (DVec3::Y, -1.0),
+        (DVec3::Z, 1.0),
+    ] {
+        let outward = axis * sign;
+        obj.quad("wall", outward * 0.5, -outward, [1.0, 1.0], 0.0);
+    }
+    obj.quad(
+        "mirror",
+        DVec3::new(0.0, 0.0, -0.5),
+        DVec3::Z,
+        [1.0, 1.0],
+        0.0,
+    );
+    let materials = [
+        Mat {
+            name: "wall",
+            kd: [0.5; 3],
+            ke: [1.0; 3],
+        },
+        Mat {
+            name: "mirror",
+            kd: [0.0; 3],
+            ke: [0.0; 3],
+        },
+    ];
+    load_scene(
+        dir,
+        &obj,
+        &materials,
+        "[materials.mirror]\nmirror = [0.9, 0.9, 0.9]\n",
+    )
+}

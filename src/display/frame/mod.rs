@@ -136,6 +136,7 @@ impl<'a> FrameOfViews<'a> {
         });
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
+        renderer.set_first_hits(config.first_hits)?;
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
         let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
@@ -301,7 +302,14 @@ impl<'a> FrameOfViews<'a> {
             .collect::<Result<Vec<_>>>()?;
         let fit = self.renderer.fit_frame_time(&probes, budget_ms)?;
         let lag = self.acc.lag() as u32;
-        self.pacer = Pacer::from_fit(&fit).map(|p| if lag > 0 { p.lagged(lag) } else { p });
+        let most = self.renderer.paced_max_samples();
+        self.pacer = Pacer::from_fit(&fit).map(|p| p.capped(most)).map(|p| {
+            if lag > 0 {
+                p.lagged(lag)
+            } else {
+                p
+            }
+        });
         self.fit = Some(fit);
         Ok(())
     }
