@@ -54,6 +54,10 @@ def load():
 
 
 def commit():
+    # the lent GPU machine's copy of the tree carries a stale .git: the script running there is
+    # told the commit it was made from (VLF_COMMIT), as the GPU scripts are
+    if os.environ.get("VLF_COMMIT"):
+        return os.environ["VLF_COMMIT"]
     head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True, text=True)
     dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=ROOT, capture_output=True, text=True)
     return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")

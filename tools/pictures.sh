@@ -7,6 +7,8 @@
 # whose machine this is: `gpu` entries need a real GPU, `software` ones any adapter). Writes
 # OUT_DIR/<image file> and OUT_DIR/pictures-stamp.json; `python3 tools/pictures.py stamp
 # OUT_DIR` then copies the pictures into docs/images and updates the manifest.
+# On the lent GPU machine (whose copy of the tree has a stale .git) set VLF_COMMIT to the commit
+# the build was made from: the stamp records it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2"); shift 2
