@@ -153,18 +153,11 @@ fn texture_detail_round_trips_and_version_2_files_still_load() {
 }
 
 fn small_light_field_params() -> PropagationParams {
+    // coarser than the shared draft settings: a file's round trip needs little of a light field
     PropagationParams {
         geodesic_frequency: 2,
         grid_resolution: 16,
-        tile_size: 8,
         texel_density: 4.0,
-        tolerance: 1e-2,
-        max_iterations: 20,
-        perturb: 1,
-        accelerate: true,
-        memory_budget_mib: None,
-        direct_samples: 16,
-        mirror_direct: false,
-        rim_rays: false,
+        ..draft_params()
     }
 }

@@ -182,19 +182,27 @@ fn the_light_field_agrees_with_mitsuba_on_cornell() {
     }
 }
 
-#[test]
-fn vlf_export_mitsuba_writes_a_scene_per_camera() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("mts");
+/// `vlf export mitsuba` of Cornell-mirror into `out`, with `extra` arguments; fails with its
+/// stderr and how to get Mitsuba where it does not succeed.
+fn export_cornell_mirror(out: &Path, extra: &[&std::ffi::OsStr]) -> std::process::Output {
     let run = Command::new(env!("CARGO_BIN_EXE_vlf"))
         .args(["export", "mitsuba"])
         .arg(repo_path("scenes/cornell-mirror/scene.toml"))
+        .args(extra)
         .arg("-o")
-        .arg(&out)
+        .arg(out)
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}\n{HOW_TO_GET_MITSUBA}");
+    run
+}
+
+#[test]
+fn vlf_export_mitsuba_writes_a_scene_per_camera() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mts");
+    let run = export_cornell_mirror(&out, &[]);
     let stdout = String::from_utf8_lossy(&run.stdout);
     for camera in ["front.xml", "side.xml"] {
         assert!(out.join(camera).is_file(), "no {camera} in {stdout}");
@@ -222,17 +230,7 @@ fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("mts");
     let objects = repo_path("config/objects/cornell-mirror-figure.toml");
-    let run = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .args(["export", "mitsuba"])
-        .arg(repo_path("scenes/cornell-mirror/scene.toml"))
-        .arg("--objects")
-        .arg(&objects)
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&run.stderr);
-    assert!(run.status.success(), "{stderr}\n{HOW_TO_GET_MITSUBA}");
+    export_cornell_mirror(&out, &["--objects".as_ref(), objects.as_os_str()]);
     let obj = std::fs::read_to_string(out.join("objects.obj")).unwrap();
     let vertices: Vec<[f32; 3]> = (obj.lines())
         .filter_map(|l| l.strip_prefix("v "))

@@ -187,8 +187,9 @@ fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only:
             k += 1u;
             continue;
         }
-        // a ray that misses the objects' boxes is not cast against them
-        let hit = select(enters && blocks(origin, ray, reach, view.moving_root), blocks(origin, ray, reach, 0u), against_scene);
+        // one cast a step: against the scene once the objects decided, else against the objects
+        // (a ray that misses their boxes is not cast; WGSL's select would evaluate both casts)
+        let hit = (against_scene || enters) && blocks(origin, ray, reach, select(view.moving_root, 0u, against_scene));
         if !against_scene && hit == blocked_only {
             against_scene = true;
             continue;

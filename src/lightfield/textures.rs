@@ -81,23 +81,19 @@ pub struct SurfaceDetail {
     pub texel_albedo: Vec<[u32; 2]>,
 }
 
-/// Three floats as half floats, two to a word.
-pub fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
+/// Three floats as half floats, two to a word (`half_float` in common/light_field.wgsl reads
+/// them back).
+fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
     let h = |x: f32| half::f16::from_f32(x).to_bits() as u32;
     [h(c[0]) | (h(c[1]) << 16), h(c[2])]
-}
-
-/// The inverse of `pack_half_rgb` (w = 1).
-pub fn unpack_half_rgb(p: [u32; 2]) -> [f32; 4] {
-    let f = |bits: u32| half::f16::from_bits((bits & 0xffff) as u16).to_f32();
-    [f(p[0]), f(p[0] >> 16), f(p[1]), 1.0]
 }
 
 impl SurfaceDetail {
     /// The detail of a prepared scene, or None where no face has a diffuse texture.
     pub fn of(scene: &Scene, prepared: &PreparedScene) -> Option<SurfaceDetail> {
-        let textures = SurfaceTextures::of(scene, prepared);
+        // no texture factors: no face has a diffuse texture (nothing to copy)
         let albedo = prepared.atlas.texture_albedo.as_ref()?;
+        let textures = SurfaceTextures::of(scene, prepared);
         if !textures.any_diffuse() {
             return None;
         }
@@ -119,14 +115,6 @@ impl SurfaceDetail {
     pub fn corners_uv(&self, i: usize) -> [[f32; 2]; 3] {
         let t = self.triangle_uv.get(i).copied().unwrap_or([0.0; 6]);
         [[t[0], t[1]], [t[2], t[3]], [t[4], t[5]]]
-    }
-
-    pub fn bytes(&self) -> u64 {
-        (self.textures.info.len() * 16
-            + self.textures.texels.len() * 16
-            + self.textures.face_textures.len() * 16
-            + self.triangle_uv.len() * 24
-            + self.texel_albedo.len() * 8) as u64
     }
 
     /// Upload what the renderer binds (the render triangles carry their texture coordinates
