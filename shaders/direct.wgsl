@@ -301,7 +301,7 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
                 let p = origin + dir * hit.t;
                 let reflected = mirror_direction(dir, f.normal);
                 let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face, SHADOW_GROW);
-                open += select(vec3<f32>(0.0), mirror_reflectance(m), again.tri == NO_FACE);
+                open += select(vec3<f32>(0.0), carried_reflectance(m), again.tri == NO_FACE);
             }
         }
     }
@@ -373,7 +373,7 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
                 seen += g * v;
             }
             let ratio = select(0.0, seen / expected, expected > 0.0);
-            sum += f * ratio * e.radiance.xyz * mirror_reflectance(material_of(mf));
+            sum += f * ratio * e.radiance.xyz * carried_reflectance(material_of(mf));
         }
     }
     return sum;

@@ -95,7 +95,7 @@ fn texel_balance(
             let m = material_of(f);
             if all(diffuse_reflectance(m) > vec3<f32>(0.0)) {
                 let e = next[in_page].xyz / diffuse_reflectance(m);
-                terms = vec4<f32>(e.x + e.y + e.z, dot(mirror_reflectance(m), e), b.z, b.w);
+                terms = vec4<f32>(e.x + e.y + e.z, dot(carried_reflectance(m), e), b.z, b.w);
             }
             value = terms * balance_weight[in_page];
         }

@@ -151,8 +151,15 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
         }
         let origin_next = x + n * 1e-4;
         if random() * (p_diffuse + p_mirror) < p_mirror {
-            throughput *= mirror_reflectance(m) * ((p_diffuse + p_mirror) / p_mirror);
-            dir = mirror_direction(dir, n);
+            // an ideal mirror reflects; a glossy lobe is sampled (its emitters are met, not
+            // sampled: no next-event estimation through it)
+            var u = vec2<f32>(0.0);
+            if is_glossy(m) {
+                u = vec2<f32>(random(), random());
+            }
+            let sampled = reflect_sampled(dir, n, m.roughness, u);
+            throughput *= mirror_reflectance(m) * sampled.w * ((p_diffuse + p_mirror) / p_mirror);
+            dir = sampled.xyz;
             specular = true;
         } else {
             let lobe = (p_diffuse + p_mirror) / p_diffuse;

@@ -123,8 +123,11 @@ struct Path {
 
 // The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
 // every one traced whatever it carries, with the weights relative to the light leaving `first`
-// by its mirror (the caller multiplies by that mirror's reflectance).
-fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
+// by its specular part (the caller multiplies by that part's reflectance). Off an ideal mirror a
+// reflection follows the mirror direction; off a glossy lobe, a direction sampled from it with
+// `u` (the first reflection; later ones with `u` shifted by a hash of the bounce), weighted by
+// the sample's weight (common/bsdf.wgsl, reflect_sampled).
+fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     var s = first;
     var ray = ray_in;
     var f = faces[s.face];
@@ -133,7 +136,16 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
     path.radiance = vec3<f32>(0.0);
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
-        ray = mirror_direction(ray, f.normal);
+        let m = material_of(f);
+        if is_glossy(m) {
+            let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
+            let n = select(f.normal, -f.normal, dot(ray, f.normal) > 0.0);
+            let sampled = reflect_sampled(ray, n, m.roughness, fract(u + shift * f32(b)));
+            ray = sampled.xyz;
+            weight *= sampled.w;
+        } else {
+            ray = mirror_direction(ray, f.normal);
+        }
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];
         path.radiance += weight * (surface_radiance(f, s) * s.seen + s.background);
@@ -144,6 +156,21 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>) -> Path {
     path.point = s.point;
     path.ray = ray;
     return path;
+}
+
+// Sample `i` of `total` of the glossy lobes a pixel's chains meet: the pixel's chains take the
+// points of a Hammersley set rotated by a hash of the pixel, so each pixel stratifies the lobe
+// and neighbours do not repeat its pattern.
+fn lobe_sample(pixel: vec2<u32>, i: u32, total: u32) -> vec2<f32> {
+    let h = hash(pixel.x ^ hash(pixel.y ^ 0x9e3779b9u));
+    let shift = vec2<f32>(unit_float(h), unit_float(hash(h)));
+    return hammersley(i, total, shift);
+}
+
+// How many chains eye-ray pair meeting surface `s` traces: view.lobe_samples where the surface
+// is glossy, one where it is an ideal mirror (or no mirror: a stand-in).
+fn chains_of(s: Surface) -> u32 {
+    return select(1u, max(view.lobe_samples, 1u), is_glossy(material_of(faces[s.face])));
 }
 
 // The eye ray through point `offset` (0..1 each way) of pixel `pixel`.
@@ -278,7 +305,13 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
                 s = s1;
             }
             let ray = select(h0.ray, h1.ray, use_second);
-            sum += (m0 + m1) * mirror_chain(s, ray).radiance;
+            let chains = chains_of(s);
+            var reflected = vec3<f32>(0.0);
+            for (var j = 0u; j < chains; j++) {
+                let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
+                reflected += mirror_chain(s, ray, u).radiance;
+            }
+            sum += (m0 + m1) * reflected / f32(chains);
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
@@ -321,17 +354,23 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
             if use_second {
                 s = s1;
             }
-            let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second));
-            let f = faces[chain.face];
-            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-            let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
-            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
             // the tiles hold the radiance the mirror reflects toward where the ray came from (its
             // reflectance included): with no reflection traced they weigh by the eye rays that meet
             // a mirror, after one or more by the mirrors' reflectance along the chain
             let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
             let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
-            sum += weight * (chain.radiance + carried * tile_radiance_leaving(f, slot, chain.point, -chain.ray));
+            let chains = chains_of(s);
+            var reflected = vec3<f32>(0.0);
+            for (var j = 0u; j < chains; j++) {
+                let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
+                let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), u);
+                let f = faces[chain.face];
+                // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+                let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+                let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+                reflected += chain.radiance + carried * tile_radiance_leaving(f, slot, chain.point, -chain.ray);
+            }
+            sum += weight * reflected / f32(chains);
         }
     }
     textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));

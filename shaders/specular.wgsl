@@ -114,7 +114,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     }
     if (grid.flags & GRID_FLAG_BATCHED) != 0u {
         weight_sums[grid.texel_count + index] += found;
-        tile_next[in_page] += vec4<f32>(mirror_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
+        tile_next[in_page] += vec4<f32>(carried_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
         return;
     }
     if found > 0.0 {
@@ -122,5 +122,5 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         sky /= found;
     }
     // w: the sky radiance this cell received, for the emitted power of the residual
-    tile_next[in_page] = vec4<f32>(mirror_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
+    tile_next[in_page] = vec4<f32>(carried_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
 }

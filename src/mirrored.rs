@@ -51,7 +51,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             atlas_x, atlas_y, atlas_w, atlas_h, twin, tile_slot, _pad0, _pad1
         }),
         mirrored!(GpuMaterial => "Material" in "render.wgsl" {
-            diffuse, flags, mirror, _pad0, emission, _pad1
+            diffuse, flags, mirror, roughness, emission, lobe_albedo
         }),
         mirrored!(GpuGrid => "GridParams" in "render.wgsl" {
             resolution, direction_count, triangle_count, triangle_base, texel_count,
@@ -62,7 +62,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
             paced_fraction, fixed_work, exhaustive_triangles, moving_root, moving_first, moving_flags,
-            msaa_samples, _pad0, _pad1, _pad2
+            msaa_samples, lobe_samples, _pad1, _pad2
         }),
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,

@@ -153,6 +153,7 @@ pub fn verify(
     }
     let mut renderer = Renderer::new(resident, lf, &resident.ledger)?;
     renderer.set_samples_per_pixel(crate::render::STILL_SAMPLES)?;
+    renderer.set_lobe_samples(crate::render::STILL_LOBE_SAMPLES);
     let mut views = Vec::new();
     for cam in &cameras {
         views.push(check_view(

@@ -139,6 +139,13 @@ fn vlf_reference_agrees_with_mitsuba_through_a_mirror() {
     path_tracers_agree("scenes/cornell-mirror/scene.toml", "side", 1024);
 }
 
+/// The glossy lobe (GGX alpha 0.1): vlf's path tracer samples it as Mitsuba's roughconductor
+/// evaluates and samples its own.
+#[test]
+fn vlf_reference_agrees_with_mitsuba_through_a_glossy_box() {
+    path_tracers_agree("scenes/cornell-glossy/scene.toml", "side", 1024);
+}
+
 #[test]
 fn the_light_field_agrees_with_mitsuba_on_cornell() {
     // the settings a software adapter gets by default, 16 eye rays per pixel (the still default)
@@ -509,6 +516,13 @@ fn same_materials(scene: &Scene, py: &serde_json::Value, what: &str) {
                 );
             }
         }
+        let roughness = p["roughness"].as_f64().unwrap() as f32;
+        assert!(
+            (m.roughness - roughness).abs() <= 1e-6,
+            "{what}: material {}: roughness {} (vlf) vs {roughness} (reference.py)",
+            m.name,
+            m.roughness
+        );
         assert_eq!(
             m.two_sided,
             p["two_sided"].as_bool().unwrap(),

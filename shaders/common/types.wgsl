@@ -125,7 +125,9 @@ struct View {
     // standard positions of that many MSAA samples (render.wgsl, msaa_position), as the
     // visibility buffer of raster first hits has them (src/render/raster.rs)
     msaa_samples: u32,
-    _pad0: u32,
+    // reflections sampled from a glossy lobe per chain of eye-ray pair: each pair whose
+    // reflecting surface is glossy traces this many chains and averages them (render.wgsl)
+    lobe_samples: u32,
     _pad1: u32,
     _pad2: u32,
 }

@@ -332,7 +332,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     let e = (irradiance + sky_irradiance) * norm;
     let seen = e + mirrored_in * norm;
     let shares = vec2<f32>(open_weight, back_weight) * (own_sum / PI * norm);
-    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(mirror_reflectance(m), seen), shares) * grid.direction_weight);
+    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(carried_reflectance(m), seen), shares) * grid.direction_weight);
     if batched {
         weight_sums[texel] += weight_sum * grid.direction_weight;
         let sky_raw = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out);

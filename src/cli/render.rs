@@ -31,6 +31,10 @@ pub struct RenderArgs {
     /// Antialiasing: N eye rays per pixel (a Hammersley set), box-filtered; 1 = off
     #[arg(long, default_value_t = vlf::render::STILL_SAMPLES)]
     aa: u32,
+    /// Glossy surfaces: reflections sampled from the lobe per pair of eye rays that meets one
+    /// (a still's default; real-time views take 1)
+    #[arg(long, default_value_t = vlf::render::STILL_LOBE_SAMPLES)]
+    lobe_samples: u32,
     /// First hits of the eye rays: rays (cast through the BVH) or raster (a visibility buffer
     /// drawn by the rasteriser, one MSAA sample per eye ray: --aa must be an MSAA count the
     /// adapter takes, 4 on every one)
@@ -71,6 +75,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         renderer.pose_objects(&s.joints, None);
     }
     renderer.set_samples_per_pixel(args.aa)?;
+    renderer.set_lobe_samples(args.lobe_samples);
     renderer.set_first_hits(args.first_hits)?;
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
     image_io::write_image(&frame, &args.output, args.exposure)?;

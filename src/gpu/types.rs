@@ -50,14 +50,17 @@ pub struct GpuFace {
 pub struct GpuMaterial {
     /// the diffuse (Lambertian) part's albedo
     pub diffuse: [f32; 3],
-    /// `material::MATERIAL_DELTA`, `MATERIAL_DIFFUSE`
+    /// `material::MATERIAL_DELTA`, `MATERIAL_DIFFUSE`, `MATERIAL_GLOSSY`
     pub flags: u32,
-    /// the ideal mirror part's reflectance
+    /// the specular part's reflectance
     pub mirror: [f32; 3],
-    pub _pad0: f32,
+    /// the specular part's GGX roughness alpha (0: an ideal mirror)
+    pub roughness: f32,
     /// emitted radiance (on the emitting side: `FACE_EMITTER`)
     pub emission: [f32; 3],
-    pub _pad1: f32,
+    /// the share of the specular part's light propagation carries: 1 for an ideal mirror, a
+    /// glossy lobe's cosine-weighted mean albedo (`material::ggx_mean_albedo`)
+    pub lobe_albedo: f32,
 }
 
 /// Mirrors WGSL `GridParams`.
@@ -152,7 +155,8 @@ pub struct GpuView {
     /// 0: eye rays on the Hammersley set; 2, 4, 8 or 16: on the standard positions of that many
     /// MSAA samples, as the visibility buffer of raster first hits has them (`render::raster`)
     pub msaa_samples: u32,
-    pub _pad0: u32,
+    /// chains of reflections sampled from a glossy lobe per eye-ray pair that meets one
+    pub lobe_samples: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

@@ -155,7 +155,8 @@ pub struct FaceRecord {
     pub twin: u32,
     pub tile_slot: u32,
     pub mirror: [f32; 3],
-    pub _pad: f32,
+    /// the specular part's GGX roughness (0: an ideal mirror; files before it hold 0 here)
+    pub roughness: f32,
 }
 
 /// The file's face records of `faces` and the material table they index.
@@ -181,7 +182,7 @@ pub fn face_records(faces: &[GpuFace], materials: &[GpuMaterial]) -> Vec<FaceRec
                 twin: f.twin,
                 tile_slot: f.tile_slot,
                 mirror: m.mirror,
-                _pad: 0.0,
+                roughness: m.roughness,
             }
         })
         .collect()
@@ -194,7 +195,7 @@ pub fn split_face_records(records: &[FaceRecord]) -> (Vec<GpuFace>, Vec<GpuMater
     let mut index = std::collections::HashMap::new();
     let faces = (records.iter())
         .map(|r| {
-            let m = GpuMaterial::new(r.albedo, r.mirror, r.emission);
+            let m = GpuMaterial::new(r.albedo, r.mirror, r.emission).with_roughness(r.roughness);
             let key: Vec<u8> = bytemuck::bytes_of(&m).to_vec();
             let material = *index.entry(key).or_insert_with(|| {
                 materials.push(m);

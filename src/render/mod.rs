@@ -29,6 +29,12 @@ pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 /// the 4-wall stereo CAVE at 1920x1200 per eye (8 views) of Cornell-mirror took 10.6 ms on an
 /// H100 with a reflection per eye ray, over 120 Hz's 8.3 ms.
 pub const REALTIME_SAMPLES: u32 = 4;
+/// Chains of reflections sampled from a glossy lobe per eye-ray pair that meets one, in real
+/// time: one (the displays' constant cost; the lobe's noise averages over a pixel's pairs).
+pub const DEFAULT_LOBE_SAMPLES: u32 = 1;
+/// ... and in stills (`vlf render`, `vlf verify`): with STILL_SAMPLES eye rays, 64 samples of the
+/// lobe per pixel.
+pub const STILL_LOBE_SAMPLES: u32 = 8;
 /// Antialiasing of stills (`vlf render`): eye rays per pixel.
 pub const STILL_SAMPLES: u32 = 16;
 /// The most eye rays per pixel a view may ask for.
@@ -240,6 +246,7 @@ impl Renderer {
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
             fixed_work: 1,
+            lobe_samples: DEFAULT_LOBE_SAMPLES,
             exhaustive_triangles,
             moving_root: u32::MAX,
             moving_first: 0,
@@ -433,6 +440,12 @@ impl Renderer {
         }
         self.view_template.msaa_samples = samples;
         Ok(())
+    }
+
+    /// Chains of reflections sampled from a glossy lobe per eye-ray pair that meets one (at
+    /// least 1): a still takes more than a real-time view (`vlf render --lobe-samples`).
+    pub fn set_lobe_samples(&mut self, n: u32) {
+        self.view_template.lobe_samples = n.max(1);
     }
 
     /// Mirror reflections traced per eye ray (0 without mirrors).

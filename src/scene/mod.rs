@@ -50,6 +50,8 @@ pub struct Camera {
 #[serde(deny_unknown_fields)]
 pub struct MaterialOverride {
     pub mirror: Option<[f32; 3]>,
+    /// the specular part's GGX roughness alpha: 0 an ideal mirror, up to 1
+    pub roughness: Option<f32>,
     pub diffuse: Option<[f32; 3]>,
     pub emission: Option<[f32; 3]>,
     pub two_sided: Option<bool>,
@@ -341,6 +343,13 @@ impl SceneFile {
             }
             if let Some(c) = m.emission {
                 check_color(&c, false).map_err(|e| err(format!("{at}.emission: {e}")))?;
+            }
+            if let Some(r) = m.roughness {
+                if !(0.0..=1.0).contains(&r) {
+                    return Err(err(format!(
+                        "{at}.roughness: {r} must be a GGX alpha in [0, 1] (0: an ideal mirror)"
+                    )));
+                }
             }
         }
         Ok(())

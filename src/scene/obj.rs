@@ -252,6 +252,14 @@ fn load_textures(
     Ok((textures, texture_memory))
 }
 
+/// The specular part's roughness from MTL's PBR extension: `Pr` (perceptual roughness r, GGX
+/// alpha r²) where the material has a specular part; `Ns` (Phong exponents) is not read, as
+/// MTL files set it on every material whatever their intent.
+fn mtl_roughness(m: &tobj::Material, ks: [f32; 3]) -> Option<f32> {
+    let pr: f32 = m.unknown_param.get("Pr")?.trim().parse().ok()?;
+    (ks.iter().any(|&k| k > 0.0) && (0.0..=1.0).contains(&pr)).then_some(pr * pr)
+}
+
 fn convert_material(
     m: &tobj::Material,
     o: Option<&MaterialOverride>,
@@ -274,12 +282,16 @@ fn convert_material(
         name: m.name.clone(),
         diffuse: o.diffuse.unwrap_or(kd),
         mirror: o.mirror.unwrap_or(ks),
+        roughness: o.roughness.or_else(|| mtl_roughness(m, ks)).unwrap_or(0.0),
         emission: o.emission.unwrap_or(ke),
         two_sided: o.two_sided.unwrap_or(false),
         diffuse_texture: None,
         emission_texture: None,
     };
-    if let Some(message) = material.energy_error() {
+    if let Some(message) = material
+        .energy_error()
+        .or_else(|| material.roughness_error())
+    {
         return Err(err(message));
     }
     for (what, tex) in [

@@ -112,7 +112,7 @@ def load_scene_toml(path):
         cameras.append(cam)
     overrides = {}
     for name, o in doc.get("materials", {}).items():
-        bad = set(o) - {"mirror", "diffuse", "emission", "two_sided"}
+        bad = set(o) - {"mirror", "diffuse", "emission", "two_sided", "roughness"}
         if bad:
             raise SceneError(f"{path}: materials.{name}: unknown keys {sorted(bad)}")
         ov = {}
@@ -121,6 +121,11 @@ def load_scene_toml(path):
                 ov[key] = _color(o[key], f"materials.{name}.{key}", refl)
         if "two_sided" in o:
             ov["two_sided"] = bool(o["two_sided"])
+        if "roughness" in o:
+            r = float(o["roughness"])
+            if not 0.0 <= r <= 1.0:
+                raise SceneError(f"{path}: materials.{name}.roughness: {r} must be a GGX alpha in [0, 1]")
+            ov["roughness"] = r
         overrides[name] = ov
     return {
         "name": doc.get("name", path.parent.name),
@@ -140,7 +145,7 @@ def _strip(line):
 
 
 def load_mtl(path):
-    """name -> {Kd, Ks, Ke, map_Kd, map_Ke} (paths resolved against the MTL's folder)."""
+    """name -> {Kd, Ks, Ke, Pr, map_Kd, map_Ke} (paths resolved against the MTL's folder)."""
     mats = {}
     cur = None
     for raw in Path(path).read_text().splitlines():
@@ -158,7 +163,18 @@ def load_mtl(path):
             cur[key] = [float(x) for x in rest.split()[:3]]
         elif key in ("map_Kd", "map_Ke"):
             cur[key] = (Path(path).parent / rest).resolve()
+        elif key == "Pr":
+            cur[key] = float(rest.split()[0])
     return mats
+
+
+def _mtl_roughness(m):
+    """GGX alpha of an MTL material's specular part: Pr^2 where it has Pr in [0, 1] and Ks > 0
+    (Ns is not read: MTL files set it on every material whatever their intent)."""
+    pr = m.get("Pr")
+    if pr is None or not 0.0 <= pr <= 1.0 or max(m["Ks"]) <= 0:
+        return 0.0
+    return float(np.float32(pr) * np.float32(pr))
 
 
 def load_obj(path):
@@ -222,7 +238,8 @@ def load_obj(path):
 #   largest absolute coordinate squared) and repeats of a kept triangle (same corners, same
 #   winding) dropped, in file order;
 # - materials (scene.toml `[materials.NAME]` overrides on top): metallic >= 0.5 and roughness
-#   <= 0.2 -> an ideal mirror of baseColorFactor (times the mean of its base colour texture);
+#   <= 0.2 -> an ideal mirror of baseColorFactor (times the mean of its base colour texture),
+#   0.2 < roughness <= 0.6 -> the same as a glossy GGX lobe of alpha roughness^2;
 #   everything else -> diffuse of baseColorFactor x baseColorTexture; emission = emissiveFactor
 #   x KHR_materials_emissive_strength (x emissiveTexture); doubleSided -> two-sided; alpha,
 #   transmission, normal / occlusion / metallic-roughness maps ignored; one set of texture
@@ -240,6 +257,7 @@ MAX_DEPTH = 256
 MAX_ZERO_ELEMENTS = 1 << 24
 MIRROR_METALLIC = np.float32(0.5)
 MIRROR_ROUGHNESS = np.float32(0.2)
+GLOSSY_ROUGHNESS = np.float32(0.6)
 DEGENERATE_AREA = 1e-14
 
 _COMPONENT = {5120: "i1", 5121: "u1", 5122: "<i2", 5123: "<u2", 5125: "<u4", 5126: "<f4"}
@@ -574,12 +592,16 @@ def plan_materials(doc, overrides):
             _check_color(emission, False, "emissiveFactor x emissive_strength")
         except SceneError as e:
             raise SceneError(f"material {name}: {e}") from None
-        mirror = bool(metallic >= MIRROR_METALLIC and roughness <= MIRROR_ROUGHNESS)
+        mirror = bool(metallic >= MIRROR_METALLIC and roughness <= GLOSSY_ROUGHNESS)
+        alpha = 0.0 if roughness <= MIRROR_ROUGHNESS else float(roughness * roughness)
         base_tex, emit_tex = pbr.baseColorTexture, m.emissiveTexture
         diffuse_info = base_tex if not mirror else None
         coords = diffuse_info if diffuse_info is not None else emit_tex
         what = []
-        if mirror:
+        if mirror and alpha > 0:
+            what.append(f"metallic {metallic} roughness {roughness}: glossy metal (GGX alpha {alpha}) of the base colour"
+                        + (" (times its texture's mean)" if base_tex is not None else ""))
+        elif mirror:
             what.append(f"metallic {metallic} roughness {roughness}: ideal mirror of the base colour"
                         + (" (times its texture's mean)" if base_tex is not None else ""))
         elif metallic > 0:
@@ -598,6 +620,7 @@ def plan_materials(doc, overrides):
             "mirror": np.array(o["mirror"], dtype=F32) if "mirror" in o else (base_color if mirror else np.zeros(3, F32)),
             "emission": np.array(o["emission"], dtype=F32) if "emission" in o else emission,
             "two_sided": bool(o["two_sided"]) if "two_sided" in o else bool(m.doubleSided),
+            "roughness": float(o.get("roughness", alpha)),
         }
         for c in range(3):
             if float(mat["diffuse"][c]) + float(mat["mirror"][c]) > 1 + 1e-6:
@@ -985,6 +1008,7 @@ def build_obj(scene):
             "mirror": o.get("mirror", m["Ks"]),
             "emission": o.get("emission", m["Ke"]),
             "two_sided": o.get("two_sided", False),
+            "roughness": o.get("roughness", _mtl_roughness(m)),
             "diffuse_tex": str(m["map_Kd"]) if m.get("map_Kd") else None,
             "emission_tex": str(m["map_Ke"]) if m.get("map_Ke") else None,
         }
@@ -996,7 +1020,7 @@ def build_obj(scene):
                 raise SceneError(f"material {name}: diffuse + mirror exceeds 1 in channel {c}")
         materials[name] = mat
     default = {"name": "(default)", "diffuse": [0.5] * 3, "mirror": [0.0] * 3, "emission": [0.0] * 3,
-               "two_sided": False, "diffuse_tex": None, "emission_tex": None}
+               "two_sided": False, "roughness": 0.0, "diffuse_tex": None, "emission_tex": None}
 
     # weld equal positions, drop zero-area and duplicated (same corners, same winding) triangles
     key_of = {}
@@ -1051,7 +1075,7 @@ def build_gltf(scene):
         raise SceneError(str(e)) from None
     mats = list(g["materials"])
     default = {"name": "(default)", "diffuse": [0.5] * 3, "mirror": [0.0] * 3, "emission": [0.0] * 3,
-               "two_sided": False, "diffuse_tex": None, "emission_tex": None}
+               "two_sided": False, "roughness": 0.0, "diffuse_tex": None, "emission_tex": None}
     if (g["material"] == len(mats)).any():
         mats.append(default)
     names = [m["name"] for m in mats]
@@ -1306,11 +1330,23 @@ def export(scene, built, out_dir, spp=256):
                 return f'<bsdf type="diffuse">{textures.xml("reflectance", dkey, d * scale)}</bsdf>'
             return f'<bsdf type="diffuse">{color_xml("reflectance", d * scale, "kd")}</bsdf>'
 
+        alpha = float(m.get("roughness", 0.0))
+
         def mirror_xml(scale):
+            if alpha > 0:
+                # the glossy lobe: GGX with Smith masking, no Fresnel (material "none")
+                return (f'<bsdf type="roughconductor"><string name="material" value="none"/>'
+                        f'<string name="distribution" value="ggx"/><float name="alpha" value="{alpha!r}"/>'
+                        f'{color_xml("specular_reflectance", s * scale, "ks")}</bsdf>')
             return (f'<bsdf type="conductor"><string name="material" value="none"/>'
                     f'{color_xml("specular_reflectance", s * scale, "ks")}</bsdf>')
 
-        if has_d and has_s:
+        if has_d and has_s and alpha > 0:
+            # rho_d Lambert + rho_s glossy lobe: blendbsdf is exact for two non-delta lobes
+            bsdf = (f'<bsdf type="blendbsdf"><float name="weight" value="0.5"/>'
+                    f'<bsdf type="diffuse">{textures.xml("reflectance", dkey, d * 2.0) if dkey is not None else color_xml("reflectance", d * 2.0, "kd")}</bsdf>'
+                    f'{mirror_xml(2.0)}</bsdf>')
+        elif has_d and has_s:
             # rho_d Lambert + rho_s mirror. Mitsuba 3.9's blendbsdf, asked for a sample of its
             # delta lobe, divides by w + (1-w) pdf_diffuse(wo) and adds the diffuse value there
             # (pdf of a delta taken as 1): exact only when both parts have the same colour.
@@ -1469,6 +1505,7 @@ def dump_json(scene, built, path):
     doc = {"materials": {}, "groups": [], "cameras": scene["cameras"], "sky": scene["sky"]}
     for name, m in built["materials"].items():
         doc["materials"][name] = {"diffuse": f32(m["diffuse"]), "mirror": f32(m["mirror"]),
+                                  "roughness": float(np.float32(m.get("roughness", 0.0))),
                                   "emission": f32(m["emission"]), "two_sided": bool(m["two_sided"]),
                                   "diffuse_texture": m["diffuse_tex"], "emission_texture": m["emission_tex"]}
     for (name, textured), (corners, uv) in sorted(built["groups"].items()):

@@ -159,7 +159,7 @@ impl GatherInputs<'_> {
             radiance /= found;
             sky /= found;
         }
-        let out = material_of(self.materials, f).mirror_reflectance() * (radiance + sky);
+        let out = material_of(self.materials, f).carried_reflectance() * (radiance + sky);
         [out.x, out.y, out.z, sky.x + sky.y + sky.z]
     }
 }

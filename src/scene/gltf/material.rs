@@ -1,9 +1,13 @@
 //! glTF materials to the light field's: what a metallic-roughness material becomes, by the rules
 //! docs/guide/gltf.md states. The light field holds a diffuse reflectance (with a texture), an
-//! ideal mirror reflectance (one colour per material) and an emitted radiance (with a texture):
+//! specular reflectance (one colour per material, an ideal mirror or a glossy GGX lobe) and an
+//! emitted radiance (with a texture):
 //! - metallic >= 0.5 and roughness <= 0.2: an ideal mirror of the base colour (factor times
 //!   the texture's mean), no diffuse;
-//! - everything else (rough metals, dielectrics): diffuse of the base colour (factor x texture);
+//! - metallic >= 0.5 and 0.2 < roughness <= 0.6: a glossy metal of the base colour (the same),
+//!   GGX alpha = roughness² (glTF's convention);
+//! - everything else (rougher metals, dielectrics): diffuse of the base colour (factor x
+//!   texture);
 //! - emission: emissiveFactor x emissiveTexture x KHR_materials_emissive_strength;
 //! - doubleSided: two-sided;
 //!
@@ -17,8 +21,11 @@ use std::path::Path;
 
 /// A metal at least this metallic ...
 pub const MIRROR_METALLIC: f32 = 0.5;
-/// ... and at most this rough is an ideal mirror.
+/// ... and at most this rough is an ideal mirror ...
 pub const MIRROR_ROUGHNESS: f32 = 0.2;
+/// ... and at most this rough a glossy metal (GGX alpha roughness²); rougher ones are diffuse,
+/// as propagation carries a glossy lobe as a mirror.
+pub const GLOSSY_ROUGHNESS: f32 = 0.6;
 
 /// `KHR_texture_transform` as a 2x3 matrix on texture coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -133,10 +140,23 @@ fn plan(
     check_color(&emission, false)
         .map_err(|e| err(format!("emissiveFactor x emissive_strength {e}")))?;
     let mut notes = Vec::new();
-    let mirror = metallic >= MIRROR_METALLIC && roughness <= MIRROR_ROUGHNESS;
+    let mirror = metallic >= MIRROR_METALLIC && roughness <= GLOSSY_ROUGHNESS;
+    let alpha = match roughness <= MIRROR_ROUGHNESS {
+        true => 0.0,
+        false => roughness * roughness,
+    };
     let base_tex = pbr.base_color_texture();
     let emit_tex = m.emissive_texture();
-    if mirror {
+    if mirror && alpha > 0.0 {
+        notes.push(format!(
+            "metallic {metallic} roughness {roughness}: a glossy metal of the base colour{} (GGX alpha {alpha})",
+            if base_tex.is_some() {
+                " (times its texture's mean)"
+            } else {
+                ""
+            }
+        ));
+    } else if mirror {
         notes.push(format!(
             "metallic {metallic} roughness {roughness}: an ideal mirror of the base colour{}",
             if base_tex.is_some() {
@@ -178,12 +198,16 @@ fn plan(
         name: name.clone(),
         diffuse: o.diffuse.unwrap_or(if mirror { [0.0; 3] } else { base }),
         mirror: o.mirror.unwrap_or(if mirror { base } else { [0.0; 3] }),
+        roughness: o.roughness.unwrap_or(alpha),
         emission: o.emission.unwrap_or(emission),
         two_sided: o.two_sided.unwrap_or(m.double_sided()),
         diffuse_texture: None,
         emission_texture: None,
     };
-    if let Some(message) = material.energy_error() {
+    if let Some(message) = material
+        .energy_error()
+        .or_else(|| material.roughness_error())
+    {
         return Err(err(message));
     }
     Ok(Plan {
