@@ -10,6 +10,7 @@
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
 #include "common/ray.wgsl"
+#include "common/textures.wgsl"
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 

@@ -9,6 +9,7 @@
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
+#include "common/surface_textures.wgsl"
 
 // A diffuse-only scene: senders have no mirror part.
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {

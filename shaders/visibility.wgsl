@@ -5,6 +5,8 @@
 //
 // Coordinates are in "cell units": the centre of cell (col, row) sits at (col, row).
 #include "common/types.wgsl"
+#include "common/textures.wgsl"
+#include "common/coverage.wgsl"
 
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> directions: array<Direction>;
@@ -15,6 +17,12 @@
 @group(0) @binding(5) var<storage, read_write> cell_offset: array<u32>;
 // per direction: its first layer; entry [direction_count] holds the total
 @group(0) @binding(6) var<storage, read_write> direction_base: array<u32>;
+// cut-outs (common/coverage.wgsl; placeholders in a scene without one): per face its textures
+// and cutoff, the textures, per triangle its corners' texture coordinates ((uv0, uv1), (uv2, -))
+@group(0) @binding(7) var<storage, read> face_textures: array<vec4<u32>>;
+@group(0) @binding(8) var<storage, read> texture_info: array<vec4<u32>>;
+@group(0) @binding(9) var<storage, read> texture_texels: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read> triangle_uv: array<vec4<f32>>;
 // (face, bitcast depth)
 @group(1) @binding(0) var<storage, read_write> layers: array<vec2<u32>>;
 
@@ -78,7 +86,17 @@ struct Projected {
     area: f32,
 }
 
-fn visit_row(row: u32, tri: vec4<u32>, t: Projected, dir_index: u32, fill: bool) {
+// Whether the cell line meets triangle `tri_index` (face `face`) in a cut-out's hole, at the
+// point of barycentric weights (w_a, w_b, w_c) = (e_bc, e_ca, e_ab) / area: the coverage point
+// sampled at the line's crossing, so that over many cells the light passing is the coverage.
+fn crossing_hole(tri_index: u32, face: u32, e_ca: f32, e_ab: f32, area: f32) -> bool {
+    if ALPHA_MASKS == 0u {
+        return false;
+    }
+    return is_hole(face, corners_uv(triangle_uv[2u * tri_index], triangle_uv[2u * tri_index + 1u].xy, e_ca / area, e_ab / area));
+}
+
+fn visit_row(row: u32, tri_index: u32, tri: vec4<u32>, t: Projected, dir_index: u32, fill: bool) {
     let a = t.a3.xy;
     let b = t.b3.xy;
     let c = t.c3.xy;
@@ -96,6 +114,9 @@ fn visit_row(row: u32, tri: vec4<u32>, t: Projected, dir_index: u32, fill: bool)
         let e_ca = canonical_edge(c, tri.z, a, tri.x, p);
         if !(edge_admits(e_ab, orient, tri.x, tri.y) && edge_admits(e_bc, orient, tri.y, tri.z)
             && edge_admits(e_ca, orient, tri.z, tri.x)) {
+            continue;
+        }
+        if crossing_hole(tri_index, tri.w, e_ca, e_ab, t.area) {
             continue;
         }
         let cell = row_base + u32(col);
@@ -133,7 +154,7 @@ fn visit_rows(slot: u32, tri_index: u32, dir_index: u32, fill: bool) {
     let first = u32(clamp(ceil(min(t.a3.y, min(t.b3.y, t.c3.y))), 0.0, last_row + 1.0));
     let last = clamp(floor(max(t.a3.y, max(t.b3.y, t.c3.y))), -1.0, last_row);
     for (var row = first + slot; f32(row) <= last; row += ROW_SLOTS) {
-        visit_row(row, tri, t, dir_index, fill);
+        visit_row(row, tri_index, tri, t, dir_index, fill);
     }
 }
 

@@ -4,9 +4,11 @@
 //! part and emission. The specular part is an ideal mirror, or with `roughness` > 0 a glossy GGX
 //! lobe (reflectance times Smith-masked GGX, no Fresnel, as Mitsuba 3's `roughconductor` with
 //! `material = "none"`): the views and the path tracer sample the lobe, propagation carries it
-//! as an ideal mirror of the same reflectance (the light a glossy surface sends on to other
-//! surfaces is not blurred by the lobe: the stated approximation). A cut-out (alpha) is a new
-//! field here, a new flag in `GpuMaterial` and a new helper in `shaders/common/bsdf.wgsl`.
+//! as an ideal mirror of the reflectance times the lobe's mean albedo (the light a glossy surface
+//! sends on to other surfaces is not blurred by the lobe: the stated approximation). A cut-out
+//! ([`Cutout`]) is a property of the surface's texture coordinates rather than of the BSDF: it
+//! travels with the surface textures (`lightfield::textures::SurfaceTextures`) and one WGSL
+//! function decides it (`shaders/common/coverage.wgsl`).
 //!
 //! On the GPU the materials are a table (`GpuMaterial`, one per scene material) apart from the
 //! face records, which hold an index into it (`GpuFace::material`). `shaders/common/bsdf.wgsl`
@@ -44,6 +46,24 @@ pub struct Material {
     /// `map_Ke`, multiplying `emission`
     #[serde(default)]
     pub emission_texture: Option<u32>,
+    /// a cut-out (glTF alphaMode MASK or BLEND, MTL `map_d`): holes where the coverage is
+    /// below the cutoff
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutout: Option<Cutout>,
+}
+
+/// A cut-out: the surface is a hole wherever its coverage texture's alpha
+/// (`scene::Texture::alpha`, point-sampled bilinearly at the texture coordinates) is below
+/// `cutoff`. Every test of the surface takes it: propagation's cell lines, direct light's shadow
+/// rays, eye and mirror rays, the path tracer (`shaders/common/coverage.wgsl`, `is_hole`). A
+/// coverage factor (glTF's base colour alpha) is folded into `cutoff` (alpha x factor < c is
+/// alpha < c / factor); a material covered or open everywhere has no cut-out (the importers keep
+/// it opaque or leave its triangles out).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Cutout {
+    /// index into Scene::textures (a texture with an alpha channel)
+    pub texture: u32,
+    pub cutoff: f32,
 }
 
 impl Material {
@@ -58,6 +78,7 @@ impl Material {
             two_sided: false,
             diffuse_texture: None,
             emission_texture: None,
+            cutout: None,
         }
     }
 

@@ -306,6 +306,7 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
         kind: vlf::lab::generate::SceneKind::Classroom,
         size: 1000,
         mirrors: true,
+        glossy: false,
     };
     let generated = vlf::lab::generate::generate(&options, dir.path()).unwrap();
     let scene = vlf::scene::Scene::load(&generated.scene).unwrap();

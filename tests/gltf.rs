@@ -481,6 +481,7 @@ fn generated_classroom_as_gltf_gives_the_obj_light_field() {
         kind: SceneKind::Classroom,
         size: 1000,
         mirrors: true,
+        glossy: false,
     };
     let obj = generate_as(&options, a.path(), MeshFormat::Obj).unwrap();
     let gltf = generate_as(&options, b.path(), MeshFormat::Gltf).unwrap();

@@ -177,6 +177,7 @@ fn raster_first_hits_draw_a_generated_classroom_as_ray_cast_ones_do() {
         kind: vlf::lab::generate::SceneKind::Classroom,
         size: 10000,
         mirrors: true,
+        glossy: false,
     };
     let generated = vlf::lab::generate::generate(&options, dir.path()).unwrap();
     let scene = vlf::scene::Scene::load(&generated.scene).unwrap();

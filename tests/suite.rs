@@ -21,6 +21,7 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
                 kind,
                 size,
                 mirrors,
+                glossy: false,
             },
             &dir.path().join(format!("{kind:?}-{size}")),
         )

@@ -2,8 +2,10 @@
 // reference path tracer (reference.wgsl) and the shadow rays of direct light (direct.wgsl); the
 // renderer casts through the same tree stored as child pairs (render.wgsl, cast_bvh).
 // The including file binds `triangles: array<Triangle>`, `nodes: array<BvhNode>` and
-// `faces: array<Face>`.
+// `faces: array<Face>`, and what common/coverage.wgsl asks (cut-outs: a hit in a hole is passed
+// by).
 #include "common/ray.wgsl"
+#include "common/coverage.wgsl"
 
 // mirrors reference::GpuBvhNode: leaf when count > 0 (first triangle in `index`), else
 // `index` is the right child and the left child follows the node
@@ -56,7 +58,7 @@ fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, 
                     continue;
                 }
                 let r = intersect_grown(origin, dir, triangles[i], hit.t * TIE, grow);
-                if closer(r.x, i, hit) {
+                if closer(r.x, i, hit) && !triangle_hole(triangles[i], r.y, r.z) {
                     hit = Hit(r.x, i, r.y, r.z);
                     if any_hit {
                         return hit;
@@ -85,4 +87,12 @@ fn trace_skipping(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, any_hit: bool, 
         }
     }
     return hit;
+}
+
+// Whether triangle `tri` is a hole at barycentric (u, v) (common/coverage.wgsl).
+fn triangle_hole(tri: Triangle, u: f32, v: f32) -> bool {
+    if ALPHA_MASKS == 0u {
+        return false;
+    }
+    return is_hole(tri.face, corners_uv(tri.uv01, tri.uv2.xy, u, v));
 }

@@ -6,7 +6,10 @@
 // (`field.sky`), and defines `moving_radiance(triangle, point, ray) -> vec3<f32>`: what a moving
 // object's triangle shows (a stage without moving objects returns black), and
 // `const MOVING_OBJECTS: u32`: 0 compiles the moving objects' code out of the pipeline (a scene
-// without them pays nothing for it, not even registers), 1 keeps it.
+// without them pays nothing for it, not even registers), 1 keeps it. A hit in a cut-out's hole
+// is passed by (common/coverage.wgsl, which this file includes: the includer binds the
+// light field's texture detail and includes common/textures.wgsl).
+#include "common/coverage.wgsl"
 
 // Where the ray meets the triangle's plane, and whether inside it, by the triangle's affine map
 // to the unit triangle (Baldwin & Weber 2016): four dot products and no branch.
@@ -16,6 +19,20 @@ fn ray_triangle(origin: vec3<f32>, ray: vec3<f32>, tri: RayTriangle) -> f32 {
     let u = dot(tri.u.xyz, h) + tri.u.w;
     let v = dot(tri.v.xyz, h) + tri.v.w;
     return select(-1.0, t, u >= 0.0 && v >= 0.0 && u + v <= 1.0);
+}
+
+// Whether the ray meets triangle i (at distance t) in a cut-out's hole; the moving objects'
+// triangles have none.
+fn ray_hole(i: u32, origin: vec3<f32>, ray: vec3<f32>, t: f32) -> bool {
+    if ALPHA_MASKS == 0u || (MOVING_OBJECTS != 0u && i >= view.moving_first) {
+        return false;
+    }
+    let map = ray_triangles[i];
+    let h = origin + ray * t;
+    let u = dot(map.u.xyz, h) + map.u.w;
+    let v = dot(map.v.xyz, h) + map.v.w;
+    let tri = triangles[i];
+    return is_hole(tri.face, corners_uv(tri.uv01, tri.uv2.xy, u, v));
 }
 
 // no node: the traversal is done
@@ -74,7 +91,7 @@ fn cast_bvh(origin: vec3<f32>, ray: vec3<f32>, root: u32, then: u32, nearest: Hi
                 let tri = ray_triangles[i];
                 let t = ray_triangle(origin, ray, tri);
                 let culled = MOVING_OBJECTS != 0u && cull_moving_backs && i >= view.moving_first && dot(tri.w.xyz, ray) > 0.0;
-                if t > 1e-5 && !culled && closer(t, i, hit) {
+                if t > 1e-5 && !culled && closer(t, i, hit) && !ray_hole(i, origin, ray, t) {
                     hit.t = t;
                     hit.tri = i;
                 }
@@ -129,10 +146,10 @@ fn cast_ray(origin: vec3<f32>, ray: vec3<f32>, with_moving: bool) -> Surface {
             let j = min(i + 1u, n - 1u);
             let ti = ray_triangle(origin, ray, ray_triangles[i]);
             let tj = ray_triangle(origin, ray, ray_triangles[j]);
-            let found_i = ti > 1e-5 && closer(ti, i, hit);
+            let found_i = ti > 1e-5 && closer(ti, i, hit) && !ray_hole(i, origin, ray, ti);
             hit.t = select(hit.t, ti, found_i);
             hit.tri = select(hit.tri, i, found_i);
-            let found_j = tj > 1e-5 && closer(tj, j, hit);
+            let found_j = tj > 1e-5 && closer(tj, j, hit) && !ray_hole(j, origin, ray, tj);
             hit.t = select(hit.t, tj, found_j);
             hit.tri = select(hit.tri, j, found_j);
         }

@@ -66,6 +66,10 @@ pub struct GenerateArgs {
     /// The mirror variant (a mirror wall in the classroom, mirrors along the gallery)
     #[arg(long)]
     mirrors: bool,
+    /// Glossy floors (varnished: diffuse plus a GGX lobe of alpha 0.05) and glossy metal
+    /// (alpha 0.2) furniture legs and frames
+    #[arg(long)]
+    glossy: bool,
     /// The mesh as OBJ + MTL or as glTF 2.0 (.gltf + .bin)
     #[arg(long, value_enum, default_value = "obj")]
     format: vlf::lab::generate::MeshFormat,
@@ -191,6 +195,7 @@ pub fn generate(a: GenerateArgs) -> Result<()> {
             kind: a.kind,
             size: a.size,
             mirrors: a.mirrors,
+            glossy: a.glossy,
         },
         &a.out,
         a.format,

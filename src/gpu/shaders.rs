@@ -65,6 +65,14 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/textures.wgsl"),
     ),
     (
+        "common/coverage.wgsl",
+        include_str!("../../shaders/common/coverage.wgsl"),
+    ),
+    (
+        "common/surface_textures.wgsl",
+        include_str!("../../shaders/common/surface_textures.wgsl"),
+    ),
+    (
         "common/sampling.wgsl",
         include_str!("../../shaders/common/sampling.wgsl"),
     ),

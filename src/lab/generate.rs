@@ -35,6 +35,36 @@ pub struct GenerateOptions {
     /// about this many triangles (classroom) or faces (gallery)
     pub size: u64,
     pub mirrors: bool,
+    /// glossy floors and metal (`glossy_variant`)
+    pub glossy: bool,
+}
+
+/// The `--glossy` variant's scene.toml overrides: a varnished floor (diffuse plus a GGX lobe of
+/// alpha 0.05, as a plastic's coat) ...
+const GLOSSY_FLOOR: &str = "\n[materials.floor]\ndiffuse = [0.36, 0.26, 0.17]\nmirror = [0.12, 0.12, 0.12]\nroughness = 0.05\n";
+/// ... and the classroom's glossy metal (alpha 0.2).
+const GLOSSY_METAL: &str = "\n[materials.metal]\ndiffuse = [0.0, 0.0, 0.0]\nmirror = [0.62, 0.62, 0.64]\nroughness = 0.2\n";
+
+/// The `--glossy` variant of a generated scene.toml: its name marked, the overrides appended.
+fn glossy_variant(toml: String, kind: SceneKind) -> String {
+    let mut out = String::new();
+    for line in toml.lines() {
+        match line
+            .strip_prefix("name = \"")
+            .and_then(|n| n.strip_suffix('"'))
+        {
+            Some(name) => out.push_str(&format!("name = \"{name}-glossy\"\n")),
+            None => {
+                out.push_str(line);
+                out.push('\n');
+            }
+        }
+    }
+    out.push_str(GLOSSY_FLOOR);
+    if kind == SceneKind::Classroom {
+        out.push_str(GLOSSY_METAL);
+    }
+    out
 }
 
 #[derive(Clone, Debug, serde::Serialize)]
@@ -201,10 +231,17 @@ pub fn generate_as(options: &GenerateOptions, dir: &Path, format: MeshFormat) ->
         });
     }
     std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
-    let (mesh, toml, description) = match options.kind {
+    let (mesh, mut toml, mut description) = match options.kind {
         SceneKind::Classroom => classroom(options.size, options.mirrors),
         SceneKind::Gallery => gallery(options.size, options.mirrors),
     };
+    if options.glossy {
+        toml = glossy_variant(toml, options.kind);
+        description.push_str(", glossy floor");
+        if options.kind == SceneKind::Classroom {
+            description.push_str(" and metal");
+        }
+    }
     let write = |name: &str, text: &str| {
         crate::lightfield::file::write_atomic(&dir.join(name), text.as_bytes())
     };

@@ -237,6 +237,7 @@ fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result
                 kind: SceneKind::Classroom,
                 size,
                 mirrors: false,
+                glossy: false,
             },
             &dir,
         )?;
@@ -254,6 +255,7 @@ fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result
             kind: SceneKind::Gallery,
             size: if quick { 1_000 } else { 10_000 },
             mirrors: true,
+            glossy: false,
         },
         &gallery,
     )?;

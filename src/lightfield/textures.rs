@@ -14,8 +14,9 @@
 
 use crate::gpu::types::NO_FACE;
 use crate::gpu::{GpuContext, MemoryLedger, STORAGE};
+use crate::material::Material;
 use crate::prepare::PreparedScene;
-use crate::scene::Scene;
+use crate::scene::{Scene, Texture};
 
 /// The textures as the GPU samples them (`shaders/common/textures.wgsl`): texel arrays back to
 /// back, and per face which of them it uses.
@@ -34,11 +35,27 @@ impl SurfaceTextures {
     /// field's atlas textures it: only when every one of its triangles has texture coordinates
     /// (`prepare::atlas`), else it shows its material's colour.
     pub fn of(scene: &Scene, prepared: &PreparedScene) -> SurfaceTextures {
+        Self::with_textures(&scene.textures, &scene.materials, prepared)
+    }
+
+    /// The same for the stages that only test surfaces (propagation's visibility, direct
+    /// light, rim rays), from what a prepared scene keeps: None where no face cuts holes.
+    pub fn cutouts(prepared: &PreparedScene) -> Option<SurfaceTextures> {
+        let t = Self::with_textures(&prepared.cutout_textures, &prepared.materials, prepared);
+        t.any_cutout().then_some(t)
+    }
+
+    fn with_textures(
+        textures: &[Texture],
+        materials: &[Material],
+        prepared: &PreparedScene,
+    ) -> SurfaceTextures {
         let mut info: Vec<[u32; 4]> = Vec::new();
         let mut texels: Vec<[f32; 4]> = Vec::new();
-        for t in &scene.textures {
+        for t in textures {
             info.push([texels.len() as u32, t.width, t.height, 0]);
-            texels.extend(t.texels.iter().map(|c| [c[0], c[1], c[2], 1.0]));
+            let alpha = |i: usize| t.alpha.get(i).copied().unwrap_or(1.0);
+            texels.extend((t.texels.iter().enumerate()).map(|(i, c)| [c[0], c[1], c[2], alpha(i)]));
         }
         let mut has_uv = vec![true; prepared.faces.len()];
         for t in &prepared.triangles {
@@ -46,13 +63,17 @@ impl SurfaceTextures {
         }
         let face_textures = (prepared.faces.iter().zip(&has_uv))
             .map(|(f, &uv)| {
-                let m = &scene.materials[f.material as usize];
+                let m = &materials[f.material as usize];
                 let texture = |which: Option<u32>| which.filter(|_| uv).unwrap_or(NO_FACE);
+                // a cut-out: its coverage texture and cutoff (0, 0: none, never a hole)
+                let cut = m
+                    .cutout
+                    .filter(|c| uv && (c.texture as usize) < textures.len());
                 [
                     texture(m.diffuse_texture),
                     texture(m.emission_texture),
-                    0,
-                    0,
+                    cut.map_or(0, |c| c.texture),
+                    cut.map_or(0, |c| c.cutoff.to_bits()),
                 ]
             })
             .collect();
@@ -66,6 +87,13 @@ impl SurfaceTextures {
     /// Whether some face has a diffuse texture.
     pub fn any_diffuse(&self) -> bool {
         self.face_textures.iter().any(|t| t[0] != NO_FACE)
+    }
+
+    /// Whether some face cuts holes (a cutoff above 0: `shaders/common/coverage.wgsl`).
+    pub fn any_cutout(&self) -> bool {
+        self.face_textures
+            .iter()
+            .any(|t| f32::from_bits(t[3]) > 0.0)
     }
 }
 
@@ -89,14 +117,22 @@ fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
 }
 
 impl SurfaceDetail {
-    /// The detail of a prepared scene, or None where no face has a diffuse texture.
+    /// The detail of a prepared scene, or None where no face has a diffuse texture or cuts
+    /// holes (the renderer's eye and mirror rays read the coverage here).
     pub fn of(scene: &Scene, prepared: &PreparedScene) -> Option<SurfaceDetail> {
-        // no texture factors: no face has a diffuse texture (nothing to copy)
-        let albedo = prepared.atlas.texture_albedo.as_ref()?;
-        let textures = SurfaceTextures::of(scene, prepared);
-        if !textures.any_diffuse() {
+        // no texture factors and no cut-outs: no face has a texture (nothing to copy)
+        let albedo = prepared.atlas.texture_albedo.as_ref();
+        if albedo.is_none() && prepared.cutout_textures.is_empty() {
             return None;
         }
+        let textures = SurfaceTextures::of(scene, prepared);
+        if !textures.any_diffuse() && !textures.any_cutout() {
+            return None;
+        }
+        let texel_albedo = match albedo {
+            Some(albedo) => albedo.iter().map(|&a| pack_half_rgb(a)).collect(),
+            None => vec![pack_half_rgb([1.0; 4]); prepared.atlas.points.len()],
+        };
         let triangle_uv = (prepared.triangles.iter())
             .filter(|t| !prepared.faces[t.face as usize].is_back)
             .map(|t| {
@@ -107,7 +143,7 @@ impl SurfaceDetail {
         Some(SurfaceDetail {
             textures,
             triangle_uv,
-            texel_albedo: albedo.iter().map(|&a| pack_half_rgb(a)).collect(),
+            texel_albedo,
         })
     }
 

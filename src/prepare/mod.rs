@@ -51,6 +51,10 @@ pub struct PreparedScene {
     pub atlas: atlas::Atlas,
     pub texel_density: f64,
     pub warnings: Vec<String>,
+    /// the scene's textures where some material cuts holes (`Material::cutout`), for the
+    /// stages that test surfaces (`lightfield::textures::SurfaceTextures::cutouts`); empty
+    /// otherwise
+    pub cutout_textures: Vec<crate::scene::Texture>,
 }
 
 impl PreparedScene {
@@ -133,6 +137,10 @@ impl PreparedScene {
             atlas,
             texel_density,
             warnings,
+            cutout_textures: match scene.materials.iter().any(|m| m.cutout.is_some()) {
+                true => scene.textures.clone(),
+                false => Vec::new(),
+            },
         })
     }
 

@@ -101,7 +101,8 @@ pub struct DirectLight {
 
 impl DirectLight {
     /// `layout0` and `layout1` are the transport's scene and texel-page layouts
-    /// (shaders/common/upstream.wgsl), which the stage shares.
+    /// (shaders/common/upstream.wgsl), which the stage shares; `alpha_masks` compiles the
+    /// cut-outs' test in where the scene has one (`SceneBuffers::alpha_masks`).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         ctx: &GpuContext,
@@ -112,6 +113,7 @@ impl DirectLight {
         sky_samples: u32,
         layout0: &wgpu::BindGroupLayout,
         layout1: &wgpu::BindGroupLayout,
+        alpha_masks: &[(&str, u32)],
     ) -> Result<DirectLight> {
         let device = &ctx.device;
         let params = GpuDirectParams {
@@ -150,7 +152,7 @@ impl DirectLight {
             STORAGE,
         );
         let layout2 = reflect::layout(device, "direct.wgsl", 2)?;
-        let module = shaders::module(device, "direct.wgsl")?;
+        let module = shaders::module_with(device, "direct.wgsl", alpha_masks)?;
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
         let validity_pipeline =
             ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);

@@ -58,7 +58,13 @@ pub fn scene_bvh(
     let corners: Vec<[glam::Vec3; 3]> = (prepared.triangles.iter())
         .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
         .collect();
-    crate::bvh::bvh_triangles(&corners, |i| prepared.triangles[i].face, |_| [[0.0; 2]; 3])
+    // texture coordinates for the cut-outs' test (shaders/common/coverage.wgsl) only
+    let cutouts = !prepared.cutout_textures.is_empty();
+    let uv = |i: usize| match cutouts {
+        true => prepared.triangles[i].uv.unwrap_or([[0.0; 2]; 3]),
+        false => [[0.0; 2]; 3],
+    };
+    crate::bvh::bvh_triangles(&corners, |i| prepared.triangles[i].face, uv)
 }
 
 /// Each texel's share of its face's area (normalised units): the face's triangles clipped to the

@@ -38,7 +38,7 @@
 //! mirrors'): about 0.1% on the shipped scenes. A transport that loses light (a sender read as
 //! black) shows as a residue of percents.
 
-use super::visibility::{SceneBuffers, Visibility, VisibilityPipelines};
+use super::visibility::{SceneBuffers, SurfaceBuffers, Visibility, VisibilityPipelines};
 use super::{
     gpu_directions, gpu_faces, gpu_materials, initial_radiance, non_diffuse_faces, BatchPlan,
     PropagationParams, DEPTH_EPSILON,
@@ -626,6 +626,7 @@ impl Setup<'_> {
                 STORAGE,
             ),
             bvh_nodes: ctx.buffer_init(ledger, "BVH", bytemuck::cast_slice(&nodes), STORAGE),
+            surface: SurfaceBuffers::new(ctx, ledger, prepared),
         }
     }
 
@@ -682,7 +683,8 @@ impl Setup<'_> {
         let (ctx, device) = (self.ctx, &self.ctx.device);
         let [layout0, layout1] = layouts;
         if layout.is_empty() {
-            let module = shaders::module(device, "propagate.wgsl")?;
+            let module =
+                shaders::module_with(device, "propagate.wgsl", &alpha_masks(self.prepared))?;
             return Ok((
                 ctx.compute_pipeline(&module, "gather", &[layout0, layout1]),
                 None,
@@ -937,8 +939,18 @@ impl Setup<'_> {
             sky_samples,
             layouts[0],
             layouts[1],
+            &alpha_masks(prepared),
         )?))
     }
+}
+
+/// The constant that compiles the cut-outs' test (shaders/common/coverage.wgsl) into a stage
+/// where some material of the scene cuts holes, and out of it otherwise.
+pub fn alpha_masks(prepared: &PreparedScene) -> [(&'static str, u32); 1] {
+    [(
+        "ALPHA_MASKS",
+        u32::from(!prepared.cutout_textures.is_empty()),
+    )]
 }
 
 /// The K direction sets gathered in turn (only kept when K > 1, or with batches).
@@ -1018,7 +1030,7 @@ impl Propagator {
             sizes.tile_cells,
             [&layout0, &layout1],
         )?;
-        let visibility_pipelines = VisibilityPipelines::new(&ctx)?;
+        let visibility_pipelines = VisibilityPipelines::new(&ctx, &alpha_masks(prepared))?;
         Ok(Propagator {
             ctx,
             ledger,
@@ -1458,6 +1470,9 @@ impl Propagator {
                 &s.bvh_triangles,
                 &s.bvh_nodes,
                 &s.materials,
+                &s.surface.face_textures,
+                &s.surface.texture_info,
+                &s.surface.texture_texels,
             ],
         );
         let current = self.current;

@@ -5,6 +5,7 @@
 use crate::error::Result;
 use crate::gpu::types::GpuGrid;
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
+use crate::prepare::PreparedScene;
 use wgpu::util::DeviceExt;
 
 /// Buffers describing the scene, shared by visibility and transport.
@@ -22,6 +23,51 @@ pub struct SceneBuffers {
     /// light's shadow rays (common/upstream.wgsl, group 0)
     pub bvh_triangles: wgpu::Buffer,
     pub bvh_nodes: wgpu::Buffer,
+    /// the cut-outs' coverage (placeholders without one)
+    pub surface: SurfaceBuffers,
+}
+
+/// What the stages that test surfaces read of a cut-out (shaders/common/coverage.wgsl):
+/// `lightfield::textures::SurfaceTextures::cutouts` (per face its textures and cutoff, the
+/// textures) and per triangle its corners' texture coordinates (visibility.wgsl's cell lines;
+/// the BVH's triangles carry their own). 16-byte placeholders in a scene without cut-outs.
+pub struct SurfaceBuffers {
+    pub face_textures: wgpu::Buffer,
+    pub texture_info: wgpu::Buffer,
+    pub texture_texels: wgpu::Buffer,
+    /// per triangle of `SceneBuffers::triangles`: (uv0, uv1), (uv2, 0, 0)
+    pub triangle_uv: wgpu::Buffer,
+}
+
+impl SurfaceBuffers {
+    pub fn new(ctx: &GpuContext, ledger: &MemoryLedger, prepared: &PreparedScene) -> Self {
+        let Some(t) = crate::lightfield::textures::SurfaceTextures::cutouts(prepared) else {
+            let none = MemoryLedger::default();
+            let placeholder = || ctx.buffer_zeroed(&none, "no cut-outs", 16, STORAGE);
+            return SurfaceBuffers {
+                face_textures: placeholder(),
+                texture_info: placeholder(),
+                texture_texels: placeholder(),
+                triangle_uv: placeholder(),
+            };
+        };
+        let uv: Vec<[f32; 8]> = (prepared.triangles.iter())
+            .map(|t| {
+                let [a, b, c] = t.uv.unwrap_or([[0.0; 2]; 3]);
+                [a[0], a[1], b[0], b[1], c[0], c[1], 0.0, 0.0]
+            })
+            .collect();
+        let buffer = |name, bytes: &[u8]| ctx.buffer_init(ledger, name, bytes, STORAGE);
+        SurfaceBuffers {
+            face_textures: buffer(
+                "cut-outs: face textures",
+                bytemuck::cast_slice(&t.face_textures),
+            ),
+            texture_info: buffer("cut-outs: texture info", bytemuck::cast_slice(&t.info)),
+            texture_texels: buffer("cut-outs: texels", bytemuck::cast_slice(&t.texels)),
+            triangle_uv: buffer("cut-outs: triangle uv", bytemuck::cast_slice(&uv)),
+        }
+    }
 }
 
 /// The resident layer lists.
@@ -52,9 +98,10 @@ pub struct VisibilityPipelines {
 }
 
 impl VisibilityPipelines {
-    pub fn new(ctx: &GpuContext) -> Result<VisibilityPipelines> {
+    /// `alpha_masks`: the cut-outs' test compiled in or out (`transport::alpha_masks`).
+    pub fn new(ctx: &GpuContext, alpha_masks: &[(&str, u32)]) -> Result<VisibilityPipelines> {
         let device = &ctx.device;
-        let module = shaders::module(device, "visibility.wgsl")?;
+        let module = shaders::module_with(device, "visibility.wgsl", alpha_masks)?;
         let layout0 = reflect::layout(device, "visibility.wgsl", 0)?;
         let layout1 = reflect::layout(device, "visibility.wgsl", 1)?;
         // count_layers shares its traversal with fill_layers, so its layout names the layers
@@ -260,6 +307,10 @@ impl CellTables {
                         &self.cell_count,
                         &self.cell_offset,
                         &self.direction_base,
+                        &scene.surface.face_textures,
+                        &scene.surface.texture_info,
+                        &scene.surface.texture_texels,
+                        &scene.surface.triangle_uv,
                     ],
                 );
                 (bg, (grid.triangle_count - base).min(TRIANGLES_PER_DISPATCH))

@@ -160,7 +160,9 @@ impl Tracer {
         ];
         let sums = ctx.buffer_zeroed(&ledger, "sums", width as u64 * height as u64 * 32, STORAGE);
         let layout = reflect::layout(device, "reference.wgsl", 0)?;
-        let module = shaders::module(device, "reference.wgsl")?;
+        // a scene without cut-outs compiles their test out (common/coverage.wgsl)
+        let cutouts = u32::from(t.textures.any_cutout());
+        let module = shaders::module_with(device, "reference.wgsl", &[("ALPHA_MASKS", cutouts)])?;
         let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
         let mut all: Vec<&wgpu::Buffer> = vec![&params];
         all.extend(buffers.iter());

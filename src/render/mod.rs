@@ -213,6 +213,7 @@ impl Renderer {
             stack,
             moving: plan.is_some(),
             textured: detail.is_some(),
+            cutouts: detail.is_some_and(|d| d.textures.any_cutout()),
             raster: false,
         };
         let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
@@ -311,6 +312,7 @@ impl Renderer {
             resident,
             field: field_buffer,
             stack,
+            cutouts: self.variant.cutouts,
             emitters: &emitters,
         };
         self.probes = Some(probes::bake(&self.ctx, ledger, grid, &inputs)?);
@@ -397,6 +399,14 @@ impl Renderer {
         self.target = None;
         self.raster = None;
         self.view_template.msaa_samples = 0;
+        if hits == raster::FirstHits::Raster && self.variant.cutouts {
+            return Err(VlfError::Parameter {
+                name: "first_hits",
+                message: "raster first hits cannot show a cut-out's holes (the visibility \
+                          buffer's pass does not read the coverage): use \"rays\" for this scene"
+                    .into(),
+            });
+        }
         if hits == raster::FirstHits::Raster {
             let samples = self.view_template.samples_per_pixel;
             let variant = ResolveVariant {
@@ -780,6 +790,8 @@ struct ResolveVariant {
     moving: bool,
     /// the light field has texture detail
     textured: bool,
+    /// some face cuts holes (its coverage in the texture detail): `ALPHA_MASKS`
+    cutouts: bool,
     /// eye rays read their first hits from a visibility buffer (`raster`)
     raster: bool,
 }
@@ -789,7 +801,8 @@ struct ResolveVariant {
 /// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
 /// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0), and so is
-/// the texture detail's without it (`SURFACE_TEXTURES` 0), and the visibility buffer's reads
+/// the texture detail's without it (`SURFACE_TEXTURES` 0), the cut-outs' test without one
+/// (`ALPHA_MASKS` 0, common/coverage.wgsl), and the visibility buffer's reads
 /// without raster first hits (`RASTER_FIRST_HITS` 0).
 fn resolve_pipeline(
     ctx: &GpuContext,
@@ -801,12 +814,14 @@ fn resolve_pipeline(
         stack,
         moving,
         textured,
+        cutouts,
         raster,
     } = variant;
     let constants = [
         ("PAIR_STACK", stack),
         ("MOVING_OBJECTS", u32::from(moving)),
         ("SURFACE_TEXTURES", u32::from(textured)),
+        ("ALPHA_MASKS", u32::from(cutouts)),
         ("RASTER_FIRST_HITS", u32::from(raster)),
     ];
     let module = shaders::module_with(device, "render.wgsl", &constants)?;

@@ -124,6 +124,8 @@ pub struct BakeInputs<'a> {
     pub resident: &'a crate::lightfield::ResidentLightField,
     pub field: &'a wgpu::Buffer,
     pub stack: u32,
+    /// some face cuts holes: the probes' rays pass through them (`ALPHA_MASKS`)
+    pub cutouts: bool,
     pub emitters: &'a [crate::gpu::types::GpuEmitter],
 }
 
@@ -138,7 +140,11 @@ pub fn bake(
     let module = shaders::module_with(
         device,
         "probes.wgsl",
-        &[("PROBE_RAYS", grid.rays), ("PAIR_STACK", inputs.stack)],
+        &[
+            ("PROBE_RAYS", grid.rays),
+            ("PAIR_STACK", inputs.stack),
+            ("ALPHA_MASKS", u32::from(inputs.cutouts)),
+        ],
     )?;
     let layout = reflect::layout(device, "probes.wgsl", 0)?;
     let field_layout = crate::lightfield::bindings::layout(device, "probes.wgsl")?;

@@ -105,7 +105,9 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     for (image, usage) in &uses {
         let (bytes, name) = image_bytes(doc, *image, &buffers, dir, path, &mut source_files)
             .map_err(|m| err(format!("image {image}: {m}")))?;
-        let (t, full) = texels::decode(&bytes, name.clone(), *usage).map_err(|e| {
+        let alpha = (plans.iter().any(|p| p.alpha_image() == Some(*image)))
+            .then_some(texels::AlphaSource::Channel);
+        let (t, full) = texels::decode(&bytes, name.clone(), *usage, alpha).map_err(|e| {
             err(format!(
                 "image {image} ({}): not a readable PNG or JPEG image: {e}",
                 name.display()
@@ -121,7 +123,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     for image in plans.iter().filter_map(|p| p.mirror_image()) {
         let (bytes, name) = image_bytes(doc, image, &buffers, dir, path, &mut source_files)
             .map_err(|m| err(format!("image {image}: {m}")))?;
-        let (t, _) = texels::decode(&bytes, name, TextureUse::default()).map_err(|e| {
+        let (t, _) = texels::decode(&bytes, name, TextureUse::default(), None).map_err(|e| {
             err(format!(
                 "image {image}: not a readable PNG or JPEG image: {e}"
             ))
@@ -542,6 +544,10 @@ fn read_primitive(
         }
     };
     let transform = plan.map(|p| p.uv_transform);
+    if plan.is_some_and(|p| p.open) {
+        // a cut-out open everywhere (material.rs): nothing of it is there
+        return Ok(());
+    }
     for tri in corners {
         let tri = if flip { [tri[0], tri[2], tri[1]] } else { tri };
         walk.triangles.push(RawTriangle {

@@ -66,11 +66,27 @@ pub struct Texture {
     pub width: u32,
     pub height: u32,
     pub texels: Vec<[f32; 3]>,
+    /// coverage per texel (same order), only for a texture some material cuts holes with
+    /// (`Material::cutout`); empty otherwise (opaque)
+    pub alpha: Vec<f32>,
 }
 
 impl Texture {
     /// Bilinear lookup with wrapping; v = 0 is the image's bottom row (OBJ convention).
     pub fn sample(&self, uv: [f32; 2]) -> [f32; 3] {
+        self.bilinear(uv, |i| self.texels[i])
+    }
+
+    /// The coverage at `uv`, bilinear as `sample` (1 for a texture without coverage): the CPU
+    /// twin of `texture_alpha` in shaders/common/textures.wgsl.
+    pub fn coverage(&self, uv: [f32; 2]) -> f32 {
+        if self.alpha.len() != self.texels.len() {
+            return 1.0;
+        }
+        self.bilinear(uv, |i| [self.alpha[i]; 3])[0]
+    }
+
+    fn bilinear(&self, uv: [f32; 2], texel: impl Fn(usize) -> [f32; 3]) -> [f32; 3] {
         let (w, h) = (self.width as f32, self.height as f32);
         let x = uv[0].rem_euclid(1.0) * w - 0.5;
         let y = (1.0 - uv[1].rem_euclid(1.0)) * h - 0.5;
@@ -79,7 +95,7 @@ impl Texture {
         let at = |xi: f32, yi: f32| {
             let xi = (xi as i64).rem_euclid(self.width as i64) as usize;
             let yi = (yi as i64).rem_euclid(self.height as i64) as usize;
-            self.texels[yi * self.width as usize + xi]
+            texel(yi * self.width as usize + xi)
         };
         let (a, b, c, d) = (
             at(x0, y0),

@@ -5,6 +5,7 @@
 use super::weld::{TriangleFilter, Welder};
 use super::{check_color, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
+use crate::material::Cutout;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -119,7 +120,11 @@ fn parse(path: &Path, text: &str) -> Result<(Vec<tobj::Model>, Vec<tobj::Materia
     Ok((models, materials, source_files.into_inner()))
 }
 
-/// The scene's materials, and the textures they name: textures are read once the geometry
+/// The cutoff of an MTL cut-out: `map_d` x `d` below it is a hole (MTL names none: glTF's
+/// default, and what its BLEND with a texture is taken as).
+pub const MTL_CUTOFF: f32 = 0.5;
+
+/// The scene's materials and the textures they name: textures are read once the geometry
 /// says how finely they are needed (texels.rs).
 fn convert_materials(
     materials: &[tobj::Material],
@@ -140,6 +145,29 @@ fn convert_materials(
             .unknown_param
             .get("map_Ke")
             .map(|t| request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_Ke"));
+        let d = m.dissolve.unwrap_or(1.0);
+        material.cutout = m.dissolve_texture.as_ref().map(|t| {
+            let texture = request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_d");
+            requests[texture as usize].alpha = true;
+            Cutout {
+                texture,
+                cutoff: MTL_CUTOFF / d.max(1e-6),
+            }
+        });
+        // dissolve without a map is glass-like (one alpha everywhere): as glTF's BLEND without
+        // a texture, opaque; with map_d, a cut-out of map_d x d at MTL_CUTOFF
+        if d < 1.0 {
+            warnings.push(match material.cutout {
+                None => format!(
+                    "material {:?}: transparency (d < 1) cannot be represented; treated as opaque",
+                    m.name
+                ),
+                Some(_) => format!(
+                    "material {:?}: transparency (d {d} x map_d) taken as a cut-out at {MTL_CUTOFF}",
+                    m.name
+                ),
+            });
+        }
         out_materials.push(material);
     }
     Ok((out_materials, requests))
@@ -185,7 +213,7 @@ fn weld_models(
         };
         let textured = mesh.material_id.is_some_and(|id| {
             let m = &materials[id];
-            m.diffuse_texture.is_some() || m.emission_texture.is_some()
+            m.diffuse_texture.is_some() || m.emission_texture.is_some() || m.cutout.is_some()
         });
         if textured && mesh.texcoords.is_empty() {
             warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
@@ -287,6 +315,7 @@ fn convert_material(
         two_sided: o.two_sided.unwrap_or(false),
         diffuse_texture: None,
         emission_texture: None,
+        cutout: None,
     };
     if let Some(message) = material
         .energy_error()
@@ -297,17 +326,10 @@ fn convert_material(
     for (what, tex) in [
         ("map_Ks", &m.specular_texture),
         ("map_bump", &m.normal_texture),
-        ("map_d", &m.dissolve_texture),
     ] {
         if let Some(t) = tex {
-            warnings.push(format!("material {:?}: {what} {t} cannot be represented (only map_Kd and map_Ke are) and is ignored", m.name));
+            warnings.push(format!("material {:?}: {what} {t} cannot be represented (only map_Kd, map_Ke and map_d are) and is ignored", m.name));
         }
-    }
-    if m.dissolve.is_some_and(|d| d < 1.0) {
-        warnings.push(format!(
-            "material {:?}: transparency (d < 1) cannot be represented; treated as opaque",
-            m.name
-        ));
     }
     Ok(material)
 }
@@ -388,6 +410,8 @@ struct TextureRequest {
     path: PathBuf,
     material: String,
     key: &'static str,
+    /// a material cuts holes with it (`map_d`): keep its coverage
+    alpha: bool,
 }
 
 /// The texture's index, naming each file once.
@@ -404,6 +428,7 @@ fn request(
         path,
         material: material.to_string(),
         key,
+        alpha: false,
     });
     requests.len() as u32 - 1
 }
@@ -422,7 +447,8 @@ fn load_texture(
     };
     let bytes = std::fs::read(path)
         .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?;
-    super::texels::decode(&bytes, path.clone(), usage).map_err(|e| {
+    let alpha = r.alpha.then_some(super::texels::AlphaSource::ChannelOrGrey);
+    super::texels::decode(&bytes, path.clone(), usage, alpha).map_err(|e| {
         err(format!(
             "{key} {}: not a readable PNG or JPEG image: {e}",
             path.display()

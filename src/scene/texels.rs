@@ -64,35 +64,59 @@ pub fn reduction(w: u32, h: u32, usage: TextureUse) -> u32 {
     }
 }
 
-/// Decode an sRGB PNG or JPEG to linear RGB, box-filtered by `k` ([`reduction`]). Returns the
-/// texture and the bytes it would have taken whole.
+/// Where a texture's coverage (`Texture::alpha`) comes from, for a texture a material cuts
+/// holes with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AlphaSource {
+    /// the image's alpha channel, 1 where it has none (glTF's base colour texture)
+    Channel,
+    /// the alpha channel, else the grey level (MTL `map_d`, a scalar map often stored as grey)
+    ChannelOrGrey,
+}
+
+/// Decode an sRGB PNG or JPEG to linear RGB, box-filtered by `k` ([`reduction`]), with its
+/// coverage (box-filtered alike, linear) where `alpha` asks for it. Returns the texture and the
+/// bytes it would have taken whole.
 pub fn decode(
     bytes: &[u8],
     path: PathBuf,
     usage: TextureUse,
+    alpha: Option<AlphaSource>,
 ) -> Result<(Texture, u64), image::ImageError> {
-    let image = image::ImageReader::new(std::io::Cursor::new(bytes))
+    let decoded = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(image::ImageError::IoError)?
-        .decode()?
-        .into_rgb8();
+        .decode()?;
+    let has_alpha = decoded.color().has_alpha();
+    let image = decoded.into_rgba8();
     let (w, h) = image.dimensions();
     let full = w as u64 * h as u64 * 12;
     let k = reduction(w, h, usage);
     let lut: [f32; 256] = std::array::from_fn(|i| crate::color::srgb_decode(i as u8));
     let (ow, oh) = (w.div_ceil(k), h.div_ceil(k));
     let mut texels = vec![[0.0f32; 3]; ow as usize * oh as usize];
+    let mut coverage = vec![0.0f32; if alpha.is_some() { texels.len() } else { 0 }];
     let mut counts = vec![0u32; texels.len()];
     for (x, y, p) in image.enumerate_pixels() {
         let o = (y / k) as usize * ow as usize + (x / k) as usize;
         for c in 0..3 {
             texels[o][c] += lut[p[c] as usize];
         }
+        if let Some(source) = alpha {
+            coverage[o] += match (has_alpha, source) {
+                (true, _) => p[3] as f32 / 255.0,
+                (false, AlphaSource::Channel) => 1.0,
+                (false, AlphaSource::ChannelOrGrey) => p[0] as f32 / 255.0,
+            };
+        }
         counts[o] += 1;
     }
     if k > 1 {
         for (t, &n) in texels.iter_mut().zip(&counts) {
             *t = t.map(|v| v / n as f32);
+        }
+        for (a, &n) in coverage.iter_mut().zip(&counts) {
+            *a /= n as f32;
         }
     }
     Ok((
@@ -101,6 +125,7 @@ pub fn decode(
             width: ow,
             height: oh,
             texels,
+            alpha: coverage,
         },
         full,
     ))
@@ -119,7 +144,7 @@ pub fn mean(t: &Texture) -> [f32; 3] {
 }
 
 /// Per texture (of `count`), the area it covers, from the triangles whose material names it as
-/// diffuse or emission texture.
+/// diffuse, emission or coverage texture.
 pub fn uses(
     positions: &[[f32; 3]],
     triangles: &[Triangle],
@@ -141,9 +166,13 @@ pub fn uses(
             [uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]],
         );
         let uv_area = ((e1[0] * e2[1] - e1[1] * e2[0]) as f64).abs() * 0.5;
-        for i in [m.diffuse_texture, m.emission_texture]
-            .into_iter()
-            .flatten()
+        for i in [
+            m.diffuse_texture,
+            m.emission_texture,
+            m.cutout.map(|c| c.texture),
+        ]
+        .into_iter()
+        .flatten()
         {
             if let Some(u) = out.get_mut(i as usize) {
                 u.surface_area += surface;

@@ -145,7 +145,7 @@ def _strip(line):
 
 
 def load_mtl(path):
-    """name -> {Kd, Ks, Ke, Pr, map_Kd, map_Ke} (paths resolved against the MTL's folder)."""
+    """name -> {Kd, Ks, Ke, Pr, d, map_Kd, map_Ke, map_d} (paths resolved against the MTL's folder)."""
     mats = {}
     cur = None
     for raw in Path(path).read_text().splitlines():
@@ -161,10 +161,12 @@ def load_mtl(path):
             continue
         elif key in ("Kd", "Ks", "Ke"):
             cur[key] = [float(x) for x in rest.split()[:3]]
-        elif key in ("map_Kd", "map_Ke"):
+        elif key in ("map_Kd", "map_Ke", "map_d"):
             cur[key] = (Path(path).parent / rest).resolve()
         elif key == "Pr":
             cur[key] = float(rest.split()[0])
+        elif key == "d":
+            cur["d"] = float(rest.split()[0])
     return mats
 
 
@@ -651,9 +653,8 @@ def image_bytes(doc, buffers, index, folder):
     return _read_uri(im.uri, folder)
 
 
-def decode_rgb8(data, name):
-    """Encoded PNG / JPEG bytes -> uint8 (h, w, 3), as vlf's `into_rgb8` (alpha dropped, grey
-    replicated, 16 bits rounded to 8)."""
+def _bitmap_array(data, name):
+    """Encoded PNG / JPEG bytes -> the pixels as Mitsuba decodes them, (h, w, channels)."""
     import mitsuba as mi
     s = mi.MemoryStream()
     s.write(data)
@@ -663,8 +664,25 @@ def decode_rgb8(data, name):
     except Exception as e:
         raise SceneError(f"{name}: not a readable PNG or JPEG image: {e}") from None
     a = np.array(bmp)
-    if a.ndim == 2:
-        a = a[:, :, None]
+    return a[:, :, None] if a.ndim == 2 else a
+
+
+def decode_alpha(data, name, grey):
+    """Encoded PNG / JPEG bytes -> float64 (h, w) coverage in [0, 1]: the alpha channel, else
+    (`grey`, MTL map_d) the grey level, else 1 (glTF base colour without alpha)."""
+    a = _bitmap_array(data, name)
+    scale = 65535.0 if a.dtype == np.uint16 else (255.0 if a.dtype == np.uint8 else 1.0)
+    a = a.astype(np.float64) / scale
+    ch = a.shape[2]
+    if ch in (2, 4):
+        return a[:, :, ch - 1]
+    return a[:, :, 0] if grey else np.ones(a.shape[:2])
+
+
+def decode_rgb8(data, name):
+    """Encoded PNG / JPEG bytes -> uint8 (h, w, 3), as vlf's `into_rgb8` (alpha dropped, grey
+    replicated, 16 bits rounded to 8)."""
+    a = _bitmap_array(data, name)
     if a.dtype == np.uint16:
         a = np.round(a.astype(np.float64) / 257.0).astype(np.uint8)
     elif a.dtype != np.uint8:
@@ -1011,6 +1029,10 @@ def build_obj(scene):
             "roughness": o.get("roughness", _mtl_roughness(m)),
             "diffuse_tex": str(m["map_Kd"]) if m.get("map_Kd") else None,
             "emission_tex": str(m["map_Ke"]) if m.get("map_Ke") else None,
+            # a cut-out as vlf takes MTL's dissolve: map_d x d below 0.5 is a hole (d without
+            # map_d: opaque)
+            "alpha_tex": str(m["map_d"]) if m.get("map_d") else None,
+            "alpha_cutoff": 0.5 / max(m.get("d", 1.0), 1e-6),
         }
         for key in ("diffuse_tex", "emission_tex"):
             if mat[key] is not None:
@@ -1051,7 +1073,7 @@ def build_obj(scene):
             mname = "(default)"
             materials.setdefault(mname, default)
             mat = default
-        textured = bool(mat["diffuse_tex"] or mat["emission_tex"])
+        textured = bool(mat["diffuse_tex"] or mat["emission_tex"] or mat.get("alpha_tex"))
         uv = ts is not None and textured
         if textured and ts is None:
             warnings.append(f"material {mname}: a triangle without vt; its textures are ignored there")
@@ -1245,6 +1267,20 @@ class Textures:
         return _texture_xml(name, self.files[fk], raw=not unit)
 
 
+def mask_xml(out_dir, stem, alpha_file, cutoff, bsdf):
+    """A cut-out as Mitsuba's `mask` BSDF: opacity 1 where the coverage reaches the cutoff, 0
+    where vlf sees a hole. The opacity is the thresholded texture read by nearest texel: for a
+    two-level coverage (0 / 1) at cutoff 0.5 that is exactly vlf's bilinear lookup compared with
+    the cutoff (both change at the texel boundary); elsewhere it differs within a texel."""
+    alpha = decode_alpha(Path(alpha_file).read_bytes(), alpha_file, grey=True)
+    opacity = (alpha >= cutoff).astype(np.float32)
+    (out_dir / "textures").mkdir(exist_ok=True)
+    file = f"textures/{stem}-opacity.exr"
+    write_exr(out_dir / file, np.repeat(opacity[:, :, None], 3, axis=2))
+    texture = _texture_xml("opacity", file).replace('value="bilinear"', 'value="nearest"')
+    return f'<bsdf type="mask">{texture}{bsdf}</bsdf>'
+
+
 def sensor_xml(cam, width, height, spp, clip):
     near, far = clip
     return f"""<sensor type="perspective" id="{cam['name']}">
@@ -1372,6 +1408,8 @@ def export(scene, built, out_dir, spp=256):
             bsdf = diffuse_xml(1.0)
         if m["two_sided"]:
             bsdf = f'<bsdf type="twosided">{bsdf}</bsdf>'
+        if uv and m.get("alpha_tex"):
+            bsdf = mask_xml(out_dir, stem, m["alpha_tex"], m["alpha_cutoff"], bsdf)
         emitter = ""
         if e.max() > 0:
             if uv and m["emission_tex"]:

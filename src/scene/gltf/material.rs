@@ -10,8 +10,12 @@
 //!   texture);
 //! - emission: emissiveFactor x emissiveTexture x KHR_materials_emissive_strength;
 //! - doubleSided: two-sided;
+//! - alphaMode MASK: a cut-out (`Material::cutout`): a hole where base colour alpha (factor x
+//!   texture alpha) is below alphaCutoff (0.5 by default); without a texture the surface is
+//!   covered (kept opaque) or open (its faces left out) everywhere; BLEND with a base colour
+//!   texture: MASK at 0.5, warned; BLEND without one (glass): opaque, warned;
 //!
-//! and what cannot be represented (alpha, transmission, normal and occlusion maps, the
+//! and what cannot be represented (transmission, normal and occlusion maps, the
 //! metallic-roughness texture, clamped wrapping) is named in one warning per material.
 
 use super::super::{check_color, Material, MaterialOverride};
@@ -64,6 +68,11 @@ pub struct Plan {
     emission_image: Option<usize>,
     /// the base colour texture of a mirror: its mean multiplies the mirror colour
     mirror_image: Option<usize>,
+    /// the base colour texture of a cut-out (its alpha), with the cutoff its factor is folded in
+    alpha_image: Option<usize>,
+    alpha_cutoff: f32,
+    /// a cut-out open everywhere: its faces are left out
+    pub open: bool,
     uv_set: Option<u32>,
     pub uv_transform: UvTransform,
     notes: Vec<String>,
@@ -77,10 +86,15 @@ impl Plan {
 
     /// The images this material lays on its surfaces.
     pub fn images(&self) -> Vec<usize> {
-        [self.diffuse_image, self.emission_image]
+        [self.diffuse_image, self.emission_image, self.alpha_image]
             .into_iter()
             .flatten()
             .collect()
+    }
+
+    /// The base colour image whose alpha cuts holes, if any.
+    pub fn alpha_image(&self) -> Option<usize> {
+        self.alpha_image
     }
 
     /// The base colour image of a mirror, whose mean colour it reflects.
@@ -131,7 +145,7 @@ fn plan(
         message,
     };
     let pbr = m.pbr_metallic_roughness();
-    let [r, g, b, _] = pbr.base_color_factor();
+    let [r, g, b, alpha_factor] = pbr.base_color_factor();
     let base = [r, g, b];
     check_color(&base, true).map_err(|e| err(format!("baseColorFactor {e}")))?;
     let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
@@ -171,9 +185,11 @@ fn plan(
         ));
     }
     describe_losses(m, &mut notes);
+    let cut = cutout(m, alpha_factor, base_tex.as_ref(), &mut notes);
     // the triangles carry one set of texture coordinates: the base colour's decides
     let diffuse_info = base_tex.as_ref().filter(|_| !mirror);
-    let coords = diffuse_info.or(emit_tex.as_ref());
+    let alpha_info = base_tex.as_ref().filter(|_| cut.image.is_some());
+    let coords = diffuse_info.or(alpha_info).or(emit_tex.as_ref());
     let uv_set = coords.map(|i| {
         i.texture_transform()
             .and_then(|t| t.tex_coord())
@@ -203,6 +219,7 @@ fn plan(
         two_sided: o.two_sided.unwrap_or(m.double_sided()),
         diffuse_texture: None,
         emission_texture: None,
+        cutout: None,
     };
     if let Some(message) = material
         .energy_error()
@@ -215,6 +232,9 @@ fn plan(
         diffuse_image: diffuse_info.map(image_of),
         emission_image: emit_tex.as_ref().map(image_of),
         mirror_image: base_tex.as_ref().filter(|_| mirror).map(image_of),
+        alpha_image: cut.image,
+        alpha_cutoff: cut.cutoff,
+        open: cut.open,
         material,
         uv_set,
         uv_transform,
@@ -222,17 +242,65 @@ fn plan(
     })
 }
 
+/// The cut-out of a material: the image whose alpha decides, the cutoff with the factor folded
+/// in, or open everywhere.
+struct Cut {
+    image: Option<usize>,
+    cutoff: f32,
+    open: bool,
+}
+
+/// The cutoff BLEND is taken as a MASK with.
+pub const BLEND_CUTOFF: f32 = 0.5;
+
+/// alphaMode MASK (alphaCutoff, 0.5 by default) over the base colour's alpha, factor x texture.
+/// BLEND with a base colour texture (foliage, fences exported as BLEND) is taken as MASK at
+/// [`BLEND_CUTOFF`]; BLEND without one (glass: one alpha everywhere, neither a hole nor a
+/// cover) stays opaque. Both are noted.
+fn cutout(
+    m: &::gltf::Material,
+    factor: f32,
+    texture: Option<&::gltf::texture::Info>,
+    notes: &mut Vec<String>,
+) -> Cut {
+    use ::gltf::material::AlphaMode;
+    let none = Cut {
+        image: None,
+        cutoff: 0.0,
+        open: false,
+    };
+    let cutoff = match (m.alpha_mode(), texture) {
+        (AlphaMode::Opaque, _) => return none,
+        (AlphaMode::Mask, _) => m.alpha_cutoff().unwrap_or(0.5),
+        (AlphaMode::Blend, None) => {
+            notes.push("alpha BLEND treated as opaque".into());
+            return none;
+        }
+        (AlphaMode::Blend, Some(_)) => {
+            notes.push(format!(
+                "alpha BLEND taken as a cut-out (MASK) at {BLEND_CUTOFF}"
+            ));
+            BLEND_CUTOFF
+        }
+    };
+    if factor <= 0.0 || (texture.is_none() && factor < cutoff) {
+        notes.push(format!(
+            "base colour alpha {factor} below the cutoff {cutoff} everywhere: its faces are left out"
+        ));
+        return Cut { open: true, ..none };
+    }
+    match texture {
+        None => none,
+        Some(info) => Cut {
+            image: Some(image_of(info)),
+            cutoff: cutoff / factor,
+            open: false,
+        },
+    }
+}
+
 /// What the material has that the light field drops.
 fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
-    use ::gltf::material::AlphaMode;
-    match m.alpha_mode() {
-        AlphaMode::Opaque => {}
-        AlphaMode::Mask => notes.push(format!(
-            "alpha MASK (cutoff {}) treated as opaque",
-            m.alpha_cutoff().unwrap_or(0.5)
-        )),
-        AlphaMode::Blend => notes.push("alpha BLEND treated as opaque".into()),
-    }
     if let Some(t) = m.transmission() {
         if t.transmission_factor() > 0.0 {
             notes.push(format!(
@@ -270,6 +338,10 @@ pub fn finish(
             let tex = |i: Option<usize>| i.and_then(|i| texture_of_image.get(&i).copied());
             m.diffuse_texture = tex(p.diffuse_image);
             m.emission_texture = tex(p.emission_image);
+            m.cutout = tex(p.alpha_image).map(|texture| crate::material::Cutout {
+                texture,
+                cutoff: p.alpha_cutoff,
+            });
             if let Some(mean) = p.mirror_image.and_then(|i| mirror_means.get(&i)) {
                 m.mirror = std::array::from_fn(|c| m.mirror[c] * mean[c]);
             }

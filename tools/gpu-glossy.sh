@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Runs on the lent NVIDIA machine: glossy surfaces (issue 29): what they cost and how they look.
+#   - Cornell with the tall box a rough metal (scenes/cornell-glossy: GGX alpha 0.1, and the
+#     same at alpha 0.3): `vlf propagate` (its report: iterations, time to converge) and a
+#     512x512 still of each camera at default settings (EXR, compared with Mitsuba elsewhere:
+#     Mitsuba runs on the CPU) and `vlf reference` at 4096 spp of the same;
+#   - the shipped walk CAVE (config/displays/cave-4wall-walk.toml: 8 views of 1920x1200, 120 Hz,
+#     paced) through the generated 100K mirror classroom with glossy floors and metal
+#     (`vlf generate classroom --size 100000 --mirrors --glossy`) against the same classroom
+#     without them, 600 frames each: frame time and eye rays per pixel, what glossy costs;
+#   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view).
+# Everything into OUT/glossy.tar (reports, JSON, EXR of the stills).
+#   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
+set -uo pipefail
+vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2"); frames=${3:-600}
+cd "$(dirname "$0")/.."
+work=$(mktemp -d)
+quiet() { grep -v XDG_RUNTIME_DIR; }
+pack() { (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.exr *.png 2>/dev/null); }
+trap 'pack; exit 1' TERM
+trap pack EXIT
+nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$work/gpu.txt" 2>/dev/null
+echo "${VLF_COMMIT:-unknown}" > "$work/commit.txt"
+cornell() {
+  mkdir -p "$work/cornell-glossy-0.3"
+  sed 's/^roughness = 0.1/roughness = 0.3/; s/^name = "cornell-glossy"/name = "cornell-glossy-0.3"/; s|^mesh = "../cornell|mesh = "'"$PWD"'/scenes/cornell|' \
+    scenes/cornell-glossy/scene.toml > "$work/cornell-glossy-0.3/scene.toml"
+  for scene in scenes/cornell-glossy/scene.toml "$work/cornell-glossy-0.3/scene.toml"; do
+    name=$(basename "$(dirname "$scene")")
+    "$vlf" propagate "$scene" -o "$work/$name.vlf" --report "$work/propagate-$name.json" 2>&1 | quiet \
+      | tee "$work/propagate-$name.txt" | grep -E "iterations|propagation|converged"
+    for camera in front side; do
+      "$vlf" render "$scene" --lightfield "$work/$name.vlf" --camera $camera -o "$work/$name-$camera.exr" 2>&1 | quiet | tail -1
+      "$vlf" reference "$scene" --camera $camera --spp 4096 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
+    done
+  done
+}
+cave() {
+  for variant in plain glossy; do
+    flag=""; [ $variant = glossy ] && flag="--glossy"
+    "$vlf" generate classroom --size 100000 --mirrors $flag -o "$work/classroom-$variant" | quiet | tail -1
+    "$vlf" propagate "$work/classroom-$variant/scene.toml" -o "$work/classroom-$variant.vlf" 2>&1 | quiet \
+      | tee "$work/propagate-classroom-$variant.txt" | grep -E "iterations|propagation  "
+    sed "s|^path = .*|path = \"$PWD/config/paths/classroom-100k-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$work/cave.toml"
+    "$vlf" cave "$work/cave.toml" --scene "$work/classroom-$variant.vlf" --headless --frames $frames \
+      --out "$work/out-$variant" --json "$work/cave-classroom-$variant.json" 2>&1 | quiet \
+      | tee "$work/cave-classroom-$variant.txt" | grep -E "all views|CPU frame|eye rays|limit"
+    cp "$work/out-$variant/overview.png" "$work/cave-classroom-$variant-overview.png"
+    "$vlf" bench --scene "$work/classroom-$variant/scene.toml" \
+      --frames 300 --size 1024x768 --json "$work/bench-classroom-$variant.json" 2>&1 | quiet \
+      | tee "$work/bench-classroom-$variant.txt" | grep -iE "render|view" | head -3
+  done
+}
+for part in ${PARTS:-cornell cave}; do
+  echo "=== $part"
+  "$part"
+done
