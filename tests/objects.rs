@@ -43,7 +43,7 @@ fn draw(
 ) -> Frame {
     let poses = config.pose_source(path).unwrap();
     let mut frame =
-        FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall).unwrap();
+        FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall, None).unwrap();
     frame.change_objects(changes);
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
