@@ -42,7 +42,7 @@ if [ -z "$addr" ]; then
 fi
 python3 tools/study/conditions_example.py "$addr" --every $every --times $rounds > $work/replies.jsonl || true
 wait $pid
-grep -E "conditions|light field" $work/cave-conditions.err | quiet
+grep -E "conditions|light field" $work/cave-conditions.err | quiet || true
 tail -12 $work/cave-conditions.txt
 python3 tools/study/condition_times.py $work/log --around $around > $work/conditions.json
 cat $work/conditions.json
