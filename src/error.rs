@@ -82,3 +82,13 @@ impl VlfError {
         }
     }
 }
+
+/// Names as an error message lists what there is instead: "a, b, c", or "none".
+pub fn names_or_none<S: AsRef<str>>(names: &[S]) -> String {
+    match names.is_empty() {
+        true => "none".into(),
+        false => (names.iter().map(AsRef::as_ref))
+            .collect::<Vec<&str>>()
+            .join(", "),
+    }
+}

@@ -103,3 +103,75 @@ fn a_display_takes_first_hits_and_refuses_an_unknown_value_naming_the_key() {
         );
     }
 }
+
+/// The shipped conditions example parses with its three conditions; a display with two
+/// conditions parses and its default is first for the session; a bad key, a duplicate name, an
+/// unknown object, a bad exposure and an unknown default are refused naming the file, the
+/// condition and the key.
+#[test]
+fn display_conditions_parse_and_bad_ones_name_the_condition_and_key() {
+    use vlf::display::DisplayConfig;
+    let shipped = DisplayConfig::load(&config("displays/cave-4wall-conditions.toml")).unwrap();
+    assert_eq!(shipped.condition_names(), ["gi-on", "gi-off", "gi-on-dim"]);
+    assert!(!shipped.conditions[1].global_illumination);
+    assert_eq!(shipped.conditions[2].exposure, 0.5);
+
+    let base = "name = \"c\"\n[[wall]]\nname = \"front\"\nlower_left = [-1.0, 0.0, -1.0]\n\
+                lower_right = [1.0, 0.0, -1.0]\nupper_left = [-1.0, 2.0, -1.0]\n\
+                pixels = [32, 32]\noutput = { monitor = 0 }\n\
+                [[object]]\nname = \"body\"\nmesh = \"body.obj\"\n";
+    let two = format!(
+        "default_condition = \"off\"\n{base}[[condition]]\nname = \"on\"\n\
+         [[condition]]\nname = \"off\"\nglobal_illumination = false\nexposure = 2.0\n\
+         objects_visible = []\nshadows = false\nreflections = false\n\
+         start_pose = {{ position = [0.0, 0.0, 1.0], yaw_deg = 90.0 }}\n"
+    );
+    let path = Path::new("two.toml");
+    let d = DisplayConfig::parse(&two, path).unwrap();
+    assert_eq!(d.condition_names(), ["on", "off"]);
+    let study = d.study_conditions();
+    assert_eq!(study[0].0, "off", "the default condition comes first");
+    assert_eq!(study[0].1, Some((glam::Vec3::new(0.0, 0.0, 1.0), 90.0)));
+    assert_eq!((study[1].0.as_str(), study[1].1), ("on", None));
+
+    for (bad, names) in [
+        (
+            "[[condition]]\nname = \"on\"\nglobal_ilumination = false\n",
+            ["condition[0] (\"on\").global_ilumination", "unknown key"],
+        ),
+        (
+            "[[condition]]\nname = \"on\"\n[[condition]]\nname = \"on\"\n",
+            ["condition[1] (\"on\").name", "share"],
+        ),
+        (
+            "[[condition]]\nname = \"on\"\nobjects_visible = [\"chair\"]\n",
+            ["condition[0] (\"on\").objects_visible", "chair"],
+        ),
+        (
+            "[[condition]]\nname = \"on\"\nexposure = -1.0\n",
+            ["condition[0] (\"on\").exposure", "-1"],
+        ),
+        (
+            "[[condition]]\nname = \"gi off\"\n",
+            ["condition[0] (\"gi off\").name", "letters"],
+        ),
+    ] {
+        let e = DisplayConfig::parse(&format!("{base}{bad}"), path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("two.toml"), "{e}");
+        for n in names {
+            assert!(e.contains(n), "{n:?} not in {e}");
+        }
+    }
+    let e = DisplayConfig::parse(
+        &format!("default_condition = \"dark\"\n{base}[[condition]]\nname = \"on\"\n"),
+        path,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("default_condition") && e.contains("dark") && e.contains("on"),
+        "{e}"
+    );
+}

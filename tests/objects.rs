@@ -1,7 +1,7 @@
 //! Moving objects in the light field (issue 28) on the software adapter: an object inside a
 //! closed furnace shows exactly rho * Le / (1 - rho_walls) plus its own emission (lit through
 //! the irradiance probes), hides at run time, and is seen in a mirror where geometry puts its
-//! reflection.
+//! reflection; a study's condition switches the light field that lights the scene and them.
 
 mod common;
 use common::*;
@@ -43,7 +43,7 @@ fn draw(
 ) -> Frame {
     let poses = config.pose_source(path).unwrap();
     let mut frame =
-        FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall).unwrap();
+        FrameOfViews::cave((lf, resident), config, path, &poses, Slots::PerWall, None).unwrap();
     frame.change_objects(changes);
     let pose = poses.at(0.0);
     let tracked = Poses::Tracked {
@@ -58,6 +58,31 @@ fn pixel(f: &Frame, x: u32, y: u32) -> [f32; 4] {
     f.pixels[(y * f.width + x) as usize]
 }
 
+/// The furnace of side 1 (walls emitting Le = 1 with albedo 0.5) written to `dir`, propagated
+/// at the draft settings, and the object "grey.obj" (a cube of albedo 0.6, at x = -0.06): the
+/// scene file and the light field.
+fn furnace(
+    dir: &Path,
+) -> (
+    std::path::PathBuf,
+    vlf::lightfield::LightField,
+    vlf::lightfield::ResidentLightField,
+) {
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", DVec3::ZERO, 0.5, true);
+    let walls = [Mat {
+        name: "wall",
+        kd: [0.5; 3],
+        ke: [1.0; 3],
+    }];
+    let path = write_scene(dir, &obj, &walls, "");
+    let scene = vlf::scene::Scene::load(&path).unwrap();
+    let (lf, resident, _) =
+        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    cube_object(dir, "grey", DVec3::new(-0.06, 0.0, -0.1), 0.04, 0.6, 0.0);
+    (path, lf, resident)
+}
+
 /// The furnace: a closed box of side 1 whose walls emit Le = 1 with albedo 0.5 holds radiance
 /// 2 everywhere; a cube of albedo 0.6 in it receives pi * 2 from every side and shows 1.2, and
 /// one that also emits 0.3 shows 1.5. The probes' spherical harmonics hold a uniform field
@@ -66,24 +91,7 @@ fn pixel(f: &Frame, x: u32, y: u32) -> [f32; 4] {
 #[test]
 fn an_object_in_a_closed_furnace_shows_rho_le_over_one_minus_rho_plus_its_emission() {
     let dir = tempfile::tempdir().unwrap();
-    let mut obj = ObjBuilder::default();
-    obj.cube("wall", DVec3::ZERO, 0.5, true);
-    let walls = [Mat {
-        name: "wall",
-        kd: [0.5; 3],
-        ke: [1.0; 3],
-    }];
-    let scene = load_scene(dir.path(), &obj, &walls, "");
-    let (lf, resident, _) =
-        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
-    cube_object(
-        dir.path(),
-        "grey",
-        DVec3::new(-0.06, 0.0, -0.1),
-        0.04,
-        0.6,
-        0.0,
-    );
+    let (_, lf, resident) = furnace(dir.path());
     cube_object(
         dir.path(),
         "glowing",
@@ -470,4 +478,95 @@ fn the_shipped_headset_body_puts_the_hands_on_the_controllers_grips() {
         eyes.y - hanging.y > 0.6,
         "the untracked hand at {hanging}, the eyes at {eyes}"
     );
+}
+
+/// A study's conditions (`[[condition]]`) bind their own light field for the scene and for the
+/// objects' probes: in the furnace, direct light only (one iteration: the walls show Le + rho
+/// Le = 1.5) lights the grey cube from probes baked from that light field, 0.6 x 1.5 = 0.9,
+/// against 2 and 1.2 converged; `objects_visible = []` hides the cube; the switch back draws
+/// the converged light again; two conditions of the same light field share it.
+#[test]
+fn a_condition_switches_the_light_field_that_lights_the_scene_and_the_objects() {
+    use vlf::display::conditions::{Conditions, MainField};
+    let dir = tempfile::tempdir().unwrap();
+    let (scene_path, lf, resident) = furnace(dir.path());
+    let conditions = "[[condition]]\nname = \"gi-on\"\n\n\
+                      [[condition]]\nname = \"gi-off\"\nglobal_illumination = false\nexposure = 2.0\n\n\
+                      [[condition]]\nname = \"gi-off-empty\"\nglobal_illumination = false\nobjects_visible = []\n";
+    let (path, config) = display(
+        dir.path(),
+        32,
+        4,
+        &(object_table("grey", "grey.obj") + conditions),
+    );
+    let main = MainField {
+        source: &scene_path,
+        lf: &lf,
+        resident: &resident,
+    };
+    let prepared = Conditions::prepare(&config, &path, main, &Silent)
+        .unwrap()
+        .unwrap();
+    assert_eq!(
+        prepared.fields.len(),
+        1,
+        "gi-off and gi-off-empty share one light field"
+    );
+    assert_eq!(prepared.field_of, [0, 1, 1]);
+    let poses = config.pose_source(&path).unwrap();
+    let mut frame = FrameOfViews::cave(
+        (&lf, &resident),
+        &config,
+        &path,
+        &poses,
+        Slots::PerWall,
+        Some(&prepared),
+    )
+    .unwrap();
+    let pose = poses.at(0.0);
+    let read = |frame: &mut FrameOfViews| {
+        let tracked = Poses::Tracked {
+            pose: &pose,
+            held: &Default::default(),
+            arrived: None,
+        };
+        let image = frame.read_back(tracked).unwrap().remove(0).0;
+        (
+            pixel(&image, 16, 2)[0] as f64,
+            pixel(&image, 10, 16)[0] as f64,
+        )
+    };
+    let within = |v: f64, want: f64| (v - want).abs() / want;
+    assert_eq!((frame.condition(), frame.exposure()), (Some("gi-on"), 1.0));
+    let (wall, grey) = read(&mut frame);
+    assert!(
+        within(wall, 2.0) < 0.01 && within(grey, 1.2) < 0.01,
+        "{wall} {grey}"
+    );
+    frame.set_condition("gi-off").unwrap();
+    assert_eq!(frame.exposure(), 2.0);
+    let (direct_wall, direct_grey) = read(&mut frame);
+    eprintln!("direct light only: wall {direct_wall:.4} (1.5), grey {direct_grey:.4} (0.9)");
+    assert!(
+        within(direct_wall, 1.5) < 0.02,
+        "the walls show {direct_wall}, not 1.5"
+    );
+    assert!(
+        within(direct_grey, 0.9) < 0.02,
+        "the grey cube shows {direct_grey}, not 0.9"
+    );
+    frame.set_condition("gi-off-empty").unwrap();
+    let (_, behind) = read(&mut frame);
+    assert!(
+        within(behind, 1.5) < 0.02,
+        "the hidden cube still shows: {behind}"
+    );
+    frame.set_condition("gi-on").unwrap();
+    let (wall, grey) = read(&mut frame);
+    assert!(
+        within(wall, 2.0) < 0.01 && within(grey, 1.2) < 0.01,
+        "{wall} {grey}"
+    );
+    assert!(frame.set_condition("sepia").is_err());
+    assert_eq!(frame.condition(), Some("gi-on"));
 }

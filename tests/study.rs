@@ -135,6 +135,7 @@ fn logged_cornell_run(
             log: Some(&mut log),
             control: None,
             lsl: None,
+            conditions: None,
         };
         vlf::display::headless::run_reporting(&lf, &resident, &display, config, run, &Silent)
             .unwrap();
@@ -265,19 +266,7 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     assert!(!addr.is_empty(), "vlf cave never said where it listens");
     // the rest of stderr drained, so the run never blocks on it
     std::thread::spawn(move || for _ in stderr.lines() {});
-    let script = repo_path("tools/study/control_example.py");
-    let out = Command::new("python3").arg(&script).arg(&addr).output().unwrap_or_else(|e| {
-        panic!("python3 runs the example script ({e}); install Python 3 (tools/setup.sh test does)")
-    });
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
-    let replies: Vec<serde_json::Value> = (String::from_utf8(out.stdout).unwrap().lines())
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
-        .collect();
+    let replies = script_replies("tools/study/control_example.py", &addr, &mut child);
     // state, trial, event, teleport, a refused command, state, event, stop
     assert_eq!(replies.len(), 8);
     let frame = |i: usize| replies[i]["frame"].as_u64().unwrap();
@@ -325,6 +314,31 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
         "{m}"
     );
     assert!(m["pose_to_photon_ms"]["p99"].as_f64().unwrap() >= p50("pose_to_photon_ms"));
+}
+
+/// The shipped Python example `script` run against the `vlf cave --control` child listening on
+/// `addr`, which its `stop` ends cleanly: the replies it printed, in order.
+fn script_replies(
+    script: &str,
+    addr: &str,
+    child: &mut std::process::Child,
+) -> Vec<serde_json::Value> {
+    let out = Command::new("python3")
+        .arg(repo_path(script))
+        .arg(addr)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("python3 runs {script} ({e}); install Python 3 (tools/setup.sh test does)")
+        });
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
+    (String::from_utf8(out.stdout).unwrap().lines())
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
+        .collect()
 }
 
 /// A one-wall display of 64x36 pixels at 10 Hz walking a scripted path with a wand, in `dir`,
@@ -658,4 +672,136 @@ fn a_scripted_left_hand_is_logged_and_replayed_on_the_avatar() {
         differ > 20,
         "the raised left arm changes only {differ} pixels"
     );
+}
+
+/// A one-wall display (48x48, mono, static head) looking into the Cornell box through its open
+/// front, with two conditions: `gi-on` (the default) and `gi-off` (direct light only, shown at
+/// exposure 1.5).
+fn conditions_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let config = dir.join("conditions.toml");
+    std::fs::write(
+        &config,
+        "name = \"conditions-test\"\ndefault_condition = \"gi-on\"\n\
+         [start_pose]\nposition = [0.0, 0.0, 2.2]\n\
+         [tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n\
+         [[condition]]\nname = \"gi-off\"\nglobal_illumination = false\nexposure = 1.5\n\
+         [[condition]]\nname = \"gi-on\"\n\
+         [[wall]]\nname = \"front\"\nlower_left = [-1.0, 0.0, -1.2]\n\
+         lower_right = [1.0, 0.0, -1.2]\nupper_left = [-1.0, 2.0, -1.2]\npixels = [48, 48]\n\
+         output = { monitor = 0, window = [100, 100] }\n",
+    )
+    .unwrap();
+    config
+}
+
+/// Mean radiance (r+g+b) of the ceiling seen through the box's front in the 48x48 view of
+/// `conditions_display`: the top rows (world y 1.83 to 2.0 on the wall), left and right of the
+/// light (wall x 0.2 to 0.4 from the middle), where the eye ray meets the ceiling's front half.
+fn ceiling_radiance(image: &vlf::render::Frame) -> f64 {
+    let mut sum = (0.0, 0);
+    for y in 0..4 {
+        for x in (14..20).chain(28..34) {
+            let p = image.pixels[(y * image.width + x) as usize];
+            sum = (sum.0 + (p[0] + p[1] + p[2]) as f64, sum.1 + 1);
+        }
+    }
+    sum.0 / sum.1 as f64
+}
+
+/// The shipped conditions example (tools/study/conditions_example.py) switches a headless run
+/// of the Cornell box from `gi-on` to `gi-off` over `--control`: the reply names the frame, an
+/// unknown condition is refused with the names there are, `state` says the condition; the log
+/// has `gi-on` before that frame and `gi-off` from it on; `vlf replay` draws the run's last
+/// frame (in gi-off, read back) pixel-identical, its PNG at the condition's exposure as well,
+/// and direct light only leaves the ceiling (lit only by light that bounced) dark.
+#[test]
+fn an_experiment_script_switches_conditions_and_replay_draws_each_frame_in_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = conditions_display(dir.path());
+    let log_dir = dir.path().join("log");
+    let live = dir.path().join("live");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("cave")
+        .arg(&config)
+        .args(["--headless", "--exr", "--frames", "100000"])
+        .args(["--control", "127.0.0.1:0", "--scene"])
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(["--quality", "draft"])
+        .arg("--log")
+        .arg(&log_dir)
+        .arg("--out")
+        .arg(&live)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let addr = control_address(&mut child);
+    let replies = script_replies("tools/study/conditions_example.py", &addr, &mut child);
+    // state, condition gi-off, a refused condition, state, stop
+    assert_eq!(replies.len(), 5, "{replies:?}");
+    assert_eq!(replies[0]["condition"], "gi-on");
+    assert_eq!(
+        (replies[1]["ok"].as_bool(), replies[1]["cmd"].as_str()),
+        (Some(true), Some("condition"))
+    );
+    let switched = replies[1]["frame"].as_u64().unwrap();
+    assert!(switched > replies[0]["frame"].as_u64().unwrap());
+    let refused = replies[2]["error"].as_str().unwrap();
+    assert_eq!(replies[2]["ok"], false);
+    assert!(
+        refused.contains("sepia") && refused.contains("gi-on") && refused.contains("gi-off"),
+        "{refused}"
+    );
+    assert_eq!(replies[3]["condition"], "gi-off");
+    let last = replies[4]["frame"].as_u64().unwrap();
+
+    // the log: gi-on before the switch's frame, gi-off from it on, the switch an event there
+    let (meta, records) = SessionLog::read(&log_dir).unwrap();
+    assert_eq!(records.last().unwrap().frame, last);
+    for r in &records {
+        let expect = if r.frame >= switched {
+            "gi-off"
+        } else {
+            "gi-on"
+        };
+        assert_eq!(r.condition, expect, "frame {}", r.frame);
+    }
+    let at = |f: u64| records.iter().find(|r| r.frame == f).unwrap();
+    assert!(at(switched).events.contains("condition gi-off"));
+    assert!(meta.columns.iter().any(|(n, _)| n == "condition"));
+    let parquet = parquet_matches_csv(&log_dir);
+    assert_eq!(parquet["parquet_rows"], records.len(), "{parquet}");
+
+    // replay: the last frame (gi-off) pixel-identical to the live read-back, and the frame
+    // before the switch (gi-on, the same static head) drawn with global illumination
+    let again = dir.path().join("again");
+    let status = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .args(["replay", log_dir.to_str().unwrap(), "--exr", "--out"])
+        .arg(&again)
+        .args(["--frames", &format!("{}..={last}", switched - 1)])
+        .stderr(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let view = &meta.views[0];
+    let replayed = again.join(format!("frame-{last:06}"));
+    same_pixels(
+        &live.join(format!("{view}.exr")),
+        &replayed.join(format!("{view}.exr")),
+    );
+    // the PNG as the walls showed it: the condition's exposure, the same both ways
+    let png = |p: std::path::PathBuf| image::open(p).unwrap().to_rgb8().into_raw();
+    let live_png = png(live.join(format!("{view}.png")));
+    assert_eq!(live_png, png(replayed.join(format!("{view}.png"))));
+    let gi_off = vlf::render::image_io::read_exr(&replayed.join(format!("{view}.exr"))).unwrap();
+    let unexposed = vlf::render::image_io::display_image(&gi_off, 1.0).into_raw();
+    assert_ne!(
+        live_png, unexposed,
+        "the PNG is written at the condition's exposure"
+    );
+    let before = again.join(format!("frame-{:06}/{view}.exr", switched - 1));
+    let gi_on = vlf::render::image_io::read_exr(&before).unwrap();
+    let (on, off) = (ceiling_radiance(&gi_on), ceiling_radiance(&gi_off));
+    eprintln!("the ceiling's mean radiance (r+g+b): {on:.4} with global illumination, {off:.4} with direct light only");
+    assert!(on > 0.05 && off < 0.2 * on, "gi-on {on}, gi-off {off}");
 }

@@ -8,6 +8,7 @@ use super::write_json;
 use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
+use vlf::display::conditions::{Conditions, MainField};
 use vlf::gpu::GpuContext;
 
 /// `vlf cave`'s arguments.
@@ -96,6 +97,13 @@ pub fn run(a: CaveArgs) -> Result<()> {
     let display = vlf::display::DisplayConfig::load(config)?;
     let ctx = GpuContext::new()?;
     let (lf, resident) = light_field_for(&ctx, scene, None, params)?;
+    // every condition's light field made now, before the first frame: a switch only rebinds
+    let main = MainField {
+        source: scene,
+        lf: &lf,
+        resident: &resident,
+    };
+    let conditions = Conditions::prepare(&display, config, main, &Bars::default())?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
     if (log.is_some() || control.is_some() || lsl) && vlf::cluster::launched_size().is_some() {
         bail!("--log, --control and --lsl: for one process for now, not under mpirun");
@@ -112,14 +120,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
         None => None,
     };
-    let control = match &control {
-        Some(addr) => {
-            let server = vlf::study::ControlServer::bind(addr)?;
-            eprintln!("control: listening on {}", server.addr);
-            Some(server)
-        }
-        None => None,
-    };
+    let control = control.as_deref().map(control_server).transpose()?;
     if !headless {
         if !(hold_seconds.is_finite() && hold_seconds >= 0.0) {
             bail!("--hold-seconds {hold_seconds}: must be a number of seconds >= 0");
@@ -128,6 +129,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
             frames,
             hold: std::time::Duration::from_secs_f64(hold_seconds),
             exposure,
+            conditions: conditions.as_ref(),
         };
         let study = vlf::study::Session::new(session.as_mut(), control.as_ref())
             .with_display(display.refresh_hz, lsl)
@@ -148,6 +150,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         log: session.as_mut(),
         control: control.as_ref(),
         lsl,
+        conditions: conditions.as_ref(),
     };
     let report = vlf::display::headless::run_reporting(
         &lf,
@@ -167,6 +170,13 @@ pub fn run(a: CaveArgs) -> Result<()> {
         out.join("overview.png").display()
     );
     Ok(())
+}
+
+/// The experiment script's control server on `addr`, said on stderr where it listens.
+fn control_server(addr: &str) -> Result<vlf::study::ControlServer> {
+    let server = vlf::study::ControlServer::bind(addr)?;
+    eprintln!("control: listening on {}", server.addr);
+    Ok(server)
 }
 
 /// A new session log in `dir` for this run (`vlf::study`).

@@ -502,6 +502,7 @@ fn draw(
                 log: None,
                 control: None,
                 lsl: None,
+                conditions: None,
             },
             Some(link),
             &crate::progress::Silent,
@@ -513,6 +514,7 @@ fn draw(
             frames: run.frames,
             hold: run.hold,
             exposure: run.exposure,
+            conditions: None,
         };
         let session = crate::study::Session::new(None, None);
         let report = window::run_locked(

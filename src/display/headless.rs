@@ -6,6 +6,7 @@
 //! views (`frame/`): it keeps the walk's poses (shared through a cluster's frame lock), the
 //! waiting, the files and the report; the frame draws and accounts.
 
+use super::conditions::Conditions;
 use super::frame::{
     frame_limits, worst_ratio, FrameOfViews, Limit, Poses, Slots, ViewImages, WallView,
 };
@@ -75,6 +76,9 @@ pub struct HeadlessRun<'p> {
     pub log: Option<&'p mut SessionLog>,
     pub control: Option<&'p ControlServer>,
     pub lsl: Option<LslOutlets>,
+    /// the display's conditions with their light fields made (`super::conditions`), switched
+    /// by the script's `condition` command
+    pub conditions: Option<&'p Conditions>,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -95,6 +99,7 @@ pub fn run(
         log: None,
         control: None,
         lsl: None,
+        conditions: None,
     };
     run_locked(
         lf,
@@ -122,10 +127,21 @@ pub fn run_reporting(
 
 /// What the last frame leaves: every view's image, and each projector's output (named
 /// `<wall>-<eye>-<projector>`).
-#[derive(Default)]
 pub(super) struct Kept {
     views: Vec<Frame>,
     projectors: Vec<(String, Frame)>,
+    /// the PNGs' exposure (the condition's; the EXRs stay linear)
+    pub(super) exposure: f32,
+}
+
+impl Default for Kept {
+    fn default() -> Kept {
+        Kept {
+            views: Vec::new(),
+            projectors: Vec::new(),
+            exposure: 1.0,
+        }
+    }
 }
 
 impl Kept {
@@ -140,6 +156,18 @@ impl Kept {
             );
         }
         kept
+    }
+}
+
+/// The display's conditions as the session takes them, where they were made (`conditions`); a
+/// run without them (a cluster's rank, the library's plain `run`) draws its light field as is.
+pub(super) fn studied(
+    config: &DisplayConfig,
+    conditions: Option<&Conditions>,
+) -> Vec<(String, Option<(glam::Vec3, f32)>)> {
+    match conditions {
+        Some(_) => config.study_conditions(),
+        None => Vec::new(),
     }
 }
 
@@ -183,6 +211,20 @@ fn object_time(poses: &PoseSource, config: &DisplayConfig, (f, total): (u32, u32
     }
 }
 
+/// The frame of views a headless run draws (an image per wall, each view read back before the
+/// next is drawn), with `conditions` bound, and the poses it draws from.
+fn headless_frame<'a>(
+    fields: (&'a LightField, &ResidentLightField),
+    config: &'a DisplayConfig,
+    config_path: &Path,
+    conditions: Option<&'a Conditions>,
+) -> Result<(PoseSource, FrameOfViews<'a>)> {
+    let poses = config.pose_source(config_path)?;
+    let slots = Slots::PerWall;
+    let frame = FrameOfViews::cave(fields, config, config_path, &poses, slots, conditions)?;
+    Ok((poses, frame))
+}
+
 /// `run` as one rank of a cluster (`crate::cluster`): each frame's pose comes from `lock.share`,
 /// and `lock.swap` waits for every rank once the frame is drawn.
 pub fn run_locked(
@@ -194,14 +236,12 @@ pub fn run_locked(
     mut lock: Option<&mut dyn FrameLock>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<CaveReport> {
-    let (frames, out, exr) = (run.frames, run.out, run.exr);
-    let mut session = (Session::new(run.log, run.control))
-        .with_display(config.refresh_hz, run.lsl)
-        .with_objects(config.object_names());
+    let (frames, out, exr, conditions) = (run.frames, run.out, run.exr, run.conditions);
+    let mut session = (Session::new(run.log, run.control).with_display(config.refresh_hz, run.lsl))
+        .with_objects(config.object_names())
+        .with_conditions(studied(config, conditions));
     std::fs::create_dir_all(out).map_err(|e| VlfError::io(out, e))?;
-    let poses = config.pose_source(config_path)?;
-    let mut frame =
-        FrameOfViews::cave((lf, resident), config, config_path, &poses, Slots::PerWall)?;
+    let (poses, mut frame) = headless_frame((lf, resident), config, config_path, conditions)?;
     let total = frames.max(1);
     let mut kept = Kept::default();
     let software = resident.ctx.summary.software;
@@ -211,7 +251,7 @@ pub fn run_locked(
     for f in 0..total {
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
-        frame.change_objects(&session.take_object_changes());
+        frame.take_study_changes(&mut session)?;
         let (pose, held, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
         frame.set_object_time(object_time(&poses, config, (f, total)));
         // when the pose came in (live tracking), or was sampled
@@ -238,6 +278,7 @@ pub fn run_locked(
             pose_to_photon_ms: None,
             views: frame.drawn().to_vec(),
             events: String::new(),
+            condition: String::new(),
         };
         if f + 1 == total || session.stop {
             // the last frame drawn again view by view and read back (not timed)
@@ -246,6 +287,7 @@ pub fn run_locked(
             session.end_frame(record(&frame, Drawn::ReadBack), Some(note))?;
             drawn_frames = f + 1;
             kept = Kept::of(config, frame.wall_views(), images);
+            kept.exposure = frame.exposure();
             if let Some(l) = lock.as_deref_mut() {
                 l.swap_untimed()?;
             }
@@ -337,9 +379,9 @@ pub(super) fn write_kept(
         .projectors
         .iter()
         .map(|(name, image)| (name.clone(), image));
-    let mut images = write_images(named.chain(projectors), out, exr)?;
+    let mut images = write_images(named.chain(projectors), out, (exr, kept.exposure))?;
     let overview = out.join("overview.png");
-    write_overview(config, views, &kept.views, &overview)?;
+    write_overview(config, views, (&kept.views, kept.exposure), &overview)?;
     images.push(overview.display().to_string());
     Ok(images)
 }
@@ -348,13 +390,13 @@ pub(super) fn write_kept(
 fn write_images<'a>(
     named: impl Iterator<Item = (String, &'a Frame)>,
     out: &Path,
-    exr: bool,
+    (exr, exposure): (bool, f32),
 ) -> Result<Vec<String>> {
     let mut images = Vec::new();
     for (name, image) in named {
         for ext in ["png", "exr"].into_iter().filter(|e| *e == "png" || exr) {
             let path = out.join(format!("{name}.{ext}"));
-            write_image(image, &path, 1.0)?;
+            write_image(image, &path, exposure)?;
             images.push(path.display().to_string());
         }
     }
@@ -366,7 +408,7 @@ fn write_images<'a>(
 fn write_overview(
     config: &DisplayConfig,
     views: &[WallView],
-    images: &[Frame],
+    (images, exposure): (&[Frame], f32),
     path: &Path,
 ) -> Result<()> {
     const CELL: u32 = 256;
@@ -402,7 +444,7 @@ fn write_overview(
     let width = placed.iter().map(|p| p.0 + 1).max().unwrap_or(1) * CELL;
     let mut canvas = image::RgbImage::new(width, 3 * CELL);
     for (cx, cy, frame) in placed {
-        let img = display_image(frame, 1.0);
+        let img = display_image(frame, exposure);
         let scale = (CELL as f32 / frame.width as f32).min(CELL as f32 / frame.height as f32);
         let (w, h) = (
             ((frame.width as f32 * scale) as u32).max(1),

@@ -9,6 +9,7 @@
 //! Every wall and eye is drawn from one device and one light field.
 
 pub mod cluster_config;
+pub mod conditions;
 pub mod frame;
 pub mod headless;
 pub mod post;
@@ -75,6 +76,12 @@ pub struct DisplayConfig {
     /// how the moving objects are lit and shadow the scene (`render::probes`)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub object_lighting: Option<crate::render::probes::ObjectLighting>,
+    /// a study's named conditions (`conditions.rs`), switched by the experiment script
+    #[serde(default, rename = "condition", skip_serializing_if = "Vec::is_empty")]
+    pub conditions: Vec<conditions::ConditionConfig>,
+    /// the condition in effect at the start (left out: the first `[[condition]]`)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub default_condition: Option<String>,
     /// several processes, one CAVE (`mpirun`; `cluster_config.rs`, `crate::cluster`): walls per rank, lost-rank timeout
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cluster: Option<cluster_config::ClusterConfig>,
@@ -177,6 +184,31 @@ impl DisplayConfig {
         PoseSource::from_config(&self.tracking, &self.start_pose, config_path)
     }
 
+    /// The conditions' names (a study switches between them), in the config's order.
+    pub fn condition_names(&self) -> Vec<String> {
+        self.conditions.iter().map(|c| c.name.clone()).collect()
+    }
+
+    /// The conditions as a study session takes them (`crate::study::Session::with_conditions`):
+    /// names with their start poses (the room's place and yaw), the initial one first
+    /// (`default_condition`, else the config's first).
+    pub fn study_conditions(&self) -> Vec<(String, Option<(Vec3, f32)>)> {
+        let mut list: Vec<(String, Option<(Vec3, f32)>)> = (self.conditions.iter())
+            .map(|c| {
+                let start = (c.start_pose.as_ref()).map(|p| (Vec3::from(p.position), p.yaw_deg));
+                (c.name.clone(), start)
+            })
+            .collect();
+        let initial = (self.default_condition.as_ref())
+            .and_then(|d| list.iter().position(|c| &c.0 == d))
+            .unwrap_or(0);
+        if !list.is_empty() {
+            let first = list.remove(initial);
+            list.insert(0, first);
+        }
+        list
+    }
+
     /// The moving objects' names (a study shows and hides them by name).
     pub fn object_names(&self) -> Vec<String> {
         self.objects.iter().map(|o| o.name.clone()).collect()
@@ -200,8 +232,11 @@ impl DisplayConfig {
             path: path.to_path_buf(),
             message,
         };
-        let config: DisplayConfig =
-            toml::from_str(text).map_err(|e| err(e.to_string().trim_end().to_string()))?;
+        let config: DisplayConfig = toml::from_str(text).map_err(|e| {
+            // an unknown key of a [[condition]] named with its condition
+            let message = conditions::unknown_key(text);
+            err(message.unwrap_or_else(|| e.to_string().trim_end().to_string()))
+        })?;
         config.validate().map_err(err)?;
         Ok(config)
     }
@@ -212,6 +247,12 @@ impl DisplayConfig {
             return Err("[[wall]]: at least one wall is needed".into());
         }
         crate::dynamic::check_objects(&self.objects)?;
+        let objects = self.object_names();
+        conditions::check(
+            &self.conditions,
+            self.default_condition.as_deref(),
+            &objects,
+        )?;
         if let Some(l) = &self.object_lighting {
             l.check()?;
         }

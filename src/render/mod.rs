@@ -101,7 +101,9 @@ pub struct ViewTargets {
     pub depth_view: wgpu::TextureView,
     /// with raster first hits, the visibility buffer the view's eye rays read
     raster: Option<raster::RasterTargets>,
-    resolve_bind_group: wgpu::BindGroup,
+    /// the resolve's view group for each of the renderer's light fields (their faces and
+    /// materials)
+    resolve_bind_groups: Vec<wgpu::BindGroup>,
 }
 
 struct Target {
@@ -128,21 +130,65 @@ pub struct Renderer {
     /// the same triangles as affine maps (the exhaustive ray cast of small meshes)
     ray_triangles: wgpu::Buffer,
     pairs: wgpu::Buffer,
-    /// the light field's bind group (`lightfield::bindings`: layout, atlas, tiles)
-    field_bind_group: wgpu::BindGroup,
+    /// every light field it draws (the first, then those `add_light_field` adds: a study's
+    /// conditions), and the one drawn now
+    fields: Vec<FieldSet>,
+    active: usize,
+    /// the resolve's light field and moving objects' layouts, for the fields added
+    field_layout: crate::lightfield::bindings::FieldLayout,
+    moving_layout: wgpu::BindGroupLayout,
     /// whether the light field's mirror tiles are resident (`resolve_mixed` reads them)
     view_dependent: bool,
     normalisation: Normalisation,
     view_template: GpuView,
     target: Option<Target>,
-    faces: wgpu::Buffer,
-    /// the material table the faces index
-    materials: wgpu::Buffer,
-    /// the moving objects' group (their shading records, materials and the irradiance probes;
-    /// placeholders without objects) and their GPU state
-    moving_group: wgpu::BindGroup,
+    /// the moving objects' GPU state, and the probes' grid (each field bakes its own probes)
     moving: Option<moving::MovingObjects>,
+    probe_grid: Option<crate::gpu::types::GpuProbeGrid>,
+}
+
+/// One light field as the resolve binds it: its bind group, the faces and material table the
+/// view groups bind, and the moving objects' group (their shading records, materials and the
+/// irradiance probes baked from this light field; placeholders without objects).
+struct FieldSet {
+    field_bind_group: wgpu::BindGroup,
+    faces: wgpu::Buffer,
+    materials: wgpu::Buffer,
+    moving_group: wgpu::BindGroup,
+    /// the light field's layout uniform (the probes of a field added later bake from it)
+    field_buffer: wgpu::Buffer,
     probes: Option<probes::Probes>,
+}
+
+impl FieldSet {
+    /// `lf` resident as `resident`, bound with the resolve's field and moving layouts (the
+    /// moving objects' group a placeholder until its probes are baked).
+    fn new(
+        resident: &ResidentLightField,
+        lf: &LightField,
+        ledger: &MemoryLedger,
+        (field_layout, moving_layout): (
+            &crate::lightfield::bindings::FieldLayout,
+            &wgpu::BindGroupLayout,
+        ),
+    ) -> FieldSet {
+        let ctx = &resident.ctx;
+        let field = resident.field_params(lf);
+        let field_buffer = ctx.buffer_init(
+            ledger,
+            "light field layout",
+            bytemuck::bytes_of(&field),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        FieldSet {
+            field_bind_group: resident.bind_group(field_layout, &field_buffer),
+            faces: resident.faces.clone(),
+            materials: resident.materials.clone(),
+            moving_group: placeholder_moving_group(ctx, moving_layout),
+            field_buffer,
+            probes: None,
+        }
+    }
 }
 
 /// Moving objects for a renderer: their rest-pose mesh and how the probes that light them are
@@ -235,14 +281,6 @@ impl Renderer {
         let ray_triangles = storage("render mesh: triangle maps", bytemuck::cast_slice(&maps));
         let triangles = storage("render mesh: triangles", bytemuck::cast_slice(&triangles));
         let pairs = storage("render mesh: BVH", bytemuck::cast_slice(&tree.pairs));
-        let field = resident.field_params(lf);
-        let field_buffer = ctx.buffer_init(
-            ledger,
-            "light field layout",
-            bytemuck::bytes_of(&field),
-            wgpu::BufferUsages::UNIFORM,
-        );
-        let field_bind_group = resident.bind_group(&layouts.field, &field_buffer);
         let view_template = GpuView {
             samples_per_pixel: REALTIME_SAMPLES,
             mirror_bounces: lf.mirror_chains().bounces,
@@ -254,6 +292,7 @@ impl Renderer {
             moving_flags: crate::gpu::types::MOVING_SHADOWS | crate::gpu::types::MOVING_IN_MIRRORS,
             ..Default::default()
         };
+        let first = FieldSet::new(resident, lf, ledger, (&layouts.field, &layouts.moving));
         let mut renderer = Renderer {
             ctx: ctx.clone(),
             resolve_pipeline,
@@ -261,61 +300,91 @@ impl Renderer {
             raster: None,
             placeholder_visibility: raster::placeholder_visibility(device),
             triangle_count,
-            moving_group: placeholder_moving_group(&ctx, &layouts.moving),
             resolve_layout: layouts.view,
-            faces: resident.faces.clone(),
-            materials: resident.materials.clone(),
+            field_layout: layouts.field,
+            moving_layout: layouts.moving,
             view_buffer,
             triangles,
             ray_triangles,
             pairs,
-            field_bind_group,
+            fields: vec![first],
+            active: 0,
             view_dependent: resident.tiles.is_some(),
             normalisation: lf.meta.normalisation,
             view_template,
             target: None,
             moving: None,
-            probes: None,
+            probe_grid: None,
         };
         if let (Some(o), Some(plan)) = (objects, plan) {
-            renderer.add_objects(resident, lf, ledger, (o, &plan), (&field_buffer, stack))?;
-            renderer.moving_group = moving_group(&ctx, &layouts.moving, &renderer);
+            renderer.add_objects(lf, ledger, (o, &plan))?;
+            renderer.bake_field_probes(0, resident, lf, ledger)?;
         }
         Ok(renderer)
     }
 
-    /// Upload the moving objects planned in `plan` and bake the probes that light them.
-    fn add_objects(
+    /// Another light field to draw (a study's condition: direct light only, other light on the
+    /// same geometry), resident beside the first: its bind groups made and, with moving objects,
+    /// its probes baked now, so that `use_light_field` only rebinds. Make view targets after
+    /// adding every field (each target binds every field's faces and materials). Its number.
+    pub fn add_light_field(
         &mut self,
         resident: &ResidentLightField,
         lf: &LightField,
         ledger: &MemoryLedger,
+    ) -> Result<usize> {
+        let textured = lf.detail.is_some() && resident.detail.is_some();
+        if resident.tiles.is_some() != self.variant.tiles || textured != self.variant.textured {
+            return Err(VlfError::Display(format!(
+                "light field of {:?}: {} mirror tiles and {} texture detail where the first has {} and {}: the renderer draws both through one pipeline",
+                lf.meta.scene_name,
+                if resident.tiles.is_some() { "with" } else { "without" },
+                if textured { "with" } else { "without" },
+                if self.variant.tiles { "them" } else { "none" },
+                if self.variant.textured { "it" } else { "none" },
+            )));
+        }
+        let layouts = (&self.field_layout, &self.moving_layout);
+        self.fields
+            .push(FieldSet::new(resident, lf, ledger, layouts));
+        let k = self.fields.len() - 1;
+        if self.moving.is_some() {
+            self.bake_field_probes(k, resident, lf, ledger)?;
+        }
+        self.target = None;
+        Ok(k)
+    }
+
+    /// Draw light field `k` (0: the first) from the next view on: a rebinding, no other work.
+    pub fn use_light_field(&mut self, k: usize) -> Result<()> {
+        if k >= self.fields.len() {
+            return Err(VlfError::Display(format!(
+                "light field {k}: the renderer has {}",
+                self.fields.len()
+            )));
+        }
+        self.active = k;
+        Ok(())
+    }
+
+    /// The light field drawn now (0: the first).
+    pub fn light_field_in_use(&self) -> usize {
+        self.active
+    }
+
+    /// Upload the moving objects planned in `plan`; the probes' grid (the probes are baked for
+    /// each light field, `bake_field_probes`).
+    fn add_objects(
+        &mut self,
+        lf: &LightField,
+        ledger: &MemoryLedger,
         (objects, plan): (ObjectsToDraw, &moving::MovingPlan),
-        (field_buffer, stack): (&wgpu::Buffer, u32),
     ) -> Result<()> {
         let (lo, hi) = (lf.render_vertices.iter()).fold(
             (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
             |(lo, hi), v| (lo.min(v.position.into()), hi.max(v.position.into())),
         );
-        let emitters = probes::emitters(lf);
-        let grid = crate::gpu::types::GpuProbeGrid {
-            emitter_count: emitters.len() as u32,
-            ..probes::probe_grid(lo, hi, &objects.lighting)
-        };
-        let inputs = probes::BakeInputs {
-            view: &self.view_template,
-            faces: &self.faces,
-            triangles: &self.triangles,
-            pairs: &self.pairs,
-            ray_triangles: &self.ray_triangles,
-            materials: &self.materials,
-            resident,
-            field: field_buffer,
-            stack,
-            cutouts: self.variant.cutouts,
-            emitters: &emitters,
-        };
-        self.probes = Some(probes::bake(&self.ctx, ledger, grid, &inputs)?);
+        self.probe_grid = Some(probes::probe_grid(lo, hi, &objects.lighting));
         let moving = moving::MovingObjects::new(
             &self.ctx,
             ledger,
@@ -327,6 +396,45 @@ impl Renderer {
         self.view_template.moving_root = moving.root_pair;
         self.view_template.moving_first = moving.first_triangle;
         self.moving = Some(moving);
+        Ok(())
+    }
+
+    /// Bake field `k`'s probes (the moving objects lit by that light field) and make its moving
+    /// objects' group.
+    fn bake_field_probes(
+        &mut self,
+        k: usize,
+        resident: &ResidentLightField,
+        lf: &LightField,
+        ledger: &MemoryLedger,
+    ) -> Result<()> {
+        let (Some(grid), Some(moving)) = (self.probe_grid, &self.moving) else {
+            return Ok(());
+        };
+        let emitters = probes::emitters(lf);
+        let grid = crate::gpu::types::GpuProbeGrid {
+            emitter_count: emitters.len() as u32,
+            ..grid
+        };
+        let set = &self.fields[k];
+        let inputs = probes::BakeInputs {
+            view: &self.view_template,
+            faces: &set.faces,
+            triangles: &self.triangles,
+            pairs: &self.pairs,
+            ray_triangles: &self.ray_triangles,
+            materials: &set.materials,
+            resident,
+            field: &set.field_buffer,
+            stack: self.variant.stack,
+            cutouts: self.variant.cutouts,
+            emitters: &emitters,
+        };
+        let probes = probes::bake(&self.ctx, ledger, grid, &inputs)?;
+        let group = moving_group(&self.ctx, &self.moving_layout, moving, &probes);
+        let set = &mut self.fields[k];
+        set.moving_group = group;
+        set.probes = Some(probes);
         Ok(())
     }
 
@@ -357,7 +465,7 @@ impl Renderer {
 
     /// The irradiance probes' grid, where there are moving objects to light.
     pub fn probe_grid(&self) -> Option<crate::gpu::types::GpuProbeGrid> {
-        self.probes.as_ref().map(|p| p.grid)
+        self.fields[0].probes.as_ref().map(|p| p.grid)
     }
 
     /// Antialiasing: `n` eye rays per pixel (1: one ray through the pixel's centre); with raster
@@ -477,48 +585,51 @@ impl Renderer {
         let visibility = raster
             .as_ref()
             .map_or(&self.placeholder_visibility, |r| &r.visibility);
-        let resolve_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("view"),
-            layout: &self.resolve_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.view_buffer.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.faces.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: self.triangles.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: self.pairs.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::TextureView(&image_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 5,
-                    resource: self.ray_triangles.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 6,
-                    resource: wgpu::BindingResource::TextureView(&depth_view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: self.materials.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: wgpu::BindingResource::TextureView(visibility),
-                },
-            ],
-        });
+        let group = |field: &FieldSet| {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("view"),
+                layout: &self.resolve_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: self.view_buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: field.faces.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: self.triangles.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: self.pairs.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: wgpu::BindingResource::TextureView(&image_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: self.ray_triangles.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: wgpu::BindingResource::TextureView(&depth_view),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: field.materials.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: wgpu::BindingResource::TextureView(visibility),
+                    },
+                ],
+            })
+        };
+        let resolve_bind_groups = self.fields.iter().map(group).collect();
         ViewTargets {
             width,
             height,
@@ -527,7 +638,7 @@ impl Renderer {
             depth,
             depth_view,
             raster,
-            resolve_bind_group,
+            resolve_bind_groups,
         }
     }
 
@@ -586,9 +697,12 @@ impl Renderer {
             timestamp_writes,
         });
         pass.set_pipeline(pipeline);
-        pass.set_bind_group(0, &targets.resolve_bind_group, &[]);
-        pass.set_bind_group(1, &self.field_bind_group, &[]);
-        pass.set_bind_group(2, &self.moving_group, &[]);
+        let field = &self.fields[self.active];
+        let view_group = (targets.resolve_bind_groups.get(self.active))
+            .unwrap_or(&targets.resolve_bind_groups[0]);
+        pass.set_bind_group(0, view_group, &[]);
+        pass.set_bind_group(1, &field.field_bind_group, &[]);
+        pass.set_bind_group(2, &field.moving_group, &[]);
         pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
     }
 
@@ -854,22 +968,20 @@ fn resolve_pipeline(
 fn moving_group(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
-    renderer: &Renderer,
+    m: &moving::MovingObjects,
+    p: &probes::Probes,
 ) -> wgpu::BindGroup {
-    match (&renderer.moving, &renderer.probes) {
-        (Some(m), Some(p)) => ctx.bind_group(
-            layout,
-            &[
-                &m.shading,
-                &m.materials,
-                &p.grid_buffer,
-                &p.coefficients,
-                &p.emitters,
-                &p.emitter_alias,
-            ],
-        ),
-        _ => placeholder_moving_group(ctx, layout),
-    }
+    ctx.bind_group(
+        layout,
+        &[
+            &m.shading,
+            &m.materials,
+            &p.grid_buffer,
+            &p.coefficients,
+            &p.emitters,
+            &p.emitter_alias,
+        ],
+    )
 }
 
 /// The same group for a renderer without moving objects: placeholders, never read.

@@ -12,6 +12,8 @@
 //! - `{"cmd": "log", "on": false}`: stop (or resume) writing rows to the session log;
 //! - `{"cmd": "state"}`: the frame, the head and the room, the log's state;
 //! - `{"cmd": "stop"}`: end the run; the headless run reads that frame back as its last;
+//! - `{"cmd": "condition", "name": "gi-off"}`: one of the display config's named conditions
+//!   (`[[condition]]`: light field, exposure, objects, start pose) from that frame on;
 //! - `{"cmd": "flash"}`: a latency test for a photodiode: every wall full white for that frame,
 //!   then black until `{"cmd": "flash", "end": true}` brings the scene back (the windows; the
 //!   views are drawn all the while, so the frame time does not change).
@@ -64,6 +66,10 @@ pub enum Command {
     Reflections {
         on: bool,
     },
+    /// a named condition of the display config (`[[condition]]`)
+    Condition {
+        name: String,
+    },
 }
 
 impl Command {
@@ -80,6 +86,7 @@ impl Command {
             Command::Hide { .. } => "hide",
             Command::Shadows { .. } => "shadows",
             Command::Reflections { .. } => "reflections",
+            Command::Condition { .. } => "condition",
         }
     }
 }
@@ -216,7 +223,7 @@ fn serve_client(
 pub fn parse(line: &str) -> std::result::Result<Command, String> {
     let command: Command = serde_json::from_str(line).map_err(|e| {
         format!(
-            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop, flash)"
+            "{e} in {line:?}: a command is one JSON object per line, e.g. {{\"cmd\": \"event\", \"text\": \"trial 1\"}} (commands: event, teleport, trial, log, state, stop, flash, show, hide, shadows, reflections, condition)"
         )
     })?;
     if let Command::Teleport { position, yaw_deg } = &command {

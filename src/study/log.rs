@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
-/// left hand's columns after it; `SessionLog::read` reads 1 and 2 too (without them).
-pub const LOG_FORMAT: u32 = 3;
+/// left hand's columns after it, 4 `condition` after those; `SessionLog::read` reads 1 to 3
+/// too (without them).
+pub const LOG_FORMAT: u32 = 4;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -102,10 +103,13 @@ pub struct FrameRecord {
     pub views: Vec<ViewSettings>,
     /// what happened at this frame (free text; empty for none)
     pub events: String,
+    /// the study's condition in effect (the display config's `[[condition]]` name; empty
+    /// without conditions)
+    pub condition: String,
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 36] = [
+const FRAME_COLUMNS: [(&str, &str); 37] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -187,14 +191,19 @@ const FRAME_COLUMNS: [(&str, &str); 36] = [
     ("left_hand_qy", "left hand rotation, quaternion y"),
     ("left_hand_qz", "left hand rotation, quaternion z"),
     ("left_hand_qw", "left hand rotation, quaternion w"),
+    (
+        "condition",
+        "the study's condition in effect (the display config's [[condition]] name, as the script's `condition` command or default_condition set it); empty without conditions",
+    ),
 ];
 
 /// How many of `FRAME_COLUMNS` a log of `format` has: 1 lacks pose_to_photon_ms, 2 the left
-/// hand's eight.
+/// hand's eight, 3 the condition.
 fn frame_columns(format: u32) -> usize {
     match format {
         1 => 27,
         2 => 28,
+        3 => 36,
         _ => FRAME_COLUMNS.len(),
     }
 }
@@ -402,6 +411,7 @@ fn row_text(r: &FrameRecord) -> String {
     cells.push(opt(r.pose_to_submit_ms));
     cells.push(opt(r.pose_to_photon_ms));
     cells.extend(held_cells(r.left_hand.as_ref()));
+    cells.push(r.condition.clone());
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -493,6 +503,10 @@ fn parse_row(
         pose_to_photon_ms: if frame_columns > 27 { opt(27)? } else { None },
         views,
         events,
+        condition: match frame_columns > 36 {
+            true => cells[36].to_string(),
+            false => String::new(),
+        },
     })
 }
 
@@ -534,6 +548,7 @@ mod tests {
             pose_to_photon_ms: Some(9.125),
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
+            condition: if wand { "gi-off".into() } else { String::new() },
         }
     }
 
@@ -564,7 +579,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 36 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 37 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
@@ -588,11 +603,15 @@ mod tests {
     }
 
     #[test]
-    fn format_1_and_2_logs_without_the_newer_columns_still_read() {
+    fn format_1_to_3_logs_without_the_newer_columns_still_read() {
         // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's;
-        // format 2: the frame's columns end at pose_to_photon_ms
-        let photon = record(0, true).pose_to_photon_ms;
-        for (format, dropped, pose_to_photon_ms) in [(1, 27..36, None), (2, 28..36, photon)] {
+        // format 2: the frame's columns end at pose_to_photon_ms; 3: no condition
+        let (photon, hand) = (record(0, true).pose_to_photon_ms, record(0, true).left_hand);
+        for (format, dropped, pose_to_photon_ms, left_hand) in [
+            (1, 27..37, None, None),
+            (2, 28..37, photon, None),
+            (3, 36..37, photon, hand),
+        ] {
             let dir = tempfile::tempdir().unwrap();
             {
                 let mut log = SessionLog::create(dir.path(), meta()).unwrap();
@@ -602,7 +621,8 @@ mod tests {
             let back = SessionLog::read(dir.path()).unwrap().1;
             let expect = FrameRecord {
                 pose_to_photon_ms,
-                left_hand: None,
+                left_hand,
+                condition: String::new(),
                 ..record(0, true)
             };
             assert_eq!(back, [expect], "format {format}");

@@ -8,7 +8,7 @@
 use super::control::{Command, ControlServer, Pending};
 use super::log::{FrameRecord, SessionLog};
 use super::lsl::{FrameSample, LslOutlets};
-use crate::error::Result;
+use crate::error::{names_or_none, Result};
 use crate::stats::Distribution;
 use crate::tracking::pose::Pose;
 use glam::Vec3;
@@ -43,6 +43,11 @@ pub struct Session<'p> {
     /// the display's moving objects by name, and this frame's changes to them for the display
     objects: Vec<String>,
     object_changes: Vec<ObjectChange>,
+    /// the display's conditions by name, each with its start pose (the room's place and yaw);
+    /// the one in effect ("" without conditions), and this frame's switch for the display
+    conditions: Vec<(String, Option<(Vec3, f32)>)>,
+    condition: String,
+    condition_change: Option<String>,
 }
 
 /// A change the script made to the moving objects, for the display to apply this frame.
@@ -100,7 +105,63 @@ impl<'p> Session<'p> {
             flash: None,
             objects: Vec::new(),
             object_changes: Vec::new(),
+            conditions: Vec::new(),
+            condition: String::new(),
+            condition_change: None,
         }
+    }
+
+    /// The display's conditions by name, each with its start pose (`DisplayConfig::
+    /// study_conditions`; the `condition` command refuses any other name): the first is in
+    /// effect from the first frame, its start pose with it.
+    pub fn with_conditions(mut self, conditions: Vec<(String, Option<(Vec3, f32)>)>) -> Self {
+        self.conditions = conditions;
+        if let Some(name) = self.conditions.first().map(|c| c.0.clone()) {
+            self.switch_condition(&name);
+        }
+        self
+    }
+
+    /// The condition switched to this frame, for the display (`FrameOfViews::set_condition`).
+    pub fn take_condition(&mut self) -> Option<String> {
+        self.condition_change.take()
+    }
+
+    /// The condition in effect ("" where the display has none).
+    pub fn condition(&self) -> &str {
+        &self.condition
+    }
+
+    /// Switch to the condition `name` (checked): its start pose, if it has one, is the room's.
+    fn switch_condition(&mut self, name: &str) {
+        let start = self
+            .conditions
+            .iter()
+            .find(|c| c.0 == name)
+            .and_then(|c| c.1);
+        if let Some(start) = start {
+            self.teleport = Some(start);
+        }
+        self.condition = name.to_string();
+        self.condition_change = Some(name.to_string());
+    }
+
+    /// The `condition` command: switched from this frame, an event; Err (nothing changed) for a
+    /// name the display has no condition of.
+    fn condition_command(&mut self, command: &Command) -> std::result::Result<(), String> {
+        let Command::Condition { name } = command else {
+            return Ok(());
+        };
+        if !self.conditions.iter().any(|c| &c.0 == name) {
+            let names: Vec<&str> = self.conditions.iter().map(|c| c.0.as_str()).collect();
+            return Err(format!(
+                "no condition called {name:?} (the display config's [[condition]] names: {})",
+                names_or_none(&names)
+            ));
+        }
+        self.switch_condition(name);
+        self.events.push(format!("condition {name}"));
+        Ok(())
     }
 
     /// The names of the display's moving objects (`show`/`hide` refuse any other).
@@ -141,7 +202,9 @@ impl<'p> Session<'p> {
             }
         }
         for p in control.take() {
-            if let Err(error) = self.object_command(&p.command) {
+            let checked =
+                (self.object_command(&p.command)).and_then(|_| self.condition_command(&p.command));
+            if let Err(error) = checked {
                 let reply = p.refuse(&error);
                 if self.lsl.is_some() {
                     self.markers.push(reply);
@@ -178,7 +241,8 @@ impl<'p> Session<'p> {
                 Command::Show { .. }
                 | Command::Hide { .. }
                 | Command::Shadows { .. }
-                | Command::Reflections { .. } => {}
+                | Command::Reflections { .. }
+                | Command::Condition { .. } => {}
             }
             self.pending.push(p);
         }
@@ -192,7 +256,7 @@ impl<'p> Session<'p> {
                 if !self.objects.contains(object) {
                     return Err(format!(
                         "no moving object called {object:?} (the display config's [[object]] names: {})",
-                        if self.objects.is_empty() { "none".into() } else { self.objects.join(", ") }
+                        names_or_none(&self.objects)
                     ));
                 }
                 ObjectChange::Visible(object.clone(), matches!(command, Command::Show { .. }))
@@ -270,6 +334,7 @@ impl<'p> Session<'p> {
         let events = std::mem::take(&mut self.events);
         record.events = events.join("; ");
         (record.block, record.trial) = self.trial;
+        record.condition.clone_from(&self.condition);
         if let (Some(log), true) = (self.log.as_deref_mut(), self.logging) {
             log.record(&record)?;
         }
@@ -310,6 +375,7 @@ impl<'p> Session<'p> {
                     "logging".into(),
                     (self.log.is_some() && self.logging).into(),
                 );
+                extra.insert("condition".into(), self.condition.clone().into());
             }
             let command = serde_json::to_value(&p.command).unwrap_or_default();
             let reply = p.ack(record.frame, extra);
@@ -353,6 +419,7 @@ mod tests {
             pose_to_photon_ms: None,
             views: Vec::new(),
             events: String::new(),
+            condition: String::new(),
         }
     }
 
@@ -450,5 +517,51 @@ mod tests {
             assert_eq!(ack["ok"].as_bool(), Some(true), "{ack}");
             assert!(ack["frame"].as_u64().is_some());
         }
+    }
+
+    #[test]
+    fn a_condition_switches_with_its_start_pose_and_an_unknown_one_is_refused() {
+        let server = ControlServer::bind("127.0.0.1:0").unwrap();
+        let start = (Vec3::new(0.0, 0.0, 2.6), 15.0);
+        let conditions = vec![("gi-on".to_string(), None), ("gi-off".into(), Some(start))];
+        let mut session = Session::new(None, Some(&server)).with_conditions(conditions);
+        // the first is in effect from the first frame, for the display to bind
+        assert_eq!(session.condition(), "gi-on");
+        assert_eq!(session.take_condition().as_deref(), Some("gi-on"));
+        let mut client = std::net::TcpStream::connect(server.addr).unwrap();
+        client
+            .set_read_timeout(Some(Duration::from_millis(20)))
+            .unwrap();
+        let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+        let (mut frame, mut walls) = (0, Vec::new());
+        writeln!(client, r#"{{"cmd": "condition", "name": "sepia"}}"#).unwrap();
+        // refused as the frame takes it: nothing pending, the reply at once
+        let mut line = String::new();
+        for f in 0..400 {
+            session.begin_frame();
+            session.end_frame(record(f), None).unwrap();
+            if replies.read_line(&mut line).is_ok_and(|n| n > 0) {
+                break;
+            }
+        }
+        let refused: serde_json::Value = serde_json::from_str(&line).unwrap();
+        assert_eq!(refused["ok"], false);
+        let error = refused["error"].as_str().unwrap();
+        assert!(
+            error.contains("sepia") && error.contains("gi-on, gi-off"),
+            "{error}"
+        );
+        assert_eq!(session.take_condition(), None, "nothing changed");
+        assert_eq!(session.condition(), "gi-on");
+        client.set_read_timeout(None).unwrap();
+        writeln!(client, r#"{{"cmd": "condition", "name": "gi-off"}}"#).unwrap();
+        let switched = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        assert_eq!(switched["ok"], true);
+        assert_eq!(session.take_condition().as_deref(), Some("gi-off"));
+        let pose = session.pose(record(0).pose, Instant::now());
+        assert_eq!((pose.room_position, pose.room_yaw_deg), start);
+        writeln!(client, r#"{{"cmd": "state"}}"#).unwrap();
+        let state = until_reply(&mut session, &mut frame, &mut replies, &mut walls);
+        assert_eq!(state["condition"], "gi-off", "{state}");
     }
 }

@@ -21,6 +21,7 @@ pub use times::{
 };
 pub use views::{labels, wall_views, ViewLabel, WallView};
 
+use super::conditions::Conditions;
 use super::post::{Draw, Outputs, WandOverlay};
 use super::DisplayConfig;
 use crate::dynamic::{Objects, Tracked};
@@ -112,18 +113,26 @@ pub struct FrameOfViews<'a> {
     object_time: f64,
     /// their shadows on the scene, their reflections in its mirrors (a study switches them)
     object_switches: (bool, bool),
+    /// a study's conditions (their light fields added to the renderer), the one in effect, and
+    /// the exposure of what is shown (the condition's; 1 without)
+    conditions: Option<&'a Conditions>,
+    condition: Option<usize>,
+    exposure: f32,
 }
 
 impl<'a> FrameOfViews<'a> {
     /// A display's every wall and eye (`wall_views`), their outputs (`warp::load_outputs`; the
     /// pass after rendering only where needed, `Outputs::needed`) and, with `fit_frame_time`,
     /// the fit probed on the views of the first pose of `poses`. Timestamps are read serially.
+    /// With `conditions` (`super::conditions`), their light fields are bound beside `lf`'s
+    /// and the initial condition is in effect from the first frame (and the fit's probes).
     pub fn cave(
         (lf, resident): (&'a LightField, &ResidentLightField),
         config: &'a DisplayConfig,
         config_path: &Path,
         poses: &PoseSource,
         slots: Slots,
+        conditions: Option<&'a Conditions>,
     ) -> Result<FrameOfViews<'a>> {
         let ctx = resident.ctx.clone();
         let objects = match config.objects.is_empty() {
@@ -137,6 +146,9 @@ impl<'a> FrameOfViews<'a> {
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
         renderer.set_first_hits(config.first_hits)?;
+        for f in conditions.iter().flat_map(|c| &c.fields) {
+            renderer.add_light_field(&f.resident, &f.lf, &MemoryLedger::default())?;
+        }
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
         let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
@@ -170,7 +182,13 @@ impl<'a> FrameOfViews<'a> {
             objects,
             object_time: 0.0,
             object_switches: (true, true),
+            conditions,
+            condition: None,
+            exposure: 1.0,
         };
+        if let Some(c) = conditions {
+            frame.set_condition(&c.list[c.initial].name)?;
+        }
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
             // (the hands untracked, as before the first frame of a live source)
@@ -215,6 +233,9 @@ impl<'a> FrameOfViews<'a> {
             objects,
             object_time: 0.0,
             object_switches: (true, true),
+            conditions: None,
+            condition: None,
+            exposure: 1.0,
         }
     }
 
@@ -246,6 +267,60 @@ impl<'a> FrameOfViews<'a> {
         }
         let (shadows, in_mirrors) = self.object_switches;
         self.renderer.set_object_switches(shadows, in_mirrors);
+    }
+
+    /// A study's condition from the next frame drawn: its light field bound, its exposure, its
+    /// moving objects shown or hidden, their shadows and reflections (`super::conditions`; its
+    /// start pose is the session's, `crate::study::Session`). Everything was made before the
+    /// first frame: this only rebinds. Err for a name the display has no condition of.
+    pub fn set_condition(&mut self, name: &str) -> Result<()> {
+        let Some(conditions) = self.conditions else {
+            return Err(VlfError::Display(format!(
+                "condition {name:?}: the display config has no [[condition]]"
+            )));
+        };
+        let k = conditions
+            .index(name)
+            .ok_or_else(|| VlfError::Display(format!("no condition called {name:?}")))?;
+        let c = &conditions.list[k];
+        self.renderer.use_light_field(conditions.field_of[k])?;
+        self.exposure = c.exposure;
+        let names: Vec<String> = (self.objects.iter())
+            .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
+            .collect();
+        let mut changes: Vec<ObjectChange> = (names.into_iter())
+            .map(|n| {
+                let shown = c.objects_visible.as_ref().is_none_or(|v| v.contains(&n));
+                ObjectChange::Visible(n, shown)
+            })
+            .collect();
+        changes.push(ObjectChange::Shadows(c.shadows));
+        changes.push(ObjectChange::Reflections(c.reflections));
+        self.change_objects(&changes);
+        self.condition = Some(k);
+        Ok(())
+    }
+
+    /// What a study's script changed this frame (`crate::study::Session`): its condition and its
+    /// changes to the moving objects, from the next frame drawn.
+    pub fn take_study_changes(&mut self, session: &mut crate::study::Session<'_>) -> Result<()> {
+        if let Some(name) = session.take_condition() {
+            self.set_condition(&name)?;
+        }
+        self.change_objects(&session.take_object_changes());
+        Ok(())
+    }
+
+    /// The condition in effect (None: the display has none).
+    pub fn condition(&self) -> Option<&str> {
+        let (c, k) = (self.conditions?, self.condition?);
+        Some(c.list[k].name.as_str())
+    }
+
+    /// The exposure of what the views show now (the condition's; 1 without conditions): the
+    /// windows and the PNGs written scale the linear radiance by it.
+    pub fn exposure(&self) -> f32 {
+        self.exposure
     }
 
     /// The time (seconds from the start of the run) that moves keyframed objects in the frames

@@ -38,12 +38,15 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::WindowId;
 
-pub struct WindowOptions {
+pub struct WindowOptions<'c> {
     /// stop after this many frames (None: until Esc or the windows close)
     pub frames: Option<u32>,
     /// after `frames`, keep the windows up (drawing, not timed) this long: for screenshots
     pub hold: Duration,
     pub exposure: f32,
+    /// the display's conditions with their light fields made (`super::conditions`), switched
+    /// by the script's `condition` command
+    pub conditions: Option<&'c super::conditions::Conditions>,
 }
 
 /// Open the windows and run the frame loop until Esc, closed windows or `options.frames`.
@@ -52,7 +55,7 @@ pub fn run(
     resident: &ResidentLightField,
     config: &DisplayConfig,
     config_path: &Path,
-    options: WindowOptions,
+    options: WindowOptions<'_>,
 ) -> Result<WindowReport> {
     let session = crate::study::Session::new(None, None);
     run_locked(lf, resident, config, config_path, options, None, session)
@@ -67,7 +70,7 @@ pub fn run_locked<'a>(
     resident: &'a ResidentLightField,
     config: &'a DisplayConfig,
     config_path: &Path,
-    options: WindowOptions,
+    options: WindowOptions<'a>,
     lock: Option<&'a mut dyn FrameLock>,
     session: crate::study::Session<'a>,
 ) -> Result<WindowReport> {
@@ -85,7 +88,16 @@ pub fn run_locked<'a>(
     let poses = config.pose_source(config_path)?;
     // every wall and eye rendered once a frame into its own image; warp, blend and the wand
     // ray as headless
-    let frame = FrameOfViews::cave((lf, resident), config, config_path, &poses, Slots::PerView)?;
+    let conditions = options.conditions;
+    let session = session.with_conditions(super::headless::studied(config, conditions));
+    let frame = FrameOfViews::cave(
+        (lf, resident),
+        config,
+        config_path,
+        &poses,
+        Slots::PerView,
+        conditions,
+    )?;
     let mut app = App {
         resident,
         config,
@@ -123,7 +135,7 @@ struct App<'a> {
     resident: &'a ResidentLightField,
     config: &'a DisplayConfig,
     poses: PoseSource,
-    options: WindowOptions,
+    options: WindowOptions<'a>,
     /// the renderer, every wall and eye (in the wall images' slot order) and the outputs drawn
     /// from them (`post.rs`, shared with headless), the pacing, and every timed frame's times
     frame: FrameOfViews<'a>,
@@ -186,6 +198,7 @@ impl App<'_> {
             pose_to_photon_ms: None,
             views: self.frame.drawn().to_vec(),
             events: String::new(),
+            condition: String::new(),
         };
         self.session.end_frame(record, None)
     }
@@ -234,8 +247,7 @@ impl App<'_> {
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         self.session.begin_frame();
-        self.frame
-            .change_objects(&self.session.take_object_changes());
+        self.frame.take_study_changes(&mut self.session)?;
         let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
         let mut held = held;
         if let Some(lock) = self.lock.as_deref_mut() {

@@ -244,6 +244,8 @@ impl App<'_> {
         flash: Option<bool>,
     ) -> Result<Vec<wgpu::SurfaceTexture>> {
         let present = self.present.as_ref().expect("windows open");
+        // the condition's exposure on the display's (`--exposure`)
+        let exposure = self.options.exposure * self.frame.exposure();
         let mut outputs = Vec::new();
         for w in &mut self.windows {
             let Some(texture) = next_texture(ctx, w)? else {
@@ -255,7 +257,7 @@ impl App<'_> {
                 let params = GpuPresent {
                     viewport_origin: origin,
                     viewport_size: size,
-                    exposure: self.options.exposure,
+                    exposure,
                     encode_srgb: (!present.surface_is_srgb) as u32,
                     show_overlay: (self.status.is_some() && p.part < 2) as u32,
                     _pad0: 0,

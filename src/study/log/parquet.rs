@@ -106,7 +106,7 @@ fn held_columns(
 
 /// `rows` as one batch, its columns in frames.csv's order (`names`), typed: counts as u32 (the
 /// frame u64), positions, rotations and shares as f32, times as f64 (null where the CSV is
-/// empty), `drawn` and `events` as text.
+/// empty), `drawn`, `condition` and `events` as text.
 fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     let mut columns: Vec<ArrayRef> = vec![
         Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.frame))),
@@ -139,6 +139,9 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     columns.push(opt_f64s(rows, |r| r.pose_to_submit_ms));
     columns.push(opt_f64s(rows, |r| r.pose_to_photon_ms));
     columns.extend(held_columns(rows, |r| r.left_hand.as_ref()));
+    columns.push(Arc::new(StringArray::from_iter_values(
+        rows.iter().map(|r| r.condition.as_str()),
+    )));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -197,6 +200,7 @@ mod tests {
             pose_to_photon_ms: Some(8.5),
             views: Vec::new(),
             events: "a \"quoted\" event".into(),
+            condition: "gi-off".into(),
         }
     }
 
@@ -235,5 +239,8 @@ mod tests {
         let events = batch.column_by_name("events").unwrap();
         let events = events.as_any().downcast_ref::<StringArray>().unwrap();
         assert_eq!(events.value(1), "a \"quoted\" event");
+        let condition = batch.column_by_name("condition").unwrap();
+        let condition = condition.as_any().downcast_ref::<StringArray>().unwrap();
+        assert_eq!(condition.value(0), "gi-off");
     }
 }

@@ -1,0 +1,344 @@
+//! A study's named conditions (the display TOML's `[[condition]]` tables): sets of settings an
+//! experiment script switches between trials with one command (`{"cmd": "condition", "name":
+//! ...}`, `crate::study`). A condition says which light field is drawn (global illumination
+//! on, or direct light only; the `--scene` or another light field of the same geometry), the
+//! exposure of what the walls show, which moving objects are shown and whether they cast
+//! shadows and show in mirrors, and where the room starts. Everything a condition needs is made
+//! before the first frame (`Conditions::prepare`: every light field propagated or loaded and
+//! resident on the GPU), so that a switch rebinds at a frame boundary and adds no work to any
+//! frame.
+//!
+//! Direct light only is the scene propagated with one shooting iteration: the first iteration
+//! puts on every diffuse texel the emitters' light and the sky's, in closed form with shadow
+//! rays (`propagate/direct.rs`), and nothing that has bounced; the emitters keep their own
+//! radiance, and mirrors are still traced at drawing time (they show the direct-lit scene).
+
+use crate::error::{names_or_none, Result, VlfError};
+use crate::lightfield::{LightField, ResidentLightField};
+use crate::tracking::StartPose;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// One `[[condition]]` table. A key left out takes its default: global illumination on, the
+/// `--scene`'s light field, exposure 1, every object shown, shadows and reflections on; the
+/// room stays where it is unless `start_pose` is given.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ConditionConfig {
+    /// the name a script switches to (letters, digits, `-`, `_`, `.`)
+    pub name: String,
+    /// false: direct light only (the emitters and their first bounce, with shadows; no
+    /// interreflection); mirrors are still traced
+    #[serde(default = "yes")]
+    pub global_illumination: bool,
+    /// another light field to draw: a `.vlf`, or a scene propagated at start with the
+    /// `--scene`'s settings; relative to the display TOML. It must have the `--scene`'s
+    /// geometry (its surfaces' light and materials may differ)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub light_field: Option<PathBuf>,
+    /// what the walls show is scaled by this (the PNGs a headless run and `vlf replay` write
+    /// too; radiance read back and EXR stay linear)
+    #[serde(default = "one")]
+    pub exposure: f32,
+    /// the moving objects shown (`[[object]]` names); left out: all of them
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects_visible: Option<Vec<String>>,
+    /// the moving objects' shadows on the scene
+    #[serde(default = "yes")]
+    pub shadows: bool,
+    /// the moving objects in the scene's mirrors
+    #[serde(default = "yes")]
+    pub reflections: bool,
+    /// where the room stands in the scene from the switch on (as `teleport`); left out: where
+    /// it is
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_pose: Option<StartPose>,
+}
+
+fn yes() -> bool {
+    true
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+/// The keys a `[[condition]]` table takes.
+pub const KEYS: [&str; 8] = [
+    "name",
+    "global_illumination",
+    "light_field",
+    "exposure",
+    "objects_visible",
+    "shadows",
+    "reflections",
+    "start_pose",
+];
+
+/// Where a display TOML did not parse: an unknown key in one of its `[[condition]]` tables,
+/// named with its condition (toml's own message names the key and the line only).
+pub fn unknown_key(text: &str) -> Option<String> {
+    let table: toml::Table = toml::from_str(text).ok()?;
+    let conditions = table.get("condition")?.as_array()?;
+    for (i, c) in conditions.iter().enumerate() {
+        let Some(c) = c.as_table() else { continue };
+        let name = c.get("name").and_then(|n| n.as_str()).unwrap_or("");
+        if let Some(key) = c.keys().find(|k| !KEYS.contains(&k.as_str())) {
+            return Some(format!(
+                "condition[{i}] ({name:?}).{key}: unknown key; a [[condition]] takes {}",
+                KEYS.join(", ")
+            ));
+        }
+    }
+    None
+}
+
+/// The conditions' checks, each naming the condition and the key; `objects`: the display's
+/// `[[object]]` names; `default`: `default_condition`.
+pub fn check(
+    conditions: &[ConditionConfig],
+    default: Option<&str>,
+    objects: &[String],
+) -> std::result::Result<(), String> {
+    for (i, c) in conditions.iter().enumerate() {
+        let at = format!("condition[{i}] ({:?})", c.name);
+        let name_ok = !c.name.is_empty()
+            && (c.name.chars()).all(|ch| ch.is_ascii_alphanumeric() || "-_.".contains(ch));
+        if !name_ok {
+            return Err(format!(
+                "{at}.name: use letters, digits, '-', '_' and '.' (the name goes into the session log's CSV)"
+            ));
+        }
+        if conditions[..i].iter().any(|p| p.name == c.name) {
+            return Err(format!("{at}.name: two conditions share this name"));
+        }
+        if !(c.exposure.is_finite() && c.exposure > 0.0) {
+            return Err(format!(
+                "{at}.exposure: {} must be a positive number (1: as propagated)",
+                c.exposure
+            ));
+        }
+        for name in c.objects_visible.iter().flatten() {
+            if !objects.contains(name) {
+                return Err(format!(
+                    "{at}.objects_visible: no [[object]] called {name:?} (there are: {})",
+                    names_or_none(objects)
+                ));
+            }
+        }
+        if let Some(p) = &c.start_pose {
+            if !(p.position.iter().all(|x| x.is_finite()) && p.yaw_deg.is_finite()) {
+                return Err(format!("{at}.start_pose: must be finite numbers"));
+            }
+        }
+    }
+    if let Some(name) = default {
+        if !conditions.iter().any(|c| c.name == name) {
+            let names: Vec<&str> = conditions.iter().map(|c| c.name.as_str()).collect();
+            return Err(format!(
+                "default_condition: no [[condition]] called {name:?} (there are: {})",
+                names_or_none(&names)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A light field the conditions draw besides the `--scene`'s, and what it was made from.
+pub struct ConditionField {
+    /// the scene or .vlf (absolute where it could be resolved), and whether with global
+    /// illumination
+    pub source: PathBuf,
+    pub global_illumination: bool,
+    pub lf: LightField,
+    pub resident: ResidentLightField,
+}
+
+impl ConditionField {
+    /// A line for the start-up messages: what it is and its GPU memory.
+    pub fn describe(&self) -> String {
+        format!(
+            "{}{}: {:.1} MiB resident",
+            self.source.display(),
+            if self.global_illumination {
+                ""
+            } else {
+                " (direct light only)"
+            },
+            self.resident.ledger.total() as f64 / (1024.0 * 1024.0)
+        )
+    }
+}
+
+/// The display's conditions with their light fields made: everything a switch needs.
+pub struct Conditions {
+    pub list: Vec<ConditionConfig>,
+    /// the light fields besides the `--scene`'s (renderer field 0), field k + 1 each
+    pub fields: Vec<ConditionField>,
+    /// each condition's renderer field (0: the `--scene`'s)
+    pub field_of: Vec<usize>,
+    /// the condition in effect at the start (`default_condition`, else the first)
+    pub initial: usize,
+}
+
+/// The light field the run draws from its `--scene`: what it is made from (a `.vlf` or a
+/// scene), and the light field itself (its settings propagate the conditions' scenes).
+#[derive(Clone, Copy)]
+pub struct MainField<'a> {
+    pub source: &'a Path,
+    pub lf: &'a LightField,
+    pub resident: &'a ResidentLightField,
+}
+
+impl Conditions {
+    /// Make every light field the display's conditions draw (None: the display has none),
+    /// reporting each (and its resident memory) to `progress`. Scenes are propagated with the main
+    /// light field's settings (`LightFieldMeta::params`); direct light only with one shooting
+    /// iteration and no geometric tail. Propagation repeats bit for bit, so `vlf replay` makes
+    /// the same ones.
+    pub fn prepare(
+        config: &super::DisplayConfig,
+        config_path: &Path,
+        main: MainField<'_>,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Option<Conditions>> {
+        if config.conditions.is_empty() {
+            return Ok(None);
+        }
+        let base = config_path.parent().unwrap_or(Path::new("."));
+        let absolute = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+        let main_source = absolute(main.source);
+        let mut fields: Vec<ConditionField> = Vec::new();
+        let mut field_of = Vec::new();
+        for c in &config.conditions {
+            let source = match &c.light_field {
+                Some(p) => absolute(&base.join(p)),
+                None => main_source.clone(),
+            };
+            if source == main_source && c.global_illumination {
+                field_of.push(0);
+                continue;
+            }
+            let known = (fields.iter())
+                .position(|f| f.source == source && f.global_illumination == c.global_illumination);
+            let k = match known {
+                Some(k) => k,
+                None => {
+                    let field = make_field(&source, c, main, progress)?;
+                    check_same_geometry(main.lf, &field.lf, &c.name, &source)?;
+                    fields.push(field);
+                    fields.len() - 1
+                }
+            };
+            field_of.push(k + 1);
+        }
+        let mib = |r: &ResidentLightField| r.ledger.total() as f64 / (1024.0 * 1024.0);
+        progress.note(&format!(
+            "conditions: {} ({}); light fields on the GPU: {}: {:.1} MiB resident",
+            config.conditions.len(),
+            (config.conditions.iter())
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            main_source.display(),
+            mib(main.resident)
+        ));
+        for f in &fields {
+            progress.note(&format!("conditions: light field {}", f.describe()));
+        }
+        let initial = (config.default_condition.as_ref())
+            .and_then(|d| config.conditions.iter().position(|c| &c.name == d))
+            .unwrap_or(0);
+        Ok(Some(Conditions {
+            list: config.conditions.clone(),
+            fields,
+            field_of,
+            initial,
+        }))
+    }
+
+    /// The index of the condition called `name`.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.list.iter().position(|c| c.name == name)
+    }
+
+    /// Every light field's resident bytes, the `--scene`'s first (`main`).
+    pub fn resident_bytes(&self, main: &ResidentLightField) -> Vec<u64> {
+        std::iter::once(main.ledger.total())
+            .chain(self.fields.iter().map(|f| f.resident.ledger.total()))
+            .collect()
+    }
+}
+
+/// Load or propagate one condition's light field from `source`.
+fn make_field(
+    source: &Path,
+    c: &ConditionConfig,
+    main: MainField<'_>,
+    progress: &dyn crate::progress::Progress,
+) -> Result<ConditionField> {
+    let ctx = main.resident.ctx.clone();
+    let gi = c.global_illumination;
+    let lf = if crate::lightfield::file::is_vlf_path(source) {
+        if !gi {
+            return Err(VlfError::Display(format!(
+                "condition {:?}: global_illumination = false propagates a scene with one iteration, and {} is a .vlf: give the scene (scene.toml or glTF) as --scene or as the condition's light_field",
+                c.name,
+                source.display()
+            )));
+        }
+        progress.note(&format!(
+            "conditions: loading {} for {:?}",
+            source.display(),
+            c.name
+        ));
+        crate::lightfield::file::load(source)?
+    } else {
+        let scene = crate::scene::Scene::load(source)?;
+        let mut params = main.lf.meta.params.clone();
+        if !gi {
+            params.max_iterations = 1;
+            params.accelerate = false;
+        }
+        progress.note(&format!(
+            "conditions: propagating {}{} for {:?}",
+            source.display(),
+            if gi {
+                ""
+            } else {
+                " with one iteration (direct light only)"
+            },
+            c.name
+        ));
+        crate::propagate::propagate(ctx.clone(), &scene, &params, progress)?.0
+    };
+    let resident = lf.upload(ctx)?;
+    Ok(ConditionField {
+        source: source.to_path_buf(),
+        global_illumination: gi,
+        lf,
+        resident,
+    })
+}
+
+/// A condition's light field draws through the `--scene`'s geometry (the renderer's triangles
+/// and tree): refuse one of other geometry, naming the condition.
+fn check_same_geometry(
+    main: &LightField,
+    other: &LightField,
+    name: &str,
+    source: &Path,
+) -> Result<()> {
+    let same = bytemuck::cast_slice::<_, u8>(&main.render_vertices)
+        == bytemuck::cast_slice::<_, u8>(&other.render_vertices)
+        && main.tiles.is_some() == other.tiles.is_some()
+        && main.mirror_chains().tiles_needed == other.mirror_chains().tiles_needed
+        && main.detail.is_some() == other.detail.is_some();
+    if same {
+        return Ok(());
+    }
+    Err(VlfError::Display(format!(
+        "condition {name:?}: the light field of {} has other geometry than --scene's (its triangles, mirrors or textures differ): a condition switches the light on the same geometry; a scene of other geometry needs a run of its own",
+        source.display()
+    )))
+}
