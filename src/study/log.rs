@@ -15,7 +15,7 @@ pub mod parquet;
 
 use crate::error::{Result, VlfError};
 use crate::render::budget::ViewSettings;
-use crate::tracking::pose::{Pose, WandPose};
+use crate::tracking::pose::{Pose, RawPoses, WandPose};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -23,8 +23,9 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
-/// left hand's columns after it; `SessionLog::read` reads 1 and 2 too (without them).
-pub const LOG_FORMAT: u32 = 3;
+/// left hand's columns after it, 4 `object_time_s` and the raw (uncalibrated) poses after
+/// those; `SessionLog::read` reads 1 to 3 too (without them).
+pub const LOG_FORMAT: u32 = 4;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -98,6 +99,12 @@ pub struct FrameRecord {
     /// from the same to the frame's predicted photons (its GPU end plus one refresh period),
     /// ms (None where not shown: a frame read back)
     pub pose_to_photon_ms: Option<f64>,
+    /// the time that moved the keyframed objects in this frame, seconds (`FrameOfViews::
+    /// set_object_time`; None in a log before format 4)
+    pub object_time_s: Option<f64>,
+    /// the head, wand and left hand as the tracker sent them, before the calibration (none
+    /// from a source without a tracker frame: static, scripted)
+    pub raw: RawPoses,
     /// each view's settings, in `SessionMeta::views` order
     pub views: Vec<ViewSettings>,
     /// what happened at this frame (free text; empty for none)
@@ -105,7 +112,7 @@ pub struct FrameRecord {
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 36] = [
+const FRAME_COLUMNS: [(&str, &str); 61] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -187,14 +194,64 @@ const FRAME_COLUMNS: [(&str, &str); 36] = [
     ("left_hand_qy", "left hand rotation, quaternion y"),
     ("left_hand_qz", "left hand rotation, quaternion z"),
     ("left_hand_qw", "left hand rotation, quaternion w"),
+    (
+        "object_time_s",
+        "the time that placed the keyframed moving objects in this frame, seconds (replay draws them at it)",
+    ),
+    (
+        "raw_head",
+        "1 where the tracker has sent a head, else 0 (static and scripted sources have none; its columns then 0)",
+    ),
+    (
+        "raw_head_x",
+        "head position as the tracker sent it, before [tracking.calibration]: the tracker's frame and units",
+    ),
+    ("raw_head_y", "raw head position, tracker units"),
+    ("raw_head_z", "raw head position, tracker units"),
+    (
+        "raw_head_qx",
+        "raw head rotation in the tracker's frame, quaternion x (the last one sent; identity before one)",
+    ),
+    ("raw_head_qy", "raw head rotation, quaternion y"),
+    ("raw_head_qz", "raw head rotation, quaternion z"),
+    ("raw_head_qw", "raw head rotation, quaternion w"),
+    (
+        "raw_wand",
+        "1 where the tracker has sent a wand, else 0 (its columns then 0)",
+    ),
+    (
+        "raw_wand_x",
+        "wand position as the tracker sent it, before calibration, tracker units",
+    ),
+    ("raw_wand_y", "raw wand position, tracker units"),
+    ("raw_wand_z", "raw wand position, tracker units"),
+    ("raw_wand_qx", "raw wand rotation, quaternion x"),
+    ("raw_wand_qy", "raw wand rotation, quaternion y"),
+    ("raw_wand_qz", "raw wand rotation, quaternion z"),
+    ("raw_wand_qw", "raw wand rotation, quaternion w"),
+    (
+        "raw_left_hand",
+        "1 where the tracker has sent a left hand, else 0 (its columns then 0)",
+    ),
+    (
+        "raw_left_hand_x",
+        "left hand position as the tracker sent it, before calibration, tracker units",
+    ),
+    ("raw_left_hand_y", "raw left hand position, tracker units"),
+    ("raw_left_hand_z", "raw left hand position, tracker units"),
+    ("raw_left_hand_qx", "raw left hand rotation, quaternion x"),
+    ("raw_left_hand_qy", "raw left hand rotation, quaternion y"),
+    ("raw_left_hand_qz", "raw left hand rotation, quaternion z"),
+    ("raw_left_hand_qw", "raw left hand rotation, quaternion w"),
 ];
 
 /// How many of `FRAME_COLUMNS` a log of `format` has: 1 lacks pose_to_photon_ms, 2 the left
-/// hand's eight.
+/// hand's eight, 3 object_time_s and the raw poses.
 fn frame_columns(format: u32) -> usize {
     match format {
         1 => 27,
         2 => 28,
+        3 => 36,
         _ => FRAME_COLUMNS.len(),
     }
 }
@@ -402,6 +459,10 @@ fn row_text(r: &FrameRecord) -> String {
     cells.push(opt(r.pose_to_submit_ms));
     cells.push(opt(r.pose_to_photon_ms));
     cells.extend(held_cells(r.left_hand.as_ref()));
+    cells.push(opt(r.object_time_s));
+    for raw in [r.raw.head, r.raw.wand, r.raw.left_hand] {
+        cells.extend(held_cells(raw.as_ref()));
+    }
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -491,6 +552,12 @@ fn parse_row(
         trial: u(25)?,
         pose_to_submit_ms: opt(26)?,
         pose_to_photon_ms: if frame_columns > 27 { opt(27)? } else { None },
+        object_time_s: if frame_columns > 36 { opt(36)? } else { None },
+        raw: RawPoses {
+            head: held(37)?,
+            wand: held(45)?,
+            left_hand: held(53)?,
+        },
         views,
         events,
     })
@@ -532,6 +599,18 @@ mod tests {
             trial: 7,
             pose_to_submit_ms: Some(0.731),
             pose_to_photon_ms: Some(9.125),
+            object_time_s: Some(0.25 * frame as f64 + 1.0 / 3.0),
+            raw: RawPoses {
+                head: Some(WandPose {
+                    position: Vec3::new(120.5, -300.25, 1710.0),
+                    rotation: Quat::from_rotation_z(0.4),
+                }),
+                wand: wand.then(|| WandPose {
+                    position: Vec3::new(200.0, 500.0, 1200.0),
+                    rotation: Quat::from_rotation_x(0.1),
+                }),
+                left_hand: None,
+            },
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
         }
@@ -564,7 +643,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 36 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 61 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
@@ -588,11 +667,16 @@ mod tests {
     }
 
     #[test]
-    fn format_1_and_2_logs_without_the_newer_columns_still_read() {
-        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's;
-        // format 2: the frame's columns end at pose_to_photon_ms
+    fn format_1_to_3_logs_without_the_newer_columns_still_read() {
+        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor anything after it;
+        // format 2: the frame's columns end at pose_to_photon_ms; 3: at the left hand's
         let photon = record(0, true).pose_to_photon_ms;
-        for (format, dropped, pose_to_photon_ms) in [(1, 27..36, None), (2, 28..36, photon)] {
+        let hand = record(0, true).left_hand;
+        for (format, dropped, pose_to_photon_ms, left_hand) in [
+            (1, 27..61, None, None),
+            (2, 28..61, photon, None),
+            (3, 36..61, photon, hand),
+        ] {
             let dir = tempfile::tempdir().unwrap();
             {
                 let mut log = SessionLog::create(dir.path(), meta()).unwrap();
@@ -602,7 +686,9 @@ mod tests {
             let back = SessionLog::read(dir.path()).unwrap().1;
             let expect = FrameRecord {
                 pose_to_photon_ms,
-                left_hand: None,
+                left_hand,
+                object_time_s: None,
+                raw: RawPoses::default(),
                 ..record(0, true)
             };
             assert_eq!(back, [expect], "format {format}");
