@@ -694,6 +694,30 @@ fn conditions_display(dir: &std::path::Path) -> std::path::PathBuf {
     config
 }
 
+/// A 0.2 m cube as OBJ text.
+const CUBE_OBJ: &str = "v -0.1 -0.1 -0.1\nv 0.1 -0.1 -0.1\nv 0.1 0.1 -0.1\nv -0.1 0.1 -0.1\n\
+v -0.1 -0.1 0.1\nv 0.1 -0.1 0.1\nv 0.1 0.1 0.1\nv -0.1 0.1 0.1\n\
+f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
+
+/// A one-wall display (64x48 pixels, 10 Hz, static head looking into the Cornell box) with
+/// `objects` (TOML), in `dir`; the cube's mesh beside it.
+fn small_display(dir: &std::path::Path, objects: &str) -> std::path::PathBuf {
+    std::fs::write(dir.join("cube.obj"), CUBE_OBJ).unwrap();
+    let config = dir.join("small.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "name = \"replay\"\nrefresh_hz = 10\n[start_pose]\nposition = [0.0, 0.0, 2.2]\n\
+             [tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n[[wall]]\nname = \"front\"\n\
+             lower_left = [-0.3, 1.0, 0.0]\nlower_right = [0.3, 1.0, 0.0]\n\
+             upper_left = [-0.3, 1.45, 0.0]\npixels = [64, 48]\n\
+             output = {{ monitor = 0, window = [100, 100] }}\n{objects}"
+        ),
+    )
+    .unwrap();
+    config
+}
+
 /// Mean radiance (r+g+b) of the ceiling seen through the box's front in the 48x48 view of
 /// `conditions_display`: the top rows (world y 1.83 to 2.0 on the wall), left and right of the
 /// light (wall x 0.2 to 0.4 from the middle), where the eye ray meets the ceiling's front half.
@@ -804,4 +828,335 @@ fn an_experiment_script_switches_conditions_and_replay_draws_each_frame_in_its_o
     let (on, off) = (ceiling_radiance(&gi_on), ceiling_radiance(&gi_off));
     eprintln!("the ceiling's mean radiance (r+g+b): {on:.4} with global illumination, {off:.4} with direct light only");
     assert!(on > 0.05 && off < 0.2 * on, "gi-on {on}, gi-off {off}");
+}
+
+/// The keyframed cube of `small_display`: across the box in 0.3 s.
+const MOVING_CUBE: &str = "[[object]]\nname = \"cube\"\nmesh = \"cube.obj\"\n\
+[[object.keyframe]]\nt = 0.0\nposition = [-0.5, 1.1, 0.5]\n\
+[[object.keyframe]]\nt = 0.3\nposition = [0.5, 1.3, 0.5]\nyaw_deg = 60.0\n";
+
+fn read_png(path: &std::path::Path) -> image::RgbImage {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgb8()
+}
+
+/// The names of the files in `dir` that contain `part`.
+fn names_with(dir: &std::path::Path, part: &str) -> Vec<String> {
+    (std::fs::read_dir(dir).unwrap())
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(part))
+        .collect()
+}
+
+fn differing(a: &image::RgbImage, b: &image::RgbImage) -> usize {
+    assert_eq!(a.dimensions(), b.dimensions());
+    (a.pixels().zip(b.pixels())).filter(|(p, q)| p != q).count()
+}
+
+/// A keyframed object moves with the frames' object time (frame / refresh_hz headless): the log
+/// has the time each frame used (`object_time_s`) and `vlf replay` poses the object at it, so
+/// the replayed last frame is pixel-identical to the live one; drawn at time 0 (as a log
+/// without the column would be) the cube is elsewhere.
+#[test]
+fn a_keyframed_object_replays_at_its_logged_time() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = small_display(dir.path(), MOVING_CUBE);
+    let (lf, resident, meta, records) = logged_cornell_run(dir.path(), &config, 4);
+    let times: Vec<Option<f64>> = records.iter().map(|r| r.object_time_s).collect();
+    assert_eq!(times, [Some(0.0), Some(0.1), Some(0.2), Some(0.3)]);
+    assert!(meta.columns.iter().any(|(n, _)| n == "object_time_s"));
+    let live = dir.path().join("live/front-mono.exr");
+    let again = vlf::display::replay::replay(
+        (&lf, &resident),
+        &meta,
+        &records[3..],
+        (&dir.path().join("again"), true),
+        &Silent,
+    )
+    .unwrap();
+    same_pixels(&live, &again[0].join("front-mono.exr"));
+    let at_zero = vlf::study::FrameRecord {
+        object_time_s: None,
+        ..records[3].clone()
+    };
+    let start = vlf::display::replay::replay(
+        (&lf, &resident),
+        &meta,
+        &[at_zero],
+        (&dir.path().join("start"), false),
+        &Silent,
+    )
+    .unwrap();
+    let moved = differing(
+        &read_png(&again[0].join("front-mono.png")),
+        &read_png(&start[0].join("front-mono.png")),
+    );
+    eprintln!("keyframed cube: {moved} of 3072 pixels differ between 0 s and 0.3 s");
+    assert!(
+        moved > 30,
+        "the cube at 0 s and 0.3 s: {moved} pixels differ"
+    );
+}
+
+/// `vlf replay --video`: an MP4 that ffprobe reads, one frame per logged frame at the view's
+/// size; `--overlay` changes the PNG only in the text's band, and only when asked; without
+/// ffmpeg on the PATH the replay fails saying how to install it and leaves no file.
+#[test]
+fn a_replay_goes_to_a_video_with_the_events_overlaid() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = small_display(dir.path(), MOVING_CUBE);
+    let (_, _, _, records) = logged_cornell_run(dir.path(), &config, 4);
+    let log_dir = dir.path().join("log");
+    let video = dir.path().join("replay.mp4");
+    let replay = |args: &[&str], path: Option<&str>| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_vlf"));
+        c.arg("replay").arg(&log_dir).args(args);
+        if let Some(p) = path {
+            c.env("PATH", p);
+        }
+        c.output().unwrap()
+    };
+    let out = replay(
+        &[
+            "--video",
+            video.to_str().unwrap(),
+            "--view",
+            "front-mono",
+            "--overlay",
+            "--out",
+            dir.path().join("over").to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args([
+            "-show_entries",
+            "stream=nb_read_frames,width,height,codec_name,r_frame_rate",
+        ])
+        .args(["-of", "json"])
+        .arg(&video)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("ffprobe runs ({e}): `bash tools/setup.sh test` installs ffmpeg")
+        });
+    let probe: serde_json::Value = serde_json::from_slice(&probe.stdout).unwrap();
+    let stream = &probe["streams"][0];
+    assert_eq!(
+        (&stream["codec_name"], &stream["width"], &stream["height"]),
+        (&"h264".into(), &64.into(), &48.into()),
+        "{probe}"
+    );
+    assert_eq!(stream["nb_read_frames"], "4", "{probe}");
+    assert_eq!(stream["r_frame_rate"], "10/1", "the display's refresh_hz");
+    let leftovers = names_with(dir.path(), "partial");
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+
+    // the overlay: only its band differs from the live image, and the band is the text's
+    let plain = read_png(&dir.path().join("live/front-mono.png"));
+    let over = read_png(&dir.path().join("over/frame-000003/front-mono.png"));
+    let mut expect = plain.clone();
+    let lines = vlf::display::replay::overlay::lines(&records, &records[3]);
+    assert!(lines[0].starts_with("frame 3"), "{lines:?}");
+    let [_, _, x1, y1] = vlf::display::replay::overlay::draw(&mut expect, &lines);
+    assert_eq!(differing(&over, &expect), 0);
+    let inside = differing(&plain, &over);
+    eprintln!("overlay: band {x1}x{y1} pixels, {inside} of them changed; video {stream}");
+    assert!(inside > 50, "{inside} pixels of overlay");
+    for (x, y, p) in over.enumerate_pixels() {
+        if x >= x1 || y >= y1 {
+            assert_eq!(p, plain.get_pixel(x, y), "({x}, {y}) outside the band");
+        }
+    }
+    // not asked: the replayed PNG is the live one
+    let out = replay(
+        &[
+            "--frames",
+            "3",
+            "--out",
+            dir.path().join("plain").to_str().unwrap(),
+        ],
+        None,
+    );
+    assert!(out.status.success());
+    assert_eq!(
+        differing(
+            &plain,
+            &read_png(&dir.path().join("plain/frame-000003/front-mono.png"))
+        ),
+        0
+    );
+
+    // no ffmpeg: a clear error, no video, nothing half-written
+    let lost = dir.path().join("lost.mp4");
+    let out = replay(&["--video", lost.to_str().unwrap()], Some("/nonexistent"));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("apt-get install ffmpeg"),
+        "{err}"
+    );
+    let names = names_with(dir.path(), "lost");
+    assert!(names.is_empty(), "{names:?}");
+    // an unknown view is refused with the session's views
+    let out = replay(
+        &["--video", lost.to_str().unwrap(), "--view", "back-left"],
+        None,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("front-mono"), "{err}");
+}
+
+/// The third-person camera (`--third-person`, behind and above the logged head) sees the
+/// participant's avatar: the same camera over the same frame without the avatar (a display
+/// config without its `[[object]]`, the same views) differs where the body stands.
+#[test]
+fn a_third_person_camera_shows_the_avatar() {
+    let dir = tempfile::tempdir().unwrap();
+    let avatar = format!(
+        "[[object]]\nname = \"body\"\nkind = \"avatar\"\nmesh = {:?}\nscale = 0.7\n",
+        repo_path("assets/avatar/mannequin.glb")
+            .display()
+            .to_string()
+    );
+    let config = small_display(dir.path(), &avatar);
+    let (lf, resident, meta, records) = logged_cornell_run(dir.path(), &config, 2);
+    let camera = vlf::display::replay::ThirdPerson {
+        eye: None,
+        look_at: None,
+        fov_y_deg: 60.0,
+        size: [96, 64],
+    };
+    let third = |meta: &SessionMeta, out: &str| {
+        let out = dir.path().join(out);
+        let output = vlf::display::replay::ReplayOutput {
+            images: Some(&out),
+            camera: Some(camera),
+            ..Default::default()
+        };
+        let folders = vlf::display::replay::replay_with(
+            (&lf, &resident),
+            meta,
+            &records[1..],
+            &output,
+            &Silent,
+        )
+        .unwrap();
+        read_png(&folders[0].join("third-person.png"))
+    };
+    let with = third(&meta, "with");
+    assert_eq!(with.dimensions(), (96, 64));
+    std::fs::create_dir(dir.path().join("bare")).unwrap();
+    let bare = small_display(&dir.path().join("bare"), "");
+    let without = third(
+        &SessionMeta {
+            display_config: bare,
+            ..meta.clone()
+        },
+        "without",
+    );
+    let body = differing(&with, &without);
+    eprintln!("third person: the avatar changes {body} of 6144 pixels");
+    assert!(body > 100, "the avatar covers only {body} of 6144 pixels");
+}
+
+/// A live OSC tracker with a calibration that moves, turns and scales its poses: the session
+/// log keeps each frame's raw head and wand as the tracker sent them (the `raw_*` columns)
+/// beside the calibrated ones, and the calibrated are the calibration of the raw, bit for bit.
+#[test]
+fn raw_tracker_poses_are_logged_beside_the_calibrated_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let port = common::free_udp_port();
+    let config = dir.path().join("live.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "name = \"raw\"\n[start_pose]\nposition = [0.0, 0.0, 2.2]\n\
+             [tracking]\nsource = \"osc\"\nport = {port}\n[tracking.calibration]\n\
+             translation = [0.5, 0.0, -0.2]\nyaw_deg = 90.0\nunit_scale = 0.001\naxes = \"z_up\"\n\
+             [[wall]]\nname = \"front\"\nlower_left = [-0.3, 1.0, 0.0]\nlower_right = [0.3, 1.0, 0.0]\n\
+             upper_left = [-0.3, 1.45, 0.0]\npixels = [32, 24]\n\
+             output = {{ monitor = 0, window = [100, 100] }}\n"
+        ),
+    )
+    .unwrap();
+    let head_q = glam::Quat::from_rotation_z(0.3).normalize();
+    let wand_q = glam::Quat::from_rotation_x(-0.4).normalize();
+    let sending = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+    let sender = {
+        let sending = sending.clone();
+        std::thread::spawn(move || {
+            let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+            let mut k = 0.0f32;
+            while sending.load(std::sync::atomic::Ordering::Relaxed) {
+                for (addr, p, q) in [
+                    ("/vlf/head", [100.0 + k, 2000.0, 1700.0], head_q),
+                    ("/vlf/wand", [250.0, 1800.0 - k, 1200.0], wand_q),
+                ] {
+                    let packet = rosc::OscPacket::Message(rosc::OscMessage {
+                        addr: addr.into(),
+                        args: [p[0], p[1], p[2], q.x, q.y, q.z, q.w]
+                            .into_iter()
+                            .map(rosc::OscType::Float)
+                            .collect(),
+                    });
+                    let bytes = rosc::encoder::encode(&packet).unwrap();
+                    socket.send_to(&bytes, ("127.0.0.1", port)).unwrap();
+                }
+                k += 1.0;
+                std::thread::sleep(std::time::Duration::from_millis(3));
+            }
+        })
+    };
+    let (_, _, meta, records) = logged_cornell_run(dir.path(), &config, 12);
+    sending.store(false, std::sync::atomic::Ordering::Relaxed);
+    sender.join().unwrap();
+    assert!(meta.columns.iter().any(|(n, _)| n == "raw_left_hand_qw"));
+    let display = DisplayConfig::load(&config).unwrap();
+    let c = display.tracking.live().unwrap().calibration.unwrap();
+    let with_raw: Vec<_> = records.iter().filter(|r| r.raw.head.is_some()).collect();
+    assert!(
+        with_raw.len() >= 6,
+        "{} of 12 frames saw the tracker",
+        with_raw.len()
+    );
+    for r in &with_raw {
+        let (head, wand) = (r.raw.head.unwrap(), r.raw.wand.unwrap());
+        // as sent (tracker millimetres, z up) ...
+        assert_eq!((head.position.y, head.position.z), (2000.0, 1700.0));
+        assert!(head.position.x >= 100.0 && head.position.x.fract() == 0.0);
+        assert!(
+            head.rotation.abs_diff_eq(head_q, 1e-6),
+            "{:?}",
+            head.rotation
+        );
+        assert_eq!((wand.position.x, wand.position.z), (250.0, 1200.0));
+        // ... and calibrated from exactly those
+        assert_eq!(r.pose.head, c.position(head.position), "frame {}", r.frame);
+        assert_eq!(r.pose.head_rotation, c.orientation(head.rotation));
+        assert_eq!(r.wand.unwrap().position, c.position(wand.position));
+        assert_eq!(r.wand.unwrap().rotation, c.orientation(wand.rotation));
+        assert!((r.pose.head - head.position).length() > 100.0);
+        assert_eq!(r.raw.left_hand, None);
+    }
+    // the head moves between packets: the raw column follows the tracker frame by frame
+    let xs: std::collections::BTreeSet<u32> = with_raw
+        .iter()
+        .map(|r| r.raw.head.unwrap().position.x as u32)
+        .collect();
+    assert!(xs.len() >= 2, "{xs:?}");
+    eprintln!(
+        "raw poses: {} of 12 frames with the tracker's, {} head positions",
+        with_raw.len(),
+        xs.len()
+    );
+    assert_eq!(
+        parquet_matches_csv(&dir.path().join("log"))["parquet_rows"],
+        12
+    );
 }

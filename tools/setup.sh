@@ -13,6 +13,7 @@
 #                              tests/mitsuba.rs), pygltflib (tests/gltf.rs), pylsl (the LSL
 #                              outlets read back, tests/study.rs; its wheel brings liblsl) and
 #                              pyarrow (the session log's Parquet read back, tests/study.rs)
+#                              and ffmpeg (`vlf replay --video`, read back with ffprobe there)
 set -euo pipefail
 mode=${1:-test}
 case "$mode" in
@@ -54,10 +55,11 @@ if [ "$mode" = test ]; then
   command -v import >/dev/null || missing+=(imagemagick)
   command -v xdotool >/dev/null || missing+=(xdotool)
   [ -e /usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1 ] || [ -e /usr/lib/libopenxr_loader.so.1 ] || missing+=(libopenxr-loader1)
+  { command -v ffmpeg >/dev/null && command -v ffprobe >/dev/null; } || missing+=(ffmpeg)
 fi
 if [ ${#missing[@]} != 0 ]; then
   if ! command -v apt-get >/dev/null; then
-    echo "tools/setup.sh: missing ${missing[*]} and no apt-get; install them (a Vulkan driver or Mesa's lavapipe, libudev, cmake, Open MPI, libclang; for the tests Xvfb, ImageMagick, xdotool, the OpenXR loader) with your distribution's tools" >&2
+    echo "tools/setup.sh: missing ${missing[*]} and no apt-get; install them (a Vulkan driver or Mesa's lavapipe, libudev, cmake, Open MPI, libclang; for the tests Xvfb, ImageMagick, xdotool, the OpenXR loader, ffmpeg) with your distribution's tools" >&2
     exit 1
   fi
   SUDO=""

@@ -23,7 +23,7 @@ use crate::stats::Distribution;
 use crate::study::log::Drawn;
 use crate::study::{ControlServer, FrameRecord, LslOutlets, Session, SessionLog};
 use crate::tracking::source::{Pose, PoseSource};
-use crate::tracking::HeldPoses;
+use crate::tracking::{HeldPoses, RawPoses};
 use serde::Serialize;
 use std::path::Path;
 
@@ -145,6 +145,11 @@ impl Default for Kept {
 }
 
 impl Kept {
+    /// Every view's image, in view order.
+    pub(super) fn views(&self) -> &[Frame] {
+        &self.views
+    }
+
     /// The frame's views read back (`FrameOfViews::read_back`), their projectors' outputs named.
     pub(super) fn of(config: &DisplayConfig, views: &[WallView], images: Vec<ViewImages>) -> Kept {
         let mut kept = Kept::default();
@@ -172,13 +177,14 @@ pub(super) fn studied(
 }
 
 /// The pose of frame `f` of `total` (spread evenly over a scripted walk), shared through the
-/// cluster's lock when there is one; and when a live pose arrived.
+/// cluster's lock when there is one; the raw poses a live tracker sent (this rank's); and when
+/// a live pose arrived.
 fn frame_pose<'l>(
     poses: &PoseSource,
     config: &DisplayConfig,
     (f, total): (u32, u32),
     lock: Option<&mut (dyn FrameLock + 'l)>,
-) -> Result<(Pose, HeldPoses, Option<std::time::Instant>)> {
+) -> Result<(Pose, HeldPoses, RawPoses, Option<std::time::Instant>)> {
     let duration = match poses {
         PoseSource::Scripted(s) => s.duration(),
         PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
@@ -188,14 +194,13 @@ fn frame_pose<'l>(
     } else {
         0.0
     };
-    let (pose, fresh) = poses.at_fresh(t);
-    let held = poses.held_at(&config.tracking, t);
+    let (pose, held, raw, fresh) = poses.frame_at(&config.tracking, t);
     Ok(match lock {
         Some(l) => {
             let s = l.share(FrameState::new(f as u64, &pose, held, 1.0))?;
-            (s.pose(), s.held(), fresh)
+            (s.pose(), s.held(), raw, fresh)
         }
-        None => (pose, held, fresh),
+        None => (pose, held, raw, fresh),
     })
 }
 
@@ -252,8 +257,9 @@ pub fn run_locked(
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
         frame.take_study_changes(&mut session)?;
-        let (pose, held, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
-        frame.set_object_time(object_time(&poses, config, (f, total)));
+        let (pose, held, raw, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
+        let object_time_s = object_time(&poses, config, (f, total));
+        frame.set_object_time(object_time_s);
         // when the pose came in (live tracking), or was sampled
         let sampled = fresh.unwrap_or_else(std::time::Instant::now);
         let pose = session.pose(pose, sampled);
@@ -276,6 +282,8 @@ pub fn run_locked(
             trial: 0,
             pose_to_submit_ms: None,
             pose_to_photon_ms: None,
+            object_time_s: Some(object_time_s),
+            raw,
             views: frame.drawn().to_vec(),
             events: String::new(),
             condition: String::new(),

@@ -1,10 +1,16 @@
 //! `vlf replay`: the frames of a session log (`crate::study::log`) drawn again offscreen, each view
 //! exactly as the live run drew it: the logged pose, wand and left hand through the same walls (the
-//! moving objects on them), and the logged settings of every view (eye rays per pixel, the paced
-//! tiles, mirror reflections) in place of the pacer's, in its logged condition (its light field,
-//! exposure and object switches: `conditions.rs`). Each frame's images go to `OUT/frame-<n>/`
-//! as the headless run writes its last frame (`<wall>-<eye>.png`, projectors' outputs, the
-//! overview).
+//! moving objects on them, the keyframed ones at the logged `object_time_s`), and the logged
+//! settings of every view (eye rays per pixel, the paced tiles, mirror reflections) in place of the
+//! pacer's, in its logged condition (its light field, exposure and object switches:
+//! `conditions.rs`). Each frame's images go to `OUT/frame-<n>/` as the headless run writes its
+//! last frame (`<wall>-<eye>.png`, projectors' outputs, the overview). Or, with a `ThirdPerson`
+//! camera, the scene seen from outside the participant, the avatar and objects posed as logged
+//! (`OUT/frame-<n>/third-person.png`). One view, or that camera, can go to a video
+//! (`replay/video.rs`), and the events over the images as text (`replay/overlay.rs`).
+
+pub mod overlay;
+pub mod video;
 
 use super::conditions::{Conditions, MainField};
 use super::frame::{FrameOfViews, Poses, Slots};
@@ -12,9 +18,64 @@ use super::headless::{write_kept, Kept};
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
 use crate::lightfield::{LightField, ResidentLightField};
+use crate::render::budget::ViewSettings;
+use crate::render::image_io::{display_image, write_image};
+use crate::render::Frame;
 use crate::study::{FrameRecord, SessionMeta};
-use crate::tracking::HeldPoses;
-use std::path::Path;
+use crate::tracking::{HeldPoses, Pose};
+use glam::{Quat, Vec3};
+use std::path::{Path, PathBuf};
+
+/// A camera outside the participant (`vlf replay --third-person`): where it stands and what it
+/// looks at, world metres; either left out follows the logged head (`default_placement`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThirdPerson {
+    pub eye: Option<Vec3>,
+    pub look_at: Option<Vec3>,
+    pub fov_y_deg: f32,
+    pub size: [u32; 2],
+}
+
+/// The default third-person camera for a logged pose: 1.8 m behind the head (along its
+/// heading, level) and 0.6 m above it, looking at a point 0.5 m below the head, so that the
+/// body is in the picture.
+pub fn default_placement(pose: &Pose) -> (Vec3, Vec3) {
+    let head = pose.room_to_world(pose.head);
+    let turn = Quat::from_rotation_y(pose.room_yaw_deg.to_radians()) * pose.head_rotation;
+    let ahead = turn * Vec3::NEG_Z;
+    let level = Vec3::new(ahead.x, 0.0, ahead.z);
+    let level = match level.length() > 1e-3 {
+        true => level.normalize(),
+        // looking straight up or down: the room's own ahead
+        false => Quat::from_rotation_y(pose.room_yaw_deg.to_radians()) * Vec3::NEG_Z,
+    };
+    (head - level * 1.8 + Vec3::Y * 0.6, head - Vec3::Y * 0.5)
+}
+
+/// A video of the replay (`vlf replay --video`): which view it shows (its name as in the log's
+/// `views`; None the first, or the third-person camera where there is one) and its rate
+/// (None: `frame_rate`).
+#[derive(Clone, Copy, Debug)]
+pub struct VideoOut<'a> {
+    pub path: &'a Path,
+    pub view: Option<&'a str>,
+    pub fps: Option<f64>,
+}
+
+/// What a replay makes of each frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReplayOutput<'a> {
+    /// each frame's images into `dir/frame-<n>/` (None: none, e.g. a video alone)
+    pub images: Option<&'a Path>,
+    /// EXR (linear radiance) beside the PNG images
+    pub exr: bool,
+    pub video: Option<VideoOut<'a>>,
+    /// draw from this camera instead of the walls
+    pub camera: Option<ThirdPerson>,
+    /// the events as text over the PNG images and the video (`overlay::lines`), taken from
+    /// these frames of the log (all of them, so that an event before the first drawn shows)
+    pub overlay: Option<&'a [FrameRecord]>,
+}
 
 /// Draw `frames` (of the log's `meta`) from the light field the session drew, images into
 /// `out`; `progress` hears of each. The folders written, in order.
@@ -24,7 +85,48 @@ pub fn replay(
     frames: &[FrameRecord],
     (out, exr): (&Path, bool),
     progress: &dyn crate::progress::Progress,
-) -> Result<Vec<std::path::PathBuf>> {
+) -> Result<Vec<PathBuf>> {
+    let output = ReplayOutput {
+        images: Some(out),
+        exr,
+        ..Default::default()
+    };
+    replay_with((lf, resident), meta, frames, &output, progress)
+}
+
+/// The video's rate: the display's `refresh_hz`, or else the logged frames' median spacing in
+/// `time_s`, or else 60.
+pub fn frame_rate(config: &DisplayConfig, frames: &[FrameRecord]) -> f64 {
+    if let Some(hz) = config.refresh_hz {
+        return hz as f64;
+    }
+    let mut steps: Vec<f64> = (frames.windows(2))
+        .map(|w| (w[1].time_s - w[0].time_s) / (w[1].frame - w[0].frame).max(1) as f64)
+        .filter(|s| *s > 0.0)
+        .collect();
+    steps.sort_by(f64::total_cmp);
+    steps.get(steps.len() / 2).map_or(60.0, |s| 1.0 / s)
+}
+
+/// The log's view `name` (None: the first), by index; an unknown one is refused with the names.
+fn view_index(meta: &SessionMeta, name: Option<&str>) -> Result<usize> {
+    let Some(name) = name else { return Ok(0) };
+    (meta.views.iter().position(|v| v == name)).ok_or_else(|| {
+        VlfError::Display(format!(
+            "no view {name:?} in the session: its views are {}",
+            meta.views.join(", ")
+        ))
+    })
+}
+
+/// `replay` with every output: images, a video, a third-person camera, the events overlaid.
+pub fn replay_with(
+    (lf, resident): (&LightField, &ResidentLightField),
+    meta: &SessionMeta,
+    frames: &[FrameRecord],
+    output: &ReplayOutput<'_>,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Vec<PathBuf>> {
     let config_path = meta.display_config.as_path();
     let mut config = DisplayConfig::load(config_path)?;
     // the logged settings are drawn as they are: nothing is probed
@@ -56,6 +158,12 @@ pub fn replay(
             meta.views
         )));
     }
+    let shown = match output.camera {
+        Some(_) => 0,
+        None => view_index(meta, output.video.and_then(|v| v.view))?,
+    };
+    let fps = (output.video).map(|v| v.fps.unwrap_or_else(|| frame_rate(&config, frames)));
+    let mut video: Option<video::VideoWriter> = None;
     let mut written = Vec::new();
     progress.begin(
         frames.len() as u64,
@@ -63,29 +171,142 @@ pub fn replay(
         "drawing the logged frames again",
     );
     for (k, record) in frames.iter().enumerate() {
-        frame.force_view_settings(record.views.clone());
-        // each frame in its logged condition (a log without conditions: as the config starts)
-        if !record.condition.is_empty() && frame.condition() != Some(record.condition.as_str()) {
-            frame.set_condition(&record.condition)?;
+        let images = draw_frame(&mut frame, &config, record, output)?;
+        let text = output.overlay.map(|log| overlay::lines(log, record));
+        if let Some(dir) = output.images {
+            let dir = dir.join(format!("frame-{:06}", record.frame));
+            std::fs::create_dir_all(&dir).map_err(|e| VlfError::io(&dir, e))?;
+            write_frame(&config, &frame, &images, &dir, (output.exr, &text))?;
+            written.push(dir);
         }
-        let held = HeldPoses {
-            wand: record.wand,
-            left_hand: record.left_hand,
-        };
-        let poses = Poses::Tracked {
-            pose: &record.pose,
-            held: &held,
-            arrived: None,
-        };
-        let images = frame.read_back(poses)?;
-        let mut kept = Kept::of(&config, frame.wall_views(), images);
-        kept.exposure = frame.exposure();
-        let dir = out.join(format!("frame-{:06}", record.frame));
-        std::fs::create_dir_all(&dir).map_err(|e| VlfError::io(&dir, e))?;
-        write_kept(&config, frame.wall_views(), &kept, &dir, exr)?;
-        written.push(dir);
+        if let (Some(v), Some(fps)) = (output.video, fps) {
+            let mut rgb = display_image(images.shown(shown), frame.exposure());
+            if let Some(text) = &text {
+                overlay::draw(&mut rgb, text);
+            }
+            if video.is_none() {
+                let size = [rgb.width(), rgb.height()];
+                video = Some(video::VideoWriter::start(v.path, size, fps)?);
+            }
+            video.as_mut().expect("started").push(&rgb)?;
+        }
         progress.advance_to(k as u64 + 1, &format!("frame {}", record.frame));
     }
     progress.finish();
+    if let Some(v) = video {
+        v.finish()?;
+    }
     Ok(written)
+}
+
+/// One frame's images: every view (and the projectors') read back, or the third-person camera's.
+enum Images {
+    Views(Kept),
+    Camera(Frame),
+}
+
+impl Images {
+    /// The image a video shows: view `i`, or the camera's.
+    fn shown(&self, i: usize) -> &Frame {
+        match self {
+            Images::Views(kept) => &kept.views()[i],
+            Images::Camera(image) => image,
+        }
+    }
+}
+
+/// Draw `record` again: its settings, object time and poses; the walls' views, or the
+/// third-person camera's.
+fn draw_frame(
+    frame: &mut FrameOfViews<'_>,
+    config: &DisplayConfig,
+    record: &FrameRecord,
+    output: &ReplayOutput<'_>,
+) -> Result<Images> {
+    frame.force_view_settings(record.views.clone());
+    // each frame in its logged condition (a log without conditions: as the config starts)
+    if !record.condition.is_empty() && frame.condition() != Some(record.condition.as_str()) {
+        frame.set_condition(&record.condition)?;
+    }
+    // a log before format 4 has no object time: the keyframed objects at their start
+    frame.set_object_time(record.object_time_s.unwrap_or(0.0));
+    let held = HeldPoses {
+        wand: record.wand,
+        left_hand: record.left_hand,
+    };
+    let poses = Poses::Tracked {
+        pose: &record.pose,
+        held: &held,
+        arrived: None,
+    };
+    let Some(third) = output.camera else {
+        let images = frame.read_back(poses)?;
+        let mut kept = Kept::of(config, frame.wall_views(), images);
+        kept.exposure = frame.exposure();
+        return Ok(Images::Views(kept));
+    };
+    let (eye, look_at) = default_placement(&record.pose);
+    let camera = crate::scene::Camera {
+        name: "third-person".into(),
+        eye: third.eye.unwrap_or(eye).into(),
+        target: third.look_at.unwrap_or(look_at).into(),
+        up: [0.0, 1.0, 0.0],
+        fov_y_deg: third.fov_y_deg,
+        size: third.size,
+    };
+    // the display's eye rays per pixel, unpaced, with the first view's mirror reflections
+    let first = record.views.first();
+    let settings = ViewSettings {
+        samples_per_pixel: config.antialiasing,
+        paced_samples: config.antialiasing,
+        paced_fraction: 0.0,
+        mirror_bounces: first.map_or(1, |s| s.mirror_bounces),
+        fixed_work: first.map_or(0, |s| s.fixed_work),
+    };
+    Ok(Images::Camera(
+        frame.read_back_camera(poses, &camera, settings)?,
+    ))
+}
+
+/// A frame's images into `dir`: the views as the headless run writes them (or the camera's
+/// `third-person.png`), with `text` over the PNGs where given.
+fn write_frame(
+    config: &DisplayConfig,
+    frame: &FrameOfViews<'_>,
+    images: &Images,
+    dir: &Path,
+    (exr, text): (bool, &Option<Vec<String>>),
+) -> Result<()> {
+    let named: Vec<(String, &Frame)> = match images {
+        Images::Views(kept) => {
+            write_kept(config, frame.wall_views(), kept, dir, exr)?;
+            let names = frame.wall_views().iter().map(|v| v.name(config));
+            names.zip(kept.views()).collect()
+        }
+        Images::Camera(image) => {
+            if exr {
+                write_image(image, &dir.join("third-person.exr"), 1.0)?;
+            }
+            vec![("third-person".into(), image)]
+        }
+    };
+    for (name, image) in named {
+        let png = dir.join(format!("{name}.png"));
+        match text {
+            Some(text) => {
+                let mut rgb = display_image(image, frame.exposure());
+                overlay::draw(&mut rgb, text);
+                rgb.save_with_format(&png, image::ImageFormat::Png)
+                    .map_err(|e| VlfError::Image {
+                        path: png.clone(),
+                        message: e.to_string(),
+                    })?;
+            }
+            None if matches!(images, Images::Camera(_)) => {
+                write_image(image, &png, frame.exposure())?
+            }
+            None => {}
+        }
+    }
+    Ok(())
 }

@@ -15,7 +15,7 @@ pub mod parquet;
 
 use crate::error::{Result, VlfError};
 use crate::render::budget::ViewSettings;
-use crate::tracking::pose::{Pose, WandPose};
+use crate::tracking::pose::{Pose, RawPoses, WandPose};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -23,8 +23,8 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
-/// left hand's columns after it, 4 `condition` after those; `SessionLog::read` reads 1 to 3
-/// too (without them).
+/// left hand's columns after it, 4 `condition`, `object_time_s` and the raw (uncalibrated) poses
+/// after those; `SessionLog::read` reads 1 to 3 too (without them).
 pub const LOG_FORMAT: u32 = 4;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
@@ -99,6 +99,12 @@ pub struct FrameRecord {
     /// from the same to the frame's predicted photons (its GPU end plus one refresh period),
     /// ms (None where not shown: a frame read back)
     pub pose_to_photon_ms: Option<f64>,
+    /// the time that moved the keyframed objects in this frame, seconds (`FrameOfViews::
+    /// set_object_time`; None in a log before format 4)
+    pub object_time_s: Option<f64>,
+    /// the head, wand and left hand as the tracker sent them, before the calibration (none
+    /// from a source without a tracker frame: static, scripted)
+    pub raw: RawPoses,
     /// each view's settings, in `SessionMeta::views` order
     pub views: Vec<ViewSettings>,
     /// what happened at this frame (free text; empty for none)
@@ -109,7 +115,7 @@ pub struct FrameRecord {
 }
 
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 37] = [
+const FRAME_COLUMNS: [(&str, &str); 62] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -195,10 +201,59 @@ const FRAME_COLUMNS: [(&str, &str); 37] = [
         "condition",
         "the study's condition in effect (the display config's [[condition]] name, as the script's `condition` command or default_condition set it); empty without conditions",
     ),
+    (
+        "object_time_s",
+        "the time that placed the keyframed moving objects in this frame, seconds (replay draws them at it)",
+    ),
+    (
+        "raw_head",
+        "1 where the tracker has sent a head, else 0 (static and scripted sources have none; its columns then 0)",
+    ),
+    (
+        "raw_head_x",
+        "head position as the tracker sent it, before [tracking.calibration]: the tracker's frame and units",
+    ),
+    ("raw_head_y", "raw head position, tracker units"),
+    ("raw_head_z", "raw head position, tracker units"),
+    (
+        "raw_head_qx",
+        "raw head rotation in the tracker's frame, quaternion x (the last one sent; identity before one)",
+    ),
+    ("raw_head_qy", "raw head rotation, quaternion y"),
+    ("raw_head_qz", "raw head rotation, quaternion z"),
+    ("raw_head_qw", "raw head rotation, quaternion w"),
+    (
+        "raw_wand",
+        "1 where the tracker has sent a wand, else 0 (its columns then 0)",
+    ),
+    (
+        "raw_wand_x",
+        "wand position as the tracker sent it, before calibration, tracker units",
+    ),
+    ("raw_wand_y", "raw wand position, tracker units"),
+    ("raw_wand_z", "raw wand position, tracker units"),
+    ("raw_wand_qx", "raw wand rotation, quaternion x"),
+    ("raw_wand_qy", "raw wand rotation, quaternion y"),
+    ("raw_wand_qz", "raw wand rotation, quaternion z"),
+    ("raw_wand_qw", "raw wand rotation, quaternion w"),
+    (
+        "raw_left_hand",
+        "1 where the tracker has sent a left hand, else 0 (its columns then 0)",
+    ),
+    (
+        "raw_left_hand_x",
+        "left hand position as the tracker sent it, before calibration, tracker units",
+    ),
+    ("raw_left_hand_y", "raw left hand position, tracker units"),
+    ("raw_left_hand_z", "raw left hand position, tracker units"),
+    ("raw_left_hand_qx", "raw left hand rotation, quaternion x"),
+    ("raw_left_hand_qy", "raw left hand rotation, quaternion y"),
+    ("raw_left_hand_qz", "raw left hand rotation, quaternion z"),
+    ("raw_left_hand_qw", "raw left hand rotation, quaternion w"),
 ];
 
 /// How many of `FRAME_COLUMNS` a log of `format` has: 1 lacks pose_to_photon_ms, 2 the left
-/// hand's eight, 3 the condition.
+/// hand's eight, 3 the condition, object_time_s and the raw poses.
 fn frame_columns(format: u32) -> usize {
     match format {
         1 => 27,
@@ -412,6 +467,10 @@ fn row_text(r: &FrameRecord) -> String {
     cells.push(opt(r.pose_to_photon_ms));
     cells.extend(held_cells(r.left_hand.as_ref()));
     cells.push(r.condition.clone());
+    cells.push(opt(r.object_time_s));
+    for raw in [r.raw.head, r.raw.wand, r.raw.left_hand] {
+        cells.extend(held_cells(raw.as_ref()));
+    }
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -501,6 +560,12 @@ fn parse_row(
         trial: u(25)?,
         pose_to_submit_ms: opt(26)?,
         pose_to_photon_ms: if frame_columns > 27 { opt(27)? } else { None },
+        object_time_s: if frame_columns > 37 { opt(37)? } else { None },
+        raw: RawPoses {
+            head: held(38)?,
+            wand: held(46)?,
+            left_hand: held(54)?,
+        },
         views,
         events,
         condition: match frame_columns > 36 {
@@ -546,6 +611,18 @@ mod tests {
             trial: 7,
             pose_to_submit_ms: Some(0.731),
             pose_to_photon_ms: Some(9.125),
+            object_time_s: Some(0.25 * frame as f64 + 1.0 / 3.0),
+            raw: RawPoses {
+                head: Some(WandPose {
+                    position: Vec3::new(120.5, -300.25, 1710.0),
+                    rotation: Quat::from_rotation_z(0.4),
+                }),
+                wand: wand.then(|| WandPose {
+                    position: Vec3::new(200.0, 500.0, 1200.0),
+                    rotation: Quat::from_rotation_x(0.1),
+                }),
+                left_hand: None,
+            },
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
             condition: if wand { "gi-off".into() } else { String::new() },
@@ -579,7 +656,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 37 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 62 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
@@ -604,13 +681,14 @@ mod tests {
 
     #[test]
     fn format_1_to_3_logs_without_the_newer_columns_still_read() {
-        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor the left hand's;
-        // format 2: the frame's columns end at pose_to_photon_ms; 3: no condition
-        let (photon, hand) = (record(0, true).pose_to_photon_ms, record(0, true).left_hand);
+        // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor anything after it;
+        // format 2: the frame's columns end at pose_to_photon_ms; 3: at the left hand's
+        let photon = record(0, true).pose_to_photon_ms;
+        let hand = record(0, true).left_hand;
         for (format, dropped, pose_to_photon_ms, left_hand) in [
-            (1, 27..37, None, None),
-            (2, 28..37, photon, None),
-            (3, 36..37, photon, hand),
+            (1, 27..62, None, None),
+            (2, 28..62, photon, None),
+            (3, 36..62, photon, hand),
         ] {
             let dir = tempfile::tempdir().unwrap();
             {
@@ -623,6 +701,8 @@ mod tests {
                 pose_to_photon_ms,
                 left_hand,
                 condition: String::new(),
+                object_time_s: None,
+                raw: RawPoses::default(),
                 ..record(0, true)
             };
             assert_eq!(back, [expect], "format {format}");

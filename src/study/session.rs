@@ -417,6 +417,8 @@ mod tests {
             trial: 0,
             pose_to_submit_ms: Some(0.1),
             pose_to_photon_ms: None,
+            object_time_s: None,
+            raw: Default::default(),
             views: Vec::new(),
             events: String::new(),
             condition: String::new(),

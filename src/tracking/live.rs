@@ -8,7 +8,7 @@
 //! and the log once).
 
 use super::calibration::RoomFromTracker;
-use super::pose::Pose;
+use super::pose::{Pose, RawPoses};
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{Receiver, Sender};
 use glam::{Quat, Vec3};
@@ -43,6 +43,8 @@ pub struct LiveState {
     pub buttons: u64,
     /// the wand's joystick: x right, y up (forward), -1..1
     pub joystick: [f32; 2],
+    /// the head, wand and left hand as last sent, before the calibration (the tracker's frame)
+    pub raw: RawPoses,
 }
 
 impl LiveState {
@@ -53,6 +55,7 @@ impl LiveState {
             left_hand: None,
             buttons: 0,
             joystick: [0.0; 2],
+            raw: RawPoses::default(),
         }
     }
 }
@@ -92,13 +95,20 @@ impl LiveState {
     pub fn apply(&mut self, m: Measurement, calibration: &RoomFromTracker) {
         match m {
             Measurement::Head { position, rotation } => {
-                calibration.head(&mut self.pose, position, rotation)
+                calibration.head(&mut self.pose, position, rotation);
+                let last = self.raw.head.map_or(Quat::IDENTITY, |h| h.rotation);
+                self.raw.head = Some(WandPose {
+                    position,
+                    rotation: rotation.unwrap_or(last),
+                });
             }
             Measurement::Wand { position, rotation } => {
-                self.wand = Some(calibration.held(position, rotation))
+                self.wand = Some(calibration.held(position, rotation));
+                self.raw.wand = Some(WandPose { position, rotation });
             }
             Measurement::LeftHand { position, rotation } => {
-                self.left_hand = Some(calibration.held(position, rotation))
+                self.left_hand = Some(calibration.held(position, rotation));
+                self.raw.left_hand = Some(WandPose { position, rotation });
             }
             Measurement::Buttons(mask) => self.buttons = mask,
             Measurement::Button { index, pressed } if index < 64 => {

@@ -17,7 +17,7 @@ pub mod source;
 pub mod vrpn;
 pub mod wand;
 
-pub use pose::{HeldPoses, Pose, WandPose};
+pub use pose::{HeldPoses, Pose, RawPoses, WandPose};
 
 use crate::error::{Result, VlfError};
 use serde::{Deserialize, Serialize};

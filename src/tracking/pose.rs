@@ -97,3 +97,14 @@ pub struct HeldPoses {
     pub wand: Option<WandPose>,
     pub left_hand: Option<WandPose>,
 }
+
+/// The tracked head, wand and left hand as the tracker sent them, before `[tracking.calibration]`:
+/// in the tracker's own frame and units (a session log keeps them beside the calibrated ones).
+/// None where the source has sent none, or has no tracker frame (static, scripted). The head's
+/// rotation is the last one sent (identity before one: a head sent as a position alone).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RawPoses {
+    pub head: Option<WandPose>,
+    pub wand: Option<WandPose>,
+    pub left_hand: Option<WandPose>,
+}

@@ -1,7 +1,9 @@
 //! The pose source a display's loops draw from (`PoseSource`): a static head, a scripted path of keyframed head and navigation poses
 //! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand and a left hand), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
-pub use super::pose::{head_rotation, head_rotation_from_angles, HeldPoses, Pose, WandPose};
+pub use super::pose::{
+    head_rotation, head_rotation_from_angles, HeldPoses, Pose, RawPoses, WandPose,
+};
 use super::{StartPose, TrackingConfig};
 use crate::error::{Result, VlfError};
 use glam::{Quat, Vec3};
@@ -268,6 +270,34 @@ impl PoseSource {
                     left_hand: state.left_hand,
                 }
             }
+        }
+    }
+
+    /// Everything a frame takes from the source at `t`, from one state of it: the pose, the
+    /// wand and left hand (`held_at`), the raw poses as the tracker sent them (live sources
+    /// only; `RawPoses`) and, live, when the state arrived if no frame was drawn from it yet
+    /// (`at_fresh`).
+    pub fn frame_at(
+        &self,
+        tracking: &TrackingConfig,
+        t: f32,
+    ) -> (Pose, HeldPoses, RawPoses, Option<std::time::Instant>) {
+        match self {
+            PoseSource::Live(tracker) => {
+                let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
+                let state = tracker.latest_state().0;
+                let held = HeldPoses {
+                    wand: state.wand,
+                    left_hand: state.left_hand,
+                };
+                (state.pose, held, state.raw, tracker.take_fresh())
+            }
+            other => (
+                other.at(t),
+                other.held_at(tracking, t),
+                RawPoses::default(),
+                None,
+            ),
         }
     }
 

@@ -353,3 +353,12 @@ pub fn mirror_furnace(dir: &Path) -> vlf::scene::Scene {
         "[materials.mirror]\nmirror = [0.9, 0.9, 0.9]\n",
     )
 }
+
+/// A UDP port free on this machine now (bound and let go: a tracker binds it after).
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}

@@ -517,6 +517,20 @@ impl<'a> FrameOfViews<'a> {
         Ok(images)
     }
 
+    /// A still camera's view of the scene with the moving objects posed from `poses` at the
+    /// object time (a replay's third-person camera: `camera.size` pixels), at `settings`.
+    pub fn read_back_camera(
+        &mut self,
+        poses: Poses<'_>,
+        camera: &crate::scene::Camera,
+        settings: ViewSettings,
+    ) -> Result<Frame> {
+        self.pose_objects(&poses, false);
+        self.renderer.set_view_settings(settings);
+        let [w, h] = camera.size;
+        self.renderer.render(camera, w, h)
+    }
+
     /// View `i`'s settings: those forced from outside, if any; then noted as drawn.
     fn apply_forced(&mut self, i: usize) {
         if let Some(s) = self.forced.as_ref().and_then(|f| f.get(i)) {

@@ -26,7 +26,7 @@ use crate::gpu::GpuContext;
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::tracking::live::TrackingStatus;
 use crate::tracking::navigator::Navigator;
-use crate::tracking::pose::{HeldPoses, Pose};
+use crate::tracking::pose::{HeldPoses, Pose, RawPoses};
 use crate::tracking::source::PoseSource;
 use std::path::Path;
 use std::sync::Arc;
@@ -176,8 +176,8 @@ impl App<'_> {
     /// `pose_to_submit_ms`: from the pose's arrival or sampling to the frame's submission.
     fn log_frame(
         &mut self,
-        (timed, pose_to_submit_ms): (bool, f64),
-        (pose, held): (Pose, HeldPoses),
+        (timed, pose_to_submit_ms, object_time_s): (bool, f64, f64),
+        (pose, held, raw): (Pose, HeldPoses, RawPoses),
     ) -> Result<()> {
         let (gpu_ms, cpu_ms) = match timed {
             true => self.frame.times().last_frame_ms(),
@@ -196,6 +196,8 @@ impl App<'_> {
             trial: 0,
             pose_to_submit_ms: Some(pose_to_submit_ms),
             pose_to_photon_ms: None,
+            object_time_s: Some(object_time_s),
+            raw,
             views: self.frame.drawn().to_vec(),
             events: String::new(),
             condition: String::new(),
@@ -207,20 +209,26 @@ impl App<'_> {
         self.frame.frames_timed()
     }
 
-    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
-        let now = Instant::now();
-        let dt = (now - self.last_frame).as_secs_f32().min(0.1);
-        self.last_frame = now;
-        let pad = self.poll_gamepads();
-        let sampled = Instant::now();
-        let (base, tracking, fresh, held) = match &self.poses {
+    /// This frame's poses from the source: the head, how a live source is doing, when its
+    /// state arrived (once), the wand and left hand, and the raw poses it sent.
+    #[allow(clippy::type_complexity)]
+    fn sample(
+        &mut self,
+        dt: f32,
+    ) -> (
+        Pose,
+        Option<TrackingStatus>,
+        Option<Instant>,
+        (HeldPoses, RawPoses),
+    ) {
+        match &self.poses {
             PoseSource::Scripted(s) => {
                 let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
                 let held = HeldPoses {
                     wand: s.wand_at(t),
                     left_hand: s.left_hand_at(t),
                 };
-                (s.at(t), None, None, held)
+                (s.at(t), None, None, (held, RawPoses::default()))
             }
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
@@ -235,15 +243,32 @@ impl App<'_> {
                     wand: state.wand,
                     left_hand: state.left_hand,
                 };
-                (state.pose, Some(status), tracker.take_fresh(), held)
+                (
+                    state.pose,
+                    Some(status),
+                    tracker.take_fresh(),
+                    (held, state.raw),
+                )
             }
             other => (
                 other.at(0.0),
                 None,
                 None,
-                other.held_at(&self.config.tracking, 0.0),
+                (
+                    other.held_at(&self.config.tracking, 0.0),
+                    RawPoses::default(),
+                ),
             ),
-        };
+        }
+    }
+
+    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
+        let now = Instant::now();
+        let dt = (now - self.last_frame).as_secs_f32().min(0.1);
+        self.last_frame = now;
+        let pad = self.poll_gamepads();
+        let sampled = Instant::now();
+        let (base, tracking, fresh, (held, raw)) = self.sample(dt);
         self.navigator
             .step(dt, &self.config.navigation, pad, base.room_yaw_deg);
         self.session.begin_frame();
@@ -276,8 +301,8 @@ impl App<'_> {
         let ctx = self.ctx().clone();
         // every view rendered, and its outputs drawn, once; then each window shows its parts
         self.frame.begin(timed)?;
-        self.frame
-            .set_object_time(self.started.elapsed().as_secs_f64());
+        let object_time_s = self.started.elapsed().as_secs_f64();
+        self.frame.set_object_time(object_time_s);
         let tracked = Poses::Tracked {
             pose: &pose,
             held: &held,
@@ -299,7 +324,7 @@ impl App<'_> {
         ctx.wait_spinning()?;
         self.announce_presented(outputs_shown);
         self.frame.account(self.frame.elapsed_ms())?;
-        self.log_frame((timed, pose_to_submit_ms), (pose, held))?;
+        self.log_frame((timed, pose_to_submit_ms, object_time_s), (pose, held, raw))?;
         if self.session.stop {
             event_loop.exit();
         }

@@ -142,6 +142,10 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     columns.push(Arc::new(StringArray::from_iter_values(
         rows.iter().map(|r| r.condition.as_str()),
     )));
+    columns.push(opt_f64s(rows, |r| r.object_time_s));
+    columns.extend(held_columns(rows, |r| r.raw.head.as_ref()));
+    columns.extend(held_columns(rows, |r| r.raw.wand.as_ref()));
+    columns.extend(held_columns(rows, |r| r.raw.left_hand.as_ref()));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -198,6 +202,8 @@ mod tests {
             trial: 2,
             pose_to_submit_ms: Some(0.25),
             pose_to_photon_ms: Some(8.5),
+            object_time_s: Some(0.5),
+            raw: Default::default(),
             views: Vec::new(),
             events: "a \"quoted\" event".into(),
             condition: "gi-off".into(),
