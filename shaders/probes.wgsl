@@ -9,7 +9,6 @@
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
-#include "common/light_field_textures.wgsl"
 #include "common/ray.wgsl"
 #include "common/textures.wgsl"
 #include "common/scene_cast.wgsl"

@@ -31,7 +31,6 @@
 #include "common/atlas.wgsl"
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
-#include "common/light_field_textures.wgsl"
 #include "common/textures.wgsl"
 #include "common/ray.wgsl"
 #include "common/sampling.wgsl"

@@ -10,7 +10,7 @@
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
 #include "common/upstream.wgsl"
-#include "common/surface_textures.wgsl"
+#include "common/textures.wgsl"
 
 // the light field being propagated, its unshot state (common/light_field.wgsl): the unshot atlas
 // and mirror tiles, the fixed directions whose grids the tiles live in (perturbed sets move

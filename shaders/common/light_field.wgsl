@@ -33,8 +33,11 @@
 @group(LIGHT_FIELD_GROUP) @binding(13) var<storage, read> tile_radiance_3: array<vec4<f32>>;
 // the texture detail (src/lightfield/textures.rs), read only by a renderer whose light field has
 // diffuse textures: per atlas texel the texture factor propagation used (rgb as half floats);
-// the faces' textures and the textures themselves are in common/light_field_textures.wgsl
+// per face (diffuse texture, emission texture, -, -); the textures (common/textures.wgsl)
 @group(LIGHT_FIELD_GROUP) @binding(14) var<storage, read> texel_albedo: array<vec2<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(15) var<storage, read> face_textures: array<vec4<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(16) var<storage, read> texture_info: array<vec4<u32>>;
+@group(LIGHT_FIELD_GROUP) @binding(17) var<storage, read> texture_texels: array<vec4<f32>>;
 
 // Texel `texel` of the atlas.
 fn atlas_texel(texel: u32) -> vec4<f32> {

@@ -26,10 +26,6 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/light_field.wgsl"),
     ),
     (
-        "common/light_field_textures.wgsl",
-        include_str!("../../shaders/common/light_field_textures.wgsl"),
-    ),
-    (
         "common/upstream.wgsl",
         include_str!("../../shaders/common/upstream.wgsl"),
     ),

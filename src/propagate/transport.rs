@@ -571,7 +571,7 @@ impl Setup<'_> {
         directions: &[GpuDirection],
         (faces, materials): (&[GpuFace], &[GpuMaterial]),
         texel_ranges: &[(u32, u32)],
-    ) -> Result<SceneBuffers> {
+    ) -> SceneBuffers {
         let (ctx, ledger, prepared) = (self.ctx, self.ledger, self.prepared);
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let vertices: Vec<[f32; 4]> = prepared
@@ -591,7 +591,7 @@ impl Setup<'_> {
         } else {
             (vec![Default::default()], vec![Default::default()])
         };
-        Ok(SceneBuffers {
+        SceneBuffers {
             grid: ctx.buffer_init(ledger, "grid parameters", bytemuck::bytes_of(grid), uniform),
             directions: ctx.buffer_init(
                 ledger,
@@ -626,8 +626,8 @@ impl Setup<'_> {
                 STORAGE,
             ),
             bvh_nodes: ctx.buffer_init(ledger, "BVH", bytemuck::cast_slice(&nodes), STORAGE),
-            surface: SurfaceBuffers::new(ctx, ledger, prepared)?,
-        })
+            surface: SurfaceBuffers::new(ctx, ledger, prepared),
+        }
     }
 
     /// The texel pages, starting from the emitters' radiance, and the power they emit.
@@ -996,7 +996,7 @@ impl Propagator {
         // with batches the directions buffer holds one batch at a time
         let batch = &sizes.fixed[..plan.batch_size as usize];
         let materials = (&sizes.faces[..], &sizes.materials[..]);
-        let scene = s.scene_buffers(&grid, batch, materials, &texel_ranges)?;
+        let scene = s.scene_buffers(&grid, batch, materials, &texel_ranges);
         let (unshot, total) = initial_radiance(prepared, &sizes.faces, &sizes.materials);
         let (texels, emitted_power) = s.texel_pages(&texel_ranges, &unshot, &total);
 

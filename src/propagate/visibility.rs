@@ -2,7 +2,7 @@
 //! built as an A-buffer (count, prefix-sum, fill, sort). Built once and kept for all
 //! iterations.
 
-use crate::error::{Result, VlfError};
+use crate::error::Result;
 use crate::gpu::types::GpuGrid;
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, Timestamps, STORAGE};
 use crate::prepare::PreparedScene;
@@ -39,35 +39,18 @@ pub struct SurfaceBuffers {
     pub triangle_uv: wgpu::Buffer,
 }
 
-/// The most textures a scene with cut-outs may have: transport reads their table as a uniform
-/// of this many entries (shaders/common/surface_textures.wgsl), 64 KiB.
-pub const MAX_CUTOUT_TEXTURES: usize = 4096;
-
 impl SurfaceBuffers {
-    pub fn new(ctx: &GpuContext, ledger: &MemoryLedger, prepared: &PreparedScene) -> Result<Self> {
-        let table = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::UNIFORM;
-        let table_bytes = (MAX_CUTOUT_TEXTURES * 16) as u64;
+    pub fn new(ctx: &GpuContext, ledger: &MemoryLedger, prepared: &PreparedScene) -> Self {
         let Some(t) = crate::lightfield::textures::SurfaceTextures::cutouts(prepared) else {
             let none = MemoryLedger::default();
             let placeholder = || ctx.buffer_zeroed(&none, "no cut-outs", 16, STORAGE);
-            return Ok(SurfaceBuffers {
+            return SurfaceBuffers {
                 face_textures: placeholder(),
-                texture_info: ctx.buffer_zeroed(&none, "no cut-outs", table_bytes, table),
+                texture_info: placeholder(),
                 texture_texels: placeholder(),
                 triangle_uv: placeholder(),
-            });
+            };
         };
-        if t.info.len() > MAX_CUTOUT_TEXTURES {
-            return Err(VlfError::Parameter {
-                name: "textures",
-                message: format!(
-                    "the scene has cut-outs and {} textures; propagation takes at most {MAX_CUTOUT_TEXTURES} in a scene with cut-outs: merge textures into atlases",
-                    t.info.len()
-                ),
-            });
-        }
-        let mut info = t.info.clone();
-        info.resize(MAX_CUTOUT_TEXTURES, Default::default());
         let uv: Vec<[f32; 8]> = (prepared.triangles.iter())
             .map(|t| {
                 let [a, b, c] = t.uv.unwrap_or([[0.0; 2]; 3]);
@@ -75,20 +58,15 @@ impl SurfaceBuffers {
             })
             .collect();
         let buffer = |name, bytes: &[u8]| ctx.buffer_init(ledger, name, bytes, STORAGE);
-        Ok(SurfaceBuffers {
+        SurfaceBuffers {
             face_textures: buffer(
                 "cut-outs: face textures",
                 bytemuck::cast_slice(&t.face_textures),
             ),
-            texture_info: ctx.buffer_init(
-                ledger,
-                "cut-outs: texture info",
-                bytemuck::cast_slice(&info),
-                table,
-            ),
+            texture_info: buffer("cut-outs: texture info", bytemuck::cast_slice(&t.info)),
             texture_texels: buffer("cut-outs: texels", bytemuck::cast_slice(&t.texels)),
             triangle_uv: buffer("cut-outs: triangle uv", bytemuck::cast_slice(&uv)),
-        })
+        }
     }
 }
 
