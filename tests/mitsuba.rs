@@ -240,8 +240,15 @@ fn vlf_export_mitsuba_writes_a_cut_out_as_a_mask() {
     let mask = geometry.find("<bsdf type=\"mask\">").expect("no mask BSDF");
     assert!(geometry[mask..].contains("name=\"opacity\""), "{geometry}");
     assert!(geometry[mask..].contains("value=\"nearest\""), "{geometry}");
-    assert!(geometry.contains("<integrator type=\"volpath\">"), "{geometry}");
-    assert_eq!(geometry.matches("type=\"mask\"").count(), 1, "only the slats cut holes");
+    assert!(
+        geometry.contains("<integrator type=\"volpath\">"),
+        "{geometry}"
+    );
+    assert_eq!(
+        geometry.matches("type=\"mask\"").count(),
+        1,
+        "only the slats cut holes"
+    );
     let opacity = std::fs::read_dir(out.join("textures")).unwrap().any(|e| {
         let name = e.unwrap().file_name().to_string_lossy().to_string();
         name.ends_with("-opacity.exr")
