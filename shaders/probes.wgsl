@@ -11,6 +11,7 @@
 #include "common/light_field.wgsl"
 #include "common/ray.wgsl"
 #include "common/textures.wgsl"
+#include "common/texture_cutouts.wgsl"
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 

@@ -9,7 +9,11 @@
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
 #include "common/upstream.wgsl"
-#include "common/surface_textures.wgsl"
+#include "common/bilinear.wgsl"
+#include "common/packed_cutouts.wgsl"
+
+// the cut-outs' coverage (common/packed_cutouts.wgsl), shared with direct.wgsl / propagate.wgsl
+@group(0) @binding(13) var<storage, read> cutouts: array<u32>;
 
 // A diffuse-only scene: senders have no mirror part.
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {

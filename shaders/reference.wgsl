@@ -9,6 +9,7 @@
 #include "common/bsdf.wgsl"
 #include "common/bvh.wgsl"
 #include "common/textures.wgsl"
+#include "common/texture_cutouts.wgsl"
 
 // mirrors reference::GpuTraceParams
 struct TraceParams {

@@ -32,6 +32,7 @@
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
 #include "common/textures.wgsl"
+#include "common/texture_cutouts.wgsl"
 #include "common/ray.wgsl"
 #include "common/sampling.wgsl"
 #include "common/scene_cast.wgsl"

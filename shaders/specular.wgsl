@@ -10,7 +10,22 @@
 #include "common/directions.wgsl"
 #include "common/light_field.wgsl"
 #include "common/upstream.wgsl"
-#include "common/textures.wgsl"
+#include "common/bilinear.wgsl"
+
+// The mirror tiles' gather never cuts (its rim rays and the lists see cut-outs' faces whole,
+// ALPHA_MASKS stays 0 here): common/coverage.wgsl's hooks return none, so this stage binds
+// nothing more (its pipeline is at the adapter's storage-binding limit on lavapipe).
+fn cutout_of(face: u32) -> vec2<u32> {
+    return vec2<u32>(0u);
+}
+
+fn coverage_info(texture: u32) -> vec4<u32> {
+    return vec4<u32>(0u, 1u, 1u, 0u);
+}
+
+fn coverage_texel(index: u32) -> f32 {
+    return 1.0;
+}
 
 // the light field being propagated, its unshot state (common/light_field.wgsl): the unshot atlas
 // and mirror tiles, the fixed directions whose grids the tiles live in (perturbed sets move

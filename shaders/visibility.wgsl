@@ -5,8 +5,9 @@
 //
 // Coordinates are in "cell units": the centre of cell (col, row) sits at (col, row).
 #include "common/types.wgsl"
-#include "common/textures.wgsl"
+#include "common/bilinear.wgsl"
 #include "common/coverage.wgsl"
+#include "common/packed_cutouts.wgsl"
 
 @group(0) @binding(0) var<uniform> grid: GridParams;
 @group(0) @binding(1) var<storage, read> directions: array<Direction>;
@@ -17,12 +18,10 @@
 @group(0) @binding(5) var<storage, read_write> cell_offset: array<u32>;
 // per direction: its first layer; entry [direction_count] holds the total
 @group(0) @binding(6) var<storage, read_write> direction_base: array<u32>;
-// cut-outs (common/coverage.wgsl; placeholders in a scene without one): per face its textures
-// and cutoff, the textures, per triangle its corners' texture coordinates ((uv0, uv1), (uv2, -))
-@group(0) @binding(7) var<storage, read> face_textures: array<vec4<u32>>;
-@group(0) @binding(8) var<storage, read> texture_info: array<vec4<u32>>;
-@group(0) @binding(9) var<storage, read> texture_texels: array<vec4<f32>>;
-@group(0) @binding(10) var<storage, read> triangle_uv: array<vec4<f32>>;
+// cut-outs (placeholders in a scene without one): the coverage (common/packed_cutouts.wgsl) and
+// per triangle its corners' texture coordinates ((uv0, uv1), (uv2, -))
+@group(0) @binding(7) var<storage, read> cutouts: array<u32>;
+@group(0) @binding(8) var<storage, read> triangle_uv: array<vec4<f32>>;
 // (face, bitcast depth)
 @group(1) @binding(0) var<storage, read_write> layers: array<vec2<u32>>;
 

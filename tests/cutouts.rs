@@ -167,7 +167,7 @@ fn the_path_tracer_passes_the_light_the_coverage_says() {
     let expected = FLOOR_ALBEDO / std::f64::consts::PI * open;
     eprintln!("path tracer: floor's middle {mean:.5}, coverage says {expected:.5}");
     assert!(
-        (mean / expected - 1.0).abs() < 0.03,
+        (mean / expected - 1.0).abs() < 0.02,
         "path tracer: the floor under the panel shows {mean:.5}, the coverage says {expected:.5}"
     );
 }
@@ -206,7 +206,7 @@ fn eye_rays_see_the_floor_through_the_holes_and_the_panel_elsewhere() {
         "{covered:.3} of the pixels show the panel; its coverage is {COVERAGE}"
     );
     assert!(
-        (hole_mean / floor - 1.0).abs() < 0.1,
+        (hole_mean / floor - 1.0).abs() < 0.07,
         "pixels through the holes show {hole_mean:.5}, the floor beneath is {floor:.5}"
     );
     // the same view without the cut-out: all panel
@@ -229,14 +229,13 @@ fn eye_rays_see_the_floor_through_the_holes_and_the_panel_elsewhere() {
     );
 }
 
-/// A glTF model whose floor material is a cut-out: its base colour texture (an embedded PNG,
+/// A glTF model whose floor material is a cut-out: its base colour texture (a PNG beside it,
 /// alpha 0.2 in the left half, 1 in the right) with `alpha` (mode and cutoff) and factor 0.8.
 fn masked_gltf(dir: &std::path::Path, alpha: serde_json::Value) -> std::path::PathBuf {
-    let mut png = Vec::new();
     image::RgbaImage::from_fn(4, 2, |x, _| {
         image::Rgba([255, 255, 255, if x < 2 { 51 } else { 255 }])
     })
-    .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+    .save(dir.join("leaf.png"))
     .unwrap();
     let mut floor = serde_json::json!({
         "name": "leaf",
@@ -249,35 +248,13 @@ fn masked_gltf(dir: &std::path::Path, alpha: serde_json::Value) -> std::path::Pa
     let mut materials = gltf_basic_materials();
     materials[0] = floor;
     let nodes = serde_json::json!([{"children": [1, 2]}, {"mesh": 0}, {"mesh": 1}]);
-    let uri = format!(
-        "data:image/png;base64,{}",
-        base64_encode(&png) // embedded: no file beside the model
-    );
     let extra = serde_json::json!({
-        "images": [{"uri": uri}],
+        "images": [{"uri": "leaf.png"}],
         "textures": [{"source": 0}],
     });
     let path = dir.join("model.glb");
     std::fs::write(&path, gltf_model(materials, nodes, extra)).unwrap();
     path
-}
-
-fn base64_encode(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in bytes.chunks(3) {
-        let n = (c[0] as u32) << 16
-            | (*c.get(1).unwrap_or(&0) as u32) << 8
-            | *c.get(2).unwrap_or(&0) as u32;
-        for k in 0..4 {
-            if k <= c.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 #[test]

@@ -184,7 +184,8 @@ fn material_rules_and_their_warnings() {
     let path = write(dir.path(), "m.glb", &gltf_model(materials, nodes, extra));
     let s = Scene::load(&path).unwrap();
     let w = s.warnings.join("\n");
-    assert!(w.contains("glTF material \"floor\": approximated: metallic 1 roughness 0.9: a rough metal, taken as diffuse of the base colour; alpha MASK (cutoff 0.5) treated as opaque; normal map ignored"), "{w}");
+    // alpha MASK is a cut-out now (tests/cutouts.rs), not an approximation
+    assert!(w.contains("glTF material \"floor\": approximated: metallic 1 roughness 0.9: a rough metal, taken as diffuse of the base colour; normal map ignored"), "{w}");
     assert!(
         w.contains("KHR_lights_punctual light(s) \"bulb\" cannot be represented"),
         "{w}"
@@ -193,6 +194,8 @@ fn material_rules_and_their_warnings() {
     let floor = &s.materials[0];
     assert_eq!(floor.diffuse, [0.8; 3]);
     assert_eq!(floor.diffuse_texture, Some(0));
+    let cut = floor.cutout.expect("alpha MASK: a cut-out");
+    assert_eq!((cut.texture, cut.cutoff), (0, 0.5));
     let chrome = &s.materials[1];
     assert_eq!(chrome.diffuse, [0.0; 3]);
     let orange = vlf::render::image_io::srgb_decode(128);

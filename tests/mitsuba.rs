@@ -192,9 +192,13 @@ fn the_light_field_agrees_with_mitsuba_on_cornell() {
 /// `vlf export mitsuba` of Cornell-mirror into `out`, with `extra` arguments; fails with its
 /// stderr and how to get Mitsuba where it does not succeed.
 fn export_cornell_mirror(out: &Path, extra: &[&std::ffi::OsStr]) -> std::process::Output {
+    export_scene("scenes/cornell-mirror/scene.toml", out, extra)
+}
+
+fn export_scene(scene: &str, out: &Path, extra: &[&std::ffi::OsStr]) -> std::process::Output {
     let run = Command::new(env!("CARGO_BIN_EXE_vlf"))
         .args(["export", "mitsuba"])
-        .arg(repo_path("scenes/cornell-mirror/scene.toml"))
+        .arg(repo_path(scene))
         .args(extra)
         .arg("-o")
         .arg(out)
@@ -232,6 +236,33 @@ fn vlf_export_mitsuba_writes_a_scene_per_camera() {
 /// `vlf export mitsuba --objects` writes the figure at the pose `vlf render --objects` draws it
 /// (the mannequin scaled to 0.38 and standing at its configured place, every vertex of its
 /// mesh), and the exporter adds it to the scene as ordinary geometry with its own materials.
+#[test]
+fn vlf_export_mitsuba_writes_a_cut_out_as_a_mask() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mts");
+    export_scene("scenes/fence/scene.toml", &out, &[]);
+    let geometry = std::fs::read_to_string(out.join("geometry.xml")).unwrap();
+    // the slats: a mask over their two-sided diffuse BSDF, its opacity the map_d thresholded
+    // at 0.5 and read by nearest texel; volpath, whose shadow rays pass the mask's holes
+    let mask = geometry.find("<bsdf type=\"mask\">").expect("no mask BSDF");
+    assert!(geometry[mask..].contains("name=\"opacity\""), "{geometry}");
+    assert!(geometry[mask..].contains("value=\"nearest\""), "{geometry}");
+    assert!(
+        geometry.contains("<integrator type=\"volpath\">"),
+        "{geometry}"
+    );
+    assert_eq!(
+        geometry.matches("type=\"mask\"").count(),
+        1,
+        "only the slats cut holes"
+    );
+    let opacity = std::fs::read_dir(out.join("textures")).unwrap().any(|e| {
+        let name = e.unwrap().file_name().to_string_lossy().to_string();
+        name.ends_with("-opacity.exr")
+    });
+    assert!(opacity, "no opacity texture written");
+}
+
 #[test]
 fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
     let dir = tempfile::tempdir().unwrap();

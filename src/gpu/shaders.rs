@@ -69,8 +69,16 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/coverage.wgsl"),
     ),
     (
-        "common/surface_textures.wgsl",
-        include_str!("../../shaders/common/surface_textures.wgsl"),
+        "common/bilinear.wgsl",
+        include_str!("../../shaders/common/bilinear.wgsl"),
+    ),
+    (
+        "common/texture_cutouts.wgsl",
+        include_str!("../../shaders/common/texture_cutouts.wgsl"),
+    ),
+    (
+        "common/packed_cutouts.wgsl",
+        include_str!("../../shaders/common/packed_cutouts.wgsl"),
     ),
     (
         "common/sampling.wgsl",

@@ -89,6 +89,17 @@ impl SurfaceTextures {
         self.face_textures.iter().any(|t| t[0] != NO_FACE)
     }
 
+    /// The cut-outs as propagation binds them, one array (`shaders/common/packed_cutouts.wgsl`):
+    /// the face and texture counts, per face its coverage texture and cutoff bits, per texture
+    /// its first texel, width and height, then every texel's coverage as f32 bits.
+    pub fn packed_cutouts(&self) -> Vec<u32> {
+        let mut words = vec![self.face_textures.len() as u32, self.info.len() as u32];
+        words.extend(self.face_textures.iter().flat_map(|t| [t[2], t[3]]));
+        words.extend(self.info.iter().flat_map(|i| [i[0], i[1], i[2]]));
+        words.extend(self.texels.iter().map(|t| t[3].to_bits()));
+        words
+    }
+
     /// Whether some face cuts holes (a cutoff above 0: `shaders/common/coverage.wgsl`).
     pub fn any_cutout(&self) -> bool {
         self.face_textures

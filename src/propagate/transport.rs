@@ -1470,9 +1470,7 @@ impl Propagator {
                 &s.bvh_triangles,
                 &s.bvh_nodes,
                 &s.materials,
-                &s.surface.face_textures,
-                &s.surface.texture_info,
-                &s.surface.texture_texels,
+                &s.surface.cutouts,
             ],
         );
         let current = self.current;

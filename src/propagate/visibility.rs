@@ -27,14 +27,12 @@ pub struct SceneBuffers {
     pub surface: SurfaceBuffers,
 }
 
-/// What the stages that test surfaces read of a cut-out (shaders/common/coverage.wgsl):
-/// `lightfield::textures::SurfaceTextures::cutouts` (per face its textures and cutoff, the
-/// textures) and per triangle its corners' texture coordinates (visibility.wgsl's cell lines;
-/// the BVH's triangles carry their own). 16-byte placeholders in a scene without cut-outs.
+/// What propagation's stages read of the cut-outs (shaders/common/coverage.wgsl): the packed
+/// coverage (`lightfield::textures::SurfaceTextures::packed_cutouts`; visibility.wgsl and the
+/// transport's group 0) and per triangle its corners' texture coordinates (visibility.wgsl's cell
+/// lines; the BVH's triangles carry their own). 16-byte placeholders in a scene without cut-outs.
 pub struct SurfaceBuffers {
-    pub face_textures: wgpu::Buffer,
-    pub texture_info: wgpu::Buffer,
-    pub texture_texels: wgpu::Buffer,
+    pub cutouts: wgpu::Buffer,
     /// per triangle of `SceneBuffers::triangles`: (uv0, uv1), (uv2, 0, 0)
     pub triangle_uv: wgpu::Buffer,
 }
@@ -45,9 +43,7 @@ impl SurfaceBuffers {
             let none = MemoryLedger::default();
             let placeholder = || ctx.buffer_zeroed(&none, "no cut-outs", 16, STORAGE);
             return SurfaceBuffers {
-                face_textures: placeholder(),
-                texture_info: placeholder(),
-                texture_texels: placeholder(),
+                cutouts: placeholder(),
                 triangle_uv: placeholder(),
             };
         };
@@ -57,15 +53,15 @@ impl SurfaceBuffers {
                 [a[0], a[1], b[0], b[1], c[0], c[1], 0.0, 0.0]
             })
             .collect();
-        let buffer = |name, bytes: &[u8]| ctx.buffer_init(ledger, name, bytes, STORAGE);
+        let words = t.packed_cutouts();
         SurfaceBuffers {
-            face_textures: buffer(
-                "cut-outs: face textures",
-                bytemuck::cast_slice(&t.face_textures),
+            cutouts: ctx.buffer_init(ledger, "cut-outs", bytemuck::cast_slice(&words), STORAGE),
+            triangle_uv: ctx.buffer_init(
+                ledger,
+                "cut-outs: triangle uv",
+                bytemuck::cast_slice(&uv),
+                STORAGE,
             ),
-            texture_info: buffer("cut-outs: texture info", bytemuck::cast_slice(&t.info)),
-            texture_texels: buffer("cut-outs: texels", bytemuck::cast_slice(&t.texels)),
-            triangle_uv: buffer("cut-outs: triangle uv", bytemuck::cast_slice(&uv)),
         }
     }
 }
@@ -307,9 +303,7 @@ impl CellTables {
                         &self.cell_count,
                         &self.cell_offset,
                         &self.direction_base,
-                        &scene.surface.face_textures,
-                        &scene.surface.texture_info,
-                        &scene.surface.texture_texels,
+                        &scene.surface.cutouts,
                         &scene.surface.triangle_uv,
                     ],
                 );

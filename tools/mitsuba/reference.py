@@ -1320,7 +1320,11 @@ def export(scene, built, out_dir, spp=256):
     out_dir = Path(out_dir)
     (out_dir / "meshes").mkdir(parents=True, exist_ok=True)
     head = f'<scene version="3.0.0">\n  <!-- vlf scene "{scene["name"]}", written by tools/mitsuba/reference.py -->'
-    parts = [head, '  <integrator type="path"><integer name="max_depth" value="-1"/></integrator>']
+    # a cut-out (mask BSDF): volpath, whose shadow rays pass a mask's null part (path's stop at
+    # every surface, and light through the holes then arrives only by hitting the emitter)
+    masked = any(m.get("alpha_tex") for m in built["materials"].values())
+    integrator = "volpath" if masked else "path"
+    parts = [head, f'  <integrator type="{integrator}"><integer name="max_depth" value="-1"/></integrator>']
     clip = clip_range(scene, built)
     cameras = {}
     for cam in scene["cameras"]:
