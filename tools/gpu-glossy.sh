@@ -2,21 +2,29 @@
 # Runs on the lent NVIDIA machine: glossy surfaces (issue 29): what they cost and how they look.
 #   - Cornell with the tall box a rough metal (scenes/cornell-glossy: GGX alpha 0.1, and the
 #     same at alpha 0.3): `vlf propagate` (its report: iterations, time to converge) and a
-#     512x512 still of each camera at default settings (EXR, compared with Mitsuba elsewhere:
-#     Mitsuba runs on the CPU) and `vlf reference` at 4096 spp of the same;
+#     512x512 still of each camera at default settings against `vlf reference` at 8192 spp of
+#     the same (`vlf compare`: JSON and the FLIP difference image; vlf reference agrees with
+#     Mitsuba's roughconductor through this box, tests/mitsuba.rs, and Mitsuba itself runs on
+#     the CPU only);
 #   - the shipped walk CAVE (config/displays/cave-4wall-walk.toml: 8 views of 1920x1200, 120 Hz,
 #     paced) through the generated 100K mirror classroom with glossy floors and metal
 #     (`vlf generate classroom --size 100000 --mirrors --glossy`) against the same classroom
 #     without them, 600 frames each: frame time and eye rays per pixel, what glossy costs;
 #   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view).
-# Everything into OUT/glossy.tar (reports, JSON, EXR of the stills).
+# Everything into OUT/glossy.tar (reports, JSON, difference images), the front camera's EXRs
+# into OUT/glossy-exr.tar.
 #   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
 set -uo pipefail
 vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2"); frames=${3:-600}
 cd "$(dirname "$0")/.."
 work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
-pack() { (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.exr *.png 2>/dev/null); }
+pack() {
+  (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.png 2>/dev/null)
+  # the front camera's stills and references, for comparisons away from edges elsewhere
+  (cd "$work" && ls *-front.exr *-front-reference.exr >/dev/null 2>&1 \
+    && tar cf "$out/glossy-exr.tar" *-front.exr *-front-reference.exr)
+}
 trap 'pack; exit 1' TERM
 trap pack EXIT
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$work/gpu.txt" 2>/dev/null
@@ -31,7 +39,10 @@ cornell() {
       | tee "$work/propagate-$name.txt" | grep -E "iterations|propagation|converged"
     for camera in front side; do
       "$vlf" render "$scene" --lightfield "$work/$name.vlf" --camera $camera -o "$work/$name-$camera.exr" 2>&1 | quiet | tail -1
-      "$vlf" reference "$scene" --camera $camera --spp 4096 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
+      "$vlf" reference "$scene" --camera $camera --spp 8192 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
+      "$vlf" compare "$work/$name-$camera.exr" "$work/$name-$camera-reference.exr" --json \
+        --diff "$work/diff-$name-$camera.png" > "$work/compare-$name-$camera.json"
+      grep -E '"(display_mse|rel_mse)"' "$work/compare-$name-$camera.json" | tr -d '\n '; echo " $name $camera"
     done
   done
 }
