@@ -11,6 +11,7 @@
 #include "common/light_field.wgsl"
 #include "common/upstream.wgsl"
 #include "common/bilinear.wgsl"
+#include "common/sampling.wgsl"
 
 // The mirror tiles' gather never cuts (its rim rays and the lists see cut-outs' faces whole,
 // ALPHA_MASKS stays 0 here): common/coverage.wgsl's hooks return none, so this stage binds
@@ -94,14 +95,43 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let centre = f.origin + (f.axis_a * (f32(texel.x) + 0.5) + f.axis_b * (f32(texel.y) + 0.5)) / f.texel_density;
     let inside = all(abs(st - vec2<f32>(texel)) <= vec2<f32>(0.5)) && distance(sample, centre) < 1e-5;
     let x = select(sample, on_plane, inside);
-    // the light leaving along out_dir arrived travelling along its mirror image
     let out_dir = d.w * sign(cos_w);
-    let arriving = mirror_direction(out_dir, f.normal);
+    let m_f = material_of(f);
+    if is_glossy(m_f) && (grid.flags & GRID_FLAG_BATCHED) == 0u {
+        tile_next[in_page] = gather_lobe(index, x, f, face_id, out_dir, m_f);
+        return;
+    }
+    // the light leaving along out_dir arrived travelling along its mirror image
+    let g = gather_along(mirror_direction(out_dir, f.normal), x, face_id);
+    if (grid.flags & GRID_FLAG_BATCHED) != 0u {
+        weight_sums[grid.texel_count + index] += g.found;
+        tile_next[in_page] += vec4<f32>(carried_reflectance(m_f) * (g.radiance + g.sky), g.sky.x + g.sky.y + g.sky.z);
+        return;
+    }
+    var radiance = g.radiance;
+    var sky = g.sky;
+    if g.found > 0.0 {
+        radiance /= g.found;
+        sky /= g.found;
+    }
+    // w: the sky radiance this cell received, for the emitted power of the residual
+    tile_next[in_page] = vec4<f32>(carried_reflectance(m_f) * (radiance + sky), sky.x + sky.y + sky.z);
+}
+
+// What arrives at x (on face `face_id`) travelling along `arriving`: the unshot radiance of the
+// senders upstream along the three fixed directions around it (barycentric weights; taps beyond
+// the horizon, in another batch or unresolved left out) and the sky's, with the weights found.
+struct Gathered {
+    radiance: vec3<f32>,
+    sky: vec3<f32>,
+    found: f32,
+}
+
+fn gather_along(arriving: vec3<f32>, x: vec3<f32>, face_id: u32) -> Gathered {
+    let f = faces[face_id];
     let taps = lookup_direction(arriving, grid.geodesic_frequency);
     let sky_on = (grid.flags & GRID_FLAG_SKY) != 0u;
-    var radiance = vec3<f32>(0.0);
-    var sky = vec3<f32>(0.0);
-    var found = 0.0;
+    var g = Gathered(vec3<f32>(0.0), vec3<f32>(0.0), 0.0);
     for (var k = 0u; k < 3u; k++) {
         let w = taps.weight[k];
         let j = taps.index[k];
@@ -119,24 +149,51 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         if sender == UNRESOLVED {
             continue;
         }
-        found += w;
+        g.found += w;
         if sender == NO_FACE {
             if sky_on {
-                sky += grid.sky * w;
+                g.sky += grid.sky * w;
             }
         } else {
-            radiance += sender_radiance(sender, x, j, travel) * w;
+            g.radiance += sender_radiance(sender, x, j, travel) * w;
         }
     }
-    if (grid.flags & GRID_FLAG_BATCHED) != 0u {
-        weight_sums[grid.texel_count + index] += found;
-        tile_next[in_page] += vec4<f32>(carried_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
-        return;
+    return g;
+}
+
+// A glossy tile cell: the light leaving x along out_dir is the reflectance times the lobe's
+// integral of what arrives, estimated with LOBE_TAPS directions sampled from the lobe
+// (common/bsdf.wgsl, reflect_sampled: weights f cos / pdf; a Hammersley set rotated by a hash of
+// the cell, the same every iteration, so a run repeats bit for bit), each gathered as a
+// mirror's (gather_along). Directions no sender resolves are left out of the mean. Not in
+// batched propagation (directions in batches), where a glossy face is carried as a mirror of its
+// mean albedo.
+const LOBE_TAPS: u32 = 16u;
+
+fn gather_lobe(index: u32, x: vec3<f32>, f: Face, face_id: u32, out_dir: vec3<f32>, m: Material) -> vec4<f32> {
+    let n_out = select(f.normal, -f.normal, dot(f.normal, out_dir) < 0.0);
+    let h = hash(index ^ 0x2545f491u);
+    let shift = vec2<f32>(unit_float(h), unit_float(hash(h)));
+    var radiance = vec3<f32>(0.0);
+    var sky = vec3<f32>(0.0);
+    var used = 0.0;
+    for (var k = 0u; k < LOBE_TAPS; k++) {
+        let sampled = reflect_sampled(-out_dir, n_out, m.roughness, hammersley(k, LOBE_TAPS, shift));
+        if sampled.w <= 0.0 {
+            // below the surface: a sample of the lobe that reflects nothing
+            used += 1.0;
+            continue;
+        }
+        let g = gather_along(-sampled.xyz, x, face_id);
+        if g.found > 0.0 {
+            radiance += g.radiance * (sampled.w / g.found);
+            sky += g.sky * (sampled.w / g.found);
+            used += 1.0;
+        }
     }
-    if found > 0.0 {
-        radiance /= found;
-        sky /= found;
+    if used > 0.0 {
+        radiance /= used;
+        sky /= used;
     }
-    // w: the sky radiance this cell received, for the emitted power of the residual
-    tile_next[in_page] = vec4<f32>(carried_reflectance(material_of(f)) * (radiance + sky), sky.x + sky.y + sky.z);
+    return vec4<f32>(mirror_reflectance(m) * (radiance + sky), sky.x + sky.y + sky.z);
 }

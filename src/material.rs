@@ -3,9 +3,9 @@
 //! place, as pbrt-v4's `bxdf.h` keeps it. A material has a diffuse (Lambertian) part, a specular
 //! part and emission. The specular part is an ideal mirror, or with `roughness` > 0 a glossy GGX
 //! lobe (reflectance times Smith-masked GGX, no Fresnel, as Mitsuba 3's `roughconductor` with
-//! `material = "none"`): the views and the path tracer sample the lobe, propagation carries it
-//! as an ideal mirror of the reflectance times the lobe's mean albedo (the light a glossy surface
-//! sends on to other surfaces is not blurred by the lobe: the stated approximation). A cut-out
+//! `material = "none"`): the views, the path tracer and propagation's tile gather sample the
+//! lobe (batched propagation carries it as an ideal mirror of the reflectance times the lobe's
+//! mean albedo, `carried_reflectance`). A cut-out
 //! ([`Cutout`]) is a property of the surface's texture coordinates rather than of the BSDF: it
 //! travels with the surface textures (`lightfield::textures::SurfaceTextures`) and one WGSL
 //! function decides it (`shaders/common/coverage.wgsl`).

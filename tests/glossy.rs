@@ -35,12 +35,14 @@ fn render(
 }
 
 /// A closed cube whose six walls emit Le = 1 and reflect 0.3 diffusely and 0.5 by a GGX lobe of
-/// alpha 0.3. Propagation carries the lobe as a mirror of reflectance 0.5 times the lobe's mean
-/// albedo A (what single scattering keeps of diffuse light), so the light field holds
-/// L = Le / (1 - 0.3 - 0.5 A) everywhere. Drawn with one traced reflection, a pixel shows
-/// Le + 0.3 L from the atlas plus 0.5 L times the lobe's albedo E at the viewing angle (E and A
-/// from the CPU twin: 0.88 and 0.86). Measured on lavapipe: within 0.05% of that; asserted within
-/// 0.3%. A lobe that kept all its energy would show 5.
+/// alpha 0.3. Propagation gathers the lobe (16 directions sampled from it per tile cell), so a
+/// wall sends on 0.5 times the lobe's directional albedo of what arrives: with light arriving
+/// nearly uniformly, the light field holds about L = Le / (1 - 0.3 - 0.5 A), A the lobe's
+/// cosine-weighted mean albedo (what it keeps of diffuse light). Drawn with one traced
+/// reflection, a pixel shows Le + 0.3 L from the atlas plus 0.5 L times the lobe's albedo E at
+/// the viewing angle (E and A from the CPU twin: 0.88 and 0.84). Measured on lavapipe: 0.31%
+/// above that (the arriving light is not exactly uniform: walls seen at grazing angles send less
+/// of their lobe); asserted within 0.6%. A lobe that kept all its energy would show 5.
 #[test]
 fn a_furnace_of_glossy_walls_shows_the_lobes_albedo() {
     let dir = tempfile::tempdir().unwrap();
@@ -67,7 +69,7 @@ fn a_furnace_of_glossy_walls_shows_the_lobes_albedo() {
     let expected = 1.0 + 0.3 * l + 0.5 * e * l;
     eprintln!("furnace: shown {shown:.5}, expected {expected:.5} (lobe albedo {e:.4} head-on, mean {a:.4})");
     assert!(
-        ((shown - expected) / expected).abs() < 3e-3,
+        ((shown - expected) / expected).abs() < 6e-3,
         "the furnace shows {shown}, the lobe's albedo predicts {expected}"
     );
     assert!(

@@ -312,7 +312,8 @@ fn gather_texel(texel: u32) -> vec4<f32> {
                 back_weight += weight;
             }
             if mirror_senders_out {
-                if s.tile_slot != NO_FACE && dot(s.normal, travel) > 1e-6 {
+                // an ideal mirror's (a glossy lobe's tiles are read as they are)
+                if s.tile_slot != NO_FACE && !is_glossy(material_of(s)) && dot(s.normal, travel) > 1e-6 {
                     mirror_weight += weight;
                     if blind {
                         mirrored_in += sender_radiance(sender, x, grid.first_direction + i, travel) * weight;

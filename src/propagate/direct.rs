@@ -62,7 +62,8 @@ pub fn emitters(
     out
 }
 
-/// The triangles of faces with a mirror part: emitters seen in them are virtual emitters.
+/// The triangles of faces with an ideal mirror part: emitters seen in them are virtual emitters
+/// (a glossy lobe's light reaches other surfaces through its tiles, which gather the lobe).
 pub fn mirror_triangles(
     prepared: &PreparedScene,
     faces: &[GpuFace],
@@ -71,7 +72,10 @@ pub fn mirror_triangles(
     prepared
         .triangles
         .iter()
-        .filter(|t| material_of(materials, &faces[t.face as usize]).is_delta())
+        .filter(|t| {
+            let m = material_of(materials, &faces[t.face as usize]);
+            m.is_delta() && !m.is_glossy()
+        })
         .map(|t| {
             let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());
             GpuMirrorTriangle {
