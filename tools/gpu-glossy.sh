@@ -50,14 +50,19 @@ cave() {
   for variant in plain glossy; do
     flag=""; [ $variant = glossy ] && flag="--glossy"
     "$vlf" generate classroom --size 100000 --mirrors $flag -o "$work/classroom-$variant" | quiet | tail -1
-    "$vlf" propagate "$work/classroom-$variant/scene.toml" -o "$work/classroom-$variant.vlf" 2>&1 | quiet \
-      | tee "$work/propagate-classroom-$variant.txt" | grep -E "iterations|propagation  "
+    # a step that runs past STEP_LIMIT seconds (default 240) is stopped and said so
+    if ! timeout ${STEP_LIMIT:-240} "$vlf" propagate "$work/classroom-$variant/scene.toml" -o "$work/classroom-$variant.vlf" \
+        --report "$work/propagate-classroom-$variant.json" > "$work/propagate-classroom-$variant.txt" 2>&1; then
+      echo "classroom-$variant: propagation stopped or failed after ${STEP_LIMIT:-240} s" | tee -a "$work/propagate-classroom-$variant.txt"
+      continue
+    fi
+    grep -E "iterations|propagation  |GPU memory" "$work/propagate-classroom-$variant.txt"
     sed "s|^path = .*|path = \"$PWD/config/paths/classroom-100k-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$work/cave.toml"
     "$vlf" cave "$work/cave.toml" --scene "$work/classroom-$variant.vlf" --headless --frames $frames \
       --out "$work/out-$variant" --json "$work/cave-classroom-$variant.json" 2>&1 | quiet \
       | tee "$work/cave-classroom-$variant.txt" | grep -E "all views|CPU frame|eye rays|limit"
     cp "$work/out-$variant/overview.png" "$work/cave-classroom-$variant-overview.png"
-    "$vlf" bench --scene "$work/classroom-$variant/scene.toml" \
+    timeout ${STEP_LIMIT:-240} "$vlf" bench --scene "$work/classroom-$variant/scene.toml" \
       --frames 300 --size 1024x768 --json "$work/bench-classroom-$variant.json" 2>&1 | quiet \
       | tee "$work/bench-classroom-$variant.txt" | grep -iE "render|view" | head -3
   done
