@@ -595,7 +595,8 @@ def plan_materials(doc, overrides):
         except SceneError as e:
             raise SceneError(f"material {name}: {e}") from None
         mirror = bool(metallic >= MIRROR_METALLIC and roughness <= GLOSSY_ROUGHNESS)
-        alpha = 0.0 if roughness <= MIRROR_ROUGHNESS else float(roughness * roughness)
+        # a metal's lobe; a dielectric's specular part (a `mirror` override) stays an ideal mirror
+        alpha = float(roughness * roughness) if (mirror and roughness > MIRROR_ROUGHNESS) else 0.0
         base_tex, emit_tex = pbr.baseColorTexture, m.emissiveTexture
         diffuse_info = base_tex if not mirror else None
         coords = diffuse_info if diffuse_info is not None else emit_tex

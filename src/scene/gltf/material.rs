@@ -155,9 +155,11 @@ fn plan(
         .map_err(|e| err(format!("emissiveFactor x emissive_strength {e}")))?;
     let mut notes = Vec::new();
     let mirror = metallic >= MIRROR_METALLIC && roughness <= GLOSSY_ROUGHNESS;
-    let alpha = match roughness <= MIRROR_ROUGHNESS {
-        true => 0.0,
-        false => roughness * roughness,
+    // a metal's lobe; a dielectric's specular part (a scene.toml `mirror` override) stays an
+    // ideal mirror unless the override gives a roughness
+    let alpha = match mirror && roughness > MIRROR_ROUGHNESS {
+        true => roughness * roughness,
+        false => 0.0,
     };
     let base_tex = pbr.base_color_texture();
     let emit_tex = m.emissive_texture();
