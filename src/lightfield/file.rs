@@ -195,10 +195,13 @@ pub fn split_face_records(records: &[FaceRecord]) -> (Vec<GpuFace>, Vec<GpuMater
     let mut index = std::collections::HashMap::new();
     let faces = (records.iter())
         .map(|r| {
-            let m = GpuMaterial::new(r.albedo, r.mirror, r.emission).with_roughness(r.roughness);
-            let key: Vec<u8> = bytemuck::bytes_of(&m).to_vec();
+            // keyed by the record's material fields, so a glossy lobe's mean albedo (a
+            // numerical integral in with_roughness) is computed once per material, not per face
+            let fields = [r.albedo, r.mirror, r.emission, [r.roughness, 0.0, 0.0]];
+            let key: Vec<u8> = bytemuck::cast_slice(&fields).to_vec();
             let material = *index.entry(key).or_insert_with(|| {
-                materials.push(m);
+                let m = GpuMaterial::new(r.albedo, r.mirror, r.emission);
+                materials.push(m.with_roughness(r.roughness));
                 materials.len() as u32 - 1
             });
             GpuFace {
