@@ -138,9 +138,16 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         let m = material_of(f);
+        // the first reflection off a glossy lobe takes the emitters' light by shadow rays
+        // (glossy_emitter_light) and leaves out the emission its sampled ray meets
+        var emitters_sampled = false;
         if is_glossy(m) {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
             let n = select(f.normal, -f.normal, dot(ray, f.normal) > 0.0);
+            if b == 0u && view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
+                path.radiance += glossy_emitter_light(s.point + n * 1e-5, n, -ray, m.roughness, u);
+                emitters_sampled = true;
+            }
             let sampled = reflect_sampled(ray, n, m.roughness, fract(u + shift * f32(b)));
             ray = sampled.xyz;
             weight *= sampled.w;
@@ -149,7 +156,8 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         }
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];
-        path.radiance += weight * (surface_radiance(f, s) * s.seen + s.background);
+        let leaving = surface_radiance(f, s) - select(vec3<f32>(0.0), emitted(f), emitters_sampled);
+        path.radiance += weight * (max(leaving, vec3<f32>(0.0)) * s.seen + s.background);
         path.throughput = weight * s.seen;
         weight *= mirror_reflectance(material_of(f)) * s.seen;
     }
@@ -157,6 +165,41 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     path.point = s.point;
     path.ray = ray;
     return path;
+}
+
+// The emitters' direct light that a glossy lobe at point p (normal n, toward the viewer along
+// wo) reflects toward the viewer, per unit of its reflectance (mirror_chain's weights): the
+// lobe's BRDF (common/bsdf.wgsl, ggx_brdf) over view.glossy_light_samples shadow rays, each to a
+// point on an emitting triangle picked by its share of the power through the alias table that
+// the moving objects' shadows use (common/moving_surface.wgsl, pick_emitter: the same cost
+// whatever the number of lights), on a Hammersley set rotated by the chain's lobe sample `u`.
+// The chain's sampled ray then leaves out the emission it meets: a small emitter seen through a
+// sampled lobe is a rare, bright hit (a sparkle on a rough metal), which these rays replace by its
+// expected value. A map_Ke emitter is taken at its face's mean radiance.
+fn glossy_emitter_light(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
+    let count = view.glossy_light_samples;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < count; k++) {
+        let v = hammersley(k, count, u);
+        let picked = pick_emitter(v.x);
+        let em = emitters[bitcast<u32>(picked.x)];
+        let across = cross(em.e1, em.e2);
+        let area = 0.5 * length(across);
+        let r = sqrt(clamp(picked.y, 0.0, 1.0));
+        let d = em.v0 + em.e1 * (1.0 - r) + em.e2 * (v.y * r) - p;
+        let dist = length(d);
+        let wi = d / dist;
+        let cos_e = -dot(across, wi) / (2.0 * area);
+        let f = ggx_brdf(n, wo, wi, alpha);
+        if f <= 0.0 || cos_e <= 0.0 || em.chance <= 0.0 {
+            continue;
+        }
+        if blocks(p, wi, dist * (1.0 - 1e-4), 0u) {
+            continue;
+        }
+        sum += em.radiance.xyz * (f * dot(n, wi) * cos_e * area / (dist * dist * em.chance));
+    }
+    return sum / f32(max(count, 1u));
 }
 
 // Sample `i` of `total` of the glossy lobes a pixel's chains meet: the pixel's chains take the

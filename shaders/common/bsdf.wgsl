@@ -88,6 +88,27 @@ fn ggx_g1(cos_theta: f32, alpha: f32) -> f32 {
     return 2.0 / (1.0 + sqrt(1.0 + alpha * alpha * tan2));
 }
 
+// GGX's distribution of normals for a microfacet normal at cosine `cos_m` to the normal. CPU
+// twin: crate::material::ggx_d.
+fn ggx_d(cos_m: f32, alpha: f32) -> f32 {
+    let a2 = alpha * alpha;
+    let k = cos_m * cos_m * (a2 - 1.0) + 1.0;
+    return a2 / (PI * k * k);
+}
+
+// The glossy lobe's BRDF per unit reflectance for unit directions leaving the surface of normal
+// n, f = D G1(wo) G1(wi) / (4 cos_o cos_i) (0 below it): what reflect_sampled samples. CPU twin:
+// crate::material::ggx_brdf.
+fn ggx_brdf(n: vec3<f32>, wo: vec3<f32>, wi: vec3<f32>, alpha: f32) -> f32 {
+    let cos_o = dot(n, wo);
+    let cos_i = dot(n, wi);
+    if cos_o <= 0.0 || cos_i <= 0.0 {
+        return 0.0;
+    }
+    let h = normalize(wo + wi);
+    return ggx_d(dot(n, h), alpha) * ggx_g1(cos_o, alpha) * ggx_g1(cos_i, alpha) / (4.0 * cos_o * cos_i);
+}
+
 // The specular part's reflection of a ray travelling along `ray` that meets the surface of
 // normal n (facing the ray): for an ideal mirror, the mirror direction with weight 1; for a
 // glossy lobe, a direction sampled from GGX's visible normals (Heitz 2018) with `u` in [0,1)^2,

@@ -128,7 +128,9 @@ struct View {
     // reflections sampled from a glossy lobe per chain of eye-ray pair: each pair whose
     // reflecting surface is glossy traces this many chains and averages them (render.wgsl)
     lobe_samples: u32,
-    _pad1: u32,
+    // shadow rays to the emitters per chain's first glossy reflection (render.wgsl,
+    // glossy_emitter_light; 0: the lobe's sampled rays alone)
+    glossy_light_samples: u32,
     _pad2: u32,
 }
 

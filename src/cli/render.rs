@@ -35,6 +35,11 @@ pub struct RenderArgs {
     /// (a still's default; real-time views take 1)
     #[arg(long, default_value_t = vlf::render::STILL_LOBE_SAMPLES)]
     lobe_samples: u32,
+    /// Glossy surfaces: shadow rays to the emitters per sampled reflection, which take the
+    /// emitters' light off the lobe by light sampling (0: the sampled reflections alone, which
+    /// meet a small emitter rarely and show it as sparkles)
+    #[arg(long, default_value_t = vlf::render::GLOSSY_LIGHT_SAMPLES)]
+    glossy_light_samples: u32,
     /// First hits of the eye rays: rays (cast through the BVH) or raster (a visibility buffer
     /// drawn by the rasteriser, one MSAA sample per eye ray: --aa must be an MSAA count the
     /// adapter takes, 4 on every one)
@@ -76,6 +81,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     renderer.set_samples_per_pixel(args.aa)?;
     renderer.set_lobe_samples(args.lobe_samples);
+    renderer.set_glossy_light_samples(args.glossy_light_samples);
     renderer.set_first_hits(args.first_hits)?;
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
     image_io::write_image(&frame, &args.output, args.exposure)?;

@@ -157,7 +157,9 @@ pub struct GpuView {
     pub msaa_samples: u32,
     /// chains of reflections sampled from a glossy lobe per eye-ray pair that meets one
     pub lobe_samples: u32,
-    pub _pad1: u32,
+    /// shadow rays to the emitters per chain's first glossy reflection (0: the lobe's sampled
+    /// rays alone)
+    pub glossy_light_samples: u32,
     pub _pad2: u32,
 }
 

@@ -35,6 +35,9 @@ pub const DEFAULT_LOBE_SAMPLES: u32 = 1;
 /// ... and in stills (`vlf render`, `vlf verify`): with STILL_SAMPLES eye rays, 64 samples of the
 /// lobe per pixel.
 pub const STILL_LOBE_SAMPLES: u32 = 8;
+/// Shadow rays to the emitters per chain off a glossy lobe (render.wgsl, glossy_emitter_light):
+/// the emitters' share of a glossy reflection by light sampling, in real time and in stills.
+pub const GLOSSY_LIGHT_SAMPLES: u32 = 2;
 /// Antialiasing of stills (`vlf render`): eye rays per pixel.
 pub const STILL_SAMPLES: u32 = 16;
 /// The most eye rays per pixel a view may ask for.
@@ -184,7 +187,7 @@ impl FieldSet {
             field_bind_group: resident.bind_group(field_layout, &field_buffer),
             faces: resident.faces.clone(),
             materials: resident.materials.clone(),
-            moving_group: placeholder_moving_group(ctx, moving_layout),
+            moving_group: placeholder_moving_group(ctx, moving_layout, lf),
             field_buffer,
             probes: None,
         }
@@ -286,6 +289,7 @@ impl Renderer {
             mirror_bounces: lf.mirror_chains().bounces,
             fixed_work: 1,
             lobe_samples: DEFAULT_LOBE_SAMPLES,
+            glossy_light_samples: GLOSSY_LIGHT_SAMPLES,
             exhaustive_triangles,
             moving_root: u32::MAX,
             moving_first: 0,
@@ -564,6 +568,12 @@ impl Renderer {
     /// least 1): a still takes more than a real-time view (`vlf render --lobe-samples`).
     pub fn set_lobe_samples(&mut self, n: u32) {
         self.view_template.lobe_samples = n.max(1);
+    }
+
+    /// Shadow rays to the emitters per chain's first glossy reflection (`GLOSSY_LIGHT_SAMPLES`
+    /// by default; 0: the lobe's sampled rays alone, `vlf render --glossy-light-samples`).
+    pub fn set_glossy_light_samples(&mut self, n: u32) {
+        self.view_template.glossy_light_samples = n;
     }
 
     /// Mirror reflections traced per eye ray (0 without mirrors).
@@ -984,8 +994,14 @@ fn moving_group(
     )
 }
 
-/// The same group for a renderer without moving objects: placeholders, never read.
-fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) -> wgpu::BindGroup {
+/// The same group for a renderer without moving objects (or before their probes are baked):
+/// placeholders, never read, but for the scene's emitters and their alias table where `lf` has
+/// glossy surfaces, whose first reflections sample them (render.wgsl, glossy_emitter_light).
+fn placeholder_moving_group(
+    ctx: &GpuContext,
+    layout: &wgpu::BindGroupLayout,
+    lf: &LightField,
+) -> wgpu::BindGroup {
     let ledger = MemoryLedger::default();
     let storage = ctx.buffer_init(
         &ledger,
@@ -993,16 +1009,53 @@ fn placeholder_moving_group(ctx: &GpuContext, layout: &wgpu::BindGroupLayout) ->
         &[0u8; 64],
         wgpu::BufferUsages::STORAGE,
     );
-    let grid = crate::gpu::types::GpuProbeGrid::default();
+    let glossy = lf.materials.iter().any(|m| m.is_glossy());
+    let emitters = if glossy {
+        probes::emitters(lf)
+    } else {
+        Vec::new()
+    };
+    let grid = crate::gpu::types::GpuProbeGrid {
+        emitter_count: emitters.len() as u32,
+        ..Default::default()
+    };
     let uniform = ctx.buffer_init(
         &ledger,
         "no probes",
         bytemuck::bytes_of(&grid),
         wgpu::BufferUsages::UNIFORM,
     );
+    if emitters.is_empty() {
+        return ctx.bind_group(
+            layout,
+            &[&storage, &storage, &uniform, &storage, &storage, &storage],
+        );
+    }
+    let chances: Vec<f32> = emitters.iter().map(|e| e.chance).collect();
+    let (emitter_buffer, alias) = (
+        ctx.buffer_init(
+            &ledger,
+            "glossy lobes' emitters",
+            bytemuck::cast_slice(&emitters),
+            wgpu::BufferUsages::STORAGE,
+        ),
+        ctx.buffer_init(
+            &ledger,
+            "glossy lobes' emitter alias table",
+            bytemuck::cast_slice(&probes::alias_table(&chances)),
+            wgpu::BufferUsages::STORAGE,
+        ),
+    );
     ctx.bind_group(
         layout,
-        &[&storage, &storage, &uniform, &storage, &storage, &storage],
+        &[
+            &storage,
+            &storage,
+            &uniform,
+            &storage,
+            &emitter_buffer,
+            &alias,
+        ],
     )
 }
 
