@@ -407,7 +407,7 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     if (grid.flags & GRID_FLAG_SKY) != 0u {
         sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
     }
-    next[in_page] = vec4<f32>(diffuse_reflectance(material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
+    next[in_page] = vec4<f32>(propagated_diffuse(f, material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
 }
 
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance
@@ -486,7 +486,7 @@ fn mirror_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     // where the directions saw mirrors alone, the rest's mean radiance is unknown: keep it
     let scale = select(1.0, (1.0 - exact) / (1.0 - discrete), discrete < 0.999);
     let mirrored = mirror_irradiance(point.xyz, f.normal, seed, face_id);
-    next[in_page] = vec4<f32>(gathered.xyz * scale + diffuse_reflectance(material_of(f)) * (mirrored + share.xyz), 0.0);
+    next[in_page] = vec4<f32>(gathered.xyz * scale + propagated_diffuse(f, material_of(f)) * (mirrored + share.xyz), 0.0);
 }
 
 // Which texels lie inside closed geometry, such as the part of a floor under a box that stands

@@ -98,9 +98,10 @@ fn texel_balance(
             let b = balance[in_page];
             var terms = b;
             let m = material_of(f);
-            if all(diffuse_reflectance(m) > vec3<f32>(0.0)) {
-                let e = next[in_page].xyz / diffuse_reflectance(m);
-                terms = vec4<f32>(e.x + e.y + e.z, dot(carried_reflectance(m), e), b.z, b.w);
+            let sent = propagated_diffuse(f, m);
+            if all(sent > vec3<f32>(0.0)) {
+                let e = next[in_page].xyz / sent;
+                terms = vec4<f32>(e.x + e.y + e.z, dot(propagated_specular(f, m), e), b.z, b.w);
             }
             value = terms * balance_weight[in_page];
         }

@@ -76,7 +76,20 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 // The radiance leaving the point surface `s` (on face f) shows: the atlas's, and on a face with
 // a diffuse texture that does not emit, with the texture at the point (texture detail:
 // common/light_field.wgsl, atlas_radiance_detailed).
-fn surface_radiance(f: Face, s: Surface) -> vec3<f32> {
+// `reflected`: a reflection is traced from the point (a glossy face without tiles then shows
+// its texels' diffuse share: they hold its lobe's light too, which the reflection samples; where
+// no reflection follows, at a chain's end, they stand for both).
+fn surface_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
+    let m = material_of(f);
+    if reflected && lobe_carried_diffusely(f, m) {
+        let e = emitted(f);
+        return (surface_texel_radiance(f, s) - e) * shown_diffuse_share(f, m) + e;
+    }
+    return surface_texel_radiance(f, s);
+}
+
+// The light field's radiance at the point surface `s` (surface_radiance).
+fn surface_texel_radiance(f: Face, s: Surface) -> vec3<f32> {
     if SURFACE_TEXTURES != 0u {
         let texture = face_textures[s.face].x;
         if texture != NO_FACE && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
@@ -97,8 +110,8 @@ fn surface_radiance(f: Face, s: Surface) -> vec3<f32> {
 // where the first meets no face, and taken from the ray that meets that face), or what a ray
 // that met no face shows. Surfaces seen in mirrors keep the light field's radiance.
 fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, seed: u32) -> array<vec3<f32>, 2> {
-    var r0 = surface_radiance(f0, s0);
-    var r1 = surface_radiance(f1, s1);
+    var r0 = surface_radiance(f0, s0, view.mirror_bounces > 0u);
+    var r1 = surface_radiance(f1, s1, view.mirror_bounces > 0u);
     if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && (view.moving_flags & 1u) != 0u && s0.seen + s1.seen > 0.0 {
         let first = s0.seen > 0.0;
         let face = select(s1.face, s0.face, first);
@@ -156,7 +169,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         }
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];
-        let leaving = surface_radiance(f, s) - select(vec3<f32>(0.0), emitted(f), emitters_sampled);
+        let leaving = surface_radiance(f, s, b + 1u < view.mirror_bounces) - select(vec3<f32>(0.0), emitted(f), emitters_sampled);
         path.radiance += weight * (max(leaving, vec3<f32>(0.0)) * s.seen + s.background);
         path.throughput = weight * s.seen;
         weight *= mirror_reflectance(material_of(f)) * s.seen;

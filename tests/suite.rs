@@ -46,7 +46,8 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
             g.triangles,
             "every generated triangle survives import"
         );
-        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared)
+        // the default tiles' side: 8 cells of the 256-cell grid over [-1, 1]
+        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared, 8.0 * 2.0 / 256.0)
             .iter()
             .filter(|&&m| m)
             .count();

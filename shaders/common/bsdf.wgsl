@@ -55,6 +55,36 @@ fn carried_reflectance(m: Material) -> vec3<f32> {
     return m.mirror * m.lobe_albedo;
 }
 
+// A glossy face without tiles (smaller than prepare::packing::GLOSSY_TILES_MIN_FOOTPRINT tiles):
+// propagation sends its lobe's light on as diffuse light of the lobe's mean albedo, so its texels
+// hold diffuse and lobe light together; the views show their diffuse part's share of it
+// (shown_diffuse_share) and sample the lobe as on every glossy face.
+fn lobe_carried_diffusely(f: Face, m: Material) -> bool {
+    return is_glossy(m) && f.tile_slot == NO_FACE;
+}
+
+// The albedo of what face f's texels send on as diffuse light (its next unshot radiosity per unit
+// irradiance): the diffuse part's, and a tile-less glossy face's lobe (lobe_carried_diffusely).
+fn propagated_diffuse(f: Face, m: Material) -> vec3<f32> {
+    return diffuse_reflectance(m) + select(vec3<f32>(0.0), carried_reflectance(m), lobe_carried_diffusely(f, m));
+}
+
+// The specular reflectance face f's tiles carry (none for a tile-less glossy face).
+fn propagated_specular(f: Face, m: Material) -> vec3<f32> {
+    return select(carried_reflectance(m), vec3<f32>(0.0), lobe_carried_diffusely(f, m));
+}
+
+// The share of face f's texel radiance (emission aside) that its diffuse part reflects: 1, but
+// on a tile-less glossy face, whose texels also hold its lobe's light (shown by sampled
+// reflections instead), diffuse / (diffuse + the carried lobe) per channel.
+fn shown_diffuse_share(f: Face, m: Material) -> vec3<f32> {
+    if !lobe_carried_diffusely(f, m) {
+        return vec3<f32>(1.0);
+    }
+    let sent = propagated_diffuse(f, m);
+    return select(vec3<f32>(0.0), diffuse_reflectance(m) / max(sent, vec3<f32>(1e-30)), sent > vec3<f32>(0.0));
+}
+
 // The radiance face f emits: its material's on an emitting side.
 fn emitted(f: Face) -> vec3<f32> {
     return select(vec3<f32>(0.0), material_of(f).emission, (f.flags & FACE_EMITTER) != 0u);

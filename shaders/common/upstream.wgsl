@@ -283,7 +283,7 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     var back_weight = 0.0;
     // what the mirror senders left out would deliver: the balance's irradiance on faces whose
     // next unshot radiosity cannot tell it (a channel of albedo 0: mirrors, black faces)
-    let blind = !all(diffuse_reflectance(m) > vec3<f32>(0.0));
+    let blind = !all(propagated_diffuse(f, m) > vec3<f32>(0.0));
     var mirrored_in = vec3<f32>(0.0);
     for (var i = 0u; i < grid.direction_count; i++) {
         let d = directions[i];
@@ -333,14 +333,14 @@ fn gather_texel(texel: u32) -> vec4<f32> {
     let e = (irradiance + sky_irradiance) * norm;
     let seen = e + mirrored_in * norm;
     let shares = vec2<f32>(open_weight, back_weight) * (own_sum / PI * norm);
-    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(carried_reflectance(m), seen), shares) * grid.direction_weight);
+    store_balance(texel, vec4<f32>(seen.x + seen.y + seen.z, dot(propagated_specular(f, m), seen), shares) * grid.direction_weight);
     if batched {
         weight_sums[texel] += weight_sum * grid.direction_weight;
         let sky_raw = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out);
-        return vec4<f32>(diffuse_reflectance(m) * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
+        return vec4<f32>(propagated_diffuse(f, m) * (irradiance + sky_irradiance) * grid.direction_weight, sky_raw * grid.direction_weight);
     }
     let sky_share = select(sky_irradiance.x + sky_irradiance.y + sky_irradiance.z, mirror_weight, mirror_senders_out) * norm;
-    return vec4<f32>(diffuse_reflectance(m) * e * grid.direction_weight, sky_share * grid.direction_weight);
+    return vec4<f32>(propagated_diffuse(f, m) * e * grid.direction_weight, sky_share * grid.direction_weight);
 }
 
 // One texel's power-balance terms (per unit area; the balance passes weight them by area),

@@ -5,11 +5,33 @@
 use super::PreparedScene;
 use crate::gpu::types::{GpuFace, GpuMaterial, FACE_EMITTER, NO_FACE};
 
-/// Does face f have a mirror part (and so tiles)?
-pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
+/// A glossy face smaller than this many tiles' footprint gets no tiles: propagation sends its
+/// lobe's light on as diffuse light of the lobe's mean albedo, and the views still sample the lobe
+/// (shaders/common/bsdf.wgsl, lobe_carried_diffusely). A chair's metal frame of thousands of
+/// small faces would otherwise take a tile in each of the 2001 directions per face (a generated
+/// classroom's 36,288 metal faces: 4.6e9 tile cells), where its blurred reflections barely move
+/// the room's light.
+pub const GLOSSY_TILES_MIN_FOOTPRINT: f64 = 4.0;
+
+/// Does face f have tiles: a mirror part, ideal, or a glossy lobe on a face of at least
+/// `GLOSSY_TILES_MIN_FOOTPRINT` tiles' footprint (`tile_side`: a tile's side in normalised space,
+/// tile_size x 2 / grid_resolution)?
+pub fn non_diffuse_faces(prepared: &PreparedScene, tile_side: f64) -> Vec<bool> {
+    let min_area = GLOSSY_TILES_MIN_FOOTPRINT * tile_side * tile_side;
     (0..prepared.faces.len())
-        .map(|f| prepared.material_of(f).is_delta())
+        .map(|f| {
+            let m = prepared.material_of(f);
+            m.is_delta() && !(m.is_glossy() && prepared.faces[f].area < min_area)
+        })
         .collect()
+}
+
+/// How many glossy faces carry their lobe diffusely (no tiles: `non_diffuse_faces`).
+pub fn glossy_faces_without_tiles(prepared: &PreparedScene, tile_side: f64) -> usize {
+    let tiled = non_diffuse_faces(prepared, tile_side);
+    (0..prepared.faces.len())
+        .filter(|&f| prepared.material_of(f).is_glossy() && !tiled[f])
+        .count()
 }
 
 /// GPU face records for a prepared scene; `tile_slot[f]` is face f's index

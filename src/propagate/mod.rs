@@ -768,6 +768,10 @@ impl<'a> Job<'a> {
             triangles: prepared.triangles.len() as u32,
             diffuse_elements: prepared.atlas.charted_texels,
             non_diffuse_elements: spent.non_diffuse_elements,
+            glossy_faces_without_tiles: crate::prepare::packing::glossy_faces_without_tiles(
+                prepared,
+                params.tile_size as f64 * 2.0 / params.grid_resolution as f64,
+            ) as u64,
             tile_bytes: spent.tile_bytes,
             texture_bytes: spent.texture_bytes,
             host_textures: scene.texture_memory,

@@ -25,6 +25,9 @@ pub struct PropagationReport {
     pub diffuse_elements: u64,
     /// tile cells of non-diffuse faces (none in a diffuse-only scene)
     pub non_diffuse_elements: u64,
+    /// glossy faces too small for tiles (`prepare::packing::GLOSSY_TILES_MIN_FOOTPRINT`), whose
+    /// lobe's light propagation sends on as diffuse light
+    pub glossy_faces_without_tiles: u64,
     pub tile_bytes: u64,
     /// per-texel texture factors on the GPU (none in an untextured scene)
     pub texture_bytes: u64,
@@ -116,9 +119,15 @@ impl PropagationReport {
             (
                 "non-diffuse elements".into(),
                 format!(
-                    "{} ({} of tiles)",
+                    "{} ({} of tiles){}",
                     self.non_diffuse_elements,
-                    human_bytes(self.tile_bytes)
+                    human_bytes(self.tile_bytes),
+                    match self.glossy_faces_without_tiles {
+                        0 => String::new(),
+                        n => format!(
+                            "; {n} small glossy face(s) without tiles: their lobes' light sent on as diffuse light"
+                        ),
+                    }
                 ),
             ),
             ("textures".into(), self.textures_text()),

@@ -10,7 +10,7 @@ use crate::gpu::types::{
     GpuDirection, GpuFace, GpuGrid, GpuMaterial, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY, NO_FACE,
     UNRESOLVED,
 };
-use crate::material::material_of;
+use crate::material::propagated_diffuse;
 use glam::{Vec2, Vec3};
 
 pub struct CpuVisibility {
@@ -468,7 +468,7 @@ impl GatherInputs<'_> {
         };
         let e = (irradiance + sky_irradiance) * norm;
         let sky_share = (sky_irradiance.x + sky_irradiance.y + sky_irradiance.z) * norm;
-        let next = material_of(self.materials, f).diffuse_reflectance() * e;
+        let next = propagated_diffuse(self.materials, f) * e;
         [next.x, next.y, next.z, sky_share]
     }
 }
