@@ -302,8 +302,9 @@ fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
             let face = triangles[hit.tri].face;
             let f = faces[face];
             let m = material_of(f);
-            // an ideal mirror (a glossy lobe's sky comes through its tiles)
-            if is_delta(m) && !is_glossy(m) && dot(f.normal, dir) < 0.0 {
+            // an ideal mirror with tiles (a glossy lobe's sky comes through its tiles, a tile-less
+            // mirror's as diffuse light)
+            if is_delta(m) && !is_glossy(m) && f.tile_slot != NO_FACE && dot(f.normal, dir) < 0.0 {
                 let p = origin + dir * hit.t;
                 let reflected = mirror_direction(dir, f.normal);
                 let again = trace_skipping(p + f.normal * RAY_OFFSET, reflected, 4.0, true, face, SHADOW_GROW);

@@ -57,8 +57,9 @@ fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
     let own_emission = select(vec3<f32>(0.0), emitted(f), probe_grid.shadow_samples > 0u && s.seen > 0.0);
     let sky_sampled = probe_grid.sky_shadow_samples > 0u && s.seen == 0.0;
     var texel = atlas_radiance(f, s.point);
-    if lobe_carried_diffusely(f, material_of(f)) {
-        // a tile-less glossy face's texels hold its lobe's light too: the reflection below shows it
+    if carried_diffusely(f, material_of(f)) {
+        // a tile-less specular face's texels hold its specular light too: the reflection below
+        // shows it
         texel = (texel - emitted(f)) * shown_diffuse_share(f, material_of(f)) + emitted(f);
     }
     var radiance = max(texel - own_emission, vec3<f32>(0.0)) * s.seen + select(s.background, vec3<f32>(0.0), sky_sampled);

@@ -76,12 +76,12 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 // The radiance leaving the point surface `s` (on face f) shows: the atlas's, and on a face with
 // a diffuse texture that does not emit, with the texture at the point (texture detail:
 // common/light_field.wgsl, atlas_radiance_detailed).
-// `reflected`: a reflection is traced from the point (a glossy face without tiles then shows
-// its texels' diffuse share: they hold its lobe's light too, which the reflection samples; where
-// no reflection follows, at a chain's end, they stand for both).
+// `reflected`: a reflection is traced from the point (a specular face without tiles then shows
+// its texels' diffuse share: they hold its specular light too, which the reflection traces;
+// where no reflection follows, at a chain's end, they stand for both).
 fn surface_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
     let m = material_of(f);
-    if reflected && lobe_carried_diffusely(f, m) {
+    if reflected && carried_diffusely(f, m) {
         let e = emitted(f);
         return (surface_texel_radiance(f, s) - e) * shown_diffuse_share(f, m) + e;
     }

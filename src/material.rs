@@ -100,11 +100,6 @@ impl Material {
         self.mirror.iter().any(|&m| m > 0.0)
     }
 
-    /// Whether the specular part is a glossy lobe (roughness > 0) rather than an ideal mirror.
-    pub fn is_glossy(&self) -> bool {
-        self.is_delta() && self.roughness > 0.0
-    }
-
     /// Whether the surface emits.
     pub fn emits(&self) -> bool {
         self.emission.iter().any(|&e| e > 0.0)
@@ -198,11 +193,11 @@ pub fn material_of<'a>(materials: &'a [GpuMaterial], f: &GpuFace) -> &'a GpuMate
 }
 
 /// bsdf.wgsl's `propagated_diffuse`: the albedo of what face `f`'s texels send on as diffuse
-/// light: the diffuse part's, and the lobe of a glossy face without tiles (too small for them:
-/// `prepare::packing::GLOSSY_TILES_MIN_FOOTPRINT`), carried at its mean albedo.
+/// light: the diffuse part's, and the specular part of a face without tiles (too small for them:
+/// `prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`) at its carried reflectance.
 pub fn propagated_diffuse(materials: &[GpuMaterial], f: &GpuFace) -> Vec3 {
     let m = material_of(materials, f);
-    if m.is_glossy() && f.tile_slot == crate::gpu::types::NO_FACE {
+    if m.is_delta() && f.tile_slot == crate::gpu::types::NO_FACE {
         m.diffuse_reflectance() + m.carried_reflectance()
     } else {
         m.diffuse_reflectance()

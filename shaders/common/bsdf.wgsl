@@ -55,30 +55,31 @@ fn carried_reflectance(m: Material) -> vec3<f32> {
     return m.mirror * m.lobe_albedo;
 }
 
-// A glossy face without tiles (smaller than prepare::packing::GLOSSY_TILES_MIN_FOOTPRINT tiles):
-// propagation sends its lobe's light on as diffuse light of the lobe's mean albedo, so its texels
-// hold diffuse and lobe light together; the views show their diffuse part's share of it
-// (shown_diffuse_share) and sample the lobe as on every glossy face.
-fn lobe_carried_diffusely(f: Face, m: Material) -> bool {
-    return is_glossy(m) && f.tile_slot == NO_FACE;
+// A face with a specular part (an ideal mirror or a glossy lobe) but without tiles: smaller than
+// prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT tiles. Propagation sends its specular part's
+// light on as diffuse light of the part's carried reflectance, so its texels hold diffuse and
+// specular light together; the views show their diffuse part's share where they trace the
+// reflection (shown_diffuse_share), and the whole where a chain ends on it.
+fn carried_diffusely(f: Face, m: Material) -> bool {
+    return is_delta(m) && f.tile_slot == NO_FACE;
 }
 
 // The albedo of what face f's texels send on as diffuse light (its next unshot radiosity per unit
-// irradiance): the diffuse part's, and a tile-less glossy face's lobe (lobe_carried_diffusely).
+// irradiance): the diffuse part's, and a tile-less face's specular part (carried_diffusely).
 fn propagated_diffuse(f: Face, m: Material) -> vec3<f32> {
-    return diffuse_reflectance(m) + select(vec3<f32>(0.0), carried_reflectance(m), lobe_carried_diffusely(f, m));
+    return diffuse_reflectance(m) + select(vec3<f32>(0.0), carried_reflectance(m), carried_diffusely(f, m));
 }
 
-// The specular reflectance face f's tiles carry (none for a tile-less glossy face).
+// The specular reflectance face f's tiles carry (none for a tile-less face).
 fn propagated_specular(f: Face, m: Material) -> vec3<f32> {
-    return select(carried_reflectance(m), vec3<f32>(0.0), lobe_carried_diffusely(f, m));
+    return select(carried_reflectance(m), vec3<f32>(0.0), carried_diffusely(f, m));
 }
 
 // The share of face f's texel radiance (emission aside) that its diffuse part reflects: 1, but
-// on a tile-less glossy face, whose texels also hold its lobe's light (shown by sampled
-// reflections instead), diffuse / (diffuse + the carried lobe) per channel.
+// on a tile-less specular face, whose texels also hold its specular part's light (shown by
+// traced reflections instead), diffuse / (diffuse + the carried specular part) per channel.
 fn shown_diffuse_share(f: Face, m: Material) -> vec3<f32> {
-    if !lobe_carried_diffusely(f, m) {
+    if !carried_diffusely(f, m) {
         return vec3<f32>(1.0);
     }
     let sent = propagated_diffuse(f, m);

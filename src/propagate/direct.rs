@@ -62,8 +62,9 @@ pub fn emitters(
     out
 }
 
-/// The triangles of faces with an ideal mirror part: emitters seen in them are virtual emitters
-/// (a glossy lobe's light reaches other surfaces through its tiles, which gather the lobe).
+/// The triangles of faces with an ideal mirror part and tiles: emitters seen in them are virtual
+/// emitters (a glossy lobe's light reaches other surfaces through its tiles, which gather the
+/// lobe; a tile-less face's as diffuse light, `prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`).
 pub fn mirror_triangles(
     prepared: &PreparedScene,
     faces: &[GpuFace],
@@ -73,8 +74,9 @@ pub fn mirror_triangles(
         .triangles
         .iter()
         .filter(|t| {
-            let m = material_of(materials, &faces[t.face as usize]);
-            m.is_delta() && !m.is_glossy()
+            let f = &faces[t.face as usize];
+            let m = material_of(materials, f);
+            m.is_delta() && !m.is_glossy() && f.tile_slot != crate::gpu::types::NO_FACE
         })
         .map(|t| {
             let [a, b, c] = t.vertices.map(|v| prepared.positions[v as usize].as_vec3());

@@ -768,7 +768,7 @@ impl<'a> Job<'a> {
             triangles: prepared.triangles.len() as u32,
             diffuse_elements: prepared.atlas.charted_texels,
             non_diffuse_elements: spent.non_diffuse_elements,
-            glossy_faces_without_tiles: crate::prepare::packing::glossy_faces_without_tiles(
+            specular_faces_without_tiles: crate::prepare::packing::specular_faces_without_tiles(
                 prepared,
                 params.tile_size as f64 * 2.0 / params.grid_resolution as f64,
             ) as u64,

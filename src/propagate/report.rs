@@ -25,9 +25,10 @@ pub struct PropagationReport {
     pub diffuse_elements: u64,
     /// tile cells of non-diffuse faces (none in a diffuse-only scene)
     pub non_diffuse_elements: u64,
-    /// glossy faces too small for tiles (`prepare::packing::GLOSSY_TILES_MIN_FOOTPRINT`), whose
-    /// lobe's light propagation sends on as diffuse light
-    pub glossy_faces_without_tiles: u64,
+    /// faces with a specular part too small for tiles
+    /// (`prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`), whose specular light propagation sends
+    /// on as diffuse light
+    pub specular_faces_without_tiles: u64,
     pub tile_bytes: u64,
     /// per-texel texture factors on the GPU (none in an untextured scene)
     pub texture_bytes: u64,
@@ -122,10 +123,10 @@ impl PropagationReport {
                     "{} ({} of tiles){}",
                     self.non_diffuse_elements,
                     human_bytes(self.tile_bytes),
-                    match self.glossy_faces_without_tiles {
+                    match self.specular_faces_without_tiles {
                         0 => String::new(),
                         n => format!(
-                            "; {n} small glossy face(s) without tiles: their lobes' light sent on as diffuse light"
+                            "; {n} small specular face(s) without tiles: their specular light sent on as diffuse light"
                         ),
                     }
                 ),
