@@ -1189,6 +1189,15 @@ fn a_bad_key_in_the_objects_file_is_named_before_any_runtime_starts() {
     }
 }
 
+/// `vlf xr`'s arguments for a session an experiment script ends (`stop`) over `--control` on a
+/// free port, logged into `log`, with `extra`.
+fn scripted_args<'a, const N: usize>(log: &'a str, extra: [&'a str; N]) -> Vec<&'a str> {
+    let mut args = vec!["--frames", "100000", "--screenshot-frame", "1"];
+    args.extend(["--control", "127.0.0.1:0", "--log", log]);
+    args.extend(extra);
+    args
+}
+
 /// The headset's study tools, as the CAVE's: a script over `vlf xr --control` sends an event,
 /// hides and shows the body, asks for the latency test's flash and a condition (both refused,
 /// saying why, nothing changed), asks for the state and stops the session, each command
@@ -1204,21 +1213,9 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
     let _ = std::fs::remove_dir_all(&dir);
     let log = dir.join("log");
     let body = headset_body();
-    let args = [
-        "--frames",
-        "100000",
-        "--screenshot-frame",
-        "1",
-        "--objects",
-        &body,
-        "--control",
-        "127.0.0.1:0",
-        "--log",
-        log.to_str().unwrap(),
-    ];
+    let args = scripted_args(log.to_str().unwrap(), ["--objects", &body]);
     let envs = [
         ("VLF_TEST_XR_STILL_HEAD", "1"),
-        ("VLF_TEST_XR_LOCKSTEP", "1"),
         ("VLF_TEST_XR_LEFT_GRIP", left.as_str()),
         ("VLF_TEST_XR_RIGHT_GRIP", right.as_str()),
     ];
@@ -1339,16 +1336,23 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
         assert!(submit >= 0.0 && photon.is_finite(), "{r:?}");
         assert!(r.object_time_s.is_some());
     }
-    let mut photon: Vec<f64> = records
+    // motion to photon: each row to the runtime's predicted display time, as the report has it
+    let photon: Vec<f64> = records
         .iter()
         .map(|r| r.pose_to_photon_ms.unwrap())
         .collect();
-    photon.sort_by(f64::total_cmp);
+    let logged = vlf::stats::Distribution::of(&photon);
+    let reported = &s.report["pose_to_photon_ms"];
     eprintln!(
-        "headset log: {} frames; event at {event}, hide {hide}, state {state}, show {show}, stop {stop}; pose_to_photon_ms median {:.3}",
+        "headset log: {} frames; event at {event}, hide {hide}, state {state}, show {show}, stop {stop}; pose_to_photon_ms median {:.3} (report {})",
         records.len(),
-        photon[photon.len() / 2]
+        logged.median,
+        reported["median"]
     );
+    assert!(logged.min > 0.0, "{logged:?}");
+    assert_eq!(reported["samples"].as_u64(), Some(records.len() as u64));
+    let off = (logged.median - reported["median"].as_f64().unwrap()).abs();
+    assert!(off < 0.05, "log {logged:?}, report {reported}");
     let check = Command::new("python3")
         .arg(concat!(
             env!("CARGO_MANIFEST_DIR"),
@@ -1374,5 +1378,101 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
     assert!(
         !replay.status.success() && said.contains("headset"),
         "{said}"
+    );
+}
+
+/// `vlf xr --lsl`: the shipped pylsl example (tools/study/lsl_example.py) reads vlf.pose,
+/// vlf.frames and vlf.events off a headset session while it sends an event, a trial and stop
+/// over `--control`; the pose stream's timestamps rise, every pose sample is its frame's row of
+/// the session log (the head between the eyes), and the event is a marker.
+#[test]
+fn a_headset_sessions_lsl_outlets_carry_its_logged_frames() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-lsl");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("log");
+    // machine scope: liblsl resolves streams on 127.0.0.1 only, and no IPv6
+    let cfg = dir.join("lsl_api.cfg");
+    let text = "[ports]\nIPv6 = disable\n[multicast]\nResolveScope = machine\n";
+    std::fs::write(&cfg, text).unwrap();
+    let cfg = cfg.to_str().unwrap();
+    let args = scripted_args(log.to_str().unwrap(), ["--lsl"]);
+    let envs = [
+        ("VLF_TEST_XR_STILL_HEAD", "1"),
+        ("VLF_TEST_XR_LOCKSTEP", "1"),
+        ("LSLAPICFG", cfg),
+    ];
+    let (mut cmd, _) = session_command("lsl", &cornell(), &args, &envs);
+    let mut child = (cmd.stdout(std::process::Stdio::null()))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let addr = {
+        use std::io::BufRead;
+        let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut line = String::new();
+        loop {
+            line.clear();
+            assert!(
+                stderr.read_line(&mut line).unwrap() > 0,
+                "no control address"
+            );
+            if let Some(a) = line.strip_prefix("control: listening on ") {
+                let a = a.trim().to_string();
+                std::thread::spawn(move || for _ in stderr.lines() {});
+                break a;
+            }
+        }
+    };
+    let out = Command::new("python3")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tools/study/lsl_example.py"
+        ))
+        .args([&addr, "2"])
+        .env("LSLAPICFG", cfg)
+        .output()
+        .unwrap();
+    if !out.status.success() {
+        let _ = child.kill();
+        panic!("lsl_example.py: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    assert!(
+        child.wait().unwrap().success(),
+        "stop ends the session cleanly"
+    );
+    let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        (got["replies"].as_array().unwrap().iter()).all(|r| r["ok"] == true),
+        "{got}"
+    );
+    let (_, records) = vlf::study::SessionLog::read(&log).unwrap();
+    let poses = got["streams"]["vlf.pose"]["samples"].as_array().unwrap();
+    assert!(poses.len() >= 5, "{} pose samples", poses.len());
+    let stamps: Vec<f64> = poses.iter().map(|p| p[0].as_f64().unwrap()).collect();
+    assert!(
+        stamps.windows(2).all(|w| w[0] < w[1]),
+        "pose timestamps rise"
+    );
+    for p in poses {
+        let v = p[1].as_array().unwrap();
+        let frame = v[19].as_f64().unwrap() as usize;
+        let head = records[frame].pose.head;
+        let sent = Vec3::new(
+            v[0].as_f64().unwrap() as f32,
+            v[1].as_f64().unwrap() as f32,
+            v[2].as_f64().unwrap() as f32,
+        );
+        assert_eq!(sent, head, "frame {frame}");
+    }
+    let events = got["streams"]["vlf.events"]["samples"].as_array().unwrap();
+    assert!(
+        (events.iter()).any(|e| e[1][0].as_str().unwrap().contains("lsl check: stimulus on")),
+        "{events:?}"
+    );
+    eprintln!(
+        "headset LSL: {} pose samples, {} log rows",
+        poses.len(),
+        records.len()
     );
 }
