@@ -104,6 +104,22 @@ fn logged_cornell_run(
     SessionMeta,
     Vec<vlf::study::FrameRecord>,
 ) {
+    logged_cornell_run_with(dir, config, frames, None)
+}
+
+/// `logged_cornell_run`, with `control` (a script's commands over TCP) and then every frame read
+/// back into `dir/live/frame-<n>/`.
+fn logged_cornell_run_with(
+    dir: &std::path::Path,
+    config: &std::path::Path,
+    frames: u32,
+    control: Option<&vlf::study::ControlServer>,
+) -> (
+    vlf::lightfield::LightField,
+    vlf::lightfield::ResidentLightField,
+    SessionMeta,
+    Vec<vlf::study::FrameRecord>,
+) {
     let display = DisplayConfig::load(config).unwrap();
     let scene = vlf::scene::Scene::load(&repo_path("scenes/cornell/scene.toml")).unwrap();
     let (lf, resident, _) =
@@ -124,6 +140,7 @@ fn logged_cornell_run(
         started_unix_s: 0.0,
         views,
         columns: Vec::new(),
+        headset: None,
     };
     let log_dir = dir.join("log");
     {
@@ -133,9 +150,10 @@ fn logged_cornell_run(
             out: &dir.join("live"),
             exr: true,
             log: Some(&mut log),
-            control: None,
+            control,
             lsl: None,
             conditions: None,
+            read_back_every_frame: control.is_some(),
         };
         vlf::display::headless::run_reporting(&lf, &resident, &display, config, run, &Silent)
             .unwrap();
@@ -841,6 +859,22 @@ fn read_png(path: &std::path::Path) -> image::RgbImage {
         .to_rgb8()
 }
 
+/// One frame of the log `meta` replayed into `out` from the light field: its first view's PNG.
+fn replay_png(
+    (lf, resident): (
+        &vlf::lightfield::LightField,
+        &vlf::lightfield::ResidentLightField,
+    ),
+    meta: &SessionMeta,
+    record: vlf::study::FrameRecord,
+    out: &std::path::Path,
+) -> image::RgbImage {
+    let folders =
+        vlf::display::replay::replay((lf, resident), meta, &[record], (out, false), &Silent)
+            .unwrap();
+    read_png(&folders[0].join(format!("{}.png", meta.views[0])))
+}
+
 /// The names of the files in `dir` that contain `part`.
 fn names_with(dir: &std::path::Path, part: &str) -> Vec<String> {
     (std::fs::read_dir(dir).unwrap())
@@ -880,22 +914,165 @@ fn a_keyframed_object_replays_at_its_logged_time() {
         object_time_s: None,
         ..records[3].clone()
     };
-    let start = vlf::display::replay::replay(
-        (&lf, &resident),
-        &meta,
-        &[at_zero],
-        (&dir.path().join("start"), false),
-        &Silent,
-    )
-    .unwrap();
-    let moved = differing(
-        &read_png(&again[0].join("front-mono.png")),
-        &read_png(&start[0].join("front-mono.png")),
-    );
+    let start = replay_png((&lf, &resident), &meta, at_zero, &dir.path().join("start"));
+    let moved = differing(&read_png(&again[0].join("front-mono.png")), &start);
     eprintln!("keyframed cube: {moved} of 3072 pixels differ between 0 s and 0.3 s");
     assert!(
         moved > 30,
         "the cube at 0 s and 0.3 s: {moved} pixels differ"
+    );
+}
+
+/// A cube half a metre wide standing still in the Cornell box of `small_display`.
+const STILL_CUBE: &str = "[[object]]\nname = \"cube\"\nmesh = \"cube.obj\"\n\
+position = [0.25, 0.55, 0.2]\nyaw_deg = 30.0\nscale = 2.5\n";
+
+/// A script's commands sent one after the other to `addr`, each once the one before was
+/// acknowledged: the replies, in order.
+fn send_in_turn(addr: std::net::SocketAddr, lines: &[&str]) -> Vec<serde_json::Value> {
+    use std::io::{BufRead, Write};
+    let mut client = std::net::TcpStream::connect(addr).unwrap();
+    let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+    let mut got = Vec::new();
+    for line in lines {
+        writeln!(client, "{line}").unwrap();
+        let mut reply = String::new();
+        replies.read_line(&mut reply).unwrap();
+        got.push(serde_json::from_str(&reply).unwrap());
+    }
+    got
+}
+
+/// Every command that changes the picture, replayed at its frame: a script hides and shows the
+/// cube, turns the objects' shadows and reflections off, flashes the walls white (then black)
+/// and ends the test, over the control connection of a headless run that reads every frame back;
+/// the log has each frame's switches and flash (`objects_hidden`, `shadows`, `reflections`,
+/// `flash`), and `vlf replay` draws every frame pixel-identical to the live one. Where a
+/// command changed the picture the frame differs from the one before it, and the hidden cube
+/// drawn without the logged switches (as a format 4 log was replayed) differs from the live frame.
+#[test]
+fn every_command_that_changes_the_picture_replays_at_its_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = small_display(dir.path(), STILL_CUBE);
+    let server = vlf::study::ControlServer::bind("127.0.0.1:0").unwrap();
+    let addr = server.addr;
+    let script = std::thread::spawn(move || {
+        send_in_turn(
+            addr,
+            &[
+                r#"{"cmd": "event", "text": "begin"}"#,
+                r#"{"cmd": "hide", "object": "cube"}"#,
+                r#"{"cmd": "show", "object": "cube"}"#,
+                r#"{"cmd": "shadows", "on": false}"#,
+                r#"{"cmd": "reflections", "on": false}"#,
+                r#"{"cmd": "flash"}"#,
+                r#"{"cmd": "flash", "end": true}"#,
+                r#"{"cmd": "stop"}"#,
+            ],
+        )
+    });
+    let (lf, resident, meta, records) =
+        logged_cornell_run_with(dir.path(), &config, 100_000, Some(&server));
+    let replies = script.join().unwrap();
+    assert!(replies.iter().all(|r| r["ok"] == true), "{replies:?}");
+    let at: Vec<u64> = (replies.iter())
+        .map(|r| r["frame"].as_u64().unwrap())
+        .collect();
+    let [_begin, hide, show, shadows, reflections, flash, flash_end, stop] = at[..] else {
+        panic!("{replies:?}")
+    };
+    assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
+    assert_eq!(records.last().unwrap().frame, stop);
+    assert!(records.iter().all(|r| r.drawn == Drawn::ReadBack));
+    let names: Vec<&str> = meta.columns.iter().map(|(n, _)| n.as_str()).collect();
+    for column in ["objects_hidden", "shadows", "reflections", "flash"] {
+        assert!(names.contains(&column), "{column}");
+    }
+    assert_eq!(
+        parquet_matches_csv(&dir.path().join("log"))["parquet_rows"],
+        records.len()
+    );
+    // the log: each switch from its frame on, the flash white at its frame, black until its end
+    for r in &records {
+        let f = r.frame;
+        let switches = r.objects.as_ref().unwrap();
+        let hidden: &[&str] = if (hide..show).contains(&f) {
+            &["cube"]
+        } else {
+            &[]
+        };
+        assert_eq!(switches.hidden, hidden, "frame {f}");
+        assert_eq!(switches.shadows, f < shadows, "frame {f}");
+        assert_eq!(switches.reflections, f < reflections, "frame {f}");
+        let lit = match f {
+            f if f == flash => Some(true),
+            f if (flash + 1..flash_end).contains(&f) => Some(false),
+            _ => None,
+        };
+        assert_eq!(r.flash, lit, "frame {f}");
+    }
+
+    // replayed from the log: every frame the live one, pixel for pixel
+    let again = dir.path().join("again");
+    let folders =
+        vlf::display::replay::replay((&lf, &resident), &meta, &records, (&again, true), &Silent)
+            .unwrap();
+    assert_eq!(folders.len(), records.len());
+    let view = &meta.views[0];
+    let live = |f: u64| dir.path().join(format!("live/frame-{f:06}/{view}"));
+    for (r, folder) in records.iter().zip(&folders) {
+        same_pixels(
+            &live(r.frame).with_extension("exr"),
+            &folder.join(format!("{view}.exr")),
+        );
+        let png = |p: std::path::PathBuf| read_png(&p);
+        assert_eq!(
+            differing(
+                &png(live(r.frame).with_extension("png")),
+                &png(folder.join(format!("{view}.png")))
+            ),
+            0,
+            "frame {}",
+            r.frame
+        );
+    }
+    // where a command changed the picture, its frame differs from the one before
+    let shown = |f: u64| read_png(&live(f).with_extension("png"));
+    let changed = |f: u64| differing(&shown(f - 1), &shown(f));
+    let (hid, reshown, unshadowed) = (changed(hide), changed(show), changed(shadows));
+    eprintln!(
+        "pixels of {} changed: hide {hid}, show {reshown}, shadows off {unshadowed}, reflections off {}",
+        64 * 48,
+        changed(reflections)
+    );
+    assert!(hid > 30 && reshown > 30, "hide {hid}, show {reshown}");
+    assert!(unshadowed > 10, "shadows off: {unshadowed} pixels changed");
+    let white = shown(flash);
+    assert!(
+        white.pixels().all(|p| p.0 == [255; 3]),
+        "the flash is full white"
+    );
+    assert!(
+        shown(flash + 1).pixels().all(|p| p.0 == [0; 3]),
+        "then black"
+    );
+    assert!(changed(flash_end) > 1000, "the scene back after the test");
+    // the hidden frame drawn without its logged switches (a format 4 log): the cube is there
+    let record = records.iter().find(|r| r.frame == hide).unwrap();
+    let unswitched = vlf::study::FrameRecord {
+        objects: None,
+        ..record.clone()
+    };
+    let older = replay_png(
+        (&lf, &resident),
+        &meta,
+        unswitched,
+        &dir.path().join("older"),
+    );
+    let differ = differing(&shown(hide), &older);
+    assert!(
+        differ > 30,
+        "without the switches the cube shows: {differ} pixels differ"
     );
 }
 

@@ -178,6 +178,20 @@ fn cornell() -> PathBuf {
 
 /// `vlf xr` on the test runtime; `name` keeps each test's files apart.
 fn session(name: &str, scene: &Path, args: &[&str], envs: &[(&str, &str)]) -> Session {
+    let (mut cmd, dir) = session_command(name, scene, args, envs);
+    let out = cmd.output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    session_ended(&dir, (out.status.success(), &out.stdout, stderr))
+}
+
+/// The command line of `vlf xr` on the test runtime, its screenshot, report and the runtime's
+/// account in a fresh folder for `name` (returned).
+fn session_command(
+    name: &str,
+    scene: &Path,
+    args: &[&str],
+    envs: &[(&str, &str)],
+) -> (Command, PathBuf) {
     let manifest = test_runtime();
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("xr-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
@@ -201,11 +215,17 @@ fn session(name: &str, scene: &Path, args: &[&str], envs: &[(&str, &str)]) -> Se
     for (k, v) in envs {
         cmd.env(k, v);
     }
-    let out = cmd.output().unwrap();
-    let (stdout, stderr) = (
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+    (cmd, dir)
+}
+
+/// What a `session_command` left in `dir` once it ended: whether it succeeded, and its output.
+fn session_ended(dir: &Path, (ok, stdout, stderr): (bool, &[u8], String)) -> Session {
+    let (shot, json, runtime_report) = (
+        dir.join("left.png"),
+        dir.join("report.json"),
+        dir.join("runtime.txt"),
     );
+    let stdout = String::from_utf8_lossy(stdout).into_owned();
     println!("{stdout}\n{stderr}");
     let report = std::fs::read_to_string(&json)
         .ok()
@@ -221,7 +241,7 @@ fn session(name: &str, scene: &Path, args: &[&str], envs: &[(&str, &str)]) -> Se
         .collect();
     let screenshot = image::open(&shot).ok().map(|i| i.to_rgb8());
     Session {
-        ok: out.status.success(),
+        ok,
         stdout,
         stderr,
         report,
@@ -1167,4 +1187,292 @@ fn a_bad_key_in_the_objects_file_is_named_before_any_runtime_starts() {
             "the runtime was tried first: {err}"
         );
     }
+}
+
+/// `vlf xr`'s arguments for a session an experiment script ends (`stop`) over `--control` on a
+/// free port, logged into `log`, with `extra`.
+fn scripted_args<'a, const N: usize>(log: &'a str, extra: [&'a str; N]) -> Vec<&'a str> {
+    let mut args = vec!["--frames", "100000", "--screenshot-frame", "1"];
+    args.extend(["--control", "127.0.0.1:0", "--log", log]);
+    args.extend(extra);
+    args
+}
+
+/// The headset's study tools, as the CAVE's: a script over `vlf xr --control` sends an event,
+/// hides and shows the body, asks for the latency test's flash and a condition (both refused,
+/// saying why, nothing changed), asks for the state and stops the session, each command
+/// acknowledged with its frame; `--log` writes a row per frame drawn with the head between the
+/// eyes, the controllers' grips in the stage, the body hidden exactly from the hide's frame to
+/// the show's, the event in its frame's row and the runtime's predicted display time; the
+/// Parquet equals the CSV; `vlf replay` of a headset's log is refused, saying why.
+#[test]
+fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
+    use std::io::{BufRead, Write};
+    let (left, right) = (grip_env(LEFT_GRIP), grip_env(RIGHT_GRIP));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-study-log");
+    let _ = std::fs::remove_dir_all(&dir);
+    let log = dir.join("log");
+    let body = headset_body();
+    let args = scripted_args(log.to_str().unwrap(), ["--objects", &body]);
+    let envs = [
+        ("VLF_TEST_XR_STILL_HEAD", "1"),
+        ("VLF_TEST_XR_LEFT_GRIP", left.as_str()),
+        ("VLF_TEST_XR_RIGHT_GRIP", right.as_str()),
+    ];
+    let (mut cmd, out_dir) = session_command("study", &cornell(), &args, &envs);
+    let mut child = (cmd.stdout(std::process::Stdio::piped()))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let (mut addr, mut said) = (None, String::new());
+    let mut line = String::new();
+    while addr.is_none() && stderr.read_line(&mut line).unwrap() > 0 {
+        addr = (line.strip_prefix("control: listening on ")).map(|a| a.trim().to_string());
+        said.push_str(&line);
+        line.clear();
+    }
+    let addr = addr.unwrap_or_else(|| panic!("vlf xr never said where it listens:\n{said}"));
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = std::io::Read::read_to_string(&mut stderr, &mut text);
+        text
+    });
+    let mut client = std::net::TcpStream::connect(&addr).unwrap();
+    let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+    let commands = [
+        r#"{"cmd": "event", "text": "trial 1 begins"}"#,
+        r#"{"cmd": "hide", "object": "body"}"#,
+        r#"{"cmd": "flash"}"#,
+        r#"{"cmd": "condition", "name": "gi-off"}"#,
+        r#"{"cmd": "state"}"#,
+        r#"{"cmd": "show", "object": "body"}"#,
+        r#"{"cmd": "stop"}"#,
+    ];
+    let mut got: Vec<serde_json::Value> = Vec::new();
+    for command in commands {
+        writeln!(client, "{command}").unwrap();
+        let mut reply = String::new();
+        replies.read_line(&mut reply).unwrap();
+        got.push(serde_json::from_str(&reply).unwrap());
+    }
+    let status = child.wait().unwrap();
+    let mut stdout = Vec::new();
+    std::io::Read::read_to_end(&mut child.stdout.take().unwrap(), &mut stdout).unwrap();
+    let s = session_ended(
+        &out_dir,
+        (status.success(), &stdout, said + &rest.join().unwrap()),
+    );
+    assert!(s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"));
+    // acknowledged with their frames, in order; flash and condition refused with the reason
+    let ok: Vec<bool> = got.iter().map(|r| r["ok"] == true).collect();
+    assert_eq!(ok, [true, true, false, false, true, true, true], "{got:?}");
+    let flash = got[2]["error"].as_str().unwrap();
+    assert!(
+        flash.contains("headset") && flash.contains("latency"),
+        "{flash}"
+    );
+    let condition = got[3]["error"].as_str().unwrap();
+    assert!(condition.contains("[[condition]]"), "{condition}");
+    let frame = |i: usize| got[i]["frame"].as_u64().unwrap();
+    let (event, hide, state, show, stop) = (frame(0), frame(1), frame(4), frame(5), frame(6));
+    assert!(
+        event < hide && hide < state && state < show && show < stop,
+        "{got:?}"
+    );
+    assert_eq!(got[4]["logging"], true, "{}", got[4]);
+
+    // the log: a row for every frame drawn up to the stop
+    let (meta, records) = vlf::study::SessionLog::read(&log).unwrap();
+    assert!(
+        meta.headset.as_deref().unwrap().contains("vlf"),
+        "{:?}",
+        meta.headset
+    );
+    assert_eq!(meta.views, ["headset-left", "headset-right"]);
+    let frames: Vec<u64> = records.iter().map(|r| r.frame).collect();
+    // (the runtime may ask for a frame or two more between the stop and the session's end)
+    let counted: Vec<u64> = (0..records.len() as u64).collect();
+    assert!(
+        frames == counted && stop < records.len() as u64,
+        "{frames:?}, stop {stop}"
+    );
+    assert_eq!(
+        s.report["frames"].as_u64(),
+        Some(records.len() as u64),
+        "{}",
+        s.report
+    );
+    let at = |f: u64| &records[f as usize];
+    assert!(at(event).events.contains("trial 1 begins"));
+    assert!(at(hide).events.contains("hide body"));
+    let (lg, rg) = (stage_grip(LEFT_GRIP), stage_grip(RIGHT_GRIP));
+    for r in &records {
+        let hidden: &[&str] = if (hide..show).contains(&r.frame) {
+            &["body"]
+        } else {
+            &[]
+        };
+        assert_eq!(
+            r.objects.as_ref().unwrap().hidden,
+            hidden,
+            "frame {}",
+            r.frame
+        );
+        // the still head between the eyes at 1.6 m; the grips where the runtime put them
+        assert!(
+            (r.pose.head - Vec3::new(0.0, 1.6, 0.0)).length() < 1e-4,
+            "{:?}",
+            r.pose
+        );
+        let close = |w: &Option<vlf::tracking::WandPose>, g: glam::Affine3A| {
+            let w = w.expect("a located grip");
+            (w.position - Vec3::from(g.translation)).length() < 1e-4
+        };
+        assert!(close(&r.left_hand, lg) && close(&r.wand, rg), "{r:?}");
+        assert_eq!(r.views.len(), 2);
+        let (submit, photon) = (r.pose_to_submit_ms.unwrap(), r.pose_to_photon_ms.unwrap());
+        assert!(submit >= 0.0 && photon.is_finite(), "{r:?}");
+        assert!(r.object_time_s.is_some());
+    }
+    // motion to photon: each row to the runtime's predicted display time, as the report has it
+    let photon: Vec<f64> = records
+        .iter()
+        .map(|r| r.pose_to_photon_ms.unwrap())
+        .collect();
+    let logged = vlf::stats::Distribution::of(&photon);
+    let reported = &s.report["pose_to_photon_ms"];
+    eprintln!(
+        "headset log: {} frames; event at {event}, hide {hide}, state {state}, show {show}, stop {stop}; pose_to_photon_ms median {:.3} (report {})",
+        records.len(),
+        logged.median,
+        reported["median"]
+    );
+    assert!(logged.min > 0.0, "{logged:?}");
+    assert_eq!(reported["samples"].as_u64(), Some(records.len() as u64));
+    let off = (logged.median - reported["median"].as_f64().unwrap()).abs();
+    assert!(off < 0.05, "log {logged:?}, report {reported}");
+    let check = Command::new("python3")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tools/study/parquet_check.py"
+        ))
+        .arg(&log)
+        .output()
+        .unwrap();
+    assert!(
+        check.status.success(),
+        "{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    // a headset's log is not replayed: its eyes' poses and fields of view are not in it
+    let replay = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("replay")
+        .arg(&log)
+        .arg("--out")
+        .arg(dir.join("again"))
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&replay.stderr);
+    assert!(
+        !replay.status.success() && said.contains("headset"),
+        "{said}"
+    );
+}
+
+/// `vlf xr --lsl`: the shipped pylsl example (tools/study/lsl_example.py) reads vlf.pose,
+/// vlf.frames and vlf.events off a headset session while it sends an event, a trial and stop
+/// over `--control`; the pose stream's timestamps rise, every pose sample is its frame's row of
+/// the session log (the head between the eyes), and the event is a marker.
+#[test]
+fn a_headset_sessions_lsl_outlets_carry_its_logged_frames() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-lsl");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let log = dir.join("log");
+    // machine scope: liblsl resolves streams on 127.0.0.1 only, and no IPv6
+    let cfg = dir.join("lsl_api.cfg");
+    let text = "[ports]\nIPv6 = disable\n[multicast]\nResolveScope = machine\n";
+    std::fs::write(&cfg, text).unwrap();
+    let cfg = cfg.to_str().unwrap();
+    let args = scripted_args(log.to_str().unwrap(), ["--lsl"]);
+    let envs = [
+        ("VLF_TEST_XR_STILL_HEAD", "1"),
+        ("VLF_TEST_XR_LOCKSTEP", "1"),
+        ("LSLAPICFG", cfg),
+    ];
+    let (mut cmd, _) = session_command("lsl", &cornell(), &args, &envs);
+    let mut child = (cmd.stdout(std::process::Stdio::null()))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let addr = {
+        use std::io::BufRead;
+        let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+        let mut line = String::new();
+        loop {
+            line.clear();
+            assert!(
+                stderr.read_line(&mut line).unwrap() > 0,
+                "no control address"
+            );
+            if let Some(a) = line.strip_prefix("control: listening on ") {
+                let a = a.trim().to_string();
+                std::thread::spawn(move || for _ in stderr.lines() {});
+                break a;
+            }
+        }
+    };
+    let out = Command::new("python3")
+        .arg(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/tools/study/lsl_example.py"
+        ))
+        .args([&addr, "2"])
+        .env("LSLAPICFG", cfg)
+        .output()
+        .unwrap();
+    if !out.status.success() {
+        let _ = child.kill();
+        panic!("lsl_example.py: {}", String::from_utf8_lossy(&out.stderr));
+    }
+    assert!(
+        child.wait().unwrap().success(),
+        "stop ends the session cleanly"
+    );
+    let got: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(
+        (got["replies"].as_array().unwrap().iter()).all(|r| r["ok"] == true),
+        "{got}"
+    );
+    let (_, records) = vlf::study::SessionLog::read(&log).unwrap();
+    let poses = got["streams"]["vlf.pose"]["samples"].as_array().unwrap();
+    assert!(poses.len() >= 5, "{} pose samples", poses.len());
+    let stamps: Vec<f64> = poses.iter().map(|p| p[0].as_f64().unwrap()).collect();
+    assert!(
+        stamps.windows(2).all(|w| w[0] < w[1]),
+        "pose timestamps rise"
+    );
+    for p in poses {
+        let v = p[1].as_array().unwrap();
+        let frame = v[19].as_f64().unwrap() as usize;
+        let head = records[frame].pose.head;
+        let sent = Vec3::new(
+            v[0].as_f64().unwrap() as f32,
+            v[1].as_f64().unwrap() as f32,
+            v[2].as_f64().unwrap() as f32,
+        );
+        assert_eq!(sent, head, "frame {frame}");
+    }
+    let events = got["streams"]["vlf.events"]["samples"].as_array().unwrap();
+    assert!(
+        (events.iter()).any(|e| e[1][0].as_str().unwrap().contains("lsl check: stimulus on")),
+        "{events:?}"
+    );
+    eprintln!(
+        "headset LSL: {} pose samples, {} log rows",
+        poses.len(),
+        records.len()
+    );
 }

@@ -151,6 +151,7 @@ pub fn run(a: CaveArgs) -> Result<()> {
         control: control.as_ref(),
         lsl,
         conditions: conditions.as_ref(),
+        read_back_every_frame: false,
     };
     let report = vlf::display::headless::run_reporting(
         &lf,
@@ -203,6 +204,7 @@ fn session_log(
             .map_or(0.0, |d| d.as_secs_f64()),
         views: (views.iter()).map(|v| v.name(display)).collect(),
         columns: Vec::new(),
+        headset: None,
     };
     Ok(vlf::study::SessionLog::create(dir, meta)?)
 }

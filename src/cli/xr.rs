@@ -54,6 +54,19 @@ pub struct XrArgs {
     /// body, its hands on the controllers' grips)
     #[arg(long)]
     objects: Option<PathBuf>,
+    /// Listen for an experiment script's commands (JSON lines over TCP) on host:port, e.g.
+    /// 127.0.0.1:7400 (port 0: any free one, said on stderr); as `vlf cave --control`, less the
+    /// latency test's flash and conditions (docs/guide/studies.md)
+    #[arg(long)]
+    control: Option<String>,
+    /// Log every frame into this new folder (session.json, frames.csv and frames.parquet/: the
+    /// head between the eyes, the controllers' grips, the predicted display time)
+    #[arg(long)]
+    log: Option<PathBuf>,
+    /// Send every frame's pose, the frames and the events on Lab Streaming Layer outlets
+    /// (vlf.pose, vlf.frames, vlf.events) for LabRecorder
+    #[arg(long)]
+    lsl: bool,
     /// Write the frame-time report as JSON
     #[arg(long)]
     json: Option<PathBuf>,
@@ -76,6 +89,9 @@ pub fn run(a: XrArgs) -> Result<()> {
         first_hits,
         swapchains,
         objects,
+        control,
+        log,
+        lsl,
         json,
         params,
     } = a;
@@ -91,6 +107,11 @@ pub fn run(a: XrArgs) -> Result<()> {
         first_hits,
         swapchains,
         objects,
+        study: vlf::xr::XrStudy {
+            control,
+            log: log.map(|dir| (dir, scene.clone())),
+            lsl,
+        },
     };
     let scale = options.resolution_scale;
     if !(scale.is_finite() && scale > 0.0 && scale <= 4.0) {

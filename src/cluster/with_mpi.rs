@@ -503,6 +503,7 @@ fn draw(
                 control: None,
                 lsl: None,
                 conditions: None,
+                read_back_every_frame: false,
             },
             Some(link),
             &crate::progress::Silent,

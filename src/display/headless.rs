@@ -79,6 +79,10 @@ pub struct HeadlessRun<'p> {
     /// the display's conditions with their light fields made (`super::conditions`), switched
     /// by the script's `condition` command
     pub conditions: Option<&'p Conditions>,
+    /// every frame drawn view by view and read back (untimed), its images into
+    /// `out/frame-<n>/` as `vlf replay` writes them, the last one into `out` as well: what the
+    /// walls showed frame by frame, to compare with a replay
+    pub read_back_every_frame: bool,
 }
 
 /// Render `frames` frames: all views of a frame are submitted back to back and timed; the
@@ -100,6 +104,7 @@ pub fn run(
         control: None,
         lsl: None,
         conditions: None,
+        read_back_every_frame: false,
     };
     run_locked(
         lf,
@@ -148,6 +153,18 @@ impl Kept {
     /// Every view's image, in view order.
     pub(super) fn views(&self) -> &[Frame] {
         &self.views
+    }
+
+    /// The latency test's walls in place of the views (`flash`: Some(true) full white, Some(false)
+    /// black), as the windows show them: every view's and projector's image one colour, white
+    /// being full scale at the exposure of the PNGs.
+    pub(super) fn flash(&mut self, flash: Option<bool>) {
+        let Some(white) = flash else { return };
+        let level = if white { 1.0 / self.exposure } else { 0.0 };
+        let images = (self.views.iter_mut()).chain(self.projectors.iter_mut().map(|(_, i)| i));
+        for p in images.flat_map(|image| image.pixels.iter_mut()) {
+            p[..3].fill(level);
+        }
     }
 
     /// The frame's views read back (`FrameOfViews::read_back`), their projectors' outputs named.
@@ -287,31 +304,36 @@ pub fn run_locked(
             views: frame.drawn().to_vec(),
             events: String::new(),
             condition: String::new(),
+            objects: Some(frame.object_switches()),
+            flash: None,
         };
-        if f + 1 == total || session.stop {
-            // the last frame drawn again view by view and read back (not timed)
-            let images = frame.read_back(tracked)?;
-            let note = format!("read back into {}", out.display());
+        let last = f + 1 == total || session.stop;
+        if last || run.read_back_every_frame {
+            let folder = out.join(format!("frame-{f:06}"));
+            let into = if run.read_back_every_frame {
+                &folder
+            } else {
+                out
+            };
+            let each = (run.read_back_every_frame).then_some((into, exr));
+            kept = read_back_kept(&mut frame, config, (tracked, session.flash()), each)?;
+            let note = format!("read back into {}", into.display());
             session.end_frame(record(&frame, Drawn::ReadBack), Some(note))?;
-            drawn_frames = f + 1;
-            kept = Kept::of(config, frame.wall_views(), images);
-            kept.exposure = frame.exposure();
             if let Some(l) = lock.as_deref_mut() {
                 l.swap_untimed()?;
             }
-            break;
+            if last {
+                drawn_frames = f + 1;
+                break;
+            }
+            continue;
         }
-        // every view of a timed frame submitted back to back, then waited for
-        frame.begin(true)?;
-        frame.draw(tracked, Draw::Timed, None)?;
-        let pose_to_submit_ms = Some(sampled.elapsed().as_secs_f64() * 1e3);
-        resident.ctx.wait_spinning()?;
-        let cpu_ms = frame.elapsed_ms();
-        if let Some(l) = lock.as_deref_mut() {
-            l.swap()?;
-        }
-        frame.account(cpu_ms)?;
-        let (gpu_ms, cpu_ms) = frame.times().last_frame_ms();
+        let [pose_to_submit_ms, gpu_ms, cpu_ms] = timed_frame(
+            &mut frame,
+            (tracked, sampled),
+            &resident.ctx,
+            lock.as_deref_mut(),
+        )?;
         let row = FrameRecord {
             gpu_ms,
             cpu_ms,
@@ -326,16 +348,34 @@ pub fn run_locked(
         frame.times_mut().push_cpu(0.0);
     }
     let images = write_kept(config, frame.wall_views(), &kept, out, exr)?;
+    let adapter = resident.ctx.summary.name.clone();
+    let motion_to_photon = session.motion_to_photon();
+    Ok(cave_report(
+        config,
+        &frame,
+        (adapter, drawn_frames, images),
+        motion_to_photon,
+    ))
+}
+
+/// The report of a run's frames: `frame`'s times and settings, the adapter, the frames drawn and
+/// the images written, the motion to photon.
+fn cave_report(
+    config: &DisplayConfig,
+    frame: &FrameOfViews<'_>,
+    (adapter, drawn_frames, images): (String, u32, Vec<String>),
+    motion_to_photon: Option<crate::study::MotionToPhoton>,
+) -> CaveReport {
     let views = frame.times().views();
     let worst = worst_ratio(&views);
     let cpu_frame_ms = frame.times().cpu_ms().expect("one frame at least");
     let limits = frame_limits(&views, Some(&cpu_frame_ms), config.frame_budget_ms());
-    Ok(CaveReport {
+    CaveReport {
         worst_p99_over_p50: worst,
         constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
         limits,
         display: config.name.clone(),
-        adapter: resident.ctx.summary.name.clone(),
+        adapter,
         frames: drawn_frames,
         views_per_frame: frame.labels().len(),
         views,
@@ -344,13 +384,54 @@ pub fn run_locked(
         outputs_gpu_ms: frame.times().output_gpu_ms(),
         objects_gpu_ms: frame.times().objects_gpu_ms(),
         tracking_latency_ms: frame.latency_ms(),
-        motion_to_photon: session.motion_to_photon(),
+        motion_to_photon,
         quality: frame.quality(),
         fit: frame.fit().cloned(),
         pacer: frame.pacer_report(),
         images,
         series: frame.series(),
-    })
+    }
+}
+
+/// A timed frame: every view submitted back to back, then waited for (and every rank, with a
+/// `lock`): from `sampled` to its submission, its GPU and its CPU time, ms.
+fn timed_frame<'l>(
+    frame: &mut FrameOfViews<'_>,
+    (tracked, sampled): (Poses<'_>, std::time::Instant),
+    ctx: &crate::gpu::GpuContext,
+    lock: Option<&mut (dyn FrameLock + 'l)>,
+) -> Result<[Option<f64>; 3]> {
+    frame.begin(true)?;
+    frame.draw(tracked, Draw::Timed, None)?;
+    let pose_to_submit_ms = Some(sampled.elapsed().as_secs_f64() * 1e3);
+    ctx.wait_spinning()?;
+    let cpu_ms = frame.elapsed_ms();
+    if let Some(l) = lock {
+        l.swap()?;
+    }
+    frame.account(cpu_ms)?;
+    let (gpu_ms, cpu_ms) = frame.times().last_frame_ms();
+    Ok([pose_to_submit_ms, gpu_ms, cpu_ms])
+}
+
+/// A frame drawn again view by view and read back (not timed), as the walls showed it: at the
+/// condition's exposure, the latency test's `flash` in place of the views; with `into`, its
+/// images written there (with EXR where asked) as `vlf replay` writes a frame's.
+fn read_back_kept(
+    frame: &mut FrameOfViews<'_>,
+    config: &DisplayConfig,
+    (tracked, flash): (Poses<'_>, Option<bool>),
+    into: Option<(&Path, bool)>,
+) -> Result<Kept> {
+    let images = frame.read_back(tracked)?;
+    let mut kept = Kept::of(config, frame.wall_views(), images);
+    kept.exposure = frame.exposure();
+    kept.flash(flash);
+    if let Some((dir, exr)) = into {
+        std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
+        write_kept(config, frame.wall_views(), &kept, dir, exr)?;
+    }
+    Ok(kept)
 }
 
 /// `done` of `total` frames drawn, to the bar; on a software adapter also as a line with the

@@ -2,9 +2,10 @@
 //! exactly as the live run drew it: the logged pose, wand and left hand through the same walls (the
 //! moving objects on them, the keyframed ones at the logged `object_time_s`), and the logged
 //! settings of every view (eye rays per pixel, the paced tiles, mirror reflections) in place of the
-//! pacer's, in its logged condition (its light field, exposure and object switches:
-//! `conditions.rs`). Each frame's images go to `OUT/frame-<n>/` as the headless run writes its
-//! last frame (`<wall>-<eye>.png`, projectors' outputs, the overview). Or, with a `ThirdPerson`
+//! pacer's, in its logged condition (its light field and exposure: `conditions.rs`), the moving
+//! objects shown or hidden, with or without shadows and reflections, as logged for the frame, and
+//! the latency test's white or black walls where it flashed. Each frame's images go to
+//! `OUT/frame-<n>/` as the headless run writes its last frame (`<wall>-<eye>.png`, projectors' outputs, the overview). Or, with a `ThirdPerson`
 //! camera, the scene seen from outside the participant, the avatar and objects posed as logged
 //! (`OUT/frame-<n>/third-person.png`). One view, or that camera, can go to a video
 //! (`replay/video.rs`), and the events over the images as text (`replay/overlay.rs`).
@@ -127,6 +128,11 @@ pub fn replay_with(
     output: &ReplayOutput<'_>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Vec<PathBuf>> {
+    if let Some(headset) = &meta.headset {
+        return Err(VlfError::Display(format!(
+            "a headset's session ({headset}, `vlf xr --log`): replay draws a CAVE's walls from its display config; a headset's log has the head, the hands and each eye's settings but not each eye's pose and field of view, which drawing its eyes again would need"
+        )));
+    }
     let config_path = meta.display_config.as_path();
     let mut config = DisplayConfig::load(config_path)?;
     // the logged settings are drawn as they are: nothing is probed
@@ -228,6 +234,11 @@ fn draw_frame(
     if !record.condition.is_empty() && frame.condition() != Some(record.condition.as_str()) {
         frame.set_condition(&record.condition)?;
     }
+    // the objects shown and hidden, their shadows and reflections, as the frame drew them (a
+    // log before format 5 has only the condition's)
+    if let Some(switches) = &record.objects {
+        frame.set_object_switches(switches);
+    }
     // a log before format 4 has no object time: the keyframed objects at their start
     frame.set_object_time(record.object_time_s.unwrap_or(0.0));
     let held = HeldPoses {
@@ -243,6 +254,8 @@ fn draw_frame(
         let images = frame.read_back(poses)?;
         let mut kept = Kept::of(config, frame.wall_views(), images);
         kept.exposure = frame.exposure();
+        // the latency test's white or black walls, as the run showed them
+        kept.flash(record.flash);
         return Ok(Images::Views(kept));
     };
     let (eye, look_at) = default_placement(&record.pose);

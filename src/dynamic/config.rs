@@ -100,6 +100,11 @@ impl ObjectConfig {
         if self.name.trim().is_empty() {
             return Err("[[object]]: name must not be empty".into());
         }
+        if (self.name.chars()).any(|c| c.is_control() || "|,\"".contains(c)) {
+            return Err(format!(
+                "{at}name: leave out '|', ',', '\"' and control characters (the name goes into the session log's CSV)"
+            ));
+        }
         let angles = [self.yaw_deg, self.pitch_deg, self.roll_deg];
         if !self.position.iter().chain(&angles).all(|v| v.is_finite()) {
             return Err(format!("{at}position and angles must be finite numbers"));
@@ -160,4 +165,21 @@ pub fn check_objects(objects: &[ObjectConfig]) -> std::result::Result<(), String
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_name_that_would_break_the_session_log_is_refused() {
+        let object = |name: &str| -> ObjectConfig {
+            toml::from_str(&format!("name = {name:?}\nmesh = \"cube.obj\"")).unwrap()
+        };
+        assert_eq!(object("chair 2").check(), Ok(()));
+        for bad in ["a|b", "a,b", "a\"b", "a\nb"] {
+            let e = object(bad).check().unwrap_err();
+            assert!(e.contains("name") && e.contains("session log"), "{e}");
+        }
+    }
 }

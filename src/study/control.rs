@@ -73,7 +73,8 @@ pub enum Command {
 }
 
 impl Command {
-    fn name(&self) -> &'static str {
+    /// The command's name, as its `cmd` gives it.
+    pub fn name(&self) -> &'static str {
         match self {
             Command::Event { .. } => "event",
             Command::Teleport { .. } => "teleport",

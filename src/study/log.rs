@@ -24,8 +24,10 @@ use std::time::{Duration, Instant};
 
 /// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
 /// left hand's columns after it, 4 `condition`, `object_time_s` and the raw (uncalibrated) poses
-/// after those; `SessionLog::read` reads 1 to 3 too (without them).
-pub const LOG_FORMAT: u32 = 4;
+/// after those, 5 the moving objects' switches (`objects_hidden`, `shadows`, `reflections`) and
+/// the latency test's `flash` after the raw poses; `SessionLog::read` reads 1 to 4 too (without
+/// them).
+pub const LOG_FORMAT: u32 = 5;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -52,6 +54,11 @@ pub struct SessionMeta {
     pub views: Vec<String>,
     /// every column of frames.csv: name and meaning
     pub columns: Vec<(String, String)>,
+    /// a headset's session (`vlf xr --log`): the OpenXR runtime and its system; the head is
+    /// then the point between the eyes, the wand and left hand the controllers' grips, all in
+    /// the runtime's stage, and `display_config` is empty (None: a CAVE's)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub headset: Option<String>,
 }
 
 /// How a frame was drawn.
@@ -112,10 +119,43 @@ pub struct FrameRecord {
     /// the study's condition in effect (the display config's `[[condition]]` name; empty
     /// without conditions)
     pub condition: String,
+    /// the moving objects as the frame drew them: which were hidden, their shadows and
+    /// reflections (as the script's `show`/`hide`/`shadows`/`reflections` and the condition
+    /// left them; None in a log before format 5)
+    pub objects: Option<ObjectSwitches>,
+    /// the latency test (`flash`): Some(true) every wall full white this frame, Some(false)
+    /// black, None the scene
+    pub flash: Option<bool>,
 }
 
+/// The moving objects' switches in a frame (`FrameRecord::objects`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ObjectSwitches {
+    /// the `[[object]]` names hidden, in the display config's order
+    pub hidden: Vec<String>,
+    /// their shadows on the scene
+    pub shadows: bool,
+    /// their reflections in the scene's mirrors
+    pub reflections: bool,
+}
+
+impl ObjectSwitches {
+    /// Every object shown, with shadows and reflections: as a run starts without conditions.
+    pub fn all_on() -> ObjectSwitches {
+        ObjectSwitches {
+            hidden: Vec::new(),
+            shadows: true,
+            reflections: true,
+        }
+    }
+}
+
+/// What separates the hidden objects' names in `objects_hidden` (an `[[object]]` name never
+/// holds it: `ObjectConfig::check`).
+pub const HIDDEN_SEPARATOR: char = '|';
+
 /// The columns before the per-view ones, with their meaning.
-const FRAME_COLUMNS: [(&str, &str); 62] = [
+const FRAME_COLUMNS: [(&str, &str); 66] = [
     ("frame", "frame number, from 0"),
     (
         "time_s",
@@ -250,16 +290,43 @@ const FRAME_COLUMNS: [(&str, &str); 62] = [
     ("raw_left_hand_qy", "raw left hand rotation, quaternion y"),
     ("raw_left_hand_qz", "raw left hand rotation, quaternion z"),
     ("raw_left_hand_qw", "raw left hand rotation, quaternion w"),
+    (
+        "objects_hidden",
+        "the moving objects hidden in this frame ([[object]] names, separated by |), as the script's show/hide and the condition left them; empty: every object shown (replay draws the frame so; format 5 on)",
+    ),
+    (
+        "shadows",
+        "1: the moving objects cast shadows on the scene in this frame, 0: not (the script's `shadows` and the condition; replay draws the frame so)",
+    ),
+    (
+        "reflections",
+        "1: the moving objects show in the scene's mirrors in this frame, 0: not (the script's `reflections` and the condition)",
+    ),
+    (
+        "flash",
+        "the latency test (the script's `flash`): white (every wall full white this frame), black (every wall black until the test ends) or empty (the scene); replay's images are the same",
+    ),
 ];
 
 /// How many of `FRAME_COLUMNS` a log of `format` has: 1 lacks pose_to_photon_ms, 2 the left
-/// hand's eight, 3 the condition, object_time_s and the raw poses.
+/// hand's eight, 3 the condition, object_time_s and the raw poses, 4 the objects' switches and
+/// the flash.
 fn frame_columns(format: u32) -> usize {
     match format {
         1 => 27,
         2 => 28,
         3 => 36,
+        4 => 62,
         _ => FRAME_COLUMNS.len(),
+    }
+}
+
+/// The `flash` column's text for a frame's latency test.
+pub(crate) fn flash_name(flash: Option<bool>) -> &'static str {
+    match flash {
+        Some(true) => "white",
+        Some(false) => "black",
+        None => "",
     }
 }
 
@@ -471,6 +538,12 @@ fn row_text(r: &FrameRecord) -> String {
     for raw in [r.raw.head, r.raw.wand, r.raw.left_hand] {
         cells.extend(held_cells(raw.as_ref()));
     }
+    // a record without switches (read from an older log) written as every object on
+    let objects = r.objects.clone().unwrap_or_else(ObjectSwitches::all_on);
+    cells.push(objects.hidden.join(&HIDDEN_SEPARATOR.to_string()));
+    cells.push(u32::from(objects.shadows).to_string());
+    cells.push(u32::from(objects.reflections).to_string());
+    cells.push(flash_name(r.flash).into());
     for v in &r.views {
         cells.push(v.samples_per_pixel.to_string());
         cells.push(v.paced_samples.to_string());
@@ -532,6 +605,13 @@ fn parse_row(
             rotation: Quat::from_xyzw(f(c + 4)?, f(c + 5)?, f(c + 6)?, f(c + 7)?),
         }))
     };
+    let switch = |i: usize| -> std::result::Result<bool, String> {
+        match cells[i] {
+            "1" => Ok(true),
+            "0" => Ok(false),
+            other => Err(format!("column {}: {other:?} is not 1 or 0", i + 1)),
+        }
+    };
     let base = frame_columns;
     let views = (0..views)
         .map(|k| {
@@ -571,6 +651,26 @@ fn parse_row(
         condition: match frame_columns > 36 {
             true => cells[36].to_string(),
             false => String::new(),
+        },
+        objects: match frame_columns > 62 {
+            true => Some(ObjectSwitches {
+                hidden: (cells[62].split(HIDDEN_SEPARATOR))
+                    .filter(|n| !n.is_empty())
+                    .map(str::to_string)
+                    .collect(),
+                shadows: switch(62 + 1)?,
+                reflections: switch(62 + 2)?,
+            }),
+            false => None,
+        },
+        flash: match frame_columns > 65 {
+            true => match cells[65] {
+                "white" => Some(true),
+                "black" => Some(false),
+                "" => None,
+                other => return Err(format!("column 66: {other:?} is not white, black or empty")),
+            },
+            false => None,
         },
     })
 }
@@ -626,6 +726,15 @@ mod tests {
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
             condition: if wand { "gi-off".into() } else { String::new() },
+            objects: Some(ObjectSwitches {
+                hidden: match wand {
+                    true => vec!["body".into(), "chair 2".into()],
+                    false => Vec::new(),
+                },
+                shadows: !wand,
+                reflections: true,
+            }),
+            flash: wand.then_some(false),
         }
     }
 
@@ -641,6 +750,7 @@ mod tests {
             started_unix_s: 0.0,
             views: vec!["front-left".into(), "front-right".into()],
             columns: Vec::new(),
+            headset: None,
         }
     }
 
@@ -656,7 +766,7 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 62 + 2 * 5 + 1);
+        assert_eq!(m.columns.len(), 66 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
@@ -680,15 +790,22 @@ mod tests {
     }
 
     #[test]
-    fn format_1_to_3_logs_without_the_newer_columns_still_read() {
+    fn format_1_to_4_logs_without_the_newer_columns_still_read() {
         // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor anything after it;
-        // format 2: the frame's columns end at pose_to_photon_ms; 3: at the left hand's
-        let photon = record(0, true).pose_to_photon_ms;
-        let hand = record(0, true).left_hand;
+        // format 2: the frame's columns end at pose_to_photon_ms; 3: at the left hand's; 4: at
+        // the raw poses
+        let full = record(0, true);
+        let (photon, hand) = (full.pose_to_photon_ms, full.left_hand);
+        let format_4 = FrameRecord {
+            objects: None,
+            flash: None,
+            ..full.clone()
+        };
         for (format, dropped, pose_to_photon_ms, left_hand) in [
-            (1, 27..62, None, None),
-            (2, 28..62, photon, None),
-            (3, 36..62, photon, hand),
+            (1, 27..66, None, None),
+            (2, 28..66, photon, None),
+            (3, 36..66, photon, hand),
+            (4, 62..66, photon, hand),
         ] {
             let dir = tempfile::tempdir().unwrap();
             {
@@ -697,13 +814,18 @@ mod tests {
             }
             as_older_format(dir.path(), format, dropped);
             let back = SessionLog::read(dir.path()).unwrap().1;
-            let expect = FrameRecord {
-                pose_to_photon_ms,
-                left_hand,
-                condition: String::new(),
-                object_time_s: None,
-                raw: RawPoses::default(),
-                ..record(0, true)
+            let expect = match format {
+                4 => format_4.clone(),
+                _ => FrameRecord {
+                    pose_to_photon_ms,
+                    left_hand,
+                    condition: String::new(),
+                    object_time_s: None,
+                    raw: RawPoses::default(),
+                    objects: None,
+                    flash: None,
+                    ..record(0, true)
+                },
             };
             assert_eq!(back, [expect], "format {format}");
         }

@@ -48,6 +48,10 @@ pub struct Session<'p> {
     conditions: Vec<(String, Option<(Vec3, f32)>)>,
     condition: String,
     condition_change: Option<String>,
+    /// commands this display does not take (by name), each with why: refused, nothing changed
+    refused: Vec<(&'static str, String)>,
+    /// when this frame's photons are due, where the display predicts it (the headset's runtime)
+    due: Option<Instant>,
 }
 
 /// A change the script made to the moving objects, for the display to apply this frame.
@@ -108,7 +112,23 @@ impl<'p> Session<'p> {
             conditions: Vec::new(),
             condition: String::new(),
             condition_change: None,
+            refused: Vec::new(),
+            due: None,
         }
+    }
+
+    /// Commands this display does not take (`vlf xr`: the latency test, conditions), by name,
+    /// each refused with its reason.
+    pub fn refusing(mut self, refused: Vec<(&'static str, String)>) -> Self {
+        self.refused = refused;
+        self
+    }
+
+    /// This frame's photons are due at `due` (the headset runtime's predicted display time on
+    /// this process's clock): the log's `pose_to_photon_ms` and LSL's stamps take it in place
+    /// of the GPU's end plus a refresh period.
+    pub fn display_due(&mut self, due: Option<Instant>) {
+        self.due = due;
     }
 
     /// The display's conditions by name, each with its start pose (`DisplayConfig::
@@ -202,8 +222,13 @@ impl<'p> Session<'p> {
             }
         }
         for p in control.take() {
-            let checked =
-                (self.object_command(&p.command)).and_then(|_| self.condition_command(&p.command));
+            let name = p.command.name();
+            let not_here = (self.refused.iter()).find(|(n, _)| *n == name);
+            let checked = match not_here {
+                Some((_, why)) => Err(why.clone()),
+                None => (self.object_command(&p.command))
+                    .and_then(|_| self.condition_command(&p.command)),
+            };
             if let Err(error) = checked {
                 let reply = p.refuse(&error);
                 if self.lsl.is_some() {
@@ -314,12 +339,13 @@ impl<'p> Session<'p> {
     }
 
     /// The frame is drawn (the loops call this once its GPU work is done): its row (with its
-    /// events, and `note` among them) to the log, its commands acknowledged with its number
-    /// and pose, and all of it to the LSL outlets.
+    /// events, and `note` among them, its block, trial, condition and flash) to the log, its
+    /// commands acknowledged with its number and pose, and all of it to the LSL outlets.
     pub fn end_frame(&mut self, mut record: FrameRecord, note: Option<String>) -> Result<()> {
         // the photons of a frame shown (timed or presented) one refresh after the GPU's end
         let shown = record.pose_to_submit_ms.is_some();
-        let due = Instant::now() + self.refresh.unwrap_or_default();
+        let due =
+            (self.due.take()).unwrap_or_else(|| Instant::now() + self.refresh.unwrap_or_default());
         if let (true, Some(pose_at)) = (shown, self.pose_at) {
             record.pose_to_photon_ms = Some(due.duration_since(pose_at).as_secs_f64() * 1e3);
         }
@@ -335,6 +361,7 @@ impl<'p> Session<'p> {
         record.events = events.join("; ");
         (record.block, record.trial) = self.trial;
         record.condition.clone_from(&self.condition);
+        record.flash = self.flash;
         if let (Some(log), true) = (self.log.as_deref_mut(), self.logging) {
             log.record(&record)?;
         }
@@ -422,6 +449,8 @@ mod tests {
             views: Vec::new(),
             events: String::new(),
             condition: String::new(),
+            objects: None,
+            flash: None,
         }
     }
 

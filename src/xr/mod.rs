@@ -14,10 +14,12 @@ mod layers;
 mod multiview_check;
 pub mod report;
 pub mod session;
+pub mod study;
 pub mod vulkan;
 
 pub use layers::Swapchains;
 pub use report::XrReport;
+pub use study::XrStudy;
 
 pub use crate::display::MakeLightField;
 
@@ -53,6 +55,8 @@ pub struct XrOptions {
     pub swapchains: Swapchains,
     /// a file of moving objects (`body::ObjectsFile`): the participant's body, props in the hands
     pub objects: Option<std::path::PathBuf>,
+    /// an experiment script's commands, the session log, LSL (`study.rs`)
+    pub study: XrStudy,
 }
 
 fn xr_error(what: &str) -> impl Fn(openxr::sys::Result) -> VlfError + '_ {

@@ -161,10 +161,10 @@ pub fn run(
     session
         .attach_action_sets(&[&controls.set])
         .map_err(xr_error("xrAttachSessionActionSets"))?;
-    // the hands are located only for objects to follow
-    let grips = match objects {
-        Some(_) => Some(controls.grip_spaces(&session)?),
-        None => None,
+    // the hands are located for objects to follow, and for the session log
+    let grips = match objects.is_some() || options.study.log.is_some() {
+        true => Some(controls.grip_spaces(&session)?),
+        false => None,
     };
     let setup = setup(&instance, system, &session, &runtime)?;
     let eyes = super::eyes::create((&instance, system), &renderer, options)?;
@@ -195,6 +195,12 @@ pub fn run(
         .collect();
     let objects = objects.map(|(o, _)| o);
     let frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT, objects);
+    let adapter = ctx.summary.name.clone();
+    let mut parts = super::study::open(&options.study, (&lf, &adapter, &runtime), frame.labels())?;
+    let names: Vec<String> = (frame.objects().iter())
+        .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
+        .collect();
+    let study = super::study::session(&mut parts, names);
 
     let mut headset = Headset {
         instance: &instance,
@@ -210,6 +216,7 @@ pub fn run(
         camera: &camera,
         lf: &lf,
         runtime: &runtime,
+        study,
     };
     let mut state = LoopState::new(&ctx, runtime.clock);
     let ended = headset.run_loop(&mut state, options)?;
@@ -223,8 +230,12 @@ pub fn run(
         grips,
         frame_stream,
         frame_waiter,
+        study,
         ..
     } = headset;
+    // the log's last rows onto the disk
+    drop(study);
+    drop(parts);
     drop(layers);
     drop((grips, controls, frame_stream, frame_waiter));
     drop(setup);
@@ -255,6 +266,8 @@ struct Headset<'a> {
     camera: &'a crate::scene::Camera,
     lf: &'a crate::lightfield::LightField,
     runtime: &'a XrRuntime,
+    /// the study's commands, log and LSL outlets (`super::study`)
+    study: crate::study::Session<'a>,
 }
 
 /// Everything the frame loop counts and keeps between frames.
@@ -282,6 +295,8 @@ struct LoopState {
     grips_located: [u32; 2],
     /// the last frame's navigated pose and what its objects followed
     last_tracked: Option<(Pose, Tracked)>,
+    /// the controllers' grips (left, right) in the stage, as this frame located them
+    hands: [Option<glam::Affine3A>; 2],
 }
 
 /// What the display showed of the timed frames (`display_account`).
@@ -409,6 +424,7 @@ impl LoopState {
             waiting_since: Instant::now(),
             first_display_ns: None,
             grips_located: [0; 2],
+            hands: [None; 2],
             last_tracked: None,
         }
     }
@@ -617,7 +633,7 @@ impl Headset<'_> {
             self.frame(st, options)?;
             let enough = options.frames.is_some_and(|n| st.frames >= n);
             let stop = interrupted.load(std::sync::atomic::Ordering::Relaxed);
-            if (enough || stop) && !st.exit_requested {
+            if (enough || stop || self.study.stop) && !st.exit_requested {
                 if stop {
                     eprintln!("interrupted: ending the OpenXR session");
                 }
@@ -735,6 +751,9 @@ impl Headset<'_> {
                 .map_err(xr_error("xrEndFrame"))?;
             return Ok(());
         }
+        // what the script sent takes effect from this frame
+        self.study.begin_frame();
+        self.frame.take_study_changes(&mut self.study)?;
         let pad = self.controls.read(self.session, &mut st.navigator)?;
         let (_, views) = self
             .session
@@ -750,7 +769,7 @@ impl Headset<'_> {
             .get_or_insert_with(|| start_room(self.camera, &views));
         let navigation = crate::tracking::Navigation::default();
         st.navigator.step(dt, &navigation, pad, base.room_yaw_deg);
-        let pose = st.navigator.apply(base);
+        let pose = self.study.pose(st.navigator.apply(base), located);
         let tracked = self.track_body(st, &views, &pose, frame_state.predicted_display_time)?;
         if options.fit_frame_time && self.frame.fit().is_none() {
             return self.fit_frame(&frame_state, &views, (&pose, tracked.as_ref()));
@@ -774,11 +793,27 @@ impl Headset<'_> {
         let capture = options.screenshot.is_some() && st.frames + 1 == options.screenshot_frame;
         let poses = (&pose, tracked.as_ref());
         let readback = self.draw_eyes(st, &views, poses, (timed, capture))?;
+        let pose_to_submit_ms = located.elapsed().as_secs_f64() * 1e3;
         let fixed = (&frame_state, self.setup.blend, &self.setup.space);
         (self.layers).end_frame(&mut self.frame_stream, fixed, &views, DEPTH_RANGE)?;
         self.ctx.check_errors()?;
         st.frames += 1;
-        self.frame.account(begun.elapsed().as_secs_f64() * 1e3)?;
+        let cpu_ms = begun.elapsed().as_secs_f64() * 1e3;
+        self.frame.account(cpu_ms)?;
+        let display_ns = frame_state.predicted_display_time.as_nanos();
+        self.study.display_due(super::study::due(woke, display_ns));
+        let drew = super::study::Drew {
+            frame: st.frames as u64 - 1,
+            room: pose,
+            head: head_of(&views),
+            hands: st.hands,
+            cpu_ms,
+            pose_to_submit_ms,
+            object_time_s: tracked.as_ref().map(|t| t.time),
+        };
+        let time_s = self.study.time_s();
+        let record = super::study::record(drew, time_s, &self.frame);
+        self.study.end_frame(record, None)?;
         if let (Some((buffer, padded_row)), Some(path)) = (readback, options.screenshot.as_ref()) {
             self.write_screenshot(st, &buffer, padded_row, path)?;
         }
@@ -799,14 +834,8 @@ impl Headset<'_> {
             return Ok(None);
         };
         let hands = grips.locate(&self.setup.space, display_time)?;
-        let eye = |v: &xr::View| {
-            let XrPose {
-                orientation,
-                position,
-            } = xr_pose(v);
-            (Quat::from_array(orientation), Vec3::from(position))
-        };
-        let head = body::head_between([eye(&views[0]), eye(&views[1])]);
+        st.hands = hands;
+        let head = head_of(views);
         let first = *st.first_display_ns.get_or_insert(display_time.as_nanos());
         let seconds = (display_time.as_nanos() - first) as f64 * 1e-9;
         self.frame.set_object_time(seconds);
@@ -886,6 +915,18 @@ impl Headset<'_> {
         }));
         Ok(())
     }
+}
+
+/// The head in the stage: the point between the eyes, turned halfway between them.
+fn head_of(views: &[xr::View]) -> glam::Affine3A {
+    let eye = |v: &xr::View| {
+        let XrPose {
+            orientation,
+            position,
+        } = xr_pose(v);
+        (Quat::from_array(orientation), Vec3::from(position))
+    };
+    body::head_between([eye(&views[0]), eye(&views[1])])
 }
 
 fn xr_pose(view: &xr::View) -> XrPose {

@@ -31,6 +31,7 @@ use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
 use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
 use crate::stats::Distribution;
+use crate::study::log::ObjectSwitches;
 use crate::study::session::ObjectChange;
 use crate::tracking::source::{Pose, PoseSource};
 use crate::tracking::HeldPoses;
@@ -285,18 +286,14 @@ impl<'a> FrameOfViews<'a> {
         let c = &conditions.list[k];
         self.renderer.use_light_field(conditions.field_of[k])?;
         self.exposure = c.exposure;
-        let names: Vec<String> = (self.objects.iter())
-            .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
-            .collect();
-        let mut changes: Vec<ObjectChange> = (names.into_iter())
-            .map(|n| {
-                let shown = c.objects_visible.as_ref().is_none_or(|v| v.contains(&n));
-                ObjectChange::Visible(n, shown)
-            })
-            .collect();
-        changes.push(ObjectChange::Shadows(c.shadows));
-        changes.push(ObjectChange::Reflections(c.reflections));
-        self.change_objects(&changes);
+        let switches = ObjectSwitches {
+            hidden: (self.object_names().into_iter())
+                .filter(|n| c.objects_visible.as_ref().is_some_and(|v| !v.contains(n)))
+                .collect(),
+            shadows: c.shadows,
+            reflections: c.reflections,
+        };
+        self.set_object_switches(&switches);
         self.condition = Some(k);
         Ok(())
     }
@@ -309,6 +306,43 @@ impl<'a> FrameOfViews<'a> {
         }
         self.change_objects(&session.take_object_changes());
         Ok(())
+    }
+
+    /// The moving objects' names, in the display config's order (none without objects).
+    fn object_names(&self) -> Vec<String> {
+        (self.objects.iter())
+            .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
+            .collect()
+    }
+
+    /// The moving objects' switches as the next frame draws them (the session log's columns,
+    /// which `vlf replay` sets back with `set_object_switches`).
+    pub fn object_switches(&self) -> ObjectSwitches {
+        let (shadows, reflections) = self.object_switches;
+        let hidden = (self.objects.iter())
+            .flat_map(|o| o.configs().iter().zip(o.visible()))
+            .filter(|(_, shown)| !**shown)
+            .map(|(c, _)| c.name.clone())
+            .collect();
+        ObjectSwitches {
+            hidden,
+            shadows,
+            reflections,
+        }
+    }
+
+    /// The moving objects' switches as a session logged them for a frame: every object shown
+    /// but the hidden ones, their shadows and reflections.
+    pub fn set_object_switches(&mut self, switches: &ObjectSwitches) {
+        let mut changes: Vec<ObjectChange> = (self.object_names().into_iter())
+            .map(|n| {
+                let shown = !switches.hidden.contains(&n);
+                ObjectChange::Visible(n, shown)
+            })
+            .collect();
+        changes.push(ObjectChange::Shadows(switches.shadows));
+        changes.push(ObjectChange::Reflections(switches.reflections));
+        self.change_objects(&changes);
     }
 
     /// The condition in effect (None: the display has none).

@@ -117,6 +117,8 @@ mod tests {
             views: Vec::new(),
             events: events.into(),
             condition: String::new(),
+            objects: None,
+            flash: None,
         }
     }
 

@@ -201,6 +201,8 @@ impl App<'_> {
             views: self.frame.drawn().to_vec(),
             events: String::new(),
             condition: String::new(),
+            objects: Some(self.frame.object_switches()),
+            flash: None,
         };
         self.session.end_frame(record, None)
     }

@@ -9,7 +9,7 @@
 //! Each part is written under a hidden name (`.part-000000.parquet`, which readers skip) and
 //! renamed once complete and on the disk, so a part is either whole or absent.
 
-use super::FrameRecord;
+use super::{flash_name, FrameRecord, ObjectSwitches, HIDDEN_SEPARATOR};
 use crate::error::{Result, VlfError};
 use crate::tracking::pose::WandPose;
 use arrow_array::{
@@ -106,7 +106,7 @@ fn held_columns(
 
 /// `rows` as one batch, its columns in frames.csv's order (`names`), typed: counts as u32 (the
 /// frame u64), positions, rotations and shares as f32, times as f64 (null where the CSV is
-/// empty), `drawn`, `condition` and `events` as text.
+/// empty), `drawn`, `condition`, `objects_hidden`, `flash` and `events` as text.
 fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     let mut columns: Vec<ArrayRef> = vec![
         Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.frame))),
@@ -146,6 +146,17 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
     columns.extend(held_columns(rows, |r| r.raw.head.as_ref()));
     columns.extend(held_columns(rows, |r| r.raw.wand.as_ref()));
     columns.extend(held_columns(rows, |r| r.raw.left_hand.as_ref()));
+    // as the CSV: a record without switches (from an older log) as every object on
+    let switches = |r: &FrameRecord| r.objects.clone().unwrap_or_else(ObjectSwitches::all_on);
+    let separator = HIDDEN_SEPARATOR.to_string();
+    columns.push(Arc::new(StringArray::from_iter_values(
+        rows.iter().map(|r| switches(r).hidden.join(&separator)),
+    )));
+    columns.push(u32s(rows, |r| switches(r).shadows as u32));
+    columns.push(u32s(rows, |r| switches(r).reflections as u32));
+    columns.push(Arc::new(StringArray::from_iter_values(
+        rows.iter().map(|r| flash_name(r.flash)),
+    )));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -207,6 +218,12 @@ mod tests {
             views: Vec::new(),
             events: "a \"quoted\" event".into(),
             condition: "gi-off".into(),
+            objects: Some(ObjectSwitches {
+                hidden: vec!["cube".into(), "body".into()],
+                shadows: false,
+                reflections: true,
+            }),
+            flash: Some(true),
         }
     }
 
@@ -248,5 +265,15 @@ mod tests {
         let condition = batch.column_by_name("condition").unwrap();
         let condition = condition.as_any().downcast_ref::<StringArray>().unwrap();
         assert_eq!(condition.value(0), "gi-off");
+        let text = |name: &str| {
+            let column = batch.column_by_name(name).unwrap();
+            let column = column.as_any().downcast_ref::<StringArray>().unwrap();
+            column.value(0).to_string()
+        };
+        assert_eq!(text("objects_hidden"), "cube|body");
+        assert_eq!(text("flash"), "white");
+        let shadows = batch.column_by_name("shadows").unwrap();
+        let shadows = shadows.as_any().downcast_ref::<UInt32Array>().unwrap();
+        assert_eq!(shadows.value(0), 0);
     }
 }

@@ -1,0 +1,173 @@
+//! `vlf xr`'s study tools, as `vlf cave` has them (`crate::study`): an experiment script's
+//! commands over TCP (`--control ADDR`: the same JSON lines, each acknowledged with the frame
+//! where it took effect), the session log (`--log DIR`: the same columns, a row per frame drawn)
+//! and the Lab Streaming Layer outlets (`--lsl`). The head is the point between the eyes (their
+//! mean pose, `body::head_between`), the wand and the left hand are the right and left
+//! controllers' grips, all in the runtime's stage (the log's room), and the photons are due at
+//! the runtime's predicted display time. Commands a headset cannot carry out (the latency
+//! test's `flash`, a `condition`) are refused with the reason, changing nothing.
+
+use super::XrRuntime;
+use crate::display::frame::{FrameOfViews, ViewLabel};
+use crate::error::Result;
+use crate::lightfield::LightField;
+use crate::study::log::{Drawn, FrameRecord, SessionMeta, LOG_FORMAT};
+use crate::study::{ControlServer, LslOutlets, Session, SessionLog};
+use crate::tracking::pose::WandPose;
+use crate::tracking::source::Pose;
+use glam::Affine3A;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What `vlf xr` was asked to do for a study (all off by default).
+#[derive(Clone, Debug, Default)]
+pub struct XrStudy {
+    /// `--control ADDR`: listen there for an experiment script (port 0: any free port; the
+    /// address is said on stderr as `control: listening on ...`)
+    pub control: Option<String>,
+    /// `--log DIR`, with the `--scene` it draws (session.json's `light_field`)
+    pub log: Option<(PathBuf, PathBuf)>,
+    /// `--lsl`: the three Lab Streaming Layer outlets
+    pub lsl: bool,
+}
+
+/// The study's parts, made before the first frame; a `Session` borrows them.
+pub(super) struct StudyParts {
+    pub control: Option<ControlServer>,
+    pub log: Option<SessionLog>,
+    pub lsl: Option<LslOutlets>,
+}
+
+/// The commands a headset does not take, each with why.
+pub(super) fn refused() -> Vec<(&'static str, String)> {
+    vec![
+        (
+            "flash",
+            "flash: the latency test lights a CAVE's walls; a headset's eye images go through its runtime's compositor, which vlf does not light: measure a headset's latency with the runtime's own tools (vlf xr logs the runtime's predicted display time)".into(),
+        ),
+        (
+            "condition",
+            "condition: vlf xr takes no [[condition]] tables yet (vlf cave does): run each light field as a session of its own".into(),
+        ),
+    ]
+}
+
+/// The control server, the session log and the LSL outlets `study` asks for; `lf` is the light
+/// field drawn, `views` the eyes.
+pub(super) fn open(
+    study: &XrStudy,
+    (lf, adapter, runtime): (&LightField, &str, &XrRuntime),
+    views: &[ViewLabel],
+) -> Result<StudyParts> {
+    let control = match &study.control {
+        Some(addr) => {
+            let server = ControlServer::bind(addr)?;
+            eprintln!("control: listening on {}", server.addr);
+            Some(server)
+        }
+        None => None,
+    };
+    let log = match &study.log {
+        Some((dir, scene)) => {
+            let meta = meta(scene, (lf, adapter, runtime), views);
+            Some(SessionLog::create(dir, meta)?)
+        }
+        None => None,
+    };
+    let lsl = match study.lsl {
+        true => Some(LslOutlets::open("headset", None, false)?),
+        false => None,
+    };
+    Ok(StudyParts { control, log, lsl })
+}
+
+/// session.json of a headset's session: no display config, the runtime named.
+fn meta(
+    scene: &Path,
+    (lf, adapter, runtime): (&LightField, &str, &XrRuntime),
+    views: &[ViewLabel],
+) -> SessionMeta {
+    SessionMeta {
+        format: LOG_FORMAT,
+        vlf_version: env!("CARGO_PKG_VERSION").into(),
+        display_config: PathBuf::new(),
+        light_field: std::fs::canonicalize(scene).unwrap_or_else(|_| scene.to_path_buf()),
+        propagation: (!crate::lightfield::file::is_vlf_path(scene)).then(|| lf.meta.params.clone()),
+        scene_hash: lf.meta.scene_hash.clone(),
+        adapter: adapter.into(),
+        started_unix_s: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0.0, |d| d.as_secs_f64()),
+        views: (views.iter())
+            .map(|v| format!("{}-{}", v.wall, v.eye))
+            .collect(),
+        columns: Vec::new(),
+        headset: Some(format!("{} ({})", runtime.runtime, runtime.system)),
+    }
+}
+
+/// The session of `parts`: the headset's refusals, the moving objects' names.
+pub(super) fn session<'p>(parts: &'p mut StudyParts, objects: Vec<String>) -> Session<'p> {
+    Session::new(parts.log.as_mut(), parts.control.as_ref())
+        .with_display(None, parts.lsl.take())
+        .with_objects(objects)
+        .refusing(refused())
+}
+
+/// When a frame's photons are due on this process's clock: the runtime's predicted display
+/// time `display_ns`, through `clock` (an instant and the runtime's time then; None without
+/// XR_KHR_convert_timespec_time).
+pub(super) fn due(clock: Option<(Instant, i64)>, display_ns: i64) -> Option<Instant> {
+    let (at, now_ns) = clock?;
+    Some(at + Duration::from_nanos((display_ns - now_ns).max(0) as u64))
+}
+
+fn held(pose: Affine3A) -> WandPose {
+    let (_, rotation, position) = pose.to_scale_rotation_translation();
+    WandPose { position, rotation }
+}
+
+/// What a frame drew, as a row of the log (the session adds the block, trial, events and
+/// flash): `room` the navigation, `head` and `hands` (left, right) in the stage.
+pub(super) struct Drew {
+    pub frame: u64,
+    pub room: Pose,
+    pub head: Affine3A,
+    pub hands: [Option<Affine3A>; 2],
+    pub cpu_ms: f64,
+    pub pose_to_submit_ms: f64,
+    pub object_time_s: Option<f64>,
+}
+
+/// The log's row of a frame drawn by `frame_of_views`.
+pub(super) fn record(drew: Drew, time_s: f64, frame_of_views: &FrameOfViews<'_>) -> FrameRecord {
+    let (_, rotation, head) = drew.head.to_scale_rotation_translation();
+    let [left, right] = drew.hands;
+    FrameRecord {
+        frame: drew.frame,
+        time_s,
+        drawn: Drawn::Shown,
+        pose: Pose {
+            head,
+            head_rotation: rotation.normalize(),
+            room_position: drew.room.room_position,
+            room_yaw_deg: drew.room.room_yaw_deg,
+        },
+        wand: right.map(held),
+        left_hand: left.map(held),
+        // the GPU's times come back frames late (frames in flight): in the report
+        gpu_ms: None,
+        cpu_ms: Some(drew.cpu_ms),
+        block: 0,
+        trial: 0,
+        pose_to_submit_ms: Some(drew.pose_to_submit_ms),
+        pose_to_photon_ms: None,
+        object_time_s: drew.object_time_s,
+        raw: Default::default(),
+        views: frame_of_views.drawn().to_vec(),
+        events: String::new(),
+        condition: String::new(),
+        objects: Some(frame_of_views.object_switches()),
+        flash: None,
+    }
+}
