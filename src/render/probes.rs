@@ -363,7 +363,30 @@ pub fn alias_table(chances: &[f32]) -> Vec<[f32; 4]> {
 
 #[cfg(test)]
 mod tests {
-    use super::alias_table;
+    use super::{alias_table, ObjectLighting, ShadowMethod};
+
+    /// The shadows' method and the atlas's settings come from `[object_lighting]`: the atlas by
+    /// default, "per_pixel" on request, an unknown method refused with its name, and settings out
+    /// of range named by their key.
+    #[test]
+    fn object_lighting_reads_the_shadow_method_and_refuses_bad_atlas_settings() {
+        let read = |text: &str| toml::from_str::<ObjectLighting>(text);
+        assert_eq!(read("").unwrap().shadows, ShadowMethod::Atlas);
+        let per_pixel = read("shadows = \"per_pixel\"").unwrap();
+        assert_eq!(per_pixel.shadows, ShadowMethod::PerPixel);
+        let e = read("shadows = \"soft\"").unwrap_err().to_string();
+        assert!(e.contains("soft") && e.contains("per_pixel"), "{e}");
+        for (text, key) in [
+            ("shadow_atlas_subdivision = 5", "shadow_atlas_subdivision"),
+            ("shadow_atlas_texels = 10", "shadow_atlas_texels"),
+            ("sky_shadow_reach = -1.0", "sky_shadow_reach"),
+            ("atlas_shadow_samples = 1000", "atlas_shadow_samples"),
+        ] {
+            let e = read(text).unwrap().check().unwrap_err();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+        assert_eq!(read("").unwrap().check(), Ok(()));
+    }
 
     /// Each entry's chance, read back from the table as the shader picks: entry i keeps its
     /// threshold of the 1/n that lands on it and hands the rest to its alias.
