@@ -17,7 +17,7 @@ print(f"{gpu}, build {commit}, `bash tools/gpu-body.sh VLF OUT 300`: the walk CA
       "classroom walks, 300 frames each: without moving objects, with the shipped avatar on the "
       "walking head (`assets/avatar/mannequin.glb`, 4,456 triangles), the same without its "
       "shadows, and the avatar with a 199,712-triangle prop. Raw reports: `docs/results/h100/body/`.\n")
-print("| scene | objects | all views GPU p50 / p99 | eye rays per pixel, median per view | update (skin, triangles, refit, shadow atlas) p50 / p99 | worst view p99/p50 | frame max |")
+print("| scene | objects | all views GPU p50 / p99 | eye rays per pixel, median per view | update (skin, triangles, refit) p50 / p99 | worst view p99/p50 | frame max |")
 print("|---|---|---|---|---|---|---|")
 names = {"none": "none", "body-noshadow": "avatar, no shadows", "body": "avatar with shadows",
          "body-perpixel": "avatar, shadows per pixel", "body-prop": "avatar + 200K prop, shadows"}
