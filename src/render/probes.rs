@@ -269,10 +269,17 @@ pub fn bake(
     ctx.queue.submit([encoder.finish()]);
     ctx.wait()
         .map_err(|e| VlfError::Gpu(format!("baking {count} irradiance probes: {e}")))?;
+    // a scene without emitters (sky only) binds one that is never read (emitter_count 0): a
+    // binding holds at least one record
+    let none = [crate::gpu::types::GpuEmitter::default()];
+    let list = match inputs.emitters.is_empty() {
+        true => &none[..],
+        false => inputs.emitters,
+    };
     let emitters = ctx.buffer_init(
         ledger,
         "moving: emitters",
-        bytemuck::cast_slice(inputs.emitters),
+        bytemuck::cast_slice(list),
         STORAGE,
     );
     let chances: Vec<f32> = inputs.emitters.iter().map(|e| e.chance).collect();
