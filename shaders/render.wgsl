@@ -38,6 +38,7 @@
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
+#include "common/moving_shadow.wgsl"
 
 // the light field's bindings (common/light_field.wgsl: layout, atlas, directions, tiles)
 const LIGHT_FIELD_GROUP: u32 = 1u;
@@ -115,7 +116,7 @@ fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, seed: u32) -> array<
     if MOVING_OBJECTS != 0u && view.moving_root != NO_NODE && (view.moving_flags & 1u) != 0u && s0.seen + s1.seen > 0.0 {
         let first = s0.seen > 0.0;
         let face = select(s1.face, s0.face, first);
-        let shadow = moving_shadow(faces[face], select(s1.point, s0.point, first), seed);
+        let shadow = moving_shadow(face, select(s1.point, s0.point, first), seed);
         r0 = select(r0, max(r0 - shadow, vec3<f32>(0.0)), s0.face == face);
         r1 = select(r1, max(r1 - shadow, vec3<f32>(0.0)), s1.face == face);
     }

@@ -104,8 +104,12 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuMovingTriangle => "MovingTriangle" in "render.wgsl" { n0, n1, n2 }),
         mirrored!(GpuMovingMaterial => "MovingMaterial" in "render.wgsl" { albedo, emission }),
         mirrored!(GpuProbeGrid => "ProbeGrid" in "probes.wgsl" {
-            origin, rays, spacing, emitter_count, counts, shadow_samples, sky_shadow_samples, _pad0,
+            origin, rays, spacing, emitter_count, counts, shadow_samples, sky_shadow_samples,
+            shadow_subdivision,
             _pad1, _pad2
+        }),
+        mirrored!(GpuShadowAtlas => "ShadowAtlas" in "shadow_atlas.wgsl" {
+            face_count, texel_capacity, item_capacity, box_count, samples, sky_reach, _pad
         }),
         mirrored!(GpuBvhPair => "BvhPair" in "render.wgsl" {
             lo_left, left, hi_left, right, lo_right, _pad0, hi_right, _pad1

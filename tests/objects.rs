@@ -1,7 +1,9 @@
 //! Moving objects in the light field (issue 28) on the software adapter: an object inside a
 //! closed furnace shows exactly rho * Le / (1 - rho_walls) plus its own emission (lit through
 //! the irradiance probes), hides at run time, and is seen in a mirror where geometry puts its
-//! reflection; a study's condition switches the light field that lights the scene and them.
+//! reflection; its shadows, from the shadow atlas and per pixel, take what the closed forms say
+//! of an emitter's light and the sky's; a study's condition switches the light field that lights
+//! the scene and them.
 
 mod common;
 use common::*;
@@ -231,9 +233,32 @@ fn an_object_is_seen_in_a_mirror_where_geometry_puts_its_reflection() {
 /// it takes from each floor point seen, (view without it) - (view with it), against Lambert's
 /// closed form for the part of the emitter it hides from that point, in umbra, penumbra and full
 /// light, within the penumbra bound tests/occlusion.rs holds the static blocker to (3.5e-2 of the
-/// brightest; 1e-5 where it hides nothing).
+/// brightest; 1e-5 where it hides nothing), with the shadows drawn per pixel (64 shadow rays per
+/// pair of eye rays).
 #[test]
-fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
+fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says_per_pixel() {
+    // measured (lavapipe, 16 eye rays, one shadow estimate per pair of them of 64 shadow rays to
+    // the emitter's two triangles): lit 0, umbra 1.3e-2, penumbra 2.5e-2. In the umbra the light
+    // taken is all the light field holds there, whose draft direct light (64 samples per texel,
+    // 24 texels per metre) is what is off
+    moving_occluder_within_bounds("per_pixel");
+}
+
+/// The same with the shadows from the shadow atlas (the default: 64 shadow rays per texel of the
+/// floor's chart at twice the light field's texels per side, once per frame, read bilinearly as
+/// the light field's texels are), within the same bounds where the lookup's footprint (a shadow
+/// texel each way of the point) lies wholly in full light, umbra or touches the penumbra: a
+/// texel method cannot be exact closer to the penumbra than its texel.
+#[test]
+fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says_in_the_shadow_atlas() {
+    // measured (lavapipe): lit 0, umbra 1.28e-2, penumbra 2.94e-2
+    moving_occluder_within_bounds("atlas");
+}
+
+/// The moving occluder's scene drawn with its shadows made the `shadows` way ("per_pixel",
+/// "atlas"): the worst error, over the brightest, within 1e-5 in full light and 3.5e-2 in umbra
+/// and penumbra.
+fn moving_occluder_within_bounds(shadows: &str) {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
@@ -274,28 +299,18 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
     );
     std::fs::write(dir.path().join("blocker.obj"), blocker.text("blocker.mtl")).unwrap();
     std::fs::write(dir.path().join("blocker.mtl"), "newmtl thing\nKd 0 0 0\n").unwrap();
-    // the eye at (1, 0.7, 0) looking down at (0.1, 0, 0) through a 6 cm wall 10 cm ahead
+    // the eye at (1, 0.7, 0) looking down at (0.1, 0, 0)
     let eye = DVec3::new(1.0, 0.7, 0.0);
-    let ahead = (DVec3::new(0.1, 0.0, 0.0) - eye).normalize();
-    let right = ahead.cross(DVec3::Y).normalize();
-    let up = right.cross(ahead);
-    let (centre, half, n) = (eye + ahead * 0.1, 0.03, 64u32);
-    let corner = |a: f64, b: f64| centre + right * a * half + up * b * half;
-    let fmt = |v: DVec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
-    let text = format!(
-        "name = \"shadow\"\nantialiasing = 16\n\n[tracking]\nsource = \"static\"\nhead = {}\n\n\
-         [object_lighting]\nprobe_resolution = 4\nprobe_rays = 64\nshadow_samples = 64\n\n\
-         [[wall]]\nname = \"floor view\"\nlower_left = {}\nlower_right = {}\nupper_left = {}\n\
-         pixels = [{n}, {n}]\noutput = {{ monitor = 0 }}\n\n{}",
-        fmt(eye),
-        fmt(corner(-1.0, -1.0)),
-        fmt(corner(1.0, -1.0)),
-        fmt(corner(-1.0, 1.0)),
-        object_table("blocker", "blocker.obj")
+    let n = 64u32;
+    let lighting =
+        format!("shadow_samples = 64\nshadows = \"{shadows}\"\natlas_shadow_samples = 64");
+    let (path, config, wall) = floor_view(
+        dir.path(),
+        (eye, DVec3::new(0.1, 0.0, 0.0), n),
+        &lighting,
+        ("blocker", "blocker.obj"),
     );
-    let path = dir.path().join("display.toml");
-    std::fs::write(&path, text).unwrap();
-    let config = DisplayConfig::load(&path).unwrap();
+    let corner = |a: f64, b: f64| wall[0] + wall[1] * a + wall[2] * b;
     let with = draw(&lf, &resident, (&path, &config), &[]);
     let hide = ObjectChange::Visible("blocker".into(), false);
     let without = draw(&lf, &resident, (&path, &config), &[hide]);
@@ -333,7 +348,28 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
     let flat = |v: DVec3| glam::DVec2::new(v.x, v.z);
     let emitter_2d: Vec<glam::DVec2> = emitter.iter().map(|&v| flat(v)).collect();
     let k = rho / std::f64::consts::PI * le as f64;
-    let (mut rows, mut brightest) = (Vec::new(), 0.0f64);
+    // the light the blocker hides from floor point p, and all the emitter gives there
+    let closed_form = |p: DVec3| -> (f64, f64) {
+        let shadow: Vec<glam::DVec2> = (occluder.iter())
+            .map(|&o| flat(p + (o - p) * ((emitter[0].y - p.y) / (o.y - p.y))))
+            .collect();
+        let hidden: Vec<DVec3> = (clip_convex(&emitter_2d, &shadow).iter())
+            .map(|q| DVec3::new(q.x, emitter[0].y, q.y))
+            .collect();
+        let full = k * polygon_irradiance(p, DVec3::Y, &emitter);
+        match hidden.len() >= 3 {
+            true => (k * polygon_irradiance(p, DVec3::Y, &hidden), full),
+            false => (0.0, full),
+        }
+    };
+    // the shadow atlas's texel in metres (the light field's 24 per unit, halved): a point whose
+    // bilinear footprint (a texel each way) reaches the penumbra counts in the penumbra
+    let texel = match shadows {
+        "atlas" => 1.0 / (params.texel_density * lf.meta.normalisation.scale * 2.0),
+        _ => 0.0,
+    };
+    // per pixel: the error of the light taken, whether the footprint is all lit, all umbra
+    let (mut rows, mut brightest) = (Vec::<(f64, bool, bool)>::new(), 0.0f64);
     for y in 2..n - 2 {
         for x in 2..n - 2 {
             let a = (x as f64 + 0.5) / n as f64 * 2.0 - 1.0;
@@ -348,18 +384,15 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
             {
                 continue;
             }
-            let shadow: Vec<glam::DVec2> = (occluder.iter())
-                .map(|&o| flat(p + (o - p) * ((emitter[0].y - p.y) / (o.y - p.y))))
+            let (blocked, full) = closed_form(p);
+            let footprint: Vec<(f64, f64)> = (0..9)
+                .map(|i| {
+                    let step = DVec3::new((i % 3) as f64 - 1.0, 0.0, (i / 3) as f64 - 1.0);
+                    closed_form(p + step * texel)
+                })
                 .collect();
-            let hidden: Vec<DVec3> = (clip_convex(&emitter_2d, &shadow).iter())
-                .map(|q| DVec3::new(q.x, emitter[0].y, q.y))
-                .collect();
-            let full = k * polygon_irradiance(p, DVec3::Y, &emitter);
-            let blocked = if hidden.len() >= 3 {
-                k * polygon_irradiance(p, DVec3::Y, &hidden)
-            } else {
-                0.0
-            };
+            let lit = footprint.iter().all(|(b, _)| *b <= 0.0);
+            let umbra = footprint.iter().all(|(b, f)| *b >= *f * (1.0 - 1e-9));
             let taken = (pixel(&without, x, y)[0] - pixel(&with, x, y)[0]) as f64;
             assert_eq!(
                 pixel(&without, x, y),
@@ -367,20 +400,21 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
                 "shadows off still shadow"
             );
             brightest = brightest.max(full);
-            rows.push((taken, blocked, full));
+            rows.push(((taken - blocked).abs(), lit, umbra));
         }
     }
-    let lit = |(_, b, _): &(f64, f64, f64)| *b <= 0.0;
-    let umbra = |(_, b, f): &(f64, f64, f64)| *b >= *f * (1.0 - 1e-9);
-    let worst = |pick: &dyn Fn(&(f64, f64, f64)) -> bool| {
+    type Row = (f64, bool, bool);
+    let lit = |r: &Row| r.1;
+    let umbra = |r: &Row| r.2;
+    let penumbra = |r: &Row| !r.1 && !r.2;
+    let worst = |pick: &dyn Fn(&Row) -> bool| {
         (rows.iter().filter(|r| pick(r)))
-            .map(|(t, b, _)| (t - b).abs() / brightest)
+            .map(|r| r.0 / brightest)
             .fold(0.0, f64::max)
     };
-    let count = |pick: &dyn Fn(&(f64, f64, f64)) -> bool| rows.iter().filter(|r| pick(r)).count();
-    let penumbra = |r: &(f64, f64, f64)| !lit(r) && !umbra(r);
+    let count = |pick: &dyn Fn(&Row) -> bool| rows.iter().filter(|r| pick(r)).count();
     eprintln!(
-        "pixels: {} lit, {} umbra, {} penumbra; worst error / brightest: lit {:.2e}, umbra {:.2e}, penumbra {:.2e}",
+        "{shadows}: pixels: {} lit, {} umbra, {} penumbra; worst error / brightest: lit {:.2e}, umbra {:.2e}, penumbra {:.2e}",
         count(&lit), count(&umbra), count(&penumbra), worst(&lit), worst(&umbra), worst(&penumbra)
     );
     assert!(
@@ -391,12 +425,144 @@ fn a_moving_occluder_shadows_the_floor_as_the_closed_form_says() {
         worst(&lit) < 1e-5,
         "light taken where the blocker hides nothing"
     );
-    // measured (lavapipe, 16 eye rays, one shadow estimate per pair of them of 64 shadow rays to the
-    // emitter's two triangles): lit 0, umbra
-    // 1.3e-2, penumbra 2.5e-2. In the umbra the light taken is all the light field holds there,
-    // whose draft direct light (64 samples per texel, 24 texels per metre) is what is off
     assert!(worst(&umbra) < 0.035, "the umbra is off");
     assert!(worst(&penumbra) < 0.035, "the penumbra is off");
+}
+
+/// A floor of albedo 0.5 under a uniform sky of radiance 1 (no emitter) and a moving 0.3 m square
+/// 0.1 m above it: the sky light the square takes from each floor point seen, against the closed
+/// form (the square's irradiance as a polygon of radiance 1, Lambert's formula, times albedo /
+/// pi, over each pixel), from the shadow atlas (256 sky rays per texel, the whole view within its
+/// reach) and per pixel (256 sky rays per pair of eye rays), within 3% (atlas) and 4% (per pixel)
+/// of the floor's brightness everywhere.
+#[test]
+fn a_moving_square_takes_the_sky_light_the_closed_form_says() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
+    let rho = 0.5f64;
+    let floor = [Mat {
+        name: "floor",
+        kd: [rho as f32; 3],
+        ke: [0.0; 3],
+    }];
+    let scene = load_scene(
+        dir.path(),
+        &obj,
+        &floor,
+        "[sky]\nradiance = [1.0, 1.0, 1.0]\n",
+    );
+    let params = vlf::propagate::PropagationParams {
+        texel_density: 24.0,
+        ..draft_params()
+    };
+    let (lf, resident, _) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
+    let mut square = ObjBuilder::default();
+    let (centre, half) = (DVec3::new(0.0, 0.1, 0.0), 0.15);
+    square.quad("thing", centre, DVec3::Y, [2.0 * half; 2], 0.0);
+    std::fs::write(dir.path().join("square.obj"), square.text("square.mtl")).unwrap();
+    std::fs::write(dir.path().join("square.mtl"), "newmtl thing\nKd 0 0 0\n").unwrap();
+    let corners = [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
+        .map(|(a, b)| centre + DVec3::new(a * half, 0.0, b * half));
+    // the eye at (0.9, 0.6, 0.1) looking down at the square
+    let eye = DVec3::new(0.9, 0.6, 0.1);
+    let n = 48u32;
+    let mut errors = Vec::new();
+    for shadows in ["atlas", "per_pixel"] {
+        let lighting = format!(
+            "sky_shadow_samples = 256\nshadows = \"{shadows}\"\natlas_sky_shadow_samples = 256\n\
+             sky_shadow_reach = 4.0"
+        );
+        let (path, config, wall) = floor_view(
+            dir.path(),
+            (eye, DVec3::ZERO, n),
+            &lighting,
+            ("square", "square.obj"),
+        );
+        let corner = |a: f64, b: f64| wall[0] + wall[1] * a + wall[2] * b;
+        let with = draw(&lf, &resident, (&path, &config), &[]);
+        let hide = ObjectChange::Visible("square".into(), false);
+        let without = draw(&lf, &resident, (&path, &config), &[hide]);
+        let (mut worst, mut seen, mut darkest) = (0.0f64, 0, 0.0f64);
+        for y in 2..n - 2 {
+            for x in 2..n - 2 {
+                let a = (x as f64 + 0.5) / n as f64 * 2.0 - 1.0;
+                let b = 1.0 - (y as f64 + 0.5) / n as f64 * 2.0;
+                let ray = (corner(a, b) - eye).normalize();
+                // rays that meet the square or pass within 3 cm of its edge (a pixel's eye rays
+                // spread over about 1.3 cm there) are left out
+                let at = eye + ray * ((eye.y - centre.y) / -ray.y);
+                if (at - centre).abs().max_element() < half + 0.03 {
+                    continue;
+                }
+                // the closed form over the pixel (4 x 4 points: its eye rays spread over it)
+                let blocked = (0..16)
+                    .map(|k| {
+                        let da = ((k % 4) as f64 - 1.5) / 4.0 * 2.0 / n as f64;
+                        let db = ((k / 4) as f64 - 1.5) / 4.0 * 2.0 / n as f64;
+                        let ray = (corner(a + da, b - db) - eye).normalize();
+                        let p = eye + ray * (eye.y / -ray.y);
+                        rho / std::f64::consts::PI * polygon_irradiance(p, DVec3::Y, &corners)
+                    })
+                    .sum::<f64>()
+                    / 16.0;
+                let taken = (pixel(&without, x, y)[0] - pixel(&with, x, y)[0]) as f64;
+                // the floor's brightness under the open sky: rho x 1
+                worst = worst.max((taken - blocked).abs() / rho);
+                darkest = darkest.max(blocked / rho);
+                seen += 1;
+            }
+        }
+        eprintln!("{shadows}: {seen} floor pixels, the most sky taken {darkest:.3}, worst error / brightness {worst:.2e}");
+        assert!(seen > 500 && darkest > 0.3, "the shadow is not in the view");
+        errors.push(worst);
+    }
+    // measured (lavapipe): atlas 2.6e-2 (where it is worst, beside the square's edge, its texels
+    // under the square reach the lookup), per pixel 3.5e-2 (it takes up to 15% too little of
+    // the blocked light beyond the square's far edge, with 64 rays as with 256: not noise; not
+    // explained yet)
+    assert!(
+        errors[0] < 0.03,
+        "atlas: the sky's shadow is off by {}",
+        errors[0]
+    );
+    assert!(
+        errors[1] < 0.04,
+        "per pixel: the sky's shadow is off by {}",
+        errors[1]
+    );
+}
+
+/// A one-wall display of `n` x `n` pixels (16 eye rays each) from a static head at `eye` through
+/// a 6 cm wall 10 cm ahead toward `target`, with small probes, the `[object_lighting]` keys
+/// `lighting` and the object `name` from `mesh`: its file, its config and the wall's centre and
+/// half sides (the wall's point (a, b), -1..1 each way, is centre + a right + b up).
+fn floor_view(
+    dir: &Path,
+    (eye, target, n): (DVec3, DVec3, u32),
+    lighting: &str,
+    (name, mesh): (&str, &str),
+) -> (std::path::PathBuf, DisplayConfig, [DVec3; 3]) {
+    let ahead = (target - eye).normalize();
+    let right = ahead.cross(DVec3::Y).normalize() * 0.03;
+    let up = right.cross(ahead).normalize() * 0.03;
+    let centre = eye + ahead * 0.1;
+    let fmt = |v: DVec3| format!("[{}, {}, {}]", v.x, v.y, v.z);
+    let text = format!(
+        "name = \"shadow\"\nantialiasing = 16\n\n[tracking]\nsource = \"static\"\nhead = {}\n\n\
+         [object_lighting]\nprobe_resolution = 4\nprobe_rays = 64\n{lighting}\n\n\
+         [[wall]]\nname = \"floor view\"\nlower_left = {}\nlower_right = {}\nupper_left = {}\n\
+         pixels = [{n}, {n}]\noutput = {{ monitor = 0 }}\n\n{}",
+        fmt(eye),
+        fmt(centre - right - up),
+        fmt(centre + right - up),
+        fmt(centre - right + up),
+        object_table(name, mesh)
+    );
+    let path = dir.join("display.toml");
+    std::fs::write(&path, text).unwrap();
+    let config = DisplayConfig::load(&path).unwrap();
+    (path, config, [centre, right, up])
 }
 
 /// The shipped body config (config/displays/cave-4wall-body.toml) loads its avatar (the shipped

@@ -20,9 +20,9 @@ print(f"{gpu}, build {commit}, `bash tools/gpu-body.sh VLF OUT 300`: the walk CA
 print("| scene | objects | all views GPU p50 / p99 | eye rays per pixel, median per view | update (skin, triangles, refit) p50 / p99 | worst view p99/p50 | frame max |")
 print("|---|---|---|---|---|---|---|")
 names = {"none": "none", "body-noshadow": "avatar, no shadows", "body": "avatar with shadows",
-         "body-prop": "avatar + 200K prop, shadows"}
+         "body-perpixel": "avatar, shadows per pixel", "body-prop": "avatar + 200K prop, shadows"}
 for scene, label in [("classroom-100k", "100K classroom"), ("classroom-1m", "1M classroom")]:
-    for variant in ["none", "body-noshadow", "body", "body-prop"]:
+    for variant in ["none", "body-noshadow", "body", "body-perpixel", "body-prop"]:
         path = os.path.join(d, f"cave-{scene}-{variant}.json")
         if not os.path.exists(path):
             continue

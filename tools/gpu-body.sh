@@ -5,10 +5,12 @@
 # classrooms three times: without moving objects, with the shipped avatar on the walking head
 # (assets/avatar/mannequin.glb, 4,456 triangles), and with the avatar and a 200K-triangle prop
 # carried in front of it (a sphere of 199,712 triangles: the update's size the issue asks for);
-# and the avatar without its shadows (what they cost). VARIANTS picks some of
-# "none body body-noshadow body-prop".
+# the avatar without its shadows (what they cost), and with its shadows per pixel instead of from
+# the shadow atlas (`[object_lighting] shadows = "per_pixel"`). VARIANTS picks some of
+# "none body body-noshadow body-perpixel body-prop" (tools/gpu-shadow.sh: the shadows' three).
 # Reports (JSON + text, the last frame's overview) into OUT_DIR/body.tar; the reports' "moving
-# objects' update" line is the skinning + triangles + refit pass's GPU time per frame.
+# objects' update" line is the skinning + triangles + refit pass's GPU time per frame, with the
+# shadow atlas where the shadows come from it.
 # SCENES (default "classroom-100k classroom-1m") picks the walks; WORK=dir reuses light fields.
 #   tools/gpu-body.sh VLF_BINARY OUT_DIR [FRAMES]
 set -uo pipefail
@@ -51,8 +53,10 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
   { cat $work/cave-$scene-none.toml; echo; echo "$body"; } > $work/cave-$scene-body.toml
   { cat $work/cave-$scene-body.toml; echo; echo "$prop"; } > $work/cave-$scene-body-prop.toml
   # what the shadows cost: the body without them
-  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadow_samples = 0"; echo "sky_shadow_samples = 0"; } > $work/cave-$scene-body-noshadow.toml
-  for variant in ${VARIANTS:-none body body-noshadow body-prop}; do
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadow_samples = 0"; echo "sky_shadow_samples = 0"; echo "atlas_shadow_samples = 0"; echo "atlas_sky_shadow_samples = 0"; } > $work/cave-$scene-body-noshadow.toml
+  # the shadows per pixel of every view (before the shadow atlas)
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadows = \"per_pixel\""; } > $work/cave-$scene-body-perpixel.toml
+  for variant in ${VARIANTS:-none body body-noshadow body-perpixel body-prop}; do
     "$vlf" cave $work/cave-$scene-$variant.toml --scene $work/$scene.vlf --headless --frames $frames \
       --out $work/out-$scene-$variant --json $work/cave-$scene-$variant.json 2>&1 | quiet \
       | tee $work/cave-$scene-$variant.txt | grep -E "moving|all views|CPU frame|eye rays|limit"

@@ -16,7 +16,8 @@ struct ProbeGrid {
     counts: vec3<u32>,
     shadow_samples: u32,
     sky_shadow_samples: u32,
-    _pad0: u32,
+    // the shadow atlas's texels along each side of a light-field texel (src/render/shadow_atlas.rs)
+    shadow_subdivision: u32,
     _pad1: u32,
     _pad2: u32,
 }

@@ -3,7 +3,8 @@
 // skinned corners: the direct light of the emitters and the sky by shadow rays against the scene
 // and the moving objects themselves (their own shadows on each other and on themselves), the
 // rest through the irradiance probes (common/irradiance.wgsl, baked without that direct light). The renderer
-// binds this group; cast_ray (common/scene_cast.wgsl) calls moving_radiance.
+// binds this group; cast_ray (common/scene_cast.wgsl) calls moving_radiance. The shadow atlas's
+// pass (shadow_atlas.wgsl) binds it too, for direct_samples.
 
 // mirrors gpu::types::GpuMovingMaterial
 struct MovingMaterial {
@@ -59,6 +60,20 @@ fn irradiance_at(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return select(plain, weighted / weights, weights > 1e-4);
 }
 
+// Face f's chart in the shadow atlas: its own texels only (corner 0, 0), probe_grid.shadow_subdivision
+// of them along each side of a light-field texel (the atlas's pass, shadow_atlas.wgsl, and its
+// lookup, common/moving_shadow.wgsl).
+fn shadow_chart(f: Face) -> Face {
+    let s = max(probe_grid.shadow_subdivision, 1u);
+    var chart = f;
+    chart.atlas_x = 0u;
+    chart.atlas_y = 0u;
+    chart.atlas_w = f.atlas_w * s;
+    chart.atlas_h = f.atlas_h * s;
+    chart.texel_density = f.texel_density * f32(s);
+    return chart;
+}
+
 // The radiance leaving moving triangle `index` (counted from view.moving_first) at `point`
 // toward the ray's origin.
 fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
@@ -72,7 +87,7 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     n = normalize(select(n, -n, dot(n, ray) > 0.0));
     let material = moving_materials[bitcast<u32>(m.n0.w)];
     let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
-    let direct = direct_samples(point + n * 1e-3, n, seed, false);
+    let direct = direct_samples(point + n * 1e-3, n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
     return material.albedo.xyz / PI * (irradiance_at(point, n) + direct) + material.emission.xyz;
 }
 
@@ -99,31 +114,15 @@ fn pick_emitter(u: f32) -> vec2<f32> {
     return vec2<f32>(entry.y, (frac - threshold) / max(1.0 - threshold, 1e-30));
 }
 
-// The direct light the moving objects take away from point p of static face f, as radiance
-// leaving p (the light field holds it; the renderer subtracts it): probe_grid.shadow_samples
-// shadow rays to the emitters, each to a point on a triangle picked by its share of their power
-// (one rotated Hammersley set over all of them: the same cost whatever the number of lights), and
-// probe_grid.sky_shadow_samples cosine-weighted directions to the sky; a ray counts where a
-// moving object is in the way and the scene is not (the light field never had what the scene
-// blocks). The indirect light the objects block, and the light they reflect onto the scene, are
-// left as the light field has them.
-fn moving_shadow(f: Face, p: vec3<f32>, seed: u32) -> vec3<f32> {
-    let albedo = diffuse_reflectance(material_of(f));
-    if view.moving_root == NO_NODE || max(albedo.x, max(albedo.y, albedo.z)) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    return albedo / PI * direct_samples(p + f.normal * 1e-5, f.normal, seed, true);
-}
-
-// The direct irradiance at `origin` (facing `normal`) over probe_grid.shadow_samples shadow rays
-// to the emitters, each to a point on a triangle picked by its share of their power (one rotated
-// Hammersley set over all of them: the same cost whatever the number of lights), and
-// probe_grid.sky_shadow_samples cosine-weighted directions to the sky, counting the samples a
-// moving object blocks and the scene does not (`blocked_only`: what the objects take from a
-// static surface, moving_shadow) or those neither blocks (what reaches a moving surface). Each
-// sample casts its ray against the moving objects first, and against the scene only where that
-// decided it counts.
-fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only: bool) -> vec3<f32> {
+// The direct irradiance at `origin` (facing `normal`) over counts.x shadow rays to the emitters,
+// each to a point on a triangle picked by its share of their power (one rotated Hammersley set
+// over all of them: the same cost whatever the number of lights), and counts.y cosine-weighted
+// directions to the sky, counting the samples a moving object blocks and the scene does not
+// (`blocked_only`: what the objects take from a static surface, common/moving_shadow.wgsl and
+// shadow_atlas.wgsl) or those neither blocks (what reaches a moving surface). Each sample casts
+// its ray against the moving objects first, and against the scene only where that decided it
+// counts.
+fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only: bool, counts: vec2<u32>) -> vec3<f32> {
     // the moving objects' two top boxes (one load, the same for every pixel): a point they are
     // wholly below the horizon of gets no shadow, and a shadow ray that enters neither is not cast
     let top = pairs[view.moving_root];
@@ -137,9 +136,9 @@ fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only:
         return vec3<f32>(0.0);
     }
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
-    let n = select(probe_grid.shadow_samples, 0u, probe_grid.emitter_count == 0u);
+    let n = select(counts.x, 0u, probe_grid.emitter_count == 0u);
     let sky = field.sky.xyz;
-    let m = select(0u, probe_grid.sky_shadow_samples, max(sky.x, max(sky.y, sky.z)) > 0.0);
+    let m = select(0u, counts.y, max(sky.x, max(sky.y, sky.z)) > 0.0);
     // a frame around the normal for the sky's cosine-weighted directions
     let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
     let a = normalize(cross(normal, t));

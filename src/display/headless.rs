@@ -41,8 +41,8 @@ pub struct CaveReport {
     /// GPU milliseconds per frame of the passes after rendering (warp, blend, wand ray: one per
     /// projector, or per wall without projectors); None when there are none or no timestamps
     pub outputs_gpu_ms: Option<Distribution>,
-    /// GPU milliseconds per frame of the moving objects' update (skinning, triangles, refit);
-    /// None without objects or timestamps
+    /// GPU milliseconds per frame of the moving objects' update (skinning, triangles, refit, and
+    /// the shadow atlas where their shadows come from it); None without objects or timestamps
     pub objects_gpu_ms: Option<Distribution>,
     /// the largest per-view p99/p50 of the GPU time, and whether it meets CONSTANT_FRAME_TIME
     pub worst_p99_over_p50: Option<f64>,
@@ -584,7 +584,7 @@ impl CaveReport {
         }
         if let Some(d) = &self.objects_gpu_ms {
             s.push_str(&format!(
-                "  moving objects' update (skin, refit), GPU: median {:.3} ms, p99 {:.3} ms\n",
+                "  moving objects' update (skin, refit, shadow atlas), GPU: median {:.3} ms, p99 {:.3} ms\n",
                 d.median, d.p99
             ));
         }

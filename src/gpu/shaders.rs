@@ -96,7 +96,15 @@ pub const SOURCES: &[(&str, &str)] = &[
         "common/moving_surface.wgsl",
         include_str!("../../shaders/common/moving_surface.wgsl"),
     ),
+    (
+        "common/moving_shadow.wgsl",
+        include_str!("../../shaders/common/moving_shadow.wgsl"),
+    ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
+    (
+        "shadow_atlas.wgsl",
+        include_str!("../../shaders/shadow_atlas.wgsl"),
+    ),
     (
         "visibility_raster.wgsl",
         include_str!("../../shaders/visibility_raster.wgsl"),
@@ -133,6 +141,7 @@ pub const STAGES: &[&str] = &[
     "visibility_raster.wgsl",
     "moving.wgsl",
     "probes.wgsl",
+    "shadow_atlas.wgsl",
     "present.wgsl",
     "xr_eye.wgsl",
     "xr_multiview.wgsl",

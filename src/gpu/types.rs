@@ -167,6 +167,10 @@ pub struct GpuView {
 pub const MOVING_SHADOWS: u32 = 1;
 /// `GpuView::moving_flags`: reflections off the scene's mirrors show the moving objects.
 pub const MOVING_IN_MIRRORS: u32 = 2;
+/// `GpuView::moving_flags`: the shadows on the scene come from the shadow atlas
+/// (`render::shadow_atlas`; `MOVING_SHADOW_ATLAS` in shaders/common/moving_shadow.wgsl), not from
+/// shadow rays per pixel.
+pub const MOVING_SHADOW_ATLAS: u32 = 4;
 
 /// Mirrors WGSL `Field`: the layout of the light field a stage reads, and the scene's sky
 /// (`shaders/common/light_field.wgsl`; made by `lightfield::bindings`), the same for every view.
@@ -324,6 +328,20 @@ pub struct GpuMovingMaterial {
     pub emission: [f32; 4],
 }
 
+/// Mirrors WGSL `ShadowAtlas` (shaders/shadow_atlas.wgsl): the faces, what the atlas's buffers
+/// hold, the emitters' boxes, the shadow rays per texel and the sky's reach.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuShadowAtlas {
+    pub face_count: u32,
+    pub texel_capacity: u32,
+    pub item_capacity: u32,
+    pub box_count: u32,
+    pub samples: [u32; 2],
+    pub sky_reach: f32,
+    pub _pad: u32,
+}
+
 /// Mirrors WGSL `ProbeGrid` (shaders/common/irradiance.wgsl): probe (i, j, k) at
 /// origin + spacing * (i, j, k), `rays` per probe when baked; and the moving objects' shadows:
 /// the emitting triangles and the shadow rays per eye ray to each and to the sky.
@@ -337,7 +355,8 @@ pub struct GpuProbeGrid {
     pub counts: [u32; 3],
     pub shadow_samples: u32,
     pub sky_shadow_samples: u32,
-    pub _pad0: u32,
+    /// the shadow atlas's texels along each side of a light-field texel
+    pub shadow_subdivision: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

@@ -8,6 +8,7 @@ pub mod moving;
 pub mod objects_file;
 pub mod probes;
 pub mod raster;
+pub mod shadow_atlas;
 
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuRayTriangle, GpuView, RenderVertex};
@@ -148,6 +149,8 @@ pub struct Renderer {
     /// the moving objects' GPU state, and the probes' grid (each field bakes its own probes)
     moving: Option<moving::MovingObjects>,
     probe_grid: Option<crate::gpu::types::GpuProbeGrid>,
+    /// the moving objects' shadows drawn once per frame (none: per pixel, or no objects)
+    shadow_atlas: Option<shadow_atlas::ShadowAtlas>,
 }
 
 /// One light field as the resolve binds it: its bind group, the faces and material table the
@@ -161,6 +164,8 @@ struct FieldSet {
     /// the light field's layout uniform (the probes of a field added later bake from it)
     field_buffer: wgpu::Buffer,
     probes: Option<probes::Probes>,
+    /// the shadow atlas's groups for this light field
+    shadow: Option<shadow_atlas::ShadowField>,
 }
 
 impl FieldSet {
@@ -190,6 +195,7 @@ impl FieldSet {
             moving_group: placeholder_moving_group(ctx, moving_layout, lf),
             field_buffer,
             probes: None,
+            shadow: None,
         }
     }
 }
@@ -319,6 +325,7 @@ impl Renderer {
             target: None,
             moving: None,
             probe_grid: None,
+            shadow_atlas: None,
         };
         if let (Some(o), Some(plan)) = (objects, plan) {
             renderer.add_objects(lf, ledger, (o, &plan))?;
@@ -400,6 +407,18 @@ impl Renderer {
         self.view_template.moving_root = moving.root_pair;
         self.view_template.moving_first = moving.first_triangle;
         self.moving = Some(moving);
+        if objects.lighting.shadows == probes::ShadowMethod::Atlas {
+            let scene = shadow_atlas::AtlasScene {
+                faces: &lf.faces,
+                stack: self.variant.stack,
+                cutouts: self.variant.cutouts,
+                scale: self.normalisation.scale,
+            };
+            let atlas =
+                shadow_atlas::ShadowAtlas::new(&self.ctx, ledger, &objects.lighting, &scene)?;
+            self.shadow_atlas = Some(atlas);
+            self.view_template.moving_flags |= crate::gpu::types::MOVING_SHADOW_ATLAS;
+        }
         Ok(())
     }
 
@@ -435,21 +454,29 @@ impl Renderer {
             emitters: &emitters,
         };
         let probes = probes::bake(&self.ctx, ledger, grid, &inputs)?;
-        let group = moving_group(&self.ctx, &self.moving_layout, moving, &probes);
+        let atlas = self.shadow_atlas.as_ref();
+        let shadow = atlas.map(|a| a.field(&self.ctx, ledger, &inputs, (moving, &probes)));
+        let group = moving_group(&self.ctx, &self.moving_layout, moving, &probes, atlas);
         let set = &mut self.fields[k];
         set.moving_group = group;
         set.probes = Some(probes);
+        set.shadow = shadow;
         Ok(())
     }
 
     /// Pose the moving objects for the views drawn next: `joints` are their joint matrices in
-    /// world metres (`dynamic::Objects::joint_matrices`). Submitted at once, its GPU time in
-    /// `timestamps` where given; nothing without objects.
+    /// world metres (`dynamic::Objects::joint_matrices`), and with the shadow atlas, their
+    /// shadows for the light field drawn now (`shadow_atlas`; made whether the shadows are on or
+    /// off, so that switching them costs no step in frame time). Submitted at once, its GPU time
+    /// in `timestamps` where given; nothing without objects.
     pub fn pose_objects(&self, joints: &[Mat4], timestamps: Option<&mut Timestamps>) {
         if let Some(m) = &self.moving {
             m.set_joints(&self.ctx.queue, joints);
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            m.encode(&mut encoder, timestamps);
+            let field = self.fields[self.active].shadow.as_ref();
+            let shadows = (self.shadow_atlas.as_ref().zip(field))
+                .map(|(a, f)| move |pass: &mut wgpu::ComputePass<'_>| a.encode(pass, f));
+            m.encode(&mut encoder, timestamps, shadows);
             self.ctx.queue.submit([encoder.finish()]);
         }
     }
@@ -457,9 +484,11 @@ impl Renderer {
     /// The moving objects' switches (a study's conditions): their shadows on the scene, and
     /// whether mirrors show them.
     pub fn set_object_switches(&mut self, shadows: bool, in_mirrors: bool) {
-        use crate::gpu::types::{MOVING_IN_MIRRORS, MOVING_SHADOWS};
+        use crate::gpu::types::{MOVING_IN_MIRRORS, MOVING_SHADOWS, MOVING_SHADOW_ATLAS};
+        let atlas = self.view_template.moving_flags & MOVING_SHADOW_ATLAS;
         self.view_template.moving_flags = if shadows { MOVING_SHADOWS } else { 0 }
-            | if in_mirrors { MOVING_IN_MIRRORS } else { 0 };
+            | if in_mirrors { MOVING_IN_MIRRORS } else { 0 }
+            | atlas;
     }
 
     /// Whether this renderer draws moving objects.
@@ -974,13 +1003,28 @@ fn resolve_pipeline(
     ))
 }
 
-/// The moving objects' group of the resolve pass: their shading records, materials and probes.
+/// The moving objects' group of the resolve pass: their shading records, materials and probes,
+/// and the shadow atlas's face slots and texels (placeholders, never read, without it).
 fn moving_group(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
     m: &moving::MovingObjects,
     p: &probes::Probes,
+    atlas: Option<&shadow_atlas::ShadowAtlas>,
 ) -> wgpu::BindGroup {
+    let placeholder;
+    let (slots, texels) = match atlas {
+        Some(a) => (&a.slots, &a.texels),
+        None => {
+            placeholder = ctx.buffer_init(
+                &MemoryLedger::default(),
+                "no shadow atlas",
+                &[0u8; 64],
+                wgpu::BufferUsages::STORAGE,
+            );
+            (&placeholder, &placeholder)
+        }
+    };
     ctx.bind_group(
         layout,
         &[
@@ -990,6 +1034,8 @@ fn moving_group(
             &p.coefficients,
             &p.emitters,
             &p.emitter_alias,
+            slots,
+            texels,
         ],
     )
 }
@@ -1028,7 +1074,9 @@ fn placeholder_moving_group(
     if emitters.is_empty() {
         return ctx.bind_group(
             layout,
-            &[&storage, &storage, &uniform, &storage, &storage, &storage],
+            &[
+                &storage, &storage, &uniform, &storage, &storage, &storage, &storage, &storage,
+            ],
         );
     }
     let chances: Vec<f32> = emitters.iter().map(|e| e.chance).collect();
@@ -1055,6 +1103,8 @@ fn placeholder_moving_group(
             &storage,
             &emitter_buffer,
             &alias,
+            &storage,
+            &storage,
         ],
     )
 }

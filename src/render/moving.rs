@@ -276,11 +276,13 @@ impl MovingObjects {
         queue.write_buffer(&self.joints, 0, bytemuck::cast_slice(&unit));
     }
 
-    /// Skin, write the triangles and refit: one compute pass of 2 + levels dispatches.
+    /// Skin, write the triangles and refit: one compute pass of 2 + levels dispatches, and
+    /// `then` what follows in the same pass (the shadow atlas, `render::shadow_atlas`).
     pub fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         timestamps: Option<&mut crate::gpu::Timestamps>,
+        then: Option<impl FnOnce(&mut wgpu::ComputePass<'_>)>,
     ) {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("moving objects"),
@@ -296,6 +298,9 @@ impl MovingObjects {
         for (group, count) in &self.levels {
             pass.set_bind_group(1, group, &[]);
             pass.dispatch_workgroups(count.div_ceil(64), 1, 1);
+        }
+        if let Some(then) = then {
+            then(&mut pass);
         }
     }
 }

@@ -10,8 +10,9 @@ use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use glam::Vec3;
 
 /// How moving objects are lit and shadow the scene: the probes that light them (how many along
-/// the scene's longest side, rays each) and the shadow rays they cast per pixel (per emitting
-/// triangle, and toward the sky); the display TOML's `[object_lighting]`.
+/// the scene's longest side, rays each), the shadow rays of their own direct light (and of their
+/// shadows on the scene per pixel), and how their shadows on the scene are drawn
+/// (`render::shadow_atlas`); the display TOML's `[object_lighting]`.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObjectLighting {
@@ -27,6 +28,36 @@ pub struct ObjectLighting {
     /// shadow rays per eye ray toward the sky, where the scene has one
     #[serde(default = "default_sky_shadow_samples")]
     pub sky_shadow_samples: u32,
+    /// how the shadows on the static scene are drawn: once per frame into the shadow atlas
+    /// (the default), or per pixel of every view
+    #[serde(default)]
+    pub shadows: ShadowMethod,
+    /// the shadow atlas: shadow rays per texel to the emitters and to the sky
+    #[serde(default = "default_atlas_shadow_samples")]
+    pub atlas_shadow_samples: u32,
+    #[serde(default = "default_atlas_sky_shadow_samples")]
+    pub atlas_sky_shadow_samples: u32,
+    /// the shadow atlas: the sky's shadow (contact darkening) within this many metres of the
+    /// objects' boxes, fading out over its outer half
+    #[serde(default = "default_sky_shadow_reach")]
+    pub sky_shadow_reach: f32,
+    /// the shadow atlas: its texels along each side of a light-field texel (1 to 4)
+    #[serde(default = "default_shadow_atlas_subdivision")]
+    pub shadow_atlas_subdivision: u32,
+    /// the shadow atlas: texels evaluated per frame at most (faces past it take no shadow)
+    #[serde(default = "default_shadow_atlas_texels")]
+    pub shadow_atlas_texels: u32,
+}
+
+/// How the moving objects' shadows on the static scene are drawn: `"atlas"`, once per frame
+/// into texels laid out as the light field's atlas and read by every view (its cost does not
+/// grow with views or pixels), or `"per_pixel"`, shadow rays from every pair of eye rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ShadowMethod {
+    #[default]
+    Atlas,
+    PerPixel,
 }
 
 fn default_resolution() -> u32 {
@@ -45,6 +76,26 @@ fn default_sky_shadow_samples() -> u32 {
     4
 }
 
+fn default_atlas_shadow_samples() -> u32 {
+    32
+}
+
+fn default_atlas_sky_shadow_samples() -> u32 {
+    16
+}
+
+fn default_sky_shadow_reach() -> f32 {
+    1.0
+}
+
+fn default_shadow_atlas_subdivision() -> u32 {
+    2
+}
+
+fn default_shadow_atlas_texels() -> u32 {
+    1 << 22
+}
+
 impl Default for ObjectLighting {
     fn default() -> Self {
         ObjectLighting {
@@ -52,6 +103,12 @@ impl Default for ObjectLighting {
             probe_rays: default_rays(),
             shadow_samples: default_shadow_samples(),
             sky_shadow_samples: default_sky_shadow_samples(),
+            shadows: ShadowMethod::default(),
+            atlas_shadow_samples: default_atlas_shadow_samples(),
+            atlas_sky_shadow_samples: default_atlas_sky_shadow_samples(),
+            sky_shadow_reach: default_sky_shadow_reach(),
+            shadow_atlas_subdivision: default_shadow_atlas_subdivision(),
+            shadow_atlas_texels: default_shadow_atlas_texels(),
         }
     }
 }
@@ -74,10 +131,31 @@ impl ObjectLighting {
         for (key, n) in [
             ("shadow_samples", self.shadow_samples),
             ("sky_shadow_samples", self.sky_shadow_samples),
+            ("atlas_shadow_samples", self.atlas_shadow_samples),
+            ("atlas_sky_shadow_samples", self.atlas_sky_shadow_samples),
         ] {
             if n > 256 {
                 return Err(format!("{at} {key} = {n}: use 0 (none) to 256"));
             }
+        }
+        let reach = self.sky_shadow_reach;
+        if !(reach.is_finite() && reach >= 0.0) {
+            return Err(format!(
+                "{at} sky_shadow_reach = {reach}: use metres, 0 (no sky shadow in the atlas) or more"
+            ));
+        }
+        let subdivision = self.shadow_atlas_subdivision;
+        if !(1..=4).contains(&subdivision) {
+            return Err(format!(
+                "{at} shadow_atlas_subdivision = {subdivision}: use 1 (the light field's texels) to 4"
+            ));
+        }
+        let texels = self.shadow_atlas_texels;
+        if !(1024..=1 << 26).contains(&texels) {
+            return Err(format!(
+                "{at} shadow_atlas_texels = {texels}: use 1024 to {}",
+                1 << 26
+            ));
         }
         Ok(())
     }
@@ -97,6 +175,7 @@ pub fn probe_grid(lo: Vec3, hi: Vec3, settings: &ObjectLighting) -> GpuProbeGrid
         counts: counts.into(),
         shadow_samples: settings.shadow_samples,
         sky_shadow_samples: settings.sky_shadow_samples,
+        shadow_subdivision: settings.shadow_atlas_subdivision,
         ..Default::default()
     }
 }
@@ -190,10 +269,17 @@ pub fn bake(
     ctx.queue.submit([encoder.finish()]);
     ctx.wait()
         .map_err(|e| VlfError::Gpu(format!("baking {count} irradiance probes: {e}")))?;
+    // a scene without emitters (sky only) binds one that is never read (emitter_count 0): a
+    // binding holds at least one record
+    let none = [crate::gpu::types::GpuEmitter::default()];
+    let list = match inputs.emitters.is_empty() {
+        true => &none[..],
+        false => inputs.emitters,
+    };
     let emitters = ctx.buffer_init(
         ledger,
         "moving: emitters",
-        bytemuck::cast_slice(inputs.emitters),
+        bytemuck::cast_slice(list),
         STORAGE,
     );
     let chances: Vec<f32> = inputs.emitters.iter().map(|e| e.chance).collect();
@@ -284,7 +370,30 @@ pub fn alias_table(chances: &[f32]) -> Vec<[f32; 4]> {
 
 #[cfg(test)]
 mod tests {
-    use super::alias_table;
+    use super::{alias_table, ObjectLighting, ShadowMethod};
+
+    /// The shadows' method and the atlas's settings come from `[object_lighting]`: the atlas by
+    /// default, "per_pixel" on request, an unknown method refused with its name, and settings out
+    /// of range named by their key.
+    #[test]
+    fn object_lighting_reads_the_shadow_method_and_refuses_bad_atlas_settings() {
+        let read = |text: &str| toml::from_str::<ObjectLighting>(text);
+        assert_eq!(read("").unwrap().shadows, ShadowMethod::Atlas);
+        let per_pixel = read("shadows = \"per_pixel\"").unwrap();
+        assert_eq!(per_pixel.shadows, ShadowMethod::PerPixel);
+        let e = read("shadows = \"soft\"").unwrap_err().to_string();
+        assert!(e.contains("soft") && e.contains("per_pixel"), "{e}");
+        for (text, key) in [
+            ("shadow_atlas_subdivision = 5", "shadow_atlas_subdivision"),
+            ("shadow_atlas_texels = 10", "shadow_atlas_texels"),
+            ("sky_shadow_reach = -1.0", "sky_shadow_reach"),
+            ("atlas_shadow_samples = 1000", "atlas_shadow_samples"),
+        ] {
+            let e = read(text).unwrap().check().unwrap_err();
+            assert!(e.contains(key), "{text}: {e}");
+        }
+        assert_eq!(read("").unwrap().check(), Ok(()));
+    }
 
     /// Each entry's chance, read back from the table as the shader picks: entry i keeps its
     /// threshold of the 1/n that lands on it and hands the rest to its alias.
