@@ -410,6 +410,64 @@ fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     next[in_page] = vec4<f32>(diffuse_reflectance(material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
 }
 
+// The irradiance vector of the emitters at x (normal n), luminance: per emitter triangle its
+// unoccluded vector (Lambert's formula without the dot product with n: half the sum over edges
+// of the edge's angle times the edge's normal, turned to n's side) times its luminance and the
+// share of its shadow rays that reach it. Its dot product with n is the emitters' irradiance;
+// with a tilted normal, what a normal map's point receives from them (common/normal_map.wgsl).
+fn emitter_vector(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
+    let origin = x + n * RAY_OFFSET;
+    let count = max(direct.emitter_samples / max(direct.emitter_count, 1u), 4u);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < direct.emitter_count; i++) {
+        let e = emitters[i];
+        let poly = emitter_polygon(e, x, n);
+        if poly.count < 3u {
+            continue;
+        }
+        var vector = vec3<f32>(0.0);
+        for (var k = 0u; k < poly.count; k++) {
+            let a = normalize(poly.p[k]);
+            let b = normalize(poly.p[(k + 1u) % poly.count]);
+            let c = cross(a, b);
+            let len = length(c);
+            if len > 1e-12 {
+                vector += c / len * (atan2(len, dot(a, b)) * 0.5);
+            }
+        }
+        vector *= select(1.0, -1.0, dot(vector, n) < 0.0);
+        var seen = 0.0;
+        for (var k = 0u; k < count; k++) {
+            let p = polygon_point(poly, hammersley(k, count, shift));
+            seen += visible(origin, x + p, skip);
+        }
+        let luminance = dot(e.radiance.xyz, vec3<f32>(0.2126, 0.7152, 0.0722));
+        sum += vector * (luminance * seen / f32(count));
+    }
+    return sum;
+}
+
+// With normal maps, once propagation has converged: each texel's emitter_vector (xyz), for
+// src/lightfield/normal_map.rs.
+@compute @workgroup_size(64)
+fn direct_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    let in_page = gid.x + gid.y * groups.x * 64u;
+    if in_page >= texel_page.cells {
+        return;
+    }
+    let texel = texel_page.base + in_page;
+    let point = texel_point(texel);
+    let face_id = bitcast<u32>(point.w);
+    if face_id == NO_FACE {
+        next[in_page] = vec4<f32>(0.0);
+        return;
+    }
+    let f = faces[face_id];
+    let v = emitter_vector(point.xyz, f.normal, texel_seed(texel, face_id, f), face_id);
+    next[in_page] = vec4<f32>(v, 0.0);
+}
+
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance
 // from their diffuse parts' unshot radiance (mixed surfaces), w the irradiance that unit radiance
 // on them would give (pi times their cosine-weighted share of x's hemisphere). Each mirror

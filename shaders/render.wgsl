@@ -38,6 +38,7 @@
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
+#include "common/normal_map.wgsl"
 
 // the light field's bindings (common/light_field.wgsl: layout, atlas, directions, tiles)
 const LIGHT_FIELD_GROUP: u32 = 1u;
@@ -48,6 +49,8 @@ const SURFACE_TEXTURES: u32 = 1u;
 // 1: eye rays take their first hits from `visibility` (raster first hits); 0: they cast rays
 // (src/render/mod.rs sets it)
 const RASTER_FIRST_HITS: u32 = 0u;
+// 1: some face has a normal map (in the texture detail; src/render/mod.rs sets 0 without one)
+const NORMAL_MAPS: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -77,6 +80,35 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 // a diffuse texture that does not emit, with the texture at the point (texture detail:
 // common/light_field.wgsl, atlas_radiance_detailed).
 fn surface_radiance(f: Face, s: Surface) -> vec3<f32> {
+    let shown = flat_radiance(f, s);
+    if NORMAL_MAPS != 0u && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
+        let n = shading_normal(f, s);
+        if any(n != f.normal) {
+            return shown * tilted_irradiance(f.normal, n, light_direction(f, s.point));
+        }
+    }
+    return shown;
+}
+
+// The normal surface `s` (on face f) shades with: its normal map's at the point, else the
+// face's (common/normal_map.wgsl).
+fn shading_normal(f: Face, s: Surface) -> vec3<f32> {
+    if NORMAL_MAPS == 0u || s.seen <= 0.0 {
+        return f.normal;
+    }
+    let record = normal_record(s.face);
+    if record.x == NO_FACE {
+        return f.normal;
+    }
+    let map = ray_triangles[s.triangle];
+    let u = dot(map.u.xyz, s.point) + map.u.w;
+    let v = dot(map.v.xyz, s.point) + map.v.w;
+    let tri = triangles[s.triangle];
+    return mapped_normal(f.normal, tri, record.x, bitcast<f32>(record.y), corners_uv(tri.uv01, tri.uv2.xy, u, v));
+}
+
+// surface_radiance before the normal map.
+fn flat_radiance(f: Face, s: Surface) -> vec3<f32> {
     if SURFACE_TEXTURES != 0u {
         let texture = face_textures[s.face].x;
         if texture != NO_FACE && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
@@ -138,14 +170,16 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         let m = material_of(f);
+        // a normal map turns the reflection (NORMAL_MAPS 0: the face's normal)
+        let normal = shading_normal(f, s);
         if is_glossy(m) {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
-            let n = select(f.normal, -f.normal, dot(ray, f.normal) > 0.0);
+            let n = select(normal, -normal, dot(ray, normal) > 0.0);
             let sampled = reflect_sampled(ray, n, m.roughness, fract(u + shift * f32(b)));
             ray = sampled.xyz;
             weight *= sampled.w;
         } else {
-            ray = mirror_direction(ray, f.normal);
+            ray = mirror_direction(ray, normal);
         }
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];

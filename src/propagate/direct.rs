@@ -96,6 +96,8 @@ pub struct DirectLight {
     mirror_pipeline: Option<wgpu::ComputePipeline>,
     /// marks the texels inside closed geometry (`texel_validity`), run once on the totals
     validity_pipeline: wgpu::ComputePipeline,
+    /// each texel's emitter irradiance vector (`direct_vector`), for normal maps
+    vector_pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     pub emitter_count: u32,
     /// mirror triangles: when there are any, the second iteration's texel gather leaves mirror
@@ -160,6 +162,8 @@ impl DirectLight {
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
         let validity_pipeline =
             ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);
+        let vector_pipeline =
+            ctx.compute_pipeline(&module, "direct_vector", &[layout0, layout1, &layout2]);
         let mirror_pipeline = (!mirrors.is_empty())
             .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
         let bind_group =
@@ -168,6 +172,7 @@ impl DirectLight {
             pipeline,
             mirror_pipeline,
             validity_pipeline,
+            vector_pipeline,
             bind_group,
             emitter_count: emitters.len() as u32,
             mirror_count: mirrors.len() as u32,
@@ -201,6 +206,17 @@ impl DirectLight {
         pages: &[(&wgpu::BindGroup, u32)],
     ) {
         self.dispatch(&self.validity_pipeline, pass, bg0, pages);
+    }
+
+    /// Record the light directions for normal maps (`direct_vector`): `pages` bind the
+    /// buffers that take each texel's emitter irradiance vector where the others bind `next`.
+    pub fn encode_vectors(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+    ) {
+        self.dispatch(&self.vector_pipeline, pass, bg0, pages);
     }
 
     fn dispatch(

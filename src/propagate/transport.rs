@@ -1525,6 +1525,23 @@ impl Propagator {
         );
     }
 
+    /// Per texel the irradiance vector of its direct light from the emitters (luminance;
+    /// `direct_vector` in shaders/direct.wgsl), for normal maps; None without direct light.
+    /// Run once propagation is done: it takes the `next` pages.
+    pub fn light_vectors(&self) -> Result<Option<Vec<[f32; 4]>>> {
+        if self.direct.is_none() {
+            return Ok(None);
+        }
+        let current = self.current;
+        self.encode_direct_stage(
+            "light directions",
+            |page| &page.state.radiance[1 - current],
+            |d, pass, bg0, pages| d.encode_vectors(pass, bg0, pages),
+        );
+        let vectors = self.read_page_list(&self.texels, |p| &p.state.radiance[1 - current])?;
+        Ok(Some(vectors))
+    }
+
     /// One pass of the direct-light stage over every texel page, with `target` bound as each
     /// page's output; nothing without direct light.
     fn encode_direct_stage(
