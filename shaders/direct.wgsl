@@ -385,29 +385,49 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
     return sum;
 }
 
+// The texel a thread of a pass over the page takes: its place in the page, its atlas index,
+// its face and sample point; face NO_FACE past the page or for an unused texel (whose `next`
+// is set to 0 here).
+struct PageTexel {
+    in_page: u32,
+    texel: u32,
+    face: u32,
+    point: vec3<f32>,
+}
+
+fn page_texel(gid: vec3<u32>, groups: vec3<u32>) -> PageTexel {
+    var t: PageTexel;
+    t.in_page = gid.x + gid.y * groups.x * 64u;
+    t.face = NO_FACE;
+    if t.in_page >= texel_page.cells {
+        return t;
+    }
+    t.texel = texel_page.base + t.in_page;
+    let point = texel_point(t.texel);
+    t.point = point.xyz;
+    t.face = bitcast<u32>(point.w);
+    if t.face == NO_FACE {
+        next[t.in_page] = vec4<f32>(0.0);
+    }
+    return t;
+}
+
 // Next unshot radiosity of one texel from direct light (rgb), and the sky's share of its
 // irradiance (w): the same as the first iteration's gather would give without aliasing.
 @compute @workgroup_size(64)
 fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let in_page = gid.x + gid.y * groups.x * 64u;
-    if in_page >= texel_page.cells {
+    let t = page_texel(gid, groups);
+    if t.face == NO_FACE {
         return;
     }
-    let texel = texel_page.base + in_page;
-    let point = texel_point(texel);
-    let face_id = bitcast<u32>(point.w);
-    if face_id == NO_FACE {
-        next[in_page] = vec4<f32>(0.0);
-        return;
-    }
-    let f = faces[face_id];
-    let seed = texel_seed(texel, face_id, f);
-    let e = emitter_irradiance(point.xyz, f.normal, seed, face_id);
+    let f = faces[t.face];
+    let seed = texel_seed(t.texel, t.face, f);
+    let e = emitter_irradiance(t.point, f.normal, seed, t.face);
     var sky = vec3<f32>(0.0);
     if (grid.flags & GRID_FLAG_SKY) != 0u {
-        sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
+        sky = grid.sky * (PI * sky_fraction(t.point, f.normal, seed, t.face));
     }
-    next[in_page] = vec4<f32>(diffuse_reflectance(material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
+    next[t.in_page] = vec4<f32>(diffuse_reflectance(material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
 }
 
 // The irradiance vector of the emitters at x (normal n), luminance: per emitter triangle its
@@ -452,20 +472,13 @@ fn emitter_vector(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32>
 // src/lightfield/normal_map.rs.
 @compute @workgroup_size(64)
 fn direct_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let in_page = gid.x + gid.y * groups.x * 64u;
-    if in_page >= texel_page.cells {
+    let t = page_texel(gid, groups);
+    if t.face == NO_FACE {
         return;
     }
-    let texel = texel_page.base + in_page;
-    let point = texel_point(texel);
-    let face_id = bitcast<u32>(point.w);
-    if face_id == NO_FACE {
-        next[in_page] = vec4<f32>(0.0);
-        return;
-    }
-    let f = faces[face_id];
-    let v = emitter_vector(point.xyz, f.normal, texel_seed(texel, face_id, f), face_id);
-    next[in_page] = vec4<f32>(v, 0.0);
+    let f = faces[t.face];
+    let v = emitter_vector(t.point, f.normal, texel_seed(t.texel, t.face, f), t.face);
+    next[t.in_page] = vec4<f32>(v, 0.0);
 }
 
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance

@@ -49,36 +49,32 @@ pub fn texel_directions(
     materials: &[GpuMaterial],
 ) -> Vec<[u32; 2]> {
     let factors = prepared.atlas.texture_albedo.as_ref();
+    let texel = |i: usize, vector: &[f32; 4]| -> Vec3 {
+        let face = prepared.atlas.points[i][3].to_bits();
+        if face == NO_FACE {
+            return Vec3::ZERO;
+        }
+        let f = &faces[face as usize];
+        if crate::material::emitted(materials, f) != Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        let factor = factors.map_or(Vec3::ONE, |a| Vec3::from_slice(&a[i][..3]));
+        let albedo = crate::material::material_of(materials, f).diffuse_reflectance() * factor;
+        // the irradiance over the channels the albedo does not leave black
+        let lit = albedo.cmpgt(Vec3::splat(1e-3));
+        let radiance = Vec3::from_slice(&total[i][..3]);
+        let e = Vec3::select(lit, radiance * std::f32::consts::PI / albedo, Vec3::ZERO);
+        let e = luminance(e) / luminance(Vec3::select(lit, Vec3::ONE, Vec3::ZERO)).max(1e-6);
+        match e > 0.0 {
+            true => Vec3::from_slice(&vector[..3]) / e,
+            false => Vec3::ZERO,
+        }
+    };
     (0..total.len())
         .map(|i| {
-            let face = prepared.atlas.points[i][3].to_bits();
-            let vector = vectors.and_then(|v| v.get(i)).copied();
-            let v = match (face != NO_FACE, vector) {
-                (true, Some(vector)) => {
-                    let f = &faces[face as usize];
-                    let factor = factors.map_or(Vec3::ONE, |a| Vec3::from_slice(&a[i][..3]));
-                    let albedo =
-                        crate::material::material_of(materials, f).diffuse_reflectance() * factor;
-                    let emits = crate::material::emitted(materials, f) != Vec3::ZERO;
-                    let radiance = Vec3::from_slice(&total[i][..3]);
-                    let e = Vec3::select(
-                        albedo.cmpgt(Vec3::splat(1e-3)),
-                        radiance * std::f32::consts::PI / albedo.max(Vec3::splat(1e-3)),
-                        Vec3::ZERO,
-                    );
-                    let e = luminance(e)
-                        / luminance(Vec3::select(
-                            albedo.cmpgt(Vec3::splat(1e-3)),
-                            Vec3::ONE,
-                            Vec3::ZERO,
-                        ))
-                        .max(1e-6);
-                    match !emits && e > 0.0 {
-                        true => Vec3::from_slice(&vector[..3]) / e,
-                        false => Vec3::ZERO,
-                    }
-                }
-                _ => Vec3::ZERO,
+            let v = match vectors.and_then(|v| v.get(i)) {
+                Some(vector) => texel(i, vector),
+                None => Vec3::ZERO,
             };
             super::textures::pack_half_rgb([v.x, v.y, v.z, 0.0])
         })
