@@ -1324,11 +1324,15 @@ def normal_values(normal):
 def normalmap_xml(out_dir, stem, normal, bsdf):
     """A normal map as Mitsuba's `normalmap` BSDF around the material's. Its frame is dp/du
     (made orthogonal to the normal) and n x that, vlf's frame wherever the texture coordinates
-    are not mirrored; the texture is read raw (no sRGB curve), bilinear and repeating."""
+    are not mirrored; the texture is read raw (no sRGB curve), bilinear and repeating. Mitsuba
+    3.9's default multiplies the BSDF by Estevez et al.'s shadowing term for the bump
+    terminator (0.89 for a 30 degree tilt under light 75 degrees off the normal); vlf shades
+    with the mapped normal alone, so the export turns it off (`use_shadowing_function`)."""
     (out_dir / "textures").mkdir(exist_ok=True)
     file = f"textures/{stem}-normals.exr"
     write_exr(out_dir / file, normal_values(normal).astype(np.float32))
-    return f'<bsdf type="normalmap">{_texture_xml("normalmap", file)}{bsdf}</bsdf>'
+    return (f'<bsdf type="normalmap"><boolean name="use_shadowing_function" value="false"/>'
+            f'{_texture_xml("normalmap", file)}{bsdf}</bsdf>')
 
 
 def sensor_xml(cam, width, height, spp, clip):
