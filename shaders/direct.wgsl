@@ -468,17 +468,69 @@ fn emitter_vector(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32>
     return sum;
 }
 
-// With normal maps, once propagation has converged: each texel's emitter_vector (xyz), for
-// src/lightfield/normal_map.rs.
-@compute @workgroup_size(64)
-fn direct_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+// The tangential first moment of the rest of the light at x (normal n): every bounce and the
+// sky, luminance, once propagation has converged (the texels' pages then hold the converged
+// radiance where the unshot radiosity was: Propagator::light_vectors): the integral over the
+// hemisphere of L(w) (w - n (n . w)), from uniformly distributed rays that read the radiance
+// of the face they meet (its emission left out: emitter_vector has it) or the sky. A plane
+// tilted to n' receives m . n' more than the uniform share (common/normal_map.wgsl).
+fn rest_moment(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    let samples = max(direct.emitter_samples, 16u);
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x68e31da4u)), unit_float(hash(seed + 0xb5297a4du)));
+    let frame = hemisphere_frame(n);
+    let origin = x + n * RAY_OFFSET;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < samples; k++) {
+        let u = hammersley(k, samples, shift);
+        // uniform over the hemisphere: cos theta = u.x
+        let r = sqrt(max(1.0 - u.x * u.x, 0.0));
+        let phi = 2.0 * PI * u.y;
+        let dir = frame[0] * (r * cos(phi)) + frame[1] * (r * sin(phi)) + frame[2] * u.x;
+        let hit = trace_skipping(origin, dir, 4.0, false, skip, 0.0);
+        var radiance = grid.sky;
+        if hit.tri != NO_FACE {
+            let side = facing_side(triangles[hit.tri].face, -dir);
+            let f = faces[side];
+            radiance = vec3<f32>(0.0);
+            if dot(f.normal, dir) < 0.0 {
+                let taps = atlas_taps(f, origin + dir * hit.t, grid.atlas_width);
+                let total = unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+                    + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w;
+                radiance = max(total - emitted(f), vec3<f32>(0.0));
+            }
+        }
+        let luminance = dot(radiance, vec3<f32>(0.2126, 0.7152, 0.0722));
+        sum += (dir - n * u.x) * luminance;
+    }
+    return sum * (2.0 * PI / f32(samples));
+}
+
+// With normal maps, once propagation has converged (src/lightfield/normal_map.rs): each
+// texel's emitter_vector (`direct_vector`), or its rest_moment (`rest_vector`), in xyz.
+fn store_vector(gid: vec3<u32>, groups: vec3<u32>, rest: bool) {
     let t = page_texel(gid, groups);
     if t.face == NO_FACE {
         return;
     }
     let f = faces[t.face];
-    let v = emitter_vector(t.point, f.normal, texel_seed(t.texel, t.face, f), t.face);
+    let seed = texel_seed(t.texel, t.face, f);
+    var v: vec3<f32>;
+    if rest {
+        v = rest_moment(t.point, f.normal, seed, t.face);
+    } else {
+        v = emitter_vector(t.point, f.normal, seed, t.face);
+    }
     next[t.in_page] = vec4<f32>(v, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn direct_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    store_vector(gid, groups, false);
+}
+
+@compute @workgroup_size(64)
+fn rest_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    store_vector(gid, groups, true);
 }
 
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance

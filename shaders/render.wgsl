@@ -84,7 +84,8 @@ fn surface_radiance(f: Face, s: Surface) -> vec3<f32> {
     if NORMAL_MAPS != 0u && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
         let n = shading_normal(f, s);
         if any(n != f.normal) {
-            return shown * tilted_irradiance(f.normal, n, light_direction(f, s.point));
+            let light = light_direction(f, s.point);
+            return shown * tilted_irradiance(f.normal, n, light[0], light[1]);
         }
     }
     return shown;

@@ -179,7 +179,7 @@ fn normal_maps_round_trip_and_version_3_files_still_load() {
     detail.textures.texels = vec![[0.5, 0.5, 1.0, 1.0]];
     detail.face_normal_maps = vec![[u32::MAX, 0]; faces];
     detail.face_normal_maps[0] = [0, 1.5f32.to_bits()];
-    detail.texel_directions = (0..texels as u32).map(|i| [i, i ^ 7]).collect();
+    detail.texel_directions = (0..2 * texels as u32).map(|i| [i, i ^ 7]).collect();
     mapped.detail = Some(detail);
     let bytes = file::encode(&mapped);
     assert_eq!(file::decode(&bytes).unwrap(), mapped);

@@ -111,16 +111,18 @@ fn normal_record(face: u32) -> vec2<u32> {
     return texel_albedo[field.normal_records + face];
 }
 
-// The light direction of the texels around point p of face f (common/normal_map.wgsl,
-// tilted_irradiance), bilinear.
-fn light_direction(f: Face, p: vec3<f32>) -> vec3<f32> {
+// The light direction and the rest's moment of the texels around point p of face f
+// (common/normal_map.wgsl, tilted_irradiance), bilinear: two records per texel.
+fn light_direction(f: Face, p: vec3<f32>) -> array<vec3<f32>, 2> {
     let taps = atlas_taps(f, p, field.atlas_width);
-    var v = vec3<f32>(0.0);
+    var out = array<vec3<f32>, 2>(vec3<f32>(0.0), vec3<f32>(0.0));
     for (var k = 0u; k < 4u; k++) {
-        let packed = texel_albedo[field.normal_texels + taps.index[k]];
-        v += vec3<f32>(half_float(packed.x), half_float(packed.x >> 16u), half_float(packed.y)) * taps.weight[k];
+        for (var j = 0u; j < 2u; j++) {
+            let packed = texel_albedo[field.normal_texels + 2u * taps.index[k] + j];
+            out[j] += vec3<f32>(half_float(packed.x), half_float(packed.x >> 16u), half_float(packed.y)) * taps.weight[k];
+        }
     }
-    return v;
+    return out;
 }
 
 // Tile cell `cell`, counted over all pages.

@@ -31,16 +31,18 @@ fn mapped_normal(n: vec3<f32>, tri: Triangle, texture: u32, scale: f32, uv: vec2
     return normalize(t * m.x + b * m.y + n * m.z);
 }
 
-// A texel's irradiance at the tilted normal n2 relative to that at its face normal n, from its
-// light direction v (src/lightfield/textures.rs, texel_directions): v is the irradiance vector
-// of its direct light (emitters and sky) over its whole irradiance, so v . n is the direct share
-// of it. The direct light keeps its direction (max(0, v . n2): exact for a small emitter, the
-// irradiance vector's rule for a large one); the rest is taken as uniform over the hemisphere
-// above the surface, of which a plane tilted by n2 sees (1 + n . n2) / 2. n2 = n gives 1.
-fn tilted_irradiance(n: vec3<f32>, n2: vec3<f32>, v: vec3<f32>) -> f32 {
+// A texel's irradiance at the tilted normal n2 relative to that at its face's normal n, from
+// its light direction v and rest moment m (src/lightfield/textures.rs, texel_directions): v is
+// the irradiance vector of its emitters' light over its whole irradiance, so v . n is their
+// share of it. The emitters' light keeps its direction (max(0, v . n2): exact for a small
+// emitter, the irradiance vector's rule for a large one); the rest (sky, every bounce) is
+// taken as uniform over the hemisphere above the surface, of which a plane tilted to n2 sees
+// (1 + n . n2) / 2, plus m . n2, m the tangential first moment of that rest over the whole
+// irradiance (the first-order change for light a + b . w). n2 = n gives 1.
+fn tilted_irradiance(n: vec3<f32>, n2: vec3<f32>, v: vec3<f32>, m: vec3<f32>) -> f32 {
     let direct = clamp(dot(v, n), 0.0, 1.0);
     let rest = 1.0 - direct;
     let at_n = max(dot(v, n), 0.0) + rest;
-    let at_n2 = max(dot(v, n2), 0.0) + rest * 0.5 * (1.0 + dot(n, n2));
+    let at_n2 = max(dot(v, n2), 0.0) + max(rest * 0.5 * (1.0 + dot(n, n2)) + dot(m, n2), 0.0);
     return select(1.0, at_n2 / at_n, at_n > 1e-6);
 }

@@ -146,11 +146,10 @@ pub struct SurfaceDetail {
     /// normal maps (empty where no face has one): per face its normal texture (NO_FACE for
     /// none) and the scale's f32 bits (`material::NormalMap`)
     pub face_normal_maps: Vec<[u32; 2]>,
-    /// with normal maps: per atlas texel the direction of its direct light, the irradiance
-    /// vector of the emitters and the sky that `shaders/direct.wgsl` (`direct_vector`) finds,
-    /// divided by the texel's whole irradiance (luminance), as half floats; a texel's
-    /// irradiance at a tilted normal n' is E x (max(0, v . n') + (1 - v . n) (1 + n . n') / 2)
-    /// (`shaders/common/normal_map.wgsl`)
+    /// with normal maps: per atlas texel two records, the direction of its emitters' light v
+    /// (their irradiance vector, `direct_vector` in shaders/direct.wgsl) and the tangential
+    /// moment m of the rest of its light (`rest_vector`), each divided by the texel's whole
+    /// irradiance (luminance), as half floats (`lightfield::normal_map`)
     pub texel_directions: Vec<[u32; 2]>,
 }
 
@@ -299,7 +298,7 @@ impl SurfaceDetail {
             }
         }
         if !self.face_normal_maps.is_empty()
-            && (self.face_normal_maps.len() != faces || self.texel_directions.len() != texels)
+            && (self.face_normal_maps.len() != faces || self.texel_directions.len() != 2 * texels)
         {
             return bad(format!(
                 "normal maps: {} face records and {} texel directions for {faces} faces and {texels} texels",

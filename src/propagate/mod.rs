@@ -706,7 +706,7 @@ impl<'a> Job<'a> {
         if let Some(d) = detail.as_mut().filter(|d| !d.face_normal_maps.is_empty()) {
             let vectors = prop.light_vectors()?;
             d.texel_directions = crate::lightfield::normal_map::texel_directions(
-                vectors.as_deref(),
+                vectors.as_ref(),
                 &total,
                 &self.prepared,
                 &faces,
