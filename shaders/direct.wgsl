@@ -386,29 +386,152 @@ fn mirror_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f
     return sum;
 }
 
+// The texel a thread of a pass over the page takes: its place in the page, its atlas index,
+// its face and sample point; face NO_FACE past the page or for an unused texel (whose `next`
+// is set to 0 here).
+struct PageTexel {
+    in_page: u32,
+    texel: u32,
+    face: u32,
+    point: vec3<f32>,
+}
+
+fn page_texel(gid: vec3<u32>, groups: vec3<u32>) -> PageTexel {
+    var t: PageTexel;
+    t.in_page = gid.x + gid.y * groups.x * 64u;
+    t.face = NO_FACE;
+    if t.in_page >= texel_page.cells {
+        return t;
+    }
+    t.texel = texel_page.base + t.in_page;
+    let point = texel_point(t.texel);
+    t.point = point.xyz;
+    t.face = bitcast<u32>(point.w);
+    if t.face == NO_FACE {
+        next[t.in_page] = vec4<f32>(0.0);
+    }
+    return t;
+}
+
 // Next unshot radiosity of one texel from direct light (rgb), and the sky's share of its
 // irradiance (w): the same as the first iteration's gather would give without aliasing.
 @compute @workgroup_size(64)
 fn direct_light(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let in_page = gid.x + gid.y * groups.x * 64u;
-    if in_page >= texel_page.cells {
+    let t = page_texel(gid, groups);
+    if t.face == NO_FACE {
         return;
     }
-    let texel = texel_page.base + in_page;
-    let point = texel_point(texel);
-    let face_id = bitcast<u32>(point.w);
-    if face_id == NO_FACE {
-        next[in_page] = vec4<f32>(0.0);
-        return;
-    }
-    let f = faces[face_id];
-    let seed = texel_seed(texel, face_id, f);
-    let e = emitter_irradiance(point.xyz, f.normal, seed, face_id);
+    let f = faces[t.face];
+    let seed = texel_seed(t.texel, t.face, f);
+    let e = emitter_irradiance(t.point, f.normal, seed, t.face);
     var sky = vec3<f32>(0.0);
     if (grid.flags & GRID_FLAG_SKY) != 0u {
-        sky = grid.sky * (PI * sky_fraction(point.xyz, f.normal, seed, face_id));
+        sky = grid.sky * (PI * sky_fraction(t.point, f.normal, seed, t.face));
     }
-    next[in_page] = vec4<f32>(propagated_diffuse(f, material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
+    next[t.in_page] = vec4<f32>(propagated_diffuse(f, material_of(f)) * (e + sky), sky.x + sky.y + sky.z);
+}
+
+// The irradiance vector of the emitters at x (normal n), luminance: per emitter triangle its
+// unoccluded vector (Lambert's formula without the dot product with n: half the sum over edges
+// of the edge's angle times the edge's normal, turned to n's side) times its luminance and the
+// share of its shadow rays that reach it. Its dot product with n is the emitters' irradiance;
+// with a tilted normal, what a normal map's point receives from them (common/normal_map.wgsl).
+fn emitter_vector(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x9e3779b9u)), unit_float(hash(seed + 0x632be5abu)));
+    let origin = x + n * RAY_OFFSET;
+    let count = max(direct.emitter_samples / max(direct.emitter_count, 1u), 4u);
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < direct.emitter_count; i++) {
+        let e = emitters[i];
+        let poly = emitter_polygon(e, x, n);
+        if poly.count < 3u {
+            continue;
+        }
+        var vector = vec3<f32>(0.0);
+        for (var k = 0u; k < poly.count; k++) {
+            let a = normalize(poly.p[k]);
+            let b = normalize(poly.p[(k + 1u) % poly.count]);
+            let c = cross(a, b);
+            let len = length(c);
+            if len > 1e-12 {
+                vector += c / len * (atan2(len, dot(a, b)) * 0.5);
+            }
+        }
+        vector *= select(1.0, -1.0, dot(vector, n) < 0.0);
+        var seen = 0.0;
+        for (var k = 0u; k < count; k++) {
+            let p = polygon_point(poly, hammersley(k, count, shift));
+            seen += visible(origin, x + p, skip);
+        }
+        let luminance = dot(e.radiance.xyz, vec3<f32>(0.2126, 0.7152, 0.0722));
+        sum += vector * (luminance * seen / f32(count));
+    }
+    return sum;
+}
+
+// The tangential first moment of the rest of the light at x (normal n): every bounce and the
+// sky, luminance, once propagation has converged (the texels' pages then hold the converged
+// radiance where the unshot radiosity was: Propagator::light_vectors): the integral over the
+// hemisphere of L(w) (w - n (n . w)), from uniformly distributed rays that read the radiance
+// of the face they meet (its emission left out: emitter_vector has it) or the sky. A plane
+// tilted to n' receives m . n' more than the uniform share (common/normal_map.wgsl).
+fn rest_moment(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {
+    let samples = max(direct.emitter_samples, 16u);
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x68e31da4u)), unit_float(hash(seed + 0xb5297a4du)));
+    let frame = hemisphere_frame(n);
+    let origin = x + n * RAY_OFFSET;
+    var sum = vec3<f32>(0.0);
+    for (var k = 0u; k < samples; k++) {
+        let u = hammersley(k, samples, shift);
+        // uniform over the hemisphere: cos theta = u.x
+        let r = sqrt(max(1.0 - u.x * u.x, 0.0));
+        let phi = 2.0 * PI * u.y;
+        let dir = frame[0] * (r * cos(phi)) + frame[1] * (r * sin(phi)) + frame[2] * u.x;
+        let hit = trace_skipping(origin, dir, 4.0, false, skip, 0.0);
+        var radiance = grid.sky;
+        if hit.tri != NO_FACE {
+            let side = facing_side(triangles[hit.tri].face, -dir);
+            let f = faces[side];
+            radiance = vec3<f32>(0.0);
+            if dot(f.normal, dir) < 0.0 {
+                let taps = atlas_taps(f, origin + dir * hit.t, grid.atlas_width);
+                let total = unshot_load(taps.index.x).xyz * taps.weight.x + unshot_load(taps.index.y).xyz * taps.weight.y
+                    + unshot_load(taps.index.z).xyz * taps.weight.z + unshot_load(taps.index.w).xyz * taps.weight.w;
+                radiance = max(total - emitted(f), vec3<f32>(0.0));
+            }
+        }
+        let luminance = dot(radiance, vec3<f32>(0.2126, 0.7152, 0.0722));
+        sum += (dir - n * u.x) * luminance;
+    }
+    return sum * (2.0 * PI / f32(samples));
+}
+
+// With normal maps, once propagation has converged (src/lightfield/normal_map.rs): each
+// texel's emitter_vector (`direct_vector`), or its rest_moment (`rest_vector`), in xyz.
+fn store_vector(gid: vec3<u32>, groups: vec3<u32>, rest: bool) {
+    let t = page_texel(gid, groups);
+    if t.face == NO_FACE {
+        return;
+    }
+    let f = faces[t.face];
+    let seed = texel_seed(t.texel, t.face, f);
+    var v: vec3<f32>;
+    if rest {
+        v = rest_moment(t.point, f.normal, seed, t.face);
+    } else {
+        v = emitter_vector(t.point, f.normal, seed, t.face);
+    }
+    next[t.in_page] = vec4<f32>(v, 0.0);
+}
+
+@compute @workgroup_size(64)
+fn direct_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    store_vector(gid, groups, false);
+}
+
+@compute @workgroup_size(64)
+fn rest_vector(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
+    store_vector(gid, groups, true);
 }
 
 // What x receives from the mirror fronts it sees, for the second iteration: rgb the irradiance

@@ -10,6 +10,10 @@
 #include "common/bvh.wgsl"
 #include "common/textures.wgsl"
 #include "common/texture_cutouts.wgsl"
+#include "common/normal_map.wgsl"
+
+// 1: some face has a normal map (src/reference/mod.rs sets 0 without one)
+const NORMAL_MAPS: u32 = 1u;
 
 // mirrors reference::GpuTraceParams
 struct TraceParams {
@@ -43,6 +47,8 @@ struct TraceParams {
 @group(0) @binding(8) var<storage, read_write> sums: array<vec4<f32>>;
 // the material table the faces index (common/bsdf.wgsl)
 @group(0) @binding(9) var<storage, read> materials: array<Material>;
+// per face: its normal texture (NO_FACE for none) and the scale's bits (common/normal_map.wgsl)
+@group(0) @binding(10) var<storage, read> face_normal_maps: array<vec2<u32>>;
 
 var<private> rng_state: u32;
 
@@ -151,6 +157,15 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
             break;
         }
         let origin_next = x + n * 1e-4;
+        // the shading normal (a normal map's; n without one): the BSDF turns with it, and
+        // light from below the surface itself (n) stays blocked, as Mitsuba's normalmap does
+        var ns = n;
+        if NORMAL_MAPS != 0u {
+            let record = face_normal_maps[face_id];
+            if record.x != NO_FACE {
+                ns = mapped_normal(n, tri, record.x, bitcast<f32>(record.y), uv);
+            }
+        }
         if random() * (p_diffuse + p_mirror) < p_mirror {
             // an ideal mirror reflects; a glossy lobe is sampled (its emitters are met, not
             // sampled: no next-event estimation through it)
@@ -158,9 +173,12 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
             if is_glossy(m) {
                 u = vec2<f32>(random(), random());
             }
-            let sampled = reflect_sampled(dir, n, m.roughness, u);
+            let sampled = reflect_sampled(dir, ns, m.roughness, u);
             throughput *= mirror_reflectance(m) * sampled.w * ((p_diffuse + p_mirror) / p_mirror);
             dir = sampled.xyz;
+            if dot(dir, n) <= 0.0 {
+                break;
+            }
             specular = true;
         } else {
             let lobe = (p_diffuse + p_mirror) / p_diffuse;
@@ -179,8 +197,8 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
                 let l = to_light / dist;
                 let n_l = normalize(cross(lt.e1, lt.e2));
                 let cos_l = -dot(l, n_l);
-                let cos_x = dot(l, n);
-                if cos_l > 0.0 && cos_x > 0.0 {
+                let cos_x = dot(l, ns);
+                if cos_l > 0.0 && cos_x > 0.0 && dot(l, n) > 0.0 {
                     let shadow = trace(origin_next, l, dist * (1.0 - 1e-4), true);
                     if shadow.tri == NO_FACE {
                         let light_pdf = light_pdf_area(lt) * dist * dist / cos_l;
@@ -190,10 +208,13 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
                     }
                 }
             }
-            dir = cosine_direction(n);
-            last_pdf = max(dot(dir, n), 1e-8) / PI;
+            dir = cosine_direction(ns);
+            last_pdf = max(dot(dir, ns), 1e-8) / PI;
             throughput *= albedo * lobe;
             specular = false;
+            if dot(dir, n) <= 0.0 {
+                break;
+            }
         }
         origin = origin_next;
         // Russian roulette after three bounces

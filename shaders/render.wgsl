@@ -39,6 +39,7 @@
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
 #include "common/moving_shadow.wgsl"
+#include "common/normal_map.wgsl"
 
 // the light field's bindings (common/light_field.wgsl: layout, atlas, directions, tiles)
 const LIGHT_FIELD_GROUP: u32 = 1u;
@@ -49,6 +50,8 @@ const SURFACE_TEXTURES: u32 = 1u;
 // 1: eye rays take their first hits from `visibility` (raster first hits); 0: they cast rays
 // (src/render/mod.rs sets it)
 const RASTER_FIRST_HITS: u32 = 0u;
+// 1: some face has a normal map (in the texture detail; src/render/mod.rs sets 0 without one)
+const NORMAL_MAPS: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -81,6 +84,36 @@ fn eye_depth(origin: vec3<f32>, point: vec3<f32>) -> f32 {
 // its texels' diffuse share: they hold its specular light too, which the reflection traces;
 // where no reflection follows, at a chain's end, they stand for both).
 fn surface_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
+    let shown = flat_radiance(f, s, reflected);
+    if NORMAL_MAPS != 0u && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
+        let n = shading_normal(f, s);
+        if any(n != f.normal) {
+            let light = light_direction(f, s.point);
+            return shown * tilted_irradiance(f.normal, n, light[0], light[1]);
+        }
+    }
+    return shown;
+}
+
+// The normal surface `s` (on face f) shades with: its normal map's at the point, else the
+// face's (common/normal_map.wgsl).
+fn shading_normal(f: Face, s: Surface) -> vec3<f32> {
+    if NORMAL_MAPS == 0u || s.seen <= 0.0 {
+        return f.normal;
+    }
+    let record = normal_record(s.face);
+    if record.x == NO_FACE {
+        return f.normal;
+    }
+    let map = ray_triangles[s.triangle];
+    let u = dot(map.u.xyz, s.point) + map.u.w;
+    let v = dot(map.v.xyz, s.point) + map.v.w;
+    let tri = triangles[s.triangle];
+    return mapped_normal(f.normal, tri, record.x, bitcast<f32>(record.y), corners_uv(tri.uv01, tri.uv2.xy, u, v));
+}
+
+// surface_radiance before the normal map.
+fn flat_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
     let m = material_of(f);
     if reflected && carried_diffusely(f, m) {
         let e = emitted(f);
@@ -89,7 +122,7 @@ fn surface_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
     return surface_texel_radiance(f, s);
 }
 
-// The light field's radiance at the point surface `s` (surface_radiance).
+// The light field's radiance at the point surface `s` (flat_radiance).
 fn surface_texel_radiance(f: Face, s: Surface) -> vec3<f32> {
     if SURFACE_TEXTURES != 0u {
         let texture = face_textures[s.face].x;
@@ -152,21 +185,23 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         let m = material_of(f);
+        // a normal map turns the reflection (NORMAL_MAPS 0: the face's normal)
+        let normal = shading_normal(f, s);
         // the first reflection off a glossy lobe takes the emitters' light by shadow rays
         // (glossy_emitter_light) and leaves out the emission its sampled ray meets
         var emitters_sampled = false;
         if is_glossy(m) {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
-            let n = select(f.normal, -f.normal, dot(ray, f.normal) > 0.0);
+            let n = select(normal, -normal, dot(ray, normal) > 0.0);
             if b == 0u && view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
-                path.radiance += glossy_emitter_light(s.point + n * 1e-5, n, -ray, m.roughness, u);
+                path.radiance += glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, m.roughness, u);
                 emitters_sampled = true;
             }
             let sampled = reflect_sampled(ray, n, m.roughness, fract(u + shift * f32(b)));
             ray = sampled.xyz;
             weight *= sampled.w;
         } else {
-            ray = mirror_direction(ray, f.normal);
+            ray = mirror_direction(ray, normal);
         }
         s = cast_ray(s.point + f.normal * 1e-5, ray, (view.moving_flags & 2u) != 0u);
         f = faces[s.face];

@@ -50,6 +50,23 @@ pub struct Material {
     /// below the cutoff
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cutout: Option<Cutout>,
+    /// a normal map (glTF normalTexture, MTL `norm`, MTL `bump` turned into one): the shading
+    /// normal per point ([`NormalMap`])
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal_map: Option<NormalMap>,
+}
+
+/// A normal map: at texture coordinates uv the shading normal is
+/// normalize(T x s n.x + B x s n.y + N x n.z) with n = 2 rgb - 1 (the texture's raw values,
+/// linear), s = `scale` (glTF's normalTexture scale), N the face's normal, T the direction of
+/// growing u in the face's plane and B = N x T (the other way where the texture coordinates
+/// are mirrored): +x right and +y up in the image, glTF's convention (the MikkTSpace frame of a
+/// planar face). Diffuse and glossy surfaces shade with it (`shaders/common/normal_map.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NormalMap {
+    /// index into Scene::textures (decoded without the sRGB curve, at full resolution)
+    pub texture: u32,
+    pub scale: f32,
 }
 
 /// A cut-out: the surface is a hole wherever its coverage texture's alpha
@@ -79,6 +96,7 @@ impl Material {
             diffuse_texture: None,
             emission_texture: None,
             cutout: None,
+            normal_map: None,
         }
     }
 

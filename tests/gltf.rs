@@ -185,7 +185,11 @@ fn material_rules_and_their_warnings() {
     let s = Scene::load(&path).unwrap();
     let w = s.warnings.join("\n");
     // alpha MASK is a cut-out now (tests/cutouts.rs), not an approximation
-    assert!(w.contains("glTF material \"floor\": approximated: metallic 1 roughness 0.9: a rough metal, taken as diffuse of the base colour; normal map ignored"), "{w}");
+    assert!(w.contains("glTF material \"floor\": approximated: metallic 1 roughness 0.9: a rough metal, taken as diffuse of the base colour"), "{w}");
+    assert!(
+        !w.contains("normal map"),
+        "a normal map is read, not approximated: {w}"
+    );
     assert!(
         w.contains("KHR_lights_punctual light(s) \"bulb\" cannot be represented"),
         "{w}"
@@ -196,6 +200,16 @@ fn material_rules_and_their_warnings() {
     assert_eq!(floor.diffuse_texture, Some(0));
     let cut = floor.cutout.expect("alpha MASK: a cut-out");
     assert_eq!((cut.texture, cut.cutoff), (0, 0.5));
+    // normalTexture: a normal map (scale 1 by default), its image read raw as a texture of its own
+    let map = floor.normal_map.expect("normalTexture: a normal map");
+    assert_eq!(map.scale, 1.0);
+    assert_ne!(map.texture, 0);
+    let t = &s.textures[map.texture as usize];
+    assert!(
+        (t.texels[0][1] - 128.0 / 255.0).abs() < 1e-6,
+        "{:?}",
+        t.texels[0]
+    );
     let chrome = &s.materials[1];
     assert_eq!(chrome.diffuse, [0.0; 3]);
     let orange = vlf::render::image_io::srgb_decode(128);
@@ -221,8 +235,8 @@ fn material_rules_and_their_warnings() {
     assert_eq!(s.cameras[0].name, "view");
     assert_eq!(
         s.textures.len(),
-        1,
-        "the mirror's texture is averaged, not kept"
+        2,
+        "the base colour and the normal map: the mirror's texture is averaged, not kept"
     );
 }
 

@@ -139,7 +139,7 @@ fn texture_detail_round_trips_and_version_2_files_still_load() {
         file::FORMAT_VERSION,
         &[
             b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL",
-            b"FTEX", b"RUVS", b"TALB",
+            b"FTEX", b"RUVS", b"TALB", b"NMAP", b"NDIR",
         ],
         "test",
     )
@@ -160,4 +160,47 @@ fn small_light_field_params() -> PropagationParams {
         texel_density: 4.0,
         ..draft_params()
     }
+}
+
+#[test]
+fn normal_maps_round_trip_and_version_3_files_still_load() {
+    let (_, lf) = small_light_field();
+    // a light field with normal maps: per face a record, per texel a light direction
+    let mut mapped = lf.clone();
+    let texels = mapped.total.len();
+    let faces = mapped.faces.len();
+    let mut detail = vlf::lightfield::textures::SurfaceDetail {
+        texel_albedo: vec![[0x3c00_3c00, 0x3c00]; texels],
+        triangle_uv: vec![[0.0; 6]; mapped.render_vertices.len() / 3],
+        ..Default::default()
+    };
+    detail.textures.face_textures = vec![[u32::MAX, u32::MAX, 0, 0]; faces];
+    detail.textures.info = vec![[0, 1, 1, 0]];
+    detail.textures.texels = vec![[0.5, 0.5, 1.0, 1.0]];
+    detail.face_normal_maps = vec![[u32::MAX, 0]; faces];
+    detail.face_normal_maps[0] = [0, 1.5f32.to_bits()];
+    detail.texel_directions = (0..2 * texels as u32).map(|i| [i, i ^ 7]).collect();
+    mapped.detail = Some(detail);
+    let bytes = file::encode(&mapped);
+    assert_eq!(file::decode(&bytes).unwrap(), mapped);
+    // a texel direction short is named
+    let mut bad = mapped.clone();
+    bad.detail.as_mut().unwrap().texel_directions.pop();
+    let e = decode_err(&file::encode(&bad));
+    assert!(e.contains("normal maps"), "{e}");
+    // a file written before normal maps (format 3: its first twelve sections) loads without them
+    let mut plain = mapped.clone();
+    let d = plain.detail.as_mut().unwrap();
+    d.face_normal_maps.clear();
+    d.texel_directions.clear();
+    let all = [
+        b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL", b"FTEX",
+        b"RUVS", b"TALB", b"NMAP", b"NDIR",
+    ];
+    let encoded = file::encode(&plain);
+    let sections =
+        file::decode_sections(&encoded, file::MAGIC, file::FORMAT_VERSION, &all, "test").unwrap();
+    let old: Vec<(&[u8; 4], &[u8])> = all.into_iter().zip(sections).take(12).collect();
+    let old_bytes = file::encode_sections(file::MAGIC, 3, &old);
+    assert_eq!(file::decode(&old_bytes).unwrap(), plain);
 }

@@ -264,6 +264,37 @@ fn vlf_export_mitsuba_writes_a_cut_out_as_a_mask() {
 }
 
 #[test]
+fn vlf_export_mitsuba_writes_a_normal_map_as_normalmap() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("mts");
+    export_scene("scenes/normal-wall/scene.toml", &out, &[]);
+    let geometry = std::fs::read_to_string(out.join("geometry.xml")).unwrap();
+    // the wall: normalmap around its diffuse BSDF, the texture raw, Mitsuba's bump-terminator
+    // shadowing off (vlf shades with the mapped normal alone); only the wall has a map
+    let at = (geometry.find("<bsdf type=\"normalmap\">")).expect("no normalmap BSDF");
+    let wall = &geometry[at..];
+    assert!(
+        wall.contains("name=\"use_shadowing_function\" value=\"false\""),
+        "{geometry}"
+    );
+    assert!(wall.contains("name=\"normalmap\""), "{geometry}");
+    assert!(
+        wall.contains("<boolean name=\"raw\" value=\"true\"/>"),
+        "{geometry}"
+    );
+    assert_eq!(
+        geometry.matches("type=\"normalmap\"").count(),
+        1,
+        "{geometry}"
+    );
+    let normals = std::fs::read_dir(out.join("textures")).unwrap().any(|e| {
+        let name = e.unwrap().file_name().to_string_lossy().to_string();
+        name.ends_with("-normals.exr")
+    });
+    assert!(normals, "no normal texture written");
+}
+
+#[test]
 fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("mts");

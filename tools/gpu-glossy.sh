@@ -10,7 +10,9 @@
 #     paced) through the generated 100K mirror classroom with glossy floors and metal
 #     (`vlf generate classroom --size 100000 --mirrors --glossy`) against the same classroom
 #     without them, 600 frames each: frame time and eye rays per pixel, what glossy costs;
-#   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view).
+#   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view);
+#   - (PARTS=hallway) the shipped Space Ship Hallway with its own mirror floors (no diffuse
+#     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view.
 # Everything into OUT/glossy.tar (reports, JSON, difference images), the front camera's EXRs
 # into OUT/glossy-exr.tar.
 #   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
@@ -66,6 +68,29 @@ cave() {
       --frames 300 --size 1024x768 --json "$work/bench-classroom-$variant.json" 2>&1 | quiet \
       | tee "$work/bench-classroom-$variant.txt" | grep -iE "render|view" | head -3
   done
+}
+hallway() {
+  # the shipped Space Ship Hallway with its own floors: metallic, roughness 0 in the glTF, so
+  # ideal mirrors (scenes/space-ship-hallway/scene.toml overrides them to diffuse); the glass and
+  # the base-colour-less walls keep the shipped fixes
+  mkdir -p "$work/hallway-real"
+  awk '/^\[materials.Floor_and_vent\]/{skip=1} /^\[materials.Glass\]/{skip=0} !skip' \
+    scenes/space-ship-hallway/scene.toml \
+    | sed 's|^mesh = "space_ship_hallway.glb"|mesh = "'"$PWD"'/scenes/space-ship-hallway/space_ship_hallway.glb"|; s|^name = "space-ship-hallway"|name = "space-ship-hallway-real"|' \
+    > "$work/hallway-real/scene.toml"
+  cp "$work/hallway-real/scene.toml" "$work/hallway-real-scene.txt"
+  if ! timeout ${STEP_LIMIT:-240} "$vlf" propagate "$work/hallway-real/scene.toml" -o "$work/hallway-real.vlf" \
+      --report "$work/propagate-hallway-real.json" > "$work/propagate-hallway-real.txt" 2>&1; then
+    echo "hallway-real: propagation stopped or failed after ${STEP_LIMIT:-240} s" | tee -a "$work/propagate-hallway-real.txt"
+    tail -3 "$work/propagate-hallway-real.txt"
+    return
+  fi
+  grep -E "non-diffuse|setup  |propagation  |GPU memory" "$work/propagate-hallway-real.txt"
+  for camera in hallway corner; do
+    "$vlf" render "$work/hallway-real.vlf" --camera $camera --size 1024x768 -o "$work/hallway-real-$camera.png" 2>&1 | quiet | tail -1
+  done
+  timeout ${STEP_LIMIT:-240} "$vlf" bench --scene "$work/hallway-real/scene.toml" --frames 300 --size 1024x768 \
+    --json "$work/bench-hallway-real.json" 2>&1 | quiet | tee "$work/bench-hallway-real.txt" | grep -iE "render" | head -2
 }
 for part in ${PARTS:-cornell cave}; do
   echo "=== $part"

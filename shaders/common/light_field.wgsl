@@ -102,6 +102,29 @@ fn atlas_radiance_at(f: Face, p: vec3<f32>, detailed: bool, albedo: vec3<f32>) -
     return r0.xyz * w.x + r1.xyz * w.y + r2.xyz * w.z + r3.xyz * w.w;
 }
 
+// Normal maps (field.normal_records > 0): face `face`'s normal texture (NO_FACE for none) and
+// its scale's bits, stored in texel_albedo after the texel factors (SurfaceDetail::detail_words).
+fn normal_record(face: u32) -> vec2<u32> {
+    if field.normal_records == 0u {
+        return vec2<u32>(NO_FACE, 0u);
+    }
+    return texel_albedo[field.normal_records + face];
+}
+
+// The light direction and the rest's moment of the texels around point p of face f
+// (common/normal_map.wgsl, tilted_irradiance), bilinear: two records per texel.
+fn light_direction(f: Face, p: vec3<f32>) -> array<vec3<f32>, 2> {
+    let taps = atlas_taps(f, p, field.atlas_width);
+    var out = array<vec3<f32>, 2>(vec3<f32>(0.0), vec3<f32>(0.0));
+    for (var k = 0u; k < 4u; k++) {
+        for (var j = 0u; j < 2u; j++) {
+            let packed = texel_albedo[field.normal_texels + 2u * taps.index[k] + j];
+            out[j] += vec3<f32>(half_float(packed.x), half_float(packed.x >> 16u), half_float(packed.y)) * taps.weight[k];
+        }
+    }
+    return out;
+}
+
 // Tile cell `cell`, counted over all pages.
 fn tile_load(cell: u32) -> vec4<f32> {
     let page = cell / field.tile_page_cells;

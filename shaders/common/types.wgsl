@@ -149,8 +149,10 @@ struct Field {
     tile_cell_count: u32,
     // the radiance atlas in pages: texels per page
     texel_page_cells: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // normal maps: where the faces' records and the texels' light directions start in
+    // texel_albedo (0 and 0: none)
+    normal_records: u32,
+    normal_texels: u32,
     _pad2: u32,
 }
 

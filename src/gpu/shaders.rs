@@ -73,6 +73,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/bilinear.wgsl"),
     ),
     (
+        "common/normal_map.wgsl",
+        include_str!("../../shaders/common/normal_map.wgsl"),
+    ),
+    (
         "common/texture_cutouts.wgsl",
         include_str!("../../shaders/common/texture_cutouts.wgsl"),
     ),

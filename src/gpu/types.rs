@@ -189,8 +189,10 @@ pub struct GpuField {
     pub tile_cell_count: u32,
     /// the radiance atlas in pages: texels per page
     pub texel_page_cells: u32,
-    pub _pad0: u32,
-    pub _pad1: u32,
+    /// normal maps: where the faces' records and the texels' light directions start in the
+    /// texture detail's `texel_albedo` (`SurfaceDetail::detail_words`; 0 and 0: none)
+    pub normal_records: u32,
+    pub normal_texels: u32,
     pub _pad2: u32,
 }
 

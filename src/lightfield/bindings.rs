@@ -169,6 +169,7 @@ impl ResidentLightField {
     pub fn field_params(&self, lf: &LightField) -> GpuField {
         let sky = lf.meta.sky.unwrap_or([0.0; 3]);
         let p = &lf.meta.params;
+        let detail_offsets = (lf.detail.as_ref()).map_or([0, 0], |d| d.detail_words().1);
         GpuField {
             sky: [sky[0], sky[1], sky[2], 1.0],
             cell_size: 2.0 / p.grid_resolution as f32,
@@ -180,6 +181,8 @@ impl ResidentLightField {
             tile_page_cells: self.tiles.as_ref().map_or(1, |t| t.pages.page_cells),
             tile_cell_count: (self.tiles.as_ref()).map_or(0, |t| t.pages.total_cells as u32),
             texel_page_cells: self.texel_pages.page_cells,
+            normal_records: detail_offsets[0],
+            normal_texels: detail_offsets[1],
             ..Default::default()
         }
     }

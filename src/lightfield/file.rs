@@ -9,7 +9,10 @@ use std::io::Write;
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
+/// Files of this version (before normal maps) are still read: they have the first
+/// `SECTIONS_V3` sections.
+const SECTIONS_V3: usize = 12;
 /// Files of this version (before the texture detail) are still read: they have the first
 /// `SECTIONS_V2` sections.
 const OLDEST_READ_VERSION: u32 = 2;
@@ -17,10 +20,11 @@ const SECTIONS_V2: usize = 7;
 /// Metadata, faces, render mesh, texel radiance, then the mirror tiles (empty when diffuse-only):
 /// rectangles, index, radiance; then the texture detail (empty without diffuse textures,
 /// `textures::SurfaceDetail`): texture records, texels, face textures, render triangles' texture
-/// coordinates, texel factors.
-const SECTIONS: [&[u8; 4]; 12] = [
+/// coordinates, texel factors; then the normal maps (empty without them): per face its normal
+/// texture, per texel its light direction.
+const SECTIONS: [&[u8; 4]; 14] = [
     b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL", b"FTEX",
-    b"RUVS", b"TALB",
+    b"RUVS", b"TALB", b"NMAP", b"NDIR",
 ];
 
 /// The container: magic, version, then (tag, length, CRC32, payload) per section.
@@ -252,7 +256,7 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
     let faces = face_records(&lf.faces, &lf.materials);
     let none = super::textures::SurfaceDetail::default();
     let detail = lf.detail.as_ref().unwrap_or(&none);
-    let payloads: [&[u8]; 12] = [
+    let payloads: [&[u8]; 14] = [
         &meta,
         bytemuck::cast_slice(&faces),
         bytemuck::cast_slice(&lf.render_vertices),
@@ -265,6 +269,8 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         bytemuck::cast_slice(&detail.textures.face_textures),
         bytemuck::cast_slice(&detail.triangle_uv),
         bytemuck::cast_slice(&detail.texel_albedo),
+        bytemuck::cast_slice(&detail.face_normal_maps),
+        bytemuck::cast_slice(&detail.texel_directions),
     ];
     let sections: Vec<(&[u8; 4], &[u8])> = SECTIONS.iter().copied().zip(payloads).collect();
     encode_sections(MAGIC, FORMAT_VERSION, &sections)
@@ -331,10 +337,14 @@ fn pod_vec<T: bytemuck::Pod>(payload: &[u8], what: &str) -> std::result::Result<
 
 pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     // a version 2 file (no texture detail) is read as it was written
-    let old = bytes.get(8..12) == Some(&OLDEST_READ_VERSION.to_le_bytes()[..]);
-    let (version, tags) = match old {
-        true => (OLDEST_READ_VERSION, &SECTIONS[..SECTIONS_V2]),
-        false => (FORMAT_VERSION, &SECTIONS[..]),
+    let found = bytes
+        .get(8..12)
+        .map(|v| u32::from_le_bytes([v[0], v[1], v[2], v[3]]));
+    let old = found == Some(OLDEST_READ_VERSION);
+    let (version, tags) = match found {
+        Some(OLDEST_READ_VERSION) => (OLDEST_READ_VERSION, &SECTIONS[..SECTIONS_V2]),
+        Some(3) => (3, &SECTIONS[..SECTIONS_V3]),
+        _ => (FORMAT_VERSION, &SECTIONS[..]),
     };
     let payloads = decode_sections(bytes, MAGIC, version, tags, "vlf light field file")?;
     let meta: LightFieldMeta = serde_json::from_slice(payloads[0])
@@ -391,6 +401,11 @@ fn decode_detail(
     if payloads.iter().all(|p| p.is_empty()) {
         return Ok(None);
     }
+    // a version 3 file has no normal-map sections
+    let optional = |i: usize, what: &str| match payloads.get(i) {
+        Some(p) => pod_vec(p, what),
+        None => Ok(Vec::new()),
+    };
     Ok(Some(super::textures::SurfaceDetail {
         textures: super::textures::SurfaceTextures {
             info: pod_vec(payloads[0], "TXIN")?,
@@ -399,6 +414,8 @@ fn decode_detail(
         },
         triangle_uv: pod_vec(payloads[3], "RUVS")?,
         texel_albedo: pod_vec(payloads[4], "TALB")?,
+        face_normal_maps: optional(5, "NMAP")?,
+        texel_directions: optional(6, "NDIR")?,
     }))
 }
 

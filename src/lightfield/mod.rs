@@ -7,6 +7,7 @@ pub mod atlas_lookup;
 pub mod bindings;
 pub mod directions;
 pub mod file;
+pub mod normal_map;
 pub mod textures;
 pub mod tiles;
 

@@ -108,6 +108,31 @@ impl SurfaceTextures {
     }
 }
 
+/// Per face its normal texture and the scale's bits ([NO_FACE, 0] for none; a face without
+/// texture coordinates has none); empty where no face has a normal map.
+pub fn normal_maps(scene: &Scene, prepared: &PreparedScene) -> Vec<[u32; 2]> {
+    let mut has_uv = vec![true; prepared.faces.len()];
+    for t in &prepared.triangles {
+        has_uv[t.face as usize] &= t.uv.is_some();
+    }
+    let records: Vec<[u32; 2]> = (prepared.faces.iter().zip(&has_uv))
+        .map(|(f, &uv)| {
+            let m = &scene.materials[f.material as usize];
+            match m
+                .normal_map
+                .filter(|n| uv && (n.texture as usize) < scene.textures.len())
+            {
+                Some(n) => [n.texture, n.scale.to_bits()],
+                None => [NO_FACE, 0],
+            }
+        })
+        .collect();
+    match records.iter().any(|r| r[0] != NO_FACE) {
+        true => records,
+        false => Vec::new(),
+    }
+}
+
 /// What a light field keeps to draw textures per pixel (see the module's header).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SurfaceDetail {
@@ -118,11 +143,19 @@ pub struct SurfaceDetail {
     /// per atlas texel: the texture factor propagation multiplied its radiosity by (rgb as half
     /// floats: r | g << 16, b), 1 on untextured faces
     pub texel_albedo: Vec<[u32; 2]>,
+    /// normal maps (empty where no face has one): per face its normal texture (NO_FACE for
+    /// none) and the scale's f32 bits (`material::NormalMap`)
+    pub face_normal_maps: Vec<[u32; 2]>,
+    /// with normal maps: per atlas texel two records, the direction of its emitters' light v
+    /// (their irradiance vector, `direct_vector` in shaders/direct.wgsl) and the tangential
+    /// moment m of the rest of its light (`rest_vector`), each divided by the texel's whole
+    /// irradiance (luminance), as half floats (`lightfield::normal_map`)
+    pub texel_directions: Vec<[u32; 2]>,
 }
 
 /// Three floats as half floats, two to a word (`half_float` in common/light_field.wgsl reads
 /// them back).
-fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
+pub fn pack_half_rgb(c: [f32; 4]) -> [u32; 2] {
     let h = |x: f32| half::f16::from_f32(x).to_bits() as u32;
     [h(c[0]) | (h(c[1]) << 16), h(c[2])]
 }
@@ -131,13 +164,15 @@ impl SurfaceDetail {
     /// The detail of a prepared scene, or None where no face has a diffuse texture or cuts
     /// holes (the renderer's eye and mirror rays read the coverage here).
     pub fn of(scene: &Scene, prepared: &PreparedScene) -> Option<SurfaceDetail> {
-        // no texture factors and no cut-outs: no face has a texture (nothing to copy)
+        // no texture factors, cut-outs or normal maps: no face has a texture (nothing to copy)
         let albedo = prepared.atlas.texture_albedo.as_ref();
-        if albedo.is_none() && prepared.cutout_textures.is_empty() {
+        let mapped = scene.materials.iter().any(|m| m.normal_map.is_some());
+        if albedo.is_none() && prepared.cutout_textures.is_empty() && !mapped {
             return None;
         }
         let textures = SurfaceTextures::of(scene, prepared);
-        if !textures.any_diffuse() && !textures.any_cutout() {
+        let face_normal_maps = normal_maps(scene, prepared);
+        if !textures.any_diffuse() && !textures.any_cutout() && face_normal_maps.is_empty() {
             return None;
         }
         let texel_albedo = match albedo {
@@ -155,7 +190,24 @@ impl SurfaceDetail {
             textures,
             triangle_uv,
             texel_albedo,
+            face_normal_maps,
+            texel_directions: Vec::new(),
         })
+    }
+
+    /// What the renderer binds as `texel_albedo` (common/light_field.wgsl): the texel factors,
+    /// then with normal maps the faces' normal-map records and the texels' light directions;
+    /// and where those two start in it (0: none), for `GpuField`.
+    pub fn detail_words(&self) -> (Vec<[u32; 2]>, [u32; 2]) {
+        let mut words = self.texel_albedo.clone();
+        if self.face_normal_maps.is_empty() {
+            return (words, [0, 0]);
+        }
+        let records = words.len() as u32;
+        words.extend(&self.face_normal_maps);
+        let directions = words.len() as u32;
+        words.extend(&self.texel_directions);
+        (words, [records, directions])
     }
 
     /// Texture coordinates of render triangle `i`'s corners.
@@ -176,11 +228,9 @@ impl SurfaceDetail {
         let max = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
+        let (words, _) = self.detail_words();
         let arrays: [(&str, &[u8]); 4] = [
-            (
-                "texture detail: texel albedo",
-                bytemuck::cast_slice(&self.texel_albedo),
-            ),
+            ("texture detail: texel albedo", bytemuck::cast_slice(&words)),
             (
                 "texture detail: face textures",
                 bytemuck::cast_slice(&self.textures.face_textures),
@@ -247,8 +297,18 @@ impl SurfaceDetail {
                 ));
             }
         }
+        if !self.face_normal_maps.is_empty()
+            && (self.face_normal_maps.len() != faces || self.texel_directions.len() != 2 * texels)
+        {
+            return bad(format!(
+                "normal maps: {} face records and {} texel directions for {faces} faces and {texels} texels",
+                self.face_normal_maps.len(),
+                self.texel_directions.len()
+            ));
+        }
         let textures = self.textures.info.len() as u32;
         if (self.textures.face_textures.iter().flat_map(|t| &t[..2]))
+            .chain(self.face_normal_maps.iter().map(|n| &n[0]))
             .any(|&t| t != NO_FACE && t >= textures)
         {
             return bad("texture detail: a face names a texture that is not there".into());

@@ -98,6 +98,10 @@ pub struct DirectLight {
     mirror_pipeline: Option<wgpu::ComputePipeline>,
     /// marks the texels inside closed geometry (`texel_validity`), run once on the totals
     validity_pipeline: wgpu::ComputePipeline,
+    /// each texel's emitter irradiance vector (`direct_vector`), for normal maps
+    vector_pipeline: wgpu::ComputePipeline,
+    /// each texel's tangential moment of the rest of its light (`rest_vector`), for normal maps
+    rest_pipeline: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     pub emitter_count: u32,
     /// mirror triangles: when there are any, the second iteration's texel gather leaves mirror
@@ -162,6 +166,10 @@ impl DirectLight {
         let pipeline = ctx.compute_pipeline(&module, "direct_light", &[layout0, layout1, &layout2]);
         let validity_pipeline =
             ctx.compute_pipeline(&module, "texel_validity", &[layout0, layout1, &layout2]);
+        let vector_pipeline =
+            ctx.compute_pipeline(&module, "direct_vector", &[layout0, layout1, &layout2]);
+        let rest_pipeline =
+            ctx.compute_pipeline(&module, "rest_vector", &[layout0, layout1, &layout2]);
         let mirror_pipeline = (!mirrors.is_empty())
             .then(|| ctx.compute_pipeline(&module, "mirror_light", &[layout0, layout1, &layout2]));
         let bind_group =
@@ -170,6 +178,8 @@ impl DirectLight {
             pipeline,
             mirror_pipeline,
             validity_pipeline,
+            vector_pipeline,
+            rest_pipeline,
             bind_group,
             emitter_count: emitters.len() as u32,
             mirror_count: mirrors.len() as u32,
@@ -203,6 +213,24 @@ impl DirectLight {
         pages: &[(&wgpu::BindGroup, u32)],
     ) {
         self.dispatch(&self.validity_pipeline, pass, bg0, pages);
+    }
+
+    /// Record the light directions for normal maps (`direct_vector`): `pages` bind the
+    /// buffers that take each texel's emitter irradiance vector where the others bind `next`.
+    /// `rest`: the moments of the rest of the light (`rest_vector`) instead, with `pages`
+    /// binding the converged radiance where the unshot radiosity was.
+    pub fn encode_vectors(
+        &self,
+        pass: &mut wgpu::ComputePass,
+        bg0: &wgpu::BindGroup,
+        pages: &[(&wgpu::BindGroup, u32)],
+        rest: bool,
+    ) {
+        let pipeline = match rest {
+            true => &self.rest_pipeline,
+            false => &self.vector_pipeline,
+        };
+        self.dispatch(pipeline, pass, bg0, pages);
     }
 
     fn dispatch(

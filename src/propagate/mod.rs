@@ -702,6 +702,17 @@ impl<'a> Job<'a> {
         let total = prop.read_total()?;
         measured.power_balance = self.power_balance(&mut prop, &total, &mut measured.warnings)?;
         let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
+        let mut detail = crate::lightfield::textures::SurfaceDetail::of(self.scene, &self.prepared);
+        if let Some(d) = detail.as_mut().filter(|d| !d.face_normal_maps.is_empty()) {
+            let vectors = prop.light_vectors()?;
+            d.texel_directions = crate::lightfield::normal_map::texel_directions(
+                vectors.as_ref(),
+                &total,
+                &self.prepared,
+                &faces,
+                &materials,
+            );
+        }
         let tiles = match prop.tile_layout() {
             Some(layout) => Some(crate::lightfield::TileField {
                 rects: layout.rects.clone(),
@@ -740,7 +751,7 @@ impl<'a> Job<'a> {
             render_vertices,
             total,
             tiles,
-            detail: crate::lightfield::textures::SurfaceDetail::of(scene, prepared),
+            detail,
         };
         resident.upload_detail(&lf);
         let report = self.report(ctx, measured, spent, &resident, mirror_chains);

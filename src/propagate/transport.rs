@@ -1526,6 +1526,39 @@ impl Propagator {
         );
     }
 
+    /// Per texel the irradiance vector of its direct light from the emitters (luminance;
+    /// `direct_vector` in shaders/direct.wgsl), for normal maps; None without direct light.
+    /// Run once propagation is done: it takes the `next` pages.
+    /// Then, with the converged radiance copied over the unshot state (no longer needed), the
+    /// tangential moment of the rest of each texel's light (`rest_vector`). None without
+    /// direct light.
+    pub fn light_vectors(&mut self) -> Result<Option<crate::lightfield::normal_map::LightVectors>> {
+        if self.direct.is_none() {
+            return Ok(None);
+        }
+        let current = self.current;
+        let mut out = Vec::new();
+        for rest in [false, true] {
+            if rest {
+                let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+                for page in &self.texels {
+                    let (from, to) = (&page.state.total, &page.state.radiance[current]);
+                    encoder.copy_buffer_to_buffer(from, 0, to, 0, page.state.count as u64 * 16);
+                }
+                self.ctx.queue.submit([encoder.finish()]);
+            }
+            self.encode_direct_stage(
+                "light directions",
+                |page| &page.state.radiance[1 - current],
+                |d, pass, bg0, pages| d.encode_vectors(pass, bg0, pages, rest),
+            );
+            out.push(self.read_page_list(&self.texels, |p| &p.state.radiance[1 - current])?);
+        }
+        let rest = out.pop().unwrap_or_default();
+        let vectors = out.pop().unwrap_or_default();
+        Ok(Some((vectors, rest)))
+    }
+
     /// One pass of the direct-light stage over every texel page, with `target` bound as each
     /// page's output; nothing without direct light.
     fn encode_direct_stage(

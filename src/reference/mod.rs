@@ -62,6 +62,8 @@ struct TraceScene {
     light_weight_total: f32,
     /// the textures back to back, and which face uses which
     textures: crate::lightfield::textures::SurfaceTextures,
+    /// per face its normal map (`SurfaceDetail::face_normal_maps`; empty: none)
+    normal_maps: Vec<[u32; 2]>,
 }
 
 impl TraceScene {
@@ -104,6 +106,7 @@ impl TraceScene {
             lights,
             light_weight_total: total,
             textures,
+            normal_maps: crate::lightfield::textures::normal_maps(scene, prepared),
         }
     }
 }
@@ -162,7 +165,13 @@ impl Tracer {
         let layout = reflect::layout(device, "reference.wgsl", 0)?;
         // a scene without cut-outs compiles their test out (common/coverage.wgsl)
         let cutouts = u32::from(t.textures.any_cutout());
-        let module = shaders::module_with(device, "reference.wgsl", &[("ALPHA_MASKS", cutouts)])?;
+        // and one without normal maps theirs (common/normal_map.wgsl)
+        let normal_maps = u32::from(!t.normal_maps.is_empty());
+        let module = shaders::module_with(
+            device,
+            "reference.wgsl",
+            &[("ALPHA_MASKS", cutouts), ("NORMAL_MAPS", normal_maps)],
+        )?;
         let pipeline = ctx.compute_pipeline(&module, "trace_pass", &[&layout]);
         let mut all: Vec<&wgpu::Buffer> = vec![&params];
         all.extend(buffers.iter());
@@ -174,6 +183,17 @@ impl Tracer {
             STORAGE,
         );
         all.push(&materials);
+        let placeholder = [[NO_FACE, 0]];
+        let normal_maps = ctx.buffer_init(
+            &ledger,
+            "normal maps",
+            bytemuck::cast_slice(match t.normal_maps.is_empty() {
+                true => &placeholder[..],
+                false => &t.normal_maps,
+            }),
+            STORAGE,
+        );
+        all.push(&normal_maps);
         let bind_group = ctx.bind_group(&layout, &all);
         Ok(Tracer {
             params,

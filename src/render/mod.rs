@@ -269,6 +269,7 @@ impl Renderer {
             moving: plan.is_some(),
             textured: detail.is_some(),
             cutouts: detail.is_some_and(|d| d.textures.any_cutout()),
+            normal_maps: detail.is_some_and(|d| !d.face_normal_maps.is_empty()),
             raster: false,
         };
         let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
@@ -945,6 +946,8 @@ struct ResolveVariant {
     textured: bool,
     /// some face cuts holes (its coverage in the texture detail): `ALPHA_MASKS`
     cutouts: bool,
+    /// some face has a normal map (in the texture detail): `NORMAL_MAPS`
+    normal_maps: bool,
     /// eye rays read their first hits from a visibility buffer (`raster`)
     raster: bool,
 }
@@ -955,7 +958,8 @@ struct ResolveVariant {
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
 /// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0), and so is
 /// the texture detail's without it (`SURFACE_TEXTURES` 0), the cut-outs' test without one
-/// (`ALPHA_MASKS` 0, common/coverage.wgsl), and the visibility buffer's reads
+/// (`ALPHA_MASKS` 0, common/coverage.wgsl), the normal maps' without one (`NORMAL_MAPS` 0,
+/// common/normal_map.wgsl), and the visibility buffer's reads
 /// without raster first hits (`RASTER_FIRST_HITS` 0).
 fn resolve_pipeline(
     ctx: &GpuContext,
@@ -968,6 +972,7 @@ fn resolve_pipeline(
         moving,
         textured,
         cutouts,
+        normal_maps,
         raster,
     } = variant;
     let constants = [
@@ -975,6 +980,7 @@ fn resolve_pipeline(
         ("MOVING_OBJECTS", u32::from(moving)),
         ("SURFACE_TEXTURES", u32::from(textured)),
         ("ALPHA_MASKS", u32::from(cutouts)),
+        ("NORMAL_MAPS", u32::from(normal_maps && textured)),
         ("RASTER_FIRST_HITS", u32::from(raster)),
     ];
     let module = shaders::module_with(device, "render.wgsl", &constants)?;

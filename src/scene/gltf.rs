@@ -118,6 +118,24 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         texture_of_image.insert(*image, textures.len() as u32);
         textures.push(t);
     }
+    // normal textures: raw values at full resolution, a texture of their own
+    let mut normal_of_image: HashMap<usize, u32> = HashMap::new();
+    for image in plans.iter().filter_map(|p| Some(p.normal_image()?.0)) {
+        if normal_of_image.contains_key(&image) {
+            continue;
+        }
+        let (bytes, name) = image_bytes(doc, image, &buffers, dir, path, &mut source_files)
+            .map_err(|m| err(format!("image {image}: {m}")))?;
+        let t =
+            texels::decode_normals(&bytes, name, texels::NormalSource::Normals).map_err(|e| {
+                err(format!(
+                    "image {image}: not a readable PNG or JPEG image: {e}"
+                ))
+            })?;
+        full_bytes += t.texels.len() as u64 * 12;
+        normal_of_image.insert(image, textures.len() as u32);
+        textures.push(t);
+    }
     // a mirror holds one colour: its base colour texture's mean (read, averaged, dropped)
     let mut mirror_means = HashMap::new();
     for image in plans.iter().filter_map(|p| p.mirror_image()) {
@@ -130,7 +148,13 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         })?;
         mirror_means.insert(image, texels::mean(&t));
     }
-    let mut materials = material::finish(&plans, &texture_of_image, &mirror_means, &mut warnings);
+    let mut materials = material::finish(
+        &plans,
+        &texture_of_image,
+        &normal_of_image,
+        &mirror_means,
+        &mut warnings,
+    );
     if triangles.iter().any(|t| t.material as usize == plans.len()) {
         materials.push(Material::default_grey());
         warnings.push(format!(

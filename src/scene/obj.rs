@@ -2,6 +2,7 @@
 //! would report without a line number (non-finite vertices, face indices out of range). After
 //! it, degenerate and duplicated triangles are dropped with a count in a warning.
 
+use super::texels::NormalSource;
 use super::weld::{TriangleFilter, Welder};
 use super::{check_color, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
@@ -145,6 +146,7 @@ fn convert_materials(
             .unknown_param
             .get("map_Ke")
             .map(|t| request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_Ke"));
+        material.normal_map = normal_map(m, mtl_dir, &mut requests);
         let d = m.dissolve.unwrap_or(1.0);
         material.cutout = m.dissolve_texture.as_ref().map(|t| {
             let texture = request(&mut requests, mtl_dir.join(t.trim()), &m.name, "map_d");
@@ -171,6 +173,36 @@ fn convert_materials(
         out_materials.push(material);
     }
     Ok((out_materials, requests))
+}
+
+/// A material's normal map: MTL `norm` (a tangent-space normal map, `-bm` its scale), else
+/// `bump` / `map_Bump` (a height map, `-bm` its multiplier, turned into normals).
+fn normal_map(
+    m: &tobj::Material,
+    mtl_dir: &Path,
+    requests: &mut Vec<TextureRequest>,
+) -> Option<crate::material::NormalMap> {
+    let (line, key) = match m.unknown_param.get("norm") {
+        Some(line) => (line.as_str(), "norm"),
+        None => (m.normal_texture.as_deref()?, "bump"),
+    };
+    // options before the file name: only -bm (the multiplier) is read
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let file = words.last()?;
+    let bm = (words.iter().position(|w| *w == "-bm"))
+        .and_then(|i| words.get(i + 1)?.parse::<f32>().ok())
+        .filter(|b| b.is_finite())
+        .unwrap_or(1.0);
+    let source = match key {
+        "norm" => NormalSource::Normals,
+        _ => NormalSource::Height(bm),
+    };
+    let texture = request(requests, mtl_dir.join(file), &m.name, key);
+    requests[texture as usize].normals = Some(source);
+    Some(crate::material::NormalMap {
+        texture,
+        scale: if key == "norm" { bm } else { 1.0 },
+    })
 }
 
 /// The models' triangles over welded positions, and whether some face has no material.
@@ -213,7 +245,10 @@ fn weld_models(
         };
         let textured = mesh.material_id.is_some_and(|id| {
             let m = &materials[id];
-            m.diffuse_texture.is_some() || m.emission_texture.is_some() || m.cutout.is_some()
+            m.diffuse_texture.is_some()
+                || m.emission_texture.is_some()
+                || m.cutout.is_some()
+                || m.normal_map.is_some()
         });
         if textured && mesh.texcoords.is_empty() {
             warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
@@ -316,6 +351,7 @@ fn convert_material(
         diffuse_texture: None,
         emission_texture: None,
         cutout: None,
+        normal_map: None,
     };
     if let Some(message) = material
         .energy_error()
@@ -323,13 +359,8 @@ fn convert_material(
     {
         return Err(err(message));
     }
-    for (what, tex) in [
-        ("map_Ks", &m.specular_texture),
-        ("map_bump", &m.normal_texture),
-    ] {
-        if let Some(t) = tex {
-            warnings.push(format!("material {:?}: {what} {t} cannot be represented (only map_Kd, map_Ke and map_d are) and is ignored", m.name));
-        }
+    if let Some(t) = &m.specular_texture {
+        warnings.push(format!("material {:?}: map_Ks {t} cannot be represented (only map_Kd, map_Ke, map_d, norm and bump are) and is ignored", m.name));
     }
     Ok(material)
 }
@@ -412,6 +443,8 @@ struct TextureRequest {
     key: &'static str,
     /// a material cuts holes with it (`map_d`): keep its coverage
     alpha: bool,
+    /// a normal map (`norm`, `bump`): read raw at full resolution
+    normals: Option<NormalSource>,
 }
 
 /// The texture's index, naming each file once.
@@ -421,7 +454,11 @@ fn request(
     material: &str,
     key: &'static str,
 ) -> u32 {
-    if let Some(i) = requests.iter().position(|r| r.path == path) {
+    // a normal map's image is read otherwise than a colour's: one request each
+    let normals = matches!(key, "norm" | "bump");
+    if let Some(i) =
+        (requests.iter()).position(|r| r.path == path && r.normals.is_some() == normals)
+    {
         return i as u32;
     }
     requests.push(TextureRequest {
@@ -429,6 +466,7 @@ fn request(
         material: material.to_string(),
         key,
         alpha: false,
+        normals: None,
     });
     requests.len() as u32 - 1
 }
@@ -447,6 +485,16 @@ fn load_texture(
     };
     let bytes = std::fs::read(path)
         .map_err(|e| err(format!("{key} {}: cannot read: {e}", path.display())))?;
+    if let Some(source) = r.normals {
+        let t = super::texels::decode_normals(&bytes, path.clone(), source).map_err(|e| {
+            err(format!(
+                "{key} {}: not a readable PNG or JPEG image: {e}",
+                path.display()
+            ))
+        })?;
+        let whole = t.texels.len() as u64 * 12;
+        return Ok((t, whole));
+    }
     let alpha = r.alpha.then_some(super::texels::AlphaSource::ChannelOrGrey);
     super::texels::decode(&bytes, path.clone(), usage, alpha).map_err(|e| {
         err(format!(

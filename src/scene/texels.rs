@@ -131,6 +131,59 @@ pub fn decode(
     ))
 }
 
+/// How a normal map's image is read: its raw values (no sRGB curve) at full resolution, as
+/// the tangent-space normals 2 rgb - 1 (`Material::normal_map`); `Height(bm)`: a grey height
+/// map (MTL `bump`, its `-bm` multiplier) turned into those normals by central differences
+/// (n = normalize(-bm dh/dx, -bm dh/dy, 1), x right and y up in the image, texel units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum NormalSource {
+    Normals,
+    Height(f32),
+}
+
+/// Decode a normal map (PNG or JPEG) as `source` says, texels 0.5 + 0.5 n.
+pub fn decode_normals(
+    bytes: &[u8],
+    path: PathBuf,
+    source: NormalSource,
+) -> Result<Texture, image::ImageError> {
+    let image = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(image::ImageError::IoError)?
+        .decode()?
+        .into_rgb32f();
+    let (w, h) = image.dimensions();
+    let raw: Vec<[f32; 3]> = image.pixels().map(|p| p.0).collect();
+    let texels = match source {
+        NormalSource::Normals => raw,
+        NormalSource::Height(bm) => height_normals(&raw, w as usize, h as usize, bm),
+    };
+    Ok(Texture {
+        path,
+        width: w,
+        height: h,
+        texels,
+        alpha: Vec::new(),
+    })
+}
+
+/// A height map's normals (its red channel the height), wrapping at the edges as the
+/// texture lookups do, encoded 0.5 + 0.5 n.
+fn height_normals(raw: &[[f32; 3]], w: usize, h: usize, bm: f32) -> Vec<[f32; 3]> {
+    let at = |x: usize, y: usize| raw[y * w + x][0];
+    let mut out = Vec::with_capacity(raw.len());
+    for y in 0..h {
+        for x in 0..w {
+            let dx = (at((x + 1) % w, y) - at((x + w - 1) % w, y)) * 0.5;
+            // rows run down the image: up is the previous row
+            let dy = (at(x, (y + h - 1) % h) - at(x, (y + 1) % h)) * 0.5;
+            let n = glam::Vec3::new(-bm * dx, -bm * dy, 1.0).normalize();
+            out.push((n * 0.5 + 0.5).to_array());
+        }
+    }
+    out
+}
+
 /// The mean of a texture (for a material that can hold only one colour, e.g. a mirror).
 pub fn mean(t: &Texture) -> [f32; 3] {
     let mut sum = [0.0f64; 3];
@@ -170,6 +223,7 @@ pub fn uses(
             m.diffuse_texture,
             m.emission_texture,
             m.cutout.map(|c| c.texture),
+            m.normal_map.map(|n| n.texture),
         ]
         .into_iter()
         .flatten()

@@ -145,7 +145,8 @@ def _strip(line):
 
 
 def load_mtl(path):
-    """name -> {Kd, Ks, Ke, Pr, d, map_Kd, map_Ke, map_d} (paths resolved against the MTL's folder)."""
+    """name -> {Kd, Ks, Ke, Pr, d, map_Kd, map_Ke, map_d, normal: (normals | height, path, -bm)}
+    (paths resolved against the MTL's folder)."""
     mats = {}
     cur = None
     for raw in Path(path).read_text().splitlines():
@@ -163,6 +164,13 @@ def load_mtl(path):
             cur[key] = [float(x) for x in rest.split()[:3]]
         elif key in ("map_Kd", "map_Ke", "map_d"):
             cur[key] = (Path(path).parent / rest).resolve()
+        elif key in ("norm", "bump", "map_Bump", "map_bump"):
+            # a normal map (norm) or a height map (bump): options, then the file; -bm read
+            words = rest.split()
+            bm = float(words[words.index("-bm") + 1]) if "-bm" in words[:-1] else 1.0
+            kind = "normals" if key == "norm" else "height"
+            if key == "norm" or "normal" not in cur:
+                cur["normal"] = (kind, (Path(path).parent / words[-1]).resolve(), bm)
         elif key == "Pr":
             cur[key] = float(rest.split()[0])
         elif key == "d":
@@ -611,6 +619,8 @@ def plan_materials(doc, overrides):
             what.append(f"metallic {metallic} roughness {roughness}: rough metal taken as diffuse")
         if m.alphaMode in ("MASK", "BLEND"):
             what.append(f"alpha {m.alphaMode} treated as opaque")
+        if m.normalTexture is not None:
+            what.append("normal texture not exported (vlf reads it; this reader does for MTL norm / bump only)")
         tr = ((m.extensions or {}).get("KHR_materials_transmission") or {}).get("transmissionFactor", 0.0)
         if tr and tr > 0:
             what.append(f"transmission {tr} treated as opaque")
@@ -1034,6 +1044,8 @@ def build_obj(scene):
             # map_d: opaque)
             "alpha_tex": str(m["map_d"]) if m.get("map_d") else None,
             "alpha_cutoff": 0.5 / max(m.get("d", 1.0), 1e-6),
+            # MTL norm (a tangent-space normal map, -bm its scale) or bump (a height map)
+            "normal_tex": m.get("normal"),
         }
         for key in ("diffuse_tex", "emission_tex"):
             if mat[key] is not None:
@@ -1074,7 +1086,7 @@ def build_obj(scene):
             mname = "(default)"
             materials.setdefault(mname, default)
             mat = default
-        textured = bool(mat["diffuse_tex"] or mat["emission_tex"] or mat.get("alpha_tex"))
+        textured = bool(mat["diffuse_tex"] or mat["emission_tex"] or mat.get("alpha_tex") or mat.get("normal_tex"))
         uv = ts is not None and textured
         if textured and ts is None:
             warnings.append(f"material {mname}: a triangle without vt; its textures are ignored there")
@@ -1282,6 +1294,47 @@ def mask_xml(out_dir, stem, alpha_file, cutoff, bsdf):
     return f'<bsdf type="mask">{texture}{bsdf}</bsdf>'
 
 
+def normal_values(normal):
+    """A material's normal map as float (h, w, 3) texture values 0.5 + 0.5 n, read by this
+    file itself: `norm` its raw pixels (n = 2 v - 1; with -bm s != 1, (s x, s y, z) normalised),
+    `bump` a height map (its first channel, 0..1) by central differences with wrapping,
+    n = normalize(-bm dh/dx, -bm dh/dy, 1), x right and y up the image, in texel units."""
+    kind, path, bm = normal
+    a = _bitmap_array(Path(path).read_bytes(), str(path))
+    scale = 65535.0 if a.dtype == np.uint16 else (255.0 if a.dtype == np.uint8 else 1.0)
+    a = a.astype(np.float64) / scale
+    if a.shape[2] in (1, 2):
+        a = np.repeat(a[:, :, :1], 3, axis=2)
+    a = a[:, :, :3]
+    if kind == "normals":
+        if bm == 1.0:
+            return a
+        n = 2.0 * a - 1.0
+        n[:, :, :2] *= bm
+    else:
+        h = a[:, :, 0]
+        dx = (np.roll(h, -1, axis=1) - np.roll(h, 1, axis=1)) * 0.5
+        # rows run down the image: up is the previous row
+        dy = (np.roll(h, 1, axis=0) - np.roll(h, -1, axis=0)) * 0.5
+        n = np.stack([-bm * dx, -bm * dy, np.ones_like(h)], axis=2)
+    n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-12)
+    return 0.5 + 0.5 * n
+
+
+def normalmap_xml(out_dir, stem, normal, bsdf):
+    """A normal map as Mitsuba's `normalmap` BSDF around the material's. Its frame is dp/du
+    (made orthogonal to the normal) and n x that, vlf's frame wherever the texture coordinates
+    are not mirrored; the texture is read raw (no sRGB curve), bilinear and repeating. Mitsuba
+    3.9's default multiplies the BSDF by Estevez et al.'s shadowing term for the bump
+    terminator (0.89 for a 30 degree tilt under light 75 degrees off the normal); vlf shades
+    with the mapped normal alone, so the export turns it off (`use_shadowing_function`)."""
+    (out_dir / "textures").mkdir(exist_ok=True)
+    file = f"textures/{stem}-normals.exr"
+    write_exr(out_dir / file, normal_values(normal).astype(np.float32))
+    return (f'<bsdf type="normalmap"><boolean name="use_shadowing_function" value="false"/>'
+            f'{_texture_xml("normalmap", file)}{bsdf}</bsdf>')
+
+
 def sensor_xml(cam, width, height, spp, clip):
     near, far = clip
     return f"""<sensor type="perspective" id="{cam['name']}">
@@ -1411,6 +1464,8 @@ def export(scene, built, out_dir, spp=256):
             bsdf = mirror_xml(1.0)
         else:
             bsdf = diffuse_xml(1.0)
+        if uv and m.get("normal_tex"):
+            bsdf = normalmap_xml(out_dir, stem, m["normal_tex"], bsdf)
         if m["two_sided"]:
             bsdf = f'<bsdf type="twosided">{bsdf}</bsdf>'
         if uv and m.get("alpha_tex"):

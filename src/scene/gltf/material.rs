@@ -15,7 +15,10 @@
 //!   covered (kept opaque) or open (its faces left out) everywhere; BLEND with a base colour
 //!   texture: MASK at 0.5, warned; BLEND without one (glass): opaque, warned;
 //!
-//! and what cannot be represented (transmission, normal and occlusion maps, the
+//! - normalTexture (with its scale): a normal map (`Material::normal_map`), read with the base
+//!   colour's texture coordinates;
+//!
+//! and what cannot be represented (transmission, occlusion maps, the
 //! metallic-roughness texture, clamped wrapping) is named in one warning per material.
 
 use super::super::{check_color, Material, MaterialOverride};
@@ -71,6 +74,8 @@ pub struct Plan {
     /// the base colour texture of a cut-out (its alpha), with the cutoff its factor is folded in
     alpha_image: Option<usize>,
     alpha_cutoff: f32,
+    /// the normal texture (read raw, at full resolution) and its scale
+    normal_image: Option<(usize, f32)>,
     /// a cut-out open everywhere: its faces are left out
     pub open: bool,
     uv_set: Option<u32>,
@@ -90,6 +95,11 @@ impl Plan {
             .into_iter()
             .flatten()
             .collect()
+    }
+
+    /// The normal texture's image and its scale, if any.
+    pub fn normal_image(&self) -> Option<(usize, f32)> {
+        self.normal_image
     }
 
     /// The base colour image whose alpha cuts holes, if any.
@@ -198,6 +208,14 @@ fn plan(
             .unwrap_or(i.tex_coord())
     });
     let uv_transform = coords.map_or(UvTransform::IDENTITY, UvTransform::of);
+    // the normal texture is read with the same coordinates
+    let normal = m.normal_texture();
+    if let Some(n) = &normal {
+        if coords.is_some_and(|c| c.tex_coord() != n.tex_coord()) {
+            notes.push("normal texture read with the base colour texture's coordinates".into());
+        }
+    }
+    let uv_set = uv_set.or(normal.as_ref().map(|n| n.tex_coord()));
     if let (Some(d), Some(e)) = (diffuse_info, emit_tex.as_ref()) {
         if UvTransform::of(d) != UvTransform::of(e) || d.tex_coord() != e.tex_coord() {
             notes.push("emissive texture read with the base colour texture's coordinates".into());
@@ -222,6 +240,7 @@ fn plan(
         diffuse_texture: None,
         emission_texture: None,
         cutout: None,
+        normal_map: None,
     };
     if let Some(message) = material
         .energy_error()
@@ -236,6 +255,7 @@ fn plan(
         mirror_image: base_tex.as_ref().filter(|_| mirror).map(image_of),
         alpha_image: cut.image,
         alpha_cutoff: cut.cutoff,
+        normal_image: normal.map(|n| (n.texture().source().index(), n.scale())),
         open: cut.open,
         material,
         uv_set,
@@ -317,9 +337,6 @@ fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
     {
         notes.push("metallic-roughness texture ignored (its factors decide)".into());
     }
-    if m.normal_texture().is_some() {
-        notes.push("normal map ignored".into());
-    }
     if m.occlusion_texture().is_some() {
         notes.push("occlusion map ignored (the light field computes occlusion)".into());
     }
@@ -330,6 +347,7 @@ fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
 pub fn finish(
     plans: &[Plan],
     texture_of_image: &HashMap<usize, u32>,
+    normal_of_image: &HashMap<usize, u32>,
     mirror_means: &HashMap<usize, [f32; 3]>,
     warnings: &mut Vec<String>,
 ) -> Vec<Material> {
@@ -340,6 +358,9 @@ pub fn finish(
             let tex = |i: Option<usize>| i.and_then(|i| texture_of_image.get(&i).copied());
             m.diffuse_texture = tex(p.diffuse_image);
             m.emission_texture = tex(p.emission_image);
+            m.normal_map = (p.normal_image)
+                .and_then(|(i, scale)| Some((normal_of_image.get(&i).copied()?, scale)))
+                .map(|(texture, scale)| crate::material::NormalMap { texture, scale });
             m.cutout = tex(p.alpha_image).map(|texture| crate::material::Cutout {
                 texture,
                 cutoff: p.alpha_cutoff,
