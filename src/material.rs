@@ -212,7 +212,7 @@ pub fn material_of<'a>(materials: &'a [GpuMaterial], f: &GpuFace) -> &'a GpuMate
 
 /// bsdf.wgsl's `propagated_diffuse`: the albedo of what face `f`'s texels send on as diffuse
 /// light: the diffuse part's, and the specular part of a face without tiles (too small for them:
-/// `prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`) at its carried reflectance.
+/// `prepare::packing::SPECULAR_TILES_MIN_AREA`) at its carried reflectance.
 pub fn propagated_diffuse(materials: &[GpuMaterial], f: &GpuFace) -> Vec3 {
     let m = material_of(materials, f);
     if m.is_delta() && f.tile_slot == crate::gpu::types::NO_FACE {

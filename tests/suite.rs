@@ -46,8 +46,7 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
             g.triangles,
             "every generated triangle survives import"
         );
-        // the default tiles' side: 8 cells of the 256-cell grid over [-1, 1]
-        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared, 8.0 * 2.0 / 256.0)
+        let mirror_faces = vlf::propagate::non_diffuse_faces(&prepared)
             .iter()
             .filter(|&&m| m)
             .count();

@@ -56,7 +56,7 @@ fn carried_reflectance(m: Material) -> vec3<f32> {
 }
 
 // A face with a specular part (an ideal mirror or a glossy lobe) but without tiles: smaller than
-// prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT tiles. Propagation sends its specular part's
+// prepare::packing::SPECULAR_TILES_MIN_AREA. Propagation sends its specular part's
 // light on as diffuse light of the part's carried reflectance, so its texels hold diffuse and
 // specular light together; the views show their diffuse part's share where they trace the
 // reflection (shown_diffuse_share), and the whole where a chain ends on it.

@@ -5,28 +5,31 @@
 use super::PreparedScene;
 use crate::gpu::types::{GpuFace, GpuMaterial, FACE_EMITTER, NO_FACE};
 
-/// A face with a specular part (an ideal mirror or a glossy lobe) smaller than this many tiles'
-/// footprint gets no tiles: propagation sends its specular light on as diffuse light of the
-/// part's carried reflectance (a glossy lobe's times its mean albedo), and the views still trace
-/// its reflections (shaders/common/bsdf.wgsl, carried_diffusely). A tile costs the same in every
-/// direction however little of it a face covers: a chair's metal frame of thousands of small
-/// faces would take a tile in each of the 2001 directions per face (a generated classroom's
-/// 36,288 metal faces: 4.6e9 tile cells), where their reflections barely move the room's light.
-pub const SPECULAR_TILES_MIN_FOOTPRINT: f64 = 4.0;
+/// A face with a specular part (an ideal mirror or a glossy lobe) smaller than this, in the
+/// normalised space's units² (four tiles' footprint at the default settings: 8 cells of a
+/// 256-cell grid over [-1, 1], squared, times 4), gets no tiles: propagation sends its specular
+/// light on as diffuse light of the part's carried reflectance (a glossy lobe's times its mean
+/// albedo), and the views still trace its reflections (shaders/common/bsdf.wgsl,
+/// carried_diffusely). A tile costs the same in every direction however little of it a face
+/// covers: a chair's metal frame of thousands of small faces would take a tile in each of the
+/// 2001 directions per face (a generated classroom's 36,288 metal faces: 4.6e9 tile cells),
+/// where their reflections barely move the room's light. The bound does not follow the grid, so
+/// a coarse preset keeps the same faces' tiles as the default (the Cornell box's mirror box).
+pub const SPECULAR_TILES_MIN_AREA: f64 = 4.0 * (8.0 * 2.0 / 256.0) * (8.0 * 2.0 / 256.0);
 
 /// Does face f have tiles: a specular part (ideal or glossy) on a face of at least
-/// `SPECULAR_TILES_MIN_FOOTPRINT` tiles' footprint (`tile_side`: a tile's side in normalised
-/// space, tile_size x 2 / grid_resolution)?
-pub fn non_diffuse_faces(prepared: &PreparedScene, tile_side: f64) -> Vec<bool> {
-    let min_area = SPECULAR_TILES_MIN_FOOTPRINT * tile_side * tile_side;
+/// `SPECULAR_TILES_MIN_AREA`?
+pub fn non_diffuse_faces(prepared: &PreparedScene) -> Vec<bool> {
     (0..prepared.faces.len())
-        .map(|f| prepared.material_of(f).is_delta() && prepared.faces[f].area >= min_area)
+        .map(|f| {
+            prepared.material_of(f).is_delta() && prepared.faces[f].area >= SPECULAR_TILES_MIN_AREA
+        })
         .collect()
 }
 
 /// How many faces with a specular part carry it diffusely (no tiles: `non_diffuse_faces`).
-pub fn specular_faces_without_tiles(prepared: &PreparedScene, tile_side: f64) -> usize {
-    let tiled = non_diffuse_faces(prepared, tile_side);
+pub fn specular_faces_without_tiles(prepared: &PreparedScene) -> usize {
+    let tiled = non_diffuse_faces(prepared);
     (0..prepared.faces.len())
         .filter(|&f| prepared.material_of(f).is_delta() && !tiled[f])
         .count()

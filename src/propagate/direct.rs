@@ -64,7 +64,7 @@ pub fn emitters(
 
 /// The triangles of faces with an ideal mirror part and tiles: emitters seen in them are virtual
 /// emitters (a glossy lobe's light reaches other surfaces through its tiles, which gather the
-/// lobe; a tile-less face's as diffuse light, `prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`).
+/// lobe; a tile-less face's as diffuse light, `prepare::packing::SPECULAR_TILES_MIN_AREA`).
 pub fn mirror_triangles(
     prepared: &PreparedScene,
     faces: &[GpuFace],

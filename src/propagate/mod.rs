@@ -781,7 +781,6 @@ impl<'a> Job<'a> {
             non_diffuse_elements: spent.non_diffuse_elements,
             specular_faces_without_tiles: crate::prepare::packing::specular_faces_without_tiles(
                 prepared,
-                params.tile_size as f64 * 2.0 / params.grid_resolution as f64,
             ) as u64,
             tile_bytes: spent.tile_bytes,
             texture_bytes: spent.texture_bytes,

@@ -26,7 +26,7 @@ pub struct PropagationReport {
     /// tile cells of non-diffuse faces (none in a diffuse-only scene)
     pub non_diffuse_elements: u64,
     /// faces with a specular part too small for tiles
-    /// (`prepare::packing::SPECULAR_TILES_MIN_FOOTPRINT`), whose specular light propagation sends
+    /// (`prepare::packing::SPECULAR_TILES_MIN_AREA`), whose specular light propagation sends
     /// on as diffuse light
     pub specular_faces_without_tiles: u64,
     pub tile_bytes: u64,

@@ -499,8 +499,7 @@ impl Setup<'_> {
     /// The tiles of the non-diffuse faces (empty when every face is diffuse).
     fn mirror_tile_layout(&self, fixed: &[GpuDirection]) -> TileLayout {
         let prepared = self.prepared;
-        let tile_side = self.params.tile_size as f64 * 2.0 / self.params.grid_resolution as f64;
-        let non_diffuse = non_diffuse_faces(prepared, tile_side);
+        let non_diffuse = non_diffuse_faces(prepared);
         if !non_diffuse.iter().any(|&n| n) {
             return TileLayout::default();
         }
