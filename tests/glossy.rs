@@ -19,10 +19,8 @@ fn render(
     bounces: Option<u32>,
     glossy_light_samples: Option<u32>,
 ) -> vlf::render::Frame {
-    let params = draft_params();
     render_with(
         dir,
-        &params,
         (camera, size),
         lobe_samples,
         bounces,
@@ -31,10 +29,9 @@ fn render(
     .0
 }
 
-/// `render` with propagation `params`, and the propagation's report.
+/// `render`, and the propagation's report.
 fn render_with(
     dir: &std::path::Path,
-    params: &vlf::propagate::PropagationParams,
     (camera, size): (&str, u32),
     lobe_samples: u32,
     bounces: Option<u32>,
@@ -44,7 +41,8 @@ fn render_with(
     vlf::propagate::report::PropagationReport,
 ) {
     let scene = vlf::scene::Scene::load(&dir.join("scene.toml")).unwrap();
-    let (lf, resident, report) = vlf::propagate::propagate(gpu(), &scene, params, &Silent).unwrap();
+    let (lf, resident, report) =
+        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
     let ledger = vlf::gpu::MemoryLedger::default();
     let mut r = vlf::render::Renderer::new(&resident, &lf, &ledger).unwrap();
     r.set_samples_per_pixel(16).unwrap();
@@ -74,7 +72,7 @@ fn render_with(
 /// of their lobe); asserted within 0.6%. A lobe that kept all its energy would show 5.
 #[test]
 fn a_furnace_of_glossy_walls_shows_the_lobes_albedo() {
-    let (shown, expected) = glossy_furnace(&draft_params(), 0.3);
+    let (shown, expected) = glossy_furnace();
     eprintln!("furnace: shown {shown:.5}, expected {expected:.5}");
     assert!(
         ((shown - expected) / expected).abs() < 6e-3,
@@ -99,6 +97,7 @@ fn a_furnace_of_glossy_walls_shows_the_lobes_albedo() {
 #[test]
 fn specular_facets_too_small_for_tiles_send_their_light_on_diffusely() {
     for roughness in [0.3f32, 0.0] {
+        // an ideal mirror (roughness 0) keeps everything
         let (e, a) = match roughness {
             0.0 => (1.0, 1.0),
             r => (ggx_albedo(0.999, r) as f64, ggx_mean_albedo(r) as f64),
@@ -131,18 +130,17 @@ fn sphere_furnace(kd: f32, specular: Option<f32>) -> f64 {
     let extra = format!("{part}\n[[camera]]\nname = \"inside\"\neye = [0.0, 0.0, 0.5]\ntarget = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 20.0\nsize = [32, 32]\n");
     write_scene(dir.path(), &ObjBuilder::default(), &materials, &extra);
     std::fs::write(dir.path().join("scene.obj"), inward_sphere(64)).unwrap();
-    let (frame, report) = render_with(
-        dir.path(),
-        &draft_params(),
-        ("inside", 32),
-        16,
-        Some(1),
-        None,
-    );
+    let (frame, report) = render_with(dir.path(), ("inside", 32), 16, Some(1), None);
     if specular.is_some() {
         assert_eq!(report.specular_faces_without_tiles, report.faces as u64);
         assert_eq!(report.non_diffuse_elements, 0);
     }
+    central_mean(&frame)
+}
+
+/// The green mean of a 32 x 32 furnace view's central 8 x 8 pixels, which look at the far wall
+/// within 3 degrees of its normal.
+fn central_mean(frame: &vlf::render::Frame) -> f64 {
     let mut sum = 0.0f64;
     for y in 12..20 {
         for x in 12..20 {
@@ -180,9 +178,9 @@ fn inward_sphere(segments: usize) -> String {
     obj
 }
 
-/// The glossy furnace (`a_furnace_of_glossy_walls_shows_the_lobes_albedo`) propagated with
-/// `params`: what its central pixels show, and the closed form's prediction.
-fn glossy_furnace(params: &vlf::propagate::PropagationParams, roughness: f32) -> (f64, f64) {
+/// The glossy furnace (`a_furnace_of_glossy_walls_shows_the_lobes_albedo`): what its central
+/// pixels show, and the closed form's prediction.
+fn glossy_furnace() -> (f64, f64) {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("wall", DVec3::ZERO, 1.0, true);
@@ -191,9 +189,9 @@ fn glossy_furnace(params: &vlf::propagate::PropagationParams, roughness: f32) ->
         kd: [0.3; 3],
         ke: [1.0; 3],
     }];
-    let extra = format!("[materials.wall]\nmirror = [0.5, 0.5, 0.5]\nroughness = {roughness:?}\n\n[[camera]]\nname = \"inside\"\neye = [0.0, 0.0, 0.5]\ntarget = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 20.0\nsize = [32, 32]\n");
-    write_scene(dir.path(), &obj, &materials, &extra);
-    let (frame, report) = render_with(dir.path(), params, ("inside", 32), 16, Some(1), None);
+    let extra = "[materials.wall]\nmirror = [0.5, 0.5, 0.5]\nroughness = 0.3\n\n[[camera]]\nname = \"inside\"\neye = [0.0, 0.0, 0.5]\ntarget = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\nfov_y_deg = 20.0\nsize = [32, 32]\n";
+    write_scene(dir.path(), &obj, &materials, extra);
+    let (frame, report) = render_with(dir.path(), ("inside", 32), 16, Some(1), None);
     // the cube's walls keep their tiles
     assert_eq!(report.specular_faces_without_tiles, 0);
     assert!(report.non_diffuse_elements > 0);
@@ -202,19 +200,8 @@ fn glossy_furnace(params: &vlf::propagate::PropagationParams, roughness: f32) ->
         "power balance residue {:+.3}% of the injected power",
         balance.residue_fraction * 100.0
     );
-    // the central 8 x 8 pixels look at the far wall within 3 degrees of its normal
-    let mut sum = 0.0f64;
-    for y in 12..20 {
-        for x in 12..20 {
-            sum += frame.pixels[(y * 32 + x) as usize][1] as f64;
-        }
-    }
-    let shown = sum / 64.0;
-    // an ideal mirror (roughness 0) keeps everything
-    let (e, a) = match roughness {
-        0.0 => (1.0, 1.0),
-        r => (ggx_albedo(0.999, r) as f64, ggx_mean_albedo(r) as f64),
-    };
+    let shown = central_mean(&frame);
+    let (e, a) = (ggx_albedo(0.999, 0.3) as f64, ggx_mean_albedo(0.3) as f64);
     let l = 1.0 / (1.0 - 0.3 - 0.5 * a);
     let expected = 1.0 + 0.3 * l + 0.5 * e * l;
     assert!(
