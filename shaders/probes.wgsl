@@ -56,12 +56,9 @@ fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
     let f = faces[s.face];
     let own_emission = select(vec3<f32>(0.0), emitted(f), probe_grid.shadow_samples > 0u && s.seen > 0.0);
     let sky_sampled = probe_grid.sky_shadow_samples > 0u && s.seen == 0.0;
-    var texel = atlas_radiance(f, s.point);
-    if carried_diffusely(f, material_of(f)) {
-        // a tile-less specular face's texels hold its specular light too: the reflection below
-        // shows it
-        texel = (texel - emitted(f)) * shown_diffuse_share(f, material_of(f)) + emitted(f);
-    }
+    // (a tile-less specular face's texels hold its specular light too: the reflection below
+    // shows it)
+    let texel = shown_texel_radiance(f, atlas_radiance(f, s.point));
     var radiance = max(texel - own_emission, vec3<f32>(0.0)) * s.seen + select(s.background, vec3<f32>(0.0), sky_sampled);
     let mirror = mirror_reflectance(material_of(f)) * s.seen;
     if max(mirror.x, max(mirror.y, mirror.z)) > 0.0 {

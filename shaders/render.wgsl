@@ -114,10 +114,8 @@ fn shading_normal(f: Face, s: Surface) -> vec3<f32> {
 
 // surface_radiance before the normal map.
 fn flat_radiance(f: Face, s: Surface, reflected: bool) -> vec3<f32> {
-    let m = material_of(f);
-    if reflected && carried_diffusely(f, m) {
-        let e = emitted(f);
-        return (surface_texel_radiance(f, s) - e) * shown_diffuse_share(f, m) + e;
+    if reflected {
+        return shown_texel_radiance(f, surface_texel_radiance(f, s));
     }
     return surface_texel_radiance(f, s);
 }

@@ -1,6 +1,7 @@
 //! The frame lock between the drawing loops and a cluster (`crate::cluster`): the state rank 0
-//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation, exposure)
-//! and what the headless and windowed loops call (`FrameLock`: share the state at the start of a
+//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation, exposure,
+//! the moving objects' time, and a study's state: condition, objects shown, their shadows and
+//! reflections, the latency test's flash, the script's stop) and what the headless and windowed loops call (`FrameLock`: share the state at the start of a
 //! frame, then a swap barrier just before present). It sits below both: the display's loops
 //! (`crate::display`) call the trait, the cluster's MPI side implements it, and neither names the
 //! other's module for it.
@@ -9,7 +10,7 @@ use crate::error::Result;
 use crate::tracking::{HeldPoses, Pose, WandPose};
 use glam::{Quat, Vec3};
 
-/// What every rank draws a frame from, as rank 0 broadcasts it (120 bytes).
+/// What every rank draws a frame from, as rank 0 broadcasts it (136 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameState {
@@ -21,17 +22,61 @@ pub struct FrameState {
     pub wand_position: [f32; 3],
     pub wand_rotation: [f32; 4],
     pub exposure: f32,
-    /// bit 0: the run ends (nothing to draw); bit 1: a wand is tracked; bit 2: a left hand is
+    /// bit 0: the run ends (nothing to draw); bit 1: a wand is tracked; bit 2: a left hand is;
+    /// then the study's switches (`StudyState`)
     pub flags: u32,
     pub left_hand_position: [f32; 3],
     pub left_hand_rotation: [f32; 4],
-    /// zero: keeps the state a whole number of its 8-byte frame number (no implicit padding)
-    pub padding: u32,
+    /// the study's condition in effect: its index in the display's `[[condition]]` list, or
+    /// `NO_CONDITION`
+    pub condition: u32,
+    /// the moving objects hidden, bit k for the display's `[[object]]` k (the first 64)
+    pub objects_hidden: u64,
+    /// the moving objects' animation time (keyframes, scripted paths), seconds: rank 0's clock
+    pub object_time_s: f64,
 }
 
 const QUIT: u32 = 1;
 const HAS_WAND: u32 = 2;
 const HAS_LEFT_HAND: u32 = 4;
+const NO_SHADOWS: u32 = 8;
+const NO_REFLECTIONS: u32 = 16;
+const FLASH_WHITE: u32 = 32;
+const FLASH_BLACK: u32 = 64;
+const STOP: u32 = 128;
+
+/// `FrameState::condition` where the display has no conditions.
+pub const NO_CONDITION: u32 = u32::MAX;
+
+/// What a study sets on every rank's frame (rank 0's session decides it, `crate::study`): the
+/// condition, the moving objects hidden, their shadows and reflections, the latency test's
+/// walls, and whether the script stopped the run with this frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StudyState {
+    /// index into the display's conditions
+    pub condition: Option<u32>,
+    /// bit k: the display's moving object k is hidden
+    pub objects_hidden: u64,
+    pub shadows: bool,
+    pub reflections: bool,
+    /// Some(true): walls full white; Some(false): black; None: the scene
+    pub flash: Option<bool>,
+    /// the script's `stop`: this frame is the last
+    pub stop: bool,
+}
+
+impl Default for StudyState {
+    fn default() -> StudyState {
+        StudyState {
+            condition: None,
+            objects_hidden: 0,
+            shadows: true,
+            reflections: true,
+            flash: None,
+            stop: false,
+        }
+    }
+}
 
 impl FrameState {
     pub fn new(frame: u64, pose: &Pose, held: HeldPoses, exposure: f32) -> FrameState {
@@ -49,7 +94,39 @@ impl FrameState {
             flags: flag(wand.is_some(), HAS_WAND) | flag(left_hand.is_some(), HAS_LEFT_HAND),
             left_hand_position: left_hand.map_or([0.0; 3], |h| h.position.into()),
             left_hand_rotation: left_hand.map_or([0.0, 0.0, 0.0, 1.0], |h| h.rotation.to_array()),
-            padding: 0,
+            condition: NO_CONDITION,
+            objects_hidden: 0,
+            object_time_s: 0.0,
+        }
+    }
+    /// This state with the moving objects' time and a study's state.
+    pub fn with_study(mut self, object_time_s: f64, study: StudyState) -> FrameState {
+        let flag = |on: bool, bit: u32| if on { bit } else { 0 };
+        self.object_time_s = object_time_s;
+        self.condition = study.condition.unwrap_or(NO_CONDITION);
+        self.objects_hidden = study.objects_hidden;
+        self.flags = (self.flags & (QUIT | HAS_WAND | HAS_LEFT_HAND))
+            | flag(!study.shadows, NO_SHADOWS)
+            | flag(!study.reflections, NO_REFLECTIONS)
+            | flag(study.flash == Some(true), FLASH_WHITE)
+            | flag(study.flash == Some(false), FLASH_BLACK)
+            | flag(study.stop, STOP);
+        self
+    }
+    /// The study's state rank 0 set.
+    pub fn study(&self) -> StudyState {
+        let on = |bit: u32| self.flags & bit != 0;
+        StudyState {
+            condition: (self.condition != NO_CONDITION).then_some(self.condition),
+            objects_hidden: self.objects_hidden,
+            shadows: !on(NO_SHADOWS),
+            reflections: !on(NO_REFLECTIONS),
+            flash: match (on(FLASH_WHITE), on(FLASH_BLACK)) {
+                (true, _) => Some(true),
+                (false, true) => Some(false),
+                _ => None,
+            },
+            stop: on(STOP),
         }
     }
     pub fn quit(frame: u64) -> FrameState {
@@ -93,7 +170,8 @@ impl FrameState {
             left_hand: self.left_hand(),
         }
     }
-    /// CRC-32 of everything but the frame number: equal poses, wands, left hands and exposure.
+    /// CRC-32 of everything but the frame number: equal poses, wands, left hands, exposure and
+    /// study state.
     pub fn pose_digest(&self) -> u32 {
         crc32fast::hash(&bytemuck::bytes_of(self)[8..])
     }

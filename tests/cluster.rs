@@ -7,6 +7,10 @@
 //! `--features mpi` (tools/test.sh passes it); without either the tests fail saying so, they
 //! never skip.
 
+mod common;
+
+#[cfg(feature = "mpi")]
+use common::{control_address, script_replies};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -638,7 +642,7 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
     use glam::{Quat, Vec3};
     use vlf::framelock::FrameState;
     use vlf::tracking::{HeldPoses, Pose, WandPose};
-    assert_eq!(std::mem::size_of::<FrameState>(), 120);
+    assert_eq!(std::mem::size_of::<FrameState>(), 136);
     let pose = Pose {
         head: Vec3::new(0.1, 1.7, -0.2),
         head_rotation: Quat::from_rotation_y(0.4),
@@ -683,4 +687,120 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
         FrameState::new(7, &pose, moved, 1.5).pose_digest()
     );
     assert!(through_bytes(FrameState::quit(9)).is_quit());
+}
+
+/// The mean radiance (r + g + b) of an EXR image.
+#[cfg(feature = "mpi")]
+fn mean_radiance(path: &Path) -> f64 {
+    let image = vlf::render::image_io::read_exr(path).unwrap();
+    let sum: f64 = (image.pixels.iter())
+        .map(|p| (p[0] + p[1] + p[2]) as f64)
+        .sum();
+    sum / image.pixels.len() as f64
+}
+
+/// A study on the cluster: rank 0 takes the shipped conditions example's commands
+/// (tools/study/conditions_example.py: state, gi-off, a refused name, state, stop) and every
+/// rank switches in the same frame and stops with it. Each rank logs its own views
+/// (`--log DIR`: DIR/rank<k>), gi-on before the switch's frame and gi-off from it on (rank 0's
+/// log with the switch as an event); every rank's last frame (gi-off) replays pixel-identical
+/// from that rank's log, and on the floor and the front wall the frame before the switch
+/// (gi-on) is brighter (measured on lavapipe: 0.75 and 0.79 of it with direct light only).
+#[cfg(feature = "mpi")]
+#[test]
+fn a_script_switches_every_ranks_condition_in_the_same_frame() {
+    let _turn = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = tempfile::tempdir().unwrap();
+    let config = write_config(dir.path(), 48);
+    let text = std::fs::read_to_string(&config).unwrap().replacen(
+        "name = \"three\"\n",
+        "name = \"three\"\ndefault_condition = \"gi-on\"\n",
+        1,
+    );
+    let conditions = "[[condition]]\nname = \"gi-off\"\nglobal_illumination = false\n\
+                      exposure = 1.5\n[[condition]]\nname = \"gi-on\"\n";
+    std::fs::write(&config, text + conditions).unwrap();
+    let (out, log, json) = (
+        dir.path().join("out"),
+        dir.path().join("log"),
+        dir.path().join("r.json"),
+    );
+    let mut args = vec!["--headless", "--exr", "--frames", "100000", "--out"];
+    args.push(out.to_str().unwrap());
+    args.extend([
+        "--log",
+        log.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    args.extend(["--control", "127.0.0.1:0"]);
+    args.extend(LIGHT);
+    let mut c = mpirun(&config, &cornell(), &args, &[]);
+    let mut child = c
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("mpirun starts");
+    let addr = control_address(&mut child);
+    let replies = script_replies("tools/study/conditions_example.py", &addr, &mut child);
+    assert_eq!(replies.len(), 5, "{replies:?}");
+    assert_eq!(replies[0]["condition"], "gi-on");
+    assert_eq!(replies[1]["ok"], true, "{replies:?}");
+    let switched = replies[1]["frame"].as_u64().unwrap();
+    assert_eq!(replies[3]["condition"], "gi-off");
+    let last = replies[4]["frame"].as_u64().unwrap();
+    // every rank drew the same frames with the same state (the digest covers the study's)
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(report["same_frames_and_poses"], true, "{report:#}");
+    for (rank, view) in [(0, "floor-mono"), (1, "front-mono"), (2, "left-mono")] {
+        let rank_log = log.join(format!("rank{rank}"));
+        let (meta, records) = vlf::study::SessionLog::read(&rank_log).unwrap();
+        assert_eq!(meta.views, [view], "rank {rank} logs its own view");
+        assert_eq!(
+            records.last().unwrap().frame,
+            last,
+            "rank {rank} stops with rank 0"
+        );
+        for r in &records {
+            let expect = if r.frame >= switched {
+                "gi-off"
+            } else {
+                "gi-on"
+            };
+            assert_eq!(r.condition, expect, "rank {rank}, frame {}", r.frame);
+        }
+        let at_switch = records.iter().find(|r| r.frame == switched).unwrap();
+        assert_eq!(
+            at_switch.events.contains("condition gi-off"),
+            rank == 0,
+            "the script's commands are rank 0's events"
+        );
+        let again = dir.path().join(format!("again{rank}"));
+        let status = Command::new(env!("CARGO_BIN_EXE_vlf"))
+            .args(["replay", rank_log.to_str().unwrap(), "--exr", "--out"])
+            .arg(&again)
+            .args(["--frames", &format!("{}..={last}", switched - 1)])
+            .stderr(Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success(), "vlf replay of rank {rank}'s log");
+        let live = out.join(format!("rank{rank}/{view}.exr"));
+        let replayed = again.join(format!("frame-{last:06}/{view}.exr"));
+        let (a, b) = (
+            vlf::render::image_io::read_exr(&live).unwrap(),
+            vlf::render::image_io::read_exr(&replayed).unwrap(),
+        );
+        assert!(
+            a.pixels == b.pixels,
+            "rank {rank}: the replay differs from what it drew"
+        );
+        let before = again.join(format!("frame-{:06}/{view}.exr", switched - 1));
+        let (on, off) = (mean_radiance(&before), mean_radiance(&replayed));
+        eprintln!("rank {rank} ({view}): mean radiance {on:.4} with global illumination, {off:.4} with direct light only");
+        // the left wall looks away from the box (only the wand ray shows there)
+        if rank != 2 {
+            assert!(off < 0.85 * on, "rank {rank}: gi-on {on}, gi-off {off}");
+        }
+    }
 }

@@ -67,11 +67,28 @@ fn every_shipped_objects_file_parses_and_loads() {
         .chain(std::fs::read_dir(config("objects")).unwrap());
     for entry in files {
         let path = entry.unwrap().path();
+        // (the headset's conditions: `every_shipped_conditions_file_parses`)
+        if path.file_name().is_some_and(|n| n == "conditions.toml") {
+            continue;
+        }
         let file = vlf::xr::body::ObjectsFile::load(&path).unwrap_or_else(|e| panic!("{e}"));
         vlf::dynamic::Objects::load(&file.objects, &path).unwrap_or_else(|e| panic!("{e}"));
         n += 1;
     }
     assert!(n >= 3);
+}
+
+/// The headset's shipped conditions (`vlf xr --conditions`) parse and check against the shipped
+/// body's objects.
+#[test]
+fn every_shipped_conditions_file_parses() {
+    let body = vlf::xr::body::ObjectsFile::load(&config("headset/body.toml")).unwrap();
+    let names: Vec<String> = body.objects.iter().map(|o| o.name.clone()).collect();
+    let path = config("headset/conditions.toml");
+    let file = vlf::display::conditions::ConditionsFile::load(&path, &names)
+        .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(file.default_condition.as_deref(), Some("gi-on"));
+    assert!(file.conditions.len() >= 3);
 }
 
 /// The display TOML's `first_hits`: "rays" (the default) or "raster"; any other value is

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{draft_params, gpu, repo_path};
+use common::{control_address, draft_params, gpu, repo_path, script_replies};
 use std::process::Command;
 use vlf::display::DisplayConfig;
 use vlf::progress::Silent;
@@ -334,31 +334,6 @@ fn an_experiment_script_controls_a_run_and_every_command_is_acknowledged() {
     assert!(m["pose_to_photon_ms"]["p99"].as_f64().unwrap() >= p50("pose_to_photon_ms"));
 }
 
-/// The shipped Python example `script` run against the `vlf cave --control` child listening on
-/// `addr`, which its `stop` ends cleanly: the replies it printed, in order.
-fn script_replies(
-    script: &str,
-    addr: &str,
-    child: &mut std::process::Child,
-) -> Vec<serde_json::Value> {
-    let out = Command::new("python3")
-        .arg(repo_path(script))
-        .arg(addr)
-        .output()
-        .unwrap_or_else(|e| {
-            panic!("python3 runs {script} ({e}); install Python 3 (tools/setup.sh test does)")
-        });
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
-    (String::from_utf8(out.stdout).unwrap().lines())
-        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
-        .collect()
-}
-
 /// A one-wall display of 64x36 pixels at 10 Hz walking a scripted path with a wand, in `dir`,
 /// and the liblsl configuration that keeps LSL's traffic on this machine (`lsl_api.cfg`).
 fn small_lsl_display(dir: &std::path::Path) -> (std::path::PathBuf, std::path::PathBuf) {
@@ -406,22 +381,6 @@ fn small_lsl_display(dir: &std::path::Path) -> (std::path::PathBuf, std::path::P
     )
     .unwrap();
     (config, cfg)
-}
-
-/// The address a `vlf cave --control` child says it listens on (its stderr, drained after).
-fn control_address(child: &mut std::process::Child) -> String {
-    use std::io::BufRead;
-    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
-    let mut line = String::new();
-    while stderr.read_line(&mut line).unwrap() > 0 {
-        if let Some(a) = line.strip_prefix("control: listening on ") {
-            let addr = a.trim().to_string();
-            std::thread::spawn(move || for _ in stderr.lines() {});
-            return addr;
-        }
-        line.clear();
-    }
-    panic!("vlf cave never said where it listens");
 }
 
 /// `vlf cave --headless --lsl`: the shipped pylsl example (tools/study/lsl_example.py) reads

@@ -1189,6 +1189,52 @@ fn a_bad_key_in_the_objects_file_is_named_before_any_runtime_starts() {
     }
 }
 
+/// `vlf xr` on the test runtime (`name`, `args`, `envs` as `session_command`) under a script:
+/// each of `commands` sent once the one before was acknowledged (the last must end the
+/// session); the replies, and the session once it ended.
+fn scripted_session(
+    name: &str,
+    (args, envs): (&[&str], &[(&str, &str)]),
+    commands: &[&str],
+) -> (Vec<serde_json::Value>, Session) {
+    use std::io::{BufRead, Write};
+    let (mut cmd, out_dir) = session_command(name, &cornell(), args, envs);
+    let mut child = (cmd.stdout(std::process::Stdio::piped()))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let (mut addr, mut said, mut line) = (None, String::new(), String::new());
+    while addr.is_none() && stderr.read_line(&mut line).unwrap() > 0 {
+        addr = (line.strip_prefix("control: listening on ")).map(|a| a.trim().to_string());
+        said.push_str(&line);
+        line.clear();
+    }
+    let addr = addr.unwrap_or_else(|| panic!("vlf xr never said where it listens:\n{said}"));
+    let rest = std::thread::spawn(move || {
+        let mut text = String::new();
+        let _ = std::io::Read::read_to_string(&mut stderr, &mut text);
+        text
+    });
+    let mut client = std::net::TcpStream::connect(&addr).unwrap();
+    let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
+    let mut got: Vec<serde_json::Value> = Vec::new();
+    for command in commands {
+        writeln!(client, "{command}").unwrap();
+        let mut reply = String::new();
+        replies.read_line(&mut reply).unwrap();
+        got.push(serde_json::from_str(&reply).unwrap());
+    }
+    let status = child.wait().unwrap();
+    let mut stdout = Vec::new();
+    std::io::Read::read_to_end(&mut child.stdout.take().unwrap(), &mut stdout).unwrap();
+    let s = session_ended(
+        &out_dir,
+        (status.success(), &stdout, said + &rest.join().unwrap()),
+    );
+    (got, s)
+}
+
 /// `vlf xr`'s arguments for a session an experiment script ends (`stop`) over `--control` on a
 /// free port, logged into `log`, with `extra`.
 fn scripted_args<'a, const N: usize>(log: &'a str, extra: [&'a str; N]) -> Vec<&'a str> {
@@ -1207,7 +1253,6 @@ fn scripted_args<'a, const N: usize>(log: &'a str, extra: [&'a str; N]) -> Vec<&
 /// Parquet equals the CSV; `vlf replay` of a headset's log is refused, saying why.
 #[test]
 fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
-    use std::io::{BufRead, Write};
     let (left, right) = (grip_env(LEFT_GRIP), grip_env(RIGHT_GRIP));
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-study-log");
     let _ = std::fs::remove_dir_all(&dir);
@@ -1219,27 +1264,6 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
         ("VLF_TEST_XR_LEFT_GRIP", left.as_str()),
         ("VLF_TEST_XR_RIGHT_GRIP", right.as_str()),
     ];
-    let (mut cmd, out_dir) = session_command("study", &cornell(), &args, &envs);
-    let mut child = (cmd.stdout(std::process::Stdio::piped()))
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
-    let (mut addr, mut said) = (None, String::new());
-    let mut line = String::new();
-    while addr.is_none() && stderr.read_line(&mut line).unwrap() > 0 {
-        addr = (line.strip_prefix("control: listening on ")).map(|a| a.trim().to_string());
-        said.push_str(&line);
-        line.clear();
-    }
-    let addr = addr.unwrap_or_else(|| panic!("vlf xr never said where it listens:\n{said}"));
-    let rest = std::thread::spawn(move || {
-        let mut text = String::new();
-        let _ = std::io::Read::read_to_string(&mut stderr, &mut text);
-        text
-    });
-    let mut client = std::net::TcpStream::connect(&addr).unwrap();
-    let mut replies = std::io::BufReader::new(client.try_clone().unwrap());
     let commands = [
         r#"{"cmd": "event", "text": "trial 1 begins"}"#,
         r#"{"cmd": "hide", "object": "body"}"#,
@@ -1249,20 +1273,7 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
         r#"{"cmd": "show", "object": "body"}"#,
         r#"{"cmd": "stop"}"#,
     ];
-    let mut got: Vec<serde_json::Value> = Vec::new();
-    for command in commands {
-        writeln!(client, "{command}").unwrap();
-        let mut reply = String::new();
-        replies.read_line(&mut reply).unwrap();
-        got.push(serde_json::from_str(&reply).unwrap());
-    }
-    let status = child.wait().unwrap();
-    let mut stdout = Vec::new();
-    std::io::Read::read_to_end(&mut child.stdout.take().unwrap(), &mut stdout).unwrap();
-    let s = session_ended(
-        &out_dir,
-        (status.success(), &stdout, said + &rest.join().unwrap()),
-    );
+    let (got, s) = scripted_session("study", (&args, &envs), &commands);
     assert!(s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
     assert_eq!(s.runtime.get("violation").map(String::as_str), Some("none"));
     // acknowledged with their frames, in order; flash and condition refused with the reason
@@ -1474,5 +1485,122 @@ fn a_headset_sessions_lsl_outlets_carry_its_logged_frames() {
         "headset LSL: {} pose samples, {} log rows",
         poses.len(),
         records.len()
+    );
+}
+
+/// A headset study's conditions (`--conditions`, as a display config's `[[condition]]`
+/// tables): direct light only in effect from the first frame shows a darker eye than the same
+/// still session without conditions; and a mistake in the file is named, with the condition and
+/// the key, before any runtime starts.
+#[test]
+fn a_conditions_file_sets_what_the_headset_draws_and_its_mistakes_are_named() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-conditions-files");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("conditions.toml");
+    std::fs::write(
+        &file,
+        "default_condition = \"gi-off\"\n[[condition]]\nname = \"gi-on\"\n\
+         [[condition]]\nname = \"gi-off\"\nglobal_illumination = false\n",
+    )
+    .unwrap();
+    let plain = still_session("conditions-plain", &[], &[]);
+    let args = ["--conditions", file.to_str().unwrap()];
+    let off = still_session("conditions-gi-off", &args, &[]);
+    assert!(off.stderr.contains("(direct light only)"), "{}", off.stderr);
+    let (on_mean, _) = brightness(plain.screenshot.as_ref().unwrap());
+    let (off_mean, _) = brightness(off.screenshot.as_ref().unwrap());
+    eprintln!("left eye's mean display value: {on_mean:.2} with global illumination, {off_mean:.2} with direct light only");
+    assert!(
+        off_mean < 0.85 * on_mean,
+        "gi-on {on_mean}, gi-off {off_mean}"
+    );
+
+    for (bad, needle) in [
+        ("[[condition]]\nname = \"a\"\nexposur = 2.0\n", "exposur"),
+        (
+            "default_condition = \"b\"\n[[condition]]\nname = \"a\"\n",
+            "\"b\"",
+        ),
+        (
+            "[[condition]]\nname = \"a\"\nobjects_visible = [\"body\"]\n",
+            "body",
+        ),
+    ] {
+        std::fs::write(&file, bad).unwrap();
+        let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
+            .args(["xr", "--scene"])
+            .arg(cornell())
+            .arg("--conditions")
+            .arg(&file)
+            .env("VLF_OPENXR_LOADER", "/nonexistent/libopenxr_loader.so.1")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        println!("{err}");
+        assert!(!out.status.success() && !err.contains("panicked"), "{err}");
+        assert!(
+            err.contains("conditions.toml") && err.contains(needle),
+            "{needle} not named: {err}"
+        );
+        assert!(
+            !err.contains("OpenXR loader"),
+            "the runtime was tried first: {err}"
+        );
+    }
+}
+
+/// A script switches a headset session's condition over `--control` (the CAVE's `condition`
+/// command): acknowledged with its frame, `state` names it, and the log's `condition` column is
+/// the default before that frame and the new one from it on, the switch an event there.
+#[test]
+fn a_script_switches_a_headset_sessions_condition() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-conditions-switch-files");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("conditions.toml");
+    std::fs::write(
+        &file,
+        "[[condition]]\nname = \"gi-on\"\n[[condition]]\nname = \"gi-off\"\n\
+         global_illumination = false\nexposure = 1.5\n",
+    )
+    .unwrap();
+    let log = dir.join("log");
+    let args = scripted_args(
+        log.to_str().unwrap(),
+        ["--conditions", file.to_str().unwrap()],
+    );
+    let envs = [("VLF_TEST_XR_STILL_HEAD", "1")];
+    let commands = [
+        r#"{"cmd": "state"}"#,
+        r#"{"cmd": "condition", "name": "gi-off"}"#,
+        r#"{"cmd": "condition", "name": "sepia"}"#,
+        r#"{"cmd": "state"}"#,
+        r#"{"cmd": "stop"}"#,
+    ];
+    let (got, s) = scripted_session("conditions-switch", (&args, &envs), &commands);
+    assert!(s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    let ok: Vec<bool> = got.iter().map(|r| r["ok"] == true).collect();
+    assert_eq!(ok, [true, true, false, true, true], "{got:?}");
+    assert_eq!(got[0]["condition"], "gi-on", "{got:?}");
+    assert!(
+        got[2]["error"].as_str().unwrap().contains("gi-off"),
+        "{got:?}"
+    );
+    assert_eq!(got[3]["condition"], "gi-off", "{got:?}");
+    let switched = got[1]["frame"].as_u64().unwrap();
+    let (_, records) = vlf::study::SessionLog::read(&log).unwrap();
+    assert!(records.iter().any(|r| r.frame < switched), "{got:?}");
+    for r in &records {
+        let expect = if r.frame >= switched {
+            "gi-off"
+        } else {
+            "gi-on"
+        };
+        assert_eq!(r.condition, expect, "frame {}", r.frame);
+    }
+    let at_switch = records.iter().find(|r| r.frame == switched).unwrap();
+    assert!(
+        at_switch.events.contains("condition gi-off"),
+        "{at_switch:?}"
     );
 }

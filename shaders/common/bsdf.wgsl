@@ -91,6 +91,18 @@ fn emitted(f: Face) -> vec3<f32> {
     return select(vec3<f32>(0.0), material_of(f).emission, (f.flags & FACE_EMITTER) != 0u);
 }
 
+// What a ray that also traces face f's reflection takes of its texel radiance `texel`: the
+// emission and the diffuse part's share (shown_diffuse_share) on a tile-less specular face
+// (carried_diffusely), whose texels also hold its specular light; the texel on any other face.
+fn shown_texel_radiance(f: Face, texel: vec3<f32>) -> vec3<f32> {
+    let m = material_of(f);
+    if !carried_diffusely(f, m) {
+        return texel;
+    }
+    let e = emitted(f);
+    return (texel - e) * shown_diffuse_share(f, m) + e;
+}
+
 // `ray` reflected about the plane of normal n: the ideal mirror's one reflection tap.
 fn mirror_direction(ray: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     return ray - 2.0 * dot(ray, n) * n;

@@ -86,12 +86,11 @@ pub fn run(a: CaveArgs) -> Result<()> {
                 out: out.to_path_buf(),
                 exr,
                 json,
+                log,
+                control,
+                lsl,
             };
-            let mut make = |ctx: &std::sync::Arc<GpuContext>| {
-                light_field_for(ctx, scene, None, params)
-                    .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
-            };
-            return Ok(vlf::cluster::run_cluster(&run, &mut make)?);
+            return run_cluster(&run, params);
         }
     }
     let display = vlf::display::DisplayConfig::load(config)?;
@@ -105,9 +104,6 @@ pub fn run(a: CaveArgs) -> Result<()> {
     };
     let conditions = Conditions::prepare(&display, config, main, &Bars::default())?;
     estimate_cave_time(&ctx, &display, frames.or((headless).then_some(60)));
-    if (log.is_some() || control.is_some() || lsl) && vlf::cluster::launched_size().is_some() {
-        bail!("--log, --control and --lsl: for one process for now, not under mpirun");
-    }
     let lsl = match lsl {
         true => Some(vlf::study::LslOutlets::open(
             &display.name,
@@ -117,7 +113,13 @@ pub fn run(a: CaveArgs) -> Result<()> {
         false => None,
     };
     let mut session = match &log {
-        Some(dir) => Some(session_log(dir, (config, scene), &lf, &display, &ctx)?),
+        Some(dir) => Some(vlf::display::session_log(
+            dir,
+            (config, scene),
+            &lf,
+            &display,
+            &ctx.summary.name,
+        )?),
         None => None,
     };
     let control = control.as_deref().map(control_server).transpose()?;
@@ -173,40 +175,21 @@ pub fn run(a: CaveArgs) -> Result<()> {
     Ok(())
 }
 
+/// This process as one rank of a CAVE cluster (`vlf::cluster`), its light field made with
+/// `params` where it makes one.
+fn run_cluster(run: &vlf::cluster::CaveRun, params: &ParamArgs) -> Result<()> {
+    let mut make = |ctx: &std::sync::Arc<GpuContext>| {
+        light_field_for(ctx, &run.scene, None, params)
+            .map_err(|e| vlf::VlfError::Display(format!("{e:#}")))
+    };
+    Ok(vlf::cluster::run_cluster(run, &mut make)?)
+}
+
 /// The experiment script's control server on `addr`, said on stderr where it listens.
 fn control_server(addr: &str) -> Result<vlf::study::ControlServer> {
     let server = vlf::study::ControlServer::bind(addr)?;
     eprintln!("control: listening on {}", server.addr);
     Ok(server)
-}
-
-/// A new session log in `dir` for this run (`vlf::study`).
-fn session_log(
-    dir: &std::path::Path,
-    (config, scene): (&std::path::Path, &std::path::Path),
-    lf: &vlf::lightfield::LightField,
-    display: &vlf::display::DisplayConfig,
-    ctx: &GpuContext,
-) -> Result<vlf::study::SessionLog> {
-    let absolute =
-        |p: &std::path::Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
-    let views = vlf::display::frame::wall_views(display);
-    let meta = vlf::study::SessionMeta {
-        format: vlf::study::log::LOG_FORMAT,
-        vlf_version: env!("CARGO_PKG_VERSION").into(),
-        display_config: absolute(config),
-        light_field: absolute(scene),
-        propagation: (!vlf::lightfield::file::is_vlf_path(scene)).then(|| lf.meta.params.clone()),
-        scene_hash: lf.meta.scene_hash.clone(),
-        adapter: ctx.summary.name.clone(),
-        started_unix_s: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64()),
-        views: (views.iter()).map(|v| v.name(display)).collect(),
-        columns: Vec::new(),
-        headset: None,
-    };
-    Ok(vlf::study::SessionLog::create(dir, meta)?)
 }
 
 /// Seconds per eye ray on lavapipe with 2 CPU cores (a view's ray cast and resolve against the

@@ -56,9 +56,14 @@ pub struct XrArgs {
     objects: Option<PathBuf>,
     /// Listen for an experiment script's commands (JSON lines over TCP) on host:port, e.g.
     /// 127.0.0.1:7400 (port 0: any free one, said on stderr); as `vlf cave --control`, less the
-    /// latency test's flash and conditions (docs/guide/studies.md)
+    /// latency test's flash (docs/guide/studies.md)
     #[arg(long)]
     control: Option<String>,
+    /// A study's named conditions, switched by the script's `condition` command: a TOML with
+    /// `default_condition` and [[condition]] tables as a display config has them (e.g.
+    /// config/headset/conditions.toml); every light field they name is made before the first frame
+    #[arg(long)]
+    conditions: Option<PathBuf>,
     /// Log every frame into this new folder (session.json, frames.csv and frames.parquet/: the
     /// head between the eyes, the controllers' grips, the predicted display time)
     #[arg(long)]
@@ -90,6 +95,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         swapchains,
         objects,
         control,
+        conditions,
         log,
         lsl,
         json,
@@ -111,6 +117,7 @@ pub fn run(a: XrArgs) -> Result<()> {
             control,
             log: log.map(|dir| (dir, scene.clone())),
             lsl,
+            conditions: conditions.map(|file| (file, scene.clone())),
         },
     };
     let scale = options.resolution_scale;

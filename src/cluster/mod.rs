@@ -111,15 +111,7 @@ impl ClusterConfig {
 /// The display as one rank draws it: only its views; on ranks other than 0 a live tracker is
 /// replaced by a static head (poses come from rank 0) that may carry a wand like the source.
 pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> DisplayConfig {
-    let mut local = config.clone();
-    local.walls = views
-        .iter()
-        .map(|&(wall, eye)| {
-            let mut w = config.walls[wall].clone();
-            w.only_eye = eye;
-            w
-        })
-        .collect();
+    let mut local = config.only_views(views);
     if !leader && config.tracking.live().is_some() {
         local.tracking = TrackingConfig::Static {
             head: [0.0, 1.7, 0.0],
@@ -151,6 +143,12 @@ pub struct CaveRun {
     pub out: PathBuf,
     pub exr: bool,
     pub json: Option<PathBuf>,
+    /// `--log DIR`: every rank logs its own views into DIR/rank<k> (rank 0's with the events)
+    pub log: Option<PathBuf>,
+    /// `--control ADDR`: rank 0 takes the experiment script's commands; every rank follows
+    pub control: Option<String>,
+    /// `--lsl`: rank 0's LSL outlets
+    pub lsl: bool,
 }
 
 /// The number of ranks when launched by mpirun (Open MPI, MPICH/PMI or PMIx), else None.

@@ -13,6 +13,7 @@
 //! rank 0's partial report before exiting.
 
 use super::*;
+use crate::display::conditions::{Conditions, MainField};
 use crate::display::{headless, window, DisplayConfig};
 use crate::error::{Result, VlfError};
 use crate::framelock::{FrameLock, FrameState};
@@ -436,6 +437,67 @@ pub fn run(run: &CaveRun, make: &mut MakeLightField) -> Result<()> {
     }
 }
 
+/// A study's parts on one rank (`vlf cave --log/--control/--lsl` under mpirun): every rank
+/// logs its own views into `<log>/rank<k>` (rank 0's log has the events and commands); rank 0
+/// alone takes the script's commands and sends on LSL, and its session's state reaches every
+/// rank with the frame state (`crate::framelock::StudyState`).
+struct StudyParts {
+    log: Option<crate::study::SessionLog>,
+    control: Option<crate::study::ControlServer>,
+    lsl: Option<crate::study::LslOutlets>,
+}
+
+impl StudyParts {
+    fn open(
+        run: &CaveRun,
+        rank: i32,
+        local: &DisplayConfig,
+        lf: &crate::lightfield::LightField,
+        ctx: &GpuContext,
+    ) -> Result<StudyParts> {
+        let objects = local.object_names().len();
+        let studied = run.log.is_some() || run.control.is_some() || !local.conditions.is_empty();
+        if studied && objects > crate::display::frame::study::SHARED_OBJECTS {
+            return Err(cluster_err(format!(
+                "the display has {objects} [[object]] tables: a cluster shares which are shown for the first {} only",
+                crate::display::frame::study::SHARED_OBJECTS
+            )));
+        }
+        let log = match &run.log {
+            Some(dir) => {
+                let mine = dir.join(format!("rank{rank}"));
+                let scene = (run.config.as_path(), run.scene.as_path());
+                Some(crate::display::session_log(
+                    &mine,
+                    scene,
+                    lf,
+                    local,
+                    &ctx.summary.name,
+                )?)
+            }
+            None => None,
+        };
+        let leader = rank == 0;
+        let control = match (&run.control, leader) {
+            (Some(addr), true) => {
+                let server = crate::study::ControlServer::bind(addr)?;
+                eprintln!("control: listening on {}", server.addr);
+                Some(server)
+            }
+            _ => None,
+        };
+        let lsl = match run.lsl && leader {
+            true => Some(crate::study::LslOutlets::open(
+                &local.name,
+                local.refresh_hz,
+                run.headless,
+            )?),
+            false => None,
+        };
+        Ok(StudyParts { log, control, lsl })
+    }
+}
+
 /// Start-up, then this rank's frames; its views' timings.
 fn draw(
     link: &mut Link,
@@ -487,6 +549,14 @@ fn draw(
         });
     }
     let (lf, resident) = light_field(link, &ctx, make, plan.receive_light_field)?;
+    // every condition's light field made on every rank before the first frame (`Conditions`)
+    let main = MainField {
+        source: &run.scene,
+        lf: &lf,
+        resident: &resident,
+    };
+    let conditions = Conditions::prepare(&local, &run.config, main, &crate::progress::Silent)?;
+    let mut study = StudyParts::open(run, link.rank, &local, &lf, &ctx)?;
     if run.headless {
         let out = run.out.join(format!("rank{}", link.rank));
         let frames = run.frames.unwrap_or(60);
@@ -499,10 +569,10 @@ fn draw(
                 frames,
                 out: &out,
                 exr: run.exr,
-                log: None,
-                control: None,
-                lsl: None,
-                conditions: None,
+                log: study.log.as_mut(),
+                control: study.control.as_ref(),
+                lsl: study.lsl.take(),
+                conditions: conditions.as_ref(),
                 read_back_every_frame: false,
             },
             Some(link),
@@ -515,9 +585,11 @@ fn draw(
             frames: run.frames,
             hold: run.hold,
             exposure: run.exposure,
-            conditions: None,
+            conditions: conditions.as_ref(),
         };
-        let session = crate::study::Session::new(None, None);
+        let session = crate::study::Session::new(study.log.as_mut(), study.control.as_ref())
+            .with_display(local.refresh_hz, study.lsl.take())
+            .with_objects(local.object_names());
         let report = window::run_locked(
             &lf,
             &resident,

@@ -83,6 +83,46 @@ fn default_startup_timeout() -> f64 {
 /// One view a rank draws: a wall and, when split, one of its eyes.
 pub type ViewRef = (usize, Option<&'static str>);
 
+impl DisplayConfig {
+    /// The display as one rank draws it: only `views`' walls (each with its one eye where the
+    /// view names one), in `views`' order.
+    pub fn only_views(&self, views: &[ViewRef]) -> DisplayConfig {
+        let mut local = self.clone();
+        local.walls = (views.iter())
+            .map(|&(wall, eye)| {
+                let mut w = self.walls[wall].clone();
+                w.only_eye = eye;
+                w
+            })
+            .collect();
+        local
+    }
+
+    /// The views named `names` (`<wall>-<eye>`, as `wall_views` names them), as `only_views`
+    /// takes them: a wall whose every eye is named is drawn whole. None where a name is not
+    /// one of this display's views.
+    pub fn views_named(&self, names: &[String]) -> Option<Vec<ViewRef>> {
+        let all = crate::display::frame::wall_views(self);
+        if !(names.iter()).all(|n| all.iter().any(|v| &v.name(self) == n)) {
+            return None;
+        }
+        let mut views: Vec<ViewRef> = Vec::new();
+        for (wall, w) in self.walls.iter().enumerate() {
+            let eyes = w.eyes();
+            let named: Vec<&'static str> = (eyes.iter())
+                .map(|(eye, _)| *eye)
+                .filter(|eye| names.contains(&format!("{}-{eye}", w.name)))
+                .collect();
+            match named.len() {
+                0 => {}
+                n if n == eyes.len() => views.push((wall, None)),
+                _ => views.extend(named.into_iter().map(|eye| (wall, Some(eye)))),
+            }
+        }
+        Some(views)
+    }
+}
+
 impl ClusterConfig {
     /// Checks naming the key (`cluster.…`), against the display's walls.
     pub fn validate(&self, config: &DisplayConfig) -> std::result::Result<(), String> {

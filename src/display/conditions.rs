@@ -63,6 +63,63 @@ fn one() -> f32 {
     1.0
 }
 
+/// The conditions as a study session takes them (`crate::study::Session::with_conditions`):
+/// names with their start poses (the room's place and yaw), the initial one first (`default`,
+/// else the list's first).
+pub fn study_conditions(
+    list: &[ConditionConfig],
+    default: Option<&str>,
+) -> Vec<(String, Option<(glam::Vec3, f32)>)> {
+    let mut out: Vec<(String, Option<(glam::Vec3, f32)>)> = (list.iter())
+        .map(|c| {
+            let start = (c.start_pose.as_ref()).map(|p| (glam::Vec3::from(p.position), p.yaw_deg));
+            (c.name.clone(), start)
+        })
+        .collect();
+    let initial = default
+        .and_then(|d| out.iter().position(|c| c.0 == d))
+        .unwrap_or(0);
+    if !out.is_empty() {
+        let first = out.remove(initial);
+        out.insert(0, first);
+    }
+    out
+}
+
+/// A study's conditions in a file of their own, for the display without a display config (the
+/// headset: `vlf xr --conditions FILE.toml`): `default_condition` and `[[condition]]` tables as
+/// a display config has them, nothing else.
+#[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ConditionsFile {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub default_condition: Option<String>,
+    #[serde(default, rename = "condition")]
+    pub conditions: Vec<ConditionConfig>,
+}
+
+impl ConditionsFile {
+    /// Read and check a file of conditions against the moving objects' names `objects`; an
+    /// error names the file, the condition and the key.
+    pub fn load(path: &Path, objects: &[String]) -> Result<ConditionsFile> {
+        let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
+        let err = |message: String| VlfError::Config {
+            path: path.to_path_buf(),
+            message,
+        };
+        let file: ConditionsFile = toml::from_str(&text).map_err(|e| {
+            err(unknown_key(&text).unwrap_or_else(|| e.to_string().trim_end().to_string()))
+        })?;
+        if file.conditions.is_empty() {
+            return Err(err(
+                "no [[condition]] table: give at least one (name, and what it changes)".into(),
+            ));
+        }
+        check(&file.conditions, file.default_condition.as_deref(), objects).map_err(err)?;
+        Ok(file)
+    }
+}
+
 /// The keys a `[[condition]]` table takes.
 pub const KEYS: [&str; 8] = [
     "name",
@@ -202,7 +259,19 @@ impl Conditions {
         main: MainField<'_>,
         progress: &dyn crate::progress::Progress,
     ) -> Result<Option<Conditions>> {
-        if config.conditions.is_empty() {
+        let list = (&config.conditions[..], config.default_condition.as_deref());
+        Conditions::prepare_list(list, config_path, main, progress)
+    }
+
+    /// `prepare` for the conditions `list` and the initial one's name, from a file at
+    /// `config_path` (a display config, or `vlf xr --conditions`' `ConditionsFile`).
+    pub fn prepare_list(
+        (list, default): (&[ConditionConfig], Option<&str>),
+        config_path: &Path,
+        main: MainField<'_>,
+        progress: &dyn crate::progress::Progress,
+    ) -> Result<Option<Conditions>> {
+        if list.is_empty() {
             return Ok(None);
         }
         let base = config_path.parent().unwrap_or(Path::new("."));
@@ -210,7 +279,7 @@ impl Conditions {
         let main_source = absolute(main.source);
         let mut fields: Vec<ConditionField> = Vec::new();
         let mut field_of = Vec::new();
-        for c in &config.conditions {
+        for c in list {
             let source = match &c.light_field {
                 Some(p) => absolute(&base.join(p)),
                 None => main_source.clone(),
@@ -235,8 +304,8 @@ impl Conditions {
         let mib = |r: &ResidentLightField| r.ledger.total() as f64 / (1024.0 * 1024.0);
         progress.note(&format!(
             "conditions: {} ({}); light fields on the GPU: {}: {:.1} MiB resident",
-            config.conditions.len(),
-            (config.conditions.iter())
+            list.len(),
+            (list.iter())
                 .map(|c| c.name.as_str())
                 .collect::<Vec<_>>()
                 .join(", "),
@@ -246,11 +315,11 @@ impl Conditions {
         for f in &fields {
             progress.note(&format!("conditions: light field {}", f.describe()));
         }
-        let initial = (config.default_condition.as_ref())
-            .and_then(|d| config.conditions.iter().position(|c| &c.name == d))
+        let initial = default
+            .and_then(|d| list.iter().position(|c| c.name == d))
             .unwrap_or(0);
         Ok(Some(Conditions {
-            list: config.conditions.clone(),
+            list: list.to_vec(),
             fields,
             field_of,
             initial,

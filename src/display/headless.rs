@@ -14,7 +14,7 @@ pub use super::frame::{ViewTiming, CONSTANT_FRAME_TIME};
 use super::post::Draw;
 use super::DisplayConfig;
 use crate::error::{Result, VlfError};
-use crate::framelock::{FrameLock, FrameState};
+use crate::framelock::{FrameLock, FrameState, StudyState};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, PacerReport};
 use crate::render::image_io::{display_image, write_image};
@@ -193,15 +193,26 @@ pub(super) fn studied(
     }
 }
 
-/// The pose of frame `f` of `total` (spread evenly over a scripted walk), shared through the
-/// cluster's lock when there is one; the raw poses a live tracker sent (this rank's); and when
-/// a live pose arrived.
+/// What frame `f` of `total` is drawn from: the pose (spread evenly over a scripted walk; where
+/// the script placed the room), the held poses, the raw poses a live tracker sent (this rank's),
+/// when a live pose arrived and when the pose was sampled, and the study's state. In a cluster
+/// rank 0's are shared through the lock, its objects' time and study state with them, and every
+/// other rank sets them on its frame.
+struct FramePose {
+    pose: Pose,
+    held: HeldPoses,
+    raw: RawPoses,
+    fresh: Option<std::time::Instant>,
+    sampled: std::time::Instant,
+    study: StudyState,
+}
+
 fn frame_pose<'l>(
-    poses: &PoseSource,
-    config: &DisplayConfig,
+    (poses, config): (&PoseSource, &DisplayConfig),
     (f, total): (u32, u32),
+    (session, frame): (&mut Session<'_>, &mut FrameOfViews<'_>),
     lock: Option<&mut (dyn FrameLock + 'l)>,
-) -> Result<(Pose, HeldPoses, RawPoses, Option<std::time::Instant>)> {
+) -> Result<FramePose> {
     let duration = match poses {
         PoseSource::Scripted(s) => s.duration(),
         PoseSource::Static(_) | PoseSource::Live(_) => 0.0,
@@ -212,12 +223,35 @@ fn frame_pose<'l>(
         0.0
     };
     let (pose, held, raw, fresh) = poses.frame_at(&config.tracking, t);
-    Ok(match lock {
-        Some(l) => {
-            let s = l.share(FrameState::new(f as u64, &pose, held, 1.0))?;
-            (s.pose(), s.held(), raw, fresh)
-        }
-        None => (pose, held, raw, fresh),
+    // when the pose came in (live tracking), or was sampled
+    let sampled = fresh.unwrap_or_else(std::time::Instant::now);
+    let pose = session.pose(pose, sampled);
+    let object_time_s = object_time(poses, config, (f, total));
+    let study = frame.study_state(session.flash(), session.stop);
+    let Some(l) = lock else {
+        frame.set_object_time(object_time_s);
+        return Ok(FramePose {
+            pose,
+            held,
+            raw,
+            fresh,
+            sampled,
+            study,
+        });
+    };
+    let state = FrameState::new(f as u64, &pose, held, 1.0).with_study(object_time_s, study);
+    let s = l.share(state)?;
+    if !l.is_leader() {
+        frame.follow_study(&s.study())?;
+    }
+    frame.set_object_time(s.object_time_s);
+    Ok(FramePose {
+        pose: s.pose(),
+        held: s.held(),
+        raw,
+        fresh,
+        sampled,
+        study: s.study(),
     })
 }
 
@@ -274,12 +308,21 @@ pub fn run_locked(
         report_frame(progress, (f, total), began, software);
         session.begin_frame();
         frame.take_study_changes(&mut session)?;
-        let (pose, held, raw, fresh) = frame_pose(&poses, config, (f, total), lock.as_deref_mut())?;
-        let object_time_s = object_time(&poses, config, (f, total));
-        frame.set_object_time(object_time_s);
-        // when the pose came in (live tracking), or was sampled
-        let sampled = fresh.unwrap_or_else(std::time::Instant::now);
-        let pose = session.pose(pose, sampled);
+        let FramePose {
+            pose,
+            held,
+            raw,
+            fresh,
+            sampled,
+            study,
+        } = frame_pose(
+            (&poses, config),
+            (f, total),
+            (&mut session, &mut frame),
+            lock.as_deref_mut(),
+        )?;
+        session.follow(&study, frame.condition());
+        let object_time_s = frame.object_time_s();
         let tracked = Poses::Tracked {
             pose: &pose,
             held: &held,
@@ -307,7 +350,7 @@ pub fn run_locked(
             objects: Some(frame.object_switches()),
             flash: None,
         };
-        let last = f + 1 == total || session.stop;
+        let last = f + 1 == total || study.stop;
         if last || run.read_back_every_frame {
             let folder = out.join(format!("frame-{f:06}"));
             let into = if run.read_back_every_frame {
@@ -316,7 +359,7 @@ pub fn run_locked(
                 out
             };
             let each = (run.read_back_every_frame).then_some((into, exr));
-            kept = read_back_kept(&mut frame, config, (tracked, session.flash()), each)?;
+            kept = read_back_kept(&mut frame, config, (tracked, study.flash), each)?;
             let note = format!("read back into {}", into.display());
             session.end_frame(record(&frame, Drawn::ReadBack), Some(note))?;
             if let Some(l) = lock.as_deref_mut() {

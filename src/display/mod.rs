@@ -193,20 +193,7 @@ impl DisplayConfig {
     /// names with their start poses (the room's place and yaw), the initial one first
     /// (`default_condition`, else the config's first).
     pub fn study_conditions(&self) -> Vec<(String, Option<(Vec3, f32)>)> {
-        let mut list: Vec<(String, Option<(Vec3, f32)>)> = (self.conditions.iter())
-            .map(|c| {
-                let start = (c.start_pose.as_ref()).map(|p| (Vec3::from(p.position), p.yaw_deg));
-                (c.name.clone(), start)
-            })
-            .collect();
-        let initial = (self.default_condition.as_ref())
-            .and_then(|d| list.iter().position(|c| &c.0 == d))
-            .unwrap_or(0);
-        if !list.is_empty() {
-            let first = list.remove(initial);
-            list.insert(0, first);
-        }
-        list
+        conditions::study_conditions(&self.conditions, self.default_condition.as_deref())
     }
 
     /// The moving objects' names (a study shows and hides them by name).
@@ -407,4 +394,25 @@ pub fn wall_view(
         projection::off_axis(ll, lr, ul, eye, near, eye.length() + 4.0).view_proj,
         eye,
     )
+}
+
+/// A new session log in `dir` for a CAVE run of the display `config` (loaded from
+/// `config_path`) drawing `lf` (made from `scene`) on `adapter` (`crate::study`): its views
+/// are `display`'s, which in a cluster are one rank's.
+pub fn session_log(
+    dir: &Path,
+    (config_path, scene): (&Path, &Path),
+    lf: &crate::lightfield::LightField,
+    display: &DisplayConfig,
+    adapter: &str,
+) -> Result<crate::study::SessionLog> {
+    let views = (frame::wall_views(display).iter())
+        .map(|v| v.name(display))
+        .collect();
+    let meta = crate::study::SessionMeta {
+        display_config: std::fs::canonicalize(config_path)
+            .unwrap_or_else(|_| config_path.to_path_buf()),
+        ..crate::study::SessionMeta::starting(scene, lf, adapter, views)
+    };
+    crate::study::SessionLog::create(dir, meta)
 }

@@ -120,6 +120,30 @@ fn view_index(meta: &SessionMeta, name: Option<&str>) -> Result<usize> {
     })
 }
 
+/// The display as the session drew it: every view, or where the log is one cluster rank's
+/// (`vlf cave --log` under mpirun: each rank logs its own views), only that rank's views. Err
+/// where the log names views the display no longer has.
+fn logged_views(
+    config: DisplayConfig,
+    config_path: &Path,
+    meta: &SessionMeta,
+) -> Result<DisplayConfig> {
+    let names: Vec<String> = (super::frame::wall_views(&config).iter())
+        .map(|v| v.name(&config))
+        .collect();
+    if names == meta.views {
+        return Ok(config);
+    }
+    match config.views_named(&meta.views) {
+        Some(views) if !views.is_empty() => Ok(config.only_views(&views)),
+        _ => Err(VlfError::Display(format!(
+            "{}: its views are now {names:?}, the session drew {:?}: the display configuration changed since",
+            config_path.display(),
+            meta.views
+        ))),
+    }
+}
+
 /// `replay` with every output: images, a video, a third-person camera, the events overlaid.
 pub fn replay_with(
     (lf, resident): (&LightField, &ResidentLightField),
@@ -145,6 +169,7 @@ pub fn replay_with(
         lf,
         resident,
     };
+    let config = logged_views(config, config_path, meta)?;
     let conditions = Conditions::prepare(&config, config_path, main, progress)?;
     let mut frame = FrameOfViews::cave(
         (lf, resident),
@@ -154,16 +179,6 @@ pub fn replay_with(
         Slots::PerWall,
         conditions.as_ref(),
     )?;
-    let names: Vec<String> = (frame.wall_views().iter())
-        .map(|v| v.name(&config))
-        .collect();
-    if names != meta.views {
-        return Err(VlfError::Display(format!(
-            "{}: its views are now {names:?}, the session drew {:?}: the display configuration changed since",
-            config_path.display(),
-            meta.views
-        )));
-    }
     let shown = match output.camera {
         Some(_) => 0,
         None => view_index(meta, output.video.and_then(|v| v.view))?,

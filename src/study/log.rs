@@ -61,6 +61,35 @@ pub struct SessionMeta {
     pub headset: Option<String>,
 }
 
+impl SessionMeta {
+    /// What a session starting now records of the light field `lf` (made from `source`: a
+    /// `.vlf`, or a scene with `lf`'s propagation settings), drawn on `adapter` into `views`;
+    /// a CAVE's sets `display_config`, a headset's `headset`.
+    pub fn starting(
+        source: &Path,
+        lf: &crate::lightfield::LightField,
+        adapter: &str,
+        views: Vec<String>,
+    ) -> SessionMeta {
+        let is_vlf = crate::lightfield::file::is_vlf_path(source);
+        SessionMeta {
+            format: LOG_FORMAT,
+            vlf_version: env!("CARGO_PKG_VERSION").into(),
+            display_config: PathBuf::new(),
+            light_field: std::fs::canonicalize(source).unwrap_or_else(|_| source.to_path_buf()),
+            propagation: (!is_vlf).then(|| lf.meta.params.clone()),
+            scene_hash: lf.meta.scene_hash.clone(),
+            adapter: adapter.into(),
+            started_unix_s: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0.0, |d| d.as_secs_f64()),
+            views,
+            columns: Vec::new(),
+            headset: None,
+        }
+    }
+}
+
 /// How a frame was drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Drawn {

@@ -314,6 +314,19 @@ impl<'p> Session<'p> {
         pose
     }
 
+    /// A cluster's rank other than 0 follows rank 0's session (`crate::framelock::StudyState`):
+    /// its condition (`condition`: the name in this rank's display), flash and stop go into
+    /// this rank's log. On rank 0 (and in one process) they are this session's own already.
+    pub fn follow(&mut self, study: &crate::framelock::StudyState, condition: Option<&str>) {
+        if let Some(name) = condition {
+            if self.condition != name {
+                self.condition = name.to_string();
+            }
+        }
+        self.flash = study.flash;
+        self.stop |= study.stop;
+    }
+
     /// The latency test's walls this frame: Some(true) full white, Some(false) black, None the
     /// scene (`flash`).
     pub fn flash(&self) -> Option<bool> {

@@ -250,12 +250,23 @@ pub fn run_headset(
         }
         None => None,
     };
+    let conditions = match &options.study.conditions {
+        Some((path, _)) => {
+            let names: Vec<String> = (objects.iter())
+                .flat_map(|(o, _)| o.configs().iter().map(|c| c.name.clone()))
+                .collect();
+            Some(crate::display::conditions::ConditionsFile::load(
+                path, &names,
+            )?)
+        }
+        None => None,
+    };
     let entry = load_loader()?;
     let (instance, system, runtime) = find_runtime(&entry)?;
     session::run(
         (instance, system, runtime),
         make_light_field,
-        objects,
+        (objects, conditions),
         options,
     )
 }

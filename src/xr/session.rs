@@ -14,12 +14,14 @@ use super::eyes::{copy_to_buffer, write_screenshot};
 use super::layers::Layers;
 use super::report::{compositor_lead_ns, display_account, refresh_period_ns, ShownFrame, XrReport};
 use super::{eye_view, xr_error, Fov, XrOptions, XrPose, XrRuntime, VIEW_TYPE};
+use crate::display::conditions::{Conditions, ConditionsFile, MainField};
 use crate::display::frame::{frame_limits, FrameOfViews, Limit, Poses, ViewLabel};
 use crate::display::post::Draw;
 use crate::display::present::present_pass;
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
 use crate::gpu::{GpuContext, MemoryLedger};
+use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::probes::ObjectLighting;
 use crate::render::{ObjectsToDraw, Renderer};
 use crate::tracking::navigator::Navigator;
@@ -133,7 +135,7 @@ const FRAMES_IN_FLIGHT: usize = 2;
 pub fn run(
     (instance, system, runtime): (xr::Instance, xr::SystemId, XrRuntime),
     make_light_field: &mut super::MakeLightField<'_>,
-    objects: Option<(Objects, ObjectLighting)>,
+    (objects, conditions): (Option<(Objects, ObjectLighting)>, Option<ConditionsFile>),
     options: &XrOptions,
 ) -> Result<XrReport> {
     let vulkan = super::vulkan::create(&instance, system)?;
@@ -143,6 +145,7 @@ pub fn run(
         runtime.runtime, runtime.system, ctx.summary.name
     );
     let (lf, resident) = make_light_field(&ctx)?;
+    let prepared = prepare_conditions(conditions.as_ref(), options, (&lf, &resident))?;
     let camera = lf.camera(options.camera.as_deref())?.clone();
     let to_draw = objects.as_ref().map(|(o, lighting)| ObjectsToDraw {
         mesh: o.mesh(),
@@ -194,13 +197,13 @@ pub fn run(
         })
         .collect();
     let objects = objects.map(|(o, _)| o);
-    let frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT, objects);
+    let mut frame = FrameOfViews::eyes(&ctx, renderer, eyes, FRAMES_IN_FLIGHT, objects);
+    if let Some(c) = &prepared {
+        frame.use_conditions(c)?;
+    }
     let adapter = ctx.summary.name.clone();
     let mut parts = super::study::open(&options.study, (&lf, &adapter, &runtime), frame.labels())?;
-    let names: Vec<String> = (frame.objects().iter())
-        .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
-        .collect();
-    let study = super::study::session(&mut parts, names);
+    let study = super::study::session(&mut parts, &frame, conditions.as_ref());
 
     let mut headset = Headset {
         instance: &instance,
@@ -240,16 +243,41 @@ pub fn run(
     drop((grips, controls, frame_stream, frame_waiter));
     drop(setup);
     drop(session);
-    // the renderer and the eyes' images it drew into
-    drop((frame, resident, lf));
+    // the renderer and the eyes' images it drew into, and the conditions' light fields
+    drop(frame);
+    drop((prepared, resident, lf));
     drop(ctx);
     drop(vulkan);
     drop(instance);
     Ok(report)
 }
 
+/// The conditions of `--conditions` with their light fields made beside the `--scene`'s
+/// (`lf`, `resident`) before the first frame, each said on stderr with its GPU memory.
+fn prepare_conditions(
+    file: Option<&ConditionsFile>,
+    options: &XrOptions,
+    (lf, resident): (&LightField, &ResidentLightField),
+) -> Result<Option<Conditions>> {
+    let (Some(file), Some((path, scene))) = (file, &options.study.conditions) else {
+        return Ok(None);
+    };
+    let main = MainField {
+        source: scene,
+        lf,
+        resident,
+    };
+    let list = (&file.conditions[..], file.default_condition.as_deref());
+    let prepared = Conditions::prepare_list(list, path, main, &crate::progress::Silent)?;
+    for f in prepared.iter().flat_map(|c| &c.fields) {
+        eprintln!("conditions: light field {}", f.describe());
+    }
+    Ok(prepared)
+}
+
 /// What the frame loop draws with.
-struct Headset<'a> {
+/// (`'c`: the conditions the frame draws, dropped after it)
+struct Headset<'a, 'c> {
     instance: &'a xr::Instance,
     session: &'a xr::Session<xr::Vulkan>,
     frame_waiter: xr::FrameWaiter,
@@ -257,7 +285,7 @@ struct Headset<'a> {
     setup: &'a Setup,
     ctx: &'a Arc<GpuContext>,
     /// the renderer, both eyes' images, their pacing and times (frames in flight)
-    frame: FrameOfViews<'static>,
+    frame: FrameOfViews<'c>,
     /// the swapchains the eyes go on
     layers: Layers,
     controls: Controls,
@@ -609,7 +637,7 @@ impl LoopState {
     }
 }
 
-impl Headset<'_> {
+impl Headset<'_, '_> {
     /// Frames until the session ends; how it ended.
     fn run_loop(&mut self, st: &mut LoopState, options: &XrOptions) -> Result<String> {
         let mut event_buffer = xr::EventDataBuffer::new();

@@ -4,14 +4,17 @@
 //! and the Lab Streaming Layer outlets (`--lsl`). The head is the point between the eyes (their
 //! mean pose, `body::head_between`), the wand and the left hand are the right and left
 //! controllers' grips, all in the runtime's stage (the log's room), and the photons are due at
-//! the runtime's predicted display time. Commands a headset cannot carry out (the latency
-//! test's `flash`, a `condition`) are refused with the reason, changing nothing.
+//! the runtime's predicted display time. A study's conditions come from a file of their own
+//! (`--conditions`: `default_condition` and `[[condition]]` tables, as a display config has
+//! them). Commands a headset cannot carry out (the latency test's `flash`; `condition` without
+//! `--conditions`) are refused with the reason, changing nothing.
 
 use super::XrRuntime;
+use crate::display::conditions::{study_conditions, ConditionsFile};
 use crate::display::frame::{FrameOfViews, ViewLabel};
 use crate::error::Result;
 use crate::lightfield::LightField;
-use crate::study::log::{Drawn, FrameRecord, SessionMeta, LOG_FORMAT};
+use crate::study::log::{Drawn, FrameRecord, SessionMeta};
 use crate::study::{ControlServer, LslOutlets, Session, SessionLog};
 use crate::tracking::pose::WandPose;
 use crate::tracking::source::Pose;
@@ -29,6 +32,9 @@ pub struct XrStudy {
     pub log: Option<(PathBuf, PathBuf)>,
     /// `--lsl`: the three Lab Streaming Layer outlets
     pub lsl: bool,
+    /// `--conditions FILE`: the study's named conditions (`ConditionsFile`), with the `--scene`
+    /// their light fields are made beside
+    pub conditions: Option<(PathBuf, PathBuf)>,
 }
 
 /// The study's parts, made before the first frame; a `Session` borrows them.
@@ -38,18 +44,20 @@ pub(super) struct StudyParts {
     pub lsl: Option<LslOutlets>,
 }
 
-/// The commands a headset does not take, each with why.
-pub(super) fn refused() -> Vec<(&'static str, String)> {
-    vec![
-        (
-            "flash",
-            "flash: the latency test lights a CAVE's walls; a headset's eye images go through its runtime's compositor, which vlf does not light: measure a headset's latency with the runtime's own tools (vlf xr logs the runtime's predicted display time)".into(),
-        ),
-        (
+/// The commands a headset does not take, each with why; `conditions`: whether the run has a
+/// `--conditions` file (without one, `condition` is refused too).
+pub(super) fn refused(conditions: bool) -> Vec<(&'static str, String)> {
+    let mut refused = vec![(
+        "flash",
+        "flash: the latency test lights a CAVE's walls; a headset's eye images go through its runtime's compositor, which vlf does not light: measure a headset's latency with the runtime's own tools (vlf xr logs the runtime's predicted display time)".into(),
+    )];
+    if !conditions {
+        refused.push((
             "condition",
-            "condition: vlf xr takes no [[condition]] tables yet (vlf cave does): run each light field as a session of its own".into(),
-        ),
-    ]
+            "condition: this vlf xr run has no conditions: give them with --conditions FILE.toml ([[condition]] tables as a display config has them)".into(),
+        ));
+    }
+    refused
 }
 
 /// The control server, the session log and the LSL outlets `study` asks for; `lf` is the light
@@ -87,31 +95,34 @@ fn meta(
     (lf, adapter, runtime): (&LightField, &str, &XrRuntime),
     views: &[ViewLabel],
 ) -> SessionMeta {
+    let views = (views.iter())
+        .map(|v| format!("{}-{}", v.wall, v.eye))
+        .collect();
     SessionMeta {
-        format: LOG_FORMAT,
-        vlf_version: env!("CARGO_PKG_VERSION").into(),
-        display_config: PathBuf::new(),
-        light_field: std::fs::canonicalize(scene).unwrap_or_else(|_| scene.to_path_buf()),
-        propagation: (!crate::lightfield::file::is_vlf_path(scene)).then(|| lf.meta.params.clone()),
-        scene_hash: lf.meta.scene_hash.clone(),
-        adapter: adapter.into(),
-        started_unix_s: std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(0.0, |d| d.as_secs_f64()),
-        views: (views.iter())
-            .map(|v| format!("{}-{}", v.wall, v.eye))
-            .collect(),
-        columns: Vec::new(),
         headset: Some(format!("{} ({})", runtime.runtime, runtime.system)),
+        ..SessionMeta::starting(scene, lf, adapter, views)
     }
 }
 
-/// The session of `parts`: the headset's refusals, the moving objects' names.
-pub(super) fn session<'p>(parts: &'p mut StudyParts, objects: Vec<String>) -> Session<'p> {
+/// The session of `parts`: the headset's refusals, the names of the moving objects `frame`
+/// draws, the `--conditions` (none without).
+pub(super) fn session<'p>(
+    parts: &'p mut StudyParts,
+    frame: &FrameOfViews<'_>,
+    file: Option<&ConditionsFile>,
+) -> Session<'p> {
+    let objects: Vec<String> = (frame.objects().iter())
+        .flat_map(|o| o.configs().iter().map(|c| c.name.clone()))
+        .collect();
+    let conditions = file.map_or(Vec::new(), |f| {
+        study_conditions(&f.conditions, f.default_condition.as_deref())
+    });
+    let refusals = refused(!conditions.is_empty());
     Session::new(parts.log.as_mut(), parts.control.as_ref())
         .with_display(None, parts.lsl.take())
         .with_objects(objects)
-        .refusing(refused())
+        .with_conditions(conditions)
+        .refusing(refusals)
 }
 
 /// When a frame's photons are due on this process's clock: the runtime's predicted display

@@ -362,3 +362,44 @@ pub fn free_udp_port() -> u16 {
         .unwrap()
         .port()
 }
+
+/// The shipped Python example `script` run against the `vlf cave --control` child listening on
+/// `addr`, which its `stop` ends cleanly: the replies it printed, in order.
+pub fn script_replies(
+    script: &str,
+    addr: &str,
+    child: &mut std::process::Child,
+) -> Vec<serde_json::Value> {
+    let out = std::process::Command::new("python3")
+        .arg(repo_path(script))
+        .arg(addr)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("python3 runs {script} ({e}); install Python 3 (tools/setup.sh test does)")
+        });
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(child.wait().unwrap().success(), "stop ends the run cleanly");
+    (String::from_utf8(out.stdout).unwrap().lines())
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap()["reply"].clone())
+        .collect()
+}
+
+/// The address a `vlf cave --control` child says it listens on (its stderr, drained after).
+pub fn control_address(child: &mut std::process::Child) -> String {
+    use std::io::BufRead;
+    let mut stderr = std::io::BufReader::new(child.stderr.take().unwrap());
+    let mut line = String::new();
+    while stderr.read_line(&mut line).unwrap() > 0 {
+        if let Some(a) = line.strip_prefix("control: listening on ") {
+            let addr = a.trim().to_string();
+            std::thread::spawn(move || for _ in stderr.lines() {});
+            return addr;
+        }
+        line.clear();
+    }
+    panic!("vlf cave never said where it listens");
+}

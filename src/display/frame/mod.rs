@@ -11,6 +11,7 @@
 
 mod accounting;
 mod in_flight;
+pub mod study;
 mod times;
 mod views;
 
@@ -361,6 +362,11 @@ impl<'a> FrameOfViews<'a> {
     /// drawn next.
     pub fn set_object_time(&mut self, seconds: f64) {
         self.object_time = seconds;
+    }
+
+    /// The moving objects' time of the frames drawn next (`set_object_time`).
+    pub fn object_time_s(&self) -> f64 {
+        self.object_time
     }
 
     /// What the moving objects follow in `poses` at the object time: the CAVE's tracked pose, or

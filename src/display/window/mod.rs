@@ -277,15 +277,23 @@ impl App<'_> {
         self.frame.take_study_changes(&mut self.session)?;
         let mut pose = (self.session).pose(self.navigator.apply(base), fresh.unwrap_or(sampled));
         let mut held = held;
+        let mut object_time_s = self.started.elapsed().as_secs_f64();
+        let mut study = (self.frame).study_state(self.session.flash(), self.session.stop);
         if let Some(lock) = self.lock.as_deref_mut() {
-            let s = FrameState::new(self.shown, &pose, held, self.options.exposure);
+            let s = FrameState::new(self.shown, &pose, held, self.options.exposure)
+                .with_study(object_time_s, study);
             let s = lock.share(s)?;
             if s.is_quit() {
                 event_loop.exit();
                 return Ok(());
             }
             (pose, held, self.options.exposure) = (s.pose(), s.held(), s.exposure);
+            (object_time_s, study) = (s.object_time_s, s.study());
+            if !lock.is_leader() {
+                self.frame.follow_study(&study)?;
+            }
         }
+        self.session.follow(&study, self.frame.condition());
         self.shown += 1;
         let status = match (tracking, &self.config.tracking) {
             (Some(TrackingStatus::Quiet(d)), _) => Some(format!(
@@ -303,7 +311,6 @@ impl App<'_> {
         let ctx = self.ctx().clone();
         // every view rendered, and its outputs drawn, once; then each window shows its parts
         self.frame.begin(timed)?;
-        let object_time_s = self.started.elapsed().as_secs_f64();
         self.frame.set_object_time(object_time_s);
         let tracked = Poses::Tracked {
             pose: &pose,
@@ -312,7 +319,7 @@ impl App<'_> {
         };
         self.frame.draw(tracked, Draw::Shown, None)?;
         let pose_to_submit_ms = fresh.unwrap_or(sampled).elapsed().as_secs_f64() * 1e3;
-        let outputs = self.draw_windows(&ctx, self.session.flash())?;
+        let outputs = self.draw_windows(&ctx, study.flash)?;
         // every window's frame is ready before any is shown: the walls change together (and
         // in a cluster, every rank's: drawn, then the swap barrier)
         if let Some(lock) = self.lock.as_deref_mut() {
@@ -327,10 +334,11 @@ impl App<'_> {
         self.announce_presented(outputs_shown);
         self.frame.account(self.frame.elapsed_ms())?;
         self.log_frame((timed, pose_to_submit_ms, object_time_s), (pose, held, raw))?;
-        if self.session.stop {
+        // a cluster's other ranks end with rank 0's quit state (a stop is rank 0's to take)
+        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
+        if self.session.stop && !follower {
             event_loop.exit();
         }
-        let follower = self.lock.as_ref().is_some_and(|l| !l.is_leader());
         if let (Some(n), false) = (self.options.frames, follower) {
             if self.frames() >= n {
                 if !self.printed_done {
