@@ -517,3 +517,50 @@ fn generated_classroom_as_gltf_gives_the_obj_light_field() {
     );
     assert_same_light_field(&so, &sg);
 }
+
+/// A metallic-roughness texture decides with the factors (times its means: roughness from green,
+/// metallic from blue, linear): factors 1 and 1 with a texture of roughness 0.4 and metallic 1
+/// are a glossy metal of GGX alpha 0.16; with metallic 0 in the texture, a diffuse surface; each
+/// warned once with the means.
+#[test]
+fn a_metallic_roughness_texture_decides_by_its_means() {
+    let dir = tempfile::tempdir().unwrap();
+    let png = |rgb: [u8; 3]| {
+        let mut b = Vec::new();
+        let img = image::RgbImage::from_pixel(4, 4, image::Rgb(rgb));
+        img.write_to(&mut std::io::Cursor::new(&mut b), image::ImageFormat::Png)
+            .unwrap();
+        b
+    };
+    write(dir.path(), "metal.png", &png([0, 102, 255]));
+    write(dir.path(), "plastic.png", &png([0, 102, 0]));
+    let materials = serde_json::json!([
+        {"name": "brushed", "pbrMetallicRoughness": {"baseColorFactor": [0.9, 0.8, 0.7, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 1.0, "metallicRoughnessTexture": {"index": 0}}},
+        {"name": "plastic", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+            "metallicFactor": 1.0, "roughnessFactor": 1.0, "metallicRoughnessTexture": {"index": 1}}}
+    ]);
+    let nodes = serde_json::json!([{"children": [1, 2]}, {"mesh": 0}, {"mesh": 1}]);
+    let extra = serde_json::json!({
+        "images": [{"uri": "metal.png"}, {"uri": "plastic.png"}],
+        "textures": [{"source": 0}, {"source": 1}]
+    });
+    let path = write(dir.path(), "m.glb", &gltf_model(materials, nodes, extra));
+    let s = Scene::load(&path).unwrap();
+    let w = s.warnings.join("\n");
+    println!("{w}");
+    let brushed = &s.materials[0];
+    assert_eq!(brushed.diffuse, [0.0; 3]);
+    assert_eq!(brushed.mirror, [0.9, 0.8, 0.7]);
+    assert!(
+        (brushed.roughness - 0.16).abs() < 1e-6,
+        "GGX alpha {} (roughness 0.4 squared)",
+        brushed.roughness
+    );
+    assert!(w.contains("glTF material \"brushed\": approximated: metallic-roughness texture taken by its means (metallic 1 x 1.000, roughness 1 x 0.400)"), "{w}");
+    let plastic = &s.materials[1];
+    assert_eq!(plastic.diffuse, [0.5; 3]);
+    assert_eq!(plastic.mirror, [0.0; 3]);
+    assert!(w.contains("metallic 1 x 0.000, roughness 1 x 0.400"), "{w}");
+    assert!(!w.contains("ignored"), "{w}");
+}

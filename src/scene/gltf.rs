@@ -91,7 +91,8 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         ));
     }
 
-    let plans = material::plan_all(doc, overrides, path)?;
+    let rough_metal = rough_metal_means(doc, (&buffers, dir), path, &mut source_files)?;
+    let plans = material::plan_all(doc, overrides, path, &rough_metal)?;
     let mut walk = Walk::default();
     walk_nodes(doc, &buffers, &plans, &mut walk).map_err(err)?;
     report_walk(path, &walk, &mut warnings);
@@ -352,6 +353,37 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
         }
     }
     Some(out)
+}
+
+/// The means of every metallic-roughness texture the materials read (`material::TextureMeans`),
+/// by image.
+fn rough_metal_means(
+    doc: &::gltf::Document,
+    (buffers, dir): (&[Vec<u8>], &Path),
+    path: &Path,
+    source_files: &mut Vec<PathBuf>,
+) -> Result<HashMap<usize, material::TextureMeans>> {
+    let err = |message: String| VlfError::Mesh {
+        path: path.to_path_buf(),
+        message,
+    };
+    let mut rough_metal = HashMap::new();
+    for image in material::rough_metal_images(doc) {
+        let (bytes, name) = image_bytes(doc, image, buffers, dir, path, source_files)
+            .map_err(|m| err(format!("image {image}: {m}")))?;
+        let [_, roughness, metallic] = texels::channel_means(&bytes).map_err(|e| {
+            err(format!(
+                "image {image} ({}): not a readable PNG or JPEG image: {e}",
+                name.display()
+            ))
+        })?;
+        let means = material::TextureMeans {
+            roughness,
+            metallic,
+        };
+        rough_metal.insert(image, means);
+    }
+    Ok(rough_metal)
 }
 
 /// An image's encoded bytes and the name it goes by (its file, or the model + index).

@@ -18,8 +18,12 @@
 //! - normalTexture (with its scale): a normal map (`Material::normal_map`), read with the base
 //!   colour's texture coordinates;
 //!
-//! and what cannot be represented (transmission, occlusion maps, the
-//! metallic-roughness texture, clamped wrapping) is named in one warning per material.
+//! - metallicRoughnessTexture: its means (roughness from green, metallic from blue) times the
+//!   factors decide the rules above, as the light field holds one specular colour and roughness
+//!   per material; warned;
+//!
+//! and what cannot be represented (transmission, occlusion maps, clamped wrapping) is named in
+//! one warning per material.
 
 use super::super::{check_color, Material, MaterialOverride};
 use crate::error::{Result, VlfError};
@@ -118,10 +122,12 @@ fn image_of(info: &::gltf::texture::Info) -> usize {
 }
 
 /// Every material of the document, in its order, with the scene.toml overrides applied.
+/// `rough_metal`: each metallic-roughness texture's means (`TextureMeans`), by image.
 pub fn plan_all(
     doc: &::gltf::Document,
     overrides: &BTreeMap<String, MaterialOverride>,
     path: &Path,
+    rough_metal: &HashMap<usize, TextureMeans>,
 ) -> Result<Vec<Plan>> {
     let mut names = HashMap::new();
     let mut plans = Vec::new();
@@ -138,15 +144,58 @@ pub fn plan_all(
         } else {
             base
         };
-        plans.push(plan(&m, name, overrides, path)?);
+        plans.push(plan(&m, name, (overrides, rough_metal), path)?);
     }
     Ok(plans)
+}
+
+/// A metallic-roughness texture's means over its texels: roughness (green) and metallic (blue),
+/// linear values in [0, 1].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureMeans {
+    pub roughness: f32,
+    pub metallic: f32,
+}
+
+/// The images every material's metallic-roughness texture reads (`TextureMeans` are taken of
+/// them before the materials are planned).
+pub fn rough_metal_images(doc: &::gltf::Document) -> Vec<usize> {
+    let mut images: Vec<usize> = (doc.materials())
+        .filter_map(|m| m.pbr_metallic_roughness().metallic_roughness_texture())
+        .map(|info| image_of(&info))
+        .collect();
+    images.sort_unstable();
+    images.dedup();
+    images
+}
+
+/// The metallic and roughness factors times their texture's means where the material has one
+/// (`rough_metal`), said in `notes`: the light field holds one specular colour and roughness per
+/// material, so a texture that varies them over the surface is taken by its means.
+fn metal_and_roughness(
+    pbr: &::gltf::material::PbrMetallicRoughness,
+    rough_metal: &HashMap<usize, TextureMeans>,
+    notes: &mut Vec<String>,
+) -> (f32, f32) {
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    let means = (pbr.metallic_roughness_texture()).and_then(|i| rough_metal.get(&image_of(&i)));
+    let Some(t) = means else {
+        return (metallic, roughness);
+    };
+    notes.push(format!(
+        "metallic-roughness texture taken by its means (metallic {metallic} x {:.3}, roughness {roughness} x {:.3})",
+        t.metallic, t.roughness
+    ));
+    (metallic * t.metallic, roughness * t.roughness)
 }
 
 fn plan(
     m: &::gltf::Material,
     name: String,
-    overrides: &BTreeMap<String, MaterialOverride>,
+    (overrides, rough_metal): (
+        &BTreeMap<String, MaterialOverride>,
+        &HashMap<usize, TextureMeans>,
+    ),
     path: &Path,
 ) -> Result<Plan> {
     let err = |message: String| VlfError::Material {
@@ -158,12 +207,12 @@ fn plan(
     let [r, g, b, alpha_factor] = pbr.base_color_factor();
     let base = [r, g, b];
     check_color(&base, true).map_err(|e| err(format!("baseColorFactor {e}")))?;
-    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
+    let mut notes = Vec::new();
+    let (metallic, roughness) = metal_and_roughness(&pbr, rough_metal, &mut notes);
     let strength = m.emissive_strength().unwrap_or(1.0);
     let emission = m.emissive_factor().map(|e| e * strength);
     check_color(&emission, false)
         .map_err(|e| err(format!("emissiveFactor x emissive_strength {e}")))?;
-    let mut notes = Vec::new();
     let mirror = metallic >= MIRROR_METALLIC && roughness <= GLOSSY_ROUGHNESS;
     // a metal's lobe; a dielectric's specular part (a scene.toml `mirror` override) stays an
     // ideal mirror unless the override gives a roughness
@@ -173,29 +222,8 @@ fn plan(
     };
     let base_tex = pbr.base_color_texture();
     let emit_tex = m.emissive_texture();
-    if mirror && alpha > 0.0 {
-        notes.push(format!(
-            "metallic {metallic} roughness {roughness}: a glossy metal of the base colour{} (GGX alpha {alpha})",
-            if base_tex.is_some() {
-                " (times its texture's mean)"
-            } else {
-                ""
-            }
-        ));
-    } else if mirror {
-        notes.push(format!(
-            "metallic {metallic} roughness {roughness}: an ideal mirror of the base colour{}",
-            if base_tex.is_some() {
-                " (times its texture's mean)"
-            } else {
-                ""
-            }
-        ));
-    } else if metallic > 0.0 {
-        notes.push(format!(
-            "metallic {metallic} roughness {roughness}: a rough metal, taken as diffuse of the base colour"
-        ));
-    }
+    let textured = base_tex.is_some();
+    describe_kind((metallic, roughness), (mirror, alpha, textured), &mut notes);
     describe_losses(m, &mut notes);
     let cut = cutout(m, alpha_factor, base_tex.as_ref(), &mut notes);
     // the triangles carry one set of texture coordinates: the base colour's decides
@@ -321,6 +349,28 @@ fn cutout(
     }
 }
 
+/// What a metallic-roughness material of `metallic` and `roughness` became, where it is not a
+/// plain dielectric: an ideal `mirror` or glossy metal (GGX `alpha`) of the base colour (times its
+/// texture's mean where `textured`), or a rough metal taken as diffuse.
+fn describe_kind(
+    (metallic, roughness): (f32, f32),
+    (mirror, alpha, textured): (bool, f32, bool),
+    notes: &mut Vec<String>,
+) {
+    let mean = if textured {
+        " (times its texture's mean)"
+    } else {
+        ""
+    };
+    let what = match (mirror, alpha > 0.0) {
+        (true, true) => format!("a glossy metal of the base colour{mean} (GGX alpha {alpha})"),
+        (true, false) => format!("an ideal mirror of the base colour{mean}"),
+        (false, _) if metallic > 0.0 => "a rough metal, taken as diffuse of the base colour".into(),
+        (false, _) => return,
+    };
+    notes.push(format!("metallic {metallic} roughness {roughness}: {what}"));
+}
+
 /// What the material has that the light field drops.
 fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
     if let Some(t) = m.transmission() {
@@ -330,12 +380,6 @@ fn describe_losses(m: &::gltf::Material, notes: &mut Vec<String>) {
                 t.transmission_factor()
             ));
         }
-    }
-    if m.pbr_metallic_roughness()
-        .metallic_roughness_texture()
-        .is_some()
-    {
-        notes.push("metallic-roughness texture ignored (its factors decide)".into());
     }
     if m.occlusion_texture().is_some() {
         notes.push("occlusion map ignored (the light field computes occlusion)".into());
