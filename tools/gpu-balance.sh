@@ -12,3 +12,29 @@ vlf=$1; out=$2; work=$(mktemp -d); mkdir -p "$out"
   --report "$out/hallway-rim.json" > "$out/hallway-rim.txt" 2>&1
 rm -rf "$work"
 grep -h "power balance " "$out"/hallway-*.txt
+# Then the variants in docs/results/h200/hallway-balance/variants/ (every material black, one
+# emitter material on: vent-only, blue-only; vent-one-sided: every material one-sided), one
+# shooting iteration each, at 96 and 192 texels per unit, and vent-only with rim rays:
+# OUT_DIR/variants/<variant>[-<density>|-rim].{json,txt}.
+v=docs/results/h200/hallway-balance/variants; mkdir -p "$out/variants"; work=$(mktemp -d)
+for s in vent-only blue-only; do for d in 96 192; do
+  "$vlf" propagate $v/$s.toml --texel-density $d --max-iterations 1 -o "$work/x.vlf" \
+    --report "$out/variants/$s-$d.json" > "$out/variants/$s-$d.txt" 2>&1
+done; done
+"$vlf" propagate $v/vent-one-sided.toml --max-iterations 1 -o "$work/x.vlf" \
+  --report "$out/variants/vent-one-sided.json" > "$out/variants/vent-one-sided.txt" 2>&1
+"$vlf" propagate $v/vent-only.toml --max-iterations 1 --rim-rays -o "$work/x.vlf" \
+  --report "$out/variants/vent-rim.json" > "$out/variants/vent-rim.txt" 2>&1
+rm -rf "$work"
+grep -H "iteration 1 " "$out"/variants/*.txt
+# vent-lit: the hallway's own materials with only the vent lights emitting, one iteration, with and
+# without rim rays; blue-only with rim rays.
+work=$(mktemp -d)
+"$vlf" propagate $v/vent-lit.toml --max-iterations 1 --rim-rays -o "$work/x.vlf" \
+  --report "$out/variants/vent-lit-rim.json" > "$out/variants/vent-lit-rim.txt" 2>&1
+"$vlf" propagate $v/blue-only.toml --max-iterations 1 --rim-rays -o "$work/x.vlf" \
+  --report "$out/variants/blue-rim.json" > "$out/variants/blue-rim.txt" 2>&1
+"$vlf" propagate $v/vent-lit.toml --max-iterations 1 -o "$work/x.vlf" \
+  --report "$out/variants/vent-lit.json" > "$out/variants/vent-lit.txt" 2>&1
+rm -rf "$work"
+grep -H "iteration 1 " "$out"/variants/vent-lit*.txt "$out"/variants/blue-rim.txt
