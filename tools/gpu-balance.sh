@@ -38,3 +38,12 @@ work=$(mktemp -d)
   --report "$out/variants/vent-lit.json" > "$out/variants/vent-lit.txt" 2>&1
 rm -rf "$work"
 grep -H "iteration 1 " "$out"/variants/vent-lit*.txt "$out"/variants/blue-rim.txt
+# vent-lit-one-sided: the same with every material one-sided, with and without rim rays.
+work=$(mktemp -d)
+for r in "" "--rim-rays"; do
+  n=vent-lit-one-sided${r:+-rim}
+  "$vlf" propagate $v/vent-lit-one-sided.toml --max-iterations 1 $r -o "$work/x.vlf" \
+    --report "$out/variants/$n.json" > "$out/variants/$n.txt" 2>&1
+done
+rm -rf "$work"
+grep -H "iteration 1 " "$out"/variants/vent-lit-one-sided*.txt
