@@ -47,3 +47,13 @@ for r in "" "--rim-rays"; do
 done
 rm -rf "$work"
 grep -H "iteration 1 " "$out"/variants/vent-lit-one-sided*.txt
+# by-material/<material>.toml: vent-lit-one-sided with that one material two-sided again, one
+# iteration each: which material's backs take the excess.
+work=$(mktemp -d); mkdir -p "$out/variants/by-material"
+for t in $v/by-material/*.toml; do
+  n=$(basename "$t" .toml)
+  "$vlf" propagate "$t" --max-iterations 1 -o "$work/x.vlf" \
+    --report "$out/variants/by-material/$n.json" > "$out/variants/by-material/$n.txt" 2>&1
+  echo "$n: $(grep -m1 'iteration 1 ' "$out/variants/by-material/$n.txt")"
+done
+rm -rf "$work"
