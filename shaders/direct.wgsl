@@ -167,9 +167,16 @@ fn polygon_point(poly: Polygon, u: vec2<f32>) -> vec3<f32> {
     return poly.p[0] * (1.0 - r) + poly.p[k] * (r * (1.0 - u.y)) + poly.p[k + 1u] * (r * u.y);
 }
 
-fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>) -> Polygon {
+// (`receiver`: the face x lies on. A face never lights itself or its own back: a texel of a
+// two-sided emitter's back lies in the emitter's plane, and where rounding puts it a hair in
+// front, the emitter's own triangle around it would fill its whole hemisphere, giving it pi Le
+// that the emitter also sends into the room: +20% of the Space Ship Hallway's emitted power.)
+fn emitter_polygon(e: Emitter, x: vec3<f32>, n: vec3<f32>, receiver: u32) -> Polygon {
     var none: Polygon;
     none.count = 0u;
+    if receiver < UNRESOLVED && (e.face == receiver || e.face == faces[receiver].twin) {
+        return none;
+    }
     let normal = faces[e.face].normal;
     // emitters shine from their front only
     if dot(normal, x - e.v0) <= 0.0 {
@@ -206,7 +213,7 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
     var lit_emitters = 0.0;
     for (var i = 0u; i < direct.emitter_count; i++) {
         let e = emitters[i];
-        let w = polygon_irradiance(emitter_polygon(e, x, n), n) * e.radiance.w;
+        let w = polygon_irradiance(emitter_polygon(e, x, n, skip), n) * e.radiance.w;
         weight_total += w;
         lit_emitters += select(0.0, 1.0, w > 0.0);
     }
@@ -225,7 +232,7 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<
     var cumulative = 0.0;
     for (var i = 0u; i < direct.emitter_count; i++) {
         let e = emitters[i];
-        let poly = emitter_polygon(e, x, n);
+        let poly = emitter_polygon(e, x, n, skip);
         let f = polygon_irradiance(poly, n);
         let w = f * e.radiance.w;
         if w <= 0.0 {
@@ -443,7 +450,7 @@ fn emitter_vector(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32>
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < direct.emitter_count; i++) {
         let e = emitters[i];
-        let poly = emitter_polygon(e, x, n);
+        let poly = emitter_polygon(e, x, n, skip);
         if poly.count < 3u {
             continue;
         }

@@ -57,3 +57,11 @@ for t in $v/by-material/*.toml; do
   echo "$n: $(grep -m1 'iteration 1 ' "$out/variants/by-material/$n.txt")"
 done
 rm -rf "$work"
+# fix/: after a face stopped lighting its own back (shaders/direct.wgsl emitter_polygon): the
+# hallway at default settings with its report, and `vlf verify` of both cameras (640x360, 2048 spp).
+mkdir -p "$out/fix"; work=$(mktemp -d)
+"$vlf" propagate scenes/space-ship-hallway/scene.toml -o "$work/h.vlf" \
+  --report "$out/fix/hallway-default.json" > "$out/fix/hallway-default.txt" 2>&1
+"$vlf" verify scenes/space-ship-hallway/scene.toml --lightfield "$work/h.vlf" --size 640x360 \
+  --spp 2048 --out "$out/fix/verify" --json "$out/fix/verify.json" > "$out/fix/verify.txt" 2>&1
+rm -rf "$work"
