@@ -287,3 +287,40 @@ fn batched_directions_and_perturbed_sets_measure_the_same_balance() {
         "residue {p:.5} with one set, {q:.5} with two"
     );
 }
+
+/// A two-sided emitter's own light never reaches its back: a tilted two-sided emitting panel
+/// (reflecting too, so its back's intake is measured as next / albedo) in a closed box. Its
+/// back texels lie in its plane; before the fix, where rounding put one a hair in front, the
+/// panel's own triangle filled that texel's hemisphere and iteration 1 received more than was
+/// emitted (the Space Ship Hallway: 121.75%). Iteration 1 must receive no more than what was
+/// shot, and the balance close within 0.5%.
+#[test]
+fn a_two_sided_emitter_does_not_light_its_own_back() {
+    let mut obj = ObjBuilder::default();
+    obj.cube("wall", DVec3::ZERO, 1.0, true);
+    obj.quad(
+        "light",
+        DVec3::new(0.137, 0.213, -0.091),
+        DVec3::new(0.3, -0.9, 0.31),
+        [0.41, 0.37],
+        0.3,
+    );
+    let mats = vec![mat("wall", 0.6, 0.0), mat("light", 0.5, 3.0)];
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(
+        dir.path(),
+        &obj,
+        &mats,
+        "[materials.light]\ntwo_sided = true\n",
+    );
+    let report = run(&scene, &params(false), Regression::default());
+    let first = report.per_iteration[0].power.expect("measured");
+    assert!(
+        first.received <= 1.005 * first.shot,
+        "iteration 1 received {:.4} of {:.4} shot",
+        first.received,
+        first.shot
+    );
+    let b = balance(&report);
+    assert!(!b.off && b.residue_fraction.abs() < 0.005, "{}", b.verdict);
+}
