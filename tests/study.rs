@@ -141,8 +141,17 @@ fn logged_cornell_run_with(
         views,
         columns: Vec::new(),
         headset: None,
+        headset_setup: None,
     };
     let log_dir = dir.join("log");
+    // the display's conditions, where it has any, made beside the Cornell box
+    let main = vlf::display::conditions::MainField {
+        source: &meta.light_field,
+        lf: &lf,
+        resident: &resident,
+    };
+    let conditions =
+        vlf::display::conditions::Conditions::prepare(&display, config, main, &Silent).unwrap();
     {
         let mut log = SessionLog::create(&log_dir, meta).unwrap();
         let run = vlf::display::headless::HeadlessRun {
@@ -152,7 +161,7 @@ fn logged_cornell_run_with(
             log: Some(&mut log),
             control,
             lsl: None,
-            conditions: None,
+            conditions: conditions.as_ref(),
             read_back_every_frame: control.is_some(),
         };
         vlf::display::headless::run_reporting(&lf, &resident, &display, config, run, &Silent)
@@ -1295,4 +1304,128 @@ fn raw_tracker_poses_are_logged_beside_the_calibrated_ones() {
         parquet_matches_csv(&dir.path().join("log"))["parquet_rows"],
         12
     );
+}
+
+/// A one-wall display (48x48, mono, static head) with two conditions of other geometry: `box`
+/// (the Cornell box, the `--scene`) and `room` (the textured room, another scene: its own
+/// triangles, textures and light), each with the room's place in its scene.
+fn two_scenes_display(dir: &std::path::Path) -> std::path::PathBuf {
+    let config = dir.join("two-scenes.toml");
+    let room = repo_path("scenes/textured-room/scene.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "name = \"two-scenes\"\n[start_pose]\nposition = [0.0, 0.0, 2.2]\n\
+             [tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n\
+             [[condition]]\nname = \"box\"\nstart_pose = {{ position = [0.0, 0.0, 2.2], yaw_deg = 0.0 }}\n\
+             [[condition]]\nname = \"room\"\nlight_field = {room:?}\n\
+             start_pose = {{ position = [0.0, 0.0, 2.6], yaw_deg = 0.0 }}\n\
+             [[wall]]\nname = \"front\"\nlower_left = [-1.0, 0.0, -1.2]\n\
+             lower_right = [1.0, 0.0, -1.2]\nupper_left = [-1.0, 2.0, -1.2]\npixels = [48, 48]\n\
+             output = {{ monitor = 0, window = [100, 100] }}\n"
+        ),
+    )
+    .unwrap();
+    config
+}
+
+/// A condition may name another scene (other geometry): it is drawn by a renderer of its own,
+/// made before the first frame. A script switches a headless Cornell box run to the textured
+/// room, back and to the room again: the log has each frame's condition; every frame replays
+/// pixel-identical; a frame in `room` is pixel-identical to a run whose `--scene` is the room
+/// (from the condition's start pose), and differs from the box's frames.
+#[test]
+fn a_condition_of_another_scene_is_drawn_by_a_renderer_of_its_own() {
+    let dir = tempfile::tempdir().unwrap();
+    let config = two_scenes_display(dir.path());
+    let server = vlf::study::ControlServer::bind("127.0.0.1:0").unwrap();
+    let addr = server.addr;
+    let script = std::thread::spawn(move || {
+        send_in_turn(
+            addr,
+            &[
+                r#"{"cmd": "event", "text": "begin"}"#,
+                r#"{"cmd": "condition", "name": "room"}"#,
+                r#"{"cmd": "condition", "name": "box"}"#,
+                r#"{"cmd": "condition", "name": "room"}"#,
+                r#"{"cmd": "stop"}"#,
+            ],
+        )
+    });
+    let (lf, resident, meta, records) =
+        logged_cornell_run_with(dir.path(), &config, 100_000, Some(&server));
+    let replies = script.join().unwrap();
+    assert!(replies.iter().all(|r| r["ok"] == true), "{replies:?}");
+    let at: Vec<u64> = (replies.iter())
+        .map(|r| r["frame"].as_u64().unwrap())
+        .collect();
+    let [_begin, room, back, again, stop] = at[..] else {
+        panic!("{replies:?}")
+    };
+    assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
+    assert_eq!(records.last().unwrap().frame, stop);
+    for r in &records {
+        let f = r.frame;
+        let expect = if (room..back).contains(&f) || f >= again {
+            "room"
+        } else {
+            "box"
+        };
+        assert_eq!(r.condition, expect, "frame {f}");
+    }
+    // replayed: every frame the live one
+    let folders = vlf::display::replay::replay(
+        (&lf, &resident),
+        &meta,
+        &records,
+        (&dir.path().join("again"), true),
+        &Silent,
+    )
+    .unwrap();
+    let view = &meta.views[0];
+    let live = |f: u64| dir.path().join(format!("live/frame-{f:06}/{view}.exr"));
+    for (r, folder) in records.iter().zip(&folders) {
+        same_pixels(&live(r.frame), &folder.join(format!("{view}.exr")));
+    }
+    // the room's frame as a run of the room itself draws it
+    let alone = dir.path().join("alone");
+    std::fs::create_dir_all(&alone).unwrap();
+    let room_scene = repo_path("scenes/textured-room/scene.toml");
+    let text = std::fs::read_to_string(&config).unwrap();
+    let start = text.find("[[condition]]").unwrap();
+    let wall = text.find("[[wall]]").unwrap();
+    let room_only = alone.join("room.toml");
+    let room_text = text[..start].replace("[0.0, 0.0, 2.2]", "[0.0, 0.0, 2.6]") + &text[wall..];
+    std::fs::write(&room_only, room_text).unwrap();
+    let scene = vlf::scene::Scene::load(&room_scene).unwrap();
+    let (room_lf, room_resident, _) =
+        vlf::propagate::propagate(gpu(), &scene, &draft_params(), &Silent).unwrap();
+    let display = DisplayConfig::load(&room_only).unwrap();
+    let run = vlf::display::headless::HeadlessRun {
+        frames: 1,
+        out: &alone,
+        exr: true,
+        log: None,
+        control: None,
+        lsl: None,
+        conditions: None,
+        read_back_every_frame: false,
+    };
+    vlf::display::headless::run_reporting(
+        &room_lf,
+        &room_resident,
+        &display,
+        &room_only,
+        run,
+        &Silent,
+    )
+    .unwrap();
+    same_pixels(&alone.join(format!("{view}.exr")), &live(stop));
+    let read = |p: std::path::PathBuf| vlf::render::image_io::read_exr(&p).unwrap();
+    let (in_box, in_room) = (read(live(back)), read(live(stop)));
+    let differ = (in_box.pixels.iter().zip(&in_room.pixels))
+        .filter(|(p, q)| p != q)
+        .count();
+    eprintln!("the box's frame and the room's: {differ} of 2304 pixels differ");
+    assert!(differ > 1000, "{differ}");
 }

@@ -207,7 +207,11 @@ fn session_command(
         .arg(scene)
         .args(SMALL)
         .args(args);
-    cmd.arg("--json").arg(&json).arg("--screenshot").arg(&shot);
+    cmd.arg("--json").arg(&json);
+    // a test that names its own screenshot (an EXR) reads it itself
+    if !args.contains(&"--screenshot") {
+        cmd.arg("--screenshot").arg(&shot);
+    }
     cmd.env("VLF_OPENXR_LOADER", system_loader())
         .env("XR_RUNTIME_JSON", manifest)
         .env("VLF_TEST_XR_REPORT", &runtime_report);
@@ -1377,19 +1381,6 @@ fn a_script_controls_a_headset_session_and_its_log_has_every_frame() {
         "{}",
         String::from_utf8_lossy(&check.stderr)
     );
-    // a headset's log is not replayed: its eyes' poses and fields of view are not in it
-    let replay = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .arg("replay")
-        .arg(&log)
-        .arg("--out")
-        .arg(dir.join("again"))
-        .output()
-        .unwrap();
-    let said = String::from_utf8_lossy(&replay.stderr);
-    assert!(
-        !replay.status.success() && said.contains("headset"),
-        "{said}"
-    );
 }
 
 /// `vlf xr --lsl`: the shipped pylsl example (tools/study/lsl_example.py) reads vlf.pose,
@@ -1514,6 +1505,24 @@ fn a_conditions_file_sets_what_the_headset_draws_and_its_mistakes_are_named() {
         off_mean < 0.85 * on_mean,
         "gi-on {on_mean}, gi-off {off_mean}"
     );
+    // a condition's exposure is what the headset shows (times --exposure)
+    let dim_file = dir.join("dim.toml");
+    std::fs::write(
+        &dim_file,
+        "[[condition]]\nname = \"dim\"\nexposure = 0.25\n",
+    )
+    .unwrap();
+    let dim = still_session(
+        "conditions-dim",
+        &["--conditions", dim_file.to_str().unwrap()],
+        &[],
+    );
+    let (dim_mean, _) = brightness(dim.screenshot.as_ref().unwrap());
+    eprintln!("left eye's mean display value at the condition's exposure 0.25: {dim_mean:.2}");
+    assert!(
+        dim_mean < 0.75 * on_mean,
+        "exposure 1: {on_mean}, 0.25: {dim_mean}"
+    );
 
     for (bad, needle) in [
         ("[[condition]]\nname = \"a\"\nexposur = 2.0\n", "exposur"),
@@ -1603,4 +1612,84 @@ fn a_script_switches_a_headset_sessions_condition() {
         at_switch.events.contains("condition gi-off"),
         "{at_switch:?}"
     );
+}
+
+/// `vlf replay` of a headset's session (`vlf xr --log`): each eye drawn again from the pose and
+/// field of view the runtime located it at, the body on the head between the eyes and on the
+/// logged grips, in the logged condition. The left eye of the screenshot's frame is
+/// pixel-identical (linear radiance) to what the live run drew (`--screenshot left.exr`), the
+/// head having moved between frames; the replay's PNG is at the condition's exposure, as the
+/// headset showed it.
+#[test]
+fn a_headset_session_replays_pixel_identical_from_its_log() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-replay-files");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let conditions = dir.join("conditions.toml");
+    std::fs::write(
+        &conditions,
+        "default_condition = \"dim\"\n[[condition]]\nname = \"bright\"\n\
+         [[condition]]\nname = \"dim\"\nexposure = 0.5\n",
+    )
+    .unwrap();
+    let (log, shot) = (dir.join("log"), dir.join("left.exr"));
+    let body = headset_body();
+    let (left, right) = (grip_env(LEFT_GRIP), grip_env(RIGHT_GRIP));
+    let args = [
+        "--frames",
+        "5",
+        "--screenshot-frame",
+        "5",
+        "--screenshot",
+        shot.to_str().unwrap(),
+        "--log",
+        log.to_str().unwrap(),
+        "--objects",
+        &body,
+        "--conditions",
+        conditions.to_str().unwrap(),
+    ];
+    let envs = [
+        ("VLF_TEST_XR_LOCKSTEP", "1"),
+        ("VLF_TEST_XR_LEFT_GRIP", left.as_str()),
+        ("VLF_TEST_XR_RIGHT_GRIP", right.as_str()),
+    ];
+    let s = session("replay-live", &cornell(), &args, &envs);
+    assert!(s.ok && !s.stderr.contains("panicked"), "{}", s.stderr);
+    let live = vlf::render::image_io::read_exr(&shot).expect("the live left eye");
+
+    let again = dir.join("again");
+    let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
+        .arg("replay")
+        .arg(&log)
+        .args(["--frames", "3..=4", "--exr", "--out"])
+        .arg(&again)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success() && !said.contains("panicked"), "{said}");
+    let eye = |frame: u32, name: &str| again.join(format!("frame-{frame:06}/headset-{name}"));
+    let replayed = vlf::render::image_io::read_exr(&eye(4, "left.exr")).unwrap();
+    let differing = (live.pixels.iter().zip(&replayed.pixels))
+        .filter(|(a, b)| a != b)
+        .count();
+    let earlier = vlf::render::image_io::read_exr(&eye(3, "left.exr")).unwrap();
+    let moved = (earlier.pixels.iter().zip(&replayed.pixels))
+        .filter(|(a, b)| a != b)
+        .count();
+    let right_eye = vlf::render::image_io::read_exr(&eye(4, "right.exr")).unwrap();
+    let stereo = (right_eye.pixels.iter().zip(&replayed.pixels))
+        .filter(|(a, b)| a != b)
+        .count();
+    eprintln!(
+        "replayed left eye of frame 4 ({}x{}): {differing} pixels differ from the live one; {moved} differ from frame 3, {stereo} from the right eye",
+        live.width, live.height
+    );
+    assert_eq!((replayed.width, replayed.height), (live.width, live.height));
+    assert_eq!(differing, 0, "the replay is not what the run drew");
+    assert!(moved > 0 && stereo > 0, "moved {moved}, stereo {stereo}");
+    // the PNG as the headset showed it: at the condition's exposure
+    let png = image::open(eye(4, "left.png")).unwrap().to_rgb8();
+    let expected = vlf::render::image_io::display_image(&replayed, 0.5);
+    assert!(png == expected, "the PNG is not the eye at exposure 0.5");
 }

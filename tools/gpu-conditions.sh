@@ -12,7 +12,9 @@
 # Reports into OUT_DIR/conditions.tar (conditions.json, the run's report, the log's frames.csv).
 # PIXELS="96, 60" draws smaller walls (a smoke test on the software adapter: with FRAMES 40 and
 # EVERY 6 it runs in minutes on lavapipe); FRAMES (default 2000) only bounds the run (the script
-# stops it), PARAMS passes propagation flags (e.g. "--quality draft").
+# stops it), PARAMS passes propagation flags (e.g. "--quality draft"). OTHER_SCENE=path adds a
+# condition `other-scene` drawing that scene (other geometry: a renderer of its own, swapped in
+# at the switch) at the same walk.
 #   tools/gpu-conditions.sh VLF_BINARY OUT_DIR [EVERY] [FRAMES]
 set -euo pipefail
 vlf=$1; out=$2; every=${3:-60}; frames=${4:-2000}; work=${WORK:-$(mktemp -d)}; mkdir -p $work $out
@@ -24,6 +26,9 @@ sed "s|^path = .*|path = \"$PWD/config/paths/cornell-walk.toml\"|" config/displa
 # the conditions differ only in what a switch rebinds: gi-on-dim's start pose left out, so the
 # walk's views (and their cost) go on through every switch
 sed -i "/^start_pose = /d" $config
+if [ -n "${OTHER_SCENE:-}" ]; then
+  printf '\n[[condition]]\nname = "other-scene"\nlight_field = "%s"\n' "$(realpath "$OTHER_SCENE")" >> $config
+fi
 rm -rf $work/log $work/out
 "$vlf" cave $config --scene scenes/cornell/scene.toml ${PARAMS:-} --headless --frames $frames \
   --control 127.0.0.1:0 --log $work/log --out $work/out --json $work/cave-conditions.json \

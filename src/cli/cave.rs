@@ -14,6 +14,8 @@ use vlf::gpu::GpuContext;
 /// `vlf cave`'s arguments.
 #[derive(Args)]
 pub struct CaveArgs {
+    /// The display config (TOML: walls, tracking, outputs)
+    #[arg(id = "display_config", value_name = "DISPLAY_TOML")]
     config: PathBuf,
     /// scene.toml (propagated first) or file.vlf
     #[arg(long)]

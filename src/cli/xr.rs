@@ -17,7 +17,8 @@ pub struct XrArgs {
     /// End the session after this many frames (default: when the runtime or the user ends it)
     #[arg(long)]
     frames: Option<u32>,
-    /// Write the left eye's image of frame --screenshot-frame as PNG
+    /// Write the left eye's image of frame --screenshot-frame: PNG, as it went onto the
+    /// swapchain, or EXR, the linear radiance drawn (what `vlf replay --exr` draws again)
     #[arg(long)]
     screenshot: Option<PathBuf>,
     /// Which frame --screenshot captures (1 is the first rendered frame)

@@ -32,8 +32,10 @@ pub struct ConditionConfig {
     #[serde(default = "yes")]
     pub global_illumination: bool,
     /// another light field to draw: a `.vlf`, or a scene propagated at start with the
-    /// `--scene`'s settings; relative to the display TOML. It must have the `--scene`'s
-    /// geometry (its surfaces' light and materials may differ)
+    /// `--scene`'s settings; relative to the display TOML. Of the `--scene`'s geometry (other
+    /// light or materials on it) it is drawn by the same renderer; of other geometry (another
+    /// scene: give a `start_pose` in it) by a renderer of its own, made before the first frame
+    /// like everything else
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub light_field: Option<PathBuf>,
     /// what the walls show is scaled by this (the PNGs a headless run and `vlf replay` write
@@ -207,6 +209,9 @@ pub struct ConditionField {
     /// illumination
     pub source: PathBuf,
     pub global_illumination: bool,
+    /// its geometry: 0 the `--scene`'s, k > 0 the k-th other (fields of one geometry share a
+    /// renderer)
+    pub geometry: usize,
     pub lf: LightField,
     pub resident: ResidentLightField,
 }
@@ -215,12 +220,16 @@ impl ConditionField {
     /// A line for the start-up messages: what it is and its GPU memory.
     pub fn describe(&self) -> String {
         format!(
-            "{}{}: {:.1} MiB resident",
+            "{}{}{}: {:.1} MiB resident",
             self.source.display(),
             if self.global_illumination {
                 ""
             } else {
                 " (direct light only)"
+            },
+            match self.geometry {
+                0 => String::new(),
+                g => format!(" (other geometry {g}: a renderer of its own)"),
             },
             self.resident.ledger.total() as f64 / (1024.0 * 1024.0)
         )
@@ -230,9 +239,9 @@ impl ConditionField {
 /// The display's conditions with their light fields made: everything a switch needs.
 pub struct Conditions {
     pub list: Vec<ConditionConfig>,
-    /// the light fields besides the `--scene`'s (renderer field 0), field k + 1 each
+    /// the light fields besides the `--scene`'s (field 0), field k + 1 each
     pub fields: Vec<ConditionField>,
-    /// each condition's renderer field (0: the `--scene`'s)
+    /// each condition's light field (0: the `--scene`'s, k + 1: `fields[k]`)
     pub field_of: Vec<usize>,
     /// the condition in effect at the start (`default_condition`, else the first)
     pub initial: usize,
@@ -293,8 +302,8 @@ impl Conditions {
             let k = match known {
                 Some(k) => k,
                 None => {
-                    let field = make_field(&source, c, main, progress)?;
-                    check_same_geometry(main.lf, &field.lf, &c.name, &source)?;
+                    let mut field = make_field(&source, c, main, progress)?;
+                    field.geometry = geometry_of(&field.lf, main.lf, &fields);
                     fields.push(field);
                     fields.len() - 1
                 }
@@ -385,29 +394,32 @@ fn make_field(
     Ok(ConditionField {
         source: source.to_path_buf(),
         global_illumination: gi,
+        geometry: 0,
         lf,
         resident,
     })
 }
 
-/// A condition's light field draws through the `--scene`'s geometry (the renderer's triangles
-/// and tree): refuse one of other geometry, naming the condition.
-fn check_same_geometry(
-    main: &LightField,
-    other: &LightField,
-    name: &str,
-    source: &Path,
-) -> Result<()> {
-    let same = bytemuck::cast_slice::<_, u8>(&main.render_vertices)
-        == bytemuck::cast_slice::<_, u8>(&other.render_vertices)
-        && main.tiles.is_some() == other.tiles.is_some()
-        && main.mirror_chains().tiles_needed == other.mirror_chains().tiles_needed
-        && main.detail.is_some() == other.detail.is_some();
-    if same {
-        return Ok(());
+/// Which geometry `lf` has: 0 `main`'s, else that of the first of `fields` with the same, else
+/// a new one.
+fn geometry_of(lf: &LightField, main: &LightField, fields: &[ConditionField]) -> usize {
+    if same_geometry(main, lf) {
+        return 0;
     }
-    Err(VlfError::Display(format!(
-        "condition {name:?}: the light field of {} has other geometry than --scene's (its triangles, mirrors or textures differ): a condition switches the light on the same geometry; a scene of other geometry needs a run of its own",
-        source.display()
-    )))
+    let known = (fields.iter()).find(|f| f.geometry > 0 && same_geometry(&f.lf, lf));
+    match known {
+        Some(f) => f.geometry,
+        None => 1 + fields.iter().map(|f| f.geometry).max().unwrap_or(0),
+    }
+}
+
+/// Whether two light fields draw through the same renderer: the same triangles, mirror tiles
+/// and texture detail (their light and materials may differ).
+fn same_geometry(a: &LightField, b: &LightField) -> bool {
+    bytemuck::cast_slice::<_, u8>(&a.render_vertices)
+        == bytemuck::cast_slice::<_, u8>(&b.render_vertices)
+        && a.tiles.is_some() == b.tiles.is_some()
+        && a.mirror_chains().tiles_needed == b.mirror_chains().tiles_needed
+        && a.detail.is_some() == b.detail.is_some()
+        && a.meta.normalisation == b.meta.normalisation
 }

@@ -349,6 +349,7 @@ pub fn run_locked(
             condition: String::new(),
             objects: Some(frame.object_switches()),
             flash: None,
+            eyes: Vec::new(),
         };
         let last = f + 1 == total || study.stop;
         if last || run.read_back_every_frame {

@@ -12,6 +12,7 @@ pub mod cluster_config;
 pub mod conditions;
 pub mod frame;
 pub mod headless;
+pub mod headset_view;
 pub mod post;
 pub mod present;
 pub mod projection;

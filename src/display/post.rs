@@ -503,6 +503,14 @@ impl Outputs {
         })
     }
 
+    /// Let `renderer` draw into every slot's wall image too (a study's condition of other
+    /// geometry).
+    pub fn bind_renderer(&mut self, renderer: &Renderer) {
+        for s in &mut self.slots {
+            renderer.bind_targets(&mut s.target);
+        }
+    }
+
     /// Output passes timed per view in `slot` with `Draw::Timed`.
     pub fn timed_outputs(&self, slot: usize) -> usize {
         match self.pass {

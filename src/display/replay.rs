@@ -10,6 +10,7 @@
 //! (`OUT/frame-<n>/third-person.png`). One view, or that camera, can go to a video
 //! (`replay/video.rs`), and the events over the images as text (`replay/overlay.rs`).
 
+mod headset;
 pub mod overlay;
 pub mod video;
 
@@ -95,11 +96,11 @@ pub fn replay(
     replay_with((lf, resident), meta, frames, &output, progress)
 }
 
-/// The video's rate: the display's `refresh_hz`, or else the logged frames' median spacing in
+/// The video's rate: the display's refresh rate (a CAVE's `refresh_hz`), or else the logged frames' median spacing in
 /// `time_s`, or else 60.
-pub fn frame_rate(config: &DisplayConfig, frames: &[FrameRecord]) -> f64 {
-    if let Some(hz) = config.refresh_hz {
-        return hz as f64;
+pub fn frame_rate(refresh_hz: Option<f64>, frames: &[FrameRecord]) -> f64 {
+    if let Some(hz) = refresh_hz {
+        return hz;
     }
     let mut steps: Vec<f64> = (frames.windows(2))
         .map(|w| (w[1].time_s - w[0].time_s) / (w[1].frame - w[0].frame).max(1) as f64)
@@ -144,7 +145,9 @@ fn logged_views(
     }
 }
 
-/// `replay` with every output: images, a video, a third-person camera, the events overlaid.
+/// `replay` with every output: images, a video, a third-person camera, the events overlaid. A
+/// headset's session (`vlf xr --log`) is drawn by its eyes (`headset.rs`), a CAVE's by its
+/// display config's walls.
 pub fn replay_with(
     (lf, resident): (&LightField, &ResidentLightField),
     meta: &SessionMeta,
@@ -152,26 +155,24 @@ pub fn replay_with(
     output: &ReplayOutput<'_>,
     progress: &dyn crate::progress::Progress,
 ) -> Result<Vec<PathBuf>> {
-    if let Some(headset) = &meta.headset {
-        return Err(VlfError::Display(format!(
-            "a headset's session ({headset}, `vlf xr --log`): replay draws a CAVE's walls from its display config; a headset's log has the head, the hands and each eye's settings but not each eye's pose and field of view, which drawing its eyes again would need"
-        )));
+    let main = MainField {
+        source: &meta.light_field,
+        lf,
+        resident,
+    };
+    if meta.headset.is_some() {
+        return headset::replay(main, meta, frames, output, progress);
     }
     let config_path = meta.display_config.as_path();
     let mut config = DisplayConfig::load(config_path)?;
     // the logged settings are drawn as they are: nothing is probed
     config.fit_frame_time = false;
     let poses = config.pose_source(config_path)?;
+    let config = logged_views(config, config_path, meta)?;
     // the conditions' light fields made again as the run made them (propagation repeats bit
     // for bit)
-    let main = MainField {
-        source: &meta.light_field,
-        lf,
-        resident,
-    };
-    let config = logged_views(config, config_path, meta)?;
     let conditions = Conditions::prepare(&config, config_path, main, progress)?;
-    let mut frame = FrameOfViews::cave(
+    let frame = FrameOfViews::cave(
         (lf, resident),
         &config,
         config_path,
@@ -183,7 +184,39 @@ pub fn replay_with(
         Some(_) => 0,
         None => view_index(meta, output.video.and_then(|v| v.view))?,
     };
-    let fps = (output.video).map(|v| v.fps.unwrap_or_else(|| frame_rate(&config, frames)));
+    let refresh = config.refresh_hz.map(f64::from);
+    let fps = (output.video).map(|v| v.fps.unwrap_or_else(|| frame_rate(refresh, frames)));
+    let mut cave = CaveReplay {
+        frame,
+        config: &config,
+        camera: output.camera,
+        shown,
+        last: None,
+    };
+    drive(&mut cave, frames, output, fps, progress)
+}
+
+/// A session's frames drawn again, one by one: by the CAVE's walls (`CaveReplay`) or the
+/// headset's eyes (`headset::HeadsetReplay`), or by a third-person camera.
+trait Replayer {
+    /// Draw `record` again, exactly as the session drew it.
+    fn draw(&mut self, record: &FrameRecord) -> Result<()>;
+    /// The last frame's images into `dir`: PNG (with `text` over it where given), and EXR
+    /// (linear radiance) beside with `exr`.
+    fn write(&self, dir: &Path, exr: bool, text: Option<&[String]>) -> Result<()>;
+    /// The last frame's image that a video shows, as displayed.
+    fn shown(&self) -> image::RgbImage;
+}
+
+/// Draw every one of `frames` by `replayer` into `output` (a video at `fps`), reporting each to
+/// `progress`; the folders written, in order.
+fn drive(
+    replayer: &mut dyn Replayer,
+    frames: &[FrameRecord],
+    output: &ReplayOutput<'_>,
+    fps: Option<f64>,
+    progress: &dyn crate::progress::Progress,
+) -> Result<Vec<PathBuf>> {
     let mut video: Option<video::VideoWriter> = None;
     let mut written = Vec::new();
     progress.begin(
@@ -192,16 +225,16 @@ pub fn replay_with(
         "drawing the logged frames again",
     );
     for (k, record) in frames.iter().enumerate() {
-        let images = draw_frame(&mut frame, &config, record, output)?;
+        replayer.draw(record)?;
         let text = output.overlay.map(|log| overlay::lines(log, record));
         if let Some(dir) = output.images {
             let dir = dir.join(format!("frame-{:06}", record.frame));
             std::fs::create_dir_all(&dir).map_err(|e| VlfError::io(&dir, e))?;
-            write_frame(&config, &frame, &images, &dir, (output.exr, &text))?;
+            replayer.write(&dir, output.exr, text.as_deref())?;
             written.push(dir);
         }
         if let (Some(v), Some(fps)) = (output.video, fps) {
-            let mut rgb = display_image(images.shown(shown), frame.exposure());
+            let mut rgb = replayer.shown();
             if let Some(text) = &text {
                 overlay::draw(&mut rgb, text);
             }
@@ -236,14 +269,67 @@ impl Images {
     }
 }
 
+/// A CAVE's session drawn again through its display config's walls.
+struct CaveReplay<'a> {
+    frame: FrameOfViews<'a>,
+    config: &'a DisplayConfig,
+    camera: Option<ThirdPerson>,
+    /// the view a video shows
+    shown: usize,
+    last: Option<Images>,
+}
+
+impl Replayer for CaveReplay<'_> {
+    fn draw(&mut self, record: &FrameRecord) -> Result<()> {
+        let images = draw_frame(&mut self.frame, self.config, record, self.camera)?;
+        self.last = Some(images);
+        Ok(())
+    }
+
+    fn write(&self, dir: &Path, exr: bool, text: Option<&[String]>) -> Result<()> {
+        let images = self.last.as_ref().expect("a frame drawn");
+        write_frame(self.config, &self.frame, images, dir, (exr, text))
+    }
+
+    fn shown(&self) -> image::RgbImage {
+        let images = self.last.as_ref().expect("a frame drawn");
+        display_image(images.shown(self.shown), self.frame.exposure())
+    }
+}
+
 /// Draw `record` again: its settings, object time and poses; the walls' views, or the
 /// third-person camera's.
 fn draw_frame(
     frame: &mut FrameOfViews<'_>,
     config: &DisplayConfig,
     record: &FrameRecord,
-    output: &ReplayOutput<'_>,
+    camera: Option<ThirdPerson>,
 ) -> Result<Images> {
+    set_logged_state(frame, record)?;
+    let held = HeldPoses {
+        wand: record.wand,
+        left_hand: record.left_hand,
+    };
+    let poses = Poses::Tracked {
+        pose: &record.pose,
+        held: &held,
+        arrived: None,
+    };
+    let Some(third) = camera else {
+        let images = frame.read_back(poses)?;
+        let mut kept = Kept::of(config, frame.wall_views(), images);
+        kept.exposure = frame.exposure();
+        // the latency test's white or black walls, as the run showed them
+        kept.flash(record.flash);
+        return Ok(Images::Views(kept));
+    };
+    let image = third_person(frame, record, poses, (third, config.antialiasing))?;
+    Ok(Images::Camera(image))
+}
+
+/// A logged frame's state on `frame`: its views' settings, its condition, the moving objects'
+/// switches and their time.
+fn set_logged_state(frame: &mut FrameOfViews<'_>, record: &FrameRecord) -> Result<()> {
     frame.force_view_settings(record.views.clone());
     // each frame in its logged condition (a log without conditions: as the config starts)
     if !record.condition.is_empty() && frame.condition() != Some(record.condition.as_str()) {
@@ -256,23 +342,17 @@ fn draw_frame(
     }
     // a log before format 4 has no object time: the keyframed objects at their start
     frame.set_object_time(record.object_time_s.unwrap_or(0.0));
-    let held = HeldPoses {
-        wand: record.wand,
-        left_hand: record.left_hand,
-    };
-    let poses = Poses::Tracked {
-        pose: &record.pose,
-        held: &held,
-        arrived: None,
-    };
-    let Some(third) = output.camera else {
-        let images = frame.read_back(poses)?;
-        let mut kept = Kept::of(config, frame.wall_views(), images);
-        kept.exposure = frame.exposure();
-        // the latency test's white or black walls, as the run showed them
-        kept.flash(record.flash);
-        return Ok(Images::Views(kept));
-    };
+    Ok(())
+}
+
+/// The third-person camera's image of `record`, the moving objects posed from `poses`; drawn
+/// with the display's `antialiasing`, unpaced, with the first view's mirror reflections.
+fn third_person(
+    frame: &mut FrameOfViews<'_>,
+    record: &FrameRecord,
+    poses: Poses<'_>,
+    (third, antialiasing): (ThirdPerson, u32),
+) -> Result<Frame> {
     let (eye, look_at) = default_placement(&record.pose);
     let camera = crate::scene::Camera {
         name: "third-person".into(),
@@ -282,18 +362,15 @@ fn draw_frame(
         fov_y_deg: third.fov_y_deg,
         size: third.size,
     };
-    // the display's eye rays per pixel, unpaced, with the first view's mirror reflections
     let first = record.views.first();
     let settings = ViewSettings {
-        samples_per_pixel: config.antialiasing,
-        paced_samples: config.antialiasing,
+        samples_per_pixel: antialiasing,
+        paced_samples: antialiasing,
         paced_fraction: 0.0,
         mirror_bounces: first.map_or(1, |s| s.mirror_bounces),
         fixed_work: first.map_or(0, |s| s.fixed_work),
     };
-    Ok(Images::Camera(
-        frame.read_back_camera(poses, &camera, settings)?,
-    ))
+    frame.read_back_camera(poses, &camera, settings)
 }
 
 /// A frame's images into `dir`: the views as the headless run writes them (or the camera's
@@ -303,7 +380,7 @@ fn write_frame(
     frame: &FrameOfViews<'_>,
     images: &Images,
     dir: &Path,
-    (exr, text): (bool, &Option<Vec<String>>),
+    (exr, text): (bool, Option<&[String]>),
 ) -> Result<()> {
     let named: Vec<(String, &Frame)> = match images {
         Images::Views(kept) => {
@@ -320,21 +397,26 @@ fn write_frame(
     };
     for (name, image) in named {
         let png = dir.join(format!("{name}.png"));
-        match text {
-            Some(text) => {
-                let mut rgb = display_image(image, frame.exposure());
-                overlay::draw(&mut rgb, text);
-                rgb.save_with_format(&png, image::ImageFormat::Png)
-                    .map_err(|e| VlfError::Image {
-                        path: png.clone(),
-                        message: e.to_string(),
-                    })?;
-            }
-            None if matches!(images, Images::Camera(_)) => {
-                write_image(image, &png, frame.exposure())?
-            }
-            None => {}
+        // the walls' PNGs are the headless run's (`write_kept`): written again only with text
+        if text.is_some() || matches!(images, Images::Camera(_)) {
+            write_png(image, &png, frame.exposure(), text)?;
         }
     }
     Ok(())
+}
+
+/// `image` as displayed at `exposure` into the PNG `path`, with `text` over it where given.
+fn write_png(image: &Frame, path: &Path, exposure: f32, text: Option<&[String]>) -> Result<()> {
+    let Some(text) = text else {
+        return write_image(image, path, exposure);
+    };
+    let mut rgb = display_image(image, exposure);
+    overlay::draw(&mut rgb, text);
+    let tmp = path.with_extension("png.partial");
+    (rgb.save_with_format(&tmp, image::ImageFormat::Png))
+        .and_then(|_| std::fs::rename(&tmp, path).map_err(image::ImageError::IoError))
+        .map_err(|e| VlfError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })
 }

@@ -39,6 +39,11 @@ fn finish_atomic(tmp: &Path, path: &Path) -> Result<()> {
 }
 
 /// Write `.exr` (linear) or `.png` (tonemapped with `exposure`), by extension.
+/// Whether `path` names an EXR file (linear radiance), by its extension.
+pub fn is_exr(path: &Path) -> bool {
+    (path.extension().and_then(|e| e.to_str())).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
 pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
     let ext = path
         .extension()

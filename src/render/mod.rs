@@ -106,8 +106,12 @@ pub struct ViewTargets {
     /// with raster first hits, the visibility buffer the view's eye rays read
     raster: Option<raster::RasterTargets>,
     /// the resolve's view group for each of the renderer's light fields (their faces and
-    /// materials)
+    /// materials), made by the renderer `owner`
     resolve_bind_groups: Vec<wgpu::BindGroup>,
+    owner: u64,
+    /// the same for other renderers that draw into these images (`Renderer::bind_targets`: a
+    /// study's condition of other geometry), by their ids
+    other_groups: Vec<(u64, Vec<wgpu::BindGroup>)>,
 }
 
 struct Target {
@@ -117,6 +121,8 @@ struct Target {
 }
 
 pub struct Renderer {
+    /// which renderer this is (view targets keep their bind groups by it)
+    id: u64,
     ctx: Arc<GpuContext>,
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
@@ -151,7 +157,12 @@ pub struct Renderer {
     probe_grid: Option<crate::gpu::types::GpuProbeGrid>,
     /// the moving objects' shadows drawn once per frame (none: per pixel, or no objects)
     shadow_atlas: Option<shadow_atlas::ShadowAtlas>,
+    /// how the moving objects are lit, where there are any
+    object_lighting: Option<probes::ObjectLighting>,
 }
+
+/// The next renderer's id.
+static RENDERER_IDS: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// One light field as the resolve binds it: its bind group, the faces and material table the
 /// view groups bind, and the moving objects' group (their shading records, materials and the
@@ -305,6 +316,7 @@ impl Renderer {
         };
         let first = FieldSet::new(resident, lf, ledger, (&layouts.field, &layouts.moving));
         let mut renderer = Renderer {
+            id: RENDERER_IDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             ctx: ctx.clone(),
             resolve_pipeline,
             variant,
@@ -327,6 +339,7 @@ impl Renderer {
             moving: None,
             probe_grid: None,
             shadow_atlas: None,
+            object_lighting: objects.as_ref().map(|o| o.lighting),
         };
         if let (Some(o), Some(plan)) = (objects, plan) {
             renderer.add_objects(lf, ledger, (o, &plan))?;
@@ -625,6 +638,51 @@ impl Renderer {
         let visibility = raster
             .as_ref()
             .map_or(&self.placeholder_visibility, |r| &r.visibility);
+        let resolve_bind_groups = self.view_groups((&image_view, &depth_view), visibility);
+        ViewTargets {
+            width,
+            height,
+            image,
+            image_view,
+            depth,
+            depth_view,
+            raster,
+            resolve_bind_groups,
+            owner: self.id,
+            other_groups: Vec::new(),
+        }
+    }
+
+    /// Let this renderer draw into `targets` too (made by another: a study's condition of other
+    /// geometry draws into the same wall or eye images), or again after light fields were added.
+    pub fn bind_targets(&self, targets: &mut ViewTargets) {
+        let own = targets.owner == self.id;
+        let at = (targets.other_groups.iter()).position(|(id, _)| *id == self.id);
+        let bound = match (own, at) {
+            (true, _) => targets.resolve_bind_groups.len(),
+            (false, Some(k)) => targets.other_groups[k].1.len(),
+            (false, None) => 0,
+        };
+        if bound == self.fields.len() {
+            return;
+        }
+        let visibility =
+            (targets.raster.as_ref()).map_or(&self.placeholder_visibility, |r| &r.visibility);
+        let groups = self.view_groups((&targets.image_view, &targets.depth_view), visibility);
+        match (own, at) {
+            (true, _) => targets.resolve_bind_groups = groups,
+            (false, Some(k)) => targets.other_groups[k].1 = groups,
+            (false, None) => targets.other_groups.push((self.id, groups)),
+        }
+    }
+
+    /// The resolve's view group of each light field for an image, its depth and visibility.
+    fn view_groups(
+        &self,
+        (image_view, depth_view): (&wgpu::TextureView, &wgpu::TextureView),
+        visibility: &wgpu::TextureView,
+    ) -> Vec<wgpu::BindGroup> {
+        let device = &self.ctx.device;
         let group = |field: &FieldSet| {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("view"),
@@ -648,7 +706,7 @@ impl Renderer {
                     },
                     wgpu::BindGroupEntry {
                         binding: 4,
-                        resource: wgpu::BindingResource::TextureView(&image_view),
+                        resource: wgpu::BindingResource::TextureView(image_view),
                     },
                     wgpu::BindGroupEntry {
                         binding: 5,
@@ -656,7 +714,7 @@ impl Renderer {
                     },
                     wgpu::BindGroupEntry {
                         binding: 6,
-                        resource: wgpu::BindingResource::TextureView(&depth_view),
+                        resource: wgpu::BindingResource::TextureView(depth_view),
                     },
                     wgpu::BindGroupEntry {
                         binding: 7,
@@ -669,17 +727,17 @@ impl Renderer {
                 ],
             })
         };
-        let resolve_bind_groups = self.fields.iter().map(group).collect();
-        ViewTargets {
-            width,
-            height,
-            image,
-            image_view,
-            depth,
-            depth_view,
-            raster,
-            resolve_bind_groups,
-        }
+        self.fields.iter().map(group).collect()
+    }
+
+    /// Where the light field's normalised space is in the world (each scene has its own).
+    pub fn normalisation(&self) -> Normalisation {
+        self.normalisation
+    }
+
+    /// How the moving objects are lit (None: the renderer draws none).
+    pub fn object_lighting(&self) -> Option<probes::ObjectLighting> {
+        self.object_lighting
     }
 
     fn target(&mut self, width: u32, height: u32) -> &Target {
@@ -738,8 +796,13 @@ impl Renderer {
         });
         pass.set_pipeline(pipeline);
         let field = &self.fields[self.active];
-        let view_group = (targets.resolve_bind_groups.get(self.active))
-            .unwrap_or(&targets.resolve_bind_groups[0]);
+        let groups = match targets.owner == self.id {
+            true => &targets.resolve_bind_groups,
+            false => (targets.other_groups.iter().find(|(id, _)| *id == self.id))
+                .map(|(_, g)| g)
+                .expect("view targets of another renderer are bound first (bind_targets)"),
+        };
+        let view_group = groups.get(self.active).unwrap_or(&groups[0]);
         pass.set_bind_group(0, view_group, &[]);
         pass.set_bind_group(1, &field.field_bind_group, &[]);
         pass.set_bind_group(2, &field.moving_group, &[]);

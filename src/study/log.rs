@@ -25,9 +25,10 @@ use std::time::{Duration, Instant};
 /// The log's own format version (session.json's `format`): 2 added `pose_to_photon_ms`, 3 the
 /// left hand's columns after it, 4 `condition`, `object_time_s` and the raw (uncalibrated) poses
 /// after those, 5 the moving objects' switches (`objects_hidden`, `shadows`, `reflections`) and
-/// the latency test's `flash` after the raw poses; `SessionLog::read` reads 1 to 4 too (without
+/// the latency test's `flash` after the raw poses, 6 a headset's eyes (`EYE_COLUMNS` after each
+/// view's, and session.json's `headset_setup`); `SessionLog::read` reads 1 to 5 too (without
 /// them).
-pub const LOG_FORMAT: u32 = 5;
+pub const LOG_FORMAT: u32 = 6;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -59,6 +60,46 @@ pub struct SessionMeta {
     /// the runtime's stage, and `display_config` is empty (None: a CAVE's)
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub headset: Option<String>,
+    /// a headset's session from format 6: how its eyes were drawn (their located poses and
+    /// fields of view are in each row), which `vlf replay` draws them again with
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub headset_setup: Option<HeadsetSetup>,
+}
+
+/// How a headset session drew its eyes (`vlf xr --log`), besides what each row holds: what
+/// `vlf replay` needs to draw them again.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct HeadsetSetup {
+    /// each eye's image, pixels (width, height), in `views` order
+    pub eye_pixels: Vec<[u32; 2]>,
+    /// `--aa`: eye rays per pixel where not paced
+    pub antialiasing: u32,
+    /// `--first-hits`
+    pub first_hits: crate::render::raster::FirstHits,
+    /// `--exposure` (a condition's exposure multiplies it)
+    pub exposure: f32,
+    /// `--objects`, as an absolute path (None: no moving objects)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objects: Option<PathBuf>,
+    /// `--conditions`, as an absolute path (None: none)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub conditions: Option<PathBuf>,
+    /// the eyes' near plane, metres
+    pub near_m: f32,
+}
+
+/// A headset's eye as the runtime located it for a frame (`xrLocateViews` at the predicted
+/// display time): its pose in the stage and its field of view. `vlf replay` draws the eye from
+/// it; the head is the point between the eyes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EyeRecord {
+    /// metres, in the stage
+    pub position: [f32; 3],
+    /// stage from eye, quaternion x, y, z, w
+    pub orientation: [f32; 4],
+    /// radians from the view direction: left, right, up, down (left and down usually negative)
+    pub fov: [f32; 4],
 }
 
 impl SessionMeta {
@@ -86,6 +127,7 @@ impl SessionMeta {
             views,
             columns: Vec::new(),
             headset: None,
+            headset_setup: None,
         }
     }
 }
@@ -155,6 +197,9 @@ pub struct FrameRecord {
     /// the latency test (`flash`): Some(true) every wall full white this frame, Some(false)
     /// black, None the scene
     pub flash: Option<bool>,
+    /// a headset's eyes as located for this frame, in `SessionMeta::views` order (empty for a
+    /// CAVE's views, which the head and the walls place)
+    pub eyes: Vec<EyeRecord>,
 }
 
 /// The moving objects' switches in a frame (`FrameRecord::objects`).
@@ -386,13 +431,43 @@ const VIEW_COLUMNS: [(&str, &str); 5] = [
     ),
 ];
 
-/// The documented columns of a log of `views`.
-pub(crate) fn columns(views: &[String]) -> Vec<(String, String)> {
+/// A headset's eye columns, after its views' (format 6 on; a CAVE's log has none).
+const EYE_COLUMNS: [(&str, &str); 11] = [
+    (
+        "eye_x",
+        "the eye's position in the stage (the headset's room) as the runtime located it for the frame's predicted display time, metres",
+    ),
+    ("eye_y", "the eye's position in the stage, metres"),
+    ("eye_z", "the eye's position in the stage, metres"),
+    ("eye_qx", "the eye's rotation, stage from eye, quaternion x"),
+    ("eye_qy", "the eye's rotation, quaternion y"),
+    ("eye_qz", "the eye's rotation, quaternion z"),
+    ("eye_qw", "the eye's rotation, quaternion w"),
+    (
+        "fov_left",
+        "the eye's field of view: its left edge's angle from the view direction, radians (negative: to the left)",
+    ),
+    ("fov_right", "the field of view's right edge, radians"),
+    ("fov_up", "the field of view's upper edge, radians"),
+    (
+        "fov_down",
+        "the field of view's lower edge, radians (negative: below)",
+    ),
+];
+
+/// The documented columns of a log of `views`; `eyes`: a headset's, with each eye's pose and
+/// field of view.
+pub(crate) fn columns(views: &[String], eyes: bool) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
         .map(|(n, m)| (n.to_string(), m.to_string()))
         .collect();
     for v in views {
         for (n, m) in VIEW_COLUMNS {
+            out.push((format!("{v}:{n}"), format!("view {v}: {m}")));
+        }
+    }
+    for v in views.iter().filter(|_| eyes) {
+        for (n, m) in EYE_COLUMNS {
             out.push((format!("{v}:{n}"), format!("view {v}: {m}")));
         }
     }
@@ -409,6 +484,8 @@ pub struct SessionLog {
     frames: std::io::BufWriter<std::fs::File>,
     parquet: parquet::FramesParquet,
     views: usize,
+    /// a headset's: each row has its eyes
+    eyes: bool,
     began: Instant,
     last_flush: Instant,
 }
@@ -429,7 +506,8 @@ impl SessionLog {
                 ),
             ));
         }
-        meta.columns = columns(&meta.views);
+        let eyes = meta.headset_setup.is_some();
+        meta.columns = columns(&meta.views, eyes);
         let text = serde_json::to_string_pretty(&meta).expect("metadata serialises");
         std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
         let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
@@ -442,6 +520,7 @@ impl SessionLog {
             frames,
             parquet: parquet::FramesParquet::create(dir, header)?,
             views: meta.views.len(),
+            eyes,
             began: now,
             last_flush: now,
         };
@@ -461,6 +540,13 @@ impl SessionLog {
                 "a session log row of {} views for a session of {}",
                 r.views.len(),
                 self.views
+            )));
+        }
+        let eyes = if self.eyes { self.views } else { 0 };
+        if r.eyes.len() != eyes {
+            return Err(VlfError::Display(format!(
+                "a session log row of {} eyes for a session of {eyes}",
+                r.eyes.len()
             )));
         }
         let row = row_text(r);
@@ -515,7 +601,8 @@ impl SessionLog {
         };
         let mut records = Vec::new();
         for (n, line) in complete.lines().enumerate().skip(1) {
-            let r = parse_row(line, (frame_columns(meta.format), meta.views.len()))
+            let shape = (frame_columns(meta.format), meta.views.len());
+            let r = parse_row(line, shape, meta.headset_setup.is_some())
                 .map_err(|why| VlfError::Display(format!("{}:{}: {why}", csv.display(), n + 1)))?;
             records.push(r);
         }
@@ -580,16 +667,67 @@ fn row_text(r: &FrameRecord) -> String {
         cells.push(v.mirror_bounces.to_string());
         cells.push(v.fixed_work.to_string());
     }
+    for e in &r.eyes {
+        let floats = e.position.iter().chain(&e.orientation).chain(&e.fov);
+        cells.extend(floats.map(f32::to_string));
+    }
     cells.push(format!("\"{}\"", r.events.replace('"', "\"\"")));
     cells.join(",")
 }
 
-/// A row back (`frame_columns` of `FRAME_COLUMNS`, then `views` views), or why it is not one.
+/// A row's cell `i` as a number, or why not.
+fn cell<T: std::str::FromStr>(cells: &[&str], i: usize) -> std::result::Result<T, String> {
+    cells[i]
+        .parse()
+        .map_err(|_| format!("not a number: {:?}", cells[i]))
+}
+
+/// A row's per-view cells (from the first view's): `views` views' settings, then `eyes` eyes.
+fn per_view(
+    cells: &[&str],
+    views: usize,
+    eyes: usize,
+) -> std::result::Result<(Vec<ViewSettings>, Vec<EyeRecord>), String> {
+    let settings = (0..views)
+        .map(|k| {
+            let c = k * VIEW_COLUMNS.len();
+            Ok(ViewSettings {
+                samples_per_pixel: cell(cells, c)?,
+                paced_samples: cell(cells, c + 1)?,
+                paced_fraction: cell(cells, c + 2)?,
+                mirror_bounces: cell(cells, c + 3)?,
+                fixed_work: cell(cells, c + 4)?,
+            })
+        })
+        .collect::<std::result::Result<Vec<_>, String>>()
+        .map_err(|e| format!("a view's column: {e}"))?;
+    let first_eye = views * VIEW_COLUMNS.len();
+    let eyes = (0..eyes)
+        .map(|k| {
+            let c = first_eye + k * EYE_COLUMNS.len();
+            let v = (c..c + EYE_COLUMNS.len())
+                .map(|i| cell::<f32>(cells, i))
+                .collect::<std::result::Result<Vec<f32>, String>>()?;
+            Ok(EyeRecord {
+                position: [v[0], v[1], v[2]],
+                orientation: [v[3], v[4], v[5], v[6]],
+                fov: [v[7], v[8], v[9], v[10]],
+            })
+        })
+        .collect::<std::result::Result<Vec<_>, String>>()
+        .map_err(|e| format!("an eye's column: {e}"))?;
+    Ok((settings, eyes))
+}
+
+/// A row back (`frame_columns` of `FRAME_COLUMNS`, then `views` views, and with `eyes` as many
+/// eyes), or why it is not one.
 fn parse_row(
     line: &str,
     (frame_columns, views): (usize, usize),
+    eyes: bool,
 ) -> std::result::Result<FrameRecord, String> {
-    let fixed = frame_columns + views * VIEW_COLUMNS.len();
+    let eye_count = if eyes { views } else { 0 };
+    let fixed = frame_columns + views * VIEW_COLUMNS.len() + eye_count * EYE_COLUMNS.len();
     let mut parts = line.splitn(fixed + 1, ',');
     let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
     let events = parts.next().ok_or("fewer columns than the header")?;
@@ -641,19 +779,7 @@ fn parse_row(
             other => Err(format!("column {}: {other:?} is not 1 or 0", i + 1)),
         }
     };
-    let base = frame_columns;
-    let views = (0..views)
-        .map(|k| {
-            let c = base + k * VIEW_COLUMNS.len();
-            Ok(ViewSettings {
-                samples_per_pixel: u(c)?,
-                paced_samples: u(c + 1)?,
-                paced_fraction: f(c + 2)?,
-                mirror_bounces: u(c + 3)?,
-                fixed_work: u(c + 4)?,
-            })
-        })
-        .collect::<std::result::Result<Vec<_>, String>>()?;
+    let (views, eyes) = per_view(&cells[frame_columns..], views, eye_count)?;
     Ok(FrameRecord {
         frame: cells[0]
             .parse()
@@ -701,6 +827,7 @@ fn parse_row(
             },
             false => None,
         },
+        eyes,
     })
 }
 
@@ -764,6 +891,7 @@ mod tests {
                 reflections: true,
             }),
             flash: wand.then_some(false),
+            eyes: Vec::new(),
         }
     }
 
@@ -780,6 +908,7 @@ mod tests {
             views: vec!["front-left".into(), "front-right".into()],
             columns: Vec::new(),
             headset: None,
+            headset_setup: None,
         }
     }
 
@@ -798,6 +927,48 @@ mod tests {
         assert_eq!(m.columns.len(), 66 + 2 * 5 + 1);
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
+    }
+
+    #[test]
+    fn a_headsets_eyes_read_back_bit_for_bit() {
+        let dir = tempfile::tempdir().unwrap();
+        let eye = |x: f32| EyeRecord {
+            position: [x, 1.612_345_7, -0.1],
+            orientation: [0.01, 0.999_9, -0.003, 0.012_345_679],
+            fov: [-0.78, 0.698_131_7, 0.8, -0.9],
+        };
+        let rows: Vec<FrameRecord> = (0..2)
+            .map(|k| FrameRecord {
+                eyes: vec![eye(-0.032 + k as f32), eye(0.032)],
+                ..record(k, k == 0)
+            })
+            .collect();
+        let headset = SessionMeta {
+            headset: Some("test runtime".into()),
+            headset_setup: Some(HeadsetSetup {
+                eye_pixels: vec![[256, 224], [256, 224]],
+                antialiasing: 4,
+                first_hits: Default::default(),
+                exposure: 1.5,
+                objects: Some("/x/body.toml".into()),
+                conditions: None,
+                near_m: 0.05,
+            }),
+            ..meta()
+        };
+        {
+            let mut log = SessionLog::create(dir.path(), headset.clone()).unwrap();
+            for r in &rows {
+                log.record(r).unwrap();
+            }
+            // a row without its eyes is refused
+            assert!(log.record(&record(2, false)).is_err());
+        }
+        let (m, back) = SessionLog::read(dir.path()).unwrap();
+        assert_eq!(back, rows);
+        assert_eq!(m.headset_setup, headset.headset_setup);
+        assert_eq!(m.columns.len(), 66 + 2 * 5 + 2 * 11 + 1);
+        assert!(m.columns.iter().any(|(n, _)| n == "front-right:fov_down"));
     }
 
     /// A log written now, rewritten as an older format wrote it: session.json's `format` and

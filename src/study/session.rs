@@ -464,6 +464,7 @@ mod tests {
             condition: String::new(),
             objects: None,
             flash: None,
+            eyes: Vec::new(),
         }
     }
 

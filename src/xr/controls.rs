@@ -6,7 +6,8 @@
 use super::xr_error;
 use crate::error::Result;
 use crate::tracking::navigator::Navigator;
-use glam::{Affine3A, Quat, Vec3};
+use crate::tracking::pose::WandPose;
+use glam::{Quat, Vec3};
 use openxr as xr;
 
 /// Thumbstick navigation: left stick walks and strafes, right stick turns (x) and rises or
@@ -136,8 +137,9 @@ pub(super) struct Grips {
 
 impl Grips {
     /// The left and right grips in `base` at `time`, each None where the runtime does not know
-    /// both its position and its orientation (an untracked hand hangs: `dynamic::avatar`).
-    pub(super) fn locate(&self, base: &xr::Space, time: xr::Time) -> Result<[Option<Affine3A>; 2]> {
+    /// both its position and its orientation (an untracked hand hangs: `dynamic::avatar`); as
+    /// the runtime gave them (the session log keeps them so, `body::hand_in_stage` places them).
+    pub(super) fn locate(&self, base: &xr::Space, time: xr::Time) -> Result<[Option<WandPose>; 2]> {
         let mut hands = [None; 2];
         for (hand, space) in hands.iter_mut().zip(&self.spaces) {
             let location = space
@@ -149,7 +151,10 @@ impl Grips {
                 let (o, p) = (location.pose.orientation, location.pose.position);
                 let rotation = Quat::from_xyzw(o.x, o.y, o.z, o.w);
                 if rotation.is_finite() && rotation.length() > 1e-3 {
-                    *hand = Some(super::body::stage_pose(rotation, Vec3::new(p.x, p.y, p.z)));
+                    *hand = Some(WandPose {
+                        position: Vec3::new(p.x, p.y, p.z),
+                        rotation,
+                    });
                 }
             }
         }

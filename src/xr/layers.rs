@@ -60,7 +60,9 @@ pub(super) struct Layers {
     pipeline: wgpu::RenderPipeline,
     /// one for both eyes (multiview), else one per eye
     bind_groups: Vec<wgpu::BindGroup>,
-    _params: wgpu::Buffer,
+    /// the eye pass's parameters (a study's condition changes the exposure), and their buffer
+    present: GpuPresent,
+    params: wgpu::Buffer,
 }
 
 /// The swapchain formats: colour (Vulkan, wgpu) and depth (Vulkan, wgpu, or why none).
@@ -225,18 +227,16 @@ impl Layers {
                 (layout, pipeline)
             }
         };
-        let params = crate::display::present::params_buffer(
-            ctx,
-            "eye layer parameters",
-            Some(&GpuPresent {
-                viewport_origin: [0.0, 0.0],
-                viewport_size: [sizes[0][0] as f32, sizes[0][1] as f32],
-                exposure: options.exposure,
-                encode_srgb: (!colour.1.is_srgb()) as u32,
-                show_overlay: 0,
-                _pad0: 0,
-            }),
-        );
+        let present = GpuPresent {
+            viewport_origin: [0.0, 0.0],
+            viewport_size: [sizes[0][0] as f32, sizes[0][1] as f32],
+            exposure: options.exposure,
+            encode_srgb: (!colour.1.is_srgb()) as u32,
+            show_overlay: 0,
+            _pad0: 0,
+        };
+        let params =
+            crate::display::present::params_buffer(ctx, "eye layer parameters", Some(&present));
         let texture = wgpu::BindingResource::TextureView;
         let bind_groups = if shape == (Shape::Array { multiview: true }) {
             let entries = [
@@ -268,8 +268,17 @@ impl Layers {
             depth_format,
             pipeline,
             bind_groups,
-            _params: params,
+            present,
+            params,
         })
+    }
+
+    /// Show the eyes at `exposure` from the next frame (`--exposure` times a study condition's).
+    pub(super) fn set_exposure(&mut self, ctx: &GpuContext, exposure: f32) {
+        if self.present.exposure != exposure {
+            self.present.exposure = exposure;
+            (ctx.queue).write_buffer(&self.params, 0, bytemuck::bytes_of(&self.present));
+        }
     }
 
     /// Acquire and wait for this frame's image of every swapchain.

@@ -1,8 +1,8 @@
 //! `vlf xr`: an OpenXR headset drawn from the one resident light field. This module loads the
 //! system's OpenXR loader (the `openxr` crate, at run time), finds a runtime with
 //! XR_KHR_vulkan_enable2 and a head-mounted system (or says what is missing and how to install
-//! and select a runtime), and holds the view math: OpenXR's asymmetric field of view to a
-//! projection, OpenXR poses to the renderer's views. `vulkan` builds wgpu on the Vulkan
+//! and select a runtime), and draws with the view math of `display::headset_view` (OpenXR's asymmetric field of view to
+//! a projection, OpenXR poses to the renderer's views). `vulkan` builds wgpu on the Vulkan
 //! instance and device the runtime creates; `session` runs the frame loop; `body` is the moving
 //! objects' file and what they follow (the head and the controllers' grips).
 
@@ -21,11 +21,12 @@ pub use layers::Swapchains;
 pub use report::XrReport;
 pub use study::XrStudy;
 
+pub use crate::display::headset_view::{
+    eye_view, pose_from_view, projection_from_fov, view_from_pose, Fov, XrPose, FAR_OVER_NEAR,
+};
 pub use crate::display::MakeLightField;
 
 use crate::error::{Result, VlfError};
-use crate::tracking::Pose;
-use glam::{Mat4, Quat, Vec3, Vec4};
 use std::path::Path;
 
 /// The eyes' view configuration: one stereo pair.
@@ -61,89 +62,6 @@ pub struct XrOptions {
 
 fn xr_error(what: &str) -> impl Fn(openxr::sys::Result) -> VlfError + '_ {
     move |e| VlfError::Display(format!("OpenXR {what}: {e}"))
-}
-
-/// OpenXR's field of view of one eye: four angles in radians from the view direction (left and
-/// down are usually negative).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Fov {
-    pub angle_left: f32,
-    pub angle_right: f32,
-    pub angle_up: f32,
-    pub angle_down: f32,
-}
-
-/// The projection of an asymmetric field of view: right-handed view space looking down -z, y up,
-/// clip depth 0 at `near` and 1 at `far` (wgpu and Vulkan).
-pub fn projection_from_fov(fov: Fov, near: f32, far: f32) -> Mat4 {
-    let (left, right) = (fov.angle_left.tan(), fov.angle_right.tan());
-    let (down, up) = (fov.angle_down.tan(), fov.angle_up.tan());
-    let (width, height) = (right - left, up - down);
-    Mat4::from_cols(
-        Vec4::new(2.0 / width, 0.0, 0.0, 0.0),
-        Vec4::new(0.0, 2.0 / height, 0.0, 0.0),
-        Vec4::new(
-            (right + left) / width,
-            (up + down) / height,
-            far / (near - far),
-            -1.0,
-        ),
-        Vec4::new(0.0, 0.0, near * far / (near - far), 0.0),
-    )
-}
-
-/// An OpenXR pose: orientation and position of an eye in the reference space (stage: metres,
-/// y up, -z ahead; the same convention as the CAVE's room space).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct XrPose {
-    /// quaternion (x, y, z, w), as XrQuaternionf
-    pub orientation: [f32; 4],
-    pub position: [f32; 3],
-}
-
-/// The view matrix (reference space to eye space) of a pose.
-pub fn view_from_pose(pose: XrPose) -> Mat4 {
-    let q = Quat::from_array(pose.orientation).normalize();
-    Mat4::from_rotation_translation(q, Vec3::from(pose.position)).inverse()
-}
-
-/// The pose whose view matrix this is (rigid transforms only).
-pub fn pose_from_view(view: Mat4) -> XrPose {
-    let (_, rotation, translation) = view.inverse().to_scale_rotation_translation();
-    XrPose {
-        orientation: rotation.to_array(),
-        position: translation.into(),
-    }
-}
-
-/// The far plane of the eyes' projection over the near plane: the renderer's depth (submitted
-/// as the depth layer) runs from the near plane at 0 to this far at 1.
-pub const FAR_OVER_NEAR: f32 = 1e4;
-
-/// One eye's view-projection and position in the light field's normalised space: the stage is
-/// placed in the scene by `room` (navigation), then normalised.
-pub fn eye_view(
-    pose: XrPose,
-    fov: Fov,
-    room: &Pose,
-    norm: &crate::prepare::Normalisation,
-    near: f32,
-) -> (Mat4, Vec3) {
-    let world_from_stage = Mat4::from_rotation_translation(
-        Quat::from_rotation_y(room.room_yaw_deg.to_radians()),
-        room.room_position,
-    );
-    let origin = norm.to_unit([0.0; 3]).as_vec3();
-    let scale = norm.to_unit([1.0, 0.0, 0.0]).as_vec3().x - origin.x;
-    let unit_from_world =
-        Mat4::from_scale_rotation_translation(Vec3::splat(scale), Quat::IDENTITY, origin);
-    let eye_from_unit = view_from_pose(pose) * (unit_from_world * world_from_stage).inverse();
-    let eye = (unit_from_world * world_from_stage).transform_point3(Vec3::from(pose.position));
-    let near_unit = near * scale;
-    (
-        projection_from_fov(fov, near_unit, near_unit * FAR_OVER_NEAR) * eye_from_unit,
-        eye,
-    )
 }
 
 const INSTALL: &str = "install an OpenXR runtime: Monado (https://monado.freedesktop.org, e.g. the monado-service package) or SteamVR; select it with XR_RUNTIME_JSON=/path/to/its runtime.json (Monado: openxr_monado.json) or make it the active runtime (~/.config/openxr/1/active_runtime.json)";

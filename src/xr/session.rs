@@ -202,7 +202,7 @@ pub fn run(
         frame.use_conditions(c)?;
     }
     let adapter = ctx.summary.name.clone();
-    let mut parts = super::study::open(&options.study, (&lf, &adapter, &runtime), frame.labels())?;
+    let mut parts = super::study::open(options, (&lf, &adapter, &runtime), frame.labels(), NEAR)?;
     let study = super::study::session(&mut parts, &frame, conditions.as_ref());
 
     let mut headset = Headset {
@@ -217,7 +217,6 @@ pub fn run(
         controls,
         grips,
         camera: &camera,
-        lf: &lf,
         runtime: &runtime,
         study,
     };
@@ -292,7 +291,6 @@ struct Headset<'a, 'c> {
     /// the controllers' grip spaces, where objects follow the hands
     grips: Option<Grips>,
     camera: &'a crate::scene::Camera,
-    lf: &'a crate::lightfield::LightField,
     runtime: &'a XrRuntime,
     /// the study's commands, log and LSL outlets (`super::study`)
     study: crate::study::Session<'a>,
@@ -324,7 +322,7 @@ struct LoopState {
     /// the last frame's navigated pose and what its objects followed
     last_tracked: Option<(Pose, Tracked)>,
     /// the controllers' grips (left, right) in the stage, as this frame located them
-    hands: [Option<glam::Affine3A>; 2],
+    hands: [Option<crate::tracking::pose::WandPose>; 2],
 }
 
 /// What the display showed of the timed frames (`display_account`).
@@ -756,7 +754,8 @@ impl Headset<'_, '_> {
 
     /// Each eye's view-projection and position in the light field's space (`eye_view`).
     fn eye_matrices(&self, views: &[xr::View], pose: &Pose) -> Vec<(glam::Mat4, Vec3)> {
-        let norm = &self.lf.meta.normalisation;
+        // the scene drawn now (a condition's of other geometry has its own)
+        let norm = &self.frame.renderer().normalisation();
         (views.iter())
             .map(|view| eye_view(xr_pose(view), xr_fov(view), pose, norm, NEAR))
             .collect()
@@ -782,6 +781,8 @@ impl Headset<'_, '_> {
         // what the script sent takes effect from this frame
         self.study.begin_frame();
         self.frame.take_study_changes(&mut self.study)?;
+        // a condition's exposure on top of --exposure
+        (self.layers).set_exposure(self.ctx, options.exposure * self.frame.exposure());
         let pad = self.controls.read(self.session, &mut st.navigator)?;
         let (_, views) = self
             .session
@@ -819,8 +820,17 @@ impl Headset<'_, '_> {
         // read (their times to the pacer and the report)
         self.frame.begin(timed)?;
         let capture = options.screenshot.is_some() && st.frames + 1 == options.screenshot_frame;
+        // a .exr screenshot is the left eye's linear radiance as drawn (`vlf replay --exr`
+        // draws the same), a .png what went onto its swapchain
+        let linear = (options.screenshot.as_deref()).is_some_and(crate::render::image_io::is_exr);
         let poses = (&pose, tracked.as_ref());
-        let readback = self.draw_eyes(st, &views, poses, (timed, capture))?;
+        let readback = self.draw_eyes(st, &views, poses, (timed, capture && !linear))?;
+        if let (true, true, Some(path)) = (capture, linear, &options.screenshot) {
+            let left = self.frame.view_image(0).expect("the eyes' own images");
+            let image = crate::display::post::read_texture(self.ctx, left)?;
+            crate::render::image_io::write_image(&image, path, 1.0)?;
+            st.screenshot_written = Some(path.display().to_string());
+        }
         let pose_to_submit_ms = located.elapsed().as_secs_f64() * 1e3;
         let fixed = (&frame_state, self.setup.blend, &self.setup.space);
         (self.layers).end_frame(&mut self.frame_stream, fixed, &views, DEPTH_RANGE)?;
@@ -835,6 +845,7 @@ impl Headset<'_, '_> {
             room: pose,
             head: head_of(&views),
             hands: st.hands,
+            eyes: views.iter().map(eye_record).collect(),
             cpu_ms,
             pose_to_submit_ms,
             object_time_s: tracked.as_ref().map(|t| t.time),
@@ -867,7 +878,12 @@ impl Headset<'_, '_> {
         let first = *st.first_display_ns.get_or_insert(display_time.as_nanos());
         let seconds = (display_time.as_nanos() - first) as f64 * 1e-9;
         self.frame.set_object_time(seconds);
-        let tracked = body::tracked(pose, head, hands, seconds);
+        let tracked = body::tracked(
+            pose,
+            head,
+            hands.map(|h| h.map(body::hand_in_stage)),
+            seconds,
+        );
         st.last_tracked = Some((*pose, tracked));
         Ok(Some(tracked))
     }
@@ -955,6 +971,21 @@ fn head_of(views: &[xr::View]) -> glam::Affine3A {
         (Quat::from_array(orientation), Vec3::from(position))
     };
     body::head_between([eye(&views[0]), eye(&views[1])])
+}
+
+/// An eye as the session log keeps it: its located pose and field of view.
+fn eye_record(view: &xr::View) -> crate::study::log::EyeRecord {
+    let (pose, fov) = (xr_pose(view), xr_fov(view));
+    crate::study::log::EyeRecord {
+        position: pose.position,
+        orientation: pose.orientation,
+        fov: [
+            fov.angle_left,
+            fov.angle_right,
+            fov.angle_up,
+            fov.angle_down,
+        ],
+    }
 }
 
 fn xr_pose(view: &xr::View) -> XrPose {

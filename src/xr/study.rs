@@ -9,12 +9,12 @@
 //! them). Commands a headset cannot carry out (the latency test's `flash`; `condition` without
 //! `--conditions`) are refused with the reason, changing nothing.
 
-use super::XrRuntime;
+use super::{XrOptions, XrRuntime};
 use crate::display::conditions::{study_conditions, ConditionsFile};
 use crate::display::frame::{FrameOfViews, ViewLabel};
 use crate::error::Result;
 use crate::lightfield::LightField;
-use crate::study::log::{Drawn, FrameRecord, SessionMeta};
+use crate::study::log::{Drawn, FrameRecord, HeadsetSetup, SessionMeta};
 use crate::study::{ControlServer, LslOutlets, Session, SessionLog};
 use crate::tracking::pose::WandPose;
 use crate::tracking::source::Pose;
@@ -60,13 +60,15 @@ pub(super) fn refused(conditions: bool) -> Vec<(&'static str, String)> {
     refused
 }
 
-/// The control server, the session log and the LSL outlets `study` asks for; `lf` is the light
-/// field drawn, `views` the eyes.
+/// The control server, the session log and the LSL outlets `options.study` asks for; `lf` is the
+/// light field drawn, `views` the eyes, `near_m` their near plane.
 pub(super) fn open(
-    study: &XrStudy,
+    options: &XrOptions,
     (lf, adapter, runtime): (&LightField, &str, &XrRuntime),
     views: &[ViewLabel],
+    near_m: f32,
 ) -> Result<StudyParts> {
+    let study = &options.study;
     let control = match &study.control {
         Some(addr) => {
             let server = ControlServer::bind(addr)?;
@@ -77,7 +79,10 @@ pub(super) fn open(
     };
     let log = match &study.log {
         Some((dir, scene)) => {
-            let meta = meta(scene, (lf, adapter, runtime), views);
+            let meta = SessionMeta {
+                headset_setup: Some(setup(options, views, near_m)),
+                ..meta(scene, (lf, adapter, runtime), views)
+            };
             Some(SessionLog::create(dir, meta)?)
         }
         None => None,
@@ -101,6 +106,20 @@ fn meta(
     SessionMeta {
         headset: Some(format!("{} ({})", runtime.runtime, runtime.system)),
         ..SessionMeta::starting(scene, lf, adapter, views)
+    }
+}
+
+/// How the eyes are drawn, for `vlf replay` (session.json's `headset_setup`).
+fn setup(options: &XrOptions, views: &[ViewLabel], near_m: f32) -> HeadsetSetup {
+    let absolute = |p: &PathBuf| std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+    HeadsetSetup {
+        eye_pixels: views.iter().map(|v| v.pixels).collect(),
+        antialiasing: options.antialiasing,
+        first_hits: options.first_hits,
+        exposure: options.exposure,
+        objects: options.objects.as_ref().map(absolute),
+        conditions: (options.study.conditions.as_ref()).map(|(file, _)| absolute(file)),
+        near_m,
     }
 }
 
@@ -133,18 +152,15 @@ pub(super) fn due(clock: Option<(Instant, i64)>, display_ns: i64) -> Option<Inst
     Some(at + Duration::from_nanos((display_ns - now_ns).max(0) as u64))
 }
 
-fn held(pose: Affine3A) -> WandPose {
-    let (_, rotation, position) = pose.to_scale_rotation_translation();
-    WandPose { position, rotation }
-}
-
 /// What a frame drew, as a row of the log (the session adds the block, trial, events and
 /// flash): `room` the navigation, `head` and `hands` (left, right) in the stage.
 pub(super) struct Drew {
     pub frame: u64,
     pub room: Pose,
     pub head: Affine3A,
-    pub hands: [Option<Affine3A>; 2],
+    pub hands: [Option<WandPose>; 2],
+    /// each eye as located
+    pub eyes: Vec<crate::study::log::EyeRecord>,
     pub cpu_ms: f64,
     pub pose_to_submit_ms: f64,
     pub object_time_s: Option<f64>,
@@ -164,8 +180,8 @@ pub(super) fn record(drew: Drew, time_s: f64, frame_of_views: &FrameOfViews<'_>)
             room_position: drew.room.room_position,
             room_yaw_deg: drew.room.room_yaw_deg,
         },
-        wand: right.map(held),
-        left_hand: left.map(held),
+        wand: right,
+        left_hand: left,
         // the GPU's times come back frames late (frames in flight): in the report
         gpu_ms: None,
         cpu_ms: Some(drew.cpu_ms),
@@ -180,5 +196,6 @@ pub(super) fn record(drew: Drew, time_s: f64, frame_of_views: &FrameOfViews<'_>)
         condition: String::new(),
         objects: Some(frame_of_views.object_switches()),
         flash: None,
+        eyes: drew.eyes,
     }
 }

@@ -10,6 +10,7 @@
 //! reports.
 
 mod accounting;
+mod geometries;
 mod in_flight;
 pub mod study;
 mod times;
@@ -84,7 +85,6 @@ pub enum Slots {
 /// The CAVE's walls, for turning a tracked pose into each view's matrices.
 struct Cave<'a> {
     config: &'a DisplayConfig,
-    lf: &'a LightField,
     views: Vec<WallView>,
 }
 
@@ -120,6 +120,13 @@ pub struct FrameOfViews<'a> {
     conditions: Option<&'a Conditions>,
     condition: Option<usize>,
     exposure: f32,
+    /// the renderers of the other geometries (a condition's scene of other geometry,
+    /// `geometries.rs`), by geometry; `renderer` draws geometry `geometry` (its slot None)
+    parked: Vec<Option<Renderer>>,
+    geometry: usize,
+    /// each condition light field's renderer (its geometry) and its field there (0: the
+    /// `--scene`'s, k + 1: `Conditions::fields[k]`)
+    placement: Vec<(usize, usize)>,
 }
 
 impl<'a> FrameOfViews<'a> {
@@ -148,9 +155,6 @@ impl<'a> FrameOfViews<'a> {
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
         renderer.set_first_hits(config.first_hits)?;
-        for f in conditions.iter().flat_map(|c| &c.fields) {
-            renderer.add_light_field(&f.resident, &f.lf, &MemoryLedger::default())?;
-        }
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
         let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
@@ -176,7 +180,7 @@ impl<'a> FrameOfViews<'a> {
             ctx,
             renderer,
             sink: Sink::Outputs { outputs, slots },
-            cave: Some(Cave { config, lf, views }),
+            cave: Some(Cave { config, views }),
             fit: None,
             pacer: None,
             drawn: Vec::new(),
@@ -184,12 +188,15 @@ impl<'a> FrameOfViews<'a> {
             objects,
             object_time: 0.0,
             object_switches: (true, true),
-            conditions,
+            conditions: None,
             condition: None,
             exposure: 1.0,
+            parked: vec![None],
+            geometry: 0,
+            placement: vec![(0, 0)],
         };
         if let Some(c) = conditions {
-            frame.set_condition(&c.list[c.initial].name)?;
+            frame.use_conditions(c)?;
         }
         if let Some(budget) = config.frame_budget_ms().filter(|_| config.fit_frame_time) {
             let (pose, _) = poses.at_fresh(0.0);
@@ -238,6 +245,9 @@ impl<'a> FrameOfViews<'a> {
             conditions: None,
             condition: None,
             exposure: 1.0,
+            parked: vec![None],
+            geometry: 0,
+            placement: vec![(0, 0)],
         }
     }
 
@@ -269,6 +279,9 @@ impl<'a> FrameOfViews<'a> {
         }
         let (shadows, in_mirrors) = self.object_switches;
         self.renderer.set_object_switches(shadows, in_mirrors);
+        for r in self.parked.iter_mut().flatten() {
+            r.set_object_switches(shadows, in_mirrors);
+        }
     }
 
     /// A study's condition from the next frame drawn: its light field bound, its exposure, its
@@ -285,7 +298,9 @@ impl<'a> FrameOfViews<'a> {
             .index(name)
             .ok_or_else(|| VlfError::Display(format!("no condition called {name:?}")))?;
         let c = &conditions.list[k];
-        self.renderer.use_light_field(conditions.field_of[k])?;
+        let (geometry, field) = self.placement[conditions.field_of[k]];
+        self.use_geometry(geometry);
+        self.renderer.use_light_field(field)?;
         self.exposure = c.exposure;
         let switches = ObjectSwitches {
             hidden: (self.object_names().into_iter())
@@ -445,7 +460,8 @@ impl<'a> FrameOfViews<'a> {
             (Poses::Tracked { pose, held, .. }, Some(cave)) => {
                 let v = cave.views[i];
                 let wall = &cave.config.walls[v.wall];
-                let norm = &cave.lf.meta.normalisation;
+                // the scene drawn now (a condition's of other geometry has its own)
+                let norm = &self.renderer.normalisation();
                 let view = super::wall_view(cave.config, wall, v.side, pose, norm);
                 let wand = held.wand.as_ref();
                 let overlay =
@@ -608,6 +624,15 @@ impl<'a> FrameOfViews<'a> {
 
     pub fn renderer(&self) -> &Renderer {
         &self.renderer
+    }
+
+    /// View `i`'s own image, linear radiance as last drawn (the headset's eyes; None for the
+    /// CAVE's views, which draw into wall images).
+    pub fn view_image(&self, i: usize) -> Option<&wgpu::Texture> {
+        match &self.sink {
+            Sink::Targets(targets) => targets.get(i).map(|t| &t.image),
+            Sink::Outputs { .. } => None,
+        }
     }
 
     /// The CAVE's wall images and outputs (None for the headset's eyes).

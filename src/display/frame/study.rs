@@ -7,19 +7,17 @@ use super::FrameOfViews;
 use crate::display::conditions::Conditions;
 use crate::error::{Result, VlfError};
 use crate::framelock::StudyState;
-use crate::gpu::MemoryLedger;
 use crate::study::log::ObjectSwitches;
 
 /// How many moving objects' show/hide state a cluster's frame state carries (one bit each).
 pub const SHARED_OBJECTS: usize = 64;
 
 impl<'a> FrameOfViews<'a> {
-    /// A study's `conditions` on a frame made without them (the headset's eyes): their light
-    /// fields bound beside the first, the initial condition in effect from the next frame.
+    /// A study's `conditions` on a frame made without them: their light fields bound (those of
+    /// other geometry on renderers of their own, `geometries.rs`), the initial condition in
+    /// effect from the next frame.
     pub fn use_conditions(&mut self, conditions: &'a Conditions) -> Result<()> {
-        for f in &conditions.fields {
-            (self.renderer).add_light_field(&f.resident, &f.lf, &MemoryLedger::default())?;
-        }
+        self.bind_conditions(conditions)?;
         self.conditions = Some(conditions);
         self.set_condition(&conditions.list[conditions.initial].name)
     }

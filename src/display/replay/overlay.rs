@@ -119,6 +119,7 @@ mod tests {
             condition: String::new(),
             objects: None,
             flash: None,
+            eyes: Vec::new(),
         }
     }
 

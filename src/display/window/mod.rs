@@ -203,6 +203,7 @@ impl App<'_> {
             condition: String::new(),
             objects: Some(self.frame.object_switches()),
             flash: None,
+            eyes: Vec::new(),
         };
         self.session.end_frame(record, None)
     }

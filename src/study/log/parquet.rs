@@ -165,6 +165,20 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
         columns.push(u32s(rows, |r| r.views[v].mirror_bounces));
         columns.push(u32s(rows, |r| r.views[v].fixed_work));
     }
+    // a headset's eyes: position, rotation, field of view
+    let eyes = rows.first().map_or(0, |r| r.eyes.len());
+    for e in 0..eyes {
+        for k in 0..11 {
+            columns.push(f32s(rows, |r| {
+                let eye = &r.eyes[e];
+                match k {
+                    0..3 => eye.position[k],
+                    3..7 => eye.orientation[k - 3],
+                    _ => eye.fov[k - 7],
+                }
+            }));
+        }
+    }
     columns.push(Arc::new(StringArray::from_iter_values(
         rows.iter().map(|r| r.events.as_str()),
     )));
@@ -224,11 +238,12 @@ mod tests {
                 reflections: true,
             }),
             flash: Some(true),
+            eyes: Vec::new(),
         }
     }
 
     fn names() -> Vec<String> {
-        let csv = crate::study::log::columns(&[]);
+        let csv = crate::study::log::columns(&[], false);
         csv.into_iter().map(|(n, _)| n).collect()
     }
 
