@@ -20,6 +20,7 @@ impl<'a> FrameOfViews<'a> {
             let g = f.geometry;
             if g >= self.parked.len() {
                 self.parked.resize_with(g + 1, || None);
+                self.parked_pacers.resize_with(g + 1, || None);
             }
             let field = match (g, &mut self.parked[g]) {
                 (0, _) => self.renderer.add_light_field(&f.resident, &f.lf, &ledger)?,
@@ -67,7 +68,9 @@ impl<'a> FrameOfViews<'a> {
         Ok(r)
     }
 
-    /// Draw with geometry `g`'s renderer from the next view on (bound by `bind_conditions`).
+    /// Draw with geometry `g`'s renderer from the next view on (bound by `bind_conditions`),
+    /// paced by its own pacer (where the frame time is fitted: `fit_frame_time` probes every
+    /// geometry before the first frame).
     pub(super) fn use_geometry(&mut self, g: usize) {
         if g == self.geometry {
             return;
@@ -75,6 +78,8 @@ impl<'a> FrameOfViews<'a> {
         let next = self.parked[g].take().expect("bound with the conditions");
         let previous = std::mem::replace(&mut self.renderer, next);
         self.parked[self.geometry] = Some(previous);
+        let pacer = self.parked_pacers[g].take();
+        self.parked_pacers[self.geometry] = std::mem::replace(&mut self.pacer, pacer);
         self.geometry = g;
     }
 }

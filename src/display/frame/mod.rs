@@ -123,6 +123,9 @@ pub struct FrameOfViews<'a> {
     /// the renderers of the other geometries (a condition's scene of other geometry,
     /// `geometries.rs`), by geometry; `renderer` draws geometry `geometry` (its slot None)
     parked: Vec<Option<Renderer>>,
+    /// ... and their pacers (each geometry's views cost their own: its pacer resumes where
+    /// its frames left it)
+    parked_pacers: Vec<Option<Pacer>>,
     geometry: usize,
     /// each condition light field's renderer (its geometry) and its field there (0: the
     /// `--scene`'s, k + 1: `Conditions::fields[k]`)
@@ -192,6 +195,7 @@ impl<'a> FrameOfViews<'a> {
             condition: None,
             exposure: 1.0,
             parked: vec![None],
+            parked_pacers: vec![None],
             geometry: 0,
             placement: vec![(0, 0)],
         };
@@ -246,6 +250,7 @@ impl<'a> FrameOfViews<'a> {
             condition: None,
             exposure: 1.0,
             parked: vec![None],
+            parked_pacers: vec![None],
             geometry: 0,
             placement: vec![(0, 0)],
         }
@@ -419,9 +424,25 @@ impl<'a> FrameOfViews<'a> {
     /// settings chosen, and pace every frame after it; with frames in flight their times come
     /// back that many frames late, so the pacer steps less (`Pacer::lagged`).
     pub fn fit_frame_time(&mut self, poses: Poses<'_>, budget_ms: f64) -> Result<()> {
+        let fit = self.fit_geometry(&poses, budget_ms)?;
+        self.fit = Some(fit);
+        // each other geometry (a condition's scene) probed too, its pacer kept for its frames
+        let active = self.geometry;
+        for g in 0..self.parked.len() {
+            if self.parked[g].is_some() {
+                self.use_geometry(g);
+                self.fit_geometry(&poses, budget_ms)?;
+            }
+        }
+        self.use_geometry(active);
+        Ok(())
+    }
+
+    /// `fit_frame_time` for the geometry drawn now: its fit, and its pacer set.
+    fn fit_geometry(&mut self, poses: &Poses<'_>, budget_ms: f64) -> Result<BudgetFit> {
         let probes = (0..self.labels().len())
             .map(|i| {
-                let ((view_proj, eye), _) = self.view(i, &poses)?;
+                let ((view_proj, eye), _) = self.view(i, poses)?;
                 let size = self.labels()[i].pixels;
                 Ok(ProbeView {
                     view_proj,
@@ -440,8 +461,7 @@ impl<'a> FrameOfViews<'a> {
                 p
             }
         });
-        self.fit = Some(fit);
-        Ok(())
+        Ok(fit)
     }
 
     /// View `i`'s view-projection and eye, and the wand's ray over it.
