@@ -92,9 +92,12 @@ def main():
     elif cmd == "describe":
         vlf, out, work, names = sys.argv[2], Path(sys.argv[3]), Path(sys.argv[4]), sys.argv[5:]
         adapter = "unknown"
+        # the first report that names its adapter (an older stamp in the folder does not)
         for report in sorted(work.glob("*.json")):
-            adapter = json.loads(report.read_text())["adapter"]["name"]
-            break
+            named = json.loads(report.read_text()).get("adapter")
+            if isinstance(named, dict) and "name" in named:
+                adapter = named["name"]
+                break
         stamp = {n: {"made_at": commit(), "adapter": adapter, "inputs_sha256": inputs_hash(pictures[n]["shows"])} for n in names}
         (out / "pictures-stamp.json").write_text(json.dumps(stamp, indent=1))
         print(f"{len(names)} picture(s) in {out}, made with {vlf} on {adapter}")
