@@ -14,7 +14,9 @@
 # EVERY 6 it runs in minutes on lavapipe); FRAMES (default 2000) only bounds the run (the script
 # stops it), PARAMS passes propagation flags (e.g. "--quality draft"). OTHER_SCENE=path adds a
 # condition `other-scene` drawing that scene (other geometry: a renderer of its own, swapped in
-# at the switch) at the same walk.
+# at the switch) at the same walk. RANKS=N runs it as an N-rank cluster (mpirun, a vlf built with
+# --features mpi; `[cluster] gpu = "local-rank"`: each rank on its own GPU where the machine has
+# them): every rank logs its own walls, and each rank's log is measured (conditions-rank<k>.json).
 #   tools/gpu-conditions.sh VLF_BINARY OUT_DIR [EVERY] [FRAMES]
 set -euo pipefail
 vlf=$1; out=$2; every=${3:-60}; frames=${4:-2000}; work=${WORK:-$(mktemp -d)}; mkdir -p $work $out
@@ -29,8 +31,14 @@ sed -i "/^start_pose = /d" $config
 if [ -n "${OTHER_SCENE:-}" ]; then
   printf '\n[[condition]]\nname = "other-scene"\nlight_field = "%s"\n' "$(realpath "$OTHER_SCENE")" >> $config
 fi
+launch=""
+if [ -n "${RANKS:-}" ]; then
+  export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
+  printf '\n[cluster]\ngpu = "local-rank"   # rank n on a host draws on its n-th GPU\n' >> $config
+  launch="mpirun -np $RANKS --oversubscribe"
+fi
 rm -rf $work/log $work/out
-"$vlf" cave $config --scene scenes/cornell/scene.toml ${PARAMS:-} --headless --frames $frames \
+$launch "$vlf" cave $config --scene scenes/cornell/scene.toml ${PARAMS:-} --headless --frames $frames \
   --control 127.0.0.1:0 --log $work/log --out $work/out --json $work/cave-conditions.json \
   > $work/cave-conditions.txt 2> $work/cave-conditions.err &
 pid=$!
@@ -49,11 +57,18 @@ python3 tools/study/conditions_example.py "$addr" --every $every --times $rounds
 wait $pid
 grep -E "conditions|light field" $work/cave-conditions.err | quiet || true
 tail -12 $work/cave-conditions.txt
-python3 tools/study/condition_times.py $work/log --around $around > $work/conditions.json
+logs=$work/log; [ -n "${RANKS:-}" ] && logs=$(ls -d $work/log/rank*)
+parts=""
+for log in $logs; do
+  name=conditions; [ -n "${RANKS:-}" ] && name=conditions-$(basename $log)
+  python3 tools/study/condition_times.py $log --around $around > $work/$name.json
+  cp $log/frames.csv $work/frames-$(basename $log).csv
+  parts="$parts $name.json frames-$(basename $log).csv"
+done
+[ -n "${RANKS:-}" ] && cp $work/conditions-rank0.json $work/conditions.json
 cat $work/conditions.json
 [ -x "$(command -v nvidia-smi)" ] && nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > $work/gpu.txt || echo "no nvidia-smi" > $work/gpu.txt
 echo "${VLF_COMMIT:-unknown}" > $work/commit.txt
 date -u +%Y-%m-%dT%H:%M:%SZ > $work/date.txt
-cp $work/log/frames.csv $work/frames.csv
-(cd $work && tar cf "$out/conditions.tar" gpu.txt commit.txt date.txt conditions.json cave-conditions.json cave-conditions.txt replies.jsonl frames.csv)
+(cd $work && tar cf "$out/conditions.tar" gpu.txt commit.txt date.txt cave-conditions.json cave-conditions.txt replies.jsonl $parts $( [ -n "${RANKS:-}" ] && echo conditions.json ))
 cp $work/conditions.json $out/conditions.json
