@@ -14,7 +14,7 @@
 #   - (PARTS=hallway) the shipped Space Ship Hallway with its own mirror floors (no diffuse
 #     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view.
 # Everything into OUT/glossy.tar (reports, JSON, difference images), the front camera's EXRs
-# into OUT/glossy-exr.tar.
+# (and the side camera's stills) into OUT/glossy-exr.tar.
 #   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
 set -uo pipefail
 vlf=$(realpath "$1"); out=$(mkdir -p "$2" && realpath "$2"); frames=${3:-600}
@@ -24,8 +24,9 @@ quiet() { grep -v XDG_RUNTIME_DIR; }
 pack() {
   (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.png 2>/dev/null)
   # the front camera's stills and references, for comparisons away from edges elsewhere
+  # (and the side camera's stills: tools/glossy-mitsuba.sh compares every still with Mitsuba)
   (cd "$work" && ls *-front.exr *-front-reference.exr >/dev/null 2>&1 \
-    && tar cf "$out/glossy-exr.tar" *-front.exr *-front-reference.exr)
+    && tar cf "$out/glossy-exr.tar" *-front.exr *-front-reference.exr $(ls *-side.exr 2>/dev/null))
 }
 trap 'pack; exit 1' TERM
 trap pack EXIT
