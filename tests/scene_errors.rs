@@ -258,3 +258,37 @@ fn cornell_groups_into_planar_faces_with_a_padded_atlas() {
         }
     }
 }
+
+/// Every shipped scene loads, and the glossy ones carry their lobes: the Cornell box's tall box a
+/// rough metal (alpha 0.1, no diffuse part), the glossy-floor room's floor a Lambert base under a
+/// lobe of reflectance 0.1 and alpha 0.05.
+#[test]
+fn every_shipped_scene_loads_and_the_glossy_ones_carry_their_lobes() {
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(repo_path("scenes")).unwrap() {
+        let path = entry.unwrap().path().join("scene.toml");
+        if path.exists() {
+            let scene = Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            names.push((scene.name.clone(), scene));
+        }
+    }
+    let find = |name: &str, material: &str| -> vlf::material::Material {
+        let (_, scene) = (names.iter().find(|(n, _)| n == name))
+            .unwrap_or_else(|| panic!("scenes/{name} is not shipped"));
+        (scene.materials.iter().find(|m| m.name == material))
+            .unwrap_or_else(|| panic!("{name} has no material {material}"))
+            .clone()
+    };
+    let metal = find("cornell-glossy", "tallBox");
+    assert_eq!(
+        (metal.roughness, metal.mirror, metal.diffuse),
+        (0.1, [0.8; 3], [0.0; 3])
+    );
+    let floor = find("glossy-floor", "floor");
+    assert_eq!((floor.roughness, floor.mirror), (0.05, [0.1; 3]));
+    assert!(
+        floor.diffuse.iter().all(|&d| d > 0.4 && d < 0.5),
+        "{floor:?}"
+    );
+    assert!(names.len() >= 9, "{} scenes", names.len());
+}

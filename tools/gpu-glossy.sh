@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Runs on the lent NVIDIA machine: glossy surfaces (issue 29): what they cost and how they look.
 #   - Cornell with the tall box a rough metal (scenes/cornell-glossy: GGX alpha 0.1, and the
-#     same at alpha 0.3): `vlf propagate` (its report: iterations, time to converge) and a
+#     same at alpha 0.3), and the room with a glossy floor (scenes/glossy-floor: alpha 0.05,
+#     cameras front and floor): `vlf propagate` (its report: iterations, time to converge) and a
 #     512x512 still of each camera at default settings against `vlf reference` at 8192 spp of
 #     the same (`vlf compare`: JSON and the FLIP difference image; vlf reference agrees with
 #     Mitsuba's roughconductor through this box, tests/mitsuba.rs, and Mitsuba itself runs on
@@ -36,11 +37,12 @@ cornell() {
   mkdir -p "$work/cornell-glossy-0.3"
   sed 's/^roughness = 0.1/roughness = 0.3/; s/^name = "cornell-glossy"/name = "cornell-glossy-0.3"/; s|^mesh = "../cornell|mesh = "'"$PWD"'/scenes/cornell|' \
     scenes/cornell-glossy/scene.toml > "$work/cornell-glossy-0.3/scene.toml"
-  for scene in scenes/cornell-glossy/scene.toml "$work/cornell-glossy-0.3/scene.toml"; do
+  for scene in scenes/cornell-glossy/scene.toml "$work/cornell-glossy-0.3/scene.toml" scenes/glossy-floor/scene.toml; do
     name=$(basename "$(dirname "$scene")")
+    cameras="front side"; [ $name = glossy-floor ] && cameras="front floor"
     "$vlf" propagate "$scene" -o "$work/$name.vlf" --report "$work/propagate-$name.json" 2>&1 | quiet \
       | tee "$work/propagate-$name.txt" | grep -E "iterations|propagation|converged"
-    for camera in front side; do
+    for camera in $cameras; do
       "$vlf" render "$scene" --lightfield "$work/$name.vlf" --camera $camera -o "$work/$name-$camera.exr" 2>&1 | quiet | tail -1
       "$vlf" reference "$scene" --camera $camera --spp 8192 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
       "$vlf" compare "$work/$name-$camera.exr" "$work/$name-$camera-reference.exr" --json \
