@@ -49,7 +49,7 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
     "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
     "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
   fi
-  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene-none.toml
+  sed "s|^path = .*|path = \"$(walk_path $scene)\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene-none.toml
   { cat $work/cave-$scene-none.toml; echo; echo "$body"; } > $work/cave-$scene-body.toml
   { cat $work/cave-$scene-body.toml; echo; echo "$prop"; } > $work/cave-$scene-body-prop.toml
   # what the shadows cost: the body without them

@@ -63,7 +63,7 @@ for scene in $SCENES; do
     # frame (fit_frame_time = false): the frame time the drawing itself takes
     name=$scene; [ "$mode" = fixed ] && name=$scene-fixed
     config="$work/cave-$name.toml"
-    sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$config"
+    sed "s|^path = .*|path = \"$(walk_path $scene)\"|" config/displays/cave-4wall-walk.toml > "$config"
     [ "$mode" = fixed ] && sed -i 's/^fit_frame_time = true/fit_frame_time = false/' "$config"
     printf '\n[cluster]\ngpu = "local-rank"   # rank n on a host draws on its n-th GPU\n' >> "$config"
     echo "== $name: one process on GPU 0" | tee -a "$log"

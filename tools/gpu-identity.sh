@@ -38,7 +38,7 @@ for scene in classroom-100k gallery; do
   "$old" generate $(generate "$scene") -o "$work/$scene" 2>&1 | quiet > /dev/null
   "$old" propagate "$work/$scene/scene.toml" -o "$work/$scene.vlf" 2>&1 | quiet > /dev/null
   config="$work/cave-$scene.toml"
-  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > "$config"
+  sed "s|^path = .*|path = \"$(walk_path $scene)\"|" config/displays/cave-4wall-walk.toml > "$config"
   sed -i 's/^fit_frame_time = true/fit_frame_time = false/' "$config"
   for r in $(seq 1 "$rounds"); do
     for build in old new; do

@@ -23,7 +23,7 @@ for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
     "$vlf" propagate $work/$scene/scene.toml -o $work/$scene.vlf 2>&1 | quiet | grep -E "iterations|propagation  |triangles"
   fi
   # the walk CAVE (config/displays/cave-4wall-walk.toml) on this scene's path
-  sed "s|^path = .*|path = \"$PWD/config/paths/$scene-walk.toml\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene.toml
+  sed "s|^path = .*|path = \"$(walk_path $scene)\"|" config/displays/cave-4wall-walk.toml > $work/cave-$scene.toml
   [ -n "${AA:-}" ] && sed -i "s/^refresh_hz.*/&\nantialiasing = $AA/" $work/cave-$scene.toml
   "$vlf" cave $work/cave-$scene.toml --scene $work/$scene.vlf --headless --frames $frames --out $work/out-$scene \
     --json $work/cave-$scene$suffix.json 2>&1 | quiet | tee $work/cave-$scene$suffix.txt | tail -16
