@@ -51,3 +51,27 @@ print(json.dumps({"reference_noise_rel_mse": float(np.mean(var / (ref * ref + 0.
 PY
   echo "$name $camera: $(grep -E '"(display_mse|rel_mse)"' "$out/compare-$name-$camera.json" | tr -d '\n ')  away from edges: $(grep -E '"display_mse"' "$out/compare-$name-$camera-away-from-edges.json" | tr -d '\n ')"
 done
+# with DOCS_IMAGES=dir: the difference images the accuracy guide shows, halved to 256x256 (2x2
+# box), as glossy-mitsuba-diff-<box01|box03|floor>-<camera>.png
+if [ -n "${DOCS_IMAGES:-}" ]; then
+  python3 - "$out" "$DOCS_IMAGES" <<'PY'
+import sys
+from pathlib import Path
+import numpy as np
+import mitsuba as mi
+mi.set_variant("scalar_rgb")
+out, docs = Path(sys.argv[1]), Path(sys.argv[2])
+for name, short in (("cornell-glossy", "box01"), ("cornell-glossy-0.3", "box03"), ("glossy-floor", "floor")):
+    for diff in sorted(out.glob(f"diff-{name}-*.png")):
+        camera = diff.stem[len(f"diff-{name}-"):]
+        if "-" in camera:  # diff-cornell-glossy-0.3-* when looking for cornell-glossy
+            continue
+        a = np.array(mi.Bitmap(str(diff)), dtype=np.float64)[:, :, :3]
+        h, w = a.shape[0] // 2 * 2, a.shape[1] // 2 * 2
+        half = a[:h, :w].reshape(h // 2, 2, w // 2, 2, 3).mean(axis=(1, 3))
+        image = np.clip(np.round(half), 0, 255).astype(np.uint8)
+        target = docs / f"glossy-mitsuba-diff-{short}-{camera}.png"
+        mi.Bitmap(image, pixel_format=mi.Bitmap.PixelFormat.RGB).write(str(target))
+        print(target)
+PY
+fi
