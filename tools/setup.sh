@@ -69,6 +69,16 @@ if [ ${#missing[@]} != 0 ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq "${missing[@]}" >/dev/null
   have_icd || { echo "tools/setup.sh: still no Vulkan driver after installing mesa-vulkan-drivers" >&2; exit 1; }
 fi
+# LLVM 16 or newer lets Mitsuba's references use its fast llvm_ad_rgb variant (Debian 12:
+# libllvm19); without it they render with scalar_rgb, slower. Optional: not every distribution
+# has the package.
+if [ "$mode" = test ] && command -v apt-get >/dev/null \
+  && ! ldconfig -p 2>/dev/null | grep -qE 'libLLVM(-(1[6-9]|[2-9][0-9])|\.so\.(1[6-9]|[2-9][0-9]))'; then
+  SUDO=""
+  if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq libllvm19 >/dev/null 2>&1 \
+    || echo "tools/setup.sh: no libllvm19 (LLVM >= 16): Mitsuba's references render with scalar_rgb, slower" >&2
+fi
 if [ "$mode" = test ]; then
   pip_install "mitsuba, numpy" mitsuba numpy
   pip_install pygltflib pygltflib
