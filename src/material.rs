@@ -29,6 +29,14 @@ pub const MATERIAL_DIFFUSE: u32 = 2;
 pub const MATERIAL_GLOSSY: u32 = 4;
 
 /// A material after MTL and overrides are combined.
+/// The metallic workflow's rules (glTF metallicRoughness, MTL's `Pm`/`Pr`): a metal at least
+/// this metallic ...
+pub const MIRROR_METALLIC: f32 = 0.5;
+/// ... and at most this rough is an ideal mirror of its base colour ...
+pub const MIRROR_ROUGHNESS: f32 = 0.2;
+/// ... and at most this rough a glossy metal (GGX alpha roughness²); rougher ones are diffuse.
+pub const GLOSSY_ROUGHNESS: f32 = 0.6;
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Material {
     pub name: String,

@@ -292,3 +292,56 @@ fn every_shipped_scene_loads_and_the_glossy_ones_carry_their_lobes() {
     );
     assert!(names.len() >= 9, "{} scenes", names.len());
 }
+
+/// MTL's PBR extension by glTF's rules: `Pm` >= 0.5 makes `Kd` the specular part of a metal (an
+/// ideal mirror up to `Pr` 0.2, a GGX lobe of alpha Pr² up to 0.6, diffuse when rougher); a
+/// dielectric keeps `Kd` diffuse and `Ks` with alpha Pr²; a metal's `map_Kd` is not read, warned.
+#[test]
+fn mtl_metallic_and_roughness_follow_gltfs_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = String::from("mtllib m.mtl\n");
+    let names = ["chrome", "brushed", "rough", "varnish"];
+    for (k, name) in names.iter().enumerate() {
+        let x = k as f32 * 2.0;
+        obj += &format!(
+            "v {x} 0 0\nv {} 0 0\nv {} 0 1\nv {x} 0 1\nusemtl {name}\nf {} {} {} {}\n",
+            x + 1.0,
+            x + 1.0,
+            4 * k + 1,
+            4 * k + 4,
+            4 * k + 3,
+            4 * k + 2
+        );
+    }
+    std::fs::write(dir.path().join("m.obj"), obj).unwrap();
+    std::fs::write(
+        dir.path().join("m.mtl"),
+        "newmtl chrome\nKd 0.9 0.8 0.7\nPm 1\nPr 0.1\n\
+         newmtl brushed\nKd 0.9 0.8 0.7\nPm 0.8\nPr 0.5\nmap_Kd missing.png\n\
+         newmtl rough\nKd 0.9 0.8 0.7\nPm 1\nPr 0.9\n\
+         newmtl varnish\nKd 0.5 0.5 0.5\nKs 0.04 0.04 0.04\nPm 0\nPr 0.5\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        "name = \"metals\"\nmesh = \"m.obj\"\n",
+    )
+    .unwrap();
+    let scene = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let m = |name: &str| {
+        let m = scene.materials.iter().find(|m| m.name == name).unwrap();
+        (m.diffuse, m.mirror, m.roughness)
+    };
+    assert_eq!(m("chrome"), ([0.0; 3], [0.9, 0.8, 0.7], 0.0));
+    assert_eq!(m("brushed"), ([0.0; 3], [0.9, 0.8, 0.7], 0.25));
+    assert_eq!(m("rough"), ([0.9, 0.8, 0.7], [0.0; 3], 0.0));
+    assert_eq!(m("varnish"), ([0.5; 3], [0.04; 3], 0.25));
+    assert!(
+        scene
+            .warnings
+            .iter()
+            .any(|w| w.contains("brushed") && w.contains("map_Kd")),
+        "{:?}",
+        scene.warnings
+    );
+}

@@ -138,9 +138,9 @@ fn convert_materials(
     for m in materials {
         let mut material = convert_material(m, overrides.get(&m.name), mtl_path, warnings)?;
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
-        material.diffuse_texture = m
-            .diffuse_texture
-            .as_ref()
+        // a metal's (Pm) base colour texture is not read: it has no diffuse part to colour
+        material.diffuse_texture = (m.diffuse_texture.as_ref())
+            .filter(|_| mtl_metal(m, [0.0; 3]).is_none())
             .map(|t| request(&mut requests, mtl_dir.join(t), &m.name, "map_Kd"));
         material.emission_texture = m
             .unknown_param
@@ -319,8 +319,32 @@ fn load_textures(
 /// alpha r²) where the material has a specular part; `Ns` (Phong exponents) is not read, as
 /// MTL files set it on every material whatever their intent.
 fn mtl_roughness(m: &tobj::Material, ks: [f32; 3]) -> Option<f32> {
-    let pr: f32 = m.unknown_param.get("Pr")?.trim().parse().ok()?;
-    (ks.iter().any(|&k| k > 0.0) && (0.0..=1.0).contains(&pr)).then_some(pr * pr)
+    let pr = mtl_number(m, "Pr")?;
+    (ks.iter().any(|&k| k > 0.0)).then_some(pr * pr)
+}
+
+/// A number in [0, 1] of MTL's PBR extension (`Pr`, `Pm`), where given.
+fn mtl_number(m: &tobj::Material, key: &str) -> Option<f32> {
+    let v: f32 = m.unknown_param.get(key)?.trim().parse().ok()?;
+    (0.0..=1.0).contains(&v).then_some(v)
+}
+
+/// A metal of MTL's PBR extension, by glTF's rules (`crate::material`, as `super::gltf` applies them): `Pm` (metallic) at
+/// least 0.5 and `Pr` (roughness, 0 where not given) at most 0.6 make the base colour `Kd` the
+/// specular part (an ideal mirror up to roughness 0.2, a GGX lobe of alpha Pr² above) and no
+/// diffuse part: its specular colour and alpha; None for a dielectric or a rougher metal.
+fn mtl_metal(m: &tobj::Material, kd: [f32; 3]) -> Option<([f32; 3], f32)> {
+    use crate::material::{GLOSSY_ROUGHNESS, MIRROR_METALLIC, MIRROR_ROUGHNESS};
+    let metallic = mtl_number(m, "Pm")?;
+    let roughness = mtl_number(m, "Pr").unwrap_or(0.0);
+    if metallic < MIRROR_METALLIC || roughness > GLOSSY_ROUGHNESS {
+        return None;
+    }
+    let alpha = match roughness > MIRROR_ROUGHNESS {
+        true => roughness * roughness,
+        false => 0.0,
+    };
+    Some((kd, alpha))
 }
 
 fn convert_material(
@@ -341,11 +365,23 @@ fn convert_material(
     check_color(&ks, true).map_err(|e| err(format!("Ks {e}")))?;
     check_color(&ke, false).map_err(|e| err(format!("Ke {e}")))?;
     let o = o.cloned().unwrap_or_default();
+    // a metal (`Pm`): its base colour is its specular part
+    let metal = mtl_metal(m, kd);
+    let (kd, ks, roughness) = match metal {
+        Some((colour, alpha)) => ([0.0; 3], colour, Some(alpha)),
+        None => (kd, ks, mtl_roughness(m, ks)),
+    };
+    if metal.is_some() && m.diffuse_texture.is_some() {
+        warnings.push(format!(
+            "material {:?}: a metal (Pm): map_Kd cannot colour its specular part (one colour per material) and is ignored; Kd is",
+            m.name
+        ));
+    }
     let material = Material {
         name: m.name.clone(),
         diffuse: o.diffuse.unwrap_or(kd),
         mirror: o.mirror.unwrap_or(ks),
-        roughness: o.roughness.or_else(|| mtl_roughness(m, ks)).unwrap_or(0.0),
+        roughness: o.roughness.or(roughness).unwrap_or(0.0),
         emission: o.emission.unwrap_or(ke),
         two_sided: o.two_sided.unwrap_or(false),
         diffuse_texture: None,

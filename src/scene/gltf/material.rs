@@ -30,13 +30,7 @@ use crate::error::{Result, VlfError};
 use std::collections::{BTreeMap, HashMap};
 use std::path::Path;
 
-/// A metal at least this metallic ...
-pub const MIRROR_METALLIC: f32 = 0.5;
-/// ... and at most this rough is an ideal mirror ...
-pub const MIRROR_ROUGHNESS: f32 = 0.2;
-/// ... and at most this rough a glossy metal (GGX alpha roughness²); rougher ones are diffuse,
-/// as propagation carries a glossy lobe as a mirror.
-pub const GLOSSY_ROUGHNESS: f32 = 0.6;
+pub use crate::material::{GLOSSY_ROUGHNESS, MIRROR_METALLIC, MIRROR_ROUGHNESS};
 
 /// `KHR_texture_transform` as a 2x3 matrix on texture coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
