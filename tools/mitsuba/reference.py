@@ -145,7 +145,7 @@ def _strip(line):
 
 
 def load_mtl(path):
-    """name -> {Kd, Ks, Ke, Pr, d, map_Kd, map_Ke, map_d, normal: (normals | height, path, -bm)}
+    """name -> {Kd, Ks, Ke, Pr, Pm, d, map_Kd, map_Ke, map_d, normal: (normals | height, path, -bm)}
     (paths resolved against the MTL's folder)."""
     mats = {}
     cur = None
@@ -171,7 +171,7 @@ def load_mtl(path):
             kind = "normals" if key == "norm" else "height"
             if key == "norm" or "normal" not in cur:
                 cur["normal"] = (kind, (Path(path).parent / words[-1]).resolve(), bm)
-        elif key == "Pr":
+        elif key in ("Pr", "Pm"):
             cur[key] = float(rest.split()[0])
         elif key == "d":
             cur["d"] = float(rest.split()[0])
@@ -185,6 +185,17 @@ def _mtl_roughness(m):
     if pr is None or not 0.0 <= pr <= 1.0 or max(m["Ks"]) <= 0:
         return 0.0
     return float(np.float32(pr) * np.float32(pr))
+
+
+def _mtl_metal(m):
+    """MTL's PBR metal by glTF's rules (the scene contract): Pm >= 0.5 and Pr <= 0.6 (0 where
+    not given) make Kd the specular part, an ideal mirror up to Pr 0.2, GGX alpha Pr^2 above,
+    with no diffuse part; None for a dielectric or a rougher metal. Otherwise (specular colour,
+    alpha)."""
+    pm, pr = m.get("Pm"), m.get("Pr", 0.0)
+    if pm is None or not 0.0 <= pm <= 1.0 or not 0.0 <= pr <= 1.0 or pm < 0.5 or pr > 0.6:
+        return None
+    return m["Kd"], (float(np.float32(pr) * np.float32(pr)) if pr > 0.2 else 0.0)
 
 
 def load_obj(path):
@@ -1031,14 +1042,17 @@ def build_obj(scene):
     materials = {}
     for name, m in mtl.items():
         o = scene["overrides"].get(name, {})
+        metal = _mtl_metal(m)
+        kd, ks, alpha = (m["Kd"], m["Ks"], _mtl_roughness(m)) if metal is None else ([0.0] * 3, metal[0], metal[1])
         mat = {
             "name": name,
-            "diffuse": o.get("diffuse", m["Kd"]),
-            "mirror": o.get("mirror", m["Ks"]),
+            "diffuse": o.get("diffuse", kd),
+            "mirror": o.get("mirror", ks),
             "emission": o.get("emission", m["Ke"]),
             "two_sided": o.get("two_sided", False),
-            "roughness": o.get("roughness", _mtl_roughness(m)),
-            "diffuse_tex": str(m["map_Kd"]) if m.get("map_Kd") else None,
+            "roughness": o.get("roughness", alpha),
+            # a metal's base colour texture is not read (it has no diffuse part)
+            "diffuse_tex": str(m["map_Kd"]) if m.get("map_Kd") and metal is None else None,
             "emission_tex": str(m["map_Ke"]) if m.get("map_Ke") else None,
             # a cut-out as vlf takes MTL's dissolve: map_d x d below 0.5 is a hole (d without
             # map_d: opaque)
