@@ -1,7 +1,8 @@
 //! A study's named conditions (the display TOML's `[[condition]]` tables): sets of settings an
 //! experiment script switches between trials with one command (`{"cmd": "condition", "name":
 //! ...}`, `crate::study`). A condition says which light field is drawn (global illumination
-//! on, or direct light only; the `--scene` or another light field of the same geometry), the
+//! on, or direct light only; the `--scene`, another light field on its geometry, or another
+//! scene, drawn by a renderer of its own: `frame/geometries.rs`), the
 //! exposure of what the walls show, which moving objects are shown and whether they cast
 //! shadows and show in mirrors, and where the room starts. Everything a condition needs is made
 //! before the first frame (`Conditions::prepare`: every light field propagated or loaded and
