@@ -166,6 +166,28 @@ mod tests {
         super::Cli::command().debug_assert();
     }
 
+    /// clap's own checks (`debug_assert`) are compiled out of release builds, which the tests
+    /// run: the one that caught `vlf cave` (a positional and a flag sharing the id `config`, a
+    /// panic in every debug build) is made here, for every subcommand.
+    #[test]
+    fn no_subcommand_has_two_arguments_of_one_id() {
+        use clap::CommandFactory;
+        let cli = super::Cli::command();
+        for sub in cli.get_subcommands() {
+            let mut ids: Vec<&str> = sub.get_arguments().map(|a| a.get_id().as_str()).collect();
+            ids.sort_unstable();
+            let twice: Vec<&&str> = (ids.windows(2))
+                .filter(|w| w[0] == w[1])
+                .map(|w| &w[0])
+                .collect();
+            assert!(
+                twice.is_empty(),
+                "vlf {}: argument ids {twice:?} are used twice",
+                sub.get_name()
+            );
+        }
+    }
+
     #[test]
     fn the_lab_commands_are_there_exactly_when_the_lab_is() {
         use clap::CommandFactory;
