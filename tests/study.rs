@@ -911,6 +911,37 @@ fn send_in_turn(addr: std::net::SocketAddr, lines: &[&str]) -> Vec<serde_json::V
     got
 }
 
+/// A logged headless run of the Cornell box (`logged_cornell_run_with`, every frame read back)
+/// driven by a script sending `commands` in turn: every command acknowledged, their frames
+/// rising, the last (`stop`) the log's last frame. The light field, the log, and each
+/// command's frame.
+fn scripted_cornell_run(
+    dir: &std::path::Path,
+    config: &std::path::Path,
+    commands: &'static [&'static str],
+) -> (
+    vlf::lightfield::LightField,
+    vlf::lightfield::ResidentLightField,
+    SessionMeta,
+    Vec<vlf::study::FrameRecord>,
+    Vec<u64>,
+) {
+    let server = vlf::study::ControlServer::bind("127.0.0.1:0").unwrap();
+    let addr = server.addr;
+    let script = std::thread::spawn(move || send_in_turn(addr, commands));
+    let (lf, resident, meta, records) =
+        logged_cornell_run_with(dir, config, 100_000, Some(&server));
+    let replies = script.join().unwrap();
+    assert!(replies.iter().all(|r| r["ok"] == true), "{replies:?}");
+    let at: Vec<u64> = (replies.iter())
+        .map(|r| r["frame"].as_u64().unwrap())
+        .collect();
+    assert_eq!(at.len(), commands.len(), "{replies:?}");
+    assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
+    assert_eq!(records.last().unwrap().frame, *at.last().unwrap());
+    (lf, resident, meta, records, at)
+}
+
 /// Every command that changes the picture, replayed at its frame: a script hides and shows the
 /// cube, turns the objects' shadows and reflections off, flashes the walls white (then black)
 /// and ends the test, over the control connection of a headless run that reads every frame back;
@@ -922,35 +953,23 @@ fn send_in_turn(addr: std::net::SocketAddr, lines: &[&str]) -> Vec<serde_json::V
 fn every_command_that_changes_the_picture_replays_at_its_frame() {
     let dir = tempfile::tempdir().unwrap();
     let config = small_display(dir.path(), STILL_CUBE);
-    let server = vlf::study::ControlServer::bind("127.0.0.1:0").unwrap();
-    let addr = server.addr;
-    let script = std::thread::spawn(move || {
-        send_in_turn(
-            addr,
-            &[
-                r#"{"cmd": "event", "text": "begin"}"#,
-                r#"{"cmd": "hide", "object": "cube"}"#,
-                r#"{"cmd": "show", "object": "cube"}"#,
-                r#"{"cmd": "shadows", "on": false}"#,
-                r#"{"cmd": "reflections", "on": false}"#,
-                r#"{"cmd": "flash"}"#,
-                r#"{"cmd": "flash", "end": true}"#,
-                r#"{"cmd": "stop"}"#,
-            ],
-        )
-    });
-    let (lf, resident, meta, records) =
-        logged_cornell_run_with(dir.path(), &config, 100_000, Some(&server));
-    let replies = script.join().unwrap();
-    assert!(replies.iter().all(|r| r["ok"] == true), "{replies:?}");
-    let at: Vec<u64> = (replies.iter())
-        .map(|r| r["frame"].as_u64().unwrap())
-        .collect();
-    let [_begin, hide, show, shadows, reflections, flash, flash_end, stop] = at[..] else {
-        panic!("{replies:?}")
+    let (lf, resident, meta, records, at) = scripted_cornell_run(
+        dir.path(),
+        &config,
+        &[
+            r#"{"cmd": "event", "text": "begin"}"#,
+            r#"{"cmd": "hide", "object": "cube"}"#,
+            r#"{"cmd": "show", "object": "cube"}"#,
+            r#"{"cmd": "shadows", "on": false}"#,
+            r#"{"cmd": "reflections", "on": false}"#,
+            r#"{"cmd": "flash"}"#,
+            r#"{"cmd": "flash", "end": true}"#,
+            r#"{"cmd": "stop"}"#,
+        ],
+    );
+    let [_begin, hide, show, shadows, reflections, flash, flash_end, _stop] = at[..] else {
+        panic!("{at:?}")
     };
-    assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
-    assert_eq!(records.last().unwrap().frame, stop);
     assert!(records.iter().all(|r| r.drawn == Drawn::ReadBack));
     let names: Vec<&str> = meta.columns.iter().map(|(n, _)| n.as_str()).collect();
     for column in ["objects_hidden", "shadows", "reflections", "flash"] {
@@ -1338,32 +1357,20 @@ fn two_scenes_display(dir: &std::path::Path) -> std::path::PathBuf {
 fn a_condition_of_another_scene_is_drawn_by_a_renderer_of_its_own() {
     let dir = tempfile::tempdir().unwrap();
     let config = two_scenes_display(dir.path());
-    let server = vlf::study::ControlServer::bind("127.0.0.1:0").unwrap();
-    let addr = server.addr;
-    let script = std::thread::spawn(move || {
-        send_in_turn(
-            addr,
-            &[
-                r#"{"cmd": "event", "text": "begin"}"#,
-                r#"{"cmd": "condition", "name": "room"}"#,
-                r#"{"cmd": "condition", "name": "box"}"#,
-                r#"{"cmd": "condition", "name": "room"}"#,
-                r#"{"cmd": "stop"}"#,
-            ],
-        )
-    });
-    let (lf, resident, meta, records) =
-        logged_cornell_run_with(dir.path(), &config, 100_000, Some(&server));
-    let replies = script.join().unwrap();
-    assert!(replies.iter().all(|r| r["ok"] == true), "{replies:?}");
-    let at: Vec<u64> = (replies.iter())
-        .map(|r| r["frame"].as_u64().unwrap())
-        .collect();
+    let (lf, resident, meta, records, at) = scripted_cornell_run(
+        dir.path(),
+        &config,
+        &[
+            r#"{"cmd": "event", "text": "begin"}"#,
+            r#"{"cmd": "condition", "name": "room"}"#,
+            r#"{"cmd": "condition", "name": "box"}"#,
+            r#"{"cmd": "condition", "name": "room"}"#,
+            r#"{"cmd": "stop"}"#,
+        ],
+    );
     let [_begin, room, back, again, stop] = at[..] else {
-        panic!("{replies:?}")
+        panic!("{at:?}")
     };
-    assert!(at.windows(2).all(|w| w[0] < w[1]), "{at:?}");
-    assert_eq!(records.last().unwrap().frame, stop);
     for r in &records {
         let f = r.frame;
         let expect = if (room..back).contains(&f) || f >= again {

@@ -62,6 +62,37 @@ pub fn pose_from_view(view: Mat4) -> XrPose {
     }
 }
 
+/// An eye as the session log keeps it (`study::log::EyeRecord`): its located pose and field of
+/// view, exactly (replay draws the eye again from it).
+pub fn eye_record(pose: XrPose, fov: Fov) -> crate::study::log::EyeRecord {
+    crate::study::log::EyeRecord {
+        position: pose.position,
+        orientation: pose.orientation,
+        fov: [
+            fov.angle_left,
+            fov.angle_right,
+            fov.angle_up,
+            fov.angle_down,
+        ],
+    }
+}
+
+/// A logged eye's pose and field of view back (`eye_record`'s inverse).
+pub fn logged_eye(eye: &crate::study::log::EyeRecord) -> (XrPose, Fov) {
+    let [angle_left, angle_right, angle_up, angle_down] = eye.fov;
+    let pose = XrPose {
+        orientation: eye.orientation,
+        position: eye.position,
+    };
+    let fov = Fov {
+        angle_left,
+        angle_right,
+        angle_up,
+        angle_down,
+    };
+    (pose, fov)
+}
+
 /// The far plane of the eyes' projection over the near plane: the renderer's depth (submitted
 /// as the depth layer) runs from the near plane at 0 to this far at 1.
 pub const FAR_OVER_NEAR: f32 = 1e4;

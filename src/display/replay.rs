@@ -407,16 +407,9 @@ fn write_frame(
 
 /// `image` as displayed at `exposure` into the PNG `path`, with `text` over it where given.
 fn write_png(image: &Frame, path: &Path, exposure: f32, text: Option<&[String]>) -> Result<()> {
-    let Some(text) = text else {
-        return write_image(image, path, exposure);
-    };
     let mut rgb = display_image(image, exposure);
-    overlay::draw(&mut rgb, text);
-    let tmp = path.with_extension("png.partial");
-    (rgb.save_with_format(&tmp, image::ImageFormat::Png))
-        .and_then(|_| std::fs::rename(&tmp, path).map_err(image::ImageError::IoError))
-        .map_err(|e| VlfError::Image {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })
+    if let Some(text) = text {
+        overlay::draw(&mut rgb, text);
+    }
+    crate::render::image_io::save_png(&rgb, path)
 }

@@ -38,12 +38,28 @@ fn finish_atomic(tmp: &Path, path: &Path) -> Result<()> {
     })
 }
 
-/// Write `.exr` (linear) or `.png` (tonemapped with `exposure`), by extension.
 /// Whether `path` names an EXR file (linear radiance), by its extension.
 pub fn is_exr(path: &Path) -> bool {
     (path.extension().and_then(|e| e.to_str())).is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
+/// An image as displayed (e.g. with text drawn over it) into the PNG `path`, atomically.
+pub fn save_png(rgb: &image::RgbImage, path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| VlfError::io(dir, e))?;
+    }
+    let tmp = temporary_beside(path);
+    if let Err(e) = rgb.save_with_format(&tmp, image::ImageFormat::Png) {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(VlfError::Image {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        });
+    }
+    finish_atomic(&tmp, path)
+}
+
+/// Write `.exr` (linear) or `.png` (tonemapped with `exposure`), by extension.
 pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
     let ext = path
         .extension()
@@ -70,11 +86,7 @@ pub fn write_image(frame: &Frame, path: &Path, exposure: f32) -> Result<()> {
             })
             .map_err(|e| image_err(e.to_string()))?;
         }
-        "png" => {
-            display_image(frame, exposure)
-                .save_with_format(&tmp, image::ImageFormat::Png)
-                .map_err(|e| image_err(e.to_string()))?;
-        }
+        "png" => return save_png(&display_image(frame, exposure), path),
         other => {
             return Err(VlfError::Image {
                 path: path.to_path_buf(),

@@ -140,7 +140,7 @@ fn convert_materials(
         let mtl_dir = mtl_path.parent().unwrap_or(Path::new("."));
         // a metal's (Pm) base colour texture is not read: it has no diffuse part to colour
         material.diffuse_texture = (m.diffuse_texture.as_ref())
-            .filter(|_| mtl_metal(m, [0.0; 3]).is_none())
+            .filter(|_| mtl_metal(m).is_none())
             .map(|t| request(&mut requests, mtl_dir.join(t), &m.name, "map_Kd"));
         material.emission_texture = m
             .unknown_param
@@ -329,11 +329,12 @@ fn mtl_number(m: &tobj::Material, key: &str) -> Option<f32> {
     (0.0..=1.0).contains(&v).then_some(v)
 }
 
-/// A metal of MTL's PBR extension, by glTF's rules (`crate::material`, as `super::gltf` applies them): `Pm` (metallic) at
-/// least 0.5 and `Pr` (roughness, 0 where not given) at most 0.6 make the base colour `Kd` the
-/// specular part (an ideal mirror up to roughness 0.2, a GGX lobe of alpha Pr² above) and no
-/// diffuse part: its specular colour and alpha; None for a dielectric or a rougher metal.
-fn mtl_metal(m: &tobj::Material, kd: [f32; 3]) -> Option<([f32; 3], f32)> {
+/// A metal of MTL's PBR extension, by glTF's rules (`crate::material`, as `super::gltf`
+/// applies them): `Pm` (metallic) at least 0.5 and `Pr` (roughness, 0 where not given) at most
+/// 0.6 make the base colour `Kd` the specular part (an ideal mirror up to roughness 0.2, a GGX
+/// lobe of alpha Pr² above) and no diffuse part: the lobe's alpha; None for a dielectric or a
+/// rougher metal.
+fn mtl_metal(m: &tobj::Material) -> Option<f32> {
     use crate::material::{GLOSSY_ROUGHNESS, MIRROR_METALLIC, MIRROR_ROUGHNESS};
     let metallic = mtl_number(m, "Pm")?;
     let roughness = mtl_number(m, "Pr").unwrap_or(0.0);
@@ -344,7 +345,7 @@ fn mtl_metal(m: &tobj::Material, kd: [f32; 3]) -> Option<([f32; 3], f32)> {
         true => roughness * roughness,
         false => 0.0,
     };
-    Some((kd, alpha))
+    Some(alpha)
 }
 
 fn convert_material(
@@ -366,9 +367,9 @@ fn convert_material(
     check_color(&ke, false).map_err(|e| err(format!("Ke {e}")))?;
     let o = o.cloned().unwrap_or_default();
     // a metal (`Pm`): its base colour is its specular part
-    let metal = mtl_metal(m, kd);
+    let metal = mtl_metal(m);
     let (kd, ks, roughness) = match metal {
-        Some((colour, alpha)) => ([0.0; 3], colour, Some(alpha)),
+        Some(alpha) => ([0.0; 3], kd, Some(alpha)),
         None => (kd, ks, mtl_roughness(m, ks)),
     };
     if metal.is_some() && m.diffuse_texture.is_some() {

@@ -845,7 +845,9 @@ impl Headset<'_, '_> {
             room: pose,
             head: head_of(&views),
             hands: st.hands,
-            eyes: views.iter().map(eye_record).collect(),
+            eyes: (views.iter())
+                .map(|v| crate::display::headset_view::eye_record(xr_pose(v), xr_fov(v)))
+                .collect(),
             cpu_ms,
             pose_to_submit_ms,
             object_time_s: tracked.as_ref().map(|t| t.time),
@@ -971,21 +973,6 @@ fn head_of(views: &[xr::View]) -> glam::Affine3A {
         (Quat::from_array(orientation), Vec3::from(position))
     };
     body::head_between([eye(&views[0]), eye(&views[1])])
-}
-
-/// An eye as the session log keeps it: its located pose and field of view.
-fn eye_record(view: &xr::View) -> crate::study::log::EyeRecord {
-    let (pose, fov) = (xr_pose(view), xr_fov(view));
-    crate::study::log::EyeRecord {
-        position: pose.position,
-        orientation: pose.orientation,
-        fov: [
-            fov.angle_left,
-            fov.angle_right,
-            fov.angle_up,
-            fov.angle_down,
-        ],
-    }
 }
 
 fn xr_pose(view: &xr::View) -> XrPose {

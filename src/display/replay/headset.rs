@@ -10,7 +10,7 @@
 use super::{third_person, write_png, ReplayOutput, Replayer, ThirdPerson};
 use crate::display::conditions::{Conditions, ConditionsFile, MainField};
 use crate::display::frame::{FrameOfViews, Poses, ViewLabel};
-use crate::display::headset_view::{self as body, eye_view, Fov, XrPose};
+use crate::display::headset_view::{self as body, eye_view};
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
 use crate::gpu::MemoryLedger;
@@ -47,14 +47,9 @@ pub(super) fn replay(
     let objects = load_objects(setup)?;
     let conditions = load_conditions(setup, objects.as_ref(), main, progress)?;
     let frame = eyes_frame(main, setup, meta, objects, conditions.as_ref())?;
-    let shown = match (output.camera, output.video.and_then(|v| v.view)) {
-        (None, Some(name)) => (meta.views.iter().position(|v| v == name)).ok_or_else(|| {
-            VlfError::Display(format!(
-                "no view {name:?} in the session: its views are {}",
-                meta.views.join(", ")
-            ))
-        })?,
-        _ => 0,
+    let shown = match output.camera {
+        Some(_) => 0,
+        None => super::view_index(meta, output.video.and_then(|v| v.view))?,
     };
     let fps = (output.video).map(|v| v.fps.unwrap_or_else(|| super::frame_rate(None, frames)));
     let mut headset = HeadsetReplay {
@@ -172,7 +167,10 @@ impl Replayer for HeadsetReplay<'_> {
         super::set_logged_state(&mut self.frame, record)?;
         let norm = &self.frame.renderer().normalisation();
         let matrices: Vec<(Mat4, Vec3)> = (record.eyes.iter())
-            .map(|e| eye_view(xr_pose(e), fov(e), &record.pose, norm, self.setup.near_m))
+            .map(|e| {
+                let (pose, fov) = body::logged_eye(e);
+                eye_view(pose, fov, &record.pose, norm, self.setup.near_m)
+            })
             .collect();
         let tracked = tracked(record);
         let poses = Poses::Eyes {
@@ -213,23 +211,6 @@ impl Replayer for HeadsetReplay<'_> {
     fn shown(&self) -> image::RgbImage {
         let i = if self.camera.is_some() { 0 } else { self.shown };
         display_image(&self.last[i], self.exposure())
-    }
-}
-
-fn xr_pose(eye: &EyeRecord) -> XrPose {
-    XrPose {
-        orientation: eye.orientation,
-        position: eye.position,
-    }
-}
-
-fn fov(eye: &EyeRecord) -> Fov {
-    let [angle_left, angle_right, angle_up, angle_down] = eye.fov;
-    Fov {
-        angle_left,
-        angle_right,
-        angle_up,
-        angle_down,
     }
 }
 
