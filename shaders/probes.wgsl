@@ -49,13 +49,13 @@ fn fibonacci_direction(k: u32, n: u32) -> vec3<f32> {
 // atlas where it lands, and what one mirror reflection there shows. w: 1 where the ray met the
 // back of a one-sided face. The light a moving surface samples itself, with shadow rays
 // (common/moving_surface.wgsl, moving_direct), is left out: an emitter's own emission where the
-// ray meets one (with probe_grid.shadow_samples), the sky where it meets the sky (with
-// probe_grid.sky_shadow_samples). What mirrors show of them stays (no shadow ray samples it).
+// ray meets one (where probe_grid.direct_sampled has 1), the sky where it meets the sky (where
+// it has 2). What mirrors show of them stays (no shadow ray samples it).
 fn arriving(origin: vec3<f32>, ray: vec3<f32>) -> vec4<f32> {
     let s = cast_ray(origin, ray, false);
     let f = faces[s.face];
-    let own_emission = select(vec3<f32>(0.0), emitted(f), probe_grid.shadow_samples > 0u && s.seen > 0.0);
-    let sky_sampled = probe_grid.sky_shadow_samples > 0u && s.seen == 0.0;
+    let own_emission = select(vec3<f32>(0.0), emitted(f), (probe_grid.direct_sampled & 1u) != 0u && s.seen > 0.0);
+    let sky_sampled = (probe_grid.direct_sampled & 2u) != 0u && s.seen == 0.0;
     // (a tile-less specular face's texels hold its specular light too: the reflection below
     // shows it)
     let texel = shown_texel_radiance(f, atlas_radiance(f, s.point));

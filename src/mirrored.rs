@@ -105,8 +105,10 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuMovingMaterial => "MovingMaterial" in "render.wgsl" { albedo, emission }),
         mirrored!(GpuProbeGrid => "ProbeGrid" in "probes.wgsl" {
             origin, rays, spacing, emitter_count, counts, shadow_samples, sky_shadow_samples,
-            shadow_subdivision,
-            _pad1, _pad2
+            shadow_subdivision, vertex_light, direct_sampled
+        }),
+        mirrored!(GpuMovingLight => "MovingLight" in "moving_light.wgsl" {
+            vertex_count, emitter_samples, sky_samples, _pad
         }),
         mirrored!(GpuShadowAtlas => "ShadowAtlas" in "shadow_atlas.wgsl" {
             face_count, texel_capacity, item_capacity, box_count, samples, sky_reach, _pad

@@ -6,11 +6,14 @@
 # (assets/avatar/mannequin.glb, 4,456 triangles), and with the avatar and a 200K-triangle prop
 # carried in front of it (a sphere of 199,712 triangles: the update's size the issue asks for);
 # the avatar without its shadows (what they cost), and with its shadows per pixel instead of from
-# the shadow atlas (`[object_lighting] shadows = "per_pixel"`). VARIANTS picks some of
-# "none body body-noshadow body-perpixel body-prop" (tools/gpu-shadow.sh: the shadows' three).
+# the shadow atlas (`[object_lighting] shadows = "per_pixel"`), and with its own direct light by
+# shadow rays per eye ray instead of once per frame at its vertices (`direct_light = "per_pixel"`,
+# as before per-vertex light). VARIANTS picks some of
+# "none body body-noshadow body-perpixel body-pixeldirect body-prop" (tools/gpu-shadow.sh: the
+# shadows' three).
 # Reports (JSON + text, the last frame's overview) into OUT_DIR/body.tar; the reports' "moving
 # objects' update" line is the skinning + triangles + refit pass's GPU time per frame, with the
-# shadow atlas where the shadows come from it.
+# vertices' direct light and the shadow atlas where they are made once per frame.
 # SCENES (default "classroom-100k classroom-1m") picks the walks; WORK=dir reuses light fields.
 #   tools/gpu-body.sh VLF_BINARY OUT_DIR [FRAMES]
 set -uo pipefail
@@ -53,7 +56,9 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
   { cat $work/cave-$scene-none.toml; echo; echo "$body"; } > $work/cave-$scene-body.toml
   { cat $work/cave-$scene-body.toml; echo; echo "$prop"; } > $work/cave-$scene-body-prop.toml
   # what the shadows cost: the body without them
-  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadow_samples = 0"; echo "sky_shadow_samples = 0"; echo "atlas_shadow_samples = 0"; echo "atlas_sky_shadow_samples = 0"; } > $work/cave-$scene-body-noshadow.toml
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadow_samples = 0"; echo "sky_shadow_samples = 0"; echo "vertex_shadow_samples = 0"; echo "vertex_sky_shadow_samples = 0"; echo "atlas_shadow_samples = 0"; echo "atlas_sky_shadow_samples = 0"; } > $work/cave-$scene-body-noshadow.toml
+  # the body's own direct light by shadow rays per eye ray that meets it (before per-vertex light)
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "direct_light = \"per_pixel\""; } > $work/cave-$scene-body-pixeldirect.toml
   # the shadows per pixel of every view (before the shadow atlas)
   { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadows = \"per_pixel\""; } > $work/cave-$scene-body-perpixel.toml
   for variant in ${VARIANTS:-none body body-noshadow body-perpixel body-prop}; do

@@ -18,8 +18,12 @@ struct ProbeGrid {
     sky_shadow_samples: u32,
     // the shadow atlas's texels along each side of a light-field texel (src/render/shadow_atlas.rs)
     shadow_subdivision: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // 1: a moving surface's own direct light is read from its vertices (moving_light.wgsl fills
+    // them once per frame) where a ray meets its front; 0: shadow rays per eye ray
+    vertex_light: u32,
+    // what a moving surface samples of its own direct light, which the probes leave out
+    // (probes.wgsl): 1 the emitters', 2 the sky's
+    direct_sampled: u32,
 }
 
 // coefficients per probe, each a vec4: rgb, and in the first one's w the share of the probe's

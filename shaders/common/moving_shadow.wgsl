@@ -9,8 +9,8 @@ const MOVING_SHADOW_ATLAS: u32 = 4u;
 
 // the shadow atlas: per face its first texel (NO_FACE: no shadow this frame), and per texel the
 // direct irradiance the moving objects take (rgb), texels of a face row by row as in its chart
-@group(2) @binding(6) var<storage, read> shadow_slots: array<u32>;
-@group(2) @binding(7) var<storage, read> shadow_texels: array<vec4<f32>>;
+@group(2) @binding(8) var<storage, read> shadow_slots: array<u32>;
+@group(2) @binding(9) var<storage, read> shadow_texels: array<vec4<f32>>;
 
 // The direct light the moving objects take away from point p of static face `face`, as radiance
 // leaving p: the face's albedo / pi times the irradiance they block, bilinear in the shadow atlas

@@ -2,9 +2,12 @@
 // emission, lit by the converged static light field at the smooth normal of the triangle's
 // skinned corners: the direct light of the emitters and the sky by shadow rays against the scene
 // and the moving objects themselves (their own shadows on each other and on themselves), the
-// rest through the irradiance probes (common/irradiance.wgsl, baked without that direct light). The renderer
-// binds this group; cast_ray (common/scene_cast.wgsl) calls moving_radiance. The shadow atlas's
-// pass (shadow_atlas.wgsl) binds it too, for direct_samples.
+// rest through the irradiance probes (common/irradiance.wgsl, baked without that direct light).
+// The direct light is read from the triangle's corners where moving_light.wgsl evaluated it once
+// per frame (probe_grid.vertex_light), or sampled per eye ray. The renderer binds this group;
+// cast_ray (common/scene_cast.wgsl) calls moving_radiance. The shadow atlas's pass
+// (shadow_atlas.wgsl) and the vertices' light pass (moving_light.wgsl) bind it too, for
+// direct_samples, with placeholders for the vertices' light.
 
 // mirrors gpu::types::GpuMovingMaterial
 struct MovingMaterial {
@@ -20,6 +23,10 @@ struct MovingMaterial {
 // and their alias table (render/probes.rs alias_table: [threshold, alias bits, 0, 0])
 @group(2) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(2) @binding(5) var<storage, read> emitter_alias: array<vec4<f32>>;
+// per moving vertex its direct irradiance on the side its normal faces (moving_light.wgsl), and
+// per moving triangle its corners (indices into it) and material: [a, b, c, material]
+@group(2) @binding(6) var<storage, read> vertex_light: array<vec4<f32>>;
+@group(2) @binding(7) var<storage, read> moving_corners: array<vec4<u32>>;
 
 // Probe `probe`'s irradiance for the basis `b` (irradiance_basis), never negative (order 2
 // rings where the light is sharp).
@@ -75,7 +82,10 @@ fn shadow_chart(f: Face) -> Face {
 }
 
 // The radiance leaving moving triangle `index` (counted from view.moving_first) at `point`
-// toward the ray's origin.
+// toward the ray's origin. The direct light: on the front, where the vertices carry it, their
+// light interpolated over the triangle (what the corners' normals face; shadows and light across
+// a triangle are as smooth as its corners); on a back (an open mesh seen from behind, rare: eye
+// rays pass moving backs by) or without it, shadow rays from the point.
 fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     let tri = ray_triangles[view.moving_first + index];
     let u = dot(tri.u.xyz, point) + tri.u.w;
@@ -84,10 +94,17 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     var n = m.n0.xyz * (1.0 - u - v) + m.n1.xyz * u + m.n2.xyz * v;
     n = select(tri.w.xyz, n, dot(n, n) > 1e-12);
     // the side the ray sees
-    n = normalize(select(n, -n, dot(n, ray) > 0.0));
+    let front = dot(n, ray) <= 0.0;
+    n = normalize(select(-n, n, front));
     let material = moving_materials[bitcast<u32>(m.n0.w)];
-    let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
-    let direct = direct_samples(point + n * 1e-3, n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
+    var direct: vec3<f32>;
+    if probe_grid.vertex_light != 0u && front {
+        let c = moving_corners[index];
+        direct = vertex_light[c.x].xyz * (1.0 - u - v) + vertex_light[c.y].xyz * u + vertex_light[c.z].xyz * v;
+    } else {
+        let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
+        direct = direct_samples(point + n * 1e-3, n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
+    }
     return material.albedo.xyz / PI * (irradiance_at(point, n) + direct) + material.emission.xyz;
 }
 

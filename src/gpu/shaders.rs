@@ -114,6 +114,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/visibility_raster.wgsl"),
     ),
     ("moving.wgsl", include_str!("../../shaders/moving.wgsl")),
+    (
+        "moving_light.wgsl",
+        include_str!("../../shaders/moving_light.wgsl"),
+    ),
     ("probes.wgsl", include_str!("../../shaders/probes.wgsl")),
     ("present.wgsl", include_str!("../../shaders/present.wgsl")),
     (
@@ -146,6 +150,7 @@ pub const STAGES: &[&str] = &[
     "moving.wgsl",
     "probes.wgsl",
     "shadow_atlas.wgsl",
+    "moving_light.wgsl",
     "present.wgsl",
     "xr_eye.wgsl",
     "xr_multiview.wgsl",

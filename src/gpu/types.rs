@@ -359,6 +359,26 @@ pub struct GpuProbeGrid {
     pub sky_shadow_samples: u32,
     /// the shadow atlas's texels along each side of a light-field texel
     pub shadow_subdivision: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// 1: a moving surface's front reads its direct light from its vertices
+    /// (`render::moving_light`); 0: shadow rays per eye ray
+    pub vertex_light: u32,
+    /// what a moving surface samples of its own direct light, which the probes leave out:
+    /// `DIRECT_EMITTERS` | `DIRECT_SKY`
+    pub direct_sampled: u32,
+}
+
+/// `GpuProbeGrid::direct_sampled`: the moving surfaces sample the emitters' direct light.
+pub const DIRECT_EMITTERS: u32 = 1;
+/// `GpuProbeGrid::direct_sampled`: the moving surfaces sample the sky's direct light.
+pub const DIRECT_SKY: u32 = 2;
+
+/// Mirrors WGSL `MovingLight` (shaders/moving_light.wgsl): the vertices lit per frame and the
+/// shadow rays each takes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuMovingLight {
+    pub vertex_count: u32,
+    pub emitter_samples: u32,
+    pub sky_samples: u32,
+    pub _pad: u32,
 }

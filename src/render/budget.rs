@@ -29,6 +29,12 @@ pub const FIT_HEADROOM: f64 = 0.75;
 /// How far the pacer moves a view's share toward its target each frame (1: all the way, by the
 /// slope the fit measured).
 const PACER_GAIN: f64 = 0.6;
+/// What the reserve for the GPU work before the views (the moving objects' pass) keeps of itself
+/// each frame that work takes less: a peak follower that forgets a peak over about a second at
+/// 120 Hz, so the views make room for the work's p99, not its median.
+const RESERVE_DECAY: f64 = 0.995;
+/// The most of the held time the reserve takes (the views keep a quarter).
+const RESERVE_MAX: f64 = 0.75;
 
 /// What a frame is drawn with.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -322,12 +328,18 @@ pub struct PacedSetting {
 /// a view too cheap at the configured count for its target gets more eye rays still.
 pub struct Pacer {
     target_ms: Vec<f64>,
+    /// the GPU time the views and the work before them are held at, and each view's share of it
+    held_ms: f64,
+    share: Vec<f64>,
+    /// what the work before the views takes of the held time (`observe_before_views`)
+    reserved_ms: f64,
     /// the GPU time one more eye ray per pixel adds to a view, as probed
     per_ray_ms: Vec<f64>,
     low: Vec<u32>,
     fraction: Vec<f32>,
     /// eye rays per pixel each frame, averaged over the view's tiles
     history: Vec<Vec<f32>>,
+    reserved_history: Vec<f32>,
     gain: f64,
     /// the most eye rays per pixel a tile gets (`Renderer::paced_max_samples`)
     max_samples: u32,
@@ -337,6 +349,10 @@ pub struct Pacer {
 pub struct PacerReport {
     pub target_ms: Vec<f64>,
     pub eye_rays_per_pixel: Vec<Distribution>,
+    /// the views' held time given to the GPU work before them each frame (the moving objects'
+    /// pass; absent without it)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reserved_ms: Option<Distribution>,
 }
 
 impl PacerReport {
@@ -347,8 +363,14 @@ impl PacerReport {
                 (lo.min(d.min), hi.max(d.max))
             });
         let total: f64 = self.target_ms.iter().sum();
+        let reserved = (self.reserved_ms.as_ref()).map_or(String::new(), |r| {
+            format!(
+                " (the moving objects' pass reserved: median {:.2} ms, max {:.2} ms, given to the views' part of it)",
+                r.median, r.max
+            )
+        });
         format!(
-            "  frame pacing: views held at {total:.2} ms in all; eye rays per pixel (over a view's tiles) {lo:.2} to {hi:.2}, median per view {}\n",
+            "  frame pacing: views held at {total:.2} ms in all{reserved}; eye rays per pixel (over a view's tiles) {lo:.2} to {hi:.2}, median per view {}\n",
             (self.eye_rays_per_pixel.iter())
                 .map(|d| format!("{:.2}", d.median))
                 .collect::<Vec<_>>()
@@ -384,6 +406,10 @@ impl Pacer {
         let views = share.len();
         Some(Pacer {
             target_ms,
+            held_ms: held,
+            share,
+            reserved_ms: 0.0,
+            reserved_history: Vec::new(),
             per_ray_ms,
             low: vec![fit.low; views],
             fraction: vec![0.0; views],
@@ -433,12 +459,84 @@ impl Pacer {
         self.fraction[view] = fraction.clamp(0.0, 1.0) as f32;
     }
 
+    /// The GPU work before the views (the moving objects' skinning, refit, light and shadow
+    /// atlas) took `gpu_ms` this frame: the views' targets make room for it within the held time,
+    /// by a reserve that rises to a peak at once and forgets it slowly (`RESERVE_DECAY`).
+    pub fn observe_before_views(&mut self, gpu_ms: f64) {
+        let peak = gpu_ms.max(self.reserved_ms * RESERVE_DECAY);
+        self.reserved_ms = peak.min(self.held_ms * RESERVE_MAX);
+        self.reserved_history.push(self.reserved_ms as f32);
+        let left = self.held_ms - self.reserved_ms;
+        for (target, share) in self.target_ms.iter_mut().zip(&self.share) {
+            *target = left * share;
+        }
+    }
+
     pub fn report(&self) -> PacerReport {
+        let reserved: Vec<f64> = self.reserved_history.iter().map(|&r| r as f64).collect();
         PacerReport {
+            reserved_ms: (!reserved.is_empty()).then(|| Distribution::of(&reserved)),
             target_ms: self.target_ms.clone(),
             eye_rays_per_pixel: (self.history.iter())
                 .map(|h| Distribution::of(&h.iter().map(|&f| f as f64).collect::<Vec<_>>()))
                 .collect(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{BudgetFit, Pacer, Probe, FIT_HEADROOM, RESERVE_DECAY, RESERVE_MAX};
+
+    /// A fit of two equal views at a 120 Hz budget whose 1 and 4 eye rays per pixel fit.
+    fn fit() -> BudgetFit {
+        let probe = |rays: u32, ms: f64| Probe {
+            eye_rays_per_pixel: rays,
+            mirror_bounces: 1,
+            view_gpu_ms: vec![ms / 2.0; 2],
+            frame_gpu_ms: ms,
+        };
+        BudgetFit {
+            budget_ms: 1000.0 / 120.0,
+            headroom: FIT_HEADROOM,
+            probes: vec![probe(1, 2.0), probe(4, 5.0)],
+            mirror_bounces: 1,
+            low: 1,
+            high: 4,
+            fits: true,
+            view_pixels: vec![100, 100],
+            timed_by: "GPU timestamps",
+        }
+    }
+
+    /// The views make room for the moving objects' pass before them: their targets drop by its
+    /// time at once, keep its peak while it takes less (forgetting it by RESERVE_DECAY a frame,
+    /// back to what it takes after a few seconds), and never give it more than RESERVE_MAX of
+    /// the held time; the report gives the reserve's distribution.
+    #[test]
+    fn the_views_make_room_for_the_work_before_them_by_its_peak() {
+        let mut pacer = Pacer::from_fit(&fit()).unwrap();
+        let total = |p: &Pacer| p.target_ms.iter().sum::<f64>();
+        let held = total(&pacer);
+        assert!((held - 6.25).abs() < 1e-9, "{held}");
+        pacer.observe_before_views(2.0);
+        assert!((total(&pacer) - (held - 2.0)).abs() < 1e-9);
+        assert!((pacer.target_ms[0] - pacer.target_ms[1]).abs() < 1e-12);
+        pacer.observe_before_views(0.5);
+        assert!((total(&pacer) - (held - 2.0 * RESERVE_DECAY)).abs() < 1e-9);
+        for _ in 0..2000 {
+            pacer.observe_before_views(0.5);
+        }
+        assert!((total(&pacer) - (held - 0.5)).abs() < 1e-9);
+        pacer.observe_before_views(100.0);
+        assert!((total(&pacer) - held * (1.0 - RESERVE_MAX)).abs() < 1e-9);
+        (0..2).for_each(|v| pacer.observe(v, 1.0));
+        let reserved = pacer.report().reserved_ms.unwrap();
+        assert!((reserved.max - held * RESERVE_MAX).abs() < 1e-5);
+        assert!((reserved.median - 0.5).abs() < 1e-5);
+        // without the work, no reserve in the report
+        let mut plain = Pacer::from_fit(&fit()).unwrap();
+        (0..2).for_each(|v| plain.observe(v, 3.0));
+        assert!(plain.report().reserved_ms.is_none());
     }
 }

@@ -5,6 +5,7 @@
 pub mod budget;
 pub mod image_io;
 pub mod moving;
+pub mod moving_light;
 pub mod objects_file;
 pub mod probes;
 pub mod raster;
@@ -157,6 +158,9 @@ pub struct Renderer {
     probe_grid: Option<crate::gpu::types::GpuProbeGrid>,
     /// the moving objects' shadows drawn once per frame (none: per pixel, or no objects)
     shadow_atlas: Option<shadow_atlas::ShadowAtlas>,
+    /// the moving objects' own direct light at their vertices once per frame (none: per pixel,
+    /// or no objects)
+    moving_light: Option<moving_light::MovingLight>,
     /// how the moving objects are lit, where there are any
     object_lighting: Option<probes::ObjectLighting>,
 }
@@ -177,6 +181,8 @@ struct FieldSet {
     probes: Option<probes::Probes>,
     /// the shadow atlas's groups for this light field
     shadow: Option<shadow_atlas::ShadowField>,
+    /// the vertices' light pass's groups for this light field
+    vertex_light: Option<moving_light::MovingLightField>,
 }
 
 impl FieldSet {
@@ -207,6 +213,7 @@ impl FieldSet {
             field_buffer,
             probes: None,
             shadow: None,
+            vertex_light: None,
         }
     }
 }
@@ -339,6 +346,7 @@ impl Renderer {
             moving: None,
             probe_grid: None,
             shadow_atlas: None,
+            moving_light: None,
             object_lighting: objects.as_ref().map(|o| o.lighting),
         };
         if let (Some(o), Some(plan)) = (objects, plan) {
@@ -433,6 +441,12 @@ impl Renderer {
             self.shadow_atlas = Some(atlas);
             self.view_template.moving_flags |= crate::gpu::types::MOVING_SHADOW_ATLAS;
         }
+        if objects.lighting.direct_light == probes::DirectLightMethod::PerVertex {
+            let variant = (self.variant.stack, self.variant.cutouts);
+            let light = (&objects.lighting, self.moving.as_ref().expect("just made"));
+            let pass = moving_light::MovingLight::new(&self.ctx, ledger, light, variant)?;
+            self.moving_light = Some(pass);
+        }
         Ok(())
     }
 
@@ -470,27 +484,40 @@ impl Renderer {
         let probes = probes::bake(&self.ctx, ledger, grid, &inputs)?;
         let atlas = self.shadow_atlas.as_ref();
         let shadow = atlas.map(|a| a.field(&self.ctx, ledger, &inputs, (moving, &probes)));
-        let group = moving_group(&self.ctx, &self.moving_layout, moving, &probes, atlas);
+        let light = self.moving_light.as_ref();
+        let vertex_light = light.map(|l| l.field(&self.ctx, ledger, &inputs, (moving, &probes)));
+        let passes = (atlas, light);
+        let group = moving_group(&self.ctx, &self.moving_layout, (moving, &probes), passes);
         let set = &mut self.fields[k];
         set.moving_group = group;
         set.probes = Some(probes);
         set.shadow = shadow;
+        set.vertex_light = vertex_light;
         Ok(())
     }
 
     /// Pose the moving objects for the views drawn next: `joints` are their joint matrices in
-    /// world metres (`dynamic::Objects::joint_matrices`), and with the shadow atlas, their
-    /// shadows for the light field drawn now (`shadow_atlas`; made whether the shadows are on or
-    /// off, so that switching them costs no step in frame time). Submitted at once, its GPU time
-    /// in `timestamps` where given; nothing without objects.
+    /// world metres (`dynamic::Objects::joint_matrices`), and for the light field drawn now
+    /// their own direct light at their vertices (`moving_light`) and, with the shadow atlas,
+    /// their shadows (`shadow_atlas`; made whether the shadows are on or off, so that switching
+    /// them costs no step in frame time). Submitted at once, its GPU time in `timestamps` where
+    /// given; nothing without objects.
     pub fn pose_objects(&self, joints: &[Mat4], timestamps: Option<&mut Timestamps>) {
         if let Some(m) = &self.moving {
             m.set_joints(&self.ctx.queue, joints);
             let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
-            let field = self.fields[self.active].shadow.as_ref();
-            let shadows = (self.shadow_atlas.as_ref().zip(field))
-                .map(|(a, f)| move |pass: &mut wgpu::ComputePass<'_>| a.encode(pass, f));
-            m.encode(&mut encoder, timestamps, shadows);
+            let set = &self.fields[self.active];
+            let shadows = self.shadow_atlas.as_ref().zip(set.shadow.as_ref());
+            let light = self.moving_light.as_ref().zip(set.vertex_light.as_ref());
+            let after_refit = move |pass: &mut wgpu::ComputePass<'_>| {
+                if let Some((l, f)) = light {
+                    l.encode(pass, f);
+                }
+                if let Some((a, f)) = shadows {
+                    a.encode(pass, f);
+                }
+            };
+            m.encode(&mut encoder, timestamps, Some(after_refit));
             self.ctx.queue.submit([encoder.finish()]);
         }
     }
@@ -1073,27 +1100,25 @@ fn resolve_pipeline(
 }
 
 /// The moving objects' group of the resolve pass: their shading records, materials and probes,
-/// and the shadow atlas's face slots and texels (placeholders, never read, without it).
+/// their vertices' light and corners, and the shadow atlas's face slots and texels
+/// (placeholders, never read, without the vertices' light pass or the atlas).
 fn moving_group(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
-    m: &moving::MovingObjects,
-    p: &probes::Probes,
-    atlas: Option<&shadow_atlas::ShadowAtlas>,
+    (m, p): (&moving::MovingObjects, &probes::Probes),
+    (atlas, light): (
+        Option<&shadow_atlas::ShadowAtlas>,
+        Option<&moving_light::MovingLight>,
+    ),
 ) -> wgpu::BindGroup {
-    let placeholder;
-    let (slots, texels) = match atlas {
-        Some(a) => (&a.slots, &a.texels),
-        None => {
-            placeholder = ctx.buffer_init(
-                &MemoryLedger::default(),
-                "no shadow atlas",
-                &[0u8; 64],
-                wgpu::BufferUsages::STORAGE,
-            );
-            (&placeholder, &placeholder)
-        }
-    };
+    let placeholder = ctx.buffer_init(
+        &MemoryLedger::default(),
+        "no shadow atlas or vertices' light",
+        &[0u8; 64],
+        wgpu::BufferUsages::STORAGE,
+    );
+    let (slots, texels) = atlas.map_or((&placeholder, &placeholder), |a| (&a.slots, &a.texels));
+    let lit = light.map_or(&placeholder, |l| &l.lit);
     ctx.bind_group(
         layout,
         &[
@@ -1103,6 +1128,8 @@ fn moving_group(
             &p.coefficients,
             &p.emitters,
             &p.emitter_alias,
+            lit,
+            &m.corners,
             slots,
             texels,
         ],
@@ -1145,6 +1172,7 @@ fn placeholder_moving_group(
             layout,
             &[
                 &storage, &storage, &uniform, &storage, &storage, &storage, &storage, &storage,
+                &storage, &storage,
             ],
         );
     }
@@ -1172,6 +1200,8 @@ fn placeholder_moving_group(
             &storage,
             &emitter_buffer,
             &alias,
+            &storage,
+            &storage,
             &storage,
             &storage,
         ],

@@ -145,12 +145,17 @@ pub struct MovingObjects {
     levels: Vec<(wgpu::BindGroup, u32)>,
     joints: wgpu::Buffer,
     joint_count: u32,
-    vertex_count: u32,
+    pub vertex_count: u32,
     triangle_count: u32,
     normalisation: Normalisation,
-    /// what the renderer's shading group reads: each triangle's normals and material, the table
+    /// what the renderer's shading group reads: each triangle's normals and material, the table,
+    /// each triangle's corners and material (tree order)
     pub shading: wgpu::Buffer,
     pub materials: wgpu::Buffer,
+    pub corners: wgpu::Buffer,
+    /// the skinned vertices and normals (the vertices' light pass reads them)
+    pub posed: wgpu::Buffer,
+    pub posed_normals: wgpu::Buffer,
     pub root_pair: u32,
     pub first_triangle: u32,
 }
@@ -252,6 +257,9 @@ impl MovingObjects {
             normalisation,
             shading,
             materials,
+            corners,
+            posed,
+            posed_normals: normals,
             root_pair: plan.first_pair,
             first_triangle: plan.first_triangle,
         })

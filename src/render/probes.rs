@@ -21,6 +21,15 @@ pub struct ObjectLighting {
     /// a multiple of 64
     #[serde(default = "default_rays")]
     pub probe_rays: u32,
+    /// how a moving surface takes its own direct light: once per frame at its vertices (the
+    /// default), or by shadow rays per eye ray that meets it
+    #[serde(default)]
+    pub direct_light: DirectLightMethod,
+    /// shadow rays per vertex (`direct_light = "per_vertex"`) to the emitters and to the sky
+    #[serde(default = "default_vertex_shadow_samples")]
+    pub vertex_shadow_samples: u32,
+    #[serde(default = "default_vertex_sky_shadow_samples")]
+    pub vertex_sky_shadow_samples: u32,
     /// shadow rays per eye ray to the emitters, each to a triangle picked by power (0: the
     /// objects cast no shadow from emitters)
     #[serde(default = "default_shadow_samples")]
@@ -58,6 +67,27 @@ pub enum ShadowMethod {
     #[default]
     Atlas,
     PerPixel,
+}
+
+/// How a moving surface takes its own direct light (emitters and sky, shadowed by the scene
+/// and the moving objects): `"per_vertex"`, once per frame at each vertex of the objects for
+/// every view (`render::moving_light`), interpolated over the triangle where a ray meets it (its
+/// cost follows the objects' vertices, not the views' pixels); or `"per_pixel"`, shadow rays
+/// from every eye ray that meets it (sharper shadows across a large triangle).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DirectLightMethod {
+    #[default]
+    PerVertex,
+    PerPixel,
+}
+
+fn default_vertex_shadow_samples() -> u32 {
+    32
+}
+
+fn default_vertex_sky_shadow_samples() -> u32 {
+    16
 }
 
 fn default_resolution() -> u32 {
@@ -101,6 +131,9 @@ impl Default for ObjectLighting {
         ObjectLighting {
             probe_resolution: default_resolution(),
             probe_rays: default_rays(),
+            direct_light: DirectLightMethod::default(),
+            vertex_shadow_samples: default_vertex_shadow_samples(),
+            vertex_sky_shadow_samples: default_vertex_sky_shadow_samples(),
             shadow_samples: default_shadow_samples(),
             sky_shadow_samples: default_sky_shadow_samples(),
             shadows: ShadowMethod::default(),
@@ -114,6 +147,25 @@ impl Default for ObjectLighting {
 }
 
 impl ObjectLighting {
+    /// The shadow rays a moving surface's own direct light takes: to the emitters and to the
+    /// sky, per vertex or per eye ray as `direct_light` says.
+    pub fn direct_samples(&self) -> [u32; 2] {
+        match self.direct_light {
+            DirectLightMethod::PerVertex => {
+                [self.vertex_shadow_samples, self.vertex_sky_shadow_samples]
+            }
+            DirectLightMethod::PerPixel => [self.shadow_samples, self.sky_shadow_samples],
+        }
+    }
+
+    /// What of their direct light the moving surfaces sample themselves (the probes leave it
+    /// out): `gpu::types::DIRECT_EMITTERS` | `DIRECT_SKY`.
+    fn direct_sampled(&self) -> u32 {
+        use crate::gpu::types::{DIRECT_EMITTERS, DIRECT_SKY};
+        let [emitters, sky] = self.direct_samples();
+        (if emitters > 0 { DIRECT_EMITTERS } else { 0 }) | if sky > 0 { DIRECT_SKY } else { 0 }
+    }
+
     pub fn check(&self) -> std::result::Result<(), String> {
         let at = "[object_lighting]";
         if !(2..=128).contains(&self.probe_resolution) {
@@ -130,6 +182,8 @@ impl ObjectLighting {
         }
         for (key, n) in [
             ("shadow_samples", self.shadow_samples),
+            ("vertex_shadow_samples", self.vertex_shadow_samples),
+            ("vertex_sky_shadow_samples", self.vertex_sky_shadow_samples),
             ("sky_shadow_samples", self.sky_shadow_samples),
             ("atlas_shadow_samples", self.atlas_shadow_samples),
             ("atlas_sky_shadow_samples", self.atlas_sky_shadow_samples),
@@ -176,6 +230,8 @@ pub fn probe_grid(lo: Vec3, hi: Vec3, settings: &ObjectLighting) -> GpuProbeGrid
         shadow_samples: settings.shadow_samples,
         sky_shadow_samples: settings.sky_shadow_samples,
         shadow_subdivision: settings.shadow_atlas_subdivision,
+        vertex_light: u32::from(settings.direct_light == DirectLightMethod::PerVertex),
+        direct_sampled: settings.direct_sampled(),
         ..Default::default()
     }
 }
@@ -188,6 +244,39 @@ pub struct Probes {
     /// the emitting triangles the shadows sample (`emitters`) and their alias table
     pub emitters: wgpu::Buffer,
     pub emitter_alias: wgpu::Buffer,
+}
+
+impl Probes {
+    /// The moving objects' shading group (`common/moving_surface.wgsl`, group 2) for the passes
+    /// that sample the objects' direct light once per frame (`render::shadow_atlas`,
+    /// `render::moving_light`): `objects`' records with these probes and emitters; the vertices'
+    /// light a placeholder (those passes never read it; the second writes it).
+    pub fn moving_group(
+        &self,
+        ctx: &GpuContext,
+        layout: &wgpu::BindGroupLayout,
+        objects: &super::moving::MovingObjects,
+    ) -> wgpu::BindGroup {
+        let unread = ctx.buffer_init(
+            &MemoryLedger::default(),
+            "moving objects: no vertices' light",
+            &[0u8; 16],
+            STORAGE,
+        );
+        ctx.bind_group(
+            layout,
+            &[
+                &objects.shading,
+                &objects.materials,
+                &self.grid_buffer,
+                &self.coefficients,
+                &self.emitters,
+                &self.emitter_alias,
+                &unread,
+                &objects.corners,
+            ],
+        )
+    }
 }
 
 /// What the bake reads: the renderer's scene buffers (group 0 of probes.wgsl, as render.wgsl

@@ -192,21 +192,10 @@ impl ShadowAtlas {
                 &boxes,
             ],
         );
-        let moving = ctx.bind_group(
-            &self.moving_layout,
-            &[
-                &objects.shading,
-                &objects.materials,
-                &probes.grid_buffer,
-                &probes.coefficients,
-                &probes.emitters,
-                &probes.emitter_alias,
-            ],
-        );
         ShadowField {
             scene,
             field: inputs.resident.bind_group(&self.field_layout, inputs.field),
-            moving,
+            moving: probes.moving_group(ctx, &self.moving_layout, objects),
         }
     }
 

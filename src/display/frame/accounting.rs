@@ -215,11 +215,13 @@ impl Accounting {
 }
 
 /// One frame's timestamp pairs (`passes[i]` saying what pair i timed) to the pacer: each view's
-/// GPU time.
+/// GPU time, and the moving objects' pass before them (the views make room for it).
 fn pace(pacer: &mut Pacer, ms: &[f64], passes: &[Pass]) {
     for (&m, pass) in ms.iter().zip(passes) {
-        if let Pass::View(v) = pass {
-            pacer.observe(*v, m);
+        match pass {
+            Pass::View(v) => pacer.observe(*v, m),
+            Pass::Objects => pacer.observe_before_views(m),
+            Pass::Output => {}
         }
     }
 }

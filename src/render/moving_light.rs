@@ -1,0 +1,151 @@
+//! The moving objects' own direct light, once per frame at their vertices
+//! (`shaders/moving_light.wgsl`): after the refit and in the same compute pass, each shown
+//! skinned vertex takes `vertex_shadow_samples` shadow rays to the emitters and
+//! `vertex_sky_shadow_samples` to the sky, against the scene and the moving objects themselves,
+//! and every view's moving surfaces interpolate that light over their triangles
+//! (`common/moving_surface.wgsl`, moving_radiance). Its cost follows the objects' vertices, not
+//! the views or their pixels: a CAVE's floor views that look down on the body no longer cast a
+//! dozen shadow rays per eye ray that meets it. `[object_lighting] direct_light = "per_pixel"`
+//! keeps the shadow rays per eye ray instead, and this module is not used.
+
+use super::moving::MovingObjects;
+use super::probes::{BakeInputs, ObjectLighting, Probes};
+use crate::error::{Result, VlfError};
+use crate::gpu::types::{GpuMovingLight, GpuView};
+use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
+use crate::lightfield::bindings::FieldLayout;
+
+/// The pass's pipeline, its layouts, the vertices' light (what the views read) and the group
+/// that writes it.
+pub struct MovingLight {
+    pipeline: wgpu::ComputePipeline,
+    scene_layout: wgpu::BindGroupLayout,
+    field_layout: FieldLayout,
+    moving_layout: wgpu::BindGroupLayout,
+    group: wgpu::BindGroup,
+    /// per moving vertex its direct irradiance (rgb): the renderer's moving group, binding 6
+    pub lit: wgpu::Buffer,
+    params: GpuMovingLight,
+}
+
+/// One light field's groups for the pass: the scene, the light field, and the moving objects'
+/// shading group with that field's probes and emitters.
+pub struct MovingLightField {
+    scene: wgpu::BindGroup,
+    field: wgpu::BindGroup,
+    moving: wgpu::BindGroup,
+}
+
+impl MovingLight {
+    /// The pass for `objects` with `settings`' rays per vertex; `stack` is the traversal's
+    /// stack and `cutouts` whether a face cuts holes (as the renderer's pipelines are made).
+    pub fn new(
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        (settings, objects): (&ObjectLighting, &MovingObjects),
+        (stack, cutouts): (u32, bool),
+    ) -> Result<MovingLight> {
+        let device = &ctx.device;
+        let stage = "moving_light.wgsl";
+        let module = shaders::module_with(
+            device,
+            stage,
+            &[("PAIR_STACK", stack), ("ALPHA_MASKS", u32::from(cutouts))],
+        )?;
+        let scene_layout = reflect::layout(device, stage, 0)?;
+        let field_layout = crate::lightfield::bindings::layout(device, stage)?;
+        let moving_layout = reflect::layout(device, stage, 2)?;
+        let light_layout = reflect::layout(device, stage, 3)?;
+        if field_layout.group != 1 {
+            return Err(VlfError::Gpu(format!(
+                "shaders/{stage} binds the light field at group {}; the renderer binds it at 1",
+                field_layout.group
+            )));
+        }
+        let layouts = [
+            &scene_layout,
+            &field_layout.layout,
+            &moving_layout,
+            &light_layout,
+        ];
+        let pipeline = ctx.compute_pipeline(&module, "light_vertices", &layouts);
+        let lit = ctx.buffer_init(
+            ledger,
+            "moving objects: vertices' direct light",
+            &vec![0u8; objects.vertex_count.max(1) as usize * 16],
+            STORAGE,
+        );
+        let group = ctx.bind_group(
+            &light_layout,
+            &[&objects.posed, &objects.posed_normals, &lit],
+        );
+        let [emitter_samples, sky_samples] = settings.direct_samples();
+        Ok(MovingLight {
+            pipeline,
+            scene_layout,
+            field_layout,
+            moving_layout,
+            group,
+            lit,
+            params: GpuMovingLight {
+                vertex_count: objects.vertex_count,
+                emitter_samples,
+                sky_samples,
+                _pad: 0,
+            },
+        })
+    }
+
+    /// The groups that light the vertices in the light field `inputs` binds (the probes' bake
+    /// inputs: the same scene buffers), with that field's probes and emitters.
+    pub fn field(
+        &self,
+        ctx: &GpuContext,
+        ledger: &MemoryLedger,
+        inputs: &BakeInputs,
+        (objects, probes): (&MovingObjects, &Probes),
+    ) -> MovingLightField {
+        let uniform = wgpu::BufferUsages::UNIFORM;
+        let view = ctx.buffer_init(
+            ledger,
+            "moving objects' light: view",
+            bytemuck::bytes_of::<GpuView>(inputs.view),
+            uniform,
+        );
+        let params = ctx.buffer_init(
+            ledger,
+            "moving objects' light: settings",
+            bytemuck::bytes_of(&self.params),
+            uniform,
+        );
+        let scene = ctx.bind_group(
+            &self.scene_layout,
+            &[
+                &view,
+                inputs.faces,
+                inputs.triangles,
+                inputs.pairs,
+                inputs.ray_triangles,
+                inputs.materials,
+                &params,
+            ],
+        );
+        MovingLightField {
+            scene,
+            field: inputs.resident.bind_group(&self.field_layout, inputs.field),
+            moving: probes.moving_group(ctx, &self.moving_layout, objects),
+        }
+    }
+
+    /// This frame's light at every vertex for `field`, in the moving objects' pass after their
+    /// refit.
+    pub fn encode(&self, pass: &mut wgpu::ComputePass<'_>, field: &MovingLightField) {
+        pass.set_bind_group(0, &field.scene, &[]);
+        pass.set_bind_group(1, &field.field, &[]);
+        pass.set_bind_group(2, &field.moving, &[]);
+        pass.set_bind_group(3, &self.group, &[]);
+        pass.set_pipeline(&self.pipeline);
+        let groups = self.params.vertex_count.div_ceil(64).max(1);
+        pass.dispatch_workgroups(groups, 1, 1);
+    }
+}
