@@ -47,20 +47,36 @@ struct MovingLight {
 @group(3) @binding(1) var<storage, read> posed_normals: array<vec4<f32>>;
 @group(3) @binding(2) var<storage, read_write> lit: array<vec4<f32>>;
 
+// Threads per vertex: each casts every LANES-th of the vertex's shadow rays (one thread casting
+// them all in turn waits on each ray's traversal: a few thousand vertices would keep a GPU
+// mostly idle), and the first sums them. A multiple of LANES make a workgroup.
+const LANES: u32 = 8u;
+
+var<workgroup> parts: array<vec3<f32>, 64>;
+
 @compute @workgroup_size(64)
-fn light_vertices(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if i >= light.vertex_count {
-        return;
+fn light_vertices(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    let thread = (group.x + group.y * groups.x) * 64u + lane;
+    let i = thread / LANES;
+    let part = thread % LANES;
+    var e = vec3<f32>(0.0);
+    if i < light.vertex_count {
+        let p = posed[i];
+        let n = posed_normals[i].xyz;
+        if p.w != 0.0 && dot(n, n) >= 0.5 {
+            // the offset a moving surface's own shadow rays start from (moving_radiance)
+            let seed = hash(i ^ 0x27d4eb2du);
+            let counts = vec2<u32>(light.emitter_samples, light.sky_samples);
+            e = direct_samples_part(p.xyz + n * 1e-3, n, seed, false, counts, vec2<u32>(part, LANES));
+        }
     }
-    let p = posed[i];
-    let n = posed_normals[i].xyz;
-    if p.w == 0.0 || dot(n, n) < 0.5 {
-        lit[i] = vec4<f32>(0.0);
-        return;
+    parts[lane] = e;
+    workgroupBarrier();
+    if part == 0u && i < light.vertex_count {
+        var sum = vec3<f32>(0.0);
+        for (var k = 0u; k < LANES; k++) {
+            sum += parts[lane + k];
+        }
+        lit[i] = vec4<f32>(sum, 0.0);
     }
-    // the offset a moving surface's own shadow rays start from (moving_radiance)
-    let seed = hash(i ^ 0x27d4eb2du);
-    let e = direct_samples(p.xyz + n * 1e-3, n, seed, false, vec2<u32>(light.emitter_samples, light.sky_samples));
-    lit[i] = vec4<f32>(e, 0.0);
 }

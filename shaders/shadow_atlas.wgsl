@@ -7,9 +7,9 @@
 // read (common/moving_shadow.wgsl). Four steps: `reset` the counters; `cull` the faces (one
 // thread each: a face is a candidate where a moving object's box meets the hull of the face's
 // chart and a group of emitters' box, or lies within shadow.sky_reach of it under a sky; each
-// candidate takes its texels and its 64-texel items); `evaluate` the items, a workgroup per item
-// and a texel per thread. The sample pattern of a texel
-// is fixed (a hash of the face and texel), so a still scene does not flicker.
+// candidate takes its texels and its ITEM_TEXELS-texel items); `evaluate` the items, a workgroup
+// per item and LANES threads per texel, each casting a share of the texel's rays. The sample
+// pattern of a texel is fixed (a hash of the face and texel), so a still scene does not flicker.
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
@@ -146,14 +146,14 @@ fn cull(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     var slot = NO_FACE;
     if candidate(f) {
         let texels = f.atlas_w * f.atlas_h;
-        let chunks = (texels + 63u) / 64u;
+        let chunks = (texels + ITEM_TEXELS - 1u) / ITEM_TEXELS;
         let first = atomicAdd(&counters[0], texels);
         let item = atomicAdd(&counters[1], chunks);
         let fits = first + texels <= shadow.texel_capacity && item + chunks <= shadow.item_capacity;
         slot = select(NO_FACE, first, fits);
         // a face left out still writes its items, void (the count includes them)
         for (var c = 0u; c < chunks && item + c < shadow.item_capacity; c++) {
-            items[item + c] = vec2<u32>(select(NO_FACE, face, fits), c * 64u);
+            items[item + c] = vec2<u32>(select(NO_FACE, face, fits), c * ITEM_TEXELS);
         }
         if !fits {
             atomicAdd(&counters[2], 1u);
@@ -171,35 +171,63 @@ fn side_distance(p: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> f32 {
 // H100 keeps resident at once, with no indirect dispatch (whose arguments buffer could not be bound
 // beside the others in one pass).
 const EVALUATION_GROUPS: u32 = 4096u;
+// Threads per texel, each casting every LANES-th of its rays (one thread casting them all in turn
+// waits on each ray's traversal: the few thousand texels near a body would keep a GPU mostly
+// idle), and the texels of an item: a workgroup's 64 threads.
+const LANES: u32 = 8u;
+const ITEM_TEXELS: u32 = 8u;
 
-// Texel `texel` of face `face`: the irradiance the moving objects block there, into its slot.
-fn evaluate_texel(face: u32, texel: u32) {
+var<workgroup> parts: array<vec3<f32>, 64>;
+var<workgroup> item_count: u32;
+
+// This thread's share (`part` of LANES) of the irradiance the moving objects block at texel
+// `texel` of face `face`.
+fn texel_part(face: u32, texel: u32, part: u32) -> vec3<f32> {
     let f = shadow_chart(faces[face]);
     let x = f32(texel % f.atlas_w) + 0.5;
     let y = f32(texel / f.atlas_w) + 0.5;
     let p = f.origin + (f.axis_a * x + f.axis_b * y) / f.texel_density;
     let origin = p + f.normal * 1e-5;
     let seed = hash(face ^ hash(texel ^ 0x5bd1e995u));
-    var blocked = direct_samples(origin, f.normal, seed, true, vec2<u32>(shadow.samples.x, 0u));
+    let lanes = vec2<u32>(part, LANES);
+    var blocked = direct_samples_part(origin, f.normal, seed, true, vec2<u32>(shadow.samples.x, 0u), lanes);
     // the sky's shadow near the objects (contact darkening): full within half the reach, none
     // past it
     let top = pairs[view.moving_root];
     let d = min(side_distance(p, top.lo_left, top.hi_left), side_distance(p, top.lo_right, top.hi_right));
     let fade = clamp(2.0 - 2.0 * d / max(shadow.sky_reach, 1e-20), 0.0, 1.0);
     if fade > 0.0 && shadow.samples.y > 0u {
-        blocked += fade * direct_samples(origin, f.normal, seed, true, vec2<u32>(0u, shadow.samples.y));
+        blocked += fade * direct_samples_part(origin, f.normal, seed, true, vec2<u32>(0u, shadow.samples.y), lanes);
     }
-    shadow_texels[shadow_slots[face] + texel] = vec4<f32>(blocked, 0.0);
+    return blocked;
 }
 
 @compute @workgroup_size(64)
 fn evaluate(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
-    let count = min(atomicLoad(&counters[1]), shadow.item_capacity);
+    if lane == 0u {
+        item_count = min(atomicLoad(&counters[1]), shadow.item_capacity);
+    }
+    let count = workgroupUniformLoad(&item_count);
+    let at_texel = lane / LANES;
+    let part = lane % LANES;
     for (var item = group.x; item < count; item += EVALUATION_GROUPS) {
         let at = items[item];
         let f = shadow_chart(faces[min(at.x, shadow.face_count - 1u)]);
-        if at.x != NO_FACE && at.y + lane < f.atlas_w * f.atlas_h {
-            evaluate_texel(at.x, at.y + lane);
+        let texel = at.y + at_texel;
+        let real = at.x != NO_FACE && texel < f.atlas_w * f.atlas_h;
+        var e = vec3<f32>(0.0);
+        if real {
+            e = texel_part(at.x, texel, part);
         }
+        parts[lane] = e;
+        workgroupBarrier();
+        if real && part == 0u {
+            var sum = vec3<f32>(0.0);
+            for (var k = 0u; k < LANES; k++) {
+                sum += parts[lane + k];
+            }
+            shadow_texels[shadow_slots[at.x] + texel] = vec4<f32>(sum, 0.0);
+        }
+        workgroupBarrier();
     }
 }

@@ -140,6 +140,13 @@ fn pick_emitter(u: f32) -> vec2<f32> {
 // its ray against the moving objects first, and against the scene only where that decided it
 // counts.
 fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only: bool, counts: vec2<u32>) -> vec3<f32> {
+    return direct_samples_part(origin, normal, seed, blocked_only, counts, vec2<u32>(0u, 1u));
+}
+
+// The part of direct_samples that samples part.x, part.x + part.y, ... of the set take (the
+// emitters' first, then the sky's): part.y threads, one for each part.x, share one estimate
+// (moving_light.wgsl) and their parts sum to it.
+fn direct_samples_part(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only: bool, counts: vec2<u32>, part: vec2<u32>) -> vec3<f32> {
     // the moving objects' two top boxes (one load, the same for every pixel): a point they are
     // wholly below the horizon of gets no shadow, and a shadow ray that enters neither is not cast
     let top = pairs[view.moving_root];
@@ -163,7 +170,7 @@ fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only:
     var counted = vec3<f32>(0.0);
     // one ray cast in the loop (its code once in the pipeline): each sample's ray first against
     // the moving objects, and where they block it, again against the scene
-    var k = 0u;
+    var k = part.x;
     var against_scene = false;
     loop {
         if k >= n + m {
@@ -200,7 +207,7 @@ fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only:
         let inv = 1.0 / select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));
         let enters = box_entry(top.lo_left, top.hi_left, origin, inv, reach) >= 0.0 || box_entry(top.lo_right, top.hi_right, origin, inv, reach) >= 0.0;
         if max(carried.x, max(carried.y, carried.z)) <= 0.0 || (blocked_only && !against_scene && !enters) {
-            k += 1u;
+            k += part.y;
             continue;
         }
         // one cast a step: against the scene once the objects decided, else against the objects
@@ -214,7 +221,7 @@ fn direct_samples(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_only:
             counted += carried;
         }
         against_scene = false;
-        k += 1u;
+        k += part.y;
     }
     return counted;
 }

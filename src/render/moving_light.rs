@@ -15,6 +15,9 @@ use crate::gpu::types::{GpuMovingLight, GpuView};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
 use crate::lightfield::bindings::FieldLayout;
 
+/// Threads per vertex (`LANES` in moving_light.wgsl), each casting a share of its rays.
+const LANES: u64 = 8;
+
 /// The pass's pipeline, its layouts, the vertices' light (what the views read) and the group
 /// that writes it.
 pub struct MovingLight {
@@ -79,7 +82,8 @@ impl MovingLight {
             &light_layout,
             &[&objects.posed, &objects.posed_normals, &lit],
         );
-        let [emitter_samples, sky_samples] = settings.direct_samples();
+        let [emitter_samples, sky_samples] =
+            rays_per_vertex(settings.direct_samples(), objects.vertex_count, settings);
         Ok(MovingLight {
             pipeline,
             scene_layout,
@@ -145,7 +149,42 @@ impl MovingLight {
         pass.set_bind_group(2, &field.moving, &[]);
         pass.set_bind_group(3, &self.group, &[]);
         pass.set_pipeline(&self.pipeline);
-        let groups = self.params.vertex_count.div_ceil(64).max(1);
-        pass.dispatch_workgroups(groups, 1, 1);
+        let groups = (self.params.vertex_count as u64 * LANES)
+            .div_ceil(64)
+            .max(1) as u32;
+        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+    }
+}
+
+/// The shadow rays each vertex takes (to the emitters, to the sky): `configured`, scaled down
+/// alike where `vertices` would take more than `vertex_light_rays` a frame (a 200K-triangle prop
+/// would take 5 million), keeping at least one of each kind asked for.
+fn rays_per_vertex(configured: [u32; 2], vertices: u32, settings: &ObjectLighting) -> [u32; 2] {
+    let asked = vertices as u64 * (configured[0] + configured[1]) as u64;
+    let cap = settings.vertex_light_rays as u64;
+    if asked <= cap {
+        return configured;
+    }
+    configured.map(|n| match n {
+        0 => 0,
+        n => ((n as u64 * cap / asked) as u32).max(1),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::rays_per_vertex;
+    use crate::render::probes::ObjectLighting;
+
+    /// The mannequin's few thousand vertices keep the configured rays; a 100K-vertex prop is
+    /// scaled to the frame's cap, each kind alike and never to none.
+    #[test]
+    fn rays_per_vertex_keep_the_frames_rays_under_the_cap() {
+        let settings = ObjectLighting::default();
+        assert_eq!(rays_per_vertex([32, 16], 6_792, &settings), [32, 16]);
+        let scaled = rays_per_vertex([32, 16], 100_000, &settings);
+        assert_eq!(scaled, [6, 3]);
+        assert!(100_000 * (scaled[0] + scaled[1]) as u64 <= settings.vertex_light_rays as u64);
+        assert_eq!(rays_per_vertex([32, 0], 10_000_000, &settings), [1, 0]);
     }
 }

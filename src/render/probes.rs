@@ -30,6 +30,9 @@ pub struct ObjectLighting {
     pub vertex_shadow_samples: u32,
     #[serde(default = "default_vertex_sky_shadow_samples")]
     pub vertex_sky_shadow_samples: u32,
+    /// the most shadow rays the vertices take in all per frame: more vertices take fewer each
+    #[serde(default = "default_vertex_light_rays")]
+    pub vertex_light_rays: u32,
     /// shadow rays per eye ray to the emitters, each to a triangle picked by power (0: the
     /// objects cast no shadow from emitters)
     #[serde(default = "default_shadow_samples")]
@@ -90,6 +93,10 @@ fn default_vertex_sky_shadow_samples() -> u32 {
     16
 }
 
+fn default_vertex_light_rays() -> u32 {
+    1 << 20
+}
+
 fn default_resolution() -> u32 {
     24
 }
@@ -134,6 +141,7 @@ impl Default for ObjectLighting {
             direct_light: DirectLightMethod::default(),
             vertex_shadow_samples: default_vertex_shadow_samples(),
             vertex_sky_shadow_samples: default_vertex_sky_shadow_samples(),
+            vertex_light_rays: default_vertex_light_rays(),
             shadow_samples: default_shadow_samples(),
             sky_shadow_samples: default_sky_shadow_samples(),
             shadows: ShadowMethod::default(),
@@ -202,6 +210,13 @@ impl ObjectLighting {
         if !(1..=4).contains(&subdivision) {
             return Err(format!(
                 "{at} shadow_atlas_subdivision = {subdivision}: use 1 (the light field's texels) to 4"
+            ));
+        }
+        let rays = self.vertex_light_rays;
+        if !(1024..=1 << 26).contains(&rays) {
+            return Err(format!(
+                "{at} vertex_light_rays = {rays}: use 1024 to {}",
+                1 << 26
             ));
         }
         let texels = self.shadow_atlas_texels;

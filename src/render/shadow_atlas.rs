@@ -21,6 +21,10 @@ use glam::Vec3;
 /// H100 keeps resident at once.
 const EVALUATION_GROUPS: u32 = 4096;
 
+/// The texels of one item of the evaluation (`ITEM_TEXELS` in shadow_atlas.wgsl: a workgroup
+/// evaluates an item, 8 threads a texel).
+const ITEM_TEXELS: u32 = 8;
+
 /// The most groups of emitting triangles whose boxes the cull tests a face against (more
 /// emitting triangles share boxes, in their order: the triangles of one light lie together).
 pub const EMITTER_BOXES: usize = 64;
@@ -100,7 +104,7 @@ impl ShadowAtlas {
             .map(|f| f.atlas_w as u64 * f.atlas_h as u64 * s * s)
             .sum();
         let texel_capacity = (settings.shadow_atlas_texels as u64).min(all).max(1) as u32;
-        let item_capacity = texel_capacity.div_ceil(64) + face_count.min(texel_capacity);
+        let item_capacity = texel_capacity.div_ceil(ITEM_TEXELS) + face_count.min(texel_capacity);
         let buffer = |name: &str, bytes: u64, usage| {
             ledger.record(name, bytes);
             device.create_buffer(&wgpu::BufferDescriptor {
