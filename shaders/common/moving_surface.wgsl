@@ -93,9 +93,11 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     let m = moving_triangles[index];
     var n = m.n0.xyz * (1.0 - u - v) + m.n1.xyz * u + m.n2.xyz * v;
     n = select(tri.w.xyz, n, dot(n, n) > 1e-12);
-    // the side the ray sees
-    let front = dot(n, ray) <= 0.0;
-    n = normalize(select(-n, n, front));
+    // the side the ray sees, by the triangle's own normal (tri.w: eye rays pass the same backs
+    // by); the smooth normal turned to it. (By the smooth normal, the silhouettes of a body
+    // seen from above turned to backs and took shadow rays per eye ray.)
+    let front = dot(tri.w.xyz, ray) <= 0.0;
+    n = normalize(select(-n, n, dot(n, tri.w.xyz) >= 0.0 == front));
     let material = moving_materials[bitcast<u32>(m.n0.w)];
     var direct: vec3<f32>;
     if probe_grid.vertex_light != 0u && front {

@@ -30,9 +30,11 @@ pub const FIT_HEADROOM: f64 = 0.75;
 /// slope the fit measured).
 const PACER_GAIN: f64 = 0.6;
 /// What the reserve for the GPU work before the views (the moving objects' pass) keeps of itself
-/// each frame that work takes less: a peak follower that forgets a peak over about a second at
-/// 120 Hz, so the views make room for the work's p99, not its median.
-const RESERVE_DECAY: f64 = 0.995;
+/// each frame that work takes less: a peak follower that forgets a peak over about 15 s at
+/// 120 Hz, so the views make room for the work's peaks, not its median, and keep their times
+/// while it varies (a reserve that followed it closely moved every view's time with it: views'
+/// p99/p50 1.18 on an H200, the shadow atlas taking 1.3 to 2.2 ms along a walk).
+const RESERVE_DECAY: f64 = 0.9995;
 /// The most of the held time the reserve takes (the views keep a quarter).
 const RESERVE_MAX: f64 = 0.75;
 
@@ -511,7 +513,7 @@ mod tests {
 
     /// The views make room for the moving objects' pass before them: their targets drop by its
     /// time at once, keep its peak while it takes less (forgetting it by RESERVE_DECAY a frame,
-    /// back to what it takes after a few seconds), and never give it more than RESERVE_MAX of
+    /// back to what it takes after a minute), and never give it more than RESERVE_MAX of
     /// the held time; the report gives the reserve's distribution.
     #[test]
     fn the_views_make_room_for_the_work_before_them_by_its_peak() {
@@ -524,7 +526,7 @@ mod tests {
         assert!((pacer.target_ms[0] - pacer.target_ms[1]).abs() < 1e-12);
         pacer.observe_before_views(0.5);
         assert!((total(&pacer) - (held - 2.0 * RESERVE_DECAY)).abs() < 1e-9);
-        for _ in 0..2000 {
+        for _ in 0..10_000 {
             pacer.observe_before_views(0.5);
         }
         assert!((total(&pacer) - (held - 0.5)).abs() < 1e-9);
