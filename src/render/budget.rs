@@ -264,17 +264,20 @@ impl Renderer {
         })
     }
 
-    /// The views drawn offscreen three times, one submission each as a display does; each
-    /// view's slower time of the last two rounds (the first warms up), in milliseconds, and
-    /// whether they come from timestamps.
+    /// The views drawn offscreen round after round, one submission each as a display does,
+    /// until two rounds in a row agree within PROBE_AGREE (a GPU idle while the light field
+    /// loaded may take a few hundred milliseconds to come up to speed: on an H200 the first
+    /// eight frames after loading the 1M classroom took 3x the rest), at most PROBE_ROUNDS; each
+    /// view's slower time of those two rounds, in milliseconds, and whether they come from
+    /// timestamps.
     fn probe_views(&mut self, views: &[ProbeView]) -> Result<(Vec<f64>, bool)> {
         let targets: Vec<_> = (views.iter())
             .map(|v| self.view_targets(v.size[0], v.size[1]))
             .collect();
         let ctx = self.ctx.clone();
         let mut timestamps = Timestamps::new(&ctx, views.len() as u32);
-        let mut slowest = vec![0.0f64; views.len()];
-        for round in 0..3 {
+        let mut last: Option<Vec<f64>> = None;
+        for _ in 0..PROBE_ROUNDS {
             let mut wall = Vec::new();
             for (view, target) in views.iter().zip(&targets) {
                 let started = std::time::Instant::now();
@@ -292,14 +295,25 @@ impl Renderer {
                 Some(t) => t.read_ms(&ctx)?,
                 None => wall,
             };
-            if round > 0 {
-                for (s, m) in slowest.iter_mut().zip(ms) {
-                    *s = s.max(m);
-                }
+            if let Some(before) = last.as_ref().filter(|b| rounds_agree(b, &ms)) {
+                let slowest = before.iter().zip(&ms).map(|(a, b)| a.max(*b)).collect();
+                return Ok((slowest, timestamps.is_some()));
             }
+            last = Some(ms);
         }
-        Ok((slowest, timestamps.is_some()))
+        Ok((last.unwrap_or_default(), timestamps.is_some()))
     }
+}
+
+/// The most rounds a probe draws waiting for the GPU's times to settle, and how close two
+/// rounds' totals must be to count as settled.
+const PROBE_ROUNDS: usize = 32;
+const PROBE_AGREE: f64 = 0.05;
+
+/// Whether two rounds of a probe took about the same time in all (within PROBE_AGREE).
+fn rounds_agree(a: &[f64], b: &[f64]) -> bool {
+    let (a, b): (f64, f64) = (a.iter().sum(), b.iter().sum());
+    (a - b).abs() <= PROBE_AGREE * a.max(b)
 }
 
 /// The most eye rays per pixel the pacer gives a view that is cheap for its target.
