@@ -185,7 +185,7 @@ mod tests {
         assert_eq!(check_targets(&named, TargetSource::Osc), Ok(()));
         assert_eq!(check_targets(&named, TargetSource::Scripted), Ok(()));
         let e = check_targets(&named, TargetSource::Dtrack).unwrap_err();
-        assert!(e.contains("].id") && e.contains("6d body"), "{e}");
+        assert!(e.contains("(\"chair\").id") && e.contains("6d body"), "{e}");
         let held = targets("[[target]]\nname = \"chair\"\nposition = [1, 0, -1]\nyaw_deg = 90");
         assert_eq!(check_targets(&held, TargetSource::Static), Ok(()));
         let pose = held[0].static_pose(0).unwrap().unwrap();
