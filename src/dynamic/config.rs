@@ -182,14 +182,16 @@ pub fn target_indices(
         };
         match targets.iter().position(|t| t == name) {
             Some(k) => out.push(Some(k)),
-            None => return Err(format!(
+            None => {
+                return Err(format!(
                 "[[object]] \"{}\": target = {name:?}: no [[tracking.target]] has this name ({})",
                 o.name,
                 match targets.is_empty() {
                     true => "the tracking declares none".to_string(),
                     false => format!("there are: {}", targets.join(", ")),
                 }
-            )),
+            ))
+            }
         }
     }
     Ok(out)
