@@ -1,5 +1,6 @@
 //! The frame lock between the drawing loops and a cluster (`crate::cluster`): the state rank 0
-//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, navigation, exposure,
+//! broadcasts every frame (`FrameState`: frame number, head, wand, left hand, the declared
+//! targets, navigation, exposure,
 //! the moving objects' time, and a study's state: condition, objects shown, their shadows and
 //! reflections, the latency test's flash, the script's stop) and what the headless and windowed loops call (`FrameLock`: share the state at the start of a
 //! frame, then a swap barrier just before present). It sits below both: the display's loops
@@ -7,10 +8,12 @@
 //! other's module for it.
 
 use crate::error::Result;
-use crate::tracking::{HeldPoses, Pose, WandPose};
+use crate::tracking::{HeldPoses, Pose, Targets, WandPose, MAX_TARGETS};
 use glam::{Quat, Vec3};
 
-/// What every rank draws a frame from, as rank 0 broadcasts it (136 bytes).
+/// What every rank draws a frame from, as rank 0 broadcasts it (368 bytes: fixed, whatever
+/// the display declares, so every rank sends and receives one size; the targets take
+/// `MAX_TARGETS` slots).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct FrameState {
@@ -34,6 +37,12 @@ pub struct FrameState {
     pub objects_hidden: u64,
     /// the moving objects' animation time (keyframes, scripted paths), seconds: rank 0's clock
     pub object_time_s: f64,
+    /// the declared targets (`[[tracking.target]]`, by index) where tracked: bit k for target k
+    pub targets_tracked: u32,
+    pub target_positions: [[f32; 3]; MAX_TARGETS],
+    pub target_rotations: [[f32; 4]; MAX_TARGETS],
+    /// (explicit padding to the struct's 8-byte alignment: `Pod` has none hidden)
+    pub _pad: u32,
 }
 
 const QUIT: u32 = 1;
@@ -97,6 +106,16 @@ impl FrameState {
             condition: NO_CONDITION,
             objects_hidden: 0,
             object_time_s: 0.0,
+            targets_tracked: (held.targets.iter().enumerate())
+                .filter(|(_, t)| t.is_some())
+                .fold(0, |bits, (k, _)| bits | 1 << k),
+            target_positions: held
+                .targets
+                .map(|t| t.map_or([0.0; 3], |t| t.position.into())),
+            target_rotations: held
+                .targets
+                .map(|t| t.map_or([0.0, 0.0, 0.0, 1.0], |t| t.rotation.to_array())),
+            _pad: 0,
         }
     }
     /// This state with the moving objects' time and a study's state.
@@ -163,15 +182,25 @@ impl FrameState {
             rotation: Quat::from_array(self.left_hand_rotation),
         })
     }
-    /// The wand and the left hand.
+    /// The declared targets, each where tracked.
+    pub fn targets(&self) -> Targets {
+        std::array::from_fn(|k| {
+            (self.targets_tracked & 1 << k != 0).then(|| WandPose {
+                position: Vec3::from(self.target_positions[k]),
+                rotation: Quat::from_array(self.target_rotations[k]),
+            })
+        })
+    }
+    /// The wand, the left hand and the targets.
     pub fn held(&self) -> HeldPoses {
         HeldPoses {
             wand: self.wand(),
             left_hand: self.left_hand(),
+            targets: self.targets(),
         }
     }
-    /// CRC-32 of everything but the frame number: equal poses, wands, left hands, exposure and
-    /// study state.
+    /// CRC-32 of everything but the frame number: equal poses, wands, left hands, targets,
+    /// exposure and study state.
     pub fn pose_digest(&self) -> u32 {
         crc32fast::hash(&bytemuck::bytes_of(self)[8..])
     }

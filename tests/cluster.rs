@@ -638,11 +638,11 @@ fn each_rank_on_a_host_takes_its_own_gpu() {
 /// the navigation, the wand and the left hand arrive as sent, an untracked hand stays
 /// untracked, and the digest the ranks compare tells a moved left hand apart.
 #[test]
-fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
+fn the_broadcast_frame_state_carries_the_wand_the_left_hand_and_the_targets() {
     use glam::{Quat, Vec3};
     use vlf::framelock::FrameState;
-    use vlf::tracking::{HeldPoses, Pose, WandPose};
-    assert_eq!(std::mem::size_of::<FrameState>(), 136);
+    use vlf::tracking::{HeldPoses, Pose, WandPose, MAX_TARGETS};
+    assert_eq!(std::mem::size_of::<FrameState>(), 368);
     let pose = Pose {
         head: Vec3::new(0.1, 1.7, -0.2),
         head_rotation: Quat::from_rotation_y(0.4),
@@ -653,9 +653,14 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
         position: Vec3::new(x, 1.2, -0.4),
         rotation: Quat::from_rotation_x(0.3),
     };
+    // targets 0 and the last seen, the others not (yet)
+    let mut targets = [None; MAX_TARGETS];
+    targets[0] = Some(hand(0.9));
+    targets[MAX_TARGETS - 1] = Some(hand(-0.9));
     let held = HeldPoses {
         wand: Some(hand(0.3)),
         left_hand: Some(hand(-0.3)),
+        targets,
     };
     let through_bytes =
         |s: FrameState| -> FrameState { bytemuck::pod_read_unaligned(bytemuck::bytes_of(&s)) };
@@ -671,6 +676,10 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
             ..held
         },
         HeldPoses { wand: None, ..held },
+        HeldPoses {
+            targets: [None; MAX_TARGETS],
+            ..held
+        },
         HeldPoses::default(),
     ] {
         assert_eq!(
@@ -685,6 +694,12 @@ fn the_broadcast_frame_state_carries_the_wand_and_the_left_hand() {
     assert_ne!(
         FrameState::new(7, &pose, held, 1.5).pose_digest(),
         FrameState::new(7, &pose, moved, 1.5).pose_digest()
+    );
+    let mut chair_moved = held;
+    chair_moved.targets[MAX_TARGETS - 1] = Some(hand(-0.91));
+    assert_ne!(
+        FrameState::new(7, &pose, held, 1.5).pose_digest(),
+        FrameState::new(7, &pose, chair_moved, 1.5).pose_digest()
     );
     assert!(through_bytes(FrameState::quit(9)).is_quit());
 }

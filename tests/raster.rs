@@ -325,6 +325,7 @@ fn moving_objects_are_seen_the_same_way_both_ways() {
         head: Affine3A::IDENTITY,
         wand: None,
         left_hand: None,
+        targets: Default::default(),
     };
     let [mut rays, mut raster] = both_ways(&lf, &resident, Some((&objects, &tracked)));
     let camera = vlf::scene::Camera {

@@ -1086,10 +1086,7 @@ fn a_dtrack_left_hand_moves_the_avatars_left_hand_and_its_props() {
     assert_eq!(s.state.left_hand, Some(hand));
 
     let objects = Objects::load(&config.objects, path).unwrap();
-    let held = HeldPoses {
-        wand: state.wand,
-        left_hand: state.left_hand,
-    };
+    let held = state.held();
     // the room navigated: the hand goes with it
     let pose = Pose {
         room_position: Vec3::new(0.5, 0.0, 2.2),
@@ -1117,7 +1114,7 @@ fn a_dtrack_left_hand_moves_the_avatars_left_hand_and_its_props() {
         let wand = Vec3::from(tracked.wand.unwrap().translation);
         assert!(avatar_right.distance(wand) < 1e-3, "{what}: {avatar_right}");
         // the cup sits 5 cm along the hand's own up
-        let cup = rigid_placement(&config.objects[1], &tracked);
+        let cup = rigid_placement(&config.objects[1], None, &tracked).unwrap();
         let expect = tracked
             .left_hand
             .unwrap()
@@ -1138,7 +1135,7 @@ fn a_dtrack_left_hand_moves_the_avatars_left_hand_and_its_props() {
     );
     let [hanging, _] = objects.avatar_hands(&no_hand).unwrap();
     assert!(hanging.distance(in_world) > 0.1, "{hanging}");
-    let cup = rigid_placement(&config.objects[1], &no_hand);
+    let cup = rigid_placement(&config.objects[1], None, &no_hand).unwrap();
     let at_head = no_hand.head.transform_point3(Vec3::new(0.0, 0.05, 0.0));
     assert!(Vec3::from(cup.translation).distance(at_head) < 1e-5);
 }
@@ -1256,4 +1253,404 @@ fn osc_vrpn_and_scripted_paths_give_the_left_hand() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("keyframe[0].left_hand_position"), "{e}");
+}
+
+// ---- tracked targets ([[tracking.target]]) ----
+
+/// A CAVE on DTrack (z up, millimetres) declaring `targets` (TOML of `[[tracking.target]]`
+/// tables) and a stool that follows the target "chair", 5 cm in front of it and turned 90
+/// degrees.
+fn dtrack_cave_with_targets(calibration: &str, targets: &str) -> Result<DisplayConfig, String> {
+    let objects = format!(
+        "\n[[object]]\nname = \"stool\"\nmesh = {:?}\nfollow = \"target\"\ntarget = \"chair\"\nposition = [0.0, 0.0, -0.05]\nyaw_deg = 90.0\n",
+        repo_path("assets/props/stool.obj").display().to_string(),
+    );
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap();
+    let tracking = format!(
+        "[tracking]\nsource = \"dtrack\"\nport = 0\n\n[tracking.calibration]\n{calibration}\n\n{targets}\n"
+    );
+    let text = text.replace(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]",
+        &tracking,
+    ) + &objects;
+    DisplayConfig::parse(&text, Path::new("cave.toml")).map_err(|e| e.to_string())
+}
+
+/// DTrack body 7 declared as the target "chair": calibrated into the room like the left hand,
+/// the stool that follows it hidden until it is first seen, then placed on it in the world
+/// within 1 mm (directly and from the frame state a cluster's rank 0 broadcasts), and held where
+/// it was last seen while out of view.
+#[test]
+fn a_dtrack_target_moves_the_objects_that_follow_it() {
+    use vlf::dynamic::{Objects, Tracked};
+    use vlf::framelock::FrameState;
+    let config = dtrack_cave_with_targets(
+        "axes = \"z_up\"\nhead_id = 1\nwand_id = 1\nleft_hand_id = 3",
+        "[[tracking.target]]\nname = \"box\"\nid = 4\n\n[[tracking.target]]\nname = \"chair\"\nid = 7",
+    )
+    .unwrap();
+    assert_eq!(config.tracking.target_names(), ["box", "chair"]);
+    let path = Path::new("cave.toml");
+    let objects =
+        Objects::load_tracked(&config.objects, &config.tracking.target_names(), path).unwrap();
+    let mut tracker = live_tracker(&config);
+    let send = udp_sender(tracker.port);
+    // the chair turned 30 degrees about the tracker's up (z)
+    let chair_body = Quat::from_rotation_z(30f32.to_radians());
+    let identity = dtrack_matrix(Quat::IDENTITY);
+    let frame = |chair_quality: f32, chair_mm: [f32; 3]| {
+        let [x, y, z] = chair_mm;
+        format!(
+            "fr 9\r\n6d 2 [1 1.000][100.0 2000.0 1700.0 0 0 0][{identity}] [7 {chair_quality}][{x} {y} {z} 0 0 0][{}]\r\n",
+            dtrack_matrix(chair_body)
+        )
+    };
+    // the head alone: the chair is not seen yet, and its stool is not drawn (zero matrix)
+    send(&format!(
+        "fr 8\r\n6d 1 [1 1.000][100.0 2000.0 1700.0 0 0 0][{identity}]\r\n"
+    ));
+    let state = wait_state(&mut tracker, "the head", |s| {
+        s.pose.head != Vec3::new(0.0, 1.7, 0.0)
+    });
+    assert_eq!(state.targets, [None; vlf::tracking::MAX_TARGETS]);
+    let unseen = Tracked::from_pose(&state.pose, &state.held(), 0.0);
+    assert_eq!(objects.joint_matrices(&unseen)[0], glam::Mat4::ZERO);
+
+    send(&frame(1.0, [400.0, 1500.0, 0.0]));
+    let state = wait_state(&mut tracker, "the chair", |s| s.targets[1].is_some());
+    let chair = state.targets[1].unwrap();
+    assert_eq!(state.targets[0], None, "body 4 was never sent");
+    // tracker (x, y, z) mm, z up -> room (x, z, -y) metres; a turn about the tracker's z is one
+    // about the room's y
+    assert!(
+        (chair.position - Vec3::new(0.4, 0.0, -1.5)).length() < 1e-5,
+        "{chair:?}"
+    );
+    assert!(
+        same(chair.rotation, Quat::from_rotation_y(30f32.to_radians())),
+        "{chair:?}"
+    );
+    let raw = state.raw.targets[1].unwrap();
+    assert!((raw.position - Vec3::new(400.0, 1500.0, 0.0)).length() < 1e-3);
+    assert_eq!(state.left_hand, None, "body 7 is not the left hand");
+
+    // out of view (quality -1) elsewhere: the chair stays where it was last tracked
+    send(&frame(-1.0, [900.0, 900.0, 900.0]));
+    let s = tracker
+        .next(std::time::Duration::from_secs(5))
+        .expect("the frame without the chair");
+    assert_eq!(s.state.targets[1], Some(chair));
+
+    // the room navigated: the chair goes with it
+    let pose = Pose {
+        room_position: Vec3::new(0.5, 0.0, 2.2),
+        room_yaw_deg: 35.0,
+        ..state.pose
+    };
+    let held = state.held();
+    let room_turn = Quat::from_rotation_y(35f32.to_radians());
+    let chair_in_world = glam::Affine3A::from_rotation_translation(
+        room_turn * chair.rotation,
+        pose.room_to_world(chair.position),
+    );
+    // the stool: 5 cm ahead of the chair's body, turned 90 degrees about its up
+    let expect = chair_in_world
+        * glam::Affine3A::from_rotation_translation(
+            Quat::from_rotation_y(90f32.to_radians()),
+            Vec3::new(0.0, 0.0, -0.05),
+        );
+    let shared: FrameState =
+        bytemuck::pod_read_unaligned(bytemuck::bytes_of(&FrameState::new(3, &pose, held, 1.0)));
+    assert_eq!(shared.held(), held);
+    for (what, tracked) in [
+        ("rank 0", Tracked::from_pose(&pose, &held, 0.0)),
+        (
+            "the shared state",
+            Tracked::from_pose(&shared.pose(), &shared.held(), 0.0),
+        ),
+    ] {
+        let stool = objects.joint_matrices(&tracked)[0];
+        let (_, rotation, at) = stool.to_scale_rotation_translation();
+        let want = Vec3::from(expect.translation);
+        assert!(
+            at.distance(want) < 1e-3,
+            "{what}: the stool at {at}, expected {want}"
+        );
+        assert!(
+            same(rotation, Quat::from_mat3a(&expect.matrix3)),
+            "{what}: {rotation:?}"
+        );
+        // the hidden seat's corner too: within 1 mm where the target's frame says
+        let corner = Vec3::new(0.2, 0.47, 0.2);
+        let drawn = stool.transform_point3(corner);
+        assert!(
+            drawn.distance(expect.transform_point3(corner)) < 1e-3,
+            "{what}"
+        );
+    }
+}
+
+/// Targets' declarations are checked when the configuration loads, each error naming its key:
+/// an id that is the head's or the left hand's, two targets of one name or one body, an object
+/// naming a target not declared, `target` without `follow = "target"`, more than 8 targets.
+#[test]
+fn target_declarations_are_checked_at_load_naming_the_key() {
+    let chair = "[[tracking.target]]\nname = \"chair\"\nid = 7";
+    dtrack_cave_with_targets("head_id = 1", chair).unwrap();
+    let e = dtrack_cave_with_targets("head_id = 7", chair).unwrap_err();
+    assert!(
+        e.contains("cave.toml")
+            && e.contains("tracking.target[0] (\"chair\").id")
+            && e.contains("head_id"),
+        "{e}"
+    );
+    let e = dtrack_cave_with_targets("head_id = 1\nleft_hand_id = 7", chair).unwrap_err();
+    assert!(
+        e.contains("tracking.target[0] (\"chair\").id") && e.contains("left_hand_id"),
+        "{e}"
+    );
+    // a DTrack Flystick is numbered apart from the bodies: body 0 may be a target
+    dtrack_cave_with_targets(
+        "head_id = 1\nwand_id = 0",
+        "[[tracking.target]]\nname = \"chair\"\nid = 0",
+    )
+    .unwrap();
+    let e = dtrack_cave_with_targets(
+        "head_id = 1",
+        &format!("{chair}\n[[tracking.target]]\nname = \"chair\"\nid = 8"),
+    )
+    .unwrap_err();
+    assert!(e.contains("tracking.target[1] (\"chair\").name"), "{e}");
+    let e = dtrack_cave_with_targets(
+        "head_id = 1",
+        &format!("{chair}\n[[tracking.target]]\nname = \"table\"\nid = 7"),
+    )
+    .unwrap_err();
+    assert!(e.contains("tracking.target[1] (\"table\").id"), "{e}");
+    // the stool follows "chair", which is not declared
+    let e = dtrack_cave_with_targets(
+        "head_id = 1",
+        "[[tracking.target]]\nname = \"table\"\nid = 7",
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("[[object]] \"stool\"")
+            && e.contains("target = \"chair\"")
+            && e.contains("table"),
+        "{e}"
+    );
+    let e = dtrack_cave_with_targets("head_id = 1", "").unwrap_err();
+    assert!(
+        e.contains("target = \"chair\"") && e.contains("declares none"),
+        "{e}"
+    );
+    let e = dtrack_cave_with_targets("head_id = 1", "[[tracking.target]]\nname = \"chair\"")
+        .unwrap_err();
+    assert!(
+        e.contains("tracking.target[0] (\"chair\").id") && e.contains("6d body"),
+        "{e}"
+    );
+    let many: String = (0..9)
+        .map(|k| {
+            format!(
+                "[[tracking.target]]\nname = \"chair{}\"\nid = {}\n",
+                if k == 0 { String::new() } else { k.to_string() },
+                10 + k
+            )
+        })
+        .collect();
+    let e = dtrack_cave_with_targets("head_id = 1", &many).unwrap_err();
+    assert!(
+        e.contains("tracking.target:") && e.contains("at most 8"),
+        "{e}"
+    );
+    // an unknown key of a target is named
+    let e = dtrack_cave_with_targets("head_id = 1", &format!("{chair}\nbody = 3")).unwrap_err();
+    assert!(e.contains("body"), "{e}");
+    // follow = "target" without a target, and a target on another follow
+    let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml")).unwrap();
+    for (object, key) in [
+        ("follow = \"target\"", "target = \"<name>\""),
+        (
+            "follow = \"wand\"\ntarget = \"chair\"",
+            "target = \"chair\"",
+        ),
+    ] {
+        let text = format!("{text}\n[[object]]\nname = \"prop\"\nmesh = \"prop.obj\"\n{object}\n");
+        let e = DisplayConfig::parse(&text, Path::new("cave.toml"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("[[object]] \"prop\"") && e.contains(key), "{e}");
+    }
+    // the headset and stills track no targets: such an object is refused, saying so
+    let objects: Vec<vlf::dynamic::ObjectConfig> = vec![toml::from_str(
+        "name = \"stool\"\nmesh = \"stool.obj\"\nfollow = \"target\"\ntarget = \"chair\"",
+    )
+    .unwrap()];
+    let e = vlf::dynamic::Objects::load(&objects, Path::new("body.toml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("body.toml") && e.contains("\"stool\"") && e.contains("headset"),
+        "{e}"
+    );
+}
+
+/// Targets over OSC (`/vlf/target/<name>`), VRPN (a declared sensor; the wand's is refused), a
+/// static source (a target's `position`) and a scripted path (`[[keyframe.target]]`,
+/// interpolated like the left hand).
+#[test]
+fn osc_vrpn_static_and_scripted_sources_give_targets() {
+    use vlf::tracking::calibration::{RoomFromTracker, TargetId};
+    use vlf::tracking::live::Measurement;
+    let q = Quat::from_rotation_y(0.3);
+    let ids = RoomFromTracker {
+        targets: vec![
+            TargetId {
+                name: "box".into(),
+                id: Some(4),
+            },
+            TargetId {
+                name: "chair".into(),
+                id: Some(7),
+            },
+        ],
+        ..RoomFromTracker::default()
+    };
+    let osc = |addr: &str| {
+        let message = rosc::OscPacket::Message(rosc::OscMessage {
+            addr: addr.into(),
+            args: [0.4, 0.5, -1.5, q.x, q.y, q.z, q.w]
+                .into_iter()
+                .map(rosc::OscType::Float)
+                .collect(),
+        });
+        let mut out = Vec::new();
+        vlf::tracking::osc::parse(&rosc::encoder::encode(&message).unwrap(), &ids, &mut out)
+            .unwrap();
+        out
+    };
+    assert_eq!(
+        osc("/vlf/target/chair"),
+        [Measurement::Target {
+            index: 1,
+            position: Vec3::new(0.4, 0.5, -1.5),
+            rotation: q
+        }]
+    );
+    assert!(
+        osc("/vlf/target/table").is_empty(),
+        "a target not declared is ignored"
+    );
+    // VRPN: sensor 7 is the chair
+    let payload = &vrpn_pose(1, 7, [0.4, 0.5, -1.5], q)[24..];
+    let mut out = Vec::new();
+    vlf::tracking::vrpn::decode("vrpn_Tracker Pos_Quat", payload, &ids, &mut out).unwrap();
+    assert!(
+        matches!(out[..], [Measurement::Target { index: 1, position, rotation }]
+            if (position - Vec3::new(0.4, 0.5, -1.5)).length() < 1e-6 && same(rotation, q)),
+        "{out:?}"
+    );
+    // a measurement reaches the live state through the calibration, raw beside it
+    let mut state = vlf::tracking::live::LiveState::new(Pose::new(Vec3::ZERO, Vec3::ZERO, 0.0));
+    let shifted = RoomFromTracker {
+        translation: Vec3::new(1.0, 0.0, 0.0),
+        ..ids.clone()
+    };
+    state.apply(out[0], &shifted);
+    let calibrated = state.targets[1].unwrap().position;
+    assert!(
+        calibrated.distance(Vec3::new(1.4, 0.5, -1.5)) < 1e-6,
+        "{calibrated}"
+    );
+    assert_eq!(
+        state.raw.targets[1].unwrap().position,
+        Vec3::new(0.4, 0.5, -1.5)
+    );
+    // a VRPN sensor is one thing: the wand's (1 by default) is not a target
+    let with_tracking = |tracking: &str| {
+        let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml"))
+            .unwrap()
+            .replace(
+                "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]",
+                tracking,
+            );
+        DisplayConfig::parse(&text, Path::new("cave.toml")).map_err(|e| e.to_string())
+    };
+    let e = with_tracking(
+        "[tracking]\nsource = \"vrpn\"\nserver = \"localhost\"\ndevice = \"DTrack\"\n\n[[tracking.target]]\nname = \"chair\"\nid = 1",
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("tracking.target[0] (\"chair\").id") && e.contains("wand_id"),
+        "{e}"
+    );
+    // OSC names a target by its address: an id is refused
+    let e = with_tracking(
+        "[tracking]\nsource = \"osc\"\nport = 0\n\n[[tracking.target]]\nname = \"chair\"\nid = 7",
+    )
+    .unwrap_err();
+    assert!(
+        e.contains("(\"chair\").id") && e.contains("/vlf/target/chair"),
+        "{e}"
+    );
+    // a static target: held at its position, the wand's keys
+    let config = with_tracking(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n\n[[tracking.target]]\nname = \"chair\"\nposition = [0.4, 0.0, -1.5]\nyaw_deg = 90.0\n\n[[tracking.target]]\nname = \"box\"",
+    )
+    .unwrap();
+    let held = (config.pose_source(Path::new("cave.toml")).unwrap()).held_at(&config.tracking, 0.0);
+    let chair = held.targets[0].unwrap();
+    assert_eq!(chair.position, Vec3::new(0.4, 0.0, -1.5));
+    assert!((chair.rotation * Vec3::NEG_Z - Vec3::NEG_X).length() < 1e-6);
+    assert_eq!(
+        held.targets[1], None,
+        "a static target without a position is never seen"
+    );
+    let e = with_tracking(
+        "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n\n[[tracking.target]]\nname = \"chair\"\nyaw_deg = 90.0",
+    )
+    .unwrap_err();
+    assert!(e.contains("tracking.target[0] (\"chair\").position"), "{e}");
+    // a scripted path: the chair moves between keyframes that give it
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("walk.toml"),
+        "[[keyframe]]\nt = 0.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\n[[keyframe.target]]\nname = \"chair\"\nposition = [0.4, 0.0, -1.0]\n\n\
+         [[keyframe]]\nt = 2.0\nhead = [0.0, 1.7, 0.0]\nposition = [0.0, 0.0, 0.0]\n[[keyframe.target]]\nname = \"chair\"\nposition = [0.4, 0.0, -2.0]\nyaw_deg = 90.0\n",
+    )
+    .unwrap();
+    let display = dir.path().join("cave.toml");
+    let scripted = |targets: &str| {
+        let text = std::fs::read_to_string(repo_path("config/displays/cave-4wall.toml"))
+            .unwrap()
+            .replace(
+                "[tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]",
+                &format!("[tracking]\nsource = \"scripted\"\npath = \"walk.toml\"\n\n{targets}"),
+            );
+        let config = DisplayConfig::parse(&text, &display).unwrap();
+        config.pose_source(&display).map(|source| (config, source))
+    };
+    let (config, source) =
+        scripted("[[tracking.target]]\nname = \"box\"\n\n[[tracking.target]]\nname = \"chair\"")
+            .unwrap();
+    let half = source.held_at(&config.tracking, 1.0).targets[1].unwrap();
+    assert!(
+        (half.position - Vec3::new(0.4, 0.0, -1.5)).length() < 1e-6,
+        "{half:?}"
+    );
+    assert!(same(
+        half.rotation,
+        Quat::from_rotation_y(45f32.to_radians())
+    ));
+    assert_eq!(source.held_at(&config.tracking, 1.0).targets[0], None);
+    let e = scripted("[[tracking.target]]\nname = \"box\"")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("walk.toml") && e.contains("keyframe[0].target[0].name") && e.contains("box"),
+        "{e}"
+    );
 }

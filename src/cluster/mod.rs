@@ -109,7 +109,8 @@ impl ClusterConfig {
 }
 
 /// The display as one rank draws it: only its views; on ranks other than 0 a live tracker is
-/// replaced by a static head (poses come from rank 0) that may carry a wand like the source.
+/// replaced by a static head (poses come from rank 0) that may carry a wand like the source, and
+/// the source's targets by name.
 pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> DisplayConfig {
     let mut local = config.only_views(views);
     if !leader && config.tracking.live().is_some() {
@@ -127,6 +128,18 @@ pub fn local_config(config: &DisplayConfig, views: &[ViewRef], leader: bool) -> 
             left_hand_yaw_deg: None,
             left_hand_pitch_deg: None,
             left_hand_orientation: None,
+            // the same targets in the same order (objects name them, the log has their
+            // columns), never seen here: their poses come from rank 0's frame state
+            targets: (config.tracking.targets().iter())
+                .map(|t| crate::tracking::TargetConfig {
+                    name: t.name.clone(),
+                    id: None,
+                    position: None,
+                    yaw_deg: None,
+                    pitch_deg: None,
+                    orientation: None,
+                })
+                .collect(),
         };
     }
     local

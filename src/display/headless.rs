@@ -336,6 +336,7 @@ pub fn run_locked(
             pose,
             wand: held.wand,
             left_hand: held.left_hand,
+            targets: held.targets,
             gpu_ms: None,
             cpu_ms: None,
             block: 0,

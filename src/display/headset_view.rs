@@ -167,6 +167,8 @@ pub fn tracked(
         head: world * head,
         wand: right.map(|g| world * g),
         left_hand: left.map(|g| world * g),
+        // the headset tracks no targets ([[tracking.target]] is a CAVE's)
+        targets: Default::default(),
     }
 }
 

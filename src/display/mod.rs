@@ -235,6 +235,8 @@ impl DisplayConfig {
             return Err("[[wall]]: at least one wall is needed".into());
         }
         crate::dynamic::check_objects(&self.objects)?;
+        self.tracking.check_targets()?;
+        crate::dynamic::target_indices(&self.objects, &self.tracking.target_names())?;
         let objects = self.object_names();
         conditions::check(
             &self.conditions,
@@ -316,6 +318,7 @@ impl DisplayConfig {
         self.tracking.static_head_rotation()?;
         self.tracking.static_wand()?;
         self.tracking.static_left_hand()?;
+        self.tracking.static_targets()?;
         self.wand_ray.validate()?;
         for (i, w) in self.walls.iter().enumerate() {
             warp::validate_projectors(w).map_err(|e| format!("wall[{i}] ({:?}).{e}", w.name))?;
@@ -413,6 +416,7 @@ pub fn session_log(
     let meta = crate::study::SessionMeta {
         display_config: std::fs::canonicalize(config_path)
             .unwrap_or_else(|_| config_path.to_path_buf()),
+        targets: display.tracking.target_names(),
         ..crate::study::SessionMeta::starting(scene, lf, adapter, views)
     };
     crate::study::SessionLog::create(dir, meta)

@@ -309,6 +309,7 @@ fn draw_frame(
     let held = HeldPoses {
         wand: record.wand,
         left_hand: record.left_hand,
+        targets: record.targets,
     };
     let poses = Poses::Tracked {
         pose: &record.pose,

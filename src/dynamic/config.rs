@@ -1,6 +1,6 @@
 //! The display TOML's `[[object]]` tables: a moving thing drawn into the light field, what mesh it
-//! is, what moves it (a tracked target, keyframes in the world, or the avatar's rig) and whether
-//! it is shown. Unknown keys are refused; `check` names the table and key of a bad value.
+//! is, what moves it (the tracked head, wand, left hand or a declared tracked target, keyframes in
+//! the world, or the avatar's rig) and whether it is shown. Unknown keys are refused; `check` names the table and key of a bad value.
 
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -20,6 +20,9 @@ pub struct ObjectConfig {
     /// tracked left hand as its left)
     #[serde(default)]
     pub follow: Follow,
+    /// `follow = "target"`: which `[[tracking.target]]` (its name)
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<String>,
     /// where it sits relative to what it follows (metres; for `world`, in the world)
     #[serde(default)]
     pub position: [f32; 3],
@@ -75,6 +78,10 @@ pub enum Follow {
     /// the tracked left hand: in the headset, the left controller's grip
     #[serde(rename = "left_hand")]
     LeftHand,
+    /// a declared tracked target (`[[tracking.target]]`, the object's `target` names it): hidden
+    /// until the target is first seen, then where it was last seen; a CAVE's only (the headset
+    /// tracks no targets)
+    Target,
 }
 
 /// A placement at time `t` seconds: position (metres) and yaw, pitch, roll (degrees, as the
@@ -117,6 +124,22 @@ impl ObjectConfig {
                 "{at}keyframes move an object in the world: give follow = \"world\" or drop them"
             ));
         }
+        match (self.follow, &self.target) {
+            (Follow::Target, None) => {
+                return Err(format!(
+                    "{at}follow = \"target\": name the [[tracking.target]] it follows with target = \"<name>\""
+                ))
+            }
+            (Follow::Target, Some(_)) if self.kind == ObjectKind::Avatar => {
+                return Err(format!("{at}follow: an avatar follows the tracked head: drop follow and target"))
+            }
+            (follow, Some(t)) if follow != Follow::Target => {
+                return Err(format!(
+                    "{at}target = {t:?}: only an object with follow = \"target\" follows a target: give that or drop target"
+                ))
+            }
+            _ => {}
+        }
         if self.kind == ObjectKind::Avatar && !self.keyframes.is_empty() {
             return Err(format!(
                 "{at}an avatar follows the tracked head: drop its keyframes"
@@ -142,6 +165,36 @@ impl ObjectConfig {
         }
         Ok(())
     }
+}
+
+/// Each object's target index in `targets` (the declared `[[tracking.target]]` names, in
+/// order): Some for `follow = "target"` objects, None for the others; an error names the object
+/// and the target it names where none is declared so.
+pub fn target_indices(
+    objects: &[ObjectConfig],
+    targets: &[String],
+) -> std::result::Result<Vec<Option<usize>>, String> {
+    let mut out = Vec::with_capacity(objects.len());
+    for o in objects {
+        let Some(name) = o.target.as_ref().filter(|_| o.follow == Follow::Target) else {
+            out.push(None);
+            continue;
+        };
+        match targets.iter().position(|t| t == name) {
+            Some(k) => out.push(Some(k)),
+            None => {
+                return Err(format!(
+                "[[object]] \"{}\": target = {name:?}: no [[tracking.target]] has this name ({})",
+                o.name,
+                match targets.is_empty() {
+                    true => "the tracking declares none".to_string(),
+                    false => format!("there are: {}", targets.join(", ")),
+                }
+            ))
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// Every object's checks, and no two with one name.

@@ -1,6 +1,7 @@
 //! Dynamic objects: moving things drawn into the static light field, each frame where the
 //! participant or the script puts them. A display config lists them (`[[object]]`, `config.rs`):
-//! rigid meshes that follow the tracked head, wand or left hand or move by keyframes in the world
+//! rigid meshes that follow the tracked head, wand, left hand or a declared tracked target
+//! (`[[tracking.target]]`) or move by keyframes in the world
 //! (`motion.rs`), and the participant's skinned avatar (`avatar/`). Here they become one mesh in
 //! its rest pose (`mesh.rs`) and, frame by frame, the joint matrices that pose it; the renderer
 //! skins, refits and shades them on the GPU (`render::moving`, `render::probes`). Nothing here
@@ -11,12 +12,12 @@ pub mod config;
 pub mod mesh;
 pub mod motion;
 
-pub use config::{check_objects, Follow, ObjectConfig, ObjectKind};
+pub use config::{check_objects, target_indices, Follow, ObjectConfig, ObjectKind};
 pub use mesh::{MovingMaterial, MovingMesh, RestVertex, RigidMesh};
 
 use crate::error::{Result, VlfError};
 use crate::tracking::pose::head_rotation_from_angles;
-use crate::tracking::{HeldPoses, Pose, WandPose};
+use crate::tracking::{HeldPoses, Pose, WandPose, MAX_TARGETS};
 use avatar::Avatar;
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use std::path::Path;
@@ -34,11 +35,14 @@ pub struct Tracked {
     /// world from the left hand (the CAVE's tracked left hand, the headset's left controller's
     /// grip: -z along the hand, as the wand), where one is tracked
     pub left_hand: Option<Affine3A>,
+    /// world from each declared target (`[[tracking.target]]`, by index), where one has been
+    /// seen (the headset has none)
+    pub targets: [Option<Affine3A>; MAX_TARGETS],
 }
 
 impl Tracked {
-    /// The tracked head, wand and left hand of `pose` and `held` (room) moved into the world by
-    /// the pose's navigation.
+    /// The tracked head, wand, left hand and targets of `pose` and `held` (room) moved into the
+    /// world by the pose's navigation.
     pub fn from_pose(pose: &Pose, held: &HeldPoses, time: f64) -> Tracked {
         let room = Quat::from_rotation_y(pose.room_yaw_deg.to_radians());
         let head = Affine3A::from_rotation_translation(
@@ -53,6 +57,7 @@ impl Tracked {
             head,
             wand: held.wand.as_ref().map(in_world),
             left_hand: held.left_hand.as_ref().map(in_world),
+            targets: held.targets.map(|t| t.as_ref().map(in_world)),
         }
     }
 
@@ -65,6 +70,7 @@ impl Tracked {
             head: view.inverse(),
             wand: None,
             left_hand: None,
+            targets: [None; MAX_TARGETS],
         }
     }
 }
@@ -74,6 +80,8 @@ pub struct Objects {
     configs: Vec<ObjectConfig>,
     /// each object's first joint matrix in `joint_matrices`
     first_joint: Vec<u32>,
+    /// each `follow = "target"` object's target index (`target_indices`)
+    targets: Vec<Option<usize>>,
     visible: Vec<bool>,
     mesh: MovingMesh,
     /// the participant's body, where one is configured (one at most: `check_objects`)
@@ -81,14 +89,36 @@ pub struct Objects {
 }
 
 impl Objects {
-    /// Load every object's mesh (paths relative to `config_path`'s folder); an error names the
-    /// config, the object and the problem.
+    /// Load every object's mesh (paths relative to `config_path`'s folder) where nothing but the
+    /// head and the hands is tracked (the headset, `vlf xr --objects`; a still, `vlf render
+    /// --objects`): a `follow = "target"` object is refused, naming it. An error names the file,
+    /// the object and the problem.
     pub fn load(configs: &[ObjectConfig], config_path: &Path) -> Result<Objects> {
+        if let Some(o) = configs.iter().find(|o| o.follow == Follow::Target) {
+            return Err(VlfError::Config {
+                path: config_path.to_path_buf(),
+                message: format!(
+                    "[[object]] \"{}\": follow = \"target\": tracked targets ([[tracking.target]]) come from a CAVE's tracking system, declared in its display config; the headset and stills track only the head and the hands: follow \"head\", \"wand\" or \"left_hand\" here",
+                    o.name
+                ),
+            });
+        }
+        Objects::load_tracked(configs, &[], config_path)
+    }
+
+    /// `load` for a display whose tracking declares `targets` (the `[[tracking.target]]` names,
+    /// in order) that `follow = "target"` objects name.
+    pub fn load_tracked(
+        configs: &[ObjectConfig],
+        targets: &[String],
+        config_path: &Path,
+    ) -> Result<Objects> {
         let config_error = |message: String| VlfError::Config {
             path: config_path.to_path_buf(),
             message,
         };
         check_objects(configs).map_err(config_error)?;
+        let target_of = target_indices(configs, targets).map_err(config_error)?;
         let dir = config_path.parent().unwrap_or(Path::new("."));
         let mut mesh = MovingMesh::default();
         let mut first_joint = Vec::new();
@@ -126,6 +156,7 @@ impl Objects {
             visible: configs.iter().map(|o| o.visible).collect(),
             configs: configs.to_vec(),
             first_joint,
+            targets: target_of,
             mesh,
             avatar,
         })
@@ -188,7 +219,13 @@ impl Objects {
             }
             let first = self.first_joint[i] as usize;
             match o.kind {
-                ObjectKind::Rigid => matrices[first] = Mat4::from(rigid_placement(o, tracked)),
+                ObjectKind::Rigid => {
+                    // a target not seen yet: hidden (zero), not at the head as a hand's prop
+                    let target = self.targets[i].map(|k| tracked.targets[k]);
+                    if let Some(placed) = rigid_placement(o, target, tracked) {
+                        matrices[first] = Mat4::from(placed);
+                    }
+                }
                 ObjectKind::Avatar => {
                     if let Some(body) = &self.avatar {
                         // `scale` shrinks or grows the body about the tracked head (the eyes
@@ -219,8 +256,14 @@ impl Objects {
     }
 }
 
-/// A rigid object's world placement: what it follows, then its own offset, angles and scale.
-pub fn rigid_placement(o: &ObjectConfig, tracked: &Tracked) -> Affine3A {
+/// A rigid object's world placement: what it follows, then its own offset, angles and scale;
+/// `target`, a `follow = "target"` object's target this frame (`Objects::load` resolves its
+/// name). None where it follows a target not seen yet: it is not drawn.
+pub fn rigid_placement(
+    o: &ObjectConfig,
+    target: Option<Option<Affine3A>>,
+    tracked: &Tracked,
+) -> Option<Affine3A> {
     let base = match o.follow {
         Follow::World if o.keyframes.is_empty() => Affine3A::IDENTITY,
         Follow::World => motion::keyframed(&o.keyframes, tracked.time, o.repeat),
@@ -228,13 +271,16 @@ pub fn rigid_placement(o: &ObjectConfig, tracked: &Tracked) -> Affine3A {
         // no hand tracked this frame: the prop waits at the head
         Follow::Wand => tracked.wand.unwrap_or(tracked.head),
         Follow::LeftHand => tracked.left_hand.unwrap_or(tracked.head),
+        // a chair at the head would be a lie: hidden until its target is first seen (live
+        // sources then hold it where it was last seen)
+        Follow::Target => target.flatten()?,
     };
     let local = Affine3A::from_scale_rotation_translation(
         Vec3::splat(o.scale),
         head_rotation_from_angles(o.yaw_deg, o.pitch_deg, o.roll_deg),
         Vec3::from(o.position),
     );
-    base * local
+    Some(base * local)
 }
 
 /// Append a skinned mesh (`avatar::SkinnedMesh`) to `mesh` as object `object`, its joints

@@ -8,14 +8,15 @@
 //! in the room (after calibration) and the navigation (where the room is in the world), the wand,
 //! the frame's GPU and CPU milliseconds, the latencies, the left hand, and per view what it was
 //! drawn with (eye rays per pixel, the paced tiles' count and share, mirror reflections, fixed
-//! work), then the frame's events. Floats are written in Rust's shortest form that reads back to
+//! work), a headset's eyes, each declared tracked target (`[[tracking.target]]`, calibrated and
+//! raw), then the frame's events. Floats are written in Rust's shortest form that reads back to
 //! the same bits, so `vlf replay` (`SessionLog::read`) draws exactly what the run drew.
 
 pub mod parquet;
 
 use crate::error::{Result, VlfError};
 use crate::render::budget::ViewSettings;
-use crate::tracking::pose::{Pose, RawPoses, WandPose};
+use crate::tracking::pose::{Pose, RawPoses, Targets, WandPose, MAX_TARGETS};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
@@ -26,9 +27,10 @@ use std::time::{Duration, Instant};
 /// left hand's columns after it, 4 `condition`, `object_time_s` and the raw (uncalibrated) poses
 /// after those, 5 the moving objects' switches (`objects_hidden`, `shadows`, `reflections`) and
 /// the latency test's `flash` after the raw poses, 6 a headset's eyes (`EYE_COLUMNS` after each
-/// view's, and session.json's `headset_setup`); `SessionLog::read` reads 1 to 5 too (without
-/// them).
-pub const LOG_FORMAT: u32 = 6;
+/// view's, and session.json's `headset_setup`), 7 the declared tracked targets (session.json's
+/// `targets`, and `TARGET_COLUMNS` for each after the views and eyes); `SessionLog::read` reads
+/// 1 to 6 too (without them).
+pub const LOG_FORMAT: u32 = 7;
 /// The longest a row waits in memory before it is on the disk.
 pub const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
@@ -64,6 +66,10 @@ pub struct SessionMeta {
     /// fields of view are in each row), which `vlf replay` draws them again with
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub headset_setup: Option<HeadsetSetup>,
+    /// from format 7: the display config's tracked targets (`[[tracking.target]]`), in the
+    /// order of the per-target columns (`target:<name>`, ...); empty: none declared
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<String>,
 }
 
 /// How a headset session drew its eyes (`vlf xr --log`), besides what each row holds: what
@@ -128,6 +134,7 @@ impl SessionMeta {
             columns: Vec::new(),
             headset: None,
             headset_setup: None,
+            targets: Vec::new(),
         }
     }
 }
@@ -165,6 +172,9 @@ pub struct FrameRecord {
     pub wand: Option<WandPose>,
     /// the tracked left hand in the room, where one is given
     pub left_hand: Option<WandPose>,
+    /// the declared targets in the room (`SessionMeta::targets`, by index), each where seen;
+    /// the slots past the declared ones are not written (None when read back)
+    pub targets: Targets,
     /// all the frame's passes on the GPU, and the frame on the CPU (None where not timed)
     pub gpu_ms: Option<f64>,
     pub cpu_ms: Option<f64>,
@@ -180,8 +190,8 @@ pub struct FrameRecord {
     /// the time that moved the keyframed objects in this frame, seconds (`FrameOfViews::
     /// set_object_time`; None in a log before format 4)
     pub object_time_s: Option<f64>,
-    /// the head, wand and left hand as the tracker sent them, before the calibration (none
-    /// from a source without a tracker frame: static, scripted)
+    /// the head, wand, left hand and targets as the tracker sent them, before the calibration
+    /// (none from a source without a tracker frame: static, scripted)
     pub raw: RawPoses,
     /// each view's settings, in `SessionMeta::views` order
     pub views: Vec<ViewSettings>,
@@ -455,9 +465,39 @@ const EYE_COLUMNS: [(&str, &str); 11] = [
     ),
 ];
 
+/// A declared target's columns (format 7 on), after the views' and eyes': `target:<name>` and
+/// `raw_target:<name>`, each as the left hand's eight (`<column>` 1 or 0, then `_x` .. `_qw`).
+const TARGET_COLUMNS: [(&str, &str); 16] = [
+    (
+        "target:",
+        "1 where the tracked target (the display config's [[tracking.target]] of this name) has been seen, else 0 (its columns then 0); follow = \"target\" objects stand on it",
+    ),
+    ("_x", "the target's position in the room, metres (after calibration)"),
+    ("_y", "the target's position in the room, metres"),
+    ("_z", "the target's position in the room, metres"),
+    ("_qx", "the target's rotation, quaternion x"),
+    ("_qy", "the target's rotation, quaternion y"),
+    ("_qz", "the target's rotation, quaternion z"),
+    ("_qw", "the target's rotation, quaternion w"),
+    (
+        "raw_target:",
+        "1 where the tracker has sent the target, else 0 (static and scripted sources have no tracker frame; its columns then 0)",
+    ),
+    (
+        "_x",
+        "the target's position as the tracker sent it, before [tracking.calibration], tracker units",
+    ),
+    ("_y", "raw target position, tracker units"),
+    ("_z", "raw target position, tracker units"),
+    ("_qx", "raw target rotation in the tracker's frame, quaternion x"),
+    ("_qy", "raw target rotation, quaternion y"),
+    ("_qz", "raw target rotation, quaternion z"),
+    ("_qw", "raw target rotation, quaternion w"),
+];
+
 /// The documented columns of a log of `views`; `eyes`: a headset's, with each eye's pose and
-/// field of view.
-pub(crate) fn columns(views: &[String], eyes: bool) -> Vec<(String, String)> {
+/// field of view; `targets`: the declared tracked targets' names.
+pub(crate) fn columns(views: &[String], eyes: bool, targets: &[String]) -> Vec<(String, String)> {
     let mut out: Vec<(String, String)> = (FRAME_COLUMNS.iter())
         .map(|(n, m)| (n.to_string(), m.to_string()))
         .collect();
@@ -469,6 +509,15 @@ pub(crate) fn columns(views: &[String], eyes: bool) -> Vec<(String, String)> {
     for v in views.iter().filter(|_| eyes) {
         for (n, m) in EYE_COLUMNS {
             out.push((format!("{v}:{n}"), format!("view {v}: {m}")));
+        }
+    }
+    for t in targets {
+        for half in TARGET_COLUMNS.chunks(8) {
+            let given = format!("{}{t}", half[0].0);
+            out.push((given.clone(), half[0].1.to_string()));
+            for (n, m) in &half[1..] {
+                out.push((format!("{given}{n}"), format!("target {t}: {m}")));
+            }
         }
     }
     out.push((
@@ -486,6 +535,8 @@ pub struct SessionLog {
     views: usize,
     /// a headset's: each row has its eyes
     eyes: bool,
+    /// the declared targets: each row has this many
+    targets: usize,
     began: Instant,
     last_flush: Instant,
 }
@@ -507,7 +558,13 @@ impl SessionLog {
             ));
         }
         let eyes = meta.headset_setup.is_some();
-        meta.columns = columns(&meta.views, eyes);
+        if meta.targets.len() > MAX_TARGETS {
+            return Err(VlfError::Display(format!(
+                "a session log of {} tracked targets: at most {MAX_TARGETS} are tracked",
+                meta.targets.len()
+            )));
+        }
+        meta.columns = columns(&meta.views, eyes, &meta.targets);
         let text = serde_json::to_string_pretty(&meta).expect("metadata serialises");
         std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
         let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
@@ -518,9 +575,10 @@ impl SessionLog {
         let mut log = SessionLog {
             dir: dir.to_path_buf(),
             frames,
-            parquet: parquet::FramesParquet::create(dir, header)?,
+            parquet: parquet::FramesParquet::create(dir, header, meta.targets.len())?,
             views: meta.views.len(),
             eyes,
+            targets: meta.targets.len(),
             began: now,
             last_flush: now,
         };
@@ -549,7 +607,7 @@ impl SessionLog {
                 r.eyes.len()
             )));
         }
-        let row = row_text(r);
+        let row = row_text(r, self.targets);
         let csv = self.dir.join("frames.csv");
         writeln!(self.frames, "{row}").map_err(|e| VlfError::io(&csv, e))?;
         self.parquet.push(r);
@@ -600,9 +658,22 @@ impl SessionLog {
             }
         };
         let mut records = Vec::new();
+        if meta.targets.len() > MAX_TARGETS {
+            return Err(VlfError::Display(format!(
+                "{}: {} tracked targets, this vlf tracks at most {MAX_TARGETS}",
+                json.display(),
+                meta.targets.len()
+            )));
+        }
+        // the targets' columns came with format 7
+        let targets = if meta.format >= 7 {
+            meta.targets.len()
+        } else {
+            0
+        };
         for (n, line) in complete.lines().enumerate().skip(1) {
             let shape = (frame_columns(meta.format), meta.views.len());
-            let r = parse_row(line, shape, meta.headset_setup.is_some())
+            let r = parse_row(line, shape, meta.headset_setup.is_some(), targets)
                 .map_err(|why| VlfError::Display(format!("{}:{}: {why}", csv.display(), n + 1)))?;
             records.push(r);
         }
@@ -618,8 +689,8 @@ impl Drop for SessionLog {
     }
 }
 
-/// A row of frames.csv.
-fn row_text(r: &FrameRecord) -> String {
+/// A row of frames.csv, with the first `targets` targets.
+fn row_text(r: &FrameRecord, targets: usize) -> String {
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| v.to_string());
     let (p, q, room) = (r.pose.head, r.pose.head_rotation, r.pose.room_position);
     let mut cells: Vec<String> = vec![
@@ -671,6 +742,10 @@ fn row_text(r: &FrameRecord) -> String {
         let floats = e.position.iter().chain(&e.orientation).chain(&e.fov);
         cells.extend(floats.map(f32::to_string));
     }
+    for (target, raw) in r.targets.iter().zip(&r.raw.targets).take(targets) {
+        cells.extend(held_cells(target.as_ref()));
+        cells.extend(held_cells(raw.as_ref()));
+    }
     cells.push(format!("\"{}\"", r.events.replace('"', "\"\"")));
     cells.join(",")
 }
@@ -719,15 +794,45 @@ fn per_view(
     Ok((settings, eyes))
 }
 
-/// A row back (`frame_columns` of `FRAME_COLUMNS`, then `views` views, and with `eyes` as many
-/// eyes), or why it is not one.
+/// A row's `count` targets from its cell `first` on (`TARGET_COLUMNS` each): calibrated and raw.
+fn targets_of(
+    cells: &[&str],
+    first: usize,
+    count: usize,
+) -> std::result::Result<(Targets, Targets), String> {
+    // one pose's eight columns from `c`: 1 or 0, then its position and rotation
+    let pose = |c: usize| -> std::result::Result<Option<WandPose>, String> {
+        let f = |i: usize| cell::<f32>(cells, i).map_err(|e| format!("column {}: {e}", i + 1));
+        match cells[c] {
+            "0" => Ok(None),
+            "1" => Ok(Some(WandPose {
+                position: Vec3::new(f(c + 1)?, f(c + 2)?, f(c + 3)?),
+                rotation: Quat::from_xyzw(f(c + 4)?, f(c + 5)?, f(c + 6)?, f(c + 7)?),
+            })),
+            other => Err(format!("column {}: {other:?} is not 1 or 0", c + 1)),
+        }
+    };
+    let (mut tracked, mut raw) = (Targets::default(), Targets::default());
+    let slots = tracked.iter_mut().zip(raw.iter_mut()).take(count);
+    for (k, (calibrated, sent)) in slots.enumerate() {
+        let c = first + k * TARGET_COLUMNS.len();
+        *calibrated = pose(c)?;
+        *sent = pose(c + TARGET_COLUMNS.len() / 2)?;
+    }
+    Ok((tracked, raw))
+}
+
+/// A row back (`frame_columns` of `FRAME_COLUMNS`, then `views` views, with `eyes` as many
+/// eyes, then `targets` targets), or why it is not one.
 fn parse_row(
     line: &str,
     (frame_columns, views): (usize, usize),
     eyes: bool,
+    targets: usize,
 ) -> std::result::Result<FrameRecord, String> {
     let eye_count = if eyes { views } else { 0 };
-    let fixed = frame_columns + views * VIEW_COLUMNS.len() + eye_count * EYE_COLUMNS.len();
+    let first_target = frame_columns + views * VIEW_COLUMNS.len() + eye_count * EYE_COLUMNS.len();
+    let fixed = first_target + targets * TARGET_COLUMNS.len();
     let mut parts = line.splitn(fixed + 1, ',');
     let cells: Vec<&str> = parts.by_ref().take(fixed).collect();
     let events = parts.next().ok_or("fewer columns than the header")?;
@@ -780,6 +885,7 @@ fn parse_row(
         }
     };
     let (views, eyes) = per_view(&cells[frame_columns..], views, eye_count)?;
+    let (tracked, raw_targets) = targets_of(&cells, first_target, targets)?;
     Ok(FrameRecord {
         frame: cells[0]
             .parse()
@@ -789,6 +895,7 @@ fn parse_row(
         pose,
         wand: held(14)?,
         left_hand: held(28)?,
+        targets: tracked,
         gpu_ms: opt(22)?,
         cpu_ms: opt(23)?,
         block: u(24)?,
@@ -800,6 +907,7 @@ fn parse_row(
             head: held(38)?,
             wand: held(46)?,
             left_hand: held(54)?,
+            targets: raw_targets,
         },
         views,
         events,
@@ -861,6 +969,15 @@ mod tests {
                 position: Vec3::new(-0.3, 1.1, -0.4),
                 rotation: Quat::from_rotation_z(0.7),
             }),
+            // the first of meta()'s two targets seen (with the wand), the second never
+            targets: {
+                let mut t = Targets::default();
+                t[0] = wand.then(|| WandPose {
+                    position: Vec3::new(0.412_345_7, 0.0, -1.5),
+                    rotation: Quat::from_rotation_y(1.0 / 3.0),
+                });
+                t
+            },
             gpu_ms: Some(1.25),
             cpu_ms: None,
             block: 2,
@@ -878,6 +995,14 @@ mod tests {
                     rotation: Quat::from_rotation_x(0.1),
                 }),
                 left_hand: None,
+                targets: {
+                    let mut t = Targets::default();
+                    t[0] = wand.then(|| WandPose {
+                        position: Vec3::new(412.345_7, 1500.0, 0.1),
+                        rotation: Quat::from_rotation_z(1.0 / 3.0),
+                    });
+                    t
+                },
             },
             views: vec![s, ViewSettings { fixed_work: 1, ..s }],
             events: "condition \"GI off\", trial 3".into(),
@@ -909,6 +1034,19 @@ mod tests {
             columns: Vec::new(),
             headset: None,
             headset_setup: None,
+            targets: vec!["chair".into(), "box".into()],
+        }
+    }
+
+    /// `r` as a log without targets reads it back.
+    fn untargeted(r: FrameRecord) -> FrameRecord {
+        FrameRecord {
+            targets: Targets::default(),
+            raw: RawPoses {
+                targets: Targets::default(),
+                ..r.raw
+            },
+            ..r
         }
     }
 
@@ -924,7 +1062,45 @@ mod tests {
         }
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
-        assert_eq!(m.columns.len(), 66 + 2 * 5 + 1);
+        assert!(back[0].targets[0].is_some() && back[0].raw.targets[0].is_some());
+        assert_eq!(m.targets, ["chair", "box"]);
+        assert_eq!(m.columns.len(), 66 + 2 * 5 + 2 * 16 + 1);
+        let names: Vec<&str> = m.columns.iter().map(|(n, _)| n.as_str()).collect();
+        let first = 66 + 2 * 5;
+        assert_eq!(
+            names[first..first + 9],
+            [
+                "target:chair",
+                "target:chair_x",
+                "target:chair_y",
+                "target:chair_z",
+                "target:chair_qx",
+                "target:chair_qy",
+                "target:chair_qz",
+                "target:chair_qw",
+                "raw_target:chair"
+            ]
+        );
+        assert_eq!(names[first + 16], "target:box");
+        // the Parquet part has the same columns, typed
+        let parts = dir
+            .path()
+            .join(parquet::PARQUET_DIR)
+            .join("part-000000.parquet");
+        let reader = ::parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(
+            std::fs::File::open(parts).unwrap(),
+        )
+        .unwrap()
+        .build()
+        .unwrap();
+        let batch = reader.map(|b| b.unwrap()).next().unwrap();
+        assert_eq!(batch.num_columns(), m.columns.len());
+        let x = batch.column_by_name("target:chair_x").unwrap();
+        let x = x
+            .as_any()
+            .downcast_ref::<arrow_array::Float32Array>()
+            .unwrap();
+        assert_eq!((x.value(0), x.value(1)), (0.412_345_7, 0.0));
         // a second session is never written over the first
         assert!(SessionLog::create(dir.path(), meta()).is_err());
     }
@@ -967,7 +1143,7 @@ mod tests {
         let (m, back) = SessionLog::read(dir.path()).unwrap();
         assert_eq!(back, rows);
         assert_eq!(m.headset_setup, headset.headset_setup);
-        assert_eq!(m.columns.len(), 66 + 2 * 5 + 2 * 11 + 1);
+        assert_eq!(m.columns.len(), 66 + 2 * 5 + 2 * 11 + 2 * 16 + 1);
         assert!(m.columns.iter().any(|(n, _)| n == "front-right:fov_down"));
     }
 
@@ -993,7 +1169,12 @@ mod tests {
     fn format_1_to_4_logs_without_the_newer_columns_still_read() {
         // as format 1 wrote it: no pose_to_photon_ms (the 28th column) nor anything after it;
         // format 2: the frame's columns end at pose_to_photon_ms; 3: at the left hand's; 4: at
-        // the raw poses
+        // the raw poses (the logs of this test declare no targets)
+        let meta = || SessionMeta {
+            targets: Vec::new(),
+            ..meta()
+        };
+        let record = |frame, wand| untargeted(record(frame, wand));
         let full = record(0, true);
         let (photon, hand) = (full.pose_to_photon_ms, full.left_hand);
         let format_4 = FrameRecord {
@@ -1029,6 +1210,20 @@ mod tests {
             };
             assert_eq!(back, [expect], "format {format}");
         }
+    }
+
+    #[test]
+    fn a_format_6_log_without_the_targets_columns_still_reads() {
+        // format 6: the views' columns (two views of five) end the row before the events
+        let dir = tempfile::tempdir().unwrap();
+        {
+            let mut log = SessionLog::create(dir.path(), meta()).unwrap();
+            log.record(&record(0, true)).unwrap();
+        }
+        let first = 66 + 2 * 5;
+        as_older_format(dir.path(), 6, first..first + 2 * 16);
+        let back = SessionLog::read(dir.path()).unwrap().1;
+        assert_eq!(back, [untargeted(record(0, true))]);
     }
 
     #[test]

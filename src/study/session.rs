@@ -451,6 +451,7 @@ mod tests {
             },
             wand: None,
             left_hand: None,
+            targets: Default::default(),
             gpu_ms: None,
             cpu_ms: None,
             block: 0,

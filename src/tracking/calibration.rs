@@ -4,9 +4,11 @@
 //! `translation + rotation * axes * (unit_scale * p)`, and a tracked body's orientation q
 //! becomes `rotation * axes * q * axes^-1` (a body aligned with the tracker's axes is a head
 //! looking along the tracker's forward axis, expressed in the room's convention). It also says
-//! which sensor or body is the head, which the wand and which, if any, the left hand.
+//! which sensor or body is the head, which the wand, which, if any, the left hand, and which the
+//! declared targets (`[[tracking.target]]`, `target.rs`).
 
 use super::pose::{head_rotation_from_angles, Pose, WandPose};
+use super::target::{self, TargetConfig};
 use glam::{Quat, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -47,8 +49,17 @@ pub struct Calibration {
     pub left_hand_id: Option<u32>,
 }
 
+/// A tracked target as a live source finds it: its name (OSC's `/vlf/target/<name>`) and its
+/// body or sensor id (DTrack, VRPN; None for OSC). Its index is its place in
+/// `RoomFromTracker::targets`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetId {
+    pub name: String,
+    pub id: Option<u32>,
+}
+
 /// A calibration resolved for one source: the transform and the ids.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RoomFromTracker {
     pub translation: Vec3,
     /// the calibration rotation times the axis convention
@@ -59,6 +70,8 @@ pub struct RoomFromTracker {
     pub head_id: u32,
     pub wand_id: u32,
     pub left_hand_id: Option<u32>,
+    /// the declared targets, in order (`with_targets`)
+    pub targets: Vec<TargetId>,
 }
 
 impl Default for RoomFromTracker {
@@ -71,6 +84,7 @@ impl Default for RoomFromTracker {
             head_id: 0,
             wand_id: 1,
             left_hand_id: None,
+            targets: Vec::new(),
         }
     }
 }
@@ -145,11 +159,44 @@ impl Calibration {
             head_id,
             wand_id: self.wand_id.unwrap_or(default_wand),
             left_hand_id: self.left_hand_id,
+            targets: Vec::new(),
         })
     }
 }
 
 impl RoomFromTracker {
+    /// These ids with the declared targets' (already checked among themselves:
+    /// `target::check_targets`), or which key to change: a target's body or sensor cannot be the
+    /// head's or the left hand's (a VRPN sensor that is the wand's is `vrpn::distinct_sensors`'
+    /// check; DTrack's wand is a Flystick, numbered apart from the bodies).
+    pub fn with_targets(
+        mut self,
+        targets: &[TargetConfig],
+    ) -> std::result::Result<RoomFromTracker, String> {
+        for (i, t) in targets.iter().enumerate() {
+            let Some(id) = t.id else { continue };
+            let at = target::at(i, &t.name);
+            if id == self.head_id {
+                return Err(format!("{at}id: {id} is the head's (tracking.calibration.head_id, 0 unless given): give the target its own body or sensor"));
+            }
+            if self.left_hand_id == Some(id) {
+                return Err(format!("{at}id: {id} is the left hand's (tracking.calibration.left_hand_id): give the target its own body or sensor"));
+            }
+        }
+        self.targets = (targets.iter())
+            .map(|t| TargetId {
+                name: t.name.clone(),
+                id: t.id,
+            })
+            .collect();
+        Ok(self)
+    }
+
+    /// The index of the target whose body or sensor is `id`, if one is.
+    pub fn target_of(&self, id: u32) -> Option<usize> {
+        self.targets.iter().position(|t| t.id == Some(id))
+    }
+
     /// A tracker position in the room, metres.
     pub fn position(&self, p: Vec3) -> Vec3 {
         self.translation + self.rotation * (p * self.scale)

@@ -4,7 +4,7 @@
 //! - `6d n [id qu][sx sy sz (eta theta phi)][b0 .. b8] ...`: n standard bodies, quality `qu`
 //!   (negative: not tracked), position in millimetres, rotation matrix column by column
 //!   (b0 b1 b2 is the first column); body `head_id` is the head, body `left_hand_id` (if
-//!   configured) the left hand;
+//!   configured) the left hand, and a `[[tracking.target]]`'s body `id` that target;
 //! - `6df2 ndef n [id qu nbt nct][sx sy sz][b0 .. b8][bt0 .. ct0 ct1 ..] ...`: n Flysticks
 //!   with `nbt` buttons (32 to an integer, bit i button i: 0 the trigger) and `nct` controllers
 //!   (joystick x, y in -1..1); Flystick `wand_id` is the wand;
@@ -18,7 +18,8 @@ use super::live::Measurement;
 use glam::{Mat3, Quat, Vec3};
 
 /// Read one DTrack2 packet into measurements of the head (body `head_id`), the left hand (body
-/// `left_hand_id`) and the wand (Flystick `wand_id`): its pose, buttons and joystick.
+/// `left_hand_id`), the targets (their bodies' ids) and the wand (Flystick `wand_id`): its pose,
+/// buttons and joystick.
 pub fn parse(
     packet: &[u8],
     ids: &RoomFromTracker,
@@ -33,7 +34,7 @@ pub fn parse(
     {
         let (kind, rest) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
         let result = match kind {
-            "6d" => bodies(rest, (ids.head_id, ids.left_hand_id), out),
+            "6d" => bodies(rest, ids, out),
             "6df2" => flysticks2(rest, ids.wand_id, out),
             "6df" => flysticks1(rest, ids.wand_id, out),
             _ => Ok(()),
@@ -119,11 +120,11 @@ fn id_quality(block: &[f64], fields: usize) -> std::result::Result<(u32, f64), S
     Ok((block[0] as u32, block[1]))
 }
 
-/// The standard bodies of a `6d` line: the head's and the left hand's (where one is configured)
-/// poses, each only while tracked (a body out of view keeps its last pose).
+/// The standard bodies of a `6d` line: the head's, the left hand's (where one is configured)
+/// and the targets' poses, each only while tracked (a body out of view keeps its last pose).
 fn bodies(
     rest: &str,
-    (head_id, left_hand_id): (u32, Option<u32>),
+    ids: &RoomFromTracker,
     out: &mut Vec<Measurement>,
 ) -> std::result::Result<(), String> {
     let (header, blocks) = split(rest)?;
@@ -141,13 +142,19 @@ fn bodies(
         if quality < 0.0 {
             continue;
         }
-        if id == head_id {
+        if id == ids.head_id {
             out.push(Measurement::Head {
                 position,
                 rotation: Some(rotation),
             });
-        } else if left_hand_id == Some(id) {
+        } else if ids.left_hand_id == Some(id) {
             out.push(Measurement::LeftHand { position, rotation });
+        } else if let Some(index) = ids.target_of(id) {
+            out.push(Measurement::Target {
+                index,
+                position,
+                rotation,
+            });
         }
     }
     Ok(())

@@ -2,13 +2,14 @@
 //! VRPN server's TCP stream, `vrpn.rs`), a parser (`osc.rs`, `dtrack.rs`) turns each into
 //! measurements in the tracker's frame, the
 //! calibration (`calibration.rs`) moves them into the room, and the merged state (head, wand,
-//! left hand, buttons, joystick, navigation) goes to the renderer through a crossbeam channel.
+//! left hand, targets, buttons, joystick, navigation) goes to the renderer through a crossbeam
+//! channel.
 //! The renderer takes the latest state (older ones are dropped); `vlf track` takes every one. A
 //! source that goes quiet leaves the last state in place, and the tracker says so (status,
 //! and the log once).
 
 use super::calibration::RoomFromTracker;
-use super::pose::{Pose, RawPoses};
+use super::pose::{HeldPoses, Pose, RawPoses, Targets, MAX_TARGETS};
 use crate::error::{Result, VlfError};
 use crossbeam::channel::{Receiver, Sender};
 use glam::{Quat, Vec3};
@@ -39,11 +40,15 @@ pub struct LiveState {
     /// the left hand (as the wand: identity points along -z), once one has been seen; held
     /// where it was last tracked, as the wand is
     pub left_hand: Option<WandPose>,
+    /// the declared targets (`[[tracking.target]]`, by index), each once it has been seen and
+    /// then held where it was last tracked, as the hands are
+    pub targets: Targets,
     /// bit i: button i held
     pub buttons: u64,
     /// the wand's joystick: x right, y up (forward), -1..1
     pub joystick: [f32; 2],
-    /// the head, wand and left hand as last sent, before the calibration (the tracker's frame)
+    /// the head, wand, left hand and targets as last sent, before the calibration (the
+    /// tracker's frame)
     pub raw: RawPoses,
 }
 
@@ -53,9 +58,19 @@ impl LiveState {
             pose,
             wand: None,
             left_hand: None,
+            targets: Targets::default(),
             buttons: 0,
             joystick: [0.0; 2],
             raw: RawPoses::default(),
+        }
+    }
+
+    /// The wand, the left hand and the targets, where seen.
+    pub fn held(&self) -> HeldPoses {
+        HeldPoses {
+            wand: self.wand,
+            left_hand: self.left_hand,
+            targets: self.targets,
         }
     }
 }
@@ -73,6 +88,12 @@ pub enum Measurement {
         rotation: Quat,
     },
     LeftHand {
+        position: Vec3,
+        rotation: Quat,
+    },
+    /// the declared target `index` (its place in `RoomFromTracker::targets`)
+    Target {
+        index: usize,
         position: Vec3,
         rotation: Quat,
     },
@@ -110,6 +131,15 @@ impl LiveState {
                 self.left_hand = Some(calibration.held(position, rotation));
                 self.raw.left_hand = Some(WandPose { position, rotation });
             }
+            Measurement::Target {
+                index,
+                position,
+                rotation,
+            } if index < MAX_TARGETS => {
+                self.targets[index] = Some(calibration.held(position, rotation));
+                self.raw.targets[index] = Some(WandPose { position, rotation });
+            }
+            Measurement::Target { .. } => {}
             Measurement::Buttons(mask) => self.buttons = mask,
             Measurement::Button { index, pressed } if index < 64 => {
                 self.buttons = if pressed {
@@ -341,9 +371,10 @@ fn receive(socket: UdpSocket, mut feed: Feed, parse: Parser, name: &str) {
 }
 
 /// One state as `vlf track` prints it: seconds since the start, head and wand (room metres,
-/// yaw/pitch/roll degrees as `pose::head_rotation_from_angles` takes them), the left hand where
-/// one has been seen, buttons held, joystick.
-pub fn describe(t: f64, state: &LiveState) -> String {
+/// yaw/pitch/roll degrees as `pose::head_rotation_from_angles` takes them), the left hand and
+/// each target (called as in `targets`, the declared names) where one has been seen, buttons
+/// held, joystick.
+pub fn describe(t: f64, state: &LiveState, targets: &[String]) -> String {
     let angles = |q: Quat| {
         let (yaw, pitch, roll) = q.to_euler(glam::EulerRot::YXZ);
         // rounded to the printed tenth, + 0.0 turning -0.0 into 0.0
@@ -372,6 +403,15 @@ pub fn describe(t: f64, state: &LiveState) -> String {
             at(h.position),
             angles(h.rotation)
         ));
+    }
+    for (name, target) in targets.iter().zip(&state.targets) {
+        if let Some(h) = target {
+            line.push_str(&format!(
+                "  {name} {} {}",
+                at(h.position),
+                angles(h.rotation)
+            ));
+        }
     }
     let held: Vec<String> = (0..64)
         .filter(|i| state.buttons & (1 << i) != 0)

@@ -1,6 +1,7 @@
-//! Tracking: where the head, the wand and the left hand are, and how the user moves through the
-//! scene. The display TOML's `[tracking]`, `[start_pose]` and `[navigation]` tables (this module);
-//! the pose types (`pose.rs`); the pose source a display's loops draw from, static, scripted or
+//! Tracking: where the head, the wand, the left hand and the declared targets are, and how the
+//! user moves through the scene. The display TOML's `[tracking]`, `[start_pose]` and
+//! `[navigation]` tables (this module); the `[[tracking.target]]` tables (`target.rs`); the pose
+//! types (`pose.rs`); the pose source a display's loops draw from, static, scripted or
 //! live (`source.rs`, and `vlf track`); live sources (`live.rs`: the receiving thread and its
 //! state) with their protocols (`osc.rs`, `dtrack.rs`, `vrpn.rs`) and the room calibration
 //! (`calibration.rs`); the tracked wand (`wand.rs`) and navigation added to the tracked pose
@@ -14,10 +15,12 @@ pub mod navigator;
 pub mod osc;
 pub mod pose;
 pub mod source;
+pub mod target;
 pub mod vrpn;
 pub mod wand;
 
-pub use pose::{HeldPoses, Pose, RawPoses, WandPose};
+pub use pose::{HeldPoses, Pose, RawPoses, Targets, WandPose, MAX_TARGETS};
+pub use target::TargetConfig;
 
 use crate::error::{Result, VlfError};
 use serde::{Deserialize, Serialize};
@@ -54,20 +57,35 @@ pub enum TrackingConfig {
         left_hand_yaw_deg: Option<f32>,
         left_hand_pitch_deg: Option<f32>,
         left_hand_orientation: Option<[f32; 4]>,
+        /// tracked targets besides the head and the hands (`[[tracking.target]]`, `target.rs`)
+        #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+        targets: Vec<TargetConfig>,
     },
-    /// keyframed head and navigation poses (a TOML file, path relative to the config)
-    Scripted { path: PathBuf },
+    /// keyframed head and navigation poses (a TOML file, path relative to the config); its
+    /// targets are moved by the keyframes' `[[keyframe.target]]` tables
+    Scripted {
+        path: PathBuf,
+        /// tracked targets besides the head and the hands (`[[tracking.target]]`, `target.rs`)
+        #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+        targets: Vec<TargetConfig>,
+    },
     /// live poses over UDP/OSC (`osc.rs`)
     Osc {
         port: u16,
         #[serde(default)]
         calibration: calibration::Calibration,
+        /// tracked targets besides the head and the hands (`[[tracking.target]]`, `target.rs`)
+        #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+        targets: Vec<TargetConfig>,
     },
     /// live poses from A.R.T. DTrack2 (ASCII over UDP, `dtrack.rs`)
     Dtrack {
         port: u16,
         #[serde(default)]
         calibration: calibration::Calibration,
+        /// tracked targets besides the head and the hands (`[[tracking.target]]`, `target.rs`)
+        #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+        targets: Vec<TargetConfig>,
     },
     /// live poses from a VRPN server (`host[:port]`), device `device` (`vrpn.rs`)
     Vrpn {
@@ -75,6 +93,9 @@ pub enum TrackingConfig {
         device: String,
         #[serde(default)]
         calibration: calibration::Calibration,
+        /// tracked targets besides the head and the hands (`[[tracking.target]]`, `target.rs`)
+        #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+        targets: Vec<TargetConfig>,
     },
 }
 
@@ -94,6 +115,7 @@ impl Default for TrackingConfig {
             left_hand_yaw_deg: None,
             left_hand_pitch_deg: None,
             left_hand_orientation: None,
+            targets: Vec::new(),
         }
     }
 }
@@ -152,7 +174,7 @@ impl TrackingConfig {
                 wand_orientation,
                 ..
             } => wand::held_pose(
-                "wand",
+                "wand_",
                 *wand_position,
                 [*wand_yaw_deg, *wand_pitch_deg],
                 *wand_orientation,
@@ -172,7 +194,7 @@ impl TrackingConfig {
                 left_hand_orientation,
                 ..
             } => wand::held_pose(
-                "left_hand",
+                "left_hand_",
                 *left_hand_position,
                 [*left_hand_yaw_deg, *left_hand_pitch_deg],
                 *left_hand_orientation,
@@ -180,6 +202,45 @@ impl TrackingConfig {
             ),
             _ => Ok(None),
         }
+    }
+
+    /// The declared targets (`[[tracking.target]]`), in order: a target's index is its place.
+    pub fn targets(&self) -> &[TargetConfig] {
+        match self {
+            TrackingConfig::Static { targets, .. }
+            | TrackingConfig::Scripted { targets, .. }
+            | TrackingConfig::Osc { targets, .. }
+            | TrackingConfig::Dtrack { targets, .. }
+            | TrackingConfig::Vrpn { targets, .. } => targets,
+        }
+    }
+
+    /// The declared targets' names, in order.
+    pub fn target_names(&self) -> Vec<String> {
+        target::names(self.targets())
+    }
+
+    /// The targets' checks for this source (`target::check_targets`); errors name the key.
+    pub fn check_targets(&self) -> std::result::Result<(), String> {
+        let source = match self {
+            TrackingConfig::Static { .. } => target::TargetSource::Static,
+            TrackingConfig::Scripted { .. } => target::TargetSource::Scripted,
+            TrackingConfig::Osc { .. } => target::TargetSource::Osc,
+            TrackingConfig::Dtrack { .. } => target::TargetSource::Dtrack,
+            TrackingConfig::Vrpn { .. } => target::TargetSource::Vrpn,
+        };
+        target::check_targets(self.targets(), source)
+    }
+
+    /// A static source's targets where their positions hold them (the others never seen).
+    pub fn static_targets(&self) -> std::result::Result<Targets, String> {
+        let mut out = Targets::default();
+        if let TrackingConfig::Static { targets, .. } = self {
+            for (i, t) in targets.iter().enumerate().take(MAX_TARGETS) {
+                out[i] = t.static_pose(i)?;
+            }
+        }
+        Ok(out)
     }
 
     /// The static head's orientation (identity for the other sources).
@@ -201,9 +262,13 @@ impl TrackingConfig {
     }
 
     /// A live source: its protocol, UDP port, calibration (resolved with the protocol's own unit
-    /// and wand id; VRPN's sensors checked apart) and packet parser; None for static and
-    /// scripted heads.
+    /// and wand id, with the declared targets; VRPN's sensors checked apart) and packet parser;
+    /// None for static and scripted heads.
     pub fn live(&self) -> Option<LiveSource> {
+        let targets = self.targets();
+        let with_targets = |c: std::result::Result<calibration::RoomFromTracker, String>| {
+            c.and_then(|c| c.with_targets(targets))
+        };
         let udp =
             |protocol, port: &u16, calibration: std::result::Result<_, _>, parse| LiveSource {
                 protocol,
@@ -212,27 +277,33 @@ impl TrackingConfig {
                 kind: LiveKind::Udp { port: *port, parse },
             };
         match self {
-            TrackingConfig::Osc { port, calibration } => Some(udp(
+            TrackingConfig::Osc {
+                port, calibration, ..
+            } => Some(udp(
                 "OSC",
                 port,
-                calibration.resolve(1.0, 1),
+                with_targets(calibration.resolve(1.0, 1)),
                 osc::parse as live::Parser,
             )),
             // DTrack sends millimetres; the wand is a Flystick, numbered apart from the bodies
-            TrackingConfig::Dtrack { port, calibration } => Some(udp(
+            TrackingConfig::Dtrack {
+                port, calibration, ..
+            } => Some(udp(
                 "DTrack",
                 port,
-                calibration.resolve(0.001, 0),
+                with_targets(calibration.resolve(0.001, 0)),
                 dtrack::parse,
             )),
             TrackingConfig::Vrpn {
                 server,
                 device,
                 calibration,
+                ..
             } => Some(LiveSource {
                 protocol: "VRPN",
                 address: format!("{device}@{server}"),
-                calibration: calibration.resolve(1.0, 1).and_then(vrpn::distinct_sensors),
+                calibration: with_targets(calibration.resolve(1.0, 1))
+                    .and_then(vrpn::distinct_sensors),
                 kind: LiveKind::Vrpn {
                     server: server.clone(),
                     device: device.clone(),

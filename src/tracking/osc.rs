@@ -6,6 +6,8 @@
 //!   along -z with y up);
 //! - `/vlf/wand x y z qx qy qz qw`: the wand (identity points along -z);
 //! - `/vlf/left_hand x y z qx qy qz qw`: the left hand (as the wand: identity points along -z);
+//! - `/vlf/target/<name> x y z qx qy qz qw`: the `[[tracking.target]]` called `<name>` (as the
+//!   left hand; a name not declared is ignored);
 //! - `/vlf/button i state`: button i (0..63) pressed (state non-zero) or released;
 //! - `/vlf/joystick x y`: the wand's joystick, -1..1 (x right, y forward);
 //! - `/vlf/room x y z yaw_deg`: navigation, where the room stands in the world (not calibrated).
@@ -30,15 +32,21 @@ impl LiveTracker {
     }
 }
 
-/// Read one OSC packet (message or bundle) into measurements.
+/// Read one OSC packet (message or bundle) into measurements (`ids` names the targets).
 pub fn parse(
     packet: &[u8],
-    _calibration: &RoomFromTracker,
+    ids: &RoomFromTracker,
     out: &mut Vec<Measurement>,
 ) -> std::result::Result<(), String> {
     let (_, packet) = rosc::decoder::decode_udp(packet).map_err(|e| format!("not OSC ({e:?})"))?;
-    collect(&packet, out);
+    collect(&packet, ids, out);
     Ok(())
+}
+
+/// The index of the target an address `/vlf/target/<name>` names, if one is declared so.
+fn target_index(address: &str, ids: &RoomFromTracker) -> Option<usize> {
+    let name = address.strip_prefix("/vlf/target/")?;
+    ids.targets.iter().position(|t| t.name == name)
 }
 
 fn floats(args: &[rosc::OscType]) -> Vec<f32> {
@@ -60,7 +68,7 @@ fn quaternion(q: &[f32]) -> Option<Quat> {
     (q.is_finite() && q.length() > 1e-3).then(|| q.normalize())
 }
 
-fn collect(packet: &rosc::OscPacket, out: &mut Vec<Measurement>) {
+fn collect(packet: &rosc::OscPacket, ids: &RoomFromTracker, out: &mut Vec<Measurement>) {
     match packet {
         rosc::OscPacket::Message(m) => {
             let v = floats(&m.args);
@@ -100,6 +108,16 @@ fn collect(packet: &rosc::OscPacket, out: &mut Vec<Measurement>) {
                     position: Vec3::new(*x, *y, *z),
                     yaw_deg: *yaw,
                 }),
+                (address, [x, y, z, q @ ..])
+                    if q.len() == 4 && address.starts_with("/vlf/target/") =>
+                {
+                    let index = target_index(address, ids);
+                    (index.zip(quaternion(q))).map(|(index, q)| Measurement::Target {
+                        index,
+                        position: Vec3::new(*x, *y, *z),
+                        rotation: q,
+                    })
+                }
                 _ => None,
             };
             match measurement {
@@ -109,7 +127,7 @@ fn collect(packet: &rosc::OscPacket, out: &mut Vec<Measurement>) {
         }
         rosc::OscPacket::Bundle(b) => {
             for p in &b.content {
-                collect(p, out);
+                collect(p, ids, out);
             }
         }
     }

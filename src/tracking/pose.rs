@@ -1,6 +1,7 @@
 //! The poses every tracking source produces and every consumer reads: the viewer's `Pose` (head
-//! in the room, room in the world), a tracked wand's or hand's `WandPose` and the two of a frame
-//! (`HeldPoses`), with head orientations from
+//! in the room, room in the world), a tracked wand's, hand's or target's `WandPose` and those of
+//! a frame (`HeldPoses`, with the declared targets by index up to `MAX_TARGETS`), with head
+//! orientations from
 //! configuration angles or quaternions. Below tracking, calibration, live sources and the wand,
 //! so that none of them depends on another for these types.
 
@@ -90,15 +91,26 @@ pub struct WandPose {
     pub rotation: Quat,
 }
 
-/// What the participant holds up in one frame, in the room: the wand (the right hand) and the
-/// left hand, each where tracked.
+/// The most tracked targets a display config declares (`[[tracking.target]]`): the cluster's
+/// frame state and the session log's rows hold this many, so that their size is fixed.
+pub const MAX_TARGETS: usize = 8;
+
+/// The tracked targets of one frame, in the order the display config declares them
+/// (`[[tracking.target]]`), each where it has been seen; the slots past the declared ones stay
+/// None.
+pub type Targets = [Option<WandPose>; MAX_TARGETS];
+
+/// What is tracked besides the head in one frame, in the room: the wand (the right hand), the
+/// left hand and the declared targets, each where tracked.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct HeldPoses {
     pub wand: Option<WandPose>,
     pub left_hand: Option<WandPose>,
+    pub targets: Targets,
 }
 
-/// The tracked head, wand and left hand as the tracker sent them, before `[tracking.calibration]`:
+/// The tracked head, wand, left hand and targets as the tracker sent them, before
+/// `[tracking.calibration]`:
 /// in the tracker's own frame and units (a session log keeps them beside the calibrated ones).
 /// None where the source has sent none, or has no tracker frame (static, scripted). The head's
 /// rotation is the last one sent (identity before one: a head sent as a position alone).
@@ -107,4 +119,5 @@ pub struct RawPoses {
     pub head: Option<WandPose>,
     pub wand: Option<WandPose>,
     pub left_hand: Option<WandPose>,
+    pub targets: Targets,
 }

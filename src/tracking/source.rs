@@ -1,8 +1,10 @@
 //! The pose source a display's loops draw from (`PoseSource`): a static head, a scripted path of keyframed head and navigation poses
-//! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand and a left hand), or live poses (`live.rs`: OSC, DTrack, VRPN).
+//! (TOML, for repeatable walkthroughs and measurements; keyframes may carry a wand, a left hand
+//! and the declared targets, `[[keyframe.target]]`), or live poses (`live.rs`: OSC, DTrack, VRPN).
 
 pub use super::pose::{
-    head_rotation, head_rotation_from_angles, HeldPoses, Pose, RawPoses, WandPose,
+    head_rotation, head_rotation_from_angles, HeldPoses, Pose, RawPoses, Targets, WandPose,
+    MAX_TARGETS,
 };
 use super::{StartPose, TrackingConfig};
 use crate::error::{Result, VlfError};
@@ -36,13 +38,29 @@ pub struct Keyframe {
     pub left_hand_yaw_deg: Option<f32>,
     pub left_hand_pitch_deg: Option<f32>,
     pub left_hand_orientation: Option<[f32; 4]>,
+    /// declared targets at this moment (`[[keyframe.target]]`: the name of a
+    /// `[[tracking.target]]`, then the wand's keys without `wand_`)
+    #[serde(default, rename = "target", skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<KeyframeTarget>,
 }
 
-/// Which held thing of a keyframe: the wand's keys or the left hand's.
+/// A declared target at a keyframe: interpolated and slerped to the next keyframe's, as the wand.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct KeyframeTarget {
+    pub name: String,
+    pub position: [f32; 3],
+    pub yaw_deg: Option<f32>,
+    pub pitch_deg: Option<f32>,
+    pub orientation: Option<[f32; 4]>,
+}
+
+/// Which held thing of a keyframe: the wand's keys, the left hand's or a target's (by name).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum HeldKind {
+pub enum HeldKind<'a> {
     Wand,
     LeftHand,
+    Target(&'a str),
 }
 
 impl Keyframe {
@@ -56,19 +74,32 @@ impl Keyframe {
     fn held(&self, which: HeldKind) -> std::result::Result<Option<WandPose>, String> {
         match which {
             HeldKind::Wand => super::wand::held_pose(
-                "wand",
+                "wand_",
                 self.wand_position,
                 [self.wand_yaw_deg, self.wand_pitch_deg],
                 self.wand_orientation,
                 "",
             ),
             HeldKind::LeftHand => super::wand::held_pose(
-                "left_hand",
+                "left_hand_",
                 self.left_hand_position,
                 [self.left_hand_yaw_deg, self.left_hand_pitch_deg],
                 self.left_hand_orientation,
                 "",
             ),
+            HeldKind::Target(name) => {
+                let Some(i) = self.targets.iter().position(|t| t.name == name) else {
+                    return Ok(None);
+                };
+                let t = &self.targets[i];
+                super::wand::held_pose(
+                    "",
+                    Some(t.position),
+                    [t.yaw_deg, t.pitch_deg],
+                    t.orientation,
+                    &format!("target[{i}] ({name:?})."),
+                )
+            }
         }
     }
 }
@@ -78,6 +109,10 @@ impl Keyframe {
 pub struct ScriptedPath {
     #[serde(rename = "keyframe")]
     pub keyframes: Vec<Keyframe>,
+    /// the display config's declared targets (`[[tracking.target]]`), whose keyframes' poses
+    /// `held` gives by index (`with_targets`)
+    #[serde(skip)]
+    pub target_names: Vec<String>,
 }
 
 impl ScriptedPath {
@@ -101,6 +136,10 @@ impl ScriptedPath {
                 k.held(which)
                     .map_err(|e| err(format!("keyframe[{i}].{e}")))?;
             }
+            for t in &k.targets {
+                k.held(HeldKind::Target(&t.name))
+                    .map_err(|e| err(format!("keyframe[{i}].{e}")))?;
+            }
         }
         for (i, w) in p.keyframes.windows(2).enumerate() {
             if w[1].t <= w[0].t {
@@ -113,6 +152,40 @@ impl ScriptedPath {
             }
         }
         Ok(p)
+    }
+
+    /// This path with the display config's declared targets (`[[tracking.target]]`), or which
+    /// keyframe names one that is not declared (`path` names the file in errors).
+    pub fn with_targets(mut self, names: Vec<String>, path: &Path) -> Result<ScriptedPath> {
+        for (i, k) in self.keyframes.iter().enumerate() {
+            for (j, t) in k.targets.iter().enumerate() {
+                if !names.contains(&t.name) {
+                    return Err(VlfError::Config {
+                        path: path.to_path_buf(),
+                        message: format!(
+                            "keyframe[{i}].target[{j}].name: {:?} is not a [[tracking.target]] of the display config (there are: {})",
+                            t.name,
+                            if names.is_empty() { "none".into() } else { names.join(", ") }
+                        ),
+                    });
+                }
+            }
+        }
+        self.target_names = names;
+        Ok(self)
+    }
+
+    /// The wand, the left hand and the declared targets at `t` (each as `wand_at`).
+    pub fn held(&self, t: f32) -> HeldPoses {
+        let mut targets = Targets::default();
+        for (slot, name) in targets.iter_mut().zip(&self.target_names) {
+            *slot = self.held_at(HeldKind::Target(name), t);
+        }
+        HeldPoses {
+            wand: self.wand_at(t),
+            left_hand: self.left_hand_at(t),
+            targets,
+        }
     }
 
     /// Linear interpolation between keyframes (spherical for the head's orientation); held at
@@ -147,7 +220,7 @@ impl ScriptedPath {
         self.held_at(HeldKind::LeftHand, t)
     }
 
-    fn held_at(&self, which: HeldKind, t: f32) -> Option<WandPose> {
+    fn held_at(&self, which: HeldKind<'_>, t: f32) -> Option<WandPose> {
         let k = &self.keyframes;
         let i = k.iter().rposition(|f| f.t <= t).unwrap_or(0);
         let (a, b) = (&k[i], &k[(i + 1).min(k.len() - 1)]);
@@ -212,9 +285,13 @@ impl PoseSource {
                     ..start
                 }))
             }
-            TrackingConfig::Scripted { path } => Ok(PoseSource::Scripted(ScriptedPath::load(
-                &config_path.parent().unwrap_or(Path::new(".")).join(path),
-            )?)),
+            TrackingConfig::Scripted { path, .. } => {
+                let path = config_path.parent().unwrap_or(Path::new(".")).join(path);
+                let script = ScriptedPath::load(&path)?;
+                Ok(PoseSource::Scripted(
+                    script.with_targets(tracking.target_names(), &path)?,
+                ))
+            }
             TrackingConfig::Osc { .. }
             | TrackingConfig::Dtrack { .. }
             | TrackingConfig::Vrpn { .. } => {
@@ -248,33 +325,27 @@ impl PoseSource {
         self.held_at(tracking, t).wand
     }
 
-    /// The wand and the left hand at `t`, each where tracked: static, the configuration's
-    /// `tracking`; scripted, the keyframes'; live, both from one state, each the last one seen
-    /// (a hand out of view is held where it was, as the wand is).
+    /// The wand, the left hand and the declared targets at `t`, each where tracked: static, the
+    /// configuration's `tracking`; scripted, the keyframes'; live, all from one state, each the
+    /// last one seen (a hand or target out of view is held where it was, as the wand is; a
+    /// target not yet seen is None).
     pub fn held_at(&self, tracking: &TrackingConfig, t: f32) -> HeldPoses {
         match self {
             PoseSource::Static(_) => HeldPoses {
                 wand: tracking.static_wand().ok().flatten(),
                 left_hand: tracking.static_left_hand().ok().flatten(),
+                targets: tracking.static_targets().unwrap_or_default(),
             },
-            PoseSource::Scripted(s) => HeldPoses {
-                wand: s.wand_at(t),
-                left_hand: s.left_hand_at(t),
-            },
-            PoseSource::Live(tracker) => {
-                let state = (tracker.lock().unwrap_or_else(|e| e.into_inner()))
-                    .latest_state()
-                    .0;
-                HeldPoses {
-                    wand: state.wand,
-                    left_hand: state.left_hand,
-                }
-            }
+            PoseSource::Scripted(s) => s.held(t),
+            PoseSource::Live(tracker) => (tracker.lock().unwrap_or_else(|e| e.into_inner()))
+                .latest_state()
+                .0
+                .held(),
         }
     }
 
     /// Everything a frame takes from the source at `t`, from one state of it: the pose, the
-    /// wand and left hand (`held_at`), the raw poses as the tracker sent them (live sources
+    /// wand, left hand and targets (`held_at`), the raw poses as the tracker sent them (live sources
     /// only; `RawPoses`) and, live, when the state arrived if no frame was drawn from it yet
     /// (`at_fresh`).
     pub fn frame_at(
@@ -286,11 +357,7 @@ impl PoseSource {
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
                 let state = tracker.latest_state().0;
-                let held = HeldPoses {
-                    wand: state.wand,
-                    left_hand: state.left_hand,
-                };
-                (state.pose, held, state.raw, tracker.take_fresh())
+                (state.pose, state.held(), state.raw, tracker.take_fresh())
             }
             other => (
                 other.at(t),
@@ -358,7 +425,11 @@ pub fn track(
         )?;
         write(
             out,
-            super::live::describe(0.0, &super::live::LiveState::new(source.at(0.0))),
+            super::live::describe(
+                0.0,
+                &super::live::LiveState::new(source.at(0.0)),
+                &tracking.target_names(),
+            ),
         )?;
         return Ok(1);
     };
@@ -395,6 +466,7 @@ pub fn track(
                     super::live::describe(
                         sample.received.duration_since(started).as_secs_f64(),
                         &sample.state,
+                        &tracking.target_names(),
                     ),
                 )?;
                 printed += 1;

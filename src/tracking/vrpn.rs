@@ -8,8 +8,8 @@
 //! server sends everything over the TCP connection. From the device named `device`:
 //!
 //! - `vrpn_Tracker Pos_Quat`: sensor (i32), padding, position (3 f64, metres), quaternion
-//!   (x, y, z, w as f64); sensor `head_id` is the head, `wand_id` the wand and
-//!   `left_hand_id` (if configured) the left hand;
+//!   (x, y, z, w as f64); sensor `head_id` is the head, `wand_id` the wand,
+//!   `left_hand_id` (if configured) the left hand and a `[[tracking.target]]`'s `id` that target;
 //! - `vrpn_Button Change` (button i32, state i32) and `vrpn_Button States` (count, states);
 //! - `vrpn_Analog Channel`: channel count (f64), channels (f64): 0 and 1 are the joystick.
 
@@ -235,12 +235,19 @@ fn name(payload: &[u8]) -> std::result::Result<String, String> {
     Ok(String::from_utf8_lossy(bytes).into_owned())
 }
 
-/// The calibration's sensors, if the head, the wand and the left hand are three sensors of the
-/// one device (one sensor cannot be two of them); else which key to change.
+/// The calibration's sensors, if the head, the wand, the left hand and the targets are sensors of
+/// their own on the one device (one sensor cannot be two of them); else which key to change.
 pub fn distinct_sensors(ids: RoomFromTracker) -> std::result::Result<RoomFromTracker, String> {
     if ids.left_hand_id == Some(ids.wand_id) {
         return Err(format!(
             "tracking.calibration.left_hand_id: sensor {} is the wand's (wand_id, 1 unless given): give the left hand its own sensor",
+            ids.wand_id
+        ));
+    }
+    if let Some(i) = ids.target_of(ids.wand_id) {
+        return Err(format!(
+            "{}id: sensor {} is the wand's (tracking.calibration.wand_id, 1 unless given): give the target its own sensor",
+            super::target::at(i, &ids.targets[i].name),
             ids.wand_id
         ));
     }
@@ -277,6 +284,12 @@ pub fn decode(
                 out.push(Measurement::Wand { position, rotation });
             } else if ids.left_hand_id.is_some_and(|id| sensor == id as i32) {
                 out.push(Measurement::LeftHand { position, rotation });
+            } else if let Some(index) = u32::try_from(sensor).ok().and_then(|s| ids.target_of(s)) {
+                out.push(Measurement::Target {
+                    index,
+                    position,
+                    rotation,
+                });
             }
         }
         "vrpn_Button Change" => {

@@ -52,11 +52,12 @@ pub fn pressed(before: u64, now: u64, button: u32) -> bool {
     button < 64 && now & (1 << button) != 0 && before & (1 << button) == 0
 }
 
-/// A wand or hand given in a configuration or keyframe, its keys named after `key` ("wand",
-/// "left_hand"): `<key>_position` (room metres) and its orientation as angles (`<key>_yaw_deg`
-/// about the room's up axis, positive turns left; then `<key>_pitch_deg`, positive points up) or a
-/// quaternion `<key>_orientation = [x, y, z, w]`; pointing along the room's -z when neither is
-/// given. None without a position; `at` names the keys' table in errors.
+/// A wand, hand or target given in a configuration or keyframe, its keys named with `key` before
+/// them ("wand_", "left_hand_", or "" in a `[[tracking.target]]` table): `<key>position` (room
+/// metres) and its orientation as angles (`<key>yaw_deg` about the room's up axis, positive turns
+/// left; then `<key>pitch_deg`, positive points up) or a quaternion `<key>orientation = [x, y, z,
+/// w]`; pointing along the room's -z when neither is given. None without a position; `at` names
+/// the keys' table in errors.
 pub fn held_pose(
     key: &str,
     position: Option<[f32; 3]>,
@@ -67,24 +68,24 @@ pub fn held_pose(
     let Some(position) = position else {
         if orientation.is_some() || angles.iter().any(Option::is_some) {
             return Err(format!(
-                "{at}{key}_position: an orientation is given without the position"
+                "{at}{key}position: an orientation is given without the position"
             ));
         }
         return Ok(None);
     };
     if position.iter().any(|x| !x.is_finite()) {
         return Err(format!(
-            "{at}{key}_position: {position:?} must be finite (room metres)"
+            "{at}{key}position: {position:?} must be finite (room metres)"
         ));
     }
     let rotation = match orientation {
         Some(_) if angles.iter().any(Option::is_some) => {
-            return Err(format!("{at}{key}_orientation: give the orientation either as a quaternion or as {key}_yaw_deg/{key}_pitch_deg, not both"));
+            return Err(format!("{at}{key}orientation: give the orientation either as a quaternion or as {key}yaw_deg/{key}pitch_deg, not both"));
         }
         Some(q) => {
             let q = Quat::from_array(q);
             if !q.is_finite() || q.length() < 1e-3 {
-                return Err(format!("{at}{key}_orientation: {:?} is not a rotation (a finite quaternion [x, y, z, w] of non-zero length)", q.to_array()));
+                return Err(format!("{at}{key}orientation: {:?} is not a rotation (a finite quaternion [x, y, z, w] of non-zero length)", q.to_array()));
             }
             q.normalize()
         }
@@ -92,7 +93,7 @@ pub fn held_pose(
             let [yaw, pitch] = angles.map(|a| a.unwrap_or(0.0));
             if !(yaw.is_finite() && pitch.is_finite()) {
                 return Err(format!(
-                    "{at}{key}_yaw_deg/{key}_pitch_deg: must be finite numbers of degrees"
+                    "{at}{key}yaw_deg/{key}pitch_deg: must be finite numbers of degrees"
                 ));
             }
             Quat::from_rotation_y(yaw.to_radians()) * Quat::from_rotation_x(pitch.to_radians())

@@ -182,6 +182,8 @@ pub(super) fn record(drew: Drew, time_s: f64, frame_of_views: &FrameOfViews<'_>)
         },
         wand: right,
         left_hand: left,
+        // the headset tracks no targets
+        targets: Default::default(),
         // the GPU's times come back frames late (frames in flight): in the report
         gpu_ms: None,
         cpu_ms: Some(drew.cpu_ms),

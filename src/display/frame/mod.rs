@@ -149,7 +149,11 @@ impl<'a> FrameOfViews<'a> {
         let ctx = resident.ctx.clone();
         let objects = match config.objects.is_empty() {
             true => None,
-            false => Some(Objects::load(&config.objects, config_path)?),
+            false => Some(Objects::load_tracked(
+                &config.objects,
+                &config.tracking.target_names(),
+                config_path,
+            )?),
         };
         let to_draw = objects.as_ref().map(|o| ObjectsToDraw {
             mesh: o.mesh(),

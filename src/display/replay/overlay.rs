@@ -106,6 +106,7 @@ mod tests {
             pose: crate::tracking::Pose::new(glam::Vec3::ZERO, glam::Vec3::ZERO, 0.0),
             wand: None,
             left_hand: None,
+            targets: Default::default(),
             gpu_ms: None,
             cpu_ms: None,
             block: 2,

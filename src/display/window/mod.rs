@@ -190,6 +190,7 @@ impl App<'_> {
             pose,
             wand: held.wand,
             left_hand: held.left_hand,
+            targets: held.targets,
             gpu_ms,
             cpu_ms,
             block: 0,
@@ -227,11 +228,7 @@ impl App<'_> {
         match &self.poses {
             PoseSource::Scripted(s) => {
                 let t = self.started.elapsed().as_secs_f32() % s.duration().max(1e-3);
-                let held = HeldPoses {
-                    wand: s.wand_at(t),
-                    left_hand: s.left_hand_at(t),
-                };
-                (s.at(t), None, None, (held, RawPoses::default()))
+                (s.at(t), None, None, (s.held(t), RawPoses::default()))
             }
             PoseSource::Live(tracker) => {
                 let mut tracker = tracker.lock().unwrap_or_else(|e| e.into_inner());
@@ -242,15 +239,11 @@ impl App<'_> {
                     &self.config.navigation,
                     dt,
                 );
-                let held = HeldPoses {
-                    wand: state.wand,
-                    left_hand: state.left_hand,
-                };
                 (
                     state.pose,
                     Some(status),
                     tracker.take_fresh(),
-                    (held, state.raw),
+                    (state.held(), state.raw),
                 )
             }
             other => (

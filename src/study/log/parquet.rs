@@ -26,18 +26,22 @@ pub const PARQUET_DIR: &str = "frames.parquet";
 pub struct FramesParquet {
     dir: PathBuf,
     names: Vec<String>,
+    /// the declared tracked targets: each row has this many
+    targets: usize,
     rows: Vec<FrameRecord>,
     parts: usize,
 }
 
 impl FramesParquet {
-    /// A new parts folder in `log_dir`, for rows of the columns `names` (`log::columns`).
-    pub fn create(log_dir: &Path, names: Vec<String>) -> Result<FramesParquet> {
+    /// A new parts folder in `log_dir`, for rows of the columns `names` (`log::columns`) with
+    /// `targets` tracked targets.
+    pub fn create(log_dir: &Path, names: Vec<String>, targets: usize) -> Result<FramesParquet> {
         let dir = log_dir.join(PARQUET_DIR);
         std::fs::create_dir(&dir).map_err(|e| VlfError::io(&dir, e))?;
         Ok(FramesParquet {
             dir,
             names,
+            targets,
             rows: Vec::new(),
             parts: 0,
         })
@@ -53,7 +57,7 @@ impl FramesParquet {
         if self.rows.is_empty() {
             return Ok(());
         }
-        let batch = batch(&self.rows, &self.names)?;
+        let batch = batch(&self.rows, &self.names, self.targets)?;
         let name = format!("part-{:06}.parquet", self.parts);
         let (hidden, part) = (self.dir.join(format!(".{name}")), self.dir.join(&name));
         let file = std::fs::File::create(&hidden).map_err(|e| VlfError::io(&hidden, e))?;
@@ -88,7 +92,7 @@ fn opt_f64s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> Option<f64>) -> Ar
 /// zeros where not).
 fn held_columns(
     rows: &[FrameRecord],
-    held: fn(&FrameRecord) -> Option<&WandPose>,
+    held: impl Fn(&FrameRecord) -> Option<&WandPose>,
 ) -> Vec<ArrayRef> {
     let parts: [fn(&WandPose) -> f32; 7] = [
         |w| w.position.x,
@@ -104,10 +108,11 @@ fn held_columns(
     columns
 }
 
-/// `rows` as one batch, its columns in frames.csv's order (`names`), typed: counts as u32 (the
-/// frame u64), positions, rotations and shares as f32, times as f64 (null where the CSV is
-/// empty), `drawn`, `condition`, `objects_hidden`, `flash` and `events` as text.
-fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
+/// `rows` as one batch, its columns in frames.csv's order (`names`, with `targets` tracked
+/// targets), typed: counts as u32 (the frame u64), positions, rotations and shares as f32, times
+/// as f64 (null where the CSV is empty), `drawn`, `condition`, `objects_hidden`, `flash` and
+/// `events` as text.
+fn batch(rows: &[FrameRecord], names: &[String], targets: usize) -> Result<RecordBatch> {
     let mut columns: Vec<ArrayRef> = vec![
         Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.frame))),
         Arc::new(Float64Array::from_iter_values(
@@ -179,6 +184,10 @@ fn batch(rows: &[FrameRecord], names: &[String]) -> Result<RecordBatch> {
             }));
         }
     }
+    for k in 0..targets {
+        columns.extend(held_columns(rows, |r| r.targets[k].as_ref()));
+        columns.extend(held_columns(rows, |r| r.raw.targets[k].as_ref()));
+    }
     columns.push(Arc::new(StringArray::from_iter_values(
         rows.iter().map(|r| r.events.as_str()),
     )));
@@ -221,6 +230,7 @@ mod tests {
             },
             wand: None,
             left_hand: None,
+            targets: Default::default(),
             gpu_ms: (frame > 0).then_some(1.5),
             cpu_ms: None,
             block: 1,
@@ -243,14 +253,14 @@ mod tests {
     }
 
     fn names() -> Vec<String> {
-        let csv = crate::study::log::columns(&[], false);
+        let csv = crate::study::log::columns(&[], false, &[]);
         csv.into_iter().map(|(n, _)| n).collect()
     }
 
     #[test]
     fn each_flush_closes_a_whole_part_that_reads_back() {
         let dir = tempfile::tempdir().unwrap();
-        let mut p = FramesParquet::create(dir.path(), names()).unwrap();
+        let mut p = FramesParquet::create(dir.path(), names(), 0).unwrap();
         p.push(&record(0));
         p.push(&record(1));
         p.flush().unwrap();
