@@ -91,11 +91,13 @@ pacing_dir=$(dirname "$dir")/pacing
 if [ -f "$pacing_dir/gpu.txt" ]; then
   bash "$(dirname "$0")/pacing-md.sh" "$pacing_dir"
 fi
-# the body in the walk CAVE (tools/gpu-body.sh): DIR's sibling body/
-body_dir=$(dirname "$dir")/body
-if [ -f "$body_dir/gpu.txt" ]; then
-  bash "$(dirname "$0")/body-md.sh" "$body_dir"
-fi
+# the body in the walk CAVE (tools/gpu-body.sh): the newest run (docs/results/h200/
+# body-vertex-light/, the vertices' light), then DIR's sibling body/
+for body_dir in "$(dirname "$(dirname "$dir")")/h200/body-vertex-light" "$(dirname "$dir")/body"; do
+  if [ -f "$body_dir/gpu.txt" ]; then
+    bash "$(dirname "$0")/body-md.sh" "$body_dir"
+  fi
+done
 # behaviour unchanged across the refactors (tools/gpu-identity.sh): DIR's sibling identity/
 identity_dir=$(dirname "$dir")/identity
 if [ -f "$identity_dir/identity.txt" ]; then
