@@ -6,6 +6,8 @@
 # With XR_RUNTIME_LIBRARY set (tests/xr-runtime's library), also the headset at 2064x2208 per eye
 # (Meta Quest 3's recommended size) on vlf's test runtime, 900 frames at 90 Hz, on the same walks' scenes, paced (--fit-frame-time):
 # the array swapchain (default), and on the 100K classroom also a swapchain per eye (xr-*-per-eye).
+# XR_OBJECTS=FILE.toml (e.g. config/headset/body.toml) gives the headset runs `--objects FILE`:
+# the participant's body on the tracked head (reports named xr-<scene>-body).
 # SCENES (default "classroom-100k classroom-1m gallery") picks the walks; AA=N draws N eye rays per
 # pixel instead of the configuration's 4 (reports named cave-<scene>-aaN). TAG=name adds -name to
 # the reports and names the archive pacing-name.tar; WORK=dir keeps the generated scenes and light
@@ -17,6 +19,7 @@ quiet() { grep -v XDG_RUNTIME_DIR; }
 # generate SCENE: the walk's scene as `vlf generate` makes it
 source "$(dirname "$0")/walk-scenes.sh"
 suffix=${AA:+-aa$AA}${TAG:+-$TAG}
+xr_suffix=$suffix${XR_OBJECTS:+-body}
 for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
   if [ ! -f $work/$scene.vlf ]; then
     "$vlf" generate $(generate $scene) -o $work/$scene | quiet | tail -1
@@ -31,11 +34,12 @@ for scene in ${SCENES:-classroom-100k classroom-1m gallery}; do
   if [ -n "${XR_RUNTIME_LIBRARY:-}" ]; then
     manifest=$work/runtime.json
     printf '{"file_format_version": "1.0.0", "runtime": {"name": "vlf headless test runtime", "library_path": "%s"}}\n' "$(realpath "$XR_RUNTIME_LIBRARY")" > $manifest
-    XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene$suffix-runtime.txt \
-      "$vlf" xr --scene $work/$scene.vlf --frames 900 --fit-frame-time --json $work/xr-$scene$suffix.json 2>&1 | quiet | tee $work/xr-$scene$suffix.txt | tail -12
+    XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene$xr_suffix-runtime.txt \
+      "$vlf" xr --scene $work/$scene.vlf --frames 900 --fit-frame-time ${XR_OBJECTS:+--objects "$XR_OBJECTS"} \
+      --json $work/xr-$scene$xr_suffix.json 2>&1 | quiet | tee $work/xr-$scene$xr_suffix.txt | tail -12
     # the fallback beside it on the first walk's scene: a swapchain per eye (the default above
     # takes the array swapchain, one multiview pass where the device's multiview passes vlf's check)
-    if [ "$scene" = classroom-100k ]; then
+    if [ "$scene" = classroom-100k ] && [ -z "${XR_OBJECTS:-}" ]; then
       XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/xr-$scene$suffix-per-eye-runtime.txt \
         "$vlf" xr --scene $work/$scene.vlf --frames 900 --fit-frame-time --swapchains per-eye \
         --json $work/xr-$scene$suffix-per-eye.json 2>&1 | quiet | tee $work/xr-$scene$suffix-per-eye.txt | tail -12
