@@ -1052,6 +1052,19 @@ fn the_headset_draws_the_body_with_its_hands_on_the_controllers_grips() {
     let with = still_session("body", &["--objects", &body], &grips);
     let without = still_session("no-body", &[], &grips);
     assert!(without.report.get("body").is_none(), "{}", without.report);
+    // the moving objects' pass is timed in the headset's frames in flight (its pacer makes room
+    // for it) as a pass of its own: every eye keeps a time per timed frame
+    let frames = with.report["frames"].as_u64().unwrap();
+    let objects = &with.report["objects_gpu_ms"];
+    assert!(
+        objects["samples"].as_u64() == Some(frames) && objects["median"].as_f64() > Some(0.0),
+        "{}",
+        with.report
+    );
+    for eye in with.report["eyes"].as_array().unwrap() {
+        assert_eq!(eye["gpu_ms"]["samples"].as_u64(), Some(frames), "{eye}");
+    }
+    assert!(without.report["objects_gpu_ms"].is_null());
     assert!(
         with.stdout
             .contains("objects: body; left grip located in 6 frames, right grip in 6 of 6"),

@@ -67,6 +67,9 @@ pub struct XrReport {
     pub display_period_ms: f64,
     /// per eye: GPU time of the eye's render pass (timestamp queries)
     pub eyes: Vec<ViewTiming>,
+    /// per timed frame with moving objects: GPU time of their pass before the eyes (skin,
+    /// refit, their direct light, shadow atlas)
+    pub objects_gpu_ms: Option<Distribution>,
     /// CPU time from xrBeginFrame to xrEndFrame
     pub cpu_frame_ms: Option<Distribution>,
     /// frames the CPU may record before the GPU has drawn the previous ones
@@ -177,6 +180,12 @@ impl XrReport {
                     e.eye, e.pixels[0], e.pixels[1]
                 )),
             }
+        }
+        if let Some(d) = &self.objects_gpu_ms {
+            s.push_str(&format!(
+                "moving objects' pass before the eyes (skin, refit, direct light, shadow atlas), GPU: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n",
+                d.median, d.p99, d.max
+            ));
         }
         if let Some(c) = &self.cpu_frame_ms {
             s.push_str(&format!(

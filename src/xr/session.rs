@@ -594,6 +594,7 @@ impl LoopState {
             gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
             display_period_ms: display.period_ms.unwrap_or(self.period_ms),
             eyes,
+            objects_gpu_ms: headset.frame.times().objects_gpu_ms(),
             cpu_frame_ms: headset.frame.times().cpu_ms(),
             frames_in_flight: FRAMES_IN_FLIGHT as u32,
             overlapped_frames: in_flight.map_or(0, |f| f.overlapped),

@@ -5,7 +5,7 @@
 //! the report (`FrameTimes`), with the latency from a pose's arrival to its frame's submission
 //! and the time each frame took to encode and submit.
 
-use super::in_flight::InFlight;
+use super::in_flight::{DoneFrame, InFlight};
 use super::times::{FrameSeries, FrameTimes, Pass};
 use super::views::ViewLabel;
 use crate::error::Result;
@@ -82,13 +82,18 @@ impl Accounting {
                     Some(f) => f.begin(ctx)?,
                     None => Vec::new(),
                 };
-                for ms in done {
-                    self.push_views(&ms, pacer.as_deref_mut());
+                for frame in done {
+                    self.push_done(&frame, pacer.as_deref_mut());
                 }
                 self.in_flight().is_some() && timed
             }
         };
         Ok(())
+    }
+
+    /// Whether this frame writes timestamps (its passes are timed, for the pacer or the report).
+    pub fn stamped(&self) -> bool {
+        self.stamped
     }
 
     /// The queries of this frame's next passes (None when it is not stamped).
@@ -119,7 +124,7 @@ impl Accounting {
             true,
         ) = (&mut self.clock, self.stamped)
         {
-            f.resolve(encoder);
+            f.resolve(encoder, &self.passes);
         }
     }
 
@@ -176,21 +181,20 @@ impl Accounting {
             frames: Some(f), ..
         } = &mut self.clock
         {
-            for ms in f.finish(ctx)? {
-                self.push_views(&ms, pacer.as_deref_mut());
+            for frame in f.finish(ctx)? {
+                self.push_done(&frame, pacer.as_deref_mut());
             }
         }
         Ok(())
     }
 
-    /// A frame in flight's times, one pair per view, to the pacer and the report.
-    fn push_views(&mut self, ms: &[f64], pacer: Option<&mut Pacer>) {
+    /// A finished frame in flight's times (its views', and the moving objects' pass before
+    /// them) to the pacer and the report.
+    fn push_done(&mut self, frame: &DoneFrame, pacer: Option<&mut Pacer>) {
         if let Some(p) = pacer {
-            for (view, &m) in ms.iter().enumerate() {
-                p.observe(view, m);
-            }
+            pace(p, &frame.ms, &frame.passes);
         }
-        self.times.push_view_gpu(ms);
+        self.times.push_gpu(&frame.ms, &frame.passes);
     }
 
     /// The frames in flight's counts (overlapped, serial, waited for the GPU).

@@ -2,6 +2,7 @@
 //! the headset records frame N+1 while the GPU draws frame N (headless and windows wait for
 //! every frame instead, which is what their CPU+GPU frame time measures).
 
+use super::times::Pass;
 use crate::error::Result;
 use crate::gpu::{GpuContext, Timestamps};
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -11,12 +12,20 @@ const IDLE: u8 = 0;
 const PENDING: u8 = 1;
 const MAPPED: u8 = 2;
 
-/// One frame in flight: its timestamp queries and the buffer they come back in.
+/// One frame in flight: its timestamp queries, the buffer they come back in and what each pair
+/// timed.
 struct Slot {
     timestamps: Timestamps,
     readback: wgpu::Buffer,
     state: Arc<AtomicU8>,
     pairs: u32,
+    passes: Vec<Pass>,
+}
+
+/// A finished frame's GPU times: pair i's milliseconds, and what it timed.
+pub struct DoneFrame {
+    pub ms: Vec<f64>,
+    pub passes: Vec<Pass>,
 }
 
 /// GPU timestamps of frames in flight, read back without waiting for the GPU: each frame takes
@@ -34,7 +43,8 @@ pub struct InFlight {
 }
 
 impl InFlight {
-    /// None where the adapter has no timestamp queries.
+    /// `pairs_per_frame`: the most timestamp pairs one frame writes (its views and the moving
+    /// objects' pass). None where the adapter has no timestamp queries.
     pub fn new(ctx: &GpuContext, pairs_per_frame: u32, depth: usize) -> Option<InFlight> {
         let slots = (0..depth.max(1))
             .map(|_| {
@@ -50,6 +60,7 @@ impl InFlight {
                     readback,
                     state: Arc::new(AtomicU8::new(IDLE)),
                     pairs: 0,
+                    passes: Vec::new(),
                 })
             })
             .collect::<Option<Vec<_>>>()?;
@@ -64,7 +75,7 @@ impl InFlight {
 
     /// Start a frame: the times of the frames the GPU has finished, oldest first (this frame's
     /// queries are `timestamps`). Notes whether the previous frame was still on the GPU.
-    pub fn begin(&mut self, ctx: &GpuContext) -> Result<Vec<Vec<f64>>> {
+    pub fn begin(&mut self, ctx: &GpuContext) -> Result<Vec<DoneFrame>> {
         let _ = ctx.device.poll(wgpu::PollType::Poll);
         let previous = (self.next + self.slots.len() - 1) % self.slots.len();
         match self.slots[previous].state.load(Ordering::Acquire) {
@@ -85,10 +96,12 @@ impl InFlight {
         &mut self.slots[self.next].timestamps
     }
 
-    /// After the frame's last pass: copy its timestamps to the slot's read-back buffer.
-    pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder) {
+    /// After the frame's last pass: copy its timestamps to the slot's read-back buffer;
+    /// `passes[i]` says what pair i timed.
+    pub fn resolve(&mut self, encoder: &mut wgpu::CommandEncoder, passes: &[Pass]) {
         let slot = &mut self.slots[self.next];
         slot.pairs = slot.timestamps.resolve_into(encoder, &slot.readback);
+        slot.passes = passes.to_vec();
     }
 
     /// After the frame is submitted: ask for its timestamps, and move to the next slot.
@@ -107,7 +120,7 @@ impl InFlight {
     }
 
     /// The times of every frame still in flight, waiting for the GPU (at the end of a run).
-    pub fn finish(&mut self, ctx: &GpuContext) -> Result<Vec<Vec<f64>>> {
+    pub fn finish(&mut self, ctx: &GpuContext) -> Result<Vec<DoneFrame>> {
         while self
             .slots
             .iter()
@@ -119,7 +132,7 @@ impl InFlight {
     }
 
     /// Read every mapped slot, oldest first.
-    fn collect(&mut self, ctx: &GpuContext) -> Vec<Vec<f64>> {
+    fn collect(&mut self, ctx: &GpuContext) -> Vec<DoneFrame> {
         let n = self.slots.len();
         let mut done = Vec::new();
         for k in 0..n {
@@ -131,11 +144,12 @@ impl InFlight {
             if let Ok(bytes) = range.get_mapped_range() {
                 let ticks: &[u64] = bytemuck::cast_slice(&bytes);
                 let period = ctx.timestamp_period_ns as f64 * 1e-6;
-                done.push(
-                    (ticks.chunks(2))
+                done.push(DoneFrame {
+                    ms: (ticks.chunks(2))
                         .map(|p| p[1].wrapping_sub(p[0]) as f64 * period)
                         .collect(),
-                );
+                    passes: std::mem::take(&mut slot.passes),
+                });
             }
             slot.readback.unmap();
             slot.state.store(IDLE, Ordering::Release);

@@ -235,7 +235,8 @@ impl<'a> FrameOfViews<'a> {
         let (labels, targets): (Vec<ViewLabel>, Vec<ViewTargets>) = views.into_iter().unzip();
         let clock = Clock::InFlight {
             depth: frames_in_flight,
-            frames: InFlight::new(ctx, labels.len() as u32, frames_in_flight),
+            // a pair per eye and one for the moving objects' pass
+            frames: InFlight::new(ctx, labels.len() as u32 + 1, frames_in_flight),
         };
         FrameOfViews {
             ctx: ctx.clone(),
@@ -407,13 +408,14 @@ impl<'a> FrameOfViews<'a> {
         }
     }
 
-    /// Pose the moving objects where `poses` and the object time put them; `timed`: its GPU
-    /// time counts in the frame's.
-    fn pose_objects(&mut self, poses: &Poses<'_>, timed: bool) {
+    /// Pose the moving objects where `poses` and the object time put them; `in_frame`: as the
+    /// first pass of a frame being drawn, timed whenever the frame is (the pacer makes room for
+    /// it from the first paced frame, the report counts it in timed ones).
+    fn pose_objects(&mut self, poses: &Poses<'_>, in_frame: bool) {
         let tracked = self.tracked(poses);
         if let (Some(objects), Some(tracked)) = (&self.objects, tracked) {
             let joints = objects.joint_matrices(&tracked);
-            let timestamps = match timed {
+            let timestamps = match in_frame && self.acc.stamped() {
                 true => {
                     self.acc.pass(Pass::Objects);
                     self.acc.timestamps()
@@ -518,7 +520,7 @@ impl<'a> FrameOfViews<'a> {
         let count = self.labels().len();
         let mut submission = None;
         self.drawn.clear();
-        self.pose_objects(&poses, draw == Draw::Timed);
+        self.pose_objects(&poses, true);
         for i in 0..count {
             if let Some(p) = &self.pacer {
                 self.renderer.set_pacing(p.setting(i));

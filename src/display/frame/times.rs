@@ -187,12 +187,6 @@ impl FrameTimes {
         }
     }
 
-    /// One frame's timestamp pairs when each view has exactly one, in view order.
-    pub fn push_view_gpu(&mut self, ms: &[f64]) {
-        let passes: Vec<Pass> = (0..self.labels.len()).map(Pass::View).collect();
-        self.push_gpu(ms, &passes);
-    }
-
     pub fn push_cpu(&mut self, ms: f64) {
         self.cpu.push(ms);
     }
