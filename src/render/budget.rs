@@ -109,6 +109,10 @@ pub struct BudgetFit {
     pub view_pixels: Vec<u64>,
     /// "GPU timestamps" or "wall clock" (an adapter without timestamp queries)
     pub timed_by: &'static str,
+    /// the moving objects' pass before the views, as posed at the fit: the least of its timed
+    /// rounds (None: no moving objects, or no timestamps); the pacer's first reserve
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub objects_gpu_ms: Option<f64>,
 }
 
 impl BudgetFit {
@@ -120,8 +124,11 @@ impl BudgetFit {
                 format!("{n}/{b} {:.2} ms", p.frame_gpu_ms)
             })
             .collect();
+        let objects = (self.objects_gpu_ms).map_or(String::new(), |ms| {
+            format!(", the moving objects' pass {ms:.2} ms")
+        });
         format!(
-            "frame time fit: budget {:.2} ms x {:.2} headroom; probed (eye rays/reflections) {}; {} {} reflection(s), {} to {} eye rays per pixel by tile",
+            "frame time fit: budget {:.2} ms x {:.2} headroom; probed (eye rays/reflections) {}{objects}; {} {} reflection(s), {} to {} eye rays per pixel by tile",
             self.budget_ms,
             self.headroom,
             tried.join(", "),
@@ -266,6 +273,7 @@ impl Renderer {
             view_pixels: (views.iter())
                 .map(|v| v.size[0] as u64 * v.size[1] as u64)
                 .collect(),
+            objects_gpu_ms: None,
             timed_by: if timestamps {
                 "GPU timestamps"
             } else {
@@ -369,10 +377,12 @@ pub struct Pacer {
     /// the GPU time the views and the work before them are held at, and each view's share of it
     held_ms: f64,
     share: Vec<f64>,
-    /// what the work before the views takes of the held time (`observe_before_views`), and
-    /// the least it takes (`RESERVE_FIRST_FACTOR` times the work's first time)
+    /// what the work before the views takes of the held time (`observe_before_views`), the
+    /// least it takes (`RESERVE_FIRST_FACTOR` times the work's first time), and the frames
+    /// left that make that least (none where the fit probed the work)
     reserved_ms: f64,
     reserved_floor_ms: f64,
+    first_frames_left: usize,
     /// the GPU time one more eye ray per pixel adds to a view, as probed
     per_ray_ms: Vec<f64>,
     low: Vec<u32>,
@@ -450,6 +460,7 @@ impl Pacer {
             share,
             reserved_ms: 0.0,
             reserved_floor_ms: 0.0,
+            first_frames_left: RESERVE_FIRST_FRAMES,
             reserved_history: Vec::new(),
             per_ray_ms,
             low: vec![fit.low; views],
@@ -457,6 +468,17 @@ impl Pacer {
             history: vec![Vec::new(); views],
             gain: PACER_GAIN,
             max_samples: PACED_MAX_SAMPLES,
+        })
+        .map(|mut pacer| {
+            // the moving objects' pass as the fit probed it makes the first reserve: the views
+            // are held from the first frame where they stay (the first frames' own times, GPU
+            // clocks still rising, would make too large a one)
+            if let Some(ms) = fit.objects_gpu_ms {
+                pacer.reserved_floor_ms = ms * RESERVE_FIRST_FACTOR;
+                pacer.first_frames_left = 0;
+                pacer.set_reserve(pacer.reserved_floor_ms);
+            }
+            pacer
         })
     }
 
@@ -508,16 +530,22 @@ impl Pacer {
     /// reserve.
     pub fn observe_before_views(&mut self, gpu_ms: f64) {
         let first = gpu_ms * RESERVE_FIRST_FACTOR;
-        let peak = match self.reserved_history.len() {
-            0 => first,
-            n if n < RESERVE_FIRST_FRAMES => self.reserved_floor_ms.min(first),
-            _ => (gpu_ms.max(self.reserved_ms * RESERVE_DECAY)).max(self.reserved_floor_ms),
+        let peak = match self.first_frames_left {
+            RESERVE_FIRST_FRAMES => first,
+            0 => (gpu_ms.max(self.reserved_ms * RESERVE_DECAY)).max(self.reserved_floor_ms),
+            _ => self.reserved_floor_ms.min(first),
         };
-        if self.reserved_history.len() < RESERVE_FIRST_FRAMES {
+        if self.first_frames_left > 0 {
             self.reserved_floor_ms = peak;
+            self.first_frames_left -= 1;
         }
-        self.reserved_ms = peak.min(self.held_ms * RESERVE_MAX);
+        self.set_reserve(peak);
         self.reserved_history.push(self.reserved_ms as f32);
+    }
+
+    /// The views' targets share the held time less `reserved_ms` (at most RESERVE_MAX of it).
+    fn set_reserve(&mut self, reserved_ms: f64) {
+        self.reserved_ms = reserved_ms.min(self.held_ms * RESERVE_MAX);
         let left = self.held_ms - self.reserved_ms;
         for (target, share) in self.target_ms.iter_mut().zip(&self.share) {
             *target = left * share;
@@ -561,6 +589,7 @@ mod tests {
             fits: true,
             view_pixels: vec![100, 100],
             timed_by: "GPU timestamps",
+            objects_gpu_ms: None,
         }
     }
 
@@ -601,6 +630,20 @@ mod tests {
         let reserved = pacer.report().reserved_ms.unwrap();
         assert!((reserved.max - held * RESERVE_MAX).abs() < 1e-5);
         assert!((reserved.median - first).abs() < 1e-5);
+        // probed at the fit, the work's first reserve holds the views from the first frame
+        let probed = BudgetFit {
+            objects_gpu_ms: Some(0.4),
+            ..fit()
+        };
+        let mut pacer = Pacer::from_fit(&probed).unwrap();
+        let first = 0.4 * RESERVE_FIRST_FACTOR;
+        assert!((total(&pacer) - (held - first)).abs() < 1e-9);
+        pacer.observe_before_views(3.0);
+        assert!((total(&pacer) - (held - 3.0)).abs() < 1e-9);
+        for _ in 0..10_000 {
+            pacer.observe_before_views(0.1);
+        }
+        assert!((total(&pacer) - (held - first)).abs() < 1e-9);
         // without the work, no reserve in the report
         let mut plain = Pacer::from_fit(&fit()).unwrap();
         (0..2).for_each(|v| plain.observe(v, 3.0));

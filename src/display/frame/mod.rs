@@ -28,7 +28,7 @@ use super::post::{Draw, Outputs, WandOverlay};
 use super::DisplayConfig;
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
-use crate::gpu::{GpuContext, MemoryLedger};
+use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
 use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
@@ -42,6 +42,9 @@ use glam::{Mat4, Vec3};
 use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
+
+/// Rounds of the moving objects' pass timed at the fit (`probe_objects`), the first a warm-up.
+const OBJECT_PROBE_ROUNDS: u32 = 6;
 
 /// Where a frame's views look from.
 #[derive(Clone, Copy)]
@@ -426,6 +429,24 @@ impl<'a> FrameOfViews<'a> {
         }
     }
 
+    /// The moving objects' pass posed from `poses`, timed `OBJECT_PROBE_ROUNDS` times (the first
+    /// a warm-up): its least time, the pacer's first reserve for it. None without objects or
+    /// timestamps.
+    fn probe_objects(&mut self, poses: &Poses<'_>) -> Result<Option<f64>> {
+        let (Some(objects), Some(tracked)) = (&self.objects, self.tracked(poses)) else {
+            return Ok(None);
+        };
+        let joints = objects.joint_matrices(&tracked);
+        let Some(mut timestamps) = Timestamps::new(&self.ctx, OBJECT_PROBE_ROUNDS) else {
+            return Ok(None);
+        };
+        for _ in 0..OBJECT_PROBE_ROUNDS {
+            self.renderer.pose_objects(&joints, Some(&mut timestamps));
+        }
+        let ms = timestamps.read_ms(&self.ctx)?;
+        Ok(ms.into_iter().skip(1).reduce(f64::min))
+    }
+
     /// Probe the views seen from `poses` (`render/budget.rs`) against `budget_ms`, keep the
     /// settings chosen, and pace every frame after it; with frames in flight their times come
     /// back that many frames late, so the pacer steps less (`Pacer::lagged`).
@@ -457,7 +478,8 @@ impl<'a> FrameOfViews<'a> {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
-        let fit = self.renderer.fit_frame_time(&probes, budget_ms)?;
+        let mut fit = self.renderer.fit_frame_time(&probes, budget_ms)?;
+        fit.objects_gpu_ms = self.probe_objects(poses)?;
         let lag = self.acc.lag() as u32;
         let most = self.renderer.paced_max_samples();
         self.pacer = Pacer::from_fit(&fit).map(|p| p.capped(most)).map(|p| {
