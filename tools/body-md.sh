@@ -55,8 +55,13 @@ if os.path.exists(ident):
     print(f"- The documents' GPU pictures made by both builds: {same} of {len([l for l in lines if l])} byte-identical (`pics-identity.txt`).")
 print("- The moving objects' pass is their GPU time per frame before the views: skinning, triangles, "
       "refit, and where made once per frame the vertices' direct light and the shadow atlas.")
+probed = any("objects_gpu_ms" in (json.load(open(p)).get("fit") or {})
+             for p in glob.glob(os.path.join(d, "cave-*.json")))
+reserve = ("by the pacer's reserve, made at the fit from the pass as probed (each report's fit "
+           "line) and raised by its sustained peaks" if probed else
+           "(the pacer's reserve follows its peaks), so a view's time moves as that pass's peaks do")
 print("- Limits (120 Hz): every view's GPU p99/p50 <= 1.10, frame max <= 8.33 ms. Paced, the views "
-      "make room for the moving objects' pass (the pacer's reserve follows its peaks), so a view's "
-      "time moves as that pass's peaks do; see docs/guide/objects.md, \"What it costs\".")
+      f"make room for the moving objects' pass {reserve}; see docs/guide/objects.md, "
+      "\"What it costs\".")
 print()
 PY
