@@ -74,6 +74,7 @@ fn quick_suite_runs_and_reports_every_scene() {
     let again = vlf::lab::suite::SuiteReport::load(&json).unwrap();
     assert_eq!(again.markdown(), report.markdown());
     let md = report.markdown();
+    println!("{md}");
     assert!(
         md.contains("### Targets") && md.contains("Atenea") && md.contains(&report.adapter.name)
     );

@@ -65,6 +65,15 @@ pub struct SuiteReport {
     /// least-squares slope of log(iteration GPU time) against log(elements x directions)
     pub cost_slope: Option<f64>,
     pub targets: Vec<Target>,
+    /// eye rays per pixel of the render timings: the real-time default, 1 in a quick run (a
+    /// software adapter draws about half a million eye rays a second)
+    #[serde(default = "realtime_eye_rays")]
+    pub eye_rays_per_pixel: u32,
+}
+
+/// Reports from before `eye_rays_per_pixel` was written rendered at the real-time default.
+fn realtime_eye_rays() -> u32 {
+    crate::render::REALTIME_SAMPLES
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -304,12 +313,18 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
     views
 }
 
-fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntry> {
+/// One case: propagated, and where it is rendered, `frames` timed frames of each kind at
+/// `eye_rays` per pixel.
+fn run_case(
+    ctx: &Arc<GpuContext>,
+    case: &Case,
+    (frames, eye_rays): (u32, u32),
+) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) =
         crate::propagate::propagate(ctx.clone(), &scene, &case.params, &Silent)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
-        let (a, b, c) = time_rendering(ctx, &lf, &resident, frames)?;
+        let (a, b, c) = time_rendering(ctx, (&lf, &resident), frames, eye_rays)?;
         (Some(a), Some(b), Some(c))
     } else {
         (None, None, None)
@@ -353,14 +368,19 @@ fn run_case(ctx: &Arc<GpuContext>, case: &Case, frames: u32) -> Result<SuiteEntr
     })
 }
 
-/// Render time per view at 1024x768 and 1920x1080, and one 8-view CAVE frame.
+/// Render time per view at 1024x768 and 1920x1080, and one 8-view CAVE frame, at `eye_rays`
+/// per pixel.
 fn time_rendering(
     ctx: &Arc<GpuContext>,
-    lf: &crate::lightfield::LightField,
-    resident: &crate::lightfield::ResidentLightField,
+    (lf, resident): (
+        &crate::lightfield::LightField,
+        &crate::lightfield::ResidentLightField,
+    ),
     frames: u32,
+    eye_rays: u32,
 ) -> Result<(Distribution, Distribution, Distribution)> {
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
+    renderer.set_samples_per_pixel(eye_rays)?;
     let camera = lf.camera(None)?.clone();
     // warm-up frames: no more than are measured (a quick run on a software adapter measures one)
     let warm_up = frames.clamp(1, 5);
@@ -426,11 +446,15 @@ pub fn run(
 ) -> Result<SuiteReport> {
     let peak = peak_bandwidth(&ctx.summary.name);
     let cases = cases(root, work, quick)?;
+    let eye_rays = match quick {
+        true => 1,
+        false => crate::render::REALTIME_SAMPLES,
+    };
     progress.begin(cases.len() as u64, "cases", "");
     let mut entries = Vec::new();
     for (i, case) in cases.iter().enumerate() {
         progress.advance_to(i as u64, &case.name);
-        entries.push(run_case(&ctx, case, frames)?);
+        entries.push(run_case(&ctx, case, (frames, eye_rays))?);
     }
     progress.finish();
     // cost per iteration against elements x directions, over the scaling runs
@@ -455,6 +479,7 @@ pub fn run(
         entries,
         cost_slope,
         targets,
+        eye_rays_per_pixel: eye_rays,
     })
 }
 
@@ -544,9 +569,10 @@ impl SuiteReport {
         };
         let a = &self.adapter;
         let mut s = format!(
-            "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries.\n\n",
+            "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries; views drawn at {} eye ray(s) per pixel.\n\n",
             self.date_utc,
-            crate::lab::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a)
+            crate::lab::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a),
+            self.eye_rays_per_pixel
         );
         s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
