@@ -6,7 +6,6 @@
 mod common;
 use common::*;
 use vlf::lab::generate::{generate, GenerateOptions, SceneKind};
-use vlf::progress::Silent;
 
 #[test]
 fn generated_scenes_have_about_the_asked_size_and_load() {
@@ -54,11 +53,31 @@ fn generated_scenes_have_about_the_asked_size_and_load() {
     }
 }
 
+/// Prints how long each case took (the test's output, where its time goes).
+#[derive(Default)]
+struct CaseTimes(std::sync::Mutex<Option<(std::time::Instant, String)>>);
+
+impl vlf::progress::Progress for CaseTimes {
+    fn begin(&self, _total: u64, _unit: &str, _message: &str) {}
+    fn advance_to(&self, _done: u64, message: &str) {
+        let mut last = self.0.lock().unwrap();
+        if let Some((started, case)) = last.take() {
+            println!("{:7.1} s  {case}", started.elapsed().as_secs_f64());
+        }
+        *last = Some((std::time::Instant::now(), message.to_string()));
+    }
+    fn note(&self, _line: &str) {}
+    fn finish(&self) {
+        self.advance_to(0, "");
+    }
+}
+
 #[test]
 fn quick_suite_runs_and_reports_every_scene() {
     let dir = tempfile::tempdir().unwrap();
     let root = repo_path("");
-    let report = vlf::lab::suite::run(gpu(), &root, dir.path(), true, 1, &Silent).unwrap();
+    let report =
+        vlf::lab::suite::run(gpu(), &root, dir.path(), true, 1, &CaseTimes::default()).unwrap();
     let names: Vec<&str> = report.entries.iter().map(|e| e.name.as_str()).collect();
     println!("{names:?}");
     assert!(names.len() >= 10, "{names:?}");
@@ -69,6 +88,11 @@ fn quick_suite_runs_and_reports_every_scene() {
     assert!(report.entries.iter().any(|e| e.non_diffuse_elements > 0));
     assert!(report.cost_slope.is_some_and(|s| s.is_finite()));
     assert_eq!(report.targets.len(), 5);
+    // quick: the views drawn small at 1 eye ray per pixel, and the report says so
+    assert_eq!(
+        (report.views.eye_rays_per_pixel, report.views.size_divisor),
+        (1, 4)
+    );
     let json = dir.path().join("suite.json");
     std::fs::write(&json, serde_json::to_string_pretty(&report).unwrap()).unwrap();
     let again = vlf::lab::suite::SuiteReport::load(&json).unwrap();
@@ -76,7 +100,10 @@ fn quick_suite_runs_and_reports_every_scene() {
     let md = report.markdown();
     println!("{md}");
     assert!(
-        md.contains("### Targets") && md.contains("Atenea") && md.contains(&report.adapter.name)
+        md.contains("### Targets")
+            && md.contains("Atenea")
+            && md.contains(&report.adapter.name)
+            && md.contains("1 eye ray(s) per pixel and 1/4 of each side")
     );
     let chart = dir.path().join("suite.png");
     report.plot(&chart).unwrap();

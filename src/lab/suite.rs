@@ -65,15 +65,58 @@ pub struct SuiteReport {
     /// least-squares slope of log(iteration GPU time) against log(elements x directions)
     pub cost_slope: Option<f64>,
     pub targets: Vec<Target>,
-    /// eye rays per pixel of the render timings: the real-time default, 1 in a quick run (a
-    /// software adapter draws about half a million eye rays a second)
-    #[serde(default = "realtime_eye_rays")]
-    pub eye_rays_per_pixel: u32,
+    /// how the render timings drew their views (reports from before it was written: at the
+    /// real-time default, full size)
+    #[serde(default)]
+    pub views: ViewTiming,
 }
 
-/// Reports from before `eye_rays_per_pixel` was written rendered at the real-time default.
-fn realtime_eye_rays() -> u32 {
-    crate::render::REALTIME_SAMPLES
+/// How the suite draws the views it times. A quick run (a software adapter draws about half a
+/// million eye rays a second) takes 1 eye ray per pixel and a quarter of each side of the sizes
+/// named (1024x768 drawn as 256x192): it checks that every view is drawn, not how fast.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ViewTiming {
+    pub eye_rays_per_pixel: u32,
+    /// each side of a view is drawn at 1 / this of the size its column names
+    pub size_divisor: u32,
+}
+
+impl Default for ViewTiming {
+    fn default() -> Self {
+        ViewTiming {
+            eye_rays_per_pixel: crate::render::REALTIME_SAMPLES,
+            size_divisor: 1,
+        }
+    }
+}
+
+impl ViewTiming {
+    fn quick() -> Self {
+        ViewTiming {
+            eye_rays_per_pixel: 1,
+            size_divisor: 4,
+        }
+    }
+
+    /// `[w, h]` as drawn.
+    fn size(&self, w: u32, h: u32) -> (u32, u32) {
+        (w / self.size_divisor, h / self.size_divisor)
+    }
+
+    /// The report's words for it.
+    fn words(&self) -> String {
+        let mut s = format!(
+            "views drawn at {} eye ray(s) per pixel",
+            self.eye_rays_per_pixel
+        );
+        if self.size_divisor > 1 {
+            s += &format!(
+                " and 1/{} of each side of the sizes named (a quick run: that every view is drawn, not how fast)",
+                self.size_divisor
+            );
+        }
+        s
+    }
 }
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -313,18 +356,18 @@ fn cave_views(camera: &Camera) -> Vec<Camera> {
     views
 }
 
-/// One case: propagated, and where it is rendered, `frames` timed frames of each kind at
-/// `eye_rays` per pixel.
+/// One case: propagated, and where it is rendered, `frames` timed frames of each kind drawn as
+/// `views` says.
 fn run_case(
     ctx: &Arc<GpuContext>,
     case: &Case,
-    (frames, eye_rays): (u32, u32),
+    (frames, views): (u32, ViewTiming),
 ) -> Result<SuiteEntry> {
     let scene = Scene::load(&case.scene)?;
     let (lf, resident, report) =
         crate::propagate::propagate(ctx.clone(), &scene, &case.params, &Silent)?;
     let (render_1024x768_ms, render_1920x1080_ms, cave_frame_ms) = if case.render {
-        let (a, b, c) = time_rendering(ctx, (&lf, &resident), frames, eye_rays)?;
+        let (a, b, c) = time_rendering(ctx, (&lf, &resident), frames, views)?;
         (Some(a), Some(b), Some(c))
     } else {
         (None, None, None)
@@ -368,8 +411,8 @@ fn run_case(
     })
 }
 
-/// Render time per view at 1024x768 and 1920x1080, and one 8-view CAVE frame, at `eye_rays`
-/// per pixel.
+/// Render time per view at 1024x768 and 1920x1080, and one 8-view CAVE frame, drawn as `timing`
+/// says.
 fn time_rendering(
     ctx: &Arc<GpuContext>,
     (lf, resident): (
@@ -377,14 +420,15 @@ fn time_rendering(
         &crate::lightfield::ResidentLightField,
     ),
     frames: u32,
-    eye_rays: u32,
+    timing: ViewTiming,
 ) -> Result<(Distribution, Distribution, Distribution)> {
     let mut renderer = Renderer::new(resident, lf, &MemoryLedger::default())?;
-    renderer.set_samples_per_pixel(eye_rays)?;
+    renderer.set_samples_per_pixel(timing.eye_rays_per_pixel)?;
     let camera = lf.camera(None)?.clone();
     // warm-up frames: no more than are measured (a quick run on a software adapter measures one)
     let warm_up = frames.clamp(1, 5);
     let mut time = |w: u32, h: u32| -> Result<Distribution> {
+        let (w, h) = timing.size(w, h);
         renderer.time_frames(&camera, w, h, warm_up)?;
         Ok(Distribution::of(
             &renderer.time_frames(&camera, w, h, frames)?.0,
@@ -393,14 +437,15 @@ fn time_rendering(
     let render_1024x768_ms = time(1024, 768)?;
     let render_1920x1080_ms = time(1920, 1080)?;
     let views = cave_views(&camera);
+    let (w, h) = timing.size(1920, 1200);
     let mut cave = Vec::new();
     for _ in 0..frames.min(60) {
         let mut ts = Timestamps::new(ctx, views.len() as u32);
         let started = std::time::Instant::now();
         for v in &views {
-            let vp = crate::render::view_projection(v, &lf.meta.normalisation, 1920, 1200);
+            let vp = crate::render::view_projection(v, &lf.meta.normalisation, w, h);
             let eye = lf.meta.normalisation.to_unit(v.eye).as_vec3();
-            renderer.submit_matrix(vp, eye, 1920, 1200, ts.as_mut());
+            renderer.submit_matrix(vp, eye, w, h, ts.as_mut());
         }
         ctx.wait()?;
         cave.push(match ts.as_mut() {
@@ -446,15 +491,15 @@ pub fn run(
 ) -> Result<SuiteReport> {
     let peak = peak_bandwidth(&ctx.summary.name);
     let cases = cases(root, work, quick)?;
-    let eye_rays = match quick {
-        true => 1,
-        false => crate::render::REALTIME_SAMPLES,
+    let views = match quick {
+        true => ViewTiming::quick(),
+        false => ViewTiming::default(),
     };
     progress.begin(cases.len() as u64, "cases", "");
     let mut entries = Vec::new();
     for (i, case) in cases.iter().enumerate() {
         progress.advance_to(i as u64, &case.name);
-        entries.push(run_case(&ctx, case, (frames, eye_rays))?);
+        entries.push(run_case(&ctx, case, (frames, views))?);
     }
     progress.finish();
     // cost per iteration against elements x directions, over the scaling runs
@@ -479,7 +524,7 @@ pub fn run(
         entries,
         cost_slope,
         targets,
-        eye_rays_per_pixel: eye_rays,
+        views,
     })
 }
 
@@ -569,10 +614,10 @@ impl SuiteReport {
         };
         let a = &self.adapter;
         let mut s = format!(
-            "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries; views drawn at {} eye ray(s) per pixel.\n\n",
+            "## Benchmark suite — {}\n\n{}. Scenes from `vlf generate` (classroom: rows of desks and chairs, windows to the sky; gallery: geodesic sculptures, mirrors along both walls). Times in seconds unless marked; GPU times from timestamp queries; {}.\n\n",
             self.date_utc,
             crate::lab::bench::measured_by("vlf bench --suite", &self.vlf_version, self.commit.as_deref(), &self.date_utc, a),
-            self.eye_rays_per_pixel
+            self.views.words()
         );
         s.push_str("| scene | settings | triangles | faces | elements (diffuse + mirror) | batches | setup | visibility | iteration GPU (ms) | iterations | total | samples/s | traffic (model) | 1024x768 (ms) | 1920x1080 (ms) | 8-view CAVE (ms) | memory propagating / rendering |\n");
         s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
