@@ -607,11 +607,12 @@ fn a_scripted_left_hand_is_logged_and_replayed_on_the_avatar() {
              lower_left = [-0.3, 1.0, 0.0]\nlower_right = [0.3, 1.0, 0.0]\n\
              upper_left = [-0.3, 1.45, 0.0]\npixels = [64, 48]\n\
              output = {{ monitor = 0, window = [100, 100] }}\n\
-             [[object]]\nname = \"body\"\nkind = \"avatar\"\nmesh = {:?}\nscale = 0.7\n{LIGHT_PROBES}",
+             [[object]]\nname = \"body\"\nkind = \"avatar\"\nmesh = {:?}\nscale = 0.7\n{}",
             walk.display().to_string(),
             repo_path("assets/avatar/mannequin.glb")
                 .display()
-                .to_string()
+                .to_string(),
+            light_probes()
         ),
     )
     .unwrap();
@@ -691,8 +692,9 @@ fn a_scripted_target_is_logged_and_replayed_with_its_object() {
              lower_left = [-0.3, 1.0, 0.0]\nlower_right = [0.3, 1.0, 0.0]\n\
              upper_left = [-0.3, 1.45, 0.0]\npixels = [64, 48]\n\
              output = {{ monitor = 0, window = [100, 100] }}\n\
-             [[object]]\nname = \"cube\"\nmesh = \"cube.obj\"\nfollow = \"target\"\ntarget = \"cube\"\nscale = 2.5\n{LIGHT_PROBES}",
+             [[object]]\nname = \"cube\"\nmesh = \"cube.obj\"\nfollow = \"target\"\ntarget = \"cube\"\nscale = 2.5\n{}",
             walk.display().to_string(),
+            light_probes()
         ),
     )
     .unwrap();
@@ -756,11 +758,10 @@ const CUBE_OBJ: &str = "v -0.1 -0.1 -0.1\nv 0.1 -0.1 -0.1\nv 0.1 0.1 -0.1\nv -0.
 v -0.1 -0.1 0.1\nv 0.1 -0.1 0.1\nv 0.1 0.1 0.1\nv -0.1 0.1 0.1\n\
 f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\nf 4 7 3\nf 4 8 7\nf 1 5 8\nf 1 8 4\nf 2 3 7\nf 2 7 6\n";
 
-/// Light probes for the tests' moving objects: 6 along the box's side with 256 rays each. The
-/// default (24 with 1,024 rays, 14 million rays through the light field) takes about 25 s to
-/// bake on a software adapter, in every process that draws objects; what these tests check
-/// (logging, replay, poses) does not depend on how finely the objects are lit.
-const LIGHT_PROBES: &str = "[object_lighting]\nprobe_resolution = 6\nprobe_rays = 256\n";
+/// The tests' displays light their objects with few probes (`common::LIGHT_PROBE_KEYS`).
+fn light_probes() -> String {
+    format!("[object_lighting]\n{}", common::LIGHT_PROBE_KEYS)
+}
 
 /// A one-wall display (64x48 pixels, 10 Hz, static head looking into the Cornell box) with
 /// `objects` (TOML), in `dir`; the cube's mesh beside it.
@@ -774,7 +775,8 @@ fn small_display(dir: &std::path::Path, objects: &str) -> std::path::PathBuf {
              [tracking]\nsource = \"static\"\nhead = [0.0, 1.2, 0.3]\n[[wall]]\nname = \"front\"\n\
              lower_left = [-0.3, 1.0, 0.0]\nlower_right = [0.3, 1.0, 0.0]\n\
              upper_left = [-0.3, 1.45, 0.0]\npixels = [64, 48]\n\
-             output = {{ monitor = 0, window = [100, 100] }}\n{objects}{LIGHT_PROBES}"
+             output = {{ monitor = 0, window = [100, 100] }}\n{objects}{}",
+            light_probes()
         ),
     )
     .unwrap();

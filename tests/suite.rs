@@ -68,7 +68,9 @@ impl vlf::progress::Progress for CaseTimes {
     }
     fn note(&self, _line: &str) {}
     fn finish(&self) {
-        self.advance_to(0, "");
+        if let Some((started, case)) = self.0.lock().unwrap().take() {
+            println!("{:7.1} s  {case}", started.elapsed().as_secs_f64());
+        }
     }
 }
 

@@ -4,6 +4,8 @@
 //! runtime XR_RUNTIME_JSON names, such as Monado or SteamVR (on the test runtime when the variable
 //! is unset: it always runs).
 
+mod common;
+
 use glam::{Mat4, Vec3, Vec4};
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -923,32 +925,35 @@ fn a_runtime_refusing_array_swapchains_gets_one_per_eye_and_the_report_says_why(
     );
 }
 
-/// The shipped headset body (config/headset/body.toml).
-fn shipped_headset_body() -> &'static str {
-    concat!(env!("CARGO_MANIFEST_DIR"), "/config/headset/body.toml")
+/// The shipped headset body (config/headset/body.toml) as text, its mesh's path made absolute
+/// (for copies written elsewhere).
+fn shipped_headset_body_text() -> String {
+    std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/config/headset/body.toml"
+    ))
+    .unwrap()
+    .replace(
+        "../../assets",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/assets"),
+    )
 }
 
-/// The shipped headset body with lighter light probes (6 along the box's side, 256 rays each),
-/// written once: the default probes (24 with 1,024 rays) take about 25 s to bake on a software
-/// adapter in every session, and what these tests check (the hands on the grips, the arm
-/// hanging, logging and replay) does not depend on how finely the body is lit.
+/// The shipped headset body with few light probes (`common::LIGHT_PROBE_KEYS`), written once:
+/// what these tests check (the hands on the grips, the arm hanging, logging and replay) does not
+/// depend on how finely the body is lit.
 fn headset_body() -> String {
     static BODY: OnceLock<PathBuf> = OnceLock::new();
     let path = BODY.get_or_init(|| {
         let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-lighter-body");
         std::fs::create_dir_all(&dir).unwrap();
-        let text = std::fs::read_to_string(shipped_headset_body())
-            .unwrap()
-            .replace(
-                "../../assets",
-                concat!(env!("CARGO_MANIFEST_DIR"), "/assets"),
-            );
+        let text = shipped_headset_body_text();
         assert!(
             text.trim_end().ends_with("sky_shadow_samples = 2"),
             "config/headset/body.toml no longer ends with its [object_lighting] table: {text}"
         );
         let path = dir.join("body.toml");
-        std::fs::write(&path, text + "probe_resolution = 6\nprobe_rays = 256\n").unwrap();
+        std::fs::write(&path, text + common::LIGHT_PROBE_KEYS).unwrap();
         path
     });
     path.display().to_string()
@@ -1193,12 +1198,7 @@ fn a_bad_key_in_the_objects_file_is_named_before_any_runtime_starts() {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-bad-objects");
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("body.toml");
-    let text = std::fs::read_to_string(shipped_headset_body())
-        .unwrap()
-        .replace(
-            "../../assets",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/assets"),
-        );
+    let text = shipped_headset_body_text();
     for (bad, needle) in [
         (text.replace("scale = 1.0", "scael = 1.0"), "scael"),
         (
