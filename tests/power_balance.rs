@@ -16,11 +16,11 @@ use vlf::scene::Scene;
 
 fn params(mirror_direct: bool) -> PropagationParams {
     PropagationParams {
-        geodesic_frequency: 8,
+        geodesic_frequency: 6,
         grid_resolution: 64,
         tile_size: 8,
         texel_density: 16.0,
-        tolerance: 1e-4,
+        tolerance: 1e-3,
         max_iterations: 100,
         perturb: 1,
         accelerate: true,

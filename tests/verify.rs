@@ -31,13 +31,16 @@ fn verify(dir: &std::path::Path, extra: &[&str]) -> (String, serde_json::Value) 
 #[test]
 fn verify_checks_every_camera_against_the_path_tracer_with_error_maps() {
     let dir = tempfile::tempdir().unwrap();
-    let (table, json) = verify(dir.path(), &[]);
+    // draft settings: what is checked here is the command (figures, noise, maps, a verdict that
+    // follows the figures), not the light field's accuracy (tests/mitsuba.rs): the software
+    // preset's propagation would take 45 of the test's 64 s on lavapipe
+    let (table, json) = verify(dir.path(), &["--quality", "draft"]);
     println!("{table}");
     let views = json["views"].as_array().unwrap();
     assert_eq!(views.len(), 1, "Cornell has one camera");
     let v = &views[0];
     assert_eq!(v["camera"], "front");
-    // the software preset's light field is close to the path tracer on average
+    // a draft light field is still close to the path tracer on average
     let ratio = v["mean_ratio"].as_f64().unwrap();
     assert!((ratio - 1.0).abs() < 0.03, "mean ratio {ratio}");
     let noise = v["reference_noise_display_mse"].as_f64().unwrap();
@@ -52,9 +55,20 @@ fn verify_checks_every_camera_against_the_path_tracer_with_error_maps() {
         table.contains("mean ratio") && table.contains("targets:"),
         "{table}"
     );
-    let verdict = table.contains("front: within every target")
-        || table.contains("front: THE LIGHT FIELD IS OFF");
-    assert!(verdict, "no verdict in words:\n{table}");
+    // the verdict follows the figures against the targets the table states
+    let display_mse = v["comparison"]["display_mse"].as_f64().unwrap();
+    let rel_mse = v["comparison"]["rel_mse"].as_f64().unwrap();
+    let off = (ratio - 1.0).abs() > 0.01 || display_mse > 1e-4 || rel_mse > 2e-3;
+    assert_eq!(v["missed"].as_array().unwrap().is_empty(), !off, "{v}");
+    let verdict = match off {
+        true => "front: THE LIGHT FIELD IS OFF",
+        false => "front: within every target",
+    };
+    assert!(
+        table.contains(verdict),
+        "mean ratio {ratio}, display MSE {display_mse:.3e}, relMSE {rel_mse:.3e}: expected \
+         \"{verdict}\" in\n{table}"
+    );
 }
 
 #[test]

@@ -85,3 +85,8 @@ if [ "$mode" = test ]; then
   pip_install pylsl pylsl
   pip_install pyarrow pyarrow
 fi
+# tools/test.sh lints the build with clippy-driver (rustup's `clippy` component)
+if [ "$mode" = test ] && ! command -v clippy-driver >/dev/null && command -v rustup >/dev/null; then
+  echo "tools/setup.sh (test): adding rustup's clippy component" >&2
+  rustup component add clippy
+fi
