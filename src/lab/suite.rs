@@ -278,8 +278,9 @@ fn scaling_cases(cornell: &Path, ours: &PropagationParams, quick: bool) -> Vec<C
         .collect()
 }
 
-/// Generated scenes, written into `work`: classrooms of growing size, the mirror gallery, and
-/// the 100K classroom (quick: the 1K one) again under a memory budget.
+/// Generated scenes, written into `work`: classrooms of growing size, the mirror gallery (quick:
+/// about 300 faces, its 8 sculptures of 20), and the 100K classroom (quick: the 1K one) again
+/// under a memory budget.
 fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result<Vec<Case>> {
     let mut out = Vec::new();
     let sizes: &[u64] = if quick {
@@ -310,7 +311,7 @@ fn generated_cases(work: &Path, ours: &PropagationParams, quick: bool) -> Result
     let g = crate::lab::generate::generate(
         &GenerateOptions {
             kind: SceneKind::Gallery,
-            size: if quick { 1_000 } else { 10_000 },
+            size: if quick { 300 } else { 10_000 },
             mirrors: true,
             glossy: false,
         },
