@@ -92,10 +92,11 @@ if [ -f "$pacing_dir/gpu.txt" ]; then
   bash "$(dirname "$0")/pacing-md.sh" "$pacing_dir"
 fi
 # the body in the walk CAVE (tools/gpu-body.sh): the newest run (docs/results/h200/
-# body-reserve/, the pacer's reserve made at the fit), the one before (body-vertex-light/, the
-# vertices' light), then DIR's sibling body/
+# body-warm-up/, a frame drawn unshown after the fit), the ones before (body-reserve/, the
+# pacer's reserve made at the fit; body-vertex-light/, the vertices' light), then DIR's sibling
+# body/
 h200=$(dirname "$(dirname "$dir")")/h200
-for body_dir in "$h200/body-reserve" "$h200/body-vertex-light" "$(dirname "$dir")/body"; do
+for body_dir in "$h200/body-warm-up" "$h200/body-reserve" "$h200/body-vertex-light" "$(dirname "$dir")/body"; do
   if [ -f "$body_dir/gpu.txt" ]; then
     bash "$(dirname "$0")/body-md.sh" "$body_dir"
   fi
