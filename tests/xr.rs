@@ -394,8 +394,8 @@ fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
 
 #[test]
 fn the_left_thumbstick_walks_the_viewer_into_the_room() {
-    // lockstep display: 39 steps of 1/90 s at 1.4 m/s walk 0.61 m on any machine
-    let frames = ["--frames", "40", "--screenshot-frame", "40"];
+    // lockstep display: 23 steps of 1/90 s at 1.4 m/s walk 0.36 m on any machine
+    let frames = ["--frames", "24", "--screenshot-frame", "24"];
     let still = session(
         "stick-still",
         &cornell(),
@@ -418,8 +418,9 @@ fn the_left_thumbstick_walks_the_viewer_into_the_room() {
     let (_, lit_still) = brightness(&still.screenshot.unwrap());
     let (_, lit_walked) = brightness(&walked.screenshot.unwrap());
     println!("lit share: standing {lit_still:.3}, after walking forward {lit_walked:.3}");
-    // 0.61 m closer to the open box from 3.9 m: it covers about (3.9 / 3.29)^2 = 1.4 times the area
-    assert!(lit_walked > lit_still * 1.25, "pushing the thumbstick forward did not bring the box closer: {lit_still:.3} -> {lit_walked:.3}");
+    // 0.36 m closer to the open box from 3.9 m: it covers about (3.9 / 3.54)^2 = 1.21 times the
+    // area (measured on lavapipe: 0.104 -> 0.138, 1.33 times; a stick that walks nowhere: 1.0)
+    assert!(lit_walked > lit_still * 1.12, "pushing the thumbstick forward did not bring the box closer: {lit_still:.3} -> {lit_walked:.3}");
 }
 
 #[test]
