@@ -455,23 +455,10 @@ fn the_left_thumbstick_walks_the_viewer_into_the_room() {
 
 #[test]
 fn a_saved_light_field_goes_onto_the_runtimes_device_and_the_runtime_can_end_the_session() {
-    let vlf_file = Path::new(env!("CARGO_TARGET_TMPDIR")).join("xr-cornell.vlf");
-    let out = Command::new(env!("CARGO_BIN_EXE_vlf"))
-        .arg("propagate")
-        .arg(cornell())
-        .args(SMALL)
-        .arg("-o")
-        .arg(&vlf_file)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    // the Cornell light field `vlf propagate` saved for this binary's sessions
     let s = session(
         "runtime-ends",
-        &vlf_file,
+        cornell_light_field(),
         &["--screenshot-frame", "3"],
         &[("VLF_TEST_XR_END_AFTER", "8")],
     );
