@@ -5,7 +5,7 @@
 //! out: no core module names it, and its crates are not the core's. No function is longer than
 //! 120 lines.
 
-mod common;
+use crate::common;
 
 use common::repo_path;
 use std::process::Command;

@@ -2,7 +2,7 @@
 //! budget, or one binding: 128 MiB on the software adapter), each iteration builds the lists of
 //! one batch at a time and normalises once at the end. The result must be the resident one.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;

@@ -296,8 +296,8 @@ fn pathological_input_stays_within_the_traversal_stack() {
 }
 
 /// The renderer's eye rays through the BVH see what testing every triangle sees: the generated
-/// classroom (about 1,100 triangles) rendered both ways on the GPU. This binary owns the
-/// `VLF_EXHAUSTIVE_TRIANGLES` hook; no other test here renders.
+/// classroom (about 1,100 triangles) rendered both ways on the GPU
+/// (`vlf::render::with_exhaustive_triangles`).
 #[cfg(feature = "lab")] // the classroom comes from the lab's generator
 #[test]
 fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
@@ -330,10 +330,10 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
     let (lf, resident, _) =
         vlf::propagate::propagate(ctx, &scene, &params, &vlf::progress::Silent).unwrap();
     let render = |threshold: usize| {
-        std::env::set_var("VLF_EXHAUSTIVE_TRIANGLES", threshold.to_string());
-        let mut renderer =
-            vlf::render::Renderer::new(&resident, &lf, &vlf::gpu::MemoryLedger::default()).unwrap();
-        std::env::remove_var("VLF_EXHAUSTIVE_TRIANGLES");
+        let mut renderer = vlf::render::with_exhaustive_triangles(threshold, || {
+            vlf::render::Renderer::new(&resident, &lf, &vlf::gpu::MemoryLedger::default())
+        })
+        .unwrap();
         lf.meta
             .cameras
             .iter()

@@ -1,7 +1,7 @@
 //! The command line end to end on the software adapter: propagate to a file with a report,
 //! render PNG and EXR from it, and clear errors for bad use.
 
-mod common;
+use crate::common;
 use common::*;
 use std::process::Command;
 

@@ -7,7 +7,7 @@
 //! `--features mpi` (tools/test.sh passes it); without either the tests fail saying so, they
 //! never skip.
 
-mod common;
+use crate::common;
 
 #[cfg(feature = "mpi")]
 use common::{control_address, script_replies};

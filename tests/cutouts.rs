@@ -5,7 +5,7 @@
 //! (no direct light), through direct light's shadow rays, and in the path tracer; eye rays see
 //! the floor through the holes and the panel elsewhere; the importers read what decides.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::progress::Silent;

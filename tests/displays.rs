@@ -3,7 +3,7 @@
 //! continuous across a seam, bad configs name the key, a headless CAVE run writes its views, and
 //! with live tracking reports the latency from a pose's arrival to its frame.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::Vec3;
 use std::path::Path;

@@ -6,7 +6,7 @@
 //! docs/SUMMARY.md) lists every guide page, every relative link and picture resolves, and every
 //! repository path the documents name exists.
 
-mod common;
+use crate::common;
 
 use common::repo_path;
 use std::process::Command;

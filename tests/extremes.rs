@@ -1,7 +1,7 @@
 //! Odd and extreme scenes: no emitter, sky only, one triangle, an empty mesh, a huge dynamic
 //! range, faces smaller than a cell.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::progress::Silent;

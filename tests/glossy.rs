@@ -3,7 +3,7 @@
 //! stated loss), and a glossy floor's reflection of a small emitter has the width and energy the
 //! GGX lobe integrated over the emitter predicts.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{DVec3, Vec3};
 use vlf::material::{ggx_albedo, ggx_brdf, ggx_mean_albedo};

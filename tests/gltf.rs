@@ -4,7 +4,7 @@
 //! transform, embedded images) on hand-made files; textures at scale are resolved to texel
 //! density. Bad files are in tests/scene_errors.rs and tests/readers.rs.
 
-mod common;
+use crate::common;
 use common::*;
 use std::path::{Path, PathBuf};
 use vlf::progress::Silent;

@@ -1,7 +1,7 @@
 //! The GPU kernels against their CPU twins on a tiny scene (<= 20 faces, 21 directions,
 //! grid 32), and propagation repeated bit for bit on one device.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;

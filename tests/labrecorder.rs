@@ -5,7 +5,7 @@
 //! (a clone from GitHub), and pyxdf; run it with `cargo test --release --features mpi --test
 //! labrecorder -- --ignored`.
 
-mod common;
+use crate::common;
 
 use common::{draft_params, gpu, repo_path};
 use vlf::progress::Silent;

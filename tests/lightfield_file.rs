@@ -1,6 +1,6 @@
 //! `.vlf` files: round trip, and every kind of damage or mismatch gives a clear error.
 
-mod common;
+use crate::common;
 use common::*;
 use vlf::lightfield::{file, LightField};
 use vlf::progress::Silent;

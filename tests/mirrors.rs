@@ -2,7 +2,7 @@
 //! an emitter where geometry says, Cornell-mirror renders finite values, and what a scene does
 //! not need is not allocated.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{DVec3, Vec3};
 use vlf::gpu::MemoryLedger;

@@ -12,7 +12,7 @@
 //! Agreement is judged against what noise alone explains: for two unbiased estimates a and b
 //! with per-pixel variances va and vb, the expected relMSE is mean((va + vb) / (b^2 + 0.01)).
 
-mod common;
+use crate::common;
 
 use common::{gpu, repo_path};
 use std::collections::HashMap;

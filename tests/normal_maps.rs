@@ -4,7 +4,7 @@
 //! shows; a bumpy map's view agrees with `vlf reference`, which shades with the mapped normal
 //! too; MTL `norm` and `bump` (a height map) are read.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::progress::Silent;

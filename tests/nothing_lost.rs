@@ -1,7 +1,7 @@
 //! Nothing lost: a save killed midway leaves the previous file intact and loadable; a
 //! propagation resumed from a checkpoint ends exactly where an uninterrupted one does.
 
-mod common;
+use crate::common;
 use common::*;
 use std::process::Command;
 use std::time::{Duration, Instant};

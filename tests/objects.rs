@@ -5,7 +5,7 @@
 //! of an emitter's light and the sky's; a study's condition switches the light field that lights
 //! the scene and them.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use std::path::Path;

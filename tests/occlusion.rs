@@ -6,7 +6,7 @@
 //! wrong: the same texels against the closed form without the occluder (what a visibility that
 //! missed the occluder would give) are off by 100% in the umbra, and the test asserts that too.
 
-mod common;
+use crate::common;
 
 use common::{clip_convex, face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::{DVec2, DVec3};

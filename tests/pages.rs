@@ -1,10 +1,10 @@
 //! Texel arrays and mirror tiles in pages: when they outgrow one storage binding (128 MiB on the
-//! software adapter) they are split over up to four buffers. Here `VLF_TEXEL_PAGE_BYTES` and
-//! `VLF_TILE_PAGE_BYTES` make the pages small so that a small scene spans several; propagation
-//! and rendering must give the one-page result. (Its own test binary: the variable is process-wide. The real > 128 MiB case
-//! is in `vlf stress`, STABILITY.md.)
+//! software adapter) they are split over up to four buffers. Here
+//! `vlf::lightfield::tiles::with_small_pages` makes the pages small (for this test's thread
+//! only) so that a small scene spans several; propagation and rendering must give the one-page
+//! result. (The real > 128 MiB case is in `vlf stress`, STABILITY.md.)
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::progress::Silent;
@@ -97,12 +97,13 @@ fn paged_mirror_tiles_give_the_one_page_result() {
     // pages of a third of the cells, rounded to whole tiles
     let page_bytes = (cells as u64 * 16 / 3).next_multiple_of(64 * 16);
     let texel_page_bytes = (one.total.len() as u64 * 16 / 3).next_multiple_of(16);
-    std::env::set_var("VLF_TILE_PAGE_BYTES", page_bytes.to_string());
-    std::env::set_var("VLF_TEXEL_PAGE_BYTES", texel_page_bytes.to_string());
-    let (paged, _, report) = vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
-    let (paged_image, paged_pages) = render(&paged);
-    std::env::remove_var("VLF_TILE_PAGE_BYTES");
-    std::env::remove_var("VLF_TEXEL_PAGE_BYTES");
+    let (paged, paged_image, paged_pages, report) =
+        vlf::lightfield::tiles::with_small_pages(page_bytes, texel_page_bytes, || {
+            let (paged, _, report) =
+                vlf::propagate::propagate(gpu(), &scene, &params, &Silent).unwrap();
+            let (paged_image, paged_pages) = render(&paged);
+            (paged, paged_image, paged_pages, report)
+        });
     println!(
         "{} texels, {cells} tile cells: (texel, tile) pages {one_pages:?} unpaged, {paged_pages:?} paged; {} iterations",
         one.total.len(),

@@ -1,7 +1,7 @@
 //! Physics on the GPU (the software adapter is enough): the furnace and form factors, each with
 //! its stated tolerance.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;

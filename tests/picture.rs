@@ -9,7 +9,7 @@
 //! - antialiasing: every pixel along the edges of a tilted emitter shows the fraction of the
 //!   pixel the emitter covers (exact polygon clipping here).
 
-mod common;
+use crate::common;
 
 use common::{face_corners, gpu, polygon_irradiance, write_scene, Mat, ObjBuilder};
 use glam::DVec3;

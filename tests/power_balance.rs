@@ -5,7 +5,7 @@
 //! that `facing_side` fixed, switched back on, is flagged in words with the material whose light
 //! goes missing.
 
-mod common;
+use crate::common;
 use common::{closed_box_with_block, gpu, load_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use vlf::params::PropagationParams;

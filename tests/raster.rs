@@ -7,7 +7,7 @@
 //! generated classroom, paced tiles (fewer samples read), and moving objects (their backs
 //! culled, seen in a mirror).
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{Affine3A, DVec3};
 use vlf::gpu::MemoryLedger;

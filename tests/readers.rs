@@ -2,7 +2,7 @@
 //! `cargo test`): scene TOML, OBJ, glTF (.glb, .gltf) and .vlf bytes, random and mutated, give Ok or an error
 //! naming the file, never a panic; every damage to a .vlf is caught.
 
-mod common;
+use crate::common;
 use common::*;
 use proptest::prelude::*;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! The reference path tracer: its own furnace, repeatability, textures. The light field measured
 //! against it: tests/mitsuba.rs, beside the same light field against Mitsuba.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::progress::Silent;

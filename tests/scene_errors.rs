@@ -1,6 +1,6 @@
 //! Bad scene input gives a clear error naming the file and the cause; repairs are reported.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::scene::Scene;

@@ -1,7 +1,7 @@
 //! Stiff scenes: furnaces with albedo near 1 converge, with the geometric-tail acceleration, in
 //! a few iterations instead of about ln(tol)/ln(rho), and nothing goes negative, NaN or Inf.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::DVec3;
 use vlf::lightfield::directions::DirectionSet;

@@ -2,7 +2,7 @@
 //! paced CAVE walk on the software adapter, logged, then drawn again from the log; the replayed
 //! last frame is pixel-identical to the images the live run read back.
 
-mod common;
+use crate::common;
 
 use common::{control_address, draft_params, gpu, repo_path, script_replies};
 use std::process::Command;

@@ -3,7 +3,7 @@
 //! every field, the targets are evaluated, the Markdown and the chart are written, and the
 //! Markdown regenerated from the JSON is the same). Plus the generator's sizes.
 
-mod common;
+use crate::common;
 use common::*;
 use vlf::lab::generate::{generate, GenerateOptions, SceneKind};
 

@@ -1,7 +1,7 @@
 //! Diffuse textures (map_Kd) and textured emitters (map_Ke) reach propagation and rendering;
 //! untextured scenes allocate no texture storage; a missing texture is a clear error.
 
-mod common;
+use crate::common;
 use common::*;
 use vlf::progress::Silent;
 use vlf::propagate::PropagationParams;

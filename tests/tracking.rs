@@ -6,7 +6,7 @@
 //! and scripted heads (onto the avatar's left hand and a left-hand prop), `vlf track`, and wand
 //! navigation.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{Quat, Vec3};
 use std::path::Path;

@@ -6,7 +6,7 @@
 //! lookup took the side facing the light's way, the list's first of the two could be the back,
 //! which sends nothing: the closed box lost 15-20% of its interreflected light.
 
-mod common;
+use crate::common;
 use common::{closed_box_with_block, gpu, load_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use std::collections::HashMap;

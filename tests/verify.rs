@@ -2,7 +2,7 @@
 //! against `vlf reference` (figures, the reference's noise, error maps, the verdict in words),
 //! and a light field made with settings far too coarse is said to be off.
 
-mod common;
+use crate::common;
 use common::repo_path;
 use std::process::Command;
 

@@ -7,7 +7,7 @@
 //! headless runs write one image per projector and draw the ray, and the pass's parameters
 //! have one size in Rust and WGSL.
 
-mod common;
+use crate::common;
 use common::*;
 use glam::{Quat, Vec3};
 use std::path::{Path, PathBuf};

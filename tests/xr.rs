@@ -4,7 +4,7 @@
 //! runtime XR_RUNTIME_JSON names, such as Monado or SteamVR (on the test runtime when the variable
 //! is unset: it always runs).
 
-mod common;
+use crate::common;
 
 use glam::{Mat4, Vec3, Vec4};
 use std::path::{Path, PathBuf};

@@ -56,8 +56,8 @@ for name in "${names[@]}"; do
       cp "$work/body/$wall-left.png" "$out/$name.png" ;;
     cave-xvfb)
       # the windowed CAVE test's own screenshot (Xvfb, two windows, tracking gone quiet)
-      VLF_MAKING_PICTURES=1 cargo test --release --features mpi --test windows -- --exact \
-        windowed_cave_draws_two_windows_under_xvfb_and_says_when_tracking_goes_quiet >&2
+      VLF_MAKING_PICTURES=1 cargo test --release --features mpi --test all -- --exact \
+        windows::windowed_cave_draws_two_windows_under_xvfb_and_says_when_tracking_goes_quiet >&2
       cp target/tmp/cave-xvfb.png "$out/cave-xvfb.png" ;;
     *)
       echo "tools/pictures.sh: no command here for '$name'; docs/images/pictures.toml says what makes it" >&2

@@ -21,25 +21,41 @@ pub struct TilePages {
 
 pub const MAX_TILE_PAGES: u32 = 4;
 
+thread_local! {
+    /// Page sizes below the binding limit (tiles, texels) for what this thread plans: a test
+    /// hook (`with_small_pages`). Per thread, so tests running beside it plan as usual.
+    static SMALL_PAGES: std::cell::Cell<(Option<u64>, Option<u64>)> =
+        const { std::cell::Cell::new((None, None)) };
+}
+
+/// Runs `f` with the mirror tiles' and the texel arrays' pages at most `tile_bytes` and
+/// `texel_bytes` for every plan made on this thread (tests/pages.rs: a small scene over several
+/// pages, which must change no result).
+pub fn with_small_pages<T>(tile_bytes: u64, texel_bytes: u64, f: impl FnOnce() -> T) -> T {
+    let before = SMALL_PAGES.replace((Some(tile_bytes), Some(texel_bytes)));
+    let out = f();
+    SMALL_PAGES.set(before);
+    out
+}
+
 impl TilePages {
     /// Pages for the mirror tiles: `total_cells` cells of 16 bytes in tiles of `cells_per_tile`,
-    /// each page at most `max_binding` bytes. `VLF_TILE_PAGE_BYTES` lowers the page size
-    /// (tests: several pages on a small scene).
+    /// each page at most `max_binding` bytes (lower within `with_small_pages`).
     pub fn plan(total_cells: u64, cells_per_tile: u32, max_binding: u64) -> Result<TilePages> {
         Self::plan_for(
             "the mirror tiles",
-            "VLF_TILE_PAGE_BYTES",
+            SMALL_PAGES.get().0,
             total_cells,
             cells_per_tile,
             max_binding,
         )
     }
 
-    /// Pages for the texel arrays (16 bytes per texel); `VLF_TEXEL_PAGE_BYTES` lowers the size.
+    /// Pages for the texel arrays (16 bytes per texel; lower within `with_small_pages`).
     pub fn plan_texels(texels: u64, max_binding: u64) -> Result<TilePages> {
         Self::plan_for(
             "the radiance atlas",
-            "VLF_TEXEL_PAGE_BYTES",
+            SMALL_PAGES.get().1,
             texels,
             1,
             max_binding,
@@ -48,15 +64,12 @@ impl TilePages {
 
     fn plan_for(
         what: &str,
-        variable: &str,
+        small_pages: Option<u64>,
         total_cells: u64,
         cells_per_tile: u32,
         max_binding: u64,
     ) -> Result<TilePages> {
-        let limit = std::env::var(variable)
-            .ok()
-            .and_then(|v| v.parse::<u64>().ok())
-            .map_or(max_binding, |v| v.min(max_binding));
+        let limit = small_pages.map_or(max_binding, |v| v.min(max_binding));
         let tiles_per_page =
             (limit / (16 * cells_per_tile as u64)).clamp(1, (u32::MAX / cells_per_tile) as u64);
         let page_cells =

@@ -247,12 +247,9 @@ impl Renderer {
         // the texture detail where the light field has it and the device took it
         let detail = lf.detail.as_ref().filter(|_| resident.detail.is_some());
         let (mut triangles, mut tree) = ray_casting_mesh(&lf.render_vertices, detail)?;
-        // `VLF_EXHAUSTIVE_TRIANGLES` (a test hook) moves the threshold: the tests render one
+        // a test hook moves the threshold (`with_exhaustive_triangles`): the tests render one
         // scene both ways and compare
-        let threshold = std::env::var("VLF_EXHAUSTIVE_TRIANGLES")
-            .ok()
-            .and_then(|v| v.parse::<usize>().ok())
-            .unwrap_or(EXHAUSTIVE_TRIANGLES);
+        let threshold = EXHAUSTIVE_OVERRIDE.get().unwrap_or(EXHAUSTIVE_TRIANGLES);
         let exhaustive_triangles = if triangles.len() <= threshold {
             triangles.len() as u32
         } else {
@@ -1214,6 +1211,20 @@ fn placeholder_moving_group(
 /// Meshes up to this size are ray cast exhaustively (every ray tests every triangle): the same
 /// work for every pixel, and on an H200 cheaper than the BVH for meshes this small.
 pub const EXHAUSTIVE_TRIANGLES: usize = 256;
+
+thread_local! {
+    /// `EXHAUSTIVE_TRIANGLES` moved for renderers made on this thread (a test hook).
+    static EXHAUSTIVE_OVERRIDE: std::cell::Cell<Option<usize>> = const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with every renderer made on this thread testing every triangle up to `threshold`
+/// (0: always through the BVH; `usize::MAX`: never), as tests/bvh.rs compares the two.
+pub fn with_exhaustive_triangles<T>(threshold: usize, f: impl FnOnce() -> T) -> T {
+    let before = EXHAUSTIVE_OVERRIDE.replace(Some(threshold));
+    let out = f();
+    EXHAUSTIVE_OVERRIDE.set(before);
+    out
+}
 
 fn ray_casting_mesh(
     vertices: &[RenderVertex],

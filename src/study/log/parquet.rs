@@ -12,10 +12,11 @@
 use super::{flash_name, FrameRecord, ObjectSwitches, HIDDEN_SEPARATOR};
 use crate::error::{Result, VlfError};
 use crate::tracking::pose::WandPose;
-use arrow_array::{
-    ArrayRef, Float32Array, Float64Array, RecordBatch, StringArray, UInt32Array, UInt64Array,
-};
-use arrow_schema::{DataType, Field, Schema};
+use parquet::basic::{LogicalType, Repetition, Type as Physical};
+use parquet::data_type::{ByteArray, ByteArrayType, DoubleType, FloatType, Int32Type, Int64Type};
+use parquet::file::properties::WriterProperties;
+use parquet::file::writer::SerializedFileWriter;
+use parquet::schema::types::Type;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -57,17 +58,21 @@ impl FramesParquet {
         if self.rows.is_empty() {
             return Ok(());
         }
-        let batch = batch(&self.rows, &self.names, self.targets)?;
+        let columns = columns(&self.rows, self.targets);
+        if columns.len() != self.names.len() {
+            return Err(VlfError::Display(format!(
+                "frames.parquet: {} columns for a header of {}",
+                columns.len(),
+                self.names.len()
+            )));
+        }
         let name = format!("part-{:06}.parquet", self.parts);
         let (hidden, part) = (self.dir.join(format!(".{name}")), self.dir.join(&name));
         let file = std::fs::File::create(&hidden).map_err(|e| VlfError::io(&hidden, e))?;
         let written = |e: parquet::errors::ParquetError| {
             VlfError::io(&hidden, std::io::Error::other(e.to_string()))
         };
-        let mut writer =
-            parquet::arrow::ArrowWriter::try_new(file, batch.schema(), None).map_err(written)?;
-        writer.write(&batch).map_err(written)?;
-        let file = writer.into_inner().map_err(written)?;
+        let file = write_part(file, &self.names, &columns).map_err(written)?;
         file.sync_all().map_err(|e| VlfError::io(&hidden, e))?;
         std::fs::rename(&hidden, &part).map_err(|e| VlfError::io(&part, e))?;
         self.rows.clear();
@@ -76,16 +81,117 @@ impl FramesParquet {
     }
 }
 
-fn f32s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> f32) -> ArrayRef {
-    Arc::new(Float32Array::from_iter_values(rows.iter().map(f)))
+/// One column's values, typed as pyarrow and pandas read them back.
+enum Column {
+    U64(Vec<u64>),
+    U32(Vec<u32>),
+    F32(Vec<f32>),
+    /// null where the CSV is empty
+    F64(Vec<Option<f64>>),
+    Text(Vec<String>),
 }
 
-fn u32s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> u32) -> ArrayRef {
-    Arc::new(UInt32Array::from_iter_values(rows.iter().map(f)))
+impl Column {
+    /// The column's Parquet type: unsigned integers as INT32/INT64 with an unsigned logical
+    /// type, floats as FLOAT/DOUBLE (DOUBLE nullable), text as UTF-8 byte arrays.
+    fn schema(&self, name: &str) -> parquet::errors::Result<Type> {
+        let (physical, logical, repetition) = match self {
+            Column::U64(_) => (Physical::INT64, Some(unsigned(64)), Repetition::REQUIRED),
+            Column::U32(_) => (Physical::INT32, Some(unsigned(32)), Repetition::REQUIRED),
+            Column::F32(_) => (Physical::FLOAT, None, Repetition::REQUIRED),
+            Column::F64(_) => (Physical::DOUBLE, None, Repetition::OPTIONAL),
+            Column::Text(_) => (
+                Physical::BYTE_ARRAY,
+                Some(LogicalType::String),
+                Repetition::REQUIRED,
+            ),
+        };
+        Type::primitive_type_builder(name, physical)
+            .with_repetition(repetition)
+            .with_logical_type(logical)
+            .build()
+    }
+
+    /// Writes the values into the row group's next column chunk. Unsigned values are stored
+    /// in their signed physical type bit for bit, as the Parquet format says.
+    fn write(
+        &self,
+        column: &mut parquet::file::writer::SerializedColumnWriter<'_>,
+    ) -> parquet::errors::Result<()> {
+        match self {
+            Column::U64(v) => {
+                let bits: Vec<i64> = v.iter().map(|&x| x as i64).collect();
+                column.typed::<Int64Type>().write_batch(&bits, None, None)?;
+            }
+            Column::U32(v) => {
+                let bits: Vec<i32> = v.iter().map(|&x| x as i32).collect();
+                column.typed::<Int32Type>().write_batch(&bits, None, None)?;
+            }
+            Column::F32(v) => {
+                column.typed::<FloatType>().write_batch(v, None, None)?;
+            }
+            Column::F64(v) => {
+                let present: Vec<f64> = v.iter().flatten().copied().collect();
+                let defined: Vec<i16> = v.iter().map(|x| x.is_some() as i16).collect();
+                column
+                    .typed::<DoubleType>()
+                    .write_batch(&present, Some(&defined), None)?;
+            }
+            Column::Text(v) => {
+                let bytes: Vec<ByteArray> = v.iter().map(|s| ByteArray::from(s.as_str())).collect();
+                column
+                    .typed::<ByteArrayType>()
+                    .write_batch(&bytes, None, None)?;
+            }
+        }
+        Ok(())
+    }
 }
 
-fn opt_f64s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> Option<f64>) -> ArrayRef {
-    Arc::new(Float64Array::from(rows.iter().map(f).collect::<Vec<_>>()))
+fn unsigned(bit_width: i8) -> LogicalType {
+    LogicalType::integer(bit_width, false)
+}
+
+/// `columns` named `names` as one row group into `file`, footer included; the file back.
+fn write_part(
+    file: std::fs::File,
+    names: &[String],
+    columns: &[Column],
+) -> parquet::errors::Result<std::fs::File> {
+    let fields = (names.iter().zip(columns))
+        .map(|(n, c)| c.schema(n).map(Arc::new))
+        .collect::<parquet::errors::Result<Vec<_>>>()?;
+    let schema = Type::group_type_builder("frames")
+        .with_fields(fields)
+        .build()?;
+    let properties = WriterProperties::builder().build();
+    let mut writer = SerializedFileWriter::new(file, Arc::new(schema), Arc::new(properties))?;
+    let mut group = writer.next_row_group()?;
+    for c in columns {
+        let mut column = group.next_column()?.ok_or_else(|| {
+            parquet::errors::ParquetError::General("fewer columns than the schema".into())
+        })?;
+        c.write(&mut column)?;
+        column.close()?;
+    }
+    group.close()?;
+    writer.into_inner()
+}
+
+fn f32s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> f32) -> Column {
+    Column::F32(rows.iter().map(f).collect())
+}
+
+fn u32s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> u32) -> Column {
+    Column::U32(rows.iter().map(f).collect())
+}
+
+fn opt_f64s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> Option<f64>) -> Column {
+    Column::F64(rows.iter().map(f).collect())
+}
+
+fn texts(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> String) -> Column {
+    Column::Text(rows.iter().map(f).collect())
 }
 
 /// A wand's or hand's eight columns: 1 where given, then its position and rotation (the CSV's
@@ -93,7 +199,7 @@ fn opt_f64s(rows: &[FrameRecord], f: impl Fn(&FrameRecord) -> Option<f64>) -> Ar
 fn held_columns(
     rows: &[FrameRecord],
     held: impl Fn(&FrameRecord) -> Option<&WandPose>,
-) -> Vec<ArrayRef> {
+) -> Vec<Column> {
     let parts: [fn(&WandPose) -> f32; 7] = [
         |w| w.position.x,
         |w| w.position.y,
@@ -108,19 +214,14 @@ fn held_columns(
     columns
 }
 
-/// `rows` as one batch, its columns in frames.csv's order (`names`, with `targets` tracked
-/// targets), typed: counts as u32 (the frame u64), positions, rotations and shares as f32, times
-/// as f64 (null where the CSV is empty), `drawn`, `condition`, `objects_hidden`, `flash` and
-/// `events` as text.
-fn batch(rows: &[FrameRecord], names: &[String], targets: usize) -> Result<RecordBatch> {
-    let mut columns: Vec<ArrayRef> = vec![
-        Arc::new(UInt64Array::from_iter_values(rows.iter().map(|r| r.frame))),
-        Arc::new(Float64Array::from_iter_values(
-            rows.iter().map(|r| r.time_s),
-        )),
-        Arc::new(StringArray::from_iter_values(
-            rows.iter().map(|r| r.drawn.name()),
-        )),
+/// `rows`' columns in frames.csv's order (with `targets` tracked targets), typed: counts as u32
+/// (the frame u64), positions, rotations and shares as f32, times as f64 (null where the CSV is
+/// empty), `drawn`, `condition`, `objects_hidden`, `flash` and `events` as text.
+fn columns(rows: &[FrameRecord], targets: usize) -> Vec<Column> {
+    let mut columns = vec![
+        Column::U64(rows.iter().map(|r| r.frame).collect()),
+        Column::F64(rows.iter().map(|r| Some(r.time_s)).collect()),
+        texts(rows, |r| r.drawn.name().to_string()),
     ];
     let pose: [fn(&FrameRecord) -> f32; 11] = [
         |r| r.pose.head.x,
@@ -144,9 +245,7 @@ fn batch(rows: &[FrameRecord], names: &[String], targets: usize) -> Result<Recor
     columns.push(opt_f64s(rows, |r| r.pose_to_submit_ms));
     columns.push(opt_f64s(rows, |r| r.pose_to_photon_ms));
     columns.extend(held_columns(rows, |r| r.left_hand.as_ref()));
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| r.condition.as_str()),
-    )));
+    columns.push(texts(rows, |r| r.condition.clone()));
     columns.push(opt_f64s(rows, |r| r.object_time_s));
     columns.extend(held_columns(rows, |r| r.raw.head.as_ref()));
     columns.extend(held_columns(rows, |r| r.raw.wand.as_ref()));
@@ -154,14 +253,10 @@ fn batch(rows: &[FrameRecord], names: &[String], targets: usize) -> Result<Recor
     // as the CSV: a record without switches (from an older log) as every object on
     let switches = |r: &FrameRecord| r.objects.clone().unwrap_or_else(ObjectSwitches::all_on);
     let separator = HIDDEN_SEPARATOR.to_string();
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| switches(r).hidden.join(&separator)),
-    )));
+    columns.push(texts(rows, |r| switches(r).hidden.join(&separator)));
     columns.push(u32s(rows, |r| switches(r).shadows as u32));
     columns.push(u32s(rows, |r| switches(r).reflections as u32));
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| flash_name(r.flash)),
-    )));
+    columns.push(texts(rows, |r| flash_name(r.flash).to_string()));
     let views = rows.first().map_or(0, |r| r.views.len());
     for v in 0..views {
         columns.push(u32s(rows, |r| r.views[v].samples_per_pixel));
@@ -188,27 +283,25 @@ fn batch(rows: &[FrameRecord], names: &[String], targets: usize) -> Result<Recor
         columns.extend(held_columns(rows, |r| r.targets[k].as_ref()));
         columns.extend(held_columns(rows, |r| r.raw.targets[k].as_ref()));
     }
-    columns.push(Arc::new(StringArray::from_iter_values(
-        rows.iter().map(|r| r.events.as_str()),
-    )));
-    if columns.len() != names.len() {
-        return Err(VlfError::Display(format!(
-            "frames.parquet: {} columns for a header of {}",
-            columns.len(),
-            names.len()
-        )));
-    }
-    let fields: Vec<Field> = (names.iter().zip(&columns))
-        .map(|(n, c)| {
-            Field::new(
-                n,
-                c.data_type().clone(),
-                *c.data_type() == DataType::Float64,
-            )
+    columns.push(texts(rows, |r| r.events.clone()));
+    columns
+}
+
+/// A part's rows read back by column name (the unit tests of this module and of `log`).
+#[cfg(test)]
+pub(crate) fn read_part(path: &Path) -> Vec<Vec<(String, parquet::record::Field)>> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let reader = SerializedFileReader::new(std::fs::File::open(path).unwrap()).unwrap();
+    reader
+        .get_row_iter(None)
+        .unwrap()
+        .map(|row| {
+            let row = row.unwrap();
+            row.get_column_iter()
+                .map(|(n, f)| (n.clone(), f.clone()))
+                .collect()
         })
-        .collect();
-    RecordBatch::try_new(Arc::new(Schema::new(fields)), columns)
-        .map_err(|e| VlfError::Display(format!("frames.parquet: {e}")))
+        .collect()
 }
 
 #[cfg(test)]
@@ -216,6 +309,7 @@ mod tests {
     use super::*;
     use crate::study::log::{Drawn, FrameRecord};
     use crate::tracking::pose::Pose;
+    use parquet::record::Field;
 
     fn record(frame: u64) -> FrameRecord {
         FrameRecord {
@@ -273,32 +367,22 @@ mod tests {
             .collect();
         files.sort();
         assert_eq!(files, ["part-000000.parquet", "part-000001.parquet"]);
-        let part = std::fs::File::open(dir.path().join(PARQUET_DIR).join(&files[0])).unwrap();
-        let reader = parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder::try_new(part)
-            .unwrap()
-            .build()
-            .unwrap();
-        let batches: Vec<RecordBatch> = reader.map(|b| b.unwrap()).collect();
-        let batch = &batches[0];
-        assert_eq!(batch.num_rows(), 2);
-        assert_eq!(batch.num_columns(), names().len());
-        let gpu = batch.column_by_name("gpu_ms").unwrap();
-        assert!(gpu.is_null(0) && !gpu.is_null(1));
-        let events = batch.column_by_name("events").unwrap();
-        let events = events.as_any().downcast_ref::<StringArray>().unwrap();
-        assert_eq!(events.value(1), "a \"quoted\" event");
-        let condition = batch.column_by_name("condition").unwrap();
-        let condition = condition.as_any().downcast_ref::<StringArray>().unwrap();
-        assert_eq!(condition.value(0), "gi-off");
-        let text = |name: &str| {
-            let column = batch.column_by_name(name).unwrap();
-            let column = column.as_any().downcast_ref::<StringArray>().unwrap();
-            column.value(0).to_string()
-        };
-        assert_eq!(text("objects_hidden"), "cube|body");
-        assert_eq!(text("flash"), "white");
-        let shadows = batch.column_by_name("shadows").unwrap();
-        let shadows = shadows.as_any().downcast_ref::<UInt32Array>().unwrap();
-        assert_eq!(shadows.value(0), 0);
+        let rows = read_part(&dir.path().join(PARQUET_DIR).join(&files[0]));
+        assert_eq!(rows.len(), 2);
+        assert_eq!(rows[0].len(), names().len());
+        let column_names: Vec<&str> = rows[0].iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(column_names, names());
+        let field =
+            |row: usize, name: &str| rows[row].iter().find(|(n, _)| n == name).unwrap().1.clone();
+        assert_eq!(field(0, "gpu_ms"), Field::Null);
+        assert_eq!(field(1, "gpu_ms"), Field::Double(1.5));
+        assert_eq!(field(1, "frame"), Field::ULong(1));
+        assert_eq!(field(1, "events"), Field::Str("a \"quoted\" event".into()));
+        assert_eq!(field(0, "condition"), Field::Str("gi-off".into()));
+        assert_eq!(field(0, "objects_hidden"), Field::Str("cube|body".into()));
+        assert_eq!(field(0, "flash"), Field::Str("white".into()));
+        assert_eq!(field(0, "shadows"), Field::UInt(0));
+        assert_eq!(field(0, "trial"), Field::UInt(2));
+        assert_eq!(field(0, "room_yaw_deg"), Field::Float(15.0));
     }
 }
