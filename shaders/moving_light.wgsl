@@ -1,12 +1,22 @@
-// The moving objects' own direct light, once per frame per vertex for every view, driven by
-// src/render/moving_light.rs after the moving objects' refit (the same compute pass): at each
-// shown skinned vertex, on the side its normal faces, the direct irradiance of the emitters and
-// the sky by shadow rays against the scene and the moving objects themselves
-// (common/moving_surface.wgsl, direct_samples), into `vertex_light`, which a moving surface the
-// views meet interpolates over its triangle's corners (moving_radiance) instead of casting its
-// own shadow rays per eye ray. Its cost follows the objects' vertices, not the views or their
-// pixels. A vertex's sample pattern is fixed (a hash of its index), so the pattern moves with the
-// body and a still body does not flicker.
+// The moving objects' own light, once per frame per vertex for every view, driven by
+// src/render/moving_light.rs after the moving objects' refit (the same compute pass), in two
+// steps whose results a moving surface the views meet interpolates over its triangle's corners
+// (moving_radiance):
+// - light_vertices: at each shown skinned vertex, on the side its normal faces, the direct
+//   irradiance of the emitters and the sky by shadow rays against the scene and the moving
+//   objects themselves (common/moving_surface.wgsl, direct_samples);
+// - occlude_vertices: what the objects themselves change of the probes' irradiance there. The
+//   probes are baked from the static scene alone, so an armpit or the inside of a knee would get
+//   the room's light from directions its own body covers. Cosine-weighted rays against the
+//   moving objects: each that meets one takes away the probes' radiance from its direction and
+//   adds what the object shows there (its albedo times the probes' irradiance and the first
+//   step's direct light at the point met, plus its emission: one bounce within the objects).
+//   Where no ray meets an object, nothing changes: the probes' own irradiance stands, exact
+//   for the smooth light they hold.
+// Their cost follows the objects' vertices, not the views or their pixels. A vertex's shadow
+// rays follow a pattern fixed per vertex (a hash of its index) and its occlusion rays one
+// pattern for all, turned to its normal, so the patterns move with the body and a still body
+// does not flicker.
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
@@ -29,7 +39,8 @@ struct MovingLight {
     // shadow rays per vertex: to the emitters, to the sky
     emitter_samples: u32,
     sky_samples: u32,
-    _pad: u32,
+    // rays per vertex against the moving objects for the probes' correction (0: none)
+    occlusion_rays: u32,
 }
 
 // the scene as the renderer binds it (its view uniform for the casting mode and the moving tree)
@@ -42,7 +53,8 @@ struct MovingLight {
 @group(0) @binding(6) var<uniform> light: MovingLight;
 
 // the skinned vertices (w: 1 where shown) and normals (moving.wgsl), and what this pass writes:
-// per vertex the direct irradiance (rgb) on the side its normal faces
+// per vertex its two entries of common/moving_surface.wgsl's vertex_light (the direct
+// irradiance at 2 i, the probes' correction at 2 i + 1)
 @group(3) @binding(0) var<storage, read> posed: array<vec4<f32>>;
 @group(3) @binding(1) var<storage, read> posed_normals: array<vec4<f32>>;
 @group(3) @binding(2) var<storage, read_write> lit: array<vec4<f32>>;
@@ -56,7 +68,19 @@ var<workgroup> parts: array<vec3<f32>, 64>;
 
 @compute @workgroup_size(64)
 fn light_vertices(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
-    let thread = (group.x + group.y * groups.x) * 64u + lane;
+    vertex_step(group.x + group.y * groups.x, lane, 0u);
+}
+
+@compute @workgroup_size(64)
+fn occlude_vertices(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lane: u32) {
+    vertex_step(group.x + group.y * groups.x, lane, 1u);
+}
+
+// One step's entry `step` of lit (0: the direct light, 1: the probes' correction) for the
+// vertices of workgroup `group`: LANES threads per vertex, each its share of the rays, summed
+// by the first.
+fn vertex_step(group: u32, lane: u32, step: u32) {
+    let thread = group * 64u + lane;
     let i = thread / LANES;
     let part = thread % LANES;
     var e = vec3<f32>(0.0);
@@ -65,9 +89,14 @@ fn light_vertices(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgrou
         let n = posed_normals[i].xyz;
         if p.w != 0.0 && dot(n, n) >= 0.5 {
             // the offset a moving surface's own shadow rays start from (moving_radiance)
-            let seed = hash(i ^ 0x27d4eb2du);
-            let counts = vec2<u32>(light.emitter_samples, light.sky_samples);
-            e = direct_samples_part(p.xyz + n * 1e-3, n, seed, false, counts, vec2<u32>(part, LANES));
+            let origin = p.xyz + n * 1e-3;
+            if step == 0u {
+                let seed = hash(i ^ 0x27d4eb2du);
+                let counts = vec2<u32>(light.emitter_samples, light.sky_samples);
+                e = direct_samples_part(origin, n, seed, false, counts, vec2<u32>(part, LANES));
+            } else {
+                e = occlusion_part(origin, n, vec2<u32>(part, LANES));
+            }
         }
     }
     parts[lane] = e;
@@ -77,6 +106,44 @@ fn light_vertices(@builtin(workgroup_id) group: vec3<u32>, @builtin(num_workgrou
         for (var k = 0u; k < LANES; k++) {
             sum += parts[lane + k];
         }
-        lit[i] = vec4<f32>(sum, 0.0);
+        lit[2u * i + step] = vec4<f32>(sum, 0.0);
     }
+}
+
+// What the objects change of the probes' irradiance at `origin` (facing `normal`), over the
+// occlusion rays part.x, part.x + part.y, ... (part.y threads share one vertex's rays and their
+// parts sum to the whole).
+fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3<f32> {
+    let m = light.occlusion_rays;
+    let coefficients = radiance_coefficients_at(origin);
+    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
+    let a = normalize(cross(normal, t));
+    let b = cross(normal, a);
+    var change = vec3<f32>(0.0);
+    for (var k = part.x; k < m; k += part.y) {
+        let u = hammersley(k, m, vec2<f32>(0.0));
+        let r = sqrt(u.x);
+        let phi = 2.0 * PI * u.y;
+        let ray = a * (r * cos(phi)) + b * (r * sin(phi)) + normal * sqrt(max(0.0, 1.0 - u.x));
+        let hit = cast_bvh(origin, ray, view.moving_root, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
+        if hit.tri != NO_FACE {
+            change += shown_by_object(hit.tri - view.moving_first, origin + ray * hit.t, ray) - sh_radiance(coefficients, ray);
+        }
+    }
+    // each cosine-weighted ray stands for pi / m of the irradiance
+    return change * (PI / f32(max(m, 1u)));
+}
+
+// What moving triangle `index` shows at `point` toward a ray along `ray`: on its front, its
+// albedo times the probes' irradiance there and the direct light of its corners (written by
+// light_vertices before this step), plus its emission; its back (the inside of a closed body,
+// met where two of its parts pass into each other) none.
+fn shown_by_object(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
+    let at = moving_point(index, point, ray);
+    if !at.front {
+        return vec3<f32>(0.0);
+    }
+    let c = moving_corners[index] * 2u;
+    let direct = lit[c.x].xyz * (1.0 - at.u - at.v) + lit[c.y].xyz * at.u + lit[c.z].xyz * at.v;
+    return at.material.albedo.xyz / PI * (irradiance_at(point, at.n) + direct) + at.material.emission.xyz;
 }

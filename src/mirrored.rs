@@ -108,7 +108,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             shadow_subdivision, vertex_light, direct_sampled
         }),
         mirrored!(GpuMovingLight => "MovingLight" in "moving_light.wgsl" {
-            vertex_count, emitter_samples, sky_samples, _pad
+            vertex_count, emitter_samples, sky_samples, occlusion_rays
         }),
         mirrored!(GpuShadowAtlas => "ShadowAtlas" in "shadow_atlas.wgsl" {
             face_count, texel_capacity, item_capacity, box_count, samples, sky_reach, _pad

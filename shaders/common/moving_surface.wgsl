@@ -23,8 +23,10 @@ struct MovingMaterial {
 // and their alias table (render/probes.rs alias_table: [threshold, alias bits, 0, 0])
 @group(2) @binding(4) var<storage, read> emitters: array<Emitter>;
 @group(2) @binding(5) var<storage, read> emitter_alias: array<vec4<f32>>;
-// per moving vertex its direct irradiance on the side its normal faces (moving_light.wgsl), and
-// per moving triangle its corners (indices into it) and material: [a, b, c, material]
+// per moving vertex two entries (moving_light.wgsl): at 2 i its direct irradiance on the side
+// its normal faces, at 2 i + 1 what the objects themselves change of the probes' irradiance
+// there (signed: the light they hide from it, less what they send it); and per moving triangle
+// its corners (indices of vertices) and material: [a, b, c, material]
 @group(2) @binding(6) var<storage, read> vertex_light: array<vec4<f32>>;
 @group(2) @binding(7) var<storage, read> moving_corners: array<vec4<u32>>;
 
@@ -38,33 +40,89 @@ fn probe_irradiance(probe: u32, b: array<f32, 9>) -> vec3<f32> {
     return max(e, vec3<f32>(0.0));
 }
 
-// Irradiance at point p on a surface facing n: the eight probes around p, trilinear, each
-// weighted down by the share of its rays that met a one-sided back (a probe inside a wall or a
-// cupboard sees black and would darken what stands beside it); where all eight are inside,
-// plain trilinear.
-fn irradiance_at(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// The eight probes around p and their trilinear weights.
+struct ProbeCorners {
+    probe: array<u32, 8>,
+    weight: array<f32, 8>,
+}
+
+fn probe_corners(p: vec3<f32>) -> ProbeCorners {
     let top = vec3<f32>(probe_grid.counts - vec3<u32>(1u));
     let g = clamp((p - probe_grid.origin) / probe_grid.spacing, vec3<f32>(0.0), top);
     let base = min(vec3<u32>(floor(g)), probe_grid.counts - vec3<u32>(2u));
     let f = g - vec3<f32>(base);
+    var out: ProbeCorners;
+    for (var c = 0u; c < 8u; c++) {
+        let o = vec3<u32>(c & 1u, (c >> 1u) & 1u, (c >> 2u) & 1u);
+        let t = select(vec3<f32>(1.0) - f, f, o == vec3<u32>(1u));
+        let at = base + o;
+        out.probe[c] = at.x + probe_grid.counts.x * (at.y + probe_grid.counts.y * at.z);
+        out.weight[c] = t.x * t.y * t.z;
+    }
+    return out;
+}
+
+// A probe's weight where its rays met one-sided backs (a probe inside a wall or a cupboard sees
+// black and would darken what stands beside it): none from a quarter of its rays.
+fn probe_validity(probe: u32) -> f32 {
+    return clamp(1.0 - 4.0 * probes[probe * PROBE_COEFFICIENTS].w, 0.0, 1.0);
+}
+
+// Irradiance at point p on a surface facing n: the eight probes around p, trilinear, each
+// weighted down by probe_validity; where all eight are inside, plain trilinear.
+fn irradiance_at(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let corners = probe_corners(p);
     let b = irradiance_basis(n);
     var weighted = vec3<f32>(0.0);
     var weights = 0.0;
     var plain = vec3<f32>(0.0);
     for (var c = 0u; c < 8u; c++) {
-        let o = vec3<u32>(c & 1u, (c >> 1u) & 1u, (c >> 2u) & 1u);
-        let t = select(vec3<f32>(1.0) - f, f, o == vec3<u32>(1u));
-        let w = t.x * t.y * t.z;
-        let at = base + o;
-        let probe = at.x + probe_grid.counts.x * (at.y + probe_grid.counts.y * at.z);
+        let probe = corners.probe[c];
+        let w = corners.weight[c];
         let e = probe_irradiance(probe, b);
-        let inside = probes[probe * PROBE_COEFFICIENTS].w;
-        let valid = w * clamp(1.0 - 4.0 * inside, 0.0, 1.0);
+        let valid = w * probe_validity(probe);
         weighted += e * valid;
         weights += valid;
         plain += e * w;
     }
     return select(plain, weighted / weights, weights > 1e-4);
+}
+
+// The probes' radiance arriving at p, as its nine coefficients (sh_basis(d) dotted with them is
+// the radiance from direction d), weighted as irradiance_at weights the probes' irradiance.
+fn radiance_coefficients_at(p: vec3<f32>) -> array<vec3<f32>, 9> {
+    let corners = probe_corners(p);
+    var weighted: array<vec3<f32>, 9>;
+    var plain: array<vec3<f32>, 9>;
+    var weights = 0.0;
+    for (var c = 0u; c < 8u; c++) {
+        let probe = corners.probe[c];
+        let w = corners.weight[c];
+        let valid = w * probe_validity(probe);
+        for (var i = 0u; i < PROBE_COEFFICIENTS; i++) {
+            let x = probes[probe * PROBE_COEFFICIENTS + i].xyz;
+            weighted[i] += x * valid;
+            plain[i] += x * w;
+        }
+        weights += valid;
+    }
+    if weights > 1e-4 {
+        for (var i = 0u; i < PROBE_COEFFICIENTS; i++) {
+            weighted[i] /= weights;
+        }
+        return weighted;
+    }
+    return plain;
+}
+
+// The radiance from direction d (arriving along -d) that `coefficients` hold, never negative.
+fn sh_radiance(coefficients: array<vec3<f32>, 9>, d: vec3<f32>) -> vec3<f32> {
+    let y = sh_basis(d);
+    var l = vec3<f32>(0.0);
+    for (var i = 0u; i < PROBE_COEFFICIENTS; i++) {
+        l += coefficients[i] * y[i];
+    }
+    return max(l, vec3<f32>(0.0));
 }
 
 // Face f's chart in the shadow atlas: its own texels only (corner 0, 0), probe_grid.shadow_subdivision
@@ -81,33 +139,58 @@ fn shadow_chart(f: Face) -> Face {
     return chart;
 }
 
-// The radiance leaving moving triangle `index` (counted from view.moving_first) at `point`
-// toward the ray's origin. The direct light: on the front, where the vertices carry it, their
-// light interpolated over the triangle (what the corners' normals face; shadows and light across
-// a triangle are as smooth as its corners); on a back (an open mesh seen from behind, rare: eye
-// rays pass moving backs by) or without it, shadow rays from the point.
-fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
+// Where a ray along `ray` meets moving triangle `index` (counted from view.moving_first) at
+// `point`: its barycentrics (u, v), the smooth normal of its skinned corners turned to the side
+// the ray sees, whether that side is the triangle's front, and its material.
+struct MovingPoint {
+    n: vec3<f32>,
+    u: f32,
+    v: f32,
+    front: bool,
+    material: MovingMaterial,
+}
+
+fn moving_point(index: u32, point: vec3<f32>, ray: vec3<f32>) -> MovingPoint {
     let tri = ray_triangles[view.moving_first + index];
-    let u = dot(tri.u.xyz, point) + tri.u.w;
-    let v = dot(tri.v.xyz, point) + tri.v.w;
+    var out: MovingPoint;
+    out.u = dot(tri.u.xyz, point) + tri.u.w;
+    out.v = dot(tri.v.xyz, point) + tri.v.w;
     let m = moving_triangles[index];
-    var n = m.n0.xyz * (1.0 - u - v) + m.n1.xyz * u + m.n2.xyz * v;
+    var n = m.n0.xyz * (1.0 - out.u - out.v) + m.n1.xyz * out.u + m.n2.xyz * out.v;
     n = select(tri.w.xyz, n, dot(n, n) > 1e-12);
     // the side the ray sees, by the triangle's own normal (tri.w: eye rays pass the same backs
     // by); the smooth normal turned to it. (By the smooth normal, the silhouettes of a body
     // seen from above turned to backs and took shadow rays per eye ray.)
-    let front = dot(tri.w.xyz, ray) <= 0.0;
-    n = normalize(select(-n, n, dot(n, tri.w.xyz) >= 0.0 == front));
-    let material = moving_materials[bitcast<u32>(m.n0.w)];
-    var direct: vec3<f32>;
-    if probe_grid.vertex_light != 0u && front {
-        let c = moving_corners[index];
-        direct = vertex_light[c.x].xyz * (1.0 - u - v) + vertex_light[c.y].xyz * u + vertex_light[c.z].xyz * v;
+    out.front = dot(tri.w.xyz, ray) <= 0.0;
+    out.n = normalize(select(-n, n, dot(n, tri.w.xyz) >= 0.0 == out.front));
+    out.material = moving_materials[bitcast<u32>(m.n0.w)];
+    return out;
+}
+
+// Entry `slot` of the vertices' light (vertex_light's layout) of moving triangle `index`'s
+// corners, interpolated at barycentrics (u, v).
+fn corners_light(index: u32, u: f32, v: f32, slot: u32) -> vec3<f32> {
+    let c = moving_corners[index] * 2u + vec4<u32>(slot);
+    return vertex_light[c.x].xyz * (1.0 - u - v) + vertex_light[c.y].xyz * u + vertex_light[c.z].xyz * v;
+}
+
+// The radiance leaving moving triangle `index` (counted from view.moving_first) at `point`
+// toward the ray's origin. The direct light: on the front, where the vertices carry it, their
+// light interpolated over the triangle (what the corners' normals face; shadows and light across
+// a triangle are as smooth as its corners), and with it the vertices' correction of the probes'
+// light for what the objects hide of it and send themselves; on a back (an open mesh seen from
+// behind, rare: eye rays pass moving backs by) or without it, shadow rays from the point and
+// the probes' light as it is.
+fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
+    let at = moving_point(index, point, ray);
+    var e = irradiance_at(point, at.n);
+    if probe_grid.vertex_light != 0u && at.front {
+        e = max(e + corners_light(index, at.u, at.v, 0u) + corners_light(index, at.u, at.v, 1u), vec3<f32>(0.0));
     } else {
         let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
-        direct = direct_samples(point + n * 1e-3, n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
+        e += direct_samples(point + at.n * 1e-3, at.n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
     }
-    return material.albedo.xyz / PI * (irradiance_at(point, n) + direct) + material.emission.xyz;
+    return at.material.albedo.xyz / PI * e + at.material.emission.xyz;
 }
 
 // Whether the tree at `root` (the scene's, 0, or the moving objects') blocks the segment from

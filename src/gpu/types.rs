@@ -380,5 +380,6 @@ pub struct GpuMovingLight {
     pub vertex_count: u32,
     pub emitter_samples: u32,
     pub sky_samples: u32,
-    pub _pad: u32,
+    /// rays per vertex against the moving objects for the probes' correction (0: none)
+    pub occlusion_rays: u32,
 }

@@ -1,12 +1,16 @@
-//! The moving objects' own direct light, once per frame at their vertices
+//! The moving objects' own light, once per frame at their vertices
 //! (`shaders/moving_light.wgsl`): after the refit and in the same compute pass, each shown
 //! skinned vertex takes `vertex_shadow_samples` shadow rays to the emitters and
-//! `vertex_sky_shadow_samples` to the sky, against the scene and the moving objects themselves,
-//! and every view's moving surfaces interpolate that light over their triangles
+//! `vertex_sky_shadow_samples` to the sky, against the scene and the moving objects themselves
+//! (its direct light); then `occlusion_rays` rays against the moving objects alone correct the
+//! irradiance probes' light there for what the objects hide of it (the probes know the static
+//! scene only: an armpit would get the room's light unoccluded) and send instead, one bounce
+//! within them. Every view's moving surfaces interpolate both over their triangles
 //! (`common/moving_surface.wgsl`, moving_radiance). Its cost follows the objects' vertices, not
 //! the views or their pixels: a CAVE's floor views that look down on the body no longer cast a
 //! dozen shadow rays per eye ray that meets it. `[object_lighting] direct_light = "per_pixel"`
-//! keeps the shadow rays per eye ray instead, and this module is not used.
+//! keeps the shadow rays per eye ray instead (and the probes' light as it is), and this module
+//! is not used.
 
 use super::moving::MovingObjects;
 use super::probes::{BakeInputs, ObjectLighting, Probes};
@@ -18,15 +22,17 @@ use crate::lightfield::bindings::FieldLayout;
 /// Threads per vertex (`LANES` in moving_light.wgsl), each casting a share of its rays.
 const LANES: u64 = 8;
 
-/// The pass's pipeline, its layouts, the vertices' light (what the views read) and the group
-/// that writes it.
+/// The pass's two pipelines (the direct light, then the probes' correction), its layouts, the
+/// vertices' light (what the views read) and the group that writes it.
 pub struct MovingLight {
     pipeline: wgpu::ComputePipeline,
+    occlusion: wgpu::ComputePipeline,
     scene_layout: wgpu::BindGroupLayout,
     field_layout: FieldLayout,
     moving_layout: wgpu::BindGroupLayout,
     group: wgpu::BindGroup,
-    /// per moving vertex its direct irradiance (rgb): the renderer's moving group, binding 6
+    /// per moving vertex two entries (rgb): its direct irradiance, then the probes' correction
+    /// (the renderer's moving group, binding 6)
     pub lit: wgpu::Buffer,
     params: GpuMovingLight,
 }
@@ -72,20 +78,24 @@ impl MovingLight {
             &light_layout,
         ];
         let pipeline = ctx.compute_pipeline(&module, "light_vertices", &layouts);
+        let occlusion = ctx.compute_pipeline(&module, "occlude_vertices", &layouts);
         let lit = ctx.buffer_init(
             ledger,
-            "moving objects: vertices' direct light",
-            &vec![0u8; objects.vertex_count.max(1) as usize * 16],
+            "moving objects: vertices' light",
+            &vec![0u8; objects.vertex_count.max(1) as usize * 32],
             STORAGE,
         );
         let group = ctx.bind_group(
             &light_layout,
             &[&objects.posed, &objects.posed_normals, &lit],
         );
-        let [emitter_samples, sky_samples] =
-            rays_per_vertex(settings.direct_samples(), objects.vertex_count, settings);
+        let [emitters, sky] = settings.direct_samples();
+        let configured = [emitters, sky, settings.occlusion_rays];
+        let [emitter_samples, sky_samples, occlusion_rays] =
+            rays_per_vertex(configured, objects.vertex_count, settings);
         Ok(MovingLight {
             pipeline,
+            occlusion,
             scene_layout,
             field_layout,
             moving_layout,
@@ -95,7 +105,7 @@ impl MovingLight {
                 vertex_count: objects.vertex_count,
                 emitter_samples,
                 sky_samples,
-                _pad: 0,
+                occlusion_rays,
             },
         })
     }
@@ -142,25 +152,31 @@ impl MovingLight {
     }
 
     /// This frame's light at every vertex for `field`, in the moving objects' pass after their
-    /// refit.
+    /// refit: the direct light, then (reading it where the objects meet themselves) the probes'
+    /// correction. (wgpu orders the two dispatches: the buffer is written by both.)
     pub fn encode(&self, pass: &mut wgpu::ComputePass<'_>, field: &MovingLightField) {
         pass.set_bind_group(0, &field.scene, &[]);
         pass.set_bind_group(1, &field.field, &[]);
         pass.set_bind_group(2, &field.moving, &[]);
         pass.set_bind_group(3, &self.group, &[]);
-        pass.set_pipeline(&self.pipeline);
         let groups = (self.params.vertex_count as u64 * LANES)
             .div_ceil(64)
             .max(1) as u32;
+        pass.set_pipeline(&self.pipeline);
         pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+        if self.params.occlusion_rays > 0 {
+            pass.set_pipeline(&self.occlusion);
+            pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+        }
     }
 }
 
-/// The shadow rays each vertex takes (to the emitters, to the sky): `configured`, scaled down
-/// alike where `vertices` would take more than `vertex_light_rays` a frame (a 200K-triangle prop
-/// would take 5 million), keeping at least one of each kind asked for.
-fn rays_per_vertex(configured: [u32; 2], vertices: u32, settings: &ObjectLighting) -> [u32; 2] {
-    let asked = vertices as u64 * (configured[0] + configured[1]) as u64;
+/// The rays each vertex takes (shadow rays to the emitters and to the sky, occlusion rays):
+/// `configured`, scaled down alike where `vertices` would take more than `vertex_light_rays` a
+/// frame (a 200K-triangle prop would take 8 million), keeping at least one of each kind asked
+/// for.
+fn rays_per_vertex(configured: [u32; 3], vertices: u32, settings: &ObjectLighting) -> [u32; 3] {
+    let asked = vertices as u64 * configured.iter().map(|&n| n as u64).sum::<u64>();
     let cap = settings.vertex_light_rays as u64;
     if asked <= cap {
         return configured;
@@ -181,10 +197,17 @@ mod tests {
     #[test]
     fn rays_per_vertex_keep_the_frames_rays_under_the_cap() {
         let settings = ObjectLighting::default();
-        assert_eq!(rays_per_vertex([32, 16], 6_792, &settings), [32, 16]);
-        let scaled = rays_per_vertex([32, 16], 100_000, &settings);
-        assert_eq!(scaled, [6, 3]);
-        assert!(100_000 * (scaled[0] + scaled[1]) as u64 <= settings.vertex_light_rays as u64);
-        assert_eq!(rays_per_vertex([32, 0], 10_000_000, &settings), [1, 0]);
+        assert_eq!(
+            rays_per_vertex([32, 16, 32], 6_792, &settings),
+            [32, 16, 32]
+        );
+        let scaled = rays_per_vertex([32, 16, 32], 100_000, &settings);
+        assert_eq!(scaled, [4, 2, 4]);
+        let sum: u32 = scaled.iter().sum();
+        assert!(100_000 * sum as u64 <= settings.vertex_light_rays as u64);
+        assert_eq!(
+            rays_per_vertex([32, 0, 0], 10_000_000, &settings),
+            [1, 0, 0]
+        );
     }
 }

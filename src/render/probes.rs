@@ -33,6 +33,11 @@ pub struct ObjectLighting {
     /// the most shadow rays the vertices take in all per frame: more vertices take fewer each
     #[serde(default = "default_vertex_light_rays")]
     pub vertex_light_rays: u32,
+    /// rays per vertex (`direct_light = "per_vertex"`) against the moving objects themselves,
+    /// for what they hide of the probes' light and send instead (`render::moving_light`; 0:
+    /// the probes' light as it is)
+    #[serde(default = "default_occlusion_rays")]
+    pub occlusion_rays: u32,
     /// shadow rays per eye ray to the emitters, each to a triangle picked by power (0: the
     /// objects cast no shadow from emitters)
     #[serde(default = "default_shadow_samples")]
@@ -93,6 +98,10 @@ fn default_vertex_sky_shadow_samples() -> u32 {
     16
 }
 
+fn default_occlusion_rays() -> u32 {
+    32
+}
+
 fn default_vertex_light_rays() -> u32 {
     1 << 20
 }
@@ -142,6 +151,7 @@ impl Default for ObjectLighting {
             vertex_shadow_samples: default_vertex_shadow_samples(),
             vertex_sky_shadow_samples: default_vertex_sky_shadow_samples(),
             vertex_light_rays: default_vertex_light_rays(),
+            occlusion_rays: default_occlusion_rays(),
             shadow_samples: default_shadow_samples(),
             sky_shadow_samples: default_sky_shadow_samples(),
             shadows: ShadowMethod::default(),
@@ -192,6 +202,7 @@ impl ObjectLighting {
             ("shadow_samples", self.shadow_samples),
             ("vertex_shadow_samples", self.vertex_shadow_samples),
             ("vertex_sky_shadow_samples", self.vertex_sky_shadow_samples),
+            ("occlusion_rays", self.occlusion_rays),
             ("sky_shadow_samples", self.sky_shadow_samples),
             ("atlas_shadow_samples", self.atlas_shadow_samples),
             ("atlas_sky_shadow_samples", self.atlas_sky_shadow_samples),
