@@ -11,7 +11,9 @@
 //   moving objects: each that meets one takes away the probes' radiance from its direction and
 //   adds what the object shows there (its albedo times the probes' irradiance and the first
 //   step's direct light at the point met, plus its emission: one bounce within the objects).
-//   Where no ray meets an object, nothing changes: the probes' own irradiance stands, exact
+//   A ray that meets no object takes away, where the static surface it meets lies in the
+//   objects' shadow, the light that shadow takes from it (the shadow atlas, filled before this
+//   step). Where no ray meets either, nothing changes: the probes' own irradiance stands, exact
 //   for the smooth light they hold.
 // Their cost follows the objects' vertices, not the views or their pixels. A vertex's shadow
 // rays follow a pattern fixed per vertex (a hash of its index) and its occlusion rays one
@@ -29,6 +31,7 @@
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
+#include "common/moving_shadow.wgsl"
 
 const LIGHT_FIELD_GROUP: u32 = 1u;
 const MOVING_OBJECTS: u32 = 1u;
@@ -128,10 +131,29 @@ fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3
         let hit = cast_bvh(origin, ray, view.moving_root, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
         if hit.tri != NO_FACE {
             change += shown_by_object(hit.tri - view.moving_first, origin + ray * hit.t, ray) - sh_radiance(coefficients, ray);
+        } else if (view.moving_flags & MOVING_SHADOW_ATLAS) != 0u {
+            change -= shadowed_by_objects(origin, ray);
         }
     }
     // each cosine-weighted ray stands for pi / m of the irradiance
     return change * (PI / f32(max(m, 1u)));
+}
+
+// The light the moving objects' shadows take from the static surface a ray along `ray` meets
+// first (the shadow atlas, filled before this step): the floor under a figure sends less light
+// up to its legs than the probes, baked without the figure, hold.
+fn shadowed_by_objects(origin: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
+    let hit = cast_bvh(origin, ray, 0u, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
+    if hit.tri == NO_FACE {
+        return vec3<f32>(0.0);
+    }
+    let face = triangles[hit.tri].face;
+    // the back of a one-sided face has no twin: it sends nothing either way
+    let seen = select(faces[face].twin, face, dot(faces[face].normal, ray) < 0.0);
+    if seen == NO_FACE {
+        return vec3<f32>(0.0);
+    }
+    return moving_shadow(seen, origin + ray * hit.t, 0u);
 }
 
 // What moving triangle `index` shows at `point` toward a ray along `ray`: on its front, its

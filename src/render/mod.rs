@@ -482,7 +482,8 @@ impl Renderer {
         let atlas = self.shadow_atlas.as_ref();
         let shadow = atlas.map(|a| a.field(&self.ctx, ledger, &inputs, (moving, &probes)));
         let light = self.moving_light.as_ref();
-        let vertex_light = light.map(|l| l.field(&self.ctx, ledger, &inputs, (moving, &probes)));
+        let vertex_light =
+            light.map(|l| l.field(&self.ctx, ledger, &inputs, (moving, &probes), atlas));
         let passes = (atlas, light);
         let group = moving_group(&self.ctx, &self.moving_layout, (moving, &probes), passes);
         let set = &mut self.fields[k];
@@ -506,12 +507,13 @@ impl Renderer {
             let set = &self.fields[self.active];
             let shadows = self.shadow_atlas.as_ref().zip(set.shadow.as_ref());
             let light = self.moving_light.as_ref().zip(set.vertex_light.as_ref());
+            // the shadows first: the vertices' light reads them
             let after_refit = move |pass: &mut wgpu::ComputePass<'_>| {
-                if let Some((l, f)) = light {
-                    l.encode(pass, f);
-                }
                 if let Some((a, f)) = shadows {
                     a.encode(pass, f);
+                }
+                if let Some((l, f)) = light {
+                    l.encode(pass, f);
                 }
             };
             m.encode(&mut encoder, timestamps, Some(after_refit));
@@ -1099,7 +1101,7 @@ fn resolve_pipeline(
 /// The moving objects' group of the resolve pass: their shading records, materials and probes,
 /// their vertices' light and corners, and the shadow atlas's face slots and texels
 /// (placeholders, never read, without the vertices' light pass or the atlas).
-fn moving_group(
+pub(super) fn moving_group(
     ctx: &GpuContext,
     layout: &wgpu::BindGroupLayout,
     (m, p): (&moving::MovingObjects, &probes::Probes),

@@ -14,6 +14,7 @@
 
 use super::moving::MovingObjects;
 use super::probes::{BakeInputs, ObjectLighting, Probes};
+use super::shadow_atlas::ShadowAtlas;
 use crate::error::{Result, VlfError};
 use crate::gpu::types::{GpuMovingLight, GpuView};
 use crate::gpu::{reflect, shaders, GpuContext, MemoryLedger, STORAGE};
@@ -111,13 +112,15 @@ impl MovingLight {
     }
 
     /// The groups that light the vertices in the light field `inputs` binds (the probes' bake
-    /// inputs: the same scene buffers), with that field's probes and emitters.
+    /// inputs: the same scene buffers), with that field's probes and emitters, and the shadow
+    /// atlas where the objects' shadows are drawn in one (its pass runs before this one).
     pub fn field(
         &self,
         ctx: &GpuContext,
         ledger: &MemoryLedger,
         inputs: &BakeInputs,
         (objects, probes): (&MovingObjects, &Probes),
+        atlas: Option<&ShadowAtlas>,
     ) -> MovingLightField {
         let uniform = wgpu::BufferUsages::UNIFORM;
         let view = ctx.buffer_init(
@@ -147,7 +150,8 @@ impl MovingLight {
         MovingLightField {
             scene,
             field: inputs.resident.bind_group(&self.field_layout, inputs.field),
-            moving: probes.moving_group(ctx, &self.moving_layout, objects),
+            // the vertices' light itself is this pass's own group's (group 3), not read here
+            moving: super::moving_group(ctx, &self.moving_layout, (objects, probes), (atlas, None)),
         }
     }
 
