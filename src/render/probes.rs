@@ -99,7 +99,7 @@ fn default_vertex_sky_shadow_samples() -> u32 {
 }
 
 fn default_occlusion_rays() -> u32 {
-    32
+    16
 }
 
 fn default_vertex_light_rays() -> u32 {
