@@ -278,7 +278,9 @@ fn resource_specs() -> Vec<Spec> {
             "visibility beyond one binding",
             "501 directions x 512^2 cells (cell tables 501 MiB)",
             "split into direction batches (as observed in the report); runs, furnace within 1%",
-            true,
+            // not quick: a minute on the software adapter, and tests/batches.rs checks the same
+            // split at 181 directions
+            false,
             visibility_beyond_binding,
         ),
         spec(
