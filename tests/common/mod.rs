@@ -281,9 +281,11 @@ pub fn face_corners(
 
 /// `[object_lighting]` keys for tests whose moving objects' lighting is not what they check
 /// (logging, replay, poses, hands on grips): 6 light probes along the scene's longest side with
-/// 256 rays each. The default (24 with 1,024 rays, 14 million rays through the light field)
-/// takes about 25 s to bake on a software adapter, in every process that draws objects.
-pub const LIGHT_PROBE_KEYS: &str = "probe_resolution = 6\nprobe_rays = 256\n";
+/// 256 rays each, and no occlusion rays. The default (24 with 1,024 rays, 14 million rays
+/// through the light field) takes about 25 s to bake on a software adapter, in every process
+/// that draws objects; the occlusion rays (16 per vertex, a quarter of a million rays a frame
+/// for the avatar) cost every frame drawn.
+pub const LIGHT_PROBE_KEYS: &str = "probe_resolution = 6\nprobe_rays = 256\nocclusion_rays = 0\n";
 
 /// Small propagation settings for GPU tests on the software adapter (21 directions, a 32 x 32
 /// grid, 8 texels per unit, tolerance 1e-2, direct light with 16 samples).
