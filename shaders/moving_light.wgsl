@@ -11,10 +11,10 @@
 //   moving objects: each that meets one takes away the probes' radiance from its direction and
 //   adds what the object shows there (its albedo times the probes' irradiance and the first
 //   step's direct light at the point met, plus its emission: one bounce within the objects).
-//   A ray that meets no object takes away, where the static surface it meets (within the
-//   objects' box's diagonal) lies in the objects' shadow, the light that shadow takes from it
-//   (the shadow atlas, filled before this step). Where no ray meets either, nothing changes:
-//   the probes' own irradiance stands, exact for the smooth light they hold.
+//   A ray that meets no object takes away, where the static surface it meets lies in the
+//   objects' shadow, the light that shadow takes from it (the shadow atlas, filled before this
+//   step). Where no ray meets either, nothing changes: the probes' own irradiance stands, exact
+//   for the smooth light they hold.
 // Their cost follows the objects' vertices, not the views or their pixels. A vertex's shadow
 // rays follow a pattern fixed per vertex (a hash of its index) and its occlusion rays one
 // pattern for all, turned to its normal, so the patterns move with the body and a still body
@@ -122,13 +122,6 @@ fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3
     let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
     let a = normalize(cross(normal, t));
     let b = cross(normal, a);
-    // the objects' shadows lie within about their box's size of them: the static scene is
-    // searched that far (a ray that reaches no shadow costs a short traversal)
-    let top = pairs[view.moving_root];
-    let left_empty = top.lo_left.x >= 1e37;
-    let right_empty = top.lo_right.x >= 1e37;
-    let hi = max(select(top.hi_left, top.hi_right, left_empty), select(top.hi_right, top.hi_left, right_empty));
-    let reach = select(length(hi - min(top.lo_left, top.lo_right)), 0.0, left_empty && right_empty);
     var change = vec3<f32>(0.0);
     for (var k = part.x; k < m; k += part.y) {
         let u = hammersley(k, m, vec2<f32>(0.0));
@@ -139,7 +132,7 @@ fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3
         if hit.tri != NO_FACE {
             change += shown_by_object(hit.tri - view.moving_first, origin + ray * hit.t, ray) - sh_radiance(coefficients, ray);
         } else if (view.moving_flags & MOVING_SHADOW_ATLAS) != 0u {
-            change -= shadowed_by_objects(origin, ray, reach);
+            change -= shadowed_by_objects(origin, ray);
         }
     }
     // each cosine-weighted ray stands for pi / m of the irradiance
@@ -147,10 +140,10 @@ fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3
 }
 
 // The light the moving objects' shadows take from the static surface a ray along `ray` meets
-// first within `reach` (the shadow atlas, filled before this step): the floor under a figure
-// sends less light up to its legs than the probes, baked without the figure, hold.
-fn shadowed_by_objects(origin: vec3<f32>, ray: vec3<f32>, reach: f32) -> vec3<f32> {
-    let hit = cast_bvh(origin, ray, 0u, NO_NODE, Hit(reach, NO_FACE, 0.0, 0.0), false);
+// first (the shadow atlas, filled before this step): the floor under a figure sends less light
+// up to its legs than the probes, baked without the figure, hold.
+fn shadowed_by_objects(origin: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
+    let hit = cast_bvh(origin, ray, 0u, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
     if hit.tri == NO_FACE {
         return vec3<f32>(0.0);
     }
