@@ -279,13 +279,6 @@ fn hemisphere_frame(n: vec3<f32>) -> mat3x3<f32> {
     return mat3x3<f32>(a, cross(n, a), n);
 }
 
-// The cosine-distributed direction of the unit square's point u in that frame.
-fn cosine_direction(frame: mat3x3<f32>, u: vec2<f32>) -> vec3<f32> {
-    let r = sqrt(u.x);
-    let phi = 2.0 * PI * u.y;
-    return frame[0] * (r * cos(phi)) + frame[1] * (r * sin(phi)) + frame[2] * sqrt(max(1.0 - u.x, 0.0));
-}
-
 // Irradiance from the sky at x (normal n), as a fraction of pi x the sky's radiance (rgb: a ray
 // that meets a mirror first goes on, reflected, with the mirror's reflectance).
 fn sky_fraction(x: vec3<f32>, n: vec3<f32>, seed: u32, skip: u32) -> vec3<f32> {

@@ -119,15 +119,10 @@ fn vertex_step(group: u32, lane: u32, step: u32) {
 fn occlusion_part(origin: vec3<f32>, normal: vec3<f32>, part: vec2<u32>) -> vec3<f32> {
     let m = light.occlusion_rays;
     let coefficients = radiance_coefficients_at(origin);
-    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
-    let a = normalize(cross(normal, t));
-    let b = cross(normal, a);
+    let frame = moving_frame(normal);
     var change = vec3<f32>(0.0);
     for (var k = part.x; k < m; k += part.y) {
-        let u = hammersley(k, m, vec2<f32>(0.0));
-        let r = sqrt(u.x);
-        let phi = 2.0 * PI * u.y;
-        let ray = a * (r * cos(phi)) + b * (r * sin(phi)) + normal * sqrt(max(0.0, 1.0 - u.x));
+        let ray = cosine_direction(frame, hammersley(k, m, vec2<f32>(0.0)));
         let hit = cast_bvh(origin, ray, view.moving_root, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
         if hit.tri != NO_FACE {
             change += shown_by_object(hit.tri - view.moving_first, origin + ray * hit.t, ray) - sh_radiance(coefficients, ray);

@@ -216,6 +216,15 @@ fn pick_emitter(u: f32) -> vec2<f32> {
     return vec2<f32>(entry.y, (frac - threshold) / max(1.0 - threshold, 1e-30));
 }
 
+// An orthonormal frame around unit `normal` (columns: two tangents and the normal) for the
+// cosine-distributed rays of a moving surface's sky samples and its vertices' occlusion rays
+// (moving_light.wgsl).
+fn moving_frame(normal: vec3<f32>) -> mat3x3<f32> {
+    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
+    let a = normalize(cross(normal, t));
+    return mat3x3<f32>(a, cross(normal, a), normal);
+}
+
 // The direct irradiance at `origin` (facing `normal`) over counts.x shadow rays to the emitters,
 // each to a point on a triangle picked by its share of their power (one rotated Hammersley set
 // over all of them: the same cost whatever the number of lights), and counts.y cosine-weighted
@@ -249,9 +258,7 @@ fn direct_samples_part(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_
     let sky = field.sky.xyz;
     let m = select(0u, counts.y, max(sky.x, max(sky.y, sky.z)) > 0.0);
     // a frame around the normal for the sky's cosine-weighted directions
-    let t = normalize(select(vec3<f32>(1.0, 0.0, 0.0), vec3<f32>(0.0, 1.0, 0.0), abs(normal.x) > 0.9));
-    let a = normalize(cross(normal, t));
-    let b = cross(normal, a);
+    let frame = moving_frame(normal);
     var counted = vec3<f32>(0.0);
     // one ray cast in the loop (its code once in the pipeline): each sample's ray first against
     // the moving objects, and where they block it, again against the scene
@@ -283,10 +290,7 @@ fn direct_samples_part(origin: vec3<f32>, normal: vec3<f32>, seed: u32, blocked_
             let usable = cos_p > 0.0 && cos_e > 0.0 && chance > 0.0;
             carried = select(vec3<f32>(0.0), em.radiance.xyz * (cos_p * cos_e * area / (dist * dist * chance * f32(n))), usable);
         } else {
-            let u = hammersley(k - n, m, shift.yx);
-            let r = sqrt(u.x);
-            let phi = 2.0 * PI * u.y;
-            ray = a * (r * cos(phi)) + b * (r * sin(phi)) + normal * sqrt(max(0.0, 1.0 - u.x));
+            ray = cosine_direction(frame, hammersley(k - n, m, shift.yx));
             carried = sky * (PI / f32(m));
         }
         let inv = 1.0 / select(ray, vec3<f32>(1e-20), abs(ray) < vec3<f32>(1e-20));

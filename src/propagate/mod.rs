@@ -900,8 +900,6 @@ pub struct Tail {
     pub plain_iterations_estimate: u32,
 }
 
-/// Iterations plain shooting needs from residual `residual` after `done` iterations, decaying by
-/// `r` per iteration, to fall below `tolerance`.
 /// The decay ratio r of the residuals after each iteration so far, and the tail's uncertainty,
 /// once that is below `tolerance` (`Job::geometric_tail` says why): the last residual times dr
 /// / (1 - r), dr the larger of the last two changes of the ratio. None before four iterations,
@@ -918,6 +916,8 @@ fn settled_decay(residuals: &[f64], tolerance: f64) -> Option<(f64, f64)> {
     (r > 0.0 && r < 0.9999 && uncertainty < tolerance).then_some((r, uncertainty))
 }
 
+/// Iterations plain shooting needs from residual `residual` after `done` iterations, decaying by
+/// `r` per iteration, to fall below `tolerance`.
 fn plain_estimate(residual: f64, r: f64, done: u32, tolerance: f64) -> u32 {
     if residual <= tolerance {
         return done;
