@@ -230,6 +230,92 @@ pub fn bvh_triangles(
     (nodes, triangles)
 }
 
+/// common/ray.wgsl's `intersect` (Moller-Trumbore, in the same f32 steps; rim rays do not grow
+/// triangles): the distance, or -1.
+pub fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32) -> f32 {
+    let (v0, e1, e2) = (Vec3::from(tri.v0), Vec3::from(tri.e1), Vec3::from(tri.e2));
+    let p = dir.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return -1.0;
+    }
+    let inv = 1.0 / det;
+    let s = origin - v0;
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return -1.0;
+    }
+    let q = s.cross(e1);
+    let v = dir.dot(q) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return -1.0;
+    }
+    let t = e2.dot(q) * inv;
+    if t <= 1e-5 || t >= t_max {
+        return -1.0;
+    }
+    t
+}
+
+/// The nearest triangle (distance, index) that the ray from `origin` along `dir` meets closer
+/// than `t_max`, passing by the triangles whose face `skip` names: the CPU's walk of
+/// `build_bvh`'s tree (the prepare stage's test for texels buried under other geometry,
+/// src/prepare/buried.rs). Cut-out holes are not looked up: every triangle is solid here.
+pub fn closest_hit(
+    nodes: &[GpuBvhNode],
+    triangles: &[GpuTriangle],
+    origin: Vec3,
+    dir: Vec3,
+    t_max: f32,
+    skip: impl Fn(u32) -> bool,
+) -> Option<(f32, usize)> {
+    let inv = Vec3::ONE / dir.map(|c| if c.abs() < 1e-20 { 1e-20 } else { c });
+    let enters = |n: &GpuBvhNode, t_max: f32| {
+        let (a, b) = (
+            (Vec3::from(n.lo) - origin) * inv,
+            (Vec3::from(n.hi) - origin) * inv,
+        );
+        a.min(b).max_element().max(0.0) <= a.max(b).min_element().min(t_max)
+    };
+    let mut best: Option<(f32, usize)> = None;
+    let (mut stack, mut top) = ([0u32; 64], usize::from(!nodes.is_empty()));
+    while top > 0 {
+        top -= 1;
+        let index = stack[top];
+        let node = &nodes[index as usize];
+        let reach = best.map_or(t_max, |b| b.0);
+        if !enters(node, reach) {
+            continue;
+        }
+        if node.count > 0 {
+            let first = node.index as usize;
+            for (i, tri) in triangles
+                .iter()
+                .enumerate()
+                .skip(first)
+                .take(node.count as usize)
+            {
+                let reach = best.map_or(t_max, |b| b.0);
+                let t = match skip(tri.face) {
+                    true => -1.0,
+                    false => intersect(origin, dir, tri, reach),
+                };
+                if t > 0.0 {
+                    best = Some((t, i));
+                }
+            }
+            continue;
+        }
+        for child in [node.index, index + 1] {
+            if top < stack.len() {
+                stack[top] = child;
+                top += 1;
+            }
+        }
+    }
+    best
+}
+
 /// A bounding volume hierarchy over `triangles`: binned surface-area-heuristic splits (median
 /// splits past depth SAH_DEPTH); returns the nodes and the triangle order the leaves refer to.
 /// The left child of an internal node is the node after it; `index` holds the right child.

@@ -7,6 +7,7 @@
 mod architecture;
 mod avatar;
 mod batches;
+mod buried;
 mod bvh;
 mod cli;
 mod cluster;

@@ -5,6 +5,7 @@
 //! nearest point of the face (so the padding carries the rim's light), and a coverage weight
 //! (the share of the texel the face covers) for power sums.
 
+use super::buried::{self, ChartTexel, Occluders};
 use super::{PlanarFace, PreparedTriangle};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::NO_FACE;
@@ -34,6 +35,13 @@ pub struct Atlas {
     pub texture_albedo: Option<Vec<[f32; 4]>>,
     /// per texel: the `map_Ke` factor (only when some face has an emission texture)
     pub texture_emission: Option<Vec<[f32; 4]>>,
+    /// texels whose sample point lay under other geometry and moved to an open point of their
+    /// face (src/prepare/buried.rs)
+    pub unburied_texels: u64,
+    /// per texel: the share of its face's area in it that lies open, not under other geometry
+    /// (src/prepare/buried.rs; 1 where its sample point is open): the power balance weights
+    /// its area by it
+    pub open_share: Vec<f32>,
 }
 
 impl Atlas {
@@ -48,6 +56,7 @@ impl Atlas {
         density: f64,
         materials: &[Material],
         textures: &[Texture],
+        occluders: Option<&Occluders>,
     ) -> Result<Atlas> {
         let by_face = FaceTriangles::of(faces.len(), positions, triangles);
         let textured = |map: fn(&Material) -> Option<u32>| {
@@ -73,52 +82,81 @@ impl Atlas {
             charted_texels: 0,
             texture_albedo: albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
             texture_emission: emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
+            unburied_texels: 0,
+            open_share: vec![1.0f32; texels as usize],
         };
         for (fi, f) in faces.iter_mut().enumerate() {
             let lo = local_min[fi];
             // origin: the plane point whose face coordinates are `lo`
             f.origin = f.normal * f.plane_offset + f.axis_a * lo.x + f.axis_b * lo.y;
             atlas.charted_texels += f.atlas.w as u64 * f.atlas.h as u64;
-            let material = &materials[f.material as usize];
-            let texture = |which: Option<u32>| {
-                which
-                    .filter(|_| by_face.has_uv(fi))
-                    .map(|t| &textures[t as usize])
-            };
-            let maps = [
-                texture(material.diffuse_texture),
-                texture(material.emission_texture),
-            ];
-            atlas.fill_chart(fi, f, &by_face, density, maps);
+        }
+        let faces: &[PlanarFace] = faces;
+        // charts are sampled in parallel (the buried-point test casts rays), a batch of faces at
+        // a time so that the samples in flight stay small, and written in order
+        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        for batch in (0..faces.len()).step_by(CHART_BATCH) {
+            let batch = batch..(batch + CHART_BATCH).min(faces.len());
+            let next = std::sync::atomic::AtomicUsize::new(batch.start);
+            let mut charts: Vec<(usize, ChartSamples)> = std::thread::scope(|scope| {
+                let work = || {
+                    let mut done = Vec::new();
+                    loop {
+                        let fi = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        if fi >= batch.end {
+                            return done;
+                        }
+                        done.push((
+                            fi,
+                            sample_chart(fi, &faces[fi], &by_face, density, occluders),
+                        ));
+                    }
+                };
+                let handles: Vec<_> = (0..workers).map(|_| scope.spawn(work)).collect();
+                handles
+                    .into_iter()
+                    .flat_map(|h| h.join().expect("a chart sampler panicked"))
+                    .collect()
+            });
+            charts.sort_by_key(|c| c.0);
+            for (fi, chart) in charts {
+                let f = &faces[fi];
+                let material = &materials[f.material as usize];
+                let texture = |which: Option<u32>| {
+                    which
+                        .filter(|_| by_face.has_uv(fi))
+                        .map(|t| &textures[t as usize])
+                };
+                let maps = [
+                    texture(material.diffuse_texture),
+                    texture(material.emission_texture),
+                ];
+                atlas.unburied_texels += chart.moved as u64;
+                atlas.write_chart(fi, f, &by_face, maps, chart);
+            }
         }
         Ok(atlas)
     }
 
-    /// Sample point, coverage and texture factors of every texel of face `fi`'s chart.
+    /// Writes the sample points, coverage, open share and texture factors of face `fi`'s chart.
     /// `maps`: the face's map_Kd and map_Ke (when it has both map and texture coordinates).
-    fn fill_chart(
+    fn write_chart(
         &mut self,
         fi: usize,
         f: &PlanarFace,
         by_face: &FaceTriangles,
-        density: f64,
         maps: [Option<&Texture>; 2],
+        chart: ChartSamples,
     ) {
-        let tris2: Vec<[DVec2; 3]> = by_face.corners[fi]
-            .iter()
-            .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
-            .collect();
-        let bounds: Vec<(DVec2, DVec2)> = tris2
-            .iter()
-            .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
-            .collect();
         let r = f.atlas;
         let uvs = &by_face.uvs[fi];
+        let tris2 = by_face.chart_triangles(fi, f);
+        let to_space = |s: DVec2| f.origin + f.axis_a * s.x + f.axis_b * s.y;
+        let texels = chart.texels;
         for j in 0..r.h {
             for i in 0..r.w {
-                let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
-                let (sample, cover, tri) = sample_texel(&tris2, &bounds, centre, 0.5 / density);
-                let p = f.origin + f.axis_a * sample.x + f.axis_b * sample.y;
+                let (sample, cover, tri) = texels[(j * r.w + i) as usize];
+                let p = to_space(sample);
                 let idx = ((r.y + j) * self.width + r.x + i) as usize;
                 if maps.iter().any(Option::is_some) {
                     let uv = interpolate_uv(&tris2[tri], uvs[tri].unwrap(), sample);
@@ -137,8 +175,71 @@ impl Atlas {
                     f32::from_bits(fi as u32),
                 ];
                 self.coverage[idx] = cover as f32;
+                self.open_share[idx] = chart.open_share[(j * r.w + i) as usize];
             }
         }
+    }
+}
+
+/// Faces whose charts are sampled at once (in parallel), before they are written.
+const CHART_BATCH: usize = 8192;
+
+/// One chart's texels (row-major), their open shares (buried.rs) and how many moved.
+struct ChartSamples {
+    texels: Vec<ChartTexel>,
+    open_share: Vec<f32>,
+    moved: usize,
+}
+
+/// Sample point, coverage and triangle of every texel of face `fi`'s chart; with `occluders`,
+/// buried points moved (src/prepare/buried.rs).
+fn sample_chart(
+    fi: usize,
+    f: &PlanarFace,
+    by_face: &FaceTriangles,
+    density: f64,
+    occluders: Option<&Occluders>,
+) -> ChartSamples {
+    let tris2 = by_face.chart_triangles(fi, f);
+    let bounds: Vec<(DVec2, DVec2)> = tris2
+        .iter()
+        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+        .collect();
+    let r = f.atlas;
+    let mut texels: Vec<ChartTexel> = (0..r.h)
+        .flat_map(|j| (0..r.w).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let centre = DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
+            sample_texel(&tris2, &bounds, centre, 0.5 / density)
+        })
+        .collect();
+    let mut open_share = vec![1.0f32; texels.len()];
+    let moved = occluders.map_or(0, |occluders| {
+        let inside = |p: DVec2| {
+            (0..tris2.len()).find(|&t| {
+                bounds[t].0.cmple(p).all() && bounds[t].1.cmpge(p).all() && inside(&tris2[t], p)
+            })
+        };
+        let chart = buried::Chart {
+            size: (r.w, r.h),
+            face: fi as u32,
+            f,
+            density,
+        };
+        let to_space = |s: DVec2| f.origin + f.axis_a * s.x + f.axis_b * s.y;
+        buried::unbury(
+            &mut texels,
+            &mut open_share,
+            &chart,
+            occluders,
+            inside,
+            to_space,
+        )
+    });
+    ChartSamples {
+        texels,
+        open_share,
+        moved,
     }
 }
 
@@ -159,6 +260,14 @@ impl FaceTriangles {
             by_face.uvs[t.face as usize].push(t.uv);
         }
         by_face
+    }
+
+    /// Face `fi`'s triangles in its chart's coordinates (along its axes from its origin).
+    fn chart_triangles(&self, fi: usize, f: &PlanarFace) -> Vec<[DVec2; 3]> {
+        self.corners[fi]
+            .iter()
+            .map(|t| t.map(|p| DVec2::new(f.axis_a.dot(p - f.origin), f.axis_b.dot(p - f.origin))))
+            .collect()
     }
 
     /// Whether every triangle of face `f` has texture coordinates.

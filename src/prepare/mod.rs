@@ -4,6 +4,7 @@
 //! (`atlas.rs`).
 
 pub mod atlas;
+pub mod buried;
 pub mod packing;
 
 use crate::error::{Result, VlfError};
@@ -111,6 +112,7 @@ impl PreparedScene {
             }
             faces.push(back);
         }
+        let occluders = buried::Occluders::new(&positions, &triangles, &faces);
         let atlas = atlas::Atlas::build(
             &mut faces,
             &positions,
@@ -118,6 +120,7 @@ impl PreparedScene {
             texel_density,
             &scene.materials,
             &scene.textures,
+            Some(&occluders),
         )?;
         let small = faces
             .iter()

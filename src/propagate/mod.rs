@@ -70,7 +70,9 @@ pub fn scene_bvh(
 /// Each texel's share of its face's area (normalised units): the face's triangles clipped to the
 /// texel's square, exactly. The power balance weights texels by it (a texel's `coverage`, from
 /// 4 x 4 samples, is off by up to a sixteenth of a texel per edge: percents of a face a few
-/// texels wide, such as a small emitter, whose light direct light delivers from its exact area).
+/// texels wide, such as a small emitter, whose light direct light delivers from its exact area),
+/// times the share of it that lies open (`atlas.open_share`: what lies under a picture frame or
+/// a stair receives nothing, although a texel moved to the open rim beside it holds light).
 pub fn texel_areas(prepared: &PreparedScene) -> Vec<f64> {
     use glam::DVec2;
     let d = prepared.texel_density;
@@ -94,6 +96,9 @@ pub fn texel_areas(prepared: &PreparedScene) -> Vec<f64> {
                 areas[((r.y + j) * prepared.atlas.width + r.x + i) as usize] += covered / (d * d);
             }
         }
+    }
+    for (area, &open) in areas.iter_mut().zip(&prepared.atlas.open_share) {
+        *area *= open as f64;
     }
     areas
 }

@@ -5,7 +5,7 @@
 
 pub mod specular;
 
-use crate::bvh::GpuTriangle;
+use crate::bvh::{intersect, GpuTriangle};
 use crate::gpu::types::{
     GpuDirection, GpuFace, GpuGrid, GpuMaterial, GRID_FLAG_RIM_RAYS, GRID_FLAG_SKY, NO_FACE,
     UNRESOLVED,
@@ -25,33 +25,6 @@ pub(super) fn v3(a: [f32; 3]) -> Vec3 {
 
 /// common/ray.wgsl's tie: hits this close (relative) are tied.
 const TIE: f32 = 1.000001;
-
-/// common/ray.wgsl's `intersect` (Moller-Trumbore, in the same f32 steps; rim rays do not grow
-/// triangles): the distance, or -1.
-fn intersect(origin: Vec3, dir: Vec3, tri: &GpuTriangle, t_max: f32) -> f32 {
-    let (v0, e1, e2) = (v3(tri.v0), v3(tri.e1), v3(tri.e2));
-    let p = dir.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return -1.0;
-    }
-    let inv = 1.0 / det;
-    let s = origin - v0;
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return -1.0;
-    }
-    let q = s.cross(e1);
-    let v = dir.dot(q) * inv;
-    if v < 0.0 || u + v > 1.0 {
-        return -1.0;
-    }
-    let t = e2.dot(q) * inv;
-    if t <= 1e-5 || t >= t_max {
-        return -1.0;
-    }
-    t
-}
 
 fn to_cell_units(grid: &GpuGrid, p: Vec3, d: &GpuDirection) -> Vec3 {
     let inv_h = 1.0 / grid.cell_size;
