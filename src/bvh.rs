@@ -1,7 +1,8 @@
 //! The bounding volume hierarchy over a scene's triangles, built on the CPU (binned surface area
 //! heuristic) and traversed on the GPU by `shaders/common/bvh.wgsl`: the eye rays of the
 //! renderer, the shadow rays of direct light and the paths of the reference path tracer all
-//! cast through it. It sits below all three, so none depends on another for ray casting.
+//! cast through it. It sits below all three, so none depends on another for ray casting. The
+//! prepare stage walks it on the CPU (`closest_hit`) to find texels buried under other geometry.
 
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
