@@ -8,6 +8,7 @@
 use crate::common::{write_scene, Mat, ObjBuilder};
 use glam::DVec3;
 use vlf::prepare::PreparedScene;
+use vlf::progress::Silent;
 use vlf::scene::Scene;
 
 const DENSITY: f64 = 16.0;
@@ -123,4 +124,96 @@ fn a_block_above_the_floor_buries_nothing() {
     let (_dir, p) = floor_with_block(0.1);
     assert_eq!(p.atlas.unburied_texels, 0);
     assert!(p.atlas.open_share.iter().all(|&s| s == 1.0));
+}
+
+/// A uniform sky over a floor with a black plate 1 cm thick lying on it: the floor beside the
+/// plate receives the whole sky but for the plate's sliver (under 1% a texel away), so its light
+/// is Kd x sky there, in closed form. It is read as the renderer and propagation read it, by the
+/// bilinear lookup in the atlas (`atlas_taps`, the CPU twin of common/atlas.wgsl). Before buried
+/// texels moved, the floor texels under the plate's rim were black and the lookup beside the
+/// plate blended them in: measured without the move, 0.24 of Kd x sky a tenth of a texel from
+/// its edge (0.98 with it, the plate's sliver of sky included).
+#[test]
+fn the_floor_beside_a_plate_lying_on_it_keeps_the_skys_light() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    obj.quad("floor", DVec3::ZERO, DVec3::Y, [2.0, 2.0], 0.0);
+    // a box 0.8 x 0.01 x 0.8 standing on the floor: the cube builder's faces, flattened
+    let mut plate = ObjBuilder::default();
+    plate.cube("plate", DVec3::ZERO, 0.4, false);
+    let flat: String = plate
+        .text("scene.mtl")
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(v) => {
+                let c: Vec<f64> = v.split_whitespace().map(|x| x.parse().unwrap()).collect();
+                format!("v {} {} {}", c[0], (c[1] + 0.4) / 80.0, c[2])
+            }
+            None => l.to_string(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let mats = [
+        Mat {
+            name: "floor",
+            kd: [0.5; 3],
+            ke: [0.0; 3],
+        },
+        Mat {
+            name: "plate",
+            kd: [0.0; 3],
+            ke: [0.0; 3],
+        },
+    ];
+    let toml = write_scene(
+        dir.path(),
+        &obj,
+        &mats,
+        "[sky]\nradiance = [1.0, 1.0, 1.0]\n",
+    );
+    // the plate's faces refer to their vertices relatively ("f -4 -3 -2 -1"): appended as is
+    let plate_lines: Vec<&str> = flat.lines().filter(|l| !l.starts_with("mtllib")).collect();
+    let floor_obj = std::fs::read_to_string(dir.path().join("scene.obj")).unwrap();
+    let both = format!("{floor_obj}\n{}\n", plate_lines.join("\n"));
+    std::fs::write(dir.path().join("scene.obj"), both).unwrap();
+    let scene = Scene::load(&toml).unwrap();
+    let params = vlf::propagate::PropagationParams {
+        texel_density: 8.0,
+        direct_samples: 256,
+        ..crate::common::draft_params()
+    };
+    let (lf, _, _) =
+        vlf::propagate::propagate(crate::common::gpu(), &scene, &params, &Silent).unwrap();
+    let p = PreparedScene::new(&scene, params.texel_density).unwrap();
+    let faces = vlf::propagate::gpu_faces(&p, &vec![u32::MAX; p.faces.len()]);
+    let floor = floor_face(&p) as usize;
+    let texel = 1.0 / (params.texel_density * p.normalisation.scale);
+    let mut worst = (1.0f64, 0.0f64);
+    // points beside the plate's -x edge, from a tenth of a texel to two texels away
+    for k in 1..=20 {
+        let away = texel * k as f64 / 10.0;
+        for z in [-0.2, 0.0, 0.2] {
+            let world = [(-0.4 - away) as f32, 0.0, z as f32];
+            let at = p.normalisation.to_unit(world).as_vec3();
+            let taps = vlf::lightfield::atlas_lookup::atlas_taps(&faces[floor], at, p.atlas.width);
+            let radiance: f64 = (0..4)
+                .map(|i| lf.total[taps.index[i] as usize][1] as f64 * taps.weight[i] as f64)
+                .sum();
+            // Kd x sky, less the plate's sliver of sky (at most its height over the distance)
+            let ratio = radiance / 0.5;
+            if (ratio - 1.0).abs() > (worst.0 - 1.0).abs() {
+                worst = (ratio, away / texel);
+            }
+        }
+    }
+    eprintln!(
+        "the floor beside the plate: worst {:.4} of Kd x sky, {:.2} texels from it",
+        worst.0, worst.1
+    );
+    assert!(
+        (worst.0 - 1.0).abs() < 0.03,
+        "the floor {:.2} texels from the plate holds {:.3} of Kd x sky (closed form)",
+        worst.1,
+        worst.0
+    );
 }
