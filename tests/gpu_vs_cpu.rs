@@ -134,7 +134,7 @@ fn visibility_and_gather_equal_the_cpu_twin(rim_rays: bool) {
         .collect();
     let gdirs = gpu_directions(&directions.directions);
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
-    let (_, bvh_triangles) = vlf::propagate::scene_bvh(&prepared);
+    let bvh_triangles = &prepared.bvh.triangles;
     assert_eq!(vis.cell_count, gpu_count, "per-cell layer counts differ");
     assert_eq!(vis.cell_offset, gpu_offset, "per-cell offsets differ");
     let mut mismatched = 0;
@@ -169,7 +169,7 @@ fn visibility_and_gather_equal_the_cpu_twin(rim_rays: bool) {
             texel_points: &prepared.atlas.points,
             unshot: &unshot,
             tiles: None,
-            triangles: &bvh_triangles,
+            triangles: bvh_triangles,
         };
         let expected: Vec<[f32; 4]> = (0..prepared.atlas.texel_count())
             .map(|t| inputs.gather(t))
@@ -238,7 +238,7 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
         .collect();
     let gdirs = gpu_directions(&directions.directions);
     let vis = cpu::build_visibility(&prop.grid, &gdirs, &vertices, &triangles);
-    let (_, bvh_triangles) = vlf::propagate::scene_bvh(&prepared);
+    let bvh_triangles = &prepared.bvh.triangles;
     let layout = prop.tile_layout().expect("mirror tiles").clone();
     let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
     let (mut unshot, _) = initial_radiance(&prepared, &faces, &materials);
@@ -263,7 +263,7 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
             texel_points: &prepared.atlas.points,
             unshot: &unshot,
             tiles: Some(&tiles),
-            triangles: &bvh_triangles,
+            triangles: bvh_triangles,
         };
         let expected_texels: Vec<[f32; 4]> = (0..prepared.atlas.texel_count())
             .map(|t| inputs.gather(t))

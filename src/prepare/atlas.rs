@@ -150,7 +150,7 @@ impl Atlas {
     ) {
         let r = f.atlas;
         let uvs = &by_face.uvs[fi];
-        let tris2 = by_face.chart_triangles(fi, f);
+        let tris2 = &chart.triangles;
         let to_space = |s: DVec2| f.origin + f.axis_a * s.x + f.axis_b * s.y;
         let texels = chart.texels;
         for j in 0..r.h {
@@ -189,6 +189,8 @@ struct ChartSamples {
     texels: Vec<ChartTexel>,
     open_share: Vec<f32>,
     moved: usize,
+    /// the face's triangles in chart coordinates (`FaceTriangles::chart_triangles`)
+    triangles: Vec<[DVec2; 3]>,
 }
 
 /// Sample point, coverage and triangle of every texel of face `fi`'s chart; with `occluders`,
@@ -240,6 +242,7 @@ fn sample_chart(
         texels,
         open_share,
         moved,
+        triangles: tris2,
     }
 }
 

@@ -18,8 +18,8 @@
 //! light of the visible surface it is read for. Texels deeper under a cover keep their point:
 //! no visible point reads them.
 
-use super::{PlanarFace, PreparedTriangle};
-use crate::bvh::{GpuBvhNode, GpuTriangle};
+use super::PlanarFace;
+use crate::bvh::SceneBvh;
 use glam::{DVec2, DVec3, Vec3};
 
 /// How far above a face (in texels) a cover counts as lying on it.
@@ -31,32 +31,17 @@ const TILT: f64 = 1.732_050_8;
 /// Where a buried texel looks for an open point: offsets in thirds of a texel, up to one texel.
 const SEARCH_STEPS: i32 = 3;
 
-/// The scene's triangles in a BVH, for the buried-point test, and which faces are the
+/// The scene's BVH (`PreparedScene::bvh`), for the buried-point test, and which faces are the
 /// generated backs of two-sided surfaces.
-pub struct Occluders {
-    nodes: Vec<GpuBvhNode>,
-    triangles: Vec<GpuTriangle>,
+pub struct Occluders<'a> {
+    bvh: &'a SceneBvh,
     is_back: Vec<bool>,
 }
 
-impl Occluders {
-    pub fn new(
-        positions: &[DVec3],
-        triangles: &[PreparedTriangle],
-        faces: &[PlanarFace],
-    ) -> Occluders {
-        let corners: Vec<[Vec3; 3]> = triangles
-            .iter()
-            .map(|t| t.vertices.map(|v| positions[v as usize].as_vec3()))
-            .collect();
-        let (nodes, triangles) =
-            crate::bvh::bvh_triangles(&corners, |i| triangles[i].face, |_| [[0.0; 2]; 3]);
+impl<'a> Occluders<'a> {
+    pub fn new(bvh: &'a SceneBvh, faces: &[PlanarFace]) -> Occluders<'a> {
         let is_back = faces.iter().map(|f| f.is_back).collect();
-        Occluders {
-            nodes,
-            triangles,
-            is_back,
-        }
+        Occluders { bvh, is_back }
     }
 
     /// Whether point `p` of face `face` lies under a cover or a solid object (module doc), at
@@ -75,15 +60,15 @@ impl Occluders {
         rays.all(|(dir, stretch)| {
             let dir = dir.as_vec3();
             let hit = crate::bvh::closest_hit(
-                &self.nodes,
-                &self.triangles,
+                &self.bvh.nodes,
+                &self.bvh.triangles,
                 origin,
                 dir,
                 (solid * stretch) as f32,
                 skip,
             );
             hit.is_some_and(|(t, i)| {
-                let tri = &self.triangles[i];
+                let tri = &self.bvh.triangles[i];
                 let inside = Vec3::from(tri.e1).cross(Vec3::from(tri.e2)).dot(dir) > 0.0;
                 inside || (t as f64) < reach * stretch
             })

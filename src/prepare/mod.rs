@@ -7,6 +7,7 @@ pub mod atlas;
 pub mod buried;
 pub mod packing;
 
+use crate::bvh::SceneBvh;
 use crate::error::{Result, VlfError};
 pub use crate::scene::normalise::{normalise, Normalisation, NORMALISED_RADIUS};
 use crate::scene::{Material, Scene};
@@ -56,6 +57,10 @@ pub struct PreparedScene {
     /// stages that test surfaces (`lightfield::textures::SurfaceTextures::cutouts`); empty
     /// otherwise
     pub cutout_textures: Vec<crate::scene::Texture>,
+    /// the BVH of every triangle (generated backs included), with texture coordinates where
+    /// some material cuts holes: the buried-texel test walks it here, and propagation's direct
+    /// light and rim rays trace it on the GPU (built once, `scene_bvh`)
+    pub bvh: SceneBvh,
 }
 
 impl PreparedScene {
@@ -112,7 +117,9 @@ impl PreparedScene {
             }
             faces.push(back);
         }
-        let occluders = buried::Occluders::new(&positions, &triangles, &faces);
+        let cutouts = scene.materials.iter().any(|m| m.cutout.is_some());
+        let bvh = scene_bvh(&positions, &triangles, cutouts);
+        let occluders = buried::Occluders::new(&bvh, &faces);
         let atlas = atlas::Atlas::build(
             &mut faces,
             &positions,
@@ -140,16 +147,31 @@ impl PreparedScene {
             atlas,
             texel_density,
             warnings,
-            cutout_textures: match scene.materials.iter().any(|m| m.cutout.is_some()) {
+            cutout_textures: match cutouts {
                 true => scene.textures.clone(),
                 false => Vec::new(),
             },
+            bvh,
         })
     }
 
     pub fn material_of(&self, face: usize) -> &Material {
         &self.materials[self.faces[face].material as usize]
     }
+}
+
+/// The BVH of the prepared triangles; texture coordinates only where some material cuts holes
+/// (for shaders/common/coverage.wgsl's test), zero otherwise.
+fn scene_bvh(positions: &[DVec3], triangles: &[PreparedTriangle], cutouts: bool) -> SceneBvh {
+    let corners: Vec<[glam::Vec3; 3]> = (triangles.iter())
+        .map(|t| t.vertices.map(|v| positions[v as usize].as_vec3()))
+        .collect();
+    let uv = |i: usize| match cutouts {
+        true => triangles[i].uv.unwrap_or([[0.0; 2]; 3]),
+        false => [[0.0; 2]; 3],
+    };
+    let (nodes, triangles) = crate::bvh::bvh_triangles(&corners, |i| triangles[i].face, uv);
+    SceneBvh { nodes, triangles }
 }
 
 fn triangle_geometry(positions: &[DVec3], v: [u32; 3]) -> (DVec3, f64) {

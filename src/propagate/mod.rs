@@ -49,24 +49,6 @@ pub fn initial_radiance(
     (unshot, total)
 }
 
-/// The scene's triangles in BVH order and its BVH (src/bvh.rs), as the transport stages bind
-/// them (common/upstream.wgsl's group 0: the texels' rim rays, direct light's shadow rays) and
-/// the CPU twin reads them.
-pub fn scene_bvh(
-    prepared: &PreparedScene,
-) -> (Vec<crate::bvh::GpuBvhNode>, Vec<crate::bvh::GpuTriangle>) {
-    let corners: Vec<[glam::Vec3; 3]> = (prepared.triangles.iter())
-        .map(|t| t.vertices.map(|v| prepared.positions[v as usize].as_vec3()))
-        .collect();
-    // texture coordinates for the cut-outs' test (shaders/common/coverage.wgsl) only
-    let cutouts = !prepared.cutout_textures.is_empty();
-    let uv = |i: usize| match cutouts {
-        true => prepared.triangles[i].uv.unwrap_or([[0.0; 2]; 3]),
-        false => [[0.0; 2]; 3],
-    };
-    crate::bvh::bvh_triangles(&corners, |i| prepared.triangles[i].face, uv)
-}
-
 /// Each texel's share of its face's area (normalised units): the face's triangles clipped to the
 /// texel's square, exactly. The power balance weights texels by it (a texel's `coverage`, from
 /// 4 x 4 samples, is off by up to a sixteenth of a texel per edge: percents of a face a few

@@ -586,11 +586,15 @@ impl Setup<'_> {
             .collect();
         // only direct light's shadow rays and rim rays trace the BVH: otherwise one placeholder
         // node and triangle fill the bindings, and a big scene skips building it
-        let (nodes, bvh_triangles) = if self.params.direct_samples > 0 || self.params.rim_rays {
-            super::scene_bvh(prepared)
-        } else {
-            (vec![Default::default()], vec![Default::default()])
+        let placeholder = crate::bvh::SceneBvh {
+            nodes: vec![Default::default()],
+            triangles: vec![Default::default()],
         };
+        let bvh = match self.params.direct_samples > 0 || self.params.rim_rays {
+            true => &prepared.bvh,
+            false => &placeholder,
+        };
+        let (nodes, bvh_triangles) = (&bvh.nodes, &bvh.triangles);
         SceneBuffers {
             grid: ctx.buffer_init(ledger, "grid parameters", bytemuck::bytes_of(grid), uniform),
             directions: ctx.buffer_init(
@@ -622,10 +626,10 @@ impl Setup<'_> {
             bvh_triangles: ctx.buffer_init(
                 ledger,
                 "BVH triangles",
-                bytemuck::cast_slice(&bvh_triangles),
+                bytemuck::cast_slice(bvh_triangles),
                 STORAGE,
             ),
-            bvh_nodes: ctx.buffer_init(ledger, "BVH", bytemuck::cast_slice(&nodes), STORAGE),
+            bvh_nodes: ctx.buffer_init(ledger, "BVH", bytemuck::cast_slice(nodes), STORAGE),
             surface: SurfaceBuffers::new(ctx, ledger, prepared),
         }
     }

@@ -190,7 +190,7 @@ pub struct GatherInputs<'a> {
     pub unshot: &'a [[f32; 4]],
     /// the mirror tiles, for scenes with mirrors (sender_specular, gather_tile)
     pub tiles: Option<&'a specular::TileInputs<'a>>,
-    /// the scene's triangles as the GPU binds them (`propagate::scene_bvh`): the texels' rim
+    /// the scene's triangles as the GPU binds them (`PreparedScene::bvh`): the texels' rim
     /// rays, cast here through every triangle (the GPU walks the BVH; the tie rule makes the
     /// closest hit the same)
     pub triangles: &'a [GpuTriangle],
