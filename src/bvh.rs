@@ -134,6 +134,8 @@ const SAH_BINS: usize = 16;
 /// A subtree of at least this many triangles is built on a thread of its own while its sibling
 /// is built (while threads remain).
 const PARALLEL_TRIANGLES: usize = 32 * 1024;
+/// A node of at least this many triangles counts its bounds and bins on several threads.
+const PARALLEL_PASS: usize = 256 * 1024;
 
 #[derive(Clone, Copy)]
 struct Bounds {
@@ -156,6 +158,29 @@ impl Bounds {
     }
 }
 
+/// `part` over `order`, split into `threads` parts run on threads of their own when it is large
+/// enough, the results folded by `merge` (which must not depend on how `order` was split).
+fn over_parts<T: Send>(
+    order: &[u32],
+    threads: usize,
+    part: impl Fn(&[u32]) -> T + Sync,
+    merge: impl Fn(T, T) -> T,
+) -> T {
+    if threads < 2 || order.len() < PARALLEL_PASS {
+        return part(order);
+    }
+    let size = order.len().div_ceil(threads);
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (order.chunks(size))
+            .map(|c| scope.spawn(|| part(c)))
+            .collect();
+        (handles.into_iter())
+            .map(|h| h.join().expect("a BVH pass panicked"))
+            .reduce(merge)
+            .expect("at least one part")
+    })
+}
+
 /// The best surface-area split of `order` into bins along one of the three axes: (axis, the
 /// centroid coordinate below which a triangle goes left, cost) where the cost counts one unit
 /// per triangle tested, in proportion to the probability of reaching each child.
@@ -163,24 +188,42 @@ fn sah_split(
     order: &[u32],
     boxes: &[Bounds],
     centroids: &[Vec3],
-    clo: Vec3,
-    chi: Vec3,
+    (clo, chi): (Vec3, Vec3),
     parent_area: f32,
+    threads: usize,
 ) -> Option<(usize, f32, f32)> {
+    // the three axes' bins in one pass over the triangles (the pass is memory-bound: each
+    // triangle's box and centroid is read once, not once per axis)
+    type Bins = [[(Bounds, usize); SAH_BINS]; 3];
+    let scale = Vec3::splat(SAH_BINS as f32) / (chi - clo);
+    let bin_of =
+        |c: Vec3, axis: usize| (((c[axis] - clo[axis]) * scale[axis]) as usize).min(SAH_BINS - 1);
+    let count = |part: &[u32]| {
+        let mut bins: Bins = [[(Bounds::EMPTY, 0usize); SAH_BINS]; 3];
+        for &t in part {
+            let (c, b) = (centroids[t as usize], boxes[t as usize]);
+            for (axis, axis_bins) in bins.iter_mut().enumerate() {
+                let bin = &mut axis_bins[bin_of(c, axis)];
+                bin.0.grow(b);
+                bin.1 += 1;
+            }
+        }
+        bins
+    };
+    let all_bins = over_parts(order, threads, count, |mut a, b| {
+        for (x, y) in a.iter_mut().flatten().zip(b.iter().flatten()) {
+            x.0.grow(y.0);
+            x.1 += y.1;
+        }
+        a
+    });
     let mut best: Option<(usize, f32, f32)> = None;
-    for axis in 0..3 {
+    for (axis, bins) in all_bins.iter().enumerate() {
         let (lo, hi) = (clo[axis], chi[axis]);
         if hi <= lo {
             continue;
         }
-        let scale = SAH_BINS as f32 / (hi - lo);
-        let bin_of = |c: f32| (((c - lo) * scale) as usize).min(SAH_BINS - 1);
-        let mut bins = [(Bounds::EMPTY, 0usize); SAH_BINS];
-        for &t in order {
-            let b = &mut bins[bin_of(centroids[t as usize][axis])];
-            b.0.grow(boxes[t as usize]);
-            b.1 += 1;
-        }
+        let scale = scale[axis];
         // sweep from the right, then from the left: cost of every boundary between bins
         let mut right_area = [0.0f32; SAH_BINS];
         let mut right_count = [0usize; SAH_BINS];
@@ -355,125 +398,166 @@ fn build_bvh_on(triangles: &[[Vec3; 3]], threads: usize) -> (Vec<GpuBvhNode>, Ve
         })
         .collect();
     let mut nodes = Vec::with_capacity(triangles.len() * 2 / LEAF_SIZE + 1);
-    #[derive(Clone, Copy)]
-    struct Input<'a> {
-        boxes: &'a [Bounds],
-        centroids: &'a [Vec3],
-        /// threads this subtree may use (build splits them between its children)
-        threads: usize,
-    }
-    fn build(
-        nodes: &mut Vec<GpuBvhNode>,
-        order: &mut [u32],
-        first: usize,
-        depth: u32,
-        input: &Input,
-    ) -> u32 {
-        let mut bounds = Bounds::EMPTY;
-        let (mut clo, mut chi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for &t in order.iter() {
-            bounds.grow(input.boxes[t as usize]);
-            clo = clo.min(input.centroids[t as usize]);
-            chi = chi.max(input.centroids[t as usize]);
-        }
-        let me = nodes.len();
-        nodes.push(GpuBvhNode {
-            lo: bounds.lo.into(),
-            hi: bounds.hi.into(),
-            index: first as u32,
-            count: order.len() as u32,
-        });
-        let extent = chi - clo;
-        let coincident = extent.max_element() <= 0.0;
-        if order.len() <= LEAF_SIZE || (coincident && order.len() <= MAX_LEAF_SIZE) {
-            return me as u32;
-        }
-        // triangles with one centroid (duplicates) are halved like the rest, so that no leaf
-        // holds more than MAX_LEAF_SIZE
-        let by_sah = if depth < SAH_DEPTH && !coincident {
-            sah_split(order, input.boxes, input.centroids, clo, chi, bounds.area())
-        } else {
-            None
-        };
-        let mid = match by_sah {
-            // a leaf is cheaper than any split: keep it, if it is small enough
-            Some((_, _, cost)) if cost >= order.len() as f32 && order.len() <= MAX_LEAF_SIZE => {
-                return me as u32
-            }
-            Some((axis, boundary, _)) => {
-                let mut left = 0;
-                for i in 0..order.len() {
-                    if input.centroids[order[i] as usize][axis] < boundary {
-                        order.swap(i, left);
-                        left += 1;
-                    }
-                }
-                left
-            }
-            None => 0,
-        };
-        let mid = if mid == 0 || mid == order.len() {
-            // no useful area split (or too deep): halve along the widest centroid axis
-            let axis = if extent.x >= extent.y && extent.x >= extent.z {
-                0
-            } else if extent.y >= extent.z {
-                1
-            } else {
-                2
-            };
-            let mid = order.len() / 2;
-            order.select_nth_unstable_by(mid, |a, b| {
-                input.centroids[*a as usize][axis].total_cmp(&input.centroids[*b as usize][axis])
-            });
-            mid
-        } else {
-            mid
-        };
-        let (left, right) = order.split_at_mut(mid);
-        let r = if input.threads > 1 && right.len() >= PARALLEL_TRIANGLES {
-            // the right subtree on a thread of its own, into its own nodes, appended after the
-            // left one's: the same nodes in the same order as one thread makes
-            let half = Input {
-                threads: input.threads / 2,
-                ..*input
-            };
-            let mut right_nodes = std::thread::scope(|scope| {
-                let worker = scope.spawn(|| {
-                    let mut own = Vec::with_capacity(right.len() * 2 / LEAF_SIZE + 1);
-                    build(&mut own, right, first + mid, depth + 1, &half);
-                    own
-                });
-                build(nodes, left, first, depth + 1, &half);
-                worker.join().expect("a BVH builder thread panicked")
-            });
-            let offset = nodes.len() as u32;
-            for n in right_nodes.iter_mut().filter(|n| n.count == 0) {
-                n.index += offset;
-            }
-            nodes.append(&mut right_nodes);
-            offset
-        } else {
-            build(nodes, left, first, depth + 1, input);
-            build(nodes, right, first + mid, depth + 1, input)
-        };
-        nodes[me].index = r;
-        nodes[me].count = 0;
-        me as u32
-    }
     if !triangles.is_empty() {
-        build(
-            &mut nodes,
-            &mut order,
-            0,
-            0,
-            &Input {
-                boxes: &boxes,
-                centroids: &centroids,
-                threads,
-            },
-        );
+        let input = BuildInput {
+            boxes: &boxes,
+            centroids: &centroids,
+            threads,
+        };
+        build_node(&mut nodes, &mut order, 0, 0, &input);
     }
     (nodes, order)
+}
+
+/// What every node of a build reads.
+#[derive(Clone, Copy)]
+struct BuildInput<'a> {
+    boxes: &'a [Bounds],
+    centroids: &'a [Vec3],
+    /// threads this subtree may use (`build_children` splits them between the children)
+    threads: usize,
+}
+
+/// The node over `order` (the triangles from position `first` of the final order), and below it
+/// its subtree; returns its index in `nodes`.
+fn build_node(
+    nodes: &mut Vec<GpuBvhNode>,
+    order: &mut [u32],
+    first: usize,
+    depth: u32,
+    input: &BuildInput,
+) -> u32 {
+    let measure = |part: &[u32]| {
+        let mut bounds = Bounds::EMPTY;
+        let mut centres = Bounds::EMPTY;
+        for &t in part {
+            bounds.grow(input.boxes[t as usize]);
+            let c = input.centroids[t as usize];
+            centres.grow(Bounds { lo: c, hi: c });
+        }
+        (bounds, centres)
+    };
+    let (bounds, centres) = over_parts(order, input.threads, measure, |mut a, b| {
+        a.0.grow(b.0);
+        a.1.grow(b.1);
+        a
+    });
+    let me = nodes.len();
+    nodes.push(GpuBvhNode {
+        lo: bounds.lo.into(),
+        hi: bounds.hi.into(),
+        index: first as u32,
+        count: order.len() as u32,
+    });
+    let Some(mid) = split(order, depth, input, (bounds, centres)) else {
+        return me as u32;
+    };
+    let r = build_children(nodes, order, (first, mid), depth, input);
+    nodes[me].index = r;
+    nodes[me].count = 0;
+    me as u32
+}
+
+/// Where `order` splits into the node's two children (reordered so that the left child's
+/// triangles come first), or None where the node stays a leaf. `bounds`: the triangles' and
+/// their centroids' bounds.
+fn split(
+    order: &mut [u32],
+    depth: u32,
+    input: &BuildInput,
+    (bounds, centres): (Bounds, Bounds),
+) -> Option<usize> {
+    let extent = centres.hi - centres.lo;
+    let coincident = extent.max_element() <= 0.0;
+    if order.len() <= LEAF_SIZE || (coincident && order.len() <= MAX_LEAF_SIZE) {
+        return None;
+    }
+    // triangles with one centroid (duplicates) are halved like the rest, so that no leaf
+    // holds more than MAX_LEAF_SIZE
+    let by_sah = if depth < SAH_DEPTH && !coincident {
+        let (boxes, centroids) = (input.boxes, input.centroids);
+        let centre_bounds = (centres.lo, centres.hi);
+        sah_split(
+            order,
+            boxes,
+            centroids,
+            centre_bounds,
+            bounds.area(),
+            input.threads,
+        )
+    } else {
+        None
+    };
+    let mid = match by_sah {
+        // a leaf is cheaper than any split: keep it, if it is small enough
+        Some((_, _, cost)) if cost >= order.len() as f32 && order.len() <= MAX_LEAF_SIZE => {
+            return None
+        }
+        Some((axis, boundary, _)) => {
+            let mut left = 0;
+            for i in 0..order.len() {
+                if input.centroids[order[i] as usize][axis] < boundary {
+                    order.swap(i, left);
+                    left += 1;
+                }
+            }
+            left
+        }
+        None => 0,
+    };
+    if mid != 0 && mid != order.len() {
+        return Some(mid);
+    }
+    // no useful area split (or too deep): halve along the widest centroid axis
+    let axis = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    let mid = order.len() / 2;
+    order.select_nth_unstable_by(mid, |a, b| {
+        input.centroids[*a as usize][axis].total_cmp(&input.centroids[*b as usize][axis])
+    });
+    Some(mid)
+}
+
+/// The two subtrees of a node split at `mid` of `order` (whose triangles start at `first`),
+/// appended to `nodes`: the left one first. Returns the right child's index.
+fn build_children(
+    nodes: &mut Vec<GpuBvhNode>,
+    order: &mut [u32],
+    (first, mid): (usize, usize),
+    depth: u32,
+    input: &BuildInput,
+) -> u32 {
+    let (left, right) = order.split_at_mut(mid);
+    if input.threads < 2 || right.len() < PARALLEL_TRIANGLES {
+        build_node(nodes, left, first, depth + 1, input);
+        return build_node(nodes, right, first + mid, depth + 1, input);
+    }
+    // the right subtree on a thread of its own, into its own nodes, appended after the left
+    // one's: the same nodes in the same order as one thread makes
+    let half = BuildInput {
+        threads: input.threads / 2,
+        ..*input
+    };
+    let mut right_nodes = std::thread::scope(|scope| {
+        let worker = scope.spawn(|| {
+            let mut own = Vec::with_capacity(right.len() * 2 / LEAF_SIZE + 1);
+            build_node(&mut own, right, first + mid, depth + 1, &half);
+            own
+        });
+        build_node(nodes, left, first, depth + 1, &half);
+        worker.join().expect("a BVH builder thread panicked")
+    });
+    let offset = nodes.len() as u32;
+    for n in right_nodes.iter_mut().filter(|n| n.count == 0) {
+        n.index += offset;
+    }
+    nodes.append(&mut right_nodes);
+    offset
 }
 
 #[cfg(test)]

@@ -31,3 +31,28 @@ impl Distribution {
         }
     }
 }
+
+/// The seconds each step of a longer job took, in order (the propagation report's setup is
+/// split by them): `lap(name)` closes the step that ran since the last lap.
+#[derive(Clone, Debug)]
+pub struct Laps {
+    start: std::time::Instant,
+    pub steps: Vec<(String, f64)>,
+}
+
+impl Default for Laps {
+    fn default() -> Self {
+        Laps {
+            start: std::time::Instant::now(),
+            steps: Vec::new(),
+        }
+    }
+}
+
+impl Laps {
+    pub fn lap(&mut self, step: &str) {
+        let before: f64 = self.steps.iter().map(|s| s.1).sum();
+        let seconds = self.start.elapsed().as_secs_f64() - before;
+        self.steps.push((step.to_string(), seconds));
+    }
+}

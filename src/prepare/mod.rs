@@ -61,6 +61,8 @@ pub struct PreparedScene {
     /// some material cuts holes: the buried-texel test walks it here, and propagation's direct
     /// light and rim rays trace it on the GPU (built once, `scene_bvh`)
     pub bvh: SceneBvh,
+    /// the preparation's steps and their seconds (the propagation report's setup splits by them)
+    pub laps: crate::stats::Laps,
 }
 
 impl PreparedScene {
@@ -72,6 +74,7 @@ impl PreparedScene {
                 message: format!("{texel_density} must be > 0"),
             });
         }
+        let mut laps = crate::stats::Laps::default();
         let normalisation = normalise(&scene.positions);
         let positions: Vec<DVec3> = scene
             .positions
@@ -117,8 +120,10 @@ impl PreparedScene {
             }
             faces.push(back);
         }
+        laps.lap("faces");
         let cutouts = scene.materials.iter().any(|m| m.cutout.is_some());
         let bvh = scene_bvh(&positions, &triangles, cutouts);
+        laps.lap("BVH");
         let occluders = buried::Occluders::new(&bvh, &faces);
         let atlas = atlas::Atlas::build(
             &mut faces,
@@ -129,6 +134,7 @@ impl PreparedScene {
             &scene.textures,
             Some(&occluders),
         )?;
+        laps.lap("atlas");
         let small = faces
             .iter()
             .filter(|f| f.atlas.w <= 3 && f.atlas.h <= 3)
@@ -152,6 +158,7 @@ impl PreparedScene {
                 false => Vec::new(),
             },
             bvh,
+            laps,
         })
     }
 
@@ -188,47 +195,31 @@ fn edge_key(a: u32, b: u32) -> u64 {
 /// Flood-fill triangles across shared edges into planar charts of one material.
 fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
     let cos_tol = PLANAR_ANGLE_DEG.to_radians().cos();
-    // every (edge, triangle) pair, sorted by edge: the triangles sharing an edge are one run.
-    // (A hash map of vectors spent most of its time hashing and allocating at a million
-    // triangles.)
-    let mut edges: Vec<(u64, u32)> = Vec::with_capacity(scene.triangles.len() * 3);
-    for (ti, t) in scene.triangles.iter().enumerate() {
-        for k in 0..3 {
-            edges.push((edge_key(t.vertices[k], t.vertices[(k + 1) % 3]), ti as u32));
-        }
-    }
-    edges.sort_unstable();
-    let sharing = |key: u64| {
-        let first = edges.partition_point(|e| e.0 < key);
-        edges[first..]
-            .iter()
-            .take_while(move |e| e.0 == key)
-            .map(|e| e.1)
-    };
+    let edges = EdgeRuns::of(scene);
     let mut chart_of = vec![u32::MAX; scene.triangles.len()];
-    let mut faces = Vec::new();
+    let mut charts: Vec<(u32, Vec<u32>)> = Vec::new();
     for seed in 0..scene.triangles.len() {
         if chart_of[seed] != u32::MAX {
             continue;
         }
-        let chart = faces.len() as u32;
+        let chart = charts.len() as u32;
         let material = scene.triangles[seed].material;
         let (seed_normal, _) = triangle_geometry(positions, scene.triangles[seed].vertices);
         let mut members = vec![seed as u32];
         chart_of[seed] = chart;
         let mut k = 0;
         while k < members.len() {
-            let t = scene.triangles[members[k] as usize];
+            let t = members[k] as usize;
             k += 1;
             for e in 0..3 {
-                let key = edge_key(t.vertices[e], t.vertices[(e + 1) % 3]);
+                let sharing = edges.sharing(t, e);
                 // an edge that a third surface meets (a wall standing on the line where two
                 // floor triangles meet) bounds the chart: one chart across it would blend the
                 // texels of both sides of that wall in its lookups, light through the wall
-                if sharing(key).nth(2).is_some() {
+                if sharing.len() > 2 {
                     continue;
                 }
-                for other in sharing(key) {
+                for &other in sharing {
                     let o = other as usize;
                     if chart_of[o] != u32::MAX || scene.triangles[o].material != material {
                         continue;
@@ -241,9 +232,119 @@ fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
                 }
             }
         }
-        faces.push(make_face(scene, positions, material, members));
+        charts.push((material, members));
     }
-    faces
+    make_faces(scene, positions, charts)
+}
+
+/// Every triangle edge, grouped with the edges of other triangles between the same two
+/// vertices: `sharing(t, e)` lists, in triangle order, the triangles whose edge runs between
+/// triangle t's vertices e and e + 1 (t itself included). (A hash map of vectors spent most of
+/// its time hashing and allocating at a million triangles; binary searches of the sorted edges
+/// most of theirs missing the cache at five million.)
+struct EdgeRuns {
+    /// the triangles, edge by edge, sorted by edge
+    triangles: Vec<u32>,
+    /// where each triangle edge's run starts in `triangles` (3 per triangle), and its length
+    runs: Vec<(u32, u32)>,
+}
+
+impl EdgeRuns {
+    fn of(scene: &Scene) -> EdgeRuns {
+        let edges = sorted_edges(scene);
+        let mut runs = vec![(0u32, 0u32); scene.triangles.len() * 3];
+        let mut start = 0;
+        while start < edges.len() {
+            let key = edges[start].0;
+            let end = start + edges[start..].iter().take_while(|e| e.0 == key).count();
+            for e in &edges[start..end] {
+                runs[e.1 as usize] = (start as u32, (end - start) as u32);
+            }
+            start = end;
+        }
+        let triangles = edges.iter().map(|e| e.1 / 3).collect();
+        EdgeRuns { triangles, runs }
+    }
+
+    fn sharing(&self, triangle: usize, edge: usize) -> &[u32] {
+        let (start, len) = self.runs[triangle * 3 + edge];
+        &self.triangles[start as usize..(start + len) as usize]
+    }
+}
+
+/// Every (edge, triangle edge slot 3 t + e) pair, sorted: buckets by the edge's lower vertex,
+/// each bucket sorted on a thread of its own (the pairs are unique, so the order is the one a
+/// single sort gives).
+fn sorted_edges(scene: &Scene) -> Vec<(u64, u32)> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let vertices = scene.positions.len().max(1) as u64;
+    let buckets = (threads * 4) as u64;
+    let bucket_of = |key: u64| ((key >> 32) * buckets / vertices).min(buckets - 1) as usize;
+    let mut sizes = vec![0usize; buckets as usize + 1];
+    let key_of = |slot: usize| {
+        let v = scene.triangles[slot / 3].vertices;
+        edge_key(v[slot % 3], v[(slot % 3 + 1) % 3])
+    };
+    let slots = scene.triangles.len() * 3;
+    for slot in 0..slots {
+        sizes[bucket_of(key_of(slot)) + 1] += 1;
+    }
+    for b in 1..sizes.len() {
+        sizes[b] += sizes[b - 1];
+    }
+    let mut edges = vec![(0u64, 0u32); slots];
+    let mut next = sizes.clone();
+    for slot in 0..slots {
+        let key = key_of(slot);
+        let b = bucket_of(key);
+        edges[next[b]] = (key, slot as u32);
+        next[b] += 1;
+    }
+    let mut rest = &mut edges[..];
+    let mut parts = Vec::new();
+    for b in 0..buckets as usize {
+        let (part, tail) = rest.split_at_mut(sizes[b + 1] - sizes[b]);
+        parts.push(part);
+        rest = tail;
+    }
+    let next_part = std::sync::Mutex::new(parts.into_iter());
+    std::thread::scope(|scope| {
+        for _ in 0..threads {
+            scope.spawn(|| loop {
+                let part = next_part.lock().expect("edge sorter").next();
+                match part {
+                    Some(part) => part.sort_unstable(),
+                    None => return,
+                }
+            });
+        }
+    });
+    edges
+}
+
+/// The planar faces of `charts` (material, triangles), made on the CPU's threads, in order.
+fn make_faces(scene: &Scene, positions: &[DVec3], charts: Vec<(u32, Vec<u32>)>) -> Vec<PlanarFace> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let made: Vec<Vec<(usize, PlanarFace)>> = std::thread::scope(|scope| {
+        let work = || {
+            let mut done = Vec::new();
+            loop {
+                let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                let Some((material, members)) = charts.get(i) else {
+                    return done;
+                };
+                done.push((i, make_face(scene, positions, *material, members.clone())));
+            }
+        };
+        let handles: Vec<_> = (0..threads).map(|_| scope.spawn(work)).collect();
+        (handles.into_iter())
+            .map(|h| h.join().expect("a face maker panicked"))
+            .collect()
+    });
+    let mut faces: Vec<(usize, PlanarFace)> = made.into_iter().flatten().collect();
+    faces.sort_unstable_by_key(|f| f.0);
+    faces.into_iter().map(|f| f.1).collect()
 }
 
 fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u32>) -> PlanarFace {

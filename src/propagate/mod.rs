@@ -354,6 +354,10 @@ pub fn propagate_with_regression(
     let batch_plan = prop.plan.clone();
     ctx.wait()?;
     let setup_seconds = t0.elapsed().as_secs_f64();
+    let mut setup_phases = job.prepared.laps.steps.clone();
+    setup_phases.extend(prop.setup_laps.steps.iter().cloned());
+    let named: f64 = setup_phases.iter().map(|p| p.1).sum();
+    setup_phases.push(("other".into(), setup_seconds - named));
 
     progress.begin(PROGRESS_STEPS, "", &job.first_stage(&batch_plan));
     let t1 = Instant::now();
@@ -382,6 +386,7 @@ pub fn propagate_with_regression(
     let measured = Measured {
         batch_plan,
         setup_seconds,
+        setup_phases,
         visibility_seconds,
         visibility_gpu_ms,
         layers,
@@ -414,6 +419,8 @@ struct Shooting {
 struct Measured {
     batch_plan: BatchPlan,
     setup_seconds: f64,
+    /// its steps: the preparation's, the directions, the GPU's buffers (`report::setup_phases`)
+    setup_phases: Vec<(String, f64)>,
     visibility_seconds: f64,
     visibility_gpu_ms: Option<f64>,
     /// layers of the resident visibility lists (0 when batched)
@@ -773,6 +780,7 @@ impl<'a> Job<'a> {
             direction_batches: batch_plan.batches,
             directions_per_batch: batch_plan.batch_size,
             setup_seconds: measured.setup_seconds,
+            setup_phases: measured.setup_phases,
             visibility_seconds: measured.visibility_seconds,
             visibility_gpu_ms: measured.visibility_gpu_ms,
             propagation_seconds: measured.propagation_seconds,

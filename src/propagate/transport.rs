@@ -367,6 +367,8 @@ pub struct Propagator {
     pub regression_flags: u32,
     /// `PropagationParams::rim_rays` (GRID_FLAG_RIM_RAYS in every gather)
     rim_rays: bool,
+    /// the steps of `new` and their seconds (the report's setup)
+    pub setup_laps: crate::stats::Laps,
 }
 
 /// The power balance on the GPU: the gather's per-texel terms (`balance` in
@@ -983,6 +985,7 @@ impl Propagator {
         sky: Option<[f32; 3]>,
         plan: Option<&BatchPlan>,
     ) -> Result<Propagator> {
+        let mut laps = crate::stats::Laps::default();
         let ledger = MemoryLedger::default();
         let device = &ctx.device;
         let s = Setup {
@@ -1003,6 +1006,7 @@ impl Propagator {
         let scene = s.scene_buffers(&grid, batch, materials, &texel_ranges);
         let (unshot, total) = initial_radiance(prepared, &sizes.faces, &sizes.materials);
         let (texels, emitted_power) = s.texel_pages(&texel_ranges, &unshot, &total);
+        laps.lap("buffers");
 
         // grid, directions, faces, cell offsets, counts, layers, four pages of texel points, the
         // BVH's triangles and nodes
@@ -1022,8 +1026,11 @@ impl Propagator {
         let (weight_sums, normalize) =
             s.batch_weight_sums(batched, grid.texel_count as u64 + sizes.tile_cells)?;
         let timestamps = Timestamps::new(&ctx, 4 + 2 * k + 2 * tile_pages.pages);
+        laps.lap("pipelines");
         let direct = s.direct_light(sky, materials, &unshot, [&layout0, &layout1])?;
+        laps.lap("direct light");
         let areas = super::texel_areas(prepared);
+        laps.lap("texel areas");
         let emitted_exactly = (unshot.iter().zip(&areas))
             .map(|(u, a)| (u[0] as f64 + u[1] as f64 + u[2] as f64) * a)
             .sum();
@@ -1035,6 +1042,7 @@ impl Propagator {
             [&layout0, &layout1],
         )?;
         let visibility_pipelines = VisibilityPipelines::new(&ctx, &alpha_masks(prepared))?;
+        laps.lap("balance and visibility pipelines");
         Ok(Propagator {
             ctx,
             ledger,
@@ -1069,6 +1077,7 @@ impl Propagator {
             power: Some(PowerAccount::new(emitted_exactly)),
             regression_flags: 0,
             rim_rays: params.rim_rays,
+            setup_laps: laps,
         })
     }
 
