@@ -337,7 +337,7 @@ fn eye_rays_through_the_bvh_see_what_exhaustive_rays_see() {
         lf.meta
             .cameras
             .iter()
-            .map(|c| renderer.render(c, 160, 120).unwrap())
+            .map(|c| renderer.render(c, 96, 72).unwrap())
             .collect::<Vec<_>>()
     };
     let (bvh, exhaustive) = (render(0), render(usize::MAX));

@@ -213,6 +213,31 @@ output = {{ window = [340, 0] }}
     wait_for("status line on screen: tracking quiet", &mut out);
     let shot: PathBuf = Path::new(env!("CARGO_TARGET_TMPDIR")).join("cave-xvfb.png");
     let img = screenshot(&display, &shot);
+    // the window keeps its wall's name in its title, with the status after it (winit reads no
+    // title back on X11: appending the status to what it read blanked the names)
+    let titles = Command::new("xdotool")
+        .args(["search", "--name", "vlf: front", "getwindowname", "%@"])
+        .env("DISPLAY", &display)
+        .output()
+        .unwrap();
+    let titles = String::from_utf8_lossy(&titles.stdout).to_string();
+    assert!(
+        titles.starts_with("vlf: front | ") && titles.contains("quiet"),
+        "the front window's title: {titles:?}"
+    );
+    // the picture is taken: Esc ends the hold (up to 30 s, for a slow adapter) now
+    xdotool(
+        &display,
+        &[
+            "search",
+            "--name",
+            "vlf: front",
+            "windowfocus",
+            "--sync",
+            "key",
+            "Escape",
+        ],
+    );
     for line in lines {
         let line = line.unwrap();
         out.push_str(&line);

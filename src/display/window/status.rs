@@ -112,11 +112,9 @@ impl App<'_> {
             self.status_to_announce = Some(t.clone());
         }
         for w in &self.windows {
-            let base = w.window.title();
-            let base = base.split(" | ").next().unwrap_or_default().to_string();
             w.window.set_title(&match &text {
-                Some(t) => format!("{base} | {t}"),
-                None => base,
+                Some(t) => format!("{} | {t}", w.title),
+                None => w.title.clone(),
             });
         }
         if let Some(t) = &text {

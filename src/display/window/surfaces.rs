@@ -21,6 +21,9 @@ pub(super) struct WindowPart {
 
 pub(super) struct WallWindow {
     pub(super) window: Arc<Window>,
+    /// the title it opened with (`vlf: <wall>`); the status line is appended to it, and winit
+    /// reads no title back on X11 (`Window::title` is empty there)
+    pub(super) title: String,
     pub(super) surface: wgpu::Surface<'static>,
     pub(super) config: wgpu::SurfaceConfiguration,
     stereo: Stereo,
@@ -92,6 +95,7 @@ impl App<'_> {
                         shift,
                         x_offset,
                     };
+                    let title = place.title.clone();
                     let (window, surface, surface_config) =
                         self.create_window(event_loop, &monitors, &names, wall_index, place)?;
                     let parts = eyes
@@ -103,6 +107,7 @@ impl App<'_> {
                         .collect::<Result<Vec<_>>>()?;
                     self.windows.push(WallWindow {
                         window,
+                        title,
                         surface,
                         config: surface_config,
                         stereo: wall.stereo,
