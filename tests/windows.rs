@@ -226,18 +226,7 @@ output = {{ window = [340, 0] }}
         "the front window's title: {titles:?}"
     );
     // the picture is taken: Esc ends the hold (up to 30 s, for a slow adapter) now
-    xdotool(
-        &display,
-        &[
-            "search",
-            "--name",
-            "vlf: front",
-            "windowfocus",
-            "--sync",
-            "key",
-            "Escape",
-        ],
-    );
+    press_escape_on_front(&display);
     for line in lines {
         let line = line.unwrap();
         out.push_str(&line);
@@ -371,6 +360,18 @@ fn wait_exit(child: &mut KillOnDrop, limit: Duration) -> std::process::ExitStatu
     }
 }
 
+/// Esc on the window named "vlf: front" (focus and key in one xdotool run: without a window
+/// manager focus does not outlive it).
+fn press_escape_on_front(display: &str) {
+    let keys = ["--sync", "key", "Escape"];
+    let args = [
+        &["search", "--name", "vlf: front", "windowfocus"][..],
+        &keys[..],
+    ]
+    .concat();
+    xdotool(display, &args);
+}
+
 fn xdotool(display: &str, args: &[&str]) {
     let out = Command::new("xdotool")
         .args(args)
@@ -480,18 +481,7 @@ output = { window = [0, 0] }
         changed > 2000,
         "holding W did not move the view ({changed} pixels changed)"
     );
-    xdotool(
-        &display,
-        &[
-            "search",
-            "--name",
-            "vlf: front",
-            "windowfocus",
-            "--sync",
-            "key",
-            "Escape",
-        ],
-    );
+    press_escape_on_front(&display);
     let deadline = Instant::now() + Duration::from_secs(30);
     let status = loop {
         if let Some(status) = child.0.try_wait().unwrap() {
