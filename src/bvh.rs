@@ -254,6 +254,7 @@ fn sah_split(
 
 /// A scene's BVH as the GPU reads it (`shaders/common/bvh.wgsl`) and the CPU walks it
 /// (`closest_hit`): the nodes and the triangles in the order their leaves refer to.
+#[derive(Default)]
 pub struct SceneBvh {
     pub nodes: Vec<GpuBvhNode>,
     pub triangles: Vec<GpuTriangle>,

@@ -59,7 +59,8 @@ pub struct PreparedScene {
     pub cutout_textures: Vec<crate::scene::Texture>,
     /// the BVH of every triangle (generated backs included), with texture coordinates where
     /// some material cuts holes: the buried-texel test walks it here, and propagation's direct
-    /// light and rim rays trace it on the GPU (built once, `scene_bvh`)
+    /// light and rim rays trace it on the GPU (built once, `scene_bvh`; `propagate` empties it
+    /// once it is uploaded)
     pub bvh: SceneBvh,
     /// the preparation's steps and their seconds (the propagation report's setup splits by them)
     pub laps: crate::stats::Laps,

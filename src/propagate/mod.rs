@@ -335,7 +335,7 @@ pub fn propagate_with_regression(
     use std::time::Instant;
     params.validate()?;
     let t0 = Instant::now();
-    let job = Job::prepare(scene, params)?;
+    let mut job = Job::prepare(scene, params)?;
     check_memory(
         &ctx,
         &estimate_memory(&job.prepared, &job.directions, params),
@@ -348,6 +348,9 @@ pub fn propagate_with_regression(
         scene.sky,
         None,
     )?;
+    // the scene's BVH is on the GPU now, and nothing after reads the host's copy (hundreds of
+    // MB at millions of triangles)
+    drop(std::mem::take(&mut job.prepared.bvh));
     if regression.list_order_sides {
         prop.regression_flags |= crate::gpu::types::GRID_FLAG_LIST_ORDER_SIDES;
     }
@@ -419,7 +422,7 @@ struct Shooting {
 struct Measured {
     batch_plan: BatchPlan,
     setup_seconds: f64,
-    /// its steps: the preparation's, the directions, the GPU's buffers (`report::setup_phases`)
+    /// its steps: the preparation's and the propagator's (`PropagationReport::setup_phases`)
     setup_phases: Vec<(String, f64)>,
     visibility_seconds: f64,
     visibility_gpu_ms: Option<f64>,

@@ -40,8 +40,10 @@ pub struct PropagationReport {
     pub direction_batches: u32,
     pub directions_per_batch: u32,
     pub setup_seconds: f64,
-    /// the setup's steps and their seconds: preparing the faces, the BVH and the atlas, the
-    /// directions, the GPU's buffers (the visibility lists are `visibility_seconds`)
+    /// the setup's steps and their seconds: preparing the faces, the BVH and the atlas
+    /// (`PreparedScene::laps`), then the propagator's buffers, pipelines, direct light, texel
+    /// areas, ... (`Propagator::setup_laps`), and the rest as "other" (the visibility lists are
+    /// `visibility_seconds`)
     pub setup_phases: Vec<(String, f64)>,
     pub visibility_seconds: f64,
     pub visibility_gpu_ms: Option<f64>,

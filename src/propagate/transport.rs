@@ -586,8 +586,9 @@ impl Setup<'_> {
             .iter()
             .map(|t| [t.vertices[0], t.vertices[1], t.vertices[2], t.face])
             .collect();
-        // only direct light's shadow rays and rim rays trace the BVH: otherwise one placeholder
-        // node and triangle fill the bindings, and a big scene skips building it
+        // only direct light's shadow rays and rim rays trace the BVH (prepare built it for the
+        // buried texels): otherwise one placeholder node and triangle fill the bindings, and
+        // the GPU holds no copy
         let placeholder = crate::bvh::SceneBvh {
             nodes: vec![Default::default()],
             triangles: vec![Default::default()],
