@@ -215,12 +215,10 @@ output = {{ window = [340, 0] }}
     let img = screenshot(&display, &shot);
     // the window keeps its wall's name in its title, with the status after it (winit reads no
     // title back on X11: appending the status to what it read blanked the names)
-    let titles = Command::new("xdotool")
-        .args(["search", "--name", "vlf: front", "getwindowname", "%@"])
-        .env("DISPLAY", &display)
-        .output()
-        .unwrap();
-    let titles = String::from_utf8_lossy(&titles.stdout).to_string();
+    let titles = xdotool(
+        &display,
+        &["search", "--name", "vlf: front", "getwindowname", "%@"],
+    );
     assert!(
         titles.starts_with("vlf: front | ") && titles.contains("quiet"),
         "the front window's title: {titles:?}"
@@ -363,27 +361,32 @@ fn wait_exit(child: &mut KillOnDrop, limit: Duration) -> std::process::ExitStatu
 /// Esc on the window named "vlf: front" (focus and key in one xdotool run: without a window
 /// manager focus does not outlive it).
 fn press_escape_on_front(display: &str) {
-    let keys = ["--sync", "key", "Escape"];
     let args = [
-        &["search", "--name", "vlf: front", "windowfocus"][..],
-        &keys[..],
-    ]
-    .concat();
+        "search",
+        "--name",
+        "vlf: front",
+        "windowfocus",
+        "--sync",
+        "key",
+        "Escape",
+    ];
     xdotool(display, &args);
 }
 
-fn xdotool(display: &str, args: &[&str]) {
+/// Runs xdotool on `display`; fails the test where it fails, else returns what it printed.
+fn xdotool(display: &str, args: &[&str]) -> String {
     let out = Command::new("xdotool")
         .args(args)
         .env("DISPLAY", display)
         .output()
         .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(
         out.status.success(),
-        "xdotool {args:?} failed: {}{}",
-        String::from_utf8_lossy(&out.stdout),
+        "xdotool {args:?} failed: {stdout}{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    stdout
 }
 
 #[test]
