@@ -2,7 +2,9 @@
 # Fetch the third-party interiors of the accuracy suite into models/<name>/ (git-ignored; never
 # committed), on a machine with network, or from a fetched git mirror of their repository.
 #   bash tools/get-models.sh [NAME...] [--from-mirror GIT_DIR]
-# NAME: classroom, living-room, dining-room, staircase (default: all four). Each comes from
+# NAME: classroom, living-room, dining-room, staircase (default: all four), or living-room-real
+# (the living room with its real materials: cut-out leaves, mirrors, glossy steel and wood; its
+# `source` file names the scene it is converted from). Each comes from
 # Benedikt Bitterli's rendering resources (https://benedikt-bitterli.me/resources/, Mitsuba 0.6
 # versions, CC-BY 3.0: see tools/models/<name>/scene.toml for author and credit), as kept in
 # github.com/hchoi405/dppm-scenes at the pinned commit below, whose files are each under 4 MiB:
@@ -34,6 +36,8 @@ done
 for name in "${names[@]}"; do
   meta=tools/models/$name
   [ -f "$meta/SHA256SUMS" ] || { echo "get-models.sh: unknown model $name" >&2; exit 1; }
+  scene=$name
+  [ -f "$meta/source" ] && scene=$(cat "$meta/source")
   src=$(mktemp -d)
   trap 'rm -rf "$src"' EXIT
   echo "get-models.sh: $name: $(wc -l < "$meta/SHA256SUMS") source files" >&2
@@ -41,9 +45,9 @@ for name in "${names[@]}"; do
     f=${line#*  }
     mkdir -p "$src/$(dirname "$f")"
     if [ -n "$mirror" ]; then
-      git --git-dir="$mirror" show "$commit:scenes/$name/$f" > "$src/$f"
+      git --git-dir="$mirror" show "$commit:scenes/$scene/$f" > "$src/$f"
     else
-      curl -fsSL "$base/$name/${f// /%20}" -o "$src/$f"
+      curl -fsSL "$base/$scene/${f// /%20}" -o "$src/$f"
     fi
   done < "$meta/SHA256SUMS"
   (cd "$src" && sha256sum --quiet -c -) < "$meta/SHA256SUMS"
@@ -59,7 +63,7 @@ for name in "${names[@]}"; do
     sed -n '1,/^name = /p' "$meta/scene.toml" | grep '^#' | sed 's/^# \{0,1\}//' > "$out/LICENSE.txt"
   fi
   printf 'Source: https://github.com/%s/tree/%s/scenes/%s\nConverted by tools/models/mitsuba2gltf.py %s\n' \
-    "$repo" "$commit" "$name" "$(cat "$meta/convert.args")" > "$out/SOURCE.txt"
+    "$repo" "$commit" "$scene" "$(cat "$meta/convert.args")" > "$out/SOURCE.txt"
   rm -rf "$src"
   trap - EXIT
   echo "$out: $(du -sm "$out" | cut -f1) MiB" >&2

@@ -13,7 +13,10 @@
 #     without them, 600 frames each: frame time and eye rays per pixel, what glossy costs;
 #   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view);
 #   - (PARTS=hallway) the shipped Space Ship Hallway with its own mirror floors (no diffuse
-#     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view.
+#     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view;
+#   - (PARTS=living-room) the same for Bitterli's living room with its real materials
+#     (models/living-room-real, `bash tools/get-models.sh living-room-real`: cut-out leaves,
+#     mirrors, glossy steel and wood).
 # Everything into OUT/glossy.tar (reports, JSON, difference images), the front camera's EXRs
 # (and the side camera's stills) into OUT/glossy-exr.tar.
 #   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
@@ -82,18 +85,28 @@ hallway() {
     | sed 's|^mesh = "space_ship_hallway.glb"|mesh = "'"$PWD"'/scenes/space-ship-hallway/space_ship_hallway.glb"|; s|^name = "space-ship-hallway"|name = "space-ship-hallway-real"|' \
     > "$work/hallway-real/scene.toml"
   cp "$work/hallway-real/scene.toml" "$work/hallway-real-scene.txt"
-  if ! timeout ${STEP_LIMIT:-240} "$vlf" propagate "$work/hallway-real/scene.toml" -o "$work/hallway-real.vlf" \
-      --report "$work/propagate-hallway-real.json" > "$work/propagate-hallway-real.txt" 2>&1; then
-    echo "hallway-real: propagation stopped or failed after ${STEP_LIMIT:-240} s" | tee -a "$work/propagate-hallway-real.txt"
-    tail -3 "$work/propagate-hallway-real.txt"
+  real_scene hallway-real "$work/hallway-real/scene.toml" "hallway corner"
+}
+living-room() {
+  # the living room with its real materials (issue 29 item 5: cut-out leaves, mirrors, glossy
+  # steel and wood); models/ is not in the repository: bash tools/get-models.sh living-room-real
+  [ -f models/living-room-real/scene.toml ] || { echo "living-room: no models/living-room-real (bash tools/get-models.sh living-room-real)"; return; }
+  real_scene living-room-real models/living-room-real/scene.toml "room corner"
+}
+real_scene() { # NAME SCENE_TOML CAMERAS: propagation (report), each camera at 1024x768, a bench
+  local name=$1 scene=$2 cameras=$3
+  if ! timeout ${STEP_LIMIT:-240} "$vlf" propagate "$scene" -o "$work/$name.vlf" \
+      --report "$work/propagate-$name.json" > "$work/propagate-$name.txt" 2>&1; then
+    echo "$name: propagation stopped or failed after ${STEP_LIMIT:-240} s" | tee -a "$work/propagate-$name.txt"
+    tail -3 "$work/propagate-$name.txt"
     return
   fi
-  grep -E "non-diffuse|setup  |propagation  |GPU memory" "$work/propagate-hallway-real.txt"
-  for camera in hallway corner; do
-    "$vlf" render "$work/hallway-real.vlf" --camera $camera --size 1024x768 -o "$work/hallway-real-$camera.png" 2>&1 | quiet | tail -1
+  grep -E "non-diffuse|setup  |propagation  |GPU memory" "$work/propagate-$name.txt"
+  for camera in $cameras; do
+    "$vlf" render "$work/$name.vlf" --camera $camera --size 1024x768 -o "$work/$name-$camera.png" 2>&1 | quiet | tail -1
   done
-  timeout ${STEP_LIMIT:-240} "$vlf" bench --scene "$work/hallway-real/scene.toml" --frames 300 --size 1024x768 \
-    --json "$work/bench-hallway-real.json" 2>&1 | quiet | tee "$work/bench-hallway-real.txt" | grep -iE "render" | head -2
+  timeout ${STEP_LIMIT:-240} "$vlf" bench --scene "$scene" --frames 300 --size 1024x768 \
+    --json "$work/bench-$name.json" 2>&1 | quiet | tee "$work/bench-$name.txt" | grep -iE "render" | head -2
 }
 for part in ${PARTS:-cornell cave}; do
   echo "=== $part"

@@ -3,7 +3,7 @@
 Bitterli's rendering resources ship them, into one glTF 2.0 model for vlf.
 
     python3 tools/models/mitsuba2gltf.py SRC_DIR/scene.xml OUT_DIR [--drop-dielectric]
-        [--max-extent METRES]
+        [--cutouts] [--max-extent METRES]
 
 Writes OUT_DIR/model.gltf + model.bin (+ the textures it uses, copied) and prints the first
 sensor as a vlf [[camera]] (eye, target, up, vertical fov) for the scene.toml. Only Python 3's
@@ -12,6 +12,11 @@ standard library is needed.
 Rules (what the light field can hold, see README "glTF models"):
 - one glTF mesh primitive per Mitsuba BSDF id (material name = the id; anonymous BSDFs get
   `bsdf<i>`); `twosided` -> doubleSided; `mask`/`bumpmap` -> their inner BSDF;
+- --cutouts: a `mask` whose opacity is a bitmap that is also its inner BSDF's colour texture
+  (leaves, as Bitterli's scenes make them) -> alphaMode MASK, alphaCutoff 0.5 (the texture's
+  alpha is the coverage, as in glTF); any other mask stays opaque, said on stderr. Without it
+  every mask is opaque (what the accuracy suite's Mitsuba references, which treat alpha as
+  opaque, were made with);
 - diffuse/roughdiffuse `reflectance`, plastic/roughplastic `diffuseReflectance` -> baseColor
   (rgb factor, or a bitmap texture: PNG/JPEG only), metallic 0;
 - conductor/roughconductor -> metallic 1, roughness 0.5 (vlf: diffuse of the base colour; a
@@ -137,6 +142,8 @@ class Material:
         self.double_sided = False
         self.emission = None
         self.dielectric = False
+        # the opacity bitmap of a `mask` around the BSDF, if it has one
+        self.opacity = None
 
 
 def spectrum(node, names):
@@ -165,6 +172,8 @@ def material_of(bsdf, name):
         t = node.get("type")
         if t == "twosided":
             m.double_sided = True
+        if t == "mask":
+            _, m.opacity = spectrum(node, ("opacity",))
         if t in ("twosided", "mask", "bumpmap", "blendbsdf"):
             inner = node.find("bsdf")
             if inner is None:
@@ -207,6 +216,7 @@ def main():
         del argv[i:i + 2]
     args = [a for a in argv if not a.startswith("--")]
     drop_dielectric = "--drop-dielectric" in argv
+    cutouts = "--cutouts" in argv
     if len(args) != 2:
         sys.exit(__doc__)
     xml_path, out = args
@@ -318,6 +328,13 @@ def main():
                       file=sys.stderr)
                 pbr["baseColorFactor"] = [0.5, 0.5, 0.5, 1.0]
         gm = {"name": name, "pbrMetallicRoughness": pbr, "doubleSided": mat.double_sided}
+        if cutouts and mat.opacity:
+            if mat.opacity == mat.texture and "baseColorTexture" in pbr:
+                gm["alphaMode"] = "MASK"
+                gm["alphaCutoff"] = 0.5
+            else:
+                print(f"mitsuba2gltf: mask of {name!r}: its opacity {mat.opacity} is not its "
+                      "colour texture; left opaque", file=sys.stderr)
         if mat.emission:
             peak = max(mat.emission)
             gm["emissiveFactor"] = [x / peak for x in mat.emission]
