@@ -26,7 +26,7 @@ cd "$(dirname "$0")/.."
 work=$(mktemp -d)
 quiet() { grep -v XDG_RUNTIME_DIR; }
 pack() {
-  (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.png 2>/dev/null)
+  (cd "$work" && tar cf "$out/glossy.tar" --ignore-failed-read gpu.txt commit.txt *.txt *.json *.png $(ls -d verify-* 2>/dev/null) 2>/dev/null)
   # the front camera's stills and references, for comparisons away from edges elsewhere
   # (and the side camera's stills: tools/glossy-mitsuba.sh compares every still with Mitsuba)
   (cd "$work" && ls *-front.exr *-front-reference.exr >/dev/null 2>&1 \
@@ -92,6 +92,11 @@ living-room() {
   # steel and wood); models/ is not in the repository: bash tools/get-models.sh living-room-real
   [ -f models/living-room-real/scene.toml ] || { echo "living-room: no models/living-room-real (bash tools/get-models.sh living-room-real)"; return; }
   real_scene living-room-real models/living-room-real/scene.toml "room corner"
+  # and how right it is: every camera against vlf's path tracer (which takes the cut-outs and
+  # the glossy lobes as the light field does; Mitsuba's reference.py reads alpha as opaque)
+  [ -f "$work/living-room-real.vlf" ] && timeout ${STEP_LIMIT:-240} "$vlf" verify models/living-room-real/scene.toml \
+    --lightfield "$work/living-room-real.vlf" --size 640x360 --spp 2048 --out "$work/verify-living-room-real" \
+    --json "$work/verify-living-room-real.json" 2>&1 | quiet | tee "$work/verify-living-room-real.txt" | tail -4
 }
 real_scene() { # NAME SCENE_TOML CAMERAS: propagation (report), each camera at 1024x768, a bench
   local name=$1 scene=$2 cameras=$3
