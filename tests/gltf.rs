@@ -245,6 +245,16 @@ fn material_rules_and_their_warnings() {
         2,
         "the base colour and the normal map: the mirror's texture is averaged, not kept"
     );
+    // a scene.toml that gives the metal's specular part replaces the glTF's kind: it is not
+    // reported as an approximation of the glTF's values
+    write(dir.path(), "scene.toml", b"name = \"t\"\nmesh = \"m.glb\"\n[materials.chrome]\nmirror = [0.5, 0.5, 0.5]\nroughness = 0.1\n");
+    let s = Scene::load(&dir.path().join("scene.toml")).unwrap();
+    let w = s.warnings.join("\n");
+    assert!(!w.contains("\"chrome\": approximated"), "{w}");
+    assert!(w.contains("\"floor\": approximated"), "{w}");
+    // (the override's specular colour still times the base colour texture's mean: red is 1)
+    let chrome = &s.materials[1];
+    assert_eq!((chrome.mirror[0], chrome.roughness), (0.5, 0.1));
 }
 
 fn simple_nodes() -> serde_json::Value {

@@ -33,7 +33,9 @@ pub struct PropagateArgs {
 
 /// `vlf propagate`: a scene into a .vlf file, with checkpoints and a JSON report.
 pub fn run(args: PropagateArgs) -> Result<()> {
+    let read = std::time::Instant::now();
     let scene = Scene::load(&args.scene)?;
+    let read_seconds = read.elapsed().as_secs_f64();
     print_warnings(&scene.warnings);
     let ctx = GpuContext::new()?;
     let params = args.params.for_adapter(&ctx)?;
@@ -44,10 +46,18 @@ pub fn run(args: PropagateArgs) -> Result<()> {
         every: args.checkpoint,
         resume: args.resume,
     };
-    let (lf, _resident, rep) =
+    let (lf, _resident, mut rep) =
         vlf::propagate::propagate_with(ctx, &scene, &params, &Bars::default(), Some(&plan))?;
     print_warnings(&rep.warnings[scene.warnings.len()..]);
+    let write = std::time::Instant::now();
     file::save(&lf, &output)?;
+    rep.command_phases = vec![
+        ("read the scene".into(), read_seconds),
+        (
+            "write the light field".into(),
+            write.elapsed().as_secs_f64(),
+        ),
+    ];
     if plan.path.exists() {
         std::fs::remove_file(&plan.path)
             .with_context(|| format!("removing {}", plan.path.display()))?;

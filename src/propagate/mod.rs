@@ -56,33 +56,69 @@ pub fn initial_radiance(
 /// times the share of it that lies open (`atlas.open_share`: what lies under a picture frame or
 /// a stair receives nothing, although a texel moved to the open rim beside it holds light).
 pub fn texel_areas(prepared: &PreparedScene) -> Vec<f64> {
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    texel_areas_on(prepared, threads)
+}
+
+/// [`texel_areas`] on `threads` threads.
+fn texel_areas_on(prepared: &PreparedScene, threads: usize) -> Vec<f64> {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    let areas: Vec<AtomicU64> = (0..prepared.atlas.texel_count())
+        .map(|_| AtomicU64::new(0))
+        .collect();
+    // a face's texels are its own: each thread takes every triangle of its faces, in the
+    // triangles' order, so every texel sums the same terms in the same order on any number of
+    // threads (the bits of a single thread's sums)
+    std::thread::scope(|scope| {
+        for k in 0..threads {
+            let areas = &areas;
+            scope.spawn(move || {
+                let mine = (prepared.triangles.iter()).filter(|t| t.face as usize % threads == k);
+                for t in mine {
+                    triangle_texel_areas(prepared, t, |texel, covered| {
+                        let a = &areas[texel];
+                        a.store(
+                            (f64::from_bits(a.load(Relaxed)) + covered).to_bits(),
+                            Relaxed,
+                        );
+                    });
+                }
+            });
+        }
+    });
+    (areas.iter().zip(&prepared.atlas.open_share))
+        .map(|(a, &open)| f64::from_bits(a.load(Relaxed)) * open as f64)
+        .collect()
+}
+
+/// Each texel triangle `t` covers, and the area it covers of it (scene units), to `add`.
+fn triangle_texel_areas(
+    prepared: &PreparedScene,
+    t: &crate::prepare::PreparedTriangle,
+    mut add: impl FnMut(usize, f64),
+) {
     use glam::DVec2;
     let d = prepared.texel_density;
-    let mut areas = vec![0.0f64; prepared.atlas.texel_count()];
-    for t in &prepared.triangles {
-        let f = &prepared.faces[t.face as usize];
-        // corners in texel units of the face's chart
-        let c = t.vertices.map(|v| {
-            let rel = prepared.positions[v as usize] - f.origin;
-            DVec2::new(f.axis_a.dot(rel), f.axis_b.dot(rel)) * d
-        });
-        let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
-        let r = f.atlas;
-        let range = |lo: f64, hi: f64, n: u32| {
-            (lo.floor().max(0.0) as u32)..(hi.ceil().max(0.0) as u32).min(n)
-        };
-        for j in range(lo.y, hi.y, r.h) {
-            for i in range(lo.x, hi.x, r.w) {
-                let cell = DVec2::new(i as f64, j as f64);
-                let covered = clipped_area(&c, cell, cell + DVec2::ONE);
-                areas[((r.y + j) * prepared.atlas.width + r.x + i) as usize] += covered / (d * d);
-            }
+    let f = &prepared.faces[t.face as usize];
+    // corners in texel units of the face's chart
+    let c = t.vertices.map(|v| {
+        let rel = prepared.positions[v as usize] - f.origin;
+        DVec2::new(f.axis_a.dot(rel), f.axis_b.dot(rel)) * d
+    });
+    let (lo, hi) = (c[0].min(c[1]).min(c[2]), c[0].max(c[1]).max(c[2]));
+    let r = f.atlas;
+    let range =
+        |lo: f64, hi: f64, n: u32| (lo.floor().max(0.0) as u32)..(hi.ceil().max(0.0) as u32).min(n);
+    for j in range(lo.y, hi.y, r.h) {
+        for i in range(lo.x, hi.x, r.w) {
+            let cell = DVec2::new(i as f64, j as f64);
+            let covered = clipped_area(&c, cell, cell + DVec2::ONE);
+            add(
+                ((r.y + j) * prepared.atlas.width + r.x + i) as usize,
+                covered / (d * d),
+            );
         }
     }
-    for (area, &open) in areas.iter_mut().zip(&prepared.atlas.open_share) {
-        *area *= open as f64;
-    }
-    areas
 }
 
 /// Area of the triangle `t` inside the box [lo, hi] (Sutherland-Hodgman, then the shoelace).
@@ -397,6 +433,7 @@ pub fn propagate_with_regression(
         shooting,
         warnings,
         power_balance: None,
+        finish_phases: Vec::new(),
     };
     job.finish(&ctx, prop, measured)
 }
@@ -433,6 +470,8 @@ struct Measured {
     warnings: Vec<String>,
     /// set at the end, from the propagator's account
     power_balance: Option<report::PowerBalance>,
+    /// set at the end: the steps after the iterations (`PropagationReport::finish_phases`)
+    finish_phases: Vec<(String, f64)>,
 }
 
 /// What the propagation spent and did, read from the propagator before it becomes the resident
@@ -692,8 +731,11 @@ impl<'a> Job<'a> {
         mut prop: transport::Propagator,
         mut measured: Measured,
     ) -> Result<Propagated> {
+        let mut laps = crate::stats::Laps::default();
         let total = prop.read_total()?;
+        laps.lap("read back");
         measured.power_balance = self.power_balance(&mut prop, &total, &mut measured.warnings)?;
+        laps.lap("power balance");
         let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
         let mut detail = crate::lightfield::textures::SurfaceDetail::of(self.scene, &self.prepared);
         if let Some(d) = detail.as_mut().filter(|d| !d.face_normal_maps.is_empty()) {
@@ -715,6 +757,7 @@ impl<'a> Job<'a> {
             }),
             None => None,
         };
+        laps.lap("surface detail and tiles");
         let spent = Spent::of(&prop, tiles.as_ref());
         let render_vertices = crate::lightfield::render_vertices(&self.prepared);
         let mirror_chains =
@@ -747,6 +790,8 @@ impl<'a> Job<'a> {
             detail,
         };
         resident.upload_detail(&lf);
+        laps.lap("render buffers");
+        measured.finish_phases = laps.steps;
         let report = self.report(ctx, measured, spent, &resident, mirror_chains);
         Ok((lf, resident, report))
     }
@@ -784,6 +829,9 @@ impl<'a> Job<'a> {
             directions_per_batch: batch_plan.batch_size,
             setup_seconds: measured.setup_seconds,
             setup_phases: measured.setup_phases,
+            finish_seconds: measured.finish_phases.iter().map(|p| p.1).sum(),
+            finish_phases: measured.finish_phases,
+            command_phases: Vec::new(),
             visibility_seconds: measured.visibility_seconds,
             visibility_gpu_ms: measured.visibility_gpu_ms,
             propagation_seconds: measured.propagation_seconds,
@@ -841,7 +889,7 @@ impl<'a> Job<'a> {
         injected: f64,
     ) -> Result<Vec<report::MaterialLoss>> {
         let prepared = &self.prepared;
-        let weights: Vec<f32> = texel_areas(prepared).iter().map(|&a| a as f32).collect();
+        let weights = std::mem::take(&mut prop.texel_weights);
         let material: Vec<Option<usize>> = (prepared.atlas.points.iter())
             .map(|p| match p[3].to_bits() {
                 NO_FACE => None,
@@ -926,6 +974,27 @@ fn plain_estimate(residual: f64, r: f64, done: u32, tolerance: f64) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::settled_decay;
+
+    /// The texel areas are the same to the bit on any number of threads (each texel's terms
+    /// summed in the triangles' order), and add up to the scene's open area.
+    #[test]
+    fn texel_areas_are_the_same_on_any_number_of_threads() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/scene.toml");
+        let scene = crate::scene::Scene::load(&path).unwrap();
+        let prepared = crate::prepare::PreparedScene::new(&scene, 16.0).unwrap();
+        let one = super::texel_areas_on(&prepared, 1);
+        for threads in [2, 3, 8] {
+            let many = super::texel_areas_on(&prepared, threads);
+            assert!(
+                one.iter()
+                    .zip(&many)
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
+                "{threads} threads"
+            );
+        }
+        assert!(one.iter().sum::<f64>() > 0.0);
+    }
 
     /// The glossy Cornell box at GGX alpha 0.3, default settings, plain shooting on an H100
     /// (docs/results/h100/tail/before/): its first two ratios agree (0.4882, 0.4848) while

@@ -48,6 +48,14 @@ pub struct PropagationReport {
     pub visibility_seconds: f64,
     pub visibility_gpu_ms: Option<f64>,
     pub propagation_seconds: f64,
+    /// after the iterations: reading the light field back, the power balance (with its probes
+    /// of the materials where a loss concentrates), the surface detail and tiles, the render
+    /// buffers (`finish_phases` names them)
+    pub finish_seconds: f64,
+    pub finish_phases: Vec<(String, f64)>,
+    /// what `vlf propagate` spends around the propagation: reading the scene, writing the
+    /// light field file (empty where the light field is not read or written by a command)
+    pub command_phases: Vec<(String, f64)>,
     pub iterations: u32,
     pub final_residual: f64,
     pub converged: bool,
@@ -141,21 +149,24 @@ impl PropagationReport {
         ]
     }
 
-    /// The setup's seconds and its steps, e.g. `9.579 s (faces 2.1, BVH 1.3, ...)`.
-    fn setup_text(&self) -> String {
-        let steps: Vec<String> = (self.setup_phases.iter())
+    /// A stage's seconds and its steps, e.g. `9.579 s (faces 2.1, BVH 1.3, ...)`.
+    fn steps_text(seconds: f64, phases: &[(String, f64)]) -> String {
+        let steps: Vec<String> = (phases.iter())
             .map(|(phase, s)| format!("{phase} {s:.2}"))
             .collect();
         match steps.is_empty() {
-            true => format!("{:.3} s", self.setup_seconds),
-            false => format!("{:.3} s ({})", self.setup_seconds, steps.join(", ")),
+            true => format!("{seconds:.3} s"),
+            false => format!("{seconds:.3} s ({})", steps.join(", ")),
         }
     }
 
     /// What it cost: time per stage, iterations, residual, GPU memory.
     fn cost_rows(&self) -> Vec<(String, String)> {
         vec![
-            ("setup".into(), self.setup_text()),
+            (
+                "setup".into(),
+                Self::steps_text(self.setup_seconds, &self.setup_phases),
+            ),
             (
                 "visibility".into(),
                 match self.visibility_gpu_ms {
@@ -166,6 +177,20 @@ impl PropagationReport {
             (
                 "propagation".into(),
                 format!("{:.3} s", self.propagation_seconds),
+            ),
+            (
+                "finishing".into(),
+                Self::steps_text(self.finish_seconds, &self.finish_phases),
+            ),
+            (
+                "scene and file".into(),
+                match self.command_phases.is_empty() {
+                    true => "not read or written here".into(),
+                    false => Self::steps_text(
+                        self.command_phases.iter().map(|p| p.1).sum(),
+                        &self.command_phases,
+                    ),
+                },
             ),
             (
                 "iterations".into(),

@@ -363,6 +363,10 @@ pub struct Propagator {
     balance: BalancePasses,
     /// the power balance's running sums; None once resumed from a checkpoint
     pub power: Option<PowerAccount>,
+    /// the area each texel stands for (`super::texel_areas`, as f32): the power balance's
+    /// weights, kept for the probes of a balance that is off (computing them again took a
+    /// second of the finish at five million triangles)
+    pub texel_weights: Vec<f32>,
     /// tests only: gather flags that turn a fixed bug back on (`GRID_FLAG_LIST_ORDER_SIDES`)
     pub regression_flags: u32,
     /// `PropagationParams::rim_rays` (GRID_FLAG_RIM_RAYS in every gather)
@@ -1076,6 +1080,7 @@ impl Propagator {
             direct,
             balance,
             power: Some(PowerAccount::new(emitted_exactly)),
+            texel_weights: areas.iter().map(|&a| a as f32).collect(),
             regression_flags: 0,
             rim_rays: params.rim_rays,
             setup_laps: laps,

@@ -15,7 +15,7 @@
 
 use super::obj::ImportedMesh;
 use super::texels::{self, TextureMemory, TextureUse};
-use super::weld::{TriangleFilter, Welder};
+use super::weld;
 use super::{Camera, Material, MaterialOverride, Triangle};
 use crate::error::{Result, VlfError};
 use ::gltf::accessor::{DataType, Dimensions};
@@ -906,31 +906,26 @@ fn read_raw(
 type Welded = (Vec<[f32; 3]>, Vec<Triangle>, Vec<String>);
 
 fn weld(raw: &[RawTriangle], path: &Path) -> Result<Welded> {
-    let extent = raw
-        .iter()
-        .flat_map(|t| t.corners.iter().flatten())
-        .fold(0.0f64, |m, &x| m.max(x.abs() as f64));
-    let mut welder = Welder::default();
-    let mut filter = TriangleFilter::new(extent);
-    let mut triangles = Vec::with_capacity(raw.len());
-    for t in raw {
-        let v = t.corners.map(|p| welder.id(p));
-        if !filter.keep(v, t.corners) {
-            continue;
-        }
-        triangles.push(Triangle {
-            vertices: v,
+    let points: Vec<[f32; 3]> = raw.iter().flat_map(|t| t.corners).collect();
+    let extent = (points.iter().flatten()).fold(0.0f64, |m, &x| m.max(x.abs() as f64));
+    let welded = weld::weld(&points);
+    let corners: Vec<[u32; 3]> = (welded.ids.chunks(3)).map(|c| [c[0], c[1], c[2]]).collect();
+    let kept = weld::keep_triangles(&corners, &welded.positions, extent);
+    let triangles: Vec<Triangle> = (raw.iter().zip(corners).zip(&kept.keep))
+        .filter(|(_, &keep)| keep)
+        .map(|((t, vertices), _)| Triangle {
+            vertices,
             material: t.material,
             uv: t.uv,
-        });
-    }
+        })
+        .collect();
     if triangles.is_empty() {
         return Err(VlfError::Mesh {
             path: path.to_path_buf(),
             message: "the model has no triangles with area: nothing to light".into(),
         });
     }
-    Ok((welder.positions, triangles, filter.warnings(path)))
+    Ok((welded.positions, triangles, kept.warnings(path)))
 }
 
 /// Per image: the texture-coordinate and surface area it covers (in the normalised scene).

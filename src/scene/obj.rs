@@ -3,7 +3,7 @@
 //! it, degenerate and duplicated triangles are dropped with a count in a warning.
 
 use super::texels::NormalSource;
-use super::weld::{TriangleFilter, Welder};
+use super::weld::{self, Kept};
 use super::{check_color, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
 use crate::material::Cutout;
@@ -43,8 +43,8 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         ));
         out_materials.push(Material::default_grey());
     }
-    warnings.extend(geometry.filter.warnings(path));
-    let (positions, triangles) = (geometry.welder.positions, geometry.triangles);
+    warnings.extend(geometry.kept.warnings(path));
+    let (positions, triangles) = (geometry.positions, geometry.triangles);
     if triangles.is_empty() {
         return Err(mesh_error(
             path,
@@ -207,14 +207,15 @@ fn normal_map(
 
 /// The models' triangles over welded positions, and whether some face has no material.
 struct Geometry {
-    welder: Welder,
+    positions: Vec<[f32; 3]>,
     triangles: Vec<Triangle>,
-    filter: TriangleFilter,
+    kept: Kept,
     uses_default: bool,
 }
 
-/// Weld equal positions across models so that connectivity is seen across groups; faces
-/// without a material get the one after `materials` (the default, added by the caller).
+/// Weld equal positions across models so that connectivity is seen across groups, then keep
+/// the triangles with area that repeat none kept; faces without a material get the one after
+/// `materials` (the default, added by the caller).
 fn weld_models(
     models: &[tobj::Model],
     materials: &[Material],
@@ -222,24 +223,20 @@ fn weld_models(
     warnings: &mut Vec<String>,
 ) -> Geometry {
     let default_material = materials.len() as u32;
-    let mut extent = 0.0f64;
-    for model in models {
-        for p in model.mesh.positions.chunks(3) {
-            extent = extent.max(p.iter().map(|x| x.abs() as f64).fold(0.0, f64::max));
-        }
-    }
-    let mut geometry = Geometry {
-        welder: Welder::default(),
-        triangles: Vec::new(),
-        filter: TriangleFilter::new(extent),
-        uses_default: false,
-    };
+    let points: Vec<[f32; 3]> = (models.iter())
+        .flat_map(|m| m.mesh.positions.chunks(3).map(|p| [p[0], p[1], p[2]]))
+        .collect();
+    let extent = (points.iter().flatten()).fold(0.0f64, |m, &x| m.max(x.abs() as f64));
+    let welded = weld::weld(&points);
+    let (mut corners, mut made) = (Vec::new(), Vec::new());
+    let mut uses_default = false;
+    let mut first_point = 0;
     for model in models {
         let mesh = &model.mesh;
         let material = match mesh.material_id {
             Some(id) => id as u32,
             None => {
-                geometry.uses_default = true;
+                uses_default = true;
                 default_material
             }
         };
@@ -253,41 +250,33 @@ fn weld_models(
         if textured && mesh.texcoords.is_empty() {
             warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
         }
-        geometry.add_mesh(mesh, material);
-    }
-    geometry
-}
-
-impl Geometry {
-    /// Weld the mesh's positions, then keep its triangles with area that repeat none kept.
-    fn add_mesh(&mut self, mesh: &tobj::Mesh, material: u32) {
-        let local: Vec<u32> = mesh
-            .positions
-            .chunks(3)
-            .map(|p| self.welder.id([p[0], p[1], p[2]]))
-            .collect();
+        let ids = &welded.ids[first_point..];
         for tri in mesh.indices.chunks(3) {
-            let v = [
-                local[tri[0] as usize],
-                local[tri[1] as usize],
-                local[tri[2] as usize],
-            ];
-            let corners = v.map(|i| self.welder.positions[i as usize]);
-            if !self.filter.keep(v, corners) {
-                continue;
-            }
+            corners.push([0, 1, 2].map(|k| ids[tri[k] as usize]));
             let uv = (!mesh.texcoords.is_empty()).then(|| {
                 std::array::from_fn(|k| {
                     let i = tri[k] as usize;
                     [mesh.texcoords[2 * i], mesh.texcoords[2 * i + 1]]
                 })
             });
-            self.triangles.push(Triangle {
-                vertices: v,
-                material,
-                uv,
-            });
+            made.push((material, uv));
         }
+        first_point += mesh.positions.len() / 3;
+    }
+    let kept = weld::keep_triangles(&corners, &welded.positions, extent);
+    let triangles = (corners.iter().zip(made).zip(&kept.keep))
+        .filter(|(_, &keep)| keep)
+        .map(|((&vertices, (material, uv)), _)| Triangle {
+            vertices,
+            material,
+            uv,
+        })
+        .collect();
+    Geometry {
+        positions: welded.positions,
+        triangles,
+        kept,
+        uses_default,
     }
 }
 
@@ -422,11 +411,78 @@ fn prescan_mtl(text: &str) -> std::result::Result<(), String> {
 }
 
 /// Line-numbered checks tobj cannot report well: vertex coordinates that are not finite,
-/// face indices that point outside the vertices defined so far.
+/// face indices that point outside the vertices defined so far. The text is checked in pieces
+/// on the CPU's threads (each told the lines and vertices before it); the first mistake in the
+/// file is the one reported.
 fn prescan(text: &str) -> std::result::Result<(), String> {
-    let mut vertex_count: i64 = 0;
+    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let pieces = line_pieces(text, threads * 4);
+    let counts: Vec<(usize, i64)> = std::thread::scope(|scope| {
+        let counting: Vec<_> = (pieces.iter())
+            .map(|piece| {
+                scope.spawn(move || {
+                    let vertices = (piece.lines())
+                        .filter(|l| {
+                            l.split('#').next().unwrap_or("").split_whitespace().next() == Some("v")
+                        })
+                        .count();
+                    (piece.lines().count(), vertices as i64)
+                })
+            })
+            .collect();
+        counting
+            .into_iter()
+            .map(|h| h.join().expect("prescan"))
+            .collect()
+    });
+    let mut before = (0usize, 0i64);
+    let starts: Vec<(usize, i64)> = (counts.iter())
+        .map(|&(lines, vertices)| {
+            let start = before;
+            before = (before.0 + lines, before.1 + vertices);
+            start
+        })
+        .collect();
+    std::thread::scope(|scope| {
+        let checking: Vec<_> = (pieces.iter().zip(starts))
+            .map(|(piece, (lines, vertices))| {
+                scope.spawn(move || prescan_piece(piece, lines, vertices))
+            })
+            .collect();
+        checking
+            .into_iter()
+            .try_for_each(|h| h.join().expect("prescan"))
+    })
+}
+
+/// `text` cut into about `count` pieces of whole lines.
+fn line_pieces(text: &str, count: usize) -> Vec<&str> {
+    let mut pieces = Vec::new();
+    let mut rest = text;
+    let size = text.len().div_ceil(count.max(1)).max(1 << 16);
+    while !rest.is_empty() {
+        let end = match rest.len() > size {
+            // after a newline byte: a character boundary
+            true => (rest.as_bytes()[size..].iter())
+                .position(|&b| b == b'\n')
+                .map_or(rest.len(), |i| size + i + 1),
+            false => rest.len(),
+        };
+        pieces.push(&rest[..end]);
+        rest = &rest[end..];
+    }
+    pieces
+}
+
+/// [`prescan`] of one piece, after `lines_before` lines holding `vertices_before` vertices.
+fn prescan_piece(
+    text: &str,
+    lines_before: usize,
+    vertices_before: i64,
+) -> std::result::Result<(), String> {
+    let mut vertex_count = vertices_before;
     for (index, raw) in text.lines().enumerate() {
-        let line_no = index + 1;
+        let line_no = lines_before + index + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
         let mut words = line.split_whitespace();
         match words.next() {
@@ -539,4 +595,28 @@ fn load_texture(
             path.display()
         ))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    /// A file checked in many pieces reports the first mistake with its own line number and
+    /// the vertices defined before it, as one pass over the whole file does.
+    #[test]
+    fn a_mistake_far_into_a_large_file_is_named_by_its_line() {
+        let mut text = String::new();
+        for i in 0..20_000 {
+            text.push_str(&format!("v {i} 0 0\nv {i} 1 0\nv {i} 0 1\nf -3 -2 -1\n"));
+        }
+        assert!(super::line_pieces(&text, 8).len() >= 8);
+        assert_eq!(super::prescan(&text), Ok(()));
+        // line 70,001: the 52,501st vertex line is not a number; a face after it points past
+        let bad = text.replacen("v 17500 0 0", "v x 0 0", 1) + "f 1 2 60001\n";
+        let e = super::prescan(&bad).unwrap_err();
+        assert!(e.contains("line 70001") && e.contains("\"x\""), "{e}");
+        let e = super::prescan(&(text + "f 1 2 60001\n")).unwrap_err();
+        assert!(
+            e.contains("line 80001") && e.contains("only 60000 vertices"),
+            "{e}"
+        );
+    }
 }

@@ -217,7 +217,12 @@ fn plan(
     let base_tex = pbr.base_color_texture();
     let emit_tex = m.emissive_texture();
     let textured = base_tex.is_some();
-    describe_kind((metallic, roughness), (mirror, alpha, textured), &mut notes);
+    let o = overrides.get(&name).cloned().unwrap_or_default();
+    // what scene.toml gives for the specular part or the diffuse colour replaces the glTF's
+    // kind, so the glTF's is not reported as an approximation
+    if o.mirror.is_none() && o.roughness.is_none() && o.diffuse.is_none() {
+        describe_kind((metallic, roughness), (mirror, alpha, textured), &mut notes);
+    }
     describe_losses(m, &mut notes);
     let cut = cutout(m, alpha_factor, base_tex.as_ref(), &mut notes);
     // the triangles carry one set of texture coordinates: the base colour's decides
@@ -251,7 +256,6 @@ fn plan(
             break;
         }
     }
-    let o = overrides.get(&name).cloned().unwrap_or_default();
     let material = Material {
         name: name.clone(),
         diffuse: o.diffuse.unwrap_or(if mirror { [0.0; 3] } else { base }),
