@@ -257,6 +257,27 @@ fn masked_gltf(dir: &std::path::Path, alpha: serde_json::Value) -> std::path::Pa
     path
 }
 
+/// The cutoff tools/mitsuba/reference.py gives `material` of `model` (`--dump-json`), if it
+/// cuts holes in it.
+fn reference_py_cutoff(model: &std::path::Path, material: &str) -> Option<f64> {
+    let json = model.with_extension("json");
+    let run = std::process::Command::new("python3")
+        .arg(repo_path("tools/mitsuba/reference.py"))
+        .arg(model)
+        .arg("--dump-json")
+        .arg(&json)
+        .output()
+        .expect("python3 runs (bash tools/setup.sh test installs what reference.py needs)");
+    assert!(
+        run.status.success(),
+        "reference.py: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let dump: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    dump["materials"][material]["cutoff"].as_f64()
+}
+
 #[test]
 fn gltf_mask_and_blend_are_read_with_cutoff_factor_and_texture_alpha() {
     let dir = tempfile::tempdir().unwrap();
@@ -279,6 +300,12 @@ fn gltf_mask_and_blend_are_read_with_cutoff_factor_and_texture_alpha() {
         "MASK is no longer an approximation: {:?}",
         scene.warnings
     );
+    // the independent reader (tools/mitsuba/reference.py) makes the same cut-out of it
+    let theirs = reference_py_cutoff(&path, "leaf").expect("reference.py cuts no holes");
+    assert!(
+        (theirs - cut.cutoff as f64).abs() < 1e-6,
+        "{theirs} {cut:?}"
+    );
 
     // BLEND: taken as MASK at 0.5, warned once for the material
     let dir = tempfile::tempdir().unwrap();
@@ -297,6 +324,7 @@ fn gltf_mask_and_blend_are_read_with_cutoff_factor_and_texture_alpha() {
     let path = masked_gltf(dir.path(), serde_json::json!({}));
     let scene = Scene::load(&path).unwrap();
     assert!(scene.materials.iter().all(|m| m.cutout.is_none()));
+    assert_eq!(reference_py_cutoff(&path, "leaf"), None);
     assert!(scene.textures.iter().all(|t| t.alpha.is_empty()));
 }
 

@@ -262,8 +262,10 @@ def load_obj(path):
 #   <= 0.2 -> an ideal mirror of baseColorFactor (times the mean of its base colour texture),
 #   0.2 < roughness <= 0.6 -> the same as a glossy GGX lobe of alpha roughness^2;
 #   everything else -> diffuse of baseColorFactor x baseColorTexture; emission = emissiveFactor
-#   x KHR_materials_emissive_strength (x emissiveTexture); doubleSided -> two-sided; alpha,
-#   transmission, normal / occlusion / metallic-roughness maps ignored; one set of texture
+#   x KHR_materials_emissive_strength (x emissiveTexture); doubleSided -> two-sided; alpha
+#   MASK (BLEND as MASK at 0.5) over the base colour texture's alpha -> a `mask` BSDF (the
+#   factor's alpha folded into the cutoff), without a texture opaque; transmission, normal /
+#   occlusion / metallic-roughness maps ignored; one set of texture
 #   coordinates per material (the base colour's, else the emissive's) with its
 #   KHR_texture_transform; every sampler taken as repeat + bilinear; primitives without a
 #   material: grey diffuse 0.5;
@@ -618,7 +620,12 @@ def plan_materials(doc, overrides):
         alpha = float(roughness * roughness) if (mirror and roughness > MIRROR_ROUGHNESS) else 0.0
         base_tex, emit_tex = pbr.baseColorTexture, m.emissiveTexture
         diffuse_info = base_tex if not mirror else None
-        coords = diffuse_info if diffuse_info is not None else emit_tex
+        # a cut-out as vlf makes one: alpha MASK (BLEND taken as a MASK at 0.5) over the base
+        # colour texture's alpha, the factor's alpha folded into the cutoff (a x f < c is a < c / f)
+        cut = m.alphaMode in ("MASK", "BLEND") and base_tex is not None and bcf[3] > 0
+        alpha_info = base_tex if cut else None
+        cutoff = (0.5 if m.alphaMode == "BLEND" or m.alphaCutoff is None else m.alphaCutoff) / (bcf[3] if cut else 1.0)
+        coords = next((i for i in (diffuse_info, alpha_info, emit_tex) if i is not None), None)
         what = []
         if mirror and alpha > 0:
             what.append(f"metallic {metallic} roughness {roughness}: glossy metal (GGX alpha {alpha}) of the base colour"
@@ -628,8 +635,8 @@ def plan_materials(doc, overrides):
                         + (" (times its texture's mean)" if base_tex is not None else ""))
         elif metallic > 0:
             what.append(f"metallic {metallic} roughness {roughness}: rough metal taken as diffuse")
-        if m.alphaMode in ("MASK", "BLEND"):
-            what.append(f"alpha {m.alphaMode} treated as opaque")
+        if m.alphaMode in ("MASK", "BLEND") and not cut:
+            what.append(f"alpha {m.alphaMode} without a base colour texture treated as opaque")
         if m.normalTexture is not None:
             what.append("normal texture not exported (vlf reads it; this reader does for MTL norm / bump only)")
         tr = ((m.extensions or {}).get("KHR_materials_transmission") or {}).get("transmissionFactor", 0.0)
@@ -654,6 +661,8 @@ def plan_materials(doc, overrides):
             "material": mat,
             "diffuse_image": _image_of(doc, diffuse_info) if diffuse_info is not None else None,
             "emission_image": _image_of(doc, emit_tex) if emit_tex is not None else None,
+            "alpha_image": _image_of(doc, alpha_info) if alpha_info is not None else None,
+            "alpha_cutoff": float(cutoff),
             "mirror_image": _image_of(doc, base_tex) if (mirror and base_tex is not None) else None,
             "uv_set": _tex_coord(coords) if coords is not None else None,
             "uv_transform": _uv_transform(coords) if coords is not None else None,
@@ -917,12 +926,19 @@ def load_gltf(path, overrides):
             m["mirror"] = (m["mirror"] * texture_mean(loader(p["mirror_image"])())).astype(F32)
         m["diffuse_tex"] = f"image{p['diffuse_image']}" if p["diffuse_image"] is not None else None
         m["emission_tex"] = f"image{p['emission_image']}" if p["emission_image"] is not None else None
+        if p["alpha_image"] is not None:
+            m["alpha_tex"] = f"image{p['alpha_image']}"
+            m["alpha_cutoff"] = p["alpha_cutoff"]
         materials.append(m)
     if (mat == len(plans)).any():
         warnings.append(f"{path}: primitives without a material get a grey diffuse default (0.5)")
     images = {f"image{i}": loader(i) for i in range(len(doc.images))}
+    # the encoded bytes of the images cut-outs read their alpha from
+    alpha_bytes = {m["alpha_tex"]: (lambda i=int(m["alpha_tex"][5:]): image_bytes(doc, buffers, i, folder))
+                   for m in materials if m.get("alpha_tex")}
     return {"triangles": tri, "material": mat, "uv": uv, "has_uv": huv, "materials": materials,
-            "images": images, "welded": welded, "cameras": cameras, "warnings": warnings}
+            "images": images, "alpha_bytes": alpha_bytes, "welded": welded, "cameras": cameras,
+            "warnings": warnings}
 
 
 def _group_rows(keys):
@@ -1138,7 +1154,7 @@ def build_gltf(scene):
         sel = g["material"] == mi_
         if not sel.any():
             continue
-        textured = bool(m["diffuse_tex"] or m["emission_tex"])
+        textured = bool(m["diffuse_tex"] or m["emission_tex"] or m.get("alpha_tex"))
         for uv in ((True, False) if textured else (False,)):
             s = sel & (g["has_uv"] if uv else ~g["has_uv"]) if textured else sel
             if s.any():
@@ -1148,7 +1164,7 @@ def build_gltf(scene):
     if not cameras and not scene["cameras"]:
         cameras.append(framing_camera(welded))
     return {"materials": {m["name"]: m for m in mats}, "groups": groups, "images": g["images"],
-            "cameras": cameras, "warnings": g["warnings"],
+            "alpha_bytes": g["alpha_bytes"], "cameras": cameras, "warnings": g["warnings"],
             "bounds": (welded.min(axis=0).astype(np.float64), welded.max(axis=0).astype(np.float64))}
 
 
@@ -1294,12 +1310,17 @@ class Textures:
         return _texture_xml(name, self.files[fk], raw=not unit)
 
 
-def mask_xml(out_dir, stem, alpha_file, cutoff, bsdf):
+def mask_xml(out_dir, stem, alpha_file, cutoff, bsdf, encoded=None):
     """A cut-out as Mitsuba's `mask` BSDF: opacity 1 where the coverage reaches the cutoff, 0
     where vlf sees a hole. The opacity is the thresholded texture read by nearest texel: for a
     two-level coverage (0 / 1) at cutoff 0.5 that is exactly vlf's bilinear lookup compared with
-    the cutoff (both change at the texel boundary); elsewhere it differs within a texel."""
-    alpha = decode_alpha(Path(alpha_file).read_bytes(), alpha_file, grey=True)
+    the cutoff (both change at the texel boundary); elsewhere it differs within a texel.
+    `encoded`: a glTF image's bytes (its alpha channel, else opaque), instead of an MTL map_d
+    file (its alpha, else its grey level)."""
+    if encoded is not None:
+        alpha = decode_alpha(encoded, f"{stem} base colour", grey=False)
+    else:
+        alpha = decode_alpha(Path(alpha_file).read_bytes(), alpha_file, grey=True)
     opacity = (alpha >= cutoff).astype(np.float32)
     (out_dir / "textures").mkdir(exist_ok=True)
     file = f"textures/{stem}-opacity.exr"
@@ -1483,7 +1504,9 @@ def export(scene, built, out_dir, spp=256):
         if m["two_sided"]:
             bsdf = f'<bsdf type="twosided">{bsdf}</bsdf>'
         if uv and m.get("alpha_tex"):
-            bsdf = mask_xml(out_dir, stem, m["alpha_tex"], m["alpha_cutoff"], bsdf)
+            from_gltf = built.get("alpha_bytes", {}).get(m["alpha_tex"])
+            bsdf = mask_xml(out_dir, stem, m["alpha_tex"], m["alpha_cutoff"], bsdf,
+                            encoded=from_gltf() if from_gltf else None)
         emitter = ""
         if e.max() > 0:
             if uv and m["emission_tex"]:
@@ -1619,7 +1642,8 @@ def dump_json(scene, built, path):
         doc["materials"][name] = {"diffuse": f32(m["diffuse"]), "mirror": f32(m["mirror"]),
                                   "roughness": float(np.float32(m.get("roughness", 0.0))),
                                   "emission": f32(m["emission"]), "two_sided": bool(m["two_sided"]),
-                                  "diffuse_texture": m["diffuse_tex"], "emission_texture": m["emission_tex"]}
+                                  "diffuse_texture": m["diffuse_tex"], "emission_texture": m["emission_tex"],
+                                  "cutoff": m.get("alpha_cutoff") if m.get("alpha_tex") else None}
     for (name, textured), (corners, uv) in sorted(built["groups"].items()):
         c = np.asarray(corners, dtype=np.float32).reshape(-1, 9)
         doc["groups"].append({"material": name, "textured": textured,
