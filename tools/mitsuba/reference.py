@@ -627,7 +627,12 @@ def plan_materials(doc, overrides):
         cutoff = (0.5 if m.alphaMode == "BLEND" or m.alphaCutoff is None else m.alphaCutoff) / (bcf[3] if cut else 1.0)
         coords = next((i for i in (diffuse_info, alpha_info, emit_tex) if i is not None), None)
         what = []
-        if mirror and alpha > 0:
+        o = overrides.get(name, {})
+        # a scene.toml override of the specular part or the diffuse colour replaces the kind
+        overridden = any(k in o for k in ("mirror", "roughness", "diffuse"))
+        if overridden:
+            pass
+        elif mirror and alpha > 0:
             what.append(f"metallic {metallic} roughness {roughness}: glossy metal (GGX alpha {alpha}) of the base colour"
                         + (" (times its texture's mean)" if base_tex is not None else ""))
         elif mirror:
@@ -644,7 +649,6 @@ def plan_materials(doc, overrides):
             what.append(f"transmission {tr} treated as opaque")
         if what:
             notes.append(f"glTF material {name!r}: " + "; ".join(what))
-        o = overrides.get(name, {})
         mat = {
             "name": name,
             "diffuse": np.array(o["diffuse"], dtype=F32) if "diffuse" in o else (np.zeros(3, F32) if mirror else base_color),
