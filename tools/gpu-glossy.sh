@@ -16,7 +16,8 @@
 #     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view;
 #   - (PARTS=living-room) the same for Bitterli's living room with its real materials
 #     (models/living-room-real, `bash tools/get-models.sh living-room-real`: cut-out leaves,
-#     mirrors, glossy steel and wood).
+#     mirrors, glossy steel and wood); (PARTS=living-room-settings) it propagated at each of
+#     SETTINGS, both views at 640x360 as EXR, for tools/mitsuba/ratio-map.py.
 # Everything into OUT/glossy.tar (reports, JSON, difference images), the front camera's EXRs
 # (and the side camera's stills) into OUT/glossy-exr.tar.
 #   tools/gpu-glossy.sh VLF_BINARY OUT [FRAMES]
@@ -97,6 +98,25 @@ living-room() {
   [ -f "$work/living-room-real.vlf" ] && timeout ${STEP_LIMIT:-240} "$vlf" verify models/living-room-real/scene.toml \
     --lightfield "$work/living-room-real.vlf" --size 640x360 --spp 2048 --out "$work/verify-living-room-real" \
     --json "$work/verify-living-room-real.json" 2>&1 | quiet | tee "$work/verify-living-room-real.txt" | tail -4
+}
+living-room-settings() {
+  # which setting moves the living room's excess (issue 26): each of SETTINGS ("name:flags,...")
+  # propagated, both cameras rendered at 640x360 into verify-settings/NAME-CAMERA.exr, to set
+  # against a Mitsuba reference with tools/mitsuba/ratio-map.py
+  [ -f models/living-room-real/scene.toml ] || { echo "living-room-settings: no models/living-room-real"; return; }
+  mkdir -p "$work/verify-settings"
+  local IFS=','
+  for setting in ${SETTINGS:-default:,grid512:--grid 512,directions8001:--directions 8001,density192:--texel-density 192}; do
+    local name=${setting%%:*} flags=${setting#*:}
+    IFS=' ' read -r -a args <<< "$flags"
+    timeout ${STEP_LIMIT:-240} "$vlf" propagate models/living-room-real/scene.toml "${args[@]}" -o "$work/s.vlf" \
+      --report "$work/verify-settings/propagate-$name.json" > "$work/verify-settings/propagate-$name.txt" 2>&1 \
+      || { echo "$name: propagation failed or stopped"; tail -2 "$work/verify-settings/propagate-$name.txt"; continue; }
+    for camera in room corner; do
+      "$vlf" render "$work/s.vlf" --camera $camera --size 640x360 -o "$work/verify-settings/$name-$camera.exr" 2>&1 | quiet | tail -1
+    done
+    grep -E "propagation  |GPU memory, propagating" "$work/verify-settings/propagate-$name.txt" | tr -s ' ' | sed "s/^/$name:/"
+  done
 }
 real_scene() { # NAME SCENE_TOML CAMERAS: propagation (report), each camera at 1024x768, a bench
   local name=$1 scene=$2 cameras=$3
