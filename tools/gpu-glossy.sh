@@ -103,13 +103,21 @@ living-room-settings() {
   # which setting moves the living room's excess (issue 26): each of SETTINGS ("name:flags,...")
   # propagated, both cameras rendered at 640x360 into verify-settings/NAME-CAMERA.exr, to set
   # against a Mitsuba reference with tools/mitsuba/ratio-map.py
-  [ -f models/living-room-real/scene.toml ] || { echo "living-room-settings: no models/living-room-real"; return; }
+  # (MODEL=living-room: the matte room instead; REFERENCE_SPP=N: `vlf reference` of both views too)
+  local model=models/${MODEL:-living-room-real}/scene.toml
+  [ -f "$model" ] || { echo "living-room-settings: no $model (bash tools/get-models.sh)"; return; }
   mkdir -p "$work/verify-settings"
+  if [ -n "${REFERENCE_SPP:-}" ]; then
+    for camera in room corner; do
+      "$vlf" reference "$model" --camera $camera --size 640x360 --spp "$REFERENCE_SPP" \
+        -o "$work/verify-settings/reference-$camera.exr" 2>&1 | quiet | tail -1
+    done
+  fi
   local IFS=','
   for setting in ${SETTINGS:-default:,grid512:--grid 512,directions8001:--directions 8001,density192:--texel-density 192}; do
     local name=${setting%%:*} flags=${setting#*:}
     IFS=' ' read -r -a args <<< "$flags"
-    timeout ${STEP_LIMIT:-240} "$vlf" propagate models/living-room-real/scene.toml "${args[@]}" -o "$work/s.vlf" \
+    timeout ${STEP_LIMIT:-240} "$vlf" propagate "$model" "${args[@]}" -o "$work/s.vlf" \
       --report "$work/verify-settings/propagate-$name.json" > "$work/verify-settings/propagate-$name.txt" 2>&1 \
       || { echo "$name: propagation failed or stopped"; tail -2 "$work/verify-settings/propagate-$name.txt"; continue; }
     for camera in room corner; do
