@@ -261,17 +261,9 @@ fn masked_gltf(dir: &std::path::Path, alpha: serde_json::Value) -> std::path::Pa
 /// cuts holes in it.
 fn reference_py_cutoff(model: &std::path::Path, material: &str) -> Option<f64> {
     let json = model.with_extension("json");
-    let run = std::process::Command::new("python3")
-        .arg(repo_path("tools/mitsuba/reference.py"))
-        .arg(model)
-        .arg("--dump-json")
-        .arg(&json)
-        .output()
-        .expect("python3 runs (bash tools/setup.sh test installs what reference.py needs)");
-    assert!(
-        run.status.success(),
-        "reference.py: {}",
-        String::from_utf8_lossy(&run.stderr)
+    python(
+        "tools/mitsuba/reference.py",
+        &[model.as_os_str(), "--dump-json".as_ref(), json.as_os_str()],
     );
     let dump: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();

@@ -14,7 +14,7 @@
 
 use crate::common;
 
-use common::{gpu, repo_path};
+use common::{gpu, python, repo_path, HOW_TO_GET_MITSUBA};
 use std::collections::HashMap;
 use std::path::Path;
 use std::process::Command;
@@ -25,9 +25,6 @@ use vlf::propagate::PropagationParams;
 use vlf::reference::Reference;
 use vlf::render::{image_io, Frame, Renderer};
 use vlf::scene::Scene;
-
-const HOW_TO_GET_MITSUBA: &str = "these tests need Python 3.11+ with Mitsuba 3, numpy and \
-     pygltflib: `pip install mitsuba numpy pygltflib` (`bash tools/setup.sh test` installs them)";
 
 /// Mitsuba's mean and variance-of-the-mean images (scalar_rgb: no LLVM needed).
 fn mitsuba(scene: &str, camera: &str, size: u32, spp: u32, dir: &Path) -> (Frame, Frame) {
@@ -371,22 +368,6 @@ fn vlf_export_mitsuba_writes_the_moving_objects_at_their_pose() {
     );
     let geometry = std::fs::read_to_string(out.join("geometry.xml")).unwrap();
     assert!(geometry.contains("object__moving0"), "{geometry}");
-}
-
-/// Runs `python3 SCRIPT ARGS...` (a repository script), failing with its stderr and how to get
-/// what it needs. Returns its stderr.
-fn python(script: &str, args: &[&std::ffi::OsStr]) -> String {
-    let run = Command::new("python3")
-        .arg(repo_path(script))
-        .args(args)
-        .output()
-        .unwrap_or_else(|e| panic!("cannot run python3 ({e}); {HOW_TO_GET_MITSUBA}"));
-    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
-    assert!(
-        run.status.success(),
-        "{script} failed:\n{stderr}\n{HOW_TO_GET_MITSUBA}"
-    );
-    stderr
 }
 
 /// reference.py's render of `scene` (camera "front", 32x32, 16 spp, seed 0, scalar_rgb).

@@ -371,6 +371,27 @@ pub fn free_udp_port() -> u16 {
         .port()
 }
 
+/// What the tests that run Mitsuba or tools/mitsuba/reference.py say is missing when Python
+/// cannot run them.
+pub const HOW_TO_GET_MITSUBA: &str = "these tests need Python 3.11+ with Mitsuba 3, numpy and \
+     pygltflib: `pip install mitsuba numpy pygltflib` (`bash tools/setup.sh test` installs them)";
+
+/// Runs `python3 SCRIPT ARGS...` (a repository script), failing with its stderr and how to get
+/// what it needs. Returns its stderr.
+pub fn python(script: &str, args: &[&std::ffi::OsStr]) -> String {
+    let run = std::process::Command::new("python3")
+        .arg(repo_path(script))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot run python3 ({e}); {HOW_TO_GET_MITSUBA}"));
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    assert!(
+        run.status.success(),
+        "{script} failed:\n{stderr}\n{HOW_TO_GET_MITSUBA}"
+    );
+    stderr
+}
+
 /// The shipped Python example `script` run against the `vlf cave --control` child listening on
 /// `addr`, which its `stop` ends cleanly: the replies it printed, in order.
 pub fn script_replies(
