@@ -391,11 +391,16 @@ fn convert_material(
     Ok(material)
 }
 
+/// The words of an OBJ or MTL line, its `#` comment left out: the prescans' one reading of a
+/// line (the vertex count of a piece and its checks must agree on what a vertex line is).
+fn words(raw: &str) -> std::str::SplitWhitespace<'_> {
+    raw.split('#').next().unwrap_or("").split_whitespace()
+}
+
 /// Colour lines (Ka, Kd, Ks, Ke, Tf) need three numbers; tobj would panic on fewer.
 fn prescan_mtl(text: &str) -> std::result::Result<(), String> {
     for (index, raw) in text.lines().enumerate() {
-        let line = raw.split('#').next().unwrap_or("").trim();
-        let mut words = line.split_whitespace();
+        let mut words = words(raw);
         if let Some(key @ ("Ka" | "Kd" | "Ks" | "Ke" | "Tf")) = words.next() {
             let numbers: Vec<&str> = words.collect();
             if numbers.len() < 3 || numbers[..3].iter().any(|w| w.parse::<f32>().is_err()) {
@@ -422,9 +427,7 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
             .map(|piece| {
                 scope.spawn(move || {
                     let vertices = (piece.lines())
-                        .filter(|l| {
-                            l.split('#').next().unwrap_or("").split_whitespace().next() == Some("v")
-                        })
+                        .filter(|l| words(l).next() == Some("v"))
                         .count();
                     (piece.lines().count(), vertices as i64)
                 })
@@ -483,8 +486,7 @@ fn prescan_piece(
     let mut vertex_count = vertices_before;
     for (index, raw) in text.lines().enumerate() {
         let line_no = lines_before + index + 1;
-        let line = raw.split('#').next().unwrap_or("").trim();
-        let mut words = line.split_whitespace();
+        let mut words = words(raw);
         match words.next() {
             Some("v") => {
                 vertex_count += 1;
