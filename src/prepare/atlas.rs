@@ -38,6 +38,9 @@ pub struct Atlas {
     /// texels whose sample point lay under other geometry and moved to an open point of their
     /// face (src/prepare/buried.rs)
     pub unburied_texels: u64,
+    /// rim texels whose sample point lay beyond a surface crossing their face (under the floor
+    /// that a skirting board runs through) and moved back to the face's open side (buried.rs)
+    pub rejoined_rims: u64,
     /// per texel: the share of its face's area in it that lies open, not under other geometry
     /// (src/prepare/buried.rs; 1 where its sample point is open): the power balance weights
     /// its area by it
@@ -83,6 +86,7 @@ impl Atlas {
             texture_albedo: albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
             texture_emission: emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
             unburied_texels: 0,
+            rejoined_rims: 0,
             open_share: vec![1.0f32; texels as usize],
         };
         for (fi, f) in faces.iter_mut().enumerate() {
@@ -132,6 +136,7 @@ impl Atlas {
                     texture(material.emission_texture),
                 ];
                 atlas.unburied_texels += chart.moved as u64;
+                atlas.rejoined_rims += chart.rejoined as u64;
                 atlas.write_chart(fi, f, &by_face, maps, chart);
             }
         }
@@ -189,6 +194,8 @@ struct ChartSamples {
     texels: Vec<ChartTexel>,
     open_share: Vec<f32>,
     moved: usize,
+    /// rim points moved back across a surface that crosses the face (buried.rs)
+    rejoined: usize,
     /// the face's triangles in chart coordinates (`FaceTriangles::chart_triangles`)
     triangles: Vec<[DVec2; 3]>,
 }
@@ -216,7 +223,7 @@ fn sample_chart(
         })
         .collect();
     let mut open_share = vec![1.0f32; texels.len()];
-    let moved = occluders.map_or(0, |occluders| {
+    let (moved, rejoined) = occluders.map_or((0, 0), |occluders| {
         let inside = |p: DVec2| {
             (0..tris2.len()).find(|&t| {
                 bounds[t].0.cmple(p).all() && bounds[t].1.cmpge(p).all() && inside(&tris2[t], p)
@@ -229,19 +236,29 @@ fn sample_chart(
             density,
         };
         let to_space = |s: DVec2| f.origin + f.axis_a * s.x + f.axis_b * s.y;
-        buried::unbury(
+        let moved = buried::unbury(
             &mut texels,
             &mut open_share,
             &chart,
             occluders,
             inside,
             to_space,
-        )
+        );
+        let rejoined = buried::rejoin_cut_rims(
+            &mut texels,
+            &open_share,
+            &chart,
+            occluders,
+            inside,
+            to_space,
+        );
+        (moved, rejoined)
     });
     ChartSamples {
         texels,
         open_share,
         moved,
+        rejoined,
         triangles: tris2,
     }
 }

@@ -17,6 +17,19 @@
 //! a texel whose centre lies off its face takes the face's nearest point: it then carries the
 //! light of the visible surface it is read for. Texels deeper under a cover keep their point:
 //! no visible point reads them.
+//!
+//! Rims cut off by a crossing surface. A face that runs on through another one (the Grey &
+//! White Room's skirting boards reach 0.4 mm under its floor, its cornice 0.1 mm above its
+//! ceiling) has rim texels, whose centre lies off the face, with their sample point (the face's
+//! nearest point) beyond that surface: under the floor or above the ceiling, where the sky
+//! shines and no viewer is. The bilinear lookups of the visible face beside them blended that
+//! light half a texel deep into what is seen: a bright line along the skirting and the cornice,
+//! 15% of the room's direct light in the bottom third of Bitterli's view. Such a point is moved
+//! back along the segment to the nearest texel point of the face that lies at its centre, to
+//! just this side of the surface that the segment crosses, when the sliver of the face beyond
+//! that surface is thinner than a cover's reach (a quarter of a texel): then nearly all that the
+//! rim's lookups read lies on the neighbour's side. A face that runs on further is seen beyond the
+//! surface too, and its rim keeps its point (moving those made the Space Ship Hallway worse).
 
 use super::PlanarFace;
 use crate::bvh::SceneBvh;
@@ -144,6 +157,75 @@ pub fn unbury(
                 texels[idx].0 = c;
                 texels[idx].2 = tri;
                 open_share[idx] = sub_point_share(centre, density, &inside, open);
+                moved += 1;
+            }
+        }
+    }
+    moved
+}
+
+/// Moves each rim texel of `chart` (its centre off the face) whose sample point a surface
+/// separates, within a quarter of a texel, from the nearest of its neighbours whose point is
+/// their centre (an open one, `open_share` above 0) to that neighbour's side of the surface, a
+/// hundredth of a texel past it (module doc). `inside` and `to_space` as for [`unbury`].
+/// Returns how many moved.
+pub fn rejoin_cut_rims(
+    texels: &mut [ChartTexel],
+    open_share: &[f32],
+    chart: &Chart,
+    occluders: &Occluders,
+    inside: impl Fn(DVec2) -> Option<usize>,
+    to_space: impl Fn(DVec2) -> DVec3,
+) -> usize {
+    let (face, f, density) = (chart.face, chart.f, chart.density);
+    let twin = f.twin.unwrap_or(face);
+    let skip = |g: u32| g == face || g == twin || occluders.is_back[g as usize];
+    let (w, h) = (chart.size.0 as i64, chart.size.1 as i64);
+    let centre =
+        |i: i64, j: i64| DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
+    // the texels whose point is their centre, on the face and open
+    let interior: Vec<bool> = (0..texels.len() as i64)
+        .map(|k| {
+            let c = centre(k % w, k / w);
+            texels[k as usize].0 == c && open_share[k as usize] > 0.0
+        })
+        .collect();
+    let mut moved = 0;
+    for j in 0..h {
+        for i in 0..w {
+            let idx = (j * w + i) as usize;
+            if inside(centre(i, j)).is_some() {
+                continue;
+            }
+            let p = texels[idx].0;
+            let nearest = (-1..=1)
+                .flat_map(|dy| (-1..=1).map(move |dx| (i + dx, j + dy)))
+                .filter(|&(x, y)| (0..w).contains(&x) && (0..h).contains(&y))
+                .filter(|&(x, y)| interior[(y * w + x) as usize])
+                .map(|(x, y)| centre(x, y))
+                .min_by(|a, b| a.distance_squared(p).total_cmp(&b.distance_squared(p)));
+            let Some(q) = nearest else { continue };
+            let (from, to) = (to_space(p), to_space(q));
+            let length = from.distance(to);
+            let hit = crate::bvh::closest_hit(
+                &occluders.bvh.nodes,
+                &occluders.bvh.triangles,
+                from.as_vec3(),
+                ((to - from) / length).as_vec3(),
+                length as f32,
+                skip,
+            );
+            // the rim's side is a sliver thinner than a cover's reach: nearly all that its
+            // lookups read lies on the neighbour's side (a face that runs on further beyond the
+            // crossing is seen there too, and its rim keeps its point)
+            let Some((t, _)) = hit.filter(|h| (h.0 as f64) < REACH_TEXELS / density) else {
+                continue;
+            };
+            let past = (0.01 / density).min((length - t as f64) * 0.5);
+            let moved_to = p + (q - p) * ((t as f64 + past) / length);
+            if let Some(tri) = inside(moved_to) {
+                texels[idx].0 = moved_to;
+                texels[idx].2 = tri;
                 moved += 1;
             }
         }
