@@ -244,41 +244,59 @@ fn the_floor_beside_a_plate_lying_on_it_keeps_the_skys_light() {
 
 /// A sealed room (a cube of side 3, its faces inward) under a uniform sky, with a panel 0.8
 /// high standing free in it whose foot runs 1 cm under the floor, as the skirting boards of the
-/// Grey & White Room run 0.4 mm under its floor. No light gets in: every point a viewer can see
-/// is black. The panel's rim texels below its foot had their sample point (the face's nearest
-/// point) under the floor, where the sky shines, and the bilinear lookup of the visible panel
-/// above the floor blended that in. Measured on the software adapter without the rims moved
-/// back (`rejoin_cut_rims` left out): 0.21 of the sky's radiance a tenth of a texel above the
-/// floor, and the room's floor 1.8e-3 of it on average (what those rims shot in); with them
-/// moved, 0 and 0.
+/// Grey & White Room run 0.4 mm under its floor, and a cornice strip 5 cm high (less than a
+/// texel: no texel's centre lies on it) whose top runs 1 cm above the ceiling. No light gets in:
+/// every point a viewer can see is black. The rim texels beyond the floor and the ceiling had
+/// their sample point (the face's nearest point) in the sky, and the bilinear lookup of the
+/// visible panel and strip blended that in. Measured on the software adapter without the rims
+/// moved back (`rejoin_cut_rims` left out): the panel a tenth of a texel above the floor 0.21 of
+/// the sky's radiance, the room's floor 1.8e-3 of it on average (what those rims shot in);
+/// with the panel's rims moved but not the strip's (before the middle of a rim point's own
+/// triangle stood for a face with no interior texel), the strip 0.093; with both, 0.
 #[test]
-fn a_panel_running_under_the_floor_of_a_sealed_room_brings_no_sky_in() {
+fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("room", DVec3::new(0.0, 1.5, 0.0), 1.5, true);
-    obj.quad(
-        "panel",
-        DVec3::new(-1.0, 0.39, 0.0),
-        DVec3::X,
-        [0.8, 1.5],
-        0.0,
+    let panel_at = DVec3::new(-1.0, 0.39, 0.0);
+    obj.quad("panel", panel_at, DVec3::X, [0.8, 1.5], 0.0);
+    let strip_at = DVec3::new(-1.2, 2.985, 0.0);
+    obj.quad("strip", strip_at, DVec3::X, [0.05, 1.5], 0.0);
+    let toml = sky_scene(
+        dir.path(),
+        &obj,
+        &[("room", 0.5), ("panel", 0.5), ("strip", 0.5)],
     );
-    let toml = sky_scene(dir.path(), &obj, &[("room", 0.5), ("panel", 0.5)]);
     let lit = SkyLit::propagate(&toml, 64);
     let p = &lit.p;
-    // the panel: the face facing +x that stands furthest from the room's -x wall
-    let panel = (p.faces.iter().enumerate())
-        .filter(|(_, f)| f.normal.x > 0.99)
-        .max_by(|a, b| a.1.plane_offset.total_cmp(&b.1.plane_offset))
-        .unwrap()
-        .0;
-    let mut worst = (0.0f64, 0.0f64);
+    // the face facing +x in the plane x = at.x
+    let facing_x = |at: DVec3| {
+        let x = p.normalisation.to_unit(at.as_vec3().into()).x;
+        (p.faces.iter().enumerate())
+            .filter(|(_, f)| f.normal.x > 0.99)
+            .min_by(|a, b| {
+                let off = |f: &vlf::prepare::PlanarFace| (f.plane_offset - x).abs();
+                off(a.1).total_cmp(&off(b.1))
+            })
+            .unwrap()
+            .0
+    };
+    let (panel, strip) = (facing_x(panel_at), facing_x(strip_at));
+    // the brightest that a view reads on the panel above the floor and on the strip below the
+    // ceiling, a tenth of a texel to a texel (the strip's height) away
+    let mut worst = [(0.0f64, 0.0f64); 2];
     for k in 1..=10 {
-        let above = lit.texel * k as f64 / 10.0;
-        for z in [-0.5, 0.0, 0.5] {
-            let radiance = lit.read(panel, [-1.0, above as f32, z]);
-            if radiance > worst.0 {
-                worst = (radiance, above / lit.texel);
+        let away = lit.texel * k as f64 / 10.0;
+        for z in [-0.5f32, 0.0, 0.5] {
+            let strip_y = (3.0 - away).max(2.96);
+            let reads = [
+                lit.read(panel, [-1.0, away as f32, z]),
+                lit.read(strip, [-1.2, strip_y as f32, z]),
+            ];
+            for (w, r) in worst.iter_mut().zip(reads) {
+                if r > w.0 {
+                    *w = (r, away / lit.texel);
+                }
             }
         }
     }
@@ -289,18 +307,19 @@ fn a_panel_running_under_the_floor_of_a_sealed_room_brings_no_sky_in() {
         .collect();
     let floor_mean = on_floor.iter().sum::<f64>() / on_floor.len() as f64;
     eprintln!(
-        "the panel above the floor: at most {:.2e} of the sky ({:.1} texels up); the floor's mean {floor_mean:.2e}",
-        worst.0, worst.1
+        "at most {:.2e} of the sky on the panel ({:.1} texels above the floor), {:.2e} on the \
+         strip ({:.1} texels below the ceiling); the floor's mean {floor_mean:.2e}",
+        worst[0].0, worst[0].1, worst[1].0, worst[1].1
     );
     assert!(
-        worst.0 < 1e-4 && floor_mean < 1e-5,
-        "sky light in a sealed room: the panel {:.1} texels above the floor holds {:.3e} of the \
-         sky's radiance, the floor {floor_mean:.3e} on average",
-        worst.1,
-        worst.0
+        worst[0].0 < 1e-4 && worst[1].0 < 1e-4 && floor_mean < 1e-5,
+        "sky light in a sealed room: the panel holds up to {:.3e} of the sky's radiance, the \
+         strip {:.3e}, the floor {floor_mean:.3e} on average",
+        worst[0].0,
+        worst[1].0
     );
     assert!(
         p.atlas.rejoined_rims > 0,
-        "no rim of the panel moved back over the floor"
+        "no rim moved back over the floor or the ceiling"
     );
 }

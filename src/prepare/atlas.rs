@@ -248,6 +248,7 @@ fn sample_chart(
             &mut texels,
             &open_share,
             &chart,
+            &tris2,
             occluders,
             inside,
             to_space,

@@ -25,11 +25,13 @@
 //! shines and no viewer is. The bilinear lookups of the visible face beside them blended that
 //! light half a texel deep into what is seen: a bright line along the skirting and the cornice,
 //! 15% of the room's direct light in the bottom third of Bitterli's view. Such a point is moved
-//! back along the segment to the nearest texel point of the face that lies at its centre, to
-//! just this side of the surface that the segment crosses, when the sliver of the face beyond
-//! that surface is thinner than a cover's reach (a quarter of a texel): then nearly all that the
-//! rim's lookups read lies on the neighbour's side. A face that runs on further is seen beyond the
-//! surface too, and its rim keeps its point (moving those made the Space Ship Hallway worse).
+//! back along the segment to the nearest texel point of the face that lies at its centre (for a
+//! face thinner than a texel, the cornice's 1 cm strip, which has none: the middle of the
+//! point's triangle), to just past the surface that the segment crosses, when the sliver of the
+//! face beyond that surface is thinner than a cover's reach (a quarter of a texel): then nearly
+//! all that the rim's lookups read lies on the other side. A face that runs on further is seen
+//! beyond the surface too, and its rim keeps its point (moving those made the Space Ship
+//! Hallway worse).
 
 use super::PlanarFace;
 use crate::bvh::SceneBvh;
@@ -164,22 +166,24 @@ pub fn unbury(
     moved
 }
 
-/// Moves each rim texel of `chart` (its centre off the face) whose sample point a surface
-/// separates, within a quarter of a texel, from the nearest of its neighbours whose point is
-/// their centre (an open one, `open_share` above 0) to that neighbour's side of the surface, a
-/// hundredth of a texel past it (module doc). `inside` and `to_space` as for [`unbury`].
-/// Returns how many moved.
+/// Moves each rim texel of `chart` (its centre off the face) whose sample point a surface cuts
+/// off from the rest of the face, where the sliver beyond it is thinner than a quarter of a
+/// texel, to the other side of that surface, a hundredth of a texel past it (module doc). The
+/// rest of the face is the nearest of the texel's neighbours whose point is their centre (an
+/// open one, `open_share` above 0), the surface within a quarter of a texel along the way to
+/// it; for a face thinner than a texel, with no such neighbour, the middle of the point's own
+/// triangle (`triangles`), the surface's plane within a quarter of a texel of the point.
+/// `inside` and `to_space` as for [`unbury`]. Returns how many moved.
 pub fn rejoin_cut_rims(
     texels: &mut [ChartTexel],
     open_share: &[f32],
     chart: &Chart,
+    triangles: &[[DVec2; 3]],
     occluders: &Occluders,
     inside: impl Fn(DVec2) -> Option<usize>,
     to_space: impl Fn(DVec2) -> DVec3,
 ) -> usize {
-    let (face, f, density) = (chart.face, chart.f, chart.density);
-    let twin = f.twin.unwrap_or(face);
-    let skip = |g: u32| g == face || g == twin || occluders.is_back[g as usize];
+    let density = chart.density;
     let (w, h) = (chart.size.0 as i64, chart.size.1 as i64);
     let centre =
         |i: i64, j: i64| DVec2::new((i as f64 + 0.5) / density, (j as f64 + 0.5) / density);
@@ -197,33 +201,19 @@ pub fn rejoin_cut_rims(
             if inside(centre(i, j)).is_some() {
                 continue;
             }
-            let p = texels[idx].0;
-            let nearest = (-1..=1)
+            let (p, tri) = (texels[idx].0, texels[idx].2);
+            let neighbour = (-1..=1)
                 .flat_map(|dy| (-1..=1).map(move |dx| (i + dx, j + dy)))
                 .filter(|&(x, y)| (0..w).contains(&x) && (0..h).contains(&y))
                 .filter(|&(x, y)| interior[(y * w + x) as usize])
                 .map(|(x, y)| centre(x, y))
                 .min_by(|a, b| a.distance_squared(p).total_cmp(&b.distance_squared(p)));
-            let Some(q) = nearest else { continue };
-            let (from, to) = (to_space(p), to_space(q));
-            let length = from.distance(to);
-            let hit = crate::bvh::closest_hit(
-                &occluders.bvh.nodes,
-                &occluders.bvh.triangles,
-                from.as_vec3(),
-                ((to - from) / length).as_vec3(),
-                length as f32,
-                skip,
-            );
-            // the rim's side is a sliver thinner than a cover's reach: nearly all that its
-            // lookups read lies on the neighbour's side (a face that runs on further beyond the
-            // crossing is seen there too, and its rim keeps its point)
-            let Some((t, _)) = hit.filter(|h| (h.0 as f64) < REACH_TEXELS / density) else {
-                continue;
+            let target = match neighbour {
+                Some(q) => Target::Neighbour(q),
+                None => Target::Middle(triangles[tri].iter().sum::<DVec2>() / 3.0),
             };
-            let past = (0.01 / density).min((length - t as f64) * 0.5);
-            let moved_to = p + (q - p) * ((t as f64 + past) / length);
-            if let Some(tri) = inside(moved_to) {
+            let across = cut_off(p, target, chart, occluders, &to_space);
+            if let Some((moved_to, tri)) = across.and_then(|c| Some((c, inside(c)?))) {
                 texels[idx].0 = moved_to;
                 texels[idx].2 = tri;
                 moved += 1;
@@ -231,6 +221,54 @@ pub fn rejoin_cut_rims(
         }
     }
     moved
+}
+
+/// Where a rim point looks for the rest of its face (`rejoin_cut_rims`), in face coordinates.
+#[derive(Clone, Copy)]
+enum Target {
+    /// an open neighbour's centre: the crossing counts within a quarter of a texel along the way
+    Neighbour(DVec2),
+    /// the middle of the point's triangle: the crossing surface's plane within a quarter of a
+    /// texel of the point (the way there may run nearly along it)
+    Middle(DVec2),
+}
+
+/// The point just past the surface that separates rim point `p` from `target`, if one does
+/// within a cover's reach (`rejoin_cut_rims`).
+fn cut_off(
+    p: DVec2,
+    target: Target,
+    chart: &Chart,
+    occluders: &Occluders,
+    to_space: impl Fn(DVec2) -> DVec3,
+) -> Option<DVec2> {
+    let (face, f, density) = (chart.face, chart.f, chart.density);
+    let twin = f.twin.unwrap_or(face);
+    let skip = |g: u32| g == face || g == twin || occluders.is_back[g as usize];
+    let q = match target {
+        Target::Neighbour(q) | Target::Middle(q) => q,
+    };
+    let (from, to) = (to_space(p), to_space(q));
+    let length = from.distance(to);
+    let dir = (to - from) / length;
+    let (nodes, tris) = (&occluders.bvh.nodes, &occluders.bvh.triangles);
+    let (origin, ray) = (from.as_vec3(), dir.as_vec3());
+    let (t, hit) = crate::bvh::closest_hit(nodes, tris, origin, ray, length as f32, skip)?;
+    let tri = &tris[hit];
+    let normal = Vec3::from(tri.e1)
+        .cross(Vec3::from(tri.e2))
+        .normalize()
+        .as_dvec3();
+    let depth = (from - Vec3::from(tri.v0).as_dvec3()).dot(normal).abs();
+    let reach = REACH_TEXELS / density;
+    let thin = match target {
+        Target::Neighbour(_) => (t as f64) < reach,
+        Target::Middle(_) => depth < reach,
+    };
+    // a hundredth of a texel clear of the surface's plane, short of the target
+    let slant = dir.dot(normal).abs().max(1e-3);
+    let past = (0.01 / density / slant).min((length - t as f64) * 0.5);
+    thin.then(|| p + (q - p) * ((t as f64 + past) / length))
 }
 
 /// The open share of the 4 x 4 sub-points of the texel at `centre` that lie on the face.
