@@ -10,13 +10,16 @@
 #       `vlf verify` at default settings: the light field's image (16 eye rays per pixel) and
 #       vlf's own path tracer at SPP, OUT/<model>/<camera>-lightfield.exr and verify.json.
 # Then, anywhere: python3 tools/accuracy-suite.py measure REFERENCES LIGHTFIELD.
-# SPP (default 4096) and SIZE (default 640x360) from the environment.
+# SPP (default 4096), SIZE (default 640x360) and VLF_COMMIT (the build's commit) from the
+# environment.
 set -uo pipefail
 mode=$1; out=$(mkdir -p "$2" && realpath "$2"); shift 2
 spp=${SPP:-4096}; size=${SIZE:-640x360}
 cd "$(dirname "$0")/.."
 (nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null | head -1) > "$out/gpu.txt"
-git rev-parse --short HEAD > "$out/commit.txt" 2>/dev/null || true
+# the build measured: VLF_COMMIT when given (the device's copy of the tree may carry an older
+# .git than the build), else the checkout's HEAD
+echo "${VLF_COMMIT:-$(git rev-parse --short HEAD 2>/dev/null)}" > "$out/commit.txt"
 echo "$spp $size" > "$out/settings.txt"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
