@@ -139,7 +139,7 @@ fn sky_scene(dir: &std::path::Path, obj: &ObjBuilder, albedos: &[(&'static str, 
     write_scene(dir, obj, &mats, "[sky]\nradiance = [1.0, 1.0, 1.0]\n")
 }
 
-/// A scene's light field at texel density 8 (draft settings otherwise), read as the renderer and
+/// A scene's light field at texel density 8 unless given (draft settings otherwise), read as the renderer and
 /// propagation read it: by the bilinear lookup in the atlas (`atlas_taps`, the CPU twin of
 /// common/atlas.wgsl).
 struct SkyLit {
@@ -152,9 +152,13 @@ struct SkyLit {
 
 impl SkyLit {
     fn propagate(toml: &std::path::Path, direct_samples: u32) -> SkyLit {
+        SkyLit::at_density(toml, direct_samples, 8.0)
+    }
+
+    fn at_density(toml: &std::path::Path, direct_samples: u32, texel_density: f64) -> SkyLit {
         let scene = Scene::load(toml).unwrap();
         let params = vlf::propagate::PropagationParams {
-            texel_density: 8.0,
+            texel_density,
             direct_samples,
             ..crate::common::draft_params()
         };
@@ -321,5 +325,107 @@ fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
     assert!(
         p.atlas.rejoined_rims > 0,
         "no rim moved back over the floor or the ceiling"
+    );
+}
+
+/// Open (issue 26): a sealed room (inward walls) under a uniform sky whose -x wall has a slot
+/// 2 cm high open to the outside, covered on the room's side by a moulding (a board 3 cm in
+/// front of the wall, capped above and below): the cavity behind the moulding sees the sky,
+/// the room does not, so the visible wall just below the moulding must be black. At texels of
+/// about 2 cm the cavity is deeper than a cover's reach, so the wall's texels in it keep their
+/// points (not buried), see the sky through the slot, and the bilinear lookup of the visible
+/// wall below blends them in. The Grey & White Room's window sills (profiles with cavities
+/// behind them) are six times too bright in their indirect light, probably for this reason: the
+/// fix is to stop a chart where another surface's edge lies on its face (the moulding's cap
+/// here), as charts already stop at mesh edges that a third surface meets.
+#[test]
+#[ignore = "open (issue 26): the wall's texels in the cavity behind the moulding blend the sky's light into the visible wall below it: 5.9e-3 of the sky's radiance a tenth of a texel below (lavapipe, 2026-11-28); run with --ignored"]
+fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut obj = ObjBuilder::default();
+    let c = DVec3::new(0.0, 1.5, 0.0);
+    for n in [DVec3::Y, -DVec3::Y, DVec3::Z, -DVec3::Z, -DVec3::X] {
+        obj.quad("room", c - n * 1.5, n, [3.0, 3.0], 0.0);
+    }
+    // the -x wall (facing +x) in two parts around the slot y 0.81..0.83
+    obj.quad(
+        "room",
+        DVec3::new(-1.5, 0.405, 0.0),
+        DVec3::X,
+        [0.81, 3.0],
+        0.0,
+    );
+    obj.quad(
+        "room",
+        DVec3::new(-1.5, 1.915, 0.0),
+        DVec3::X,
+        [2.17, 3.0],
+        0.0,
+    );
+    // the moulding: a board 3 cm in front of the wall from y 0.78 to 0.86, capped
+    obj.quad(
+        "moulding",
+        DVec3::new(-1.47, 0.82, 0.0),
+        DVec3::X,
+        [0.08, 3.0],
+        0.0,
+    );
+    obj.quad(
+        "moulding",
+        DVec3::new(-1.485, 0.78, 0.0),
+        -DVec3::Y,
+        [0.03, 3.0],
+        0.0,
+    );
+    obj.quad(
+        "moulding",
+        DVec3::new(-1.485, 0.86, 0.0),
+        DVec3::Y,
+        [0.03, 3.0],
+        0.0,
+    );
+    let toml = sky_scene(dir.path(), &obj, &[("room", 0.5), ("moulding", 0.5)]);
+    let lit = SkyLit::at_density(&toml, 64, 128.0);
+    let p = &lit.p;
+    // the lower part of the wall: the +x-facing face at x = -1.5 whose points lie lowest
+    let world_y = |pt: &[f32; 4]| {
+        let u = DVec3::new(pt[0] as f64, pt[1] as f64, pt[2] as f64);
+        (u / p.normalisation.scale).y + p.normalisation.center[1]
+    };
+    let wall_x = p.normalisation.to_unit([-1.5, 0.0, 0.0]).x;
+    let lower = (p.faces.iter().enumerate())
+        .filter(|(_, f)| f.normal.x > 0.99 && (f.plane_offset - wall_x).abs() < 1e-4)
+        .min_by(|a, b| {
+            let mean_y = |face: usize| {
+                let ys: Vec<f64> = (p.atlas.points.iter())
+                    .filter(|pt| pt[3].to_bits() == face as u32)
+                    .map(world_y)
+                    .collect();
+                ys.iter().sum::<f64>() / ys.len().max(1) as f64
+            };
+            mean_y(a.0).total_cmp(&mean_y(b.0))
+        })
+        .unwrap()
+        .0;
+    let mut worst = (0.0f64, 0.0f64);
+    for k in 1..=10 {
+        let below = lit.texel * k as f64 / 10.0;
+        for z in [-0.5f32, 0.0, 0.5] {
+            let radiance = lit.read(lower, [-1.5, (0.78 - below) as f32, z]);
+            if radiance > worst.0 {
+                worst = (radiance, below / lit.texel);
+            }
+        }
+    }
+    eprintln!(
+        "the wall below the moulding: at most {:.2e} of the sky ({:.1} texels below it; a texel is {:.3} m)",
+        worst.0, worst.1, lit.texel
+    );
+    assert!(
+        worst.0 < 1e-4,
+        "sky light in a sealed room: the wall {:.1} texels below the moulding holds {:.3e} of \
+         the sky's radiance",
+        worst.1,
+        worst.0
     );
 }
