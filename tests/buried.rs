@@ -175,6 +175,15 @@ impl SkyLit {
         }
     }
 
+    /// The faces facing +x in the plane x = `x` (world units).
+    fn facing_x(&self, x: f32) -> Vec<usize> {
+        let at = self.p.normalisation.to_unit([x, 0.0, 0.0]).x;
+        (self.p.faces.iter().enumerate())
+            .filter(|(_, f)| f.normal.x > 0.99 && (f.plane_offset - at).abs() < 1e-4)
+            .map(|(i, _)| i)
+            .collect()
+    }
+
     /// The green radiance that a view of face `face` reads at the world point `world`.
     fn read(&self, face: usize, world: [f32; 3]) -> f64 {
         let at = self.p.normalisation.to_unit(world).as_vec3();
@@ -262,10 +271,20 @@ fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
     obj.cube("room", DVec3::new(0.0, 1.5, 0.0), 1.5, true);
-    let panel_at = DVec3::new(-1.0, 0.39, 0.0);
-    obj.quad("panel", panel_at, DVec3::X, [0.8, 1.5], 0.0);
-    let strip_at = DVec3::new(-1.2, 2.985, 0.0);
-    obj.quad("strip", strip_at, DVec3::X, [0.05, 1.5], 0.0);
+    obj.quad(
+        "panel",
+        DVec3::new(-1.0, 0.39, 0.0),
+        DVec3::X,
+        [0.8, 1.5],
+        0.0,
+    );
+    obj.quad(
+        "strip",
+        DVec3::new(-1.2, 2.985, 0.0),
+        DVec3::X,
+        [0.05, 1.5],
+        0.0,
+    );
     let toml = sky_scene(
         dir.path(),
         &obj,
@@ -273,19 +292,13 @@ fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
     );
     let lit = SkyLit::propagate(&toml, 64);
     let p = &lit.p;
-    // the face facing +x in the plane x = at.x
-    let facing_x = |at: DVec3| {
-        let x = p.normalisation.to_unit(at.as_vec3().into()).x;
-        (p.faces.iter().enumerate())
-            .filter(|(_, f)| f.normal.x > 0.99)
-            .min_by(|a, b| {
-                let off = |f: &vlf::prepare::PlanarFace| (f.plane_offset - x).abs();
-                off(a.1).total_cmp(&off(b.1))
-            })
-            .unwrap()
-            .0
-    };
-    let (panel, strip) = (facing_x(panel_at), facing_x(strip_at));
+    let (panel, strip) = (lit.facing_x(-1.0), lit.facing_x(-1.2));
+    assert_eq!(
+        (panel.len(), strip.len()),
+        (1, 1),
+        "the panel and the strip are a face each"
+    );
+    let (panel, strip) = (panel[0], strip[0]);
     // the brightest that a view reads on the panel above the floor and on the strip below the
     // ceiling, a tenth of a texel to a texel (the strip's height) away
     let mut worst = [(0.0f64, 0.0f64); 2];
@@ -387,26 +400,20 @@ fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room
     let toml = sky_scene(dir.path(), &obj, &[("room", 0.5), ("moulding", 0.5)]);
     let lit = SkyLit::at_density(&toml, 64, 128.0);
     let p = &lit.p;
-    // the lower part of the wall: the +x-facing face at x = -1.5 whose points lie lowest
-    let world_y = |pt: &[f32; 4]| {
-        let u = DVec3::new(pt[0] as f64, pt[1] as f64, pt[2] as f64);
-        (u / p.normalisation.scale).y + p.normalisation.center[1]
+    // the lower part of the wall: of the two faces in its plane, the one whose points lie lowest
+    let mean_y = |face: &usize| {
+        let ys: Vec<f64> = (p.atlas.points.iter())
+            .filter(|pt| pt[3].to_bits() == *face as u32)
+            .map(|pt| pt[1] as f64)
+            .collect();
+        ys.iter().sum::<f64>() / ys.len().max(1) as f64
     };
-    let wall_x = p.normalisation.to_unit([-1.5, 0.0, 0.0]).x;
-    let lower = (p.faces.iter().enumerate())
-        .filter(|(_, f)| f.normal.x > 0.99 && (f.plane_offset - wall_x).abs() < 1e-4)
-        .min_by(|a, b| {
-            let mean_y = |face: usize| {
-                let ys: Vec<f64> = (p.atlas.points.iter())
-                    .filter(|pt| pt[3].to_bits() == face as u32)
-                    .map(world_y)
-                    .collect();
-                ys.iter().sum::<f64>() / ys.len().max(1) as f64
-            };
-            mean_y(a.0).total_cmp(&mean_y(b.0))
-        })
-        .unwrap()
-        .0;
+    let wall = lit.facing_x(-1.5);
+    assert_eq!(wall.len(), 2, "the wall is two faces around the slot");
+    let lower = *wall
+        .iter()
+        .min_by(|a, b| mean_y(a).total_cmp(&mean_y(b)))
+        .unwrap();
     let mut worst = (0.0f64, 0.0f64);
     for k in 1..=10 {
         let below = lit.texel * k as f64 / 10.0;
