@@ -36,7 +36,8 @@ struct TraceParams {
 @group(0) @binding(1) var<storage, read> triangles: array<Triangle>;
 @group(0) @binding(2) var<storage, read> nodes: array<BvhNode>;
 @group(0) @binding(3) var<storage, read> faces: array<Face>;
-// per face: (diffuse texture, emission texture, -, -), NO_FACE for none
+// per face: (diffuse texture, emission texture, coverage texture, cutoff bits), NO_FACE for no
+// texture
 @group(0) @binding(4) var<storage, read> face_textures: array<vec4<u32>>;
 // per texture: (first texel, width, height, -)
 @group(0) @binding(5) var<storage, read> texture_info: array<vec4<u32>>;
@@ -49,6 +50,9 @@ struct TraceParams {
 @group(0) @binding(9) var<storage, read> materials: array<Material>;
 // per face: its normal texture (NO_FACE for none) and the scale's bits (common/normal_map.wgsl)
 @group(0) @binding(10) var<storage, read> face_normal_maps: array<vec2<u32>>;
+// per face: its specular texture (NO_FACE for none; rgb a multiple of the mirror colour, w the
+// GGX alpha: src/scene/gltf/metal_rough.rs); one NO_FACE where no face has one
+@group(0) @binding(11) var<storage, read> face_specular: array<u32>;
 
 var<private> rng_state: u32;
 
@@ -69,6 +73,19 @@ fn luminance(c: vec3<f32>) -> f32 {
 
 fn triangle_uv(tri: Triangle, u: f32, v: f32) -> vec2<f32> {
     return corners_uv(tri.uv01, tri.uv2.xy, u, v);
+}
+
+// Face `face_id`'s specular part at texture coordinates uv: reflectance (rgb) and GGX alpha (w),
+// its material's, times its specular texture where it has one (the renderer's specular_at).
+fn specular_here(face_id: u32, m: Material, uv: vec2<f32>) -> vec4<f32> {
+    if arrayLength(&face_specular) > face_id {
+        let texture = face_specular[face_id];
+        if texture != NO_FACE {
+            let t = texture_rgba_at(texture, uv);
+            return vec4<f32>(mirror_reflectance(m) * t.xyz, t.w);
+        }
+    }
+    return vec4<f32>(mirror_reflectance(m), m.roughness);
 }
 
 // Emitted radiance of the hit's front side, with the triangle's light-sampling pdf (area).
@@ -152,7 +169,8 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
         let m = material_of(f);
         let albedo = diffuse_reflectance(m) * texture_at(face_textures[face_id].x, uv);
         let p_diffuse = luminance(albedo);
-        let p_mirror = luminance(mirror_reflectance(m));
+        let specular_part = specular_here(face_id, m, uv);
+        let p_mirror = luminance(specular_part.xyz);
         if p_diffuse + p_mirror <= 0.0 {
             break;
         }
@@ -173,8 +191,8 @@ fn radiance(origin_in: vec3<f32>, dir_in: vec3<f32>) -> vec3<f32> {
             if is_glossy(m) {
                 u = vec2<f32>(random(), random());
             }
-            let sampled = reflect_sampled(dir, ns, m.roughness, u);
-            throughput *= mirror_reflectance(m) * sampled.w * ((p_diffuse + p_mirror) / p_mirror);
+            let sampled = reflect_sampled(dir, ns, specular_part.w, u);
+            throughput *= specular_part.xyz * sampled.w * ((p_diffuse + p_mirror) / p_mirror);
             dir = sampled.xyz;
             if dot(dir, n) <= 0.0 {
                 break;

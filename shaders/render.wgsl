@@ -105,11 +105,33 @@ fn shading_normal(f: Face, s: Surface) -> vec3<f32> {
     if record.x == NO_FACE {
         return f.normal;
     }
+    return mapped_normal(f.normal, triangles[s.triangle], record.x, bitcast<f32>(record.y), surface_uv(s));
+}
+
+// The texture coordinates of the point surface `s` (a light field with texture detail: its
+// triangles carry them).
+fn surface_uv(s: Surface) -> vec2<f32> {
     let map = ray_triangles[s.triangle];
     let u = dot(map.u.xyz, s.point) + map.u.w;
     let v = dot(map.v.xyz, s.point) + map.v.w;
     let tri = triangles[s.triangle];
-    return mapped_normal(f.normal, tri, record.x, bitcast<f32>(record.y), corners_uv(tri.uv01, tri.uv2.xy, u, v));
+    return corners_uv(tri.uv01, tri.uv2.xy, u, v);
+}
+
+// The specular part at the point surface `s` (on face f): its reflectance (rgb) and GGX alpha
+// (w), the material's, or on a face with a specular texture (a metal that varies over its
+// surface, src/scene/gltf/metal_rough.rs) the material's mirror colour times the texture at the
+// point, with the texture's alpha there.
+fn specular_at(f: Face, s: Surface) -> vec4<f32> {
+    let m = material_of(f);
+    if SURFACE_TEXTURES != 0u && s.seen > 0.0 {
+        let texture = specular_record(s.face);
+        if texture != NO_FACE {
+            let t = texture_rgba_at(texture, surface_uv(s));
+            return vec4<f32>(mirror_reflectance(m) * t.xyz, t.w);
+        }
+    }
+    return vec4<f32>(mirror_reflectance(m), m.roughness);
 }
 
 // surface_radiance before the normal map.
@@ -125,12 +147,7 @@ fn surface_texel_radiance(f: Face, s: Surface) -> vec3<f32> {
     if SURFACE_TEXTURES != 0u {
         let texture = face_textures[s.face].x;
         if texture != NO_FACE && s.seen > 0.0 && all(emitted(f) == vec3<f32>(0.0)) {
-            let map = ray_triangles[s.triangle];
-            let u = dot(map.u.xyz, s.point) + map.u.w;
-            let v = dot(map.v.xyz, s.point) + map.v.w;
-            let tri = triangles[s.triangle];
-            let albedo = texture_at(texture, corners_uv(tri.uv01, tri.uv2.xy, u, v));
-            return atlas_radiance_detailed(f, s.point, albedo);
+            return atlas_radiance_detailed(f, s.point, texture_at(texture, surface_uv(s)));
         }
     }
     return atlas_radiance(f, s.point);
@@ -183,6 +200,8 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         let m = material_of(f);
+        // the lobe's alpha at the point (a specular texture's, else the material's)
+        let alpha = specular_at(f, s).w;
         // a normal map turns the reflection (NORMAL_MAPS 0: the face's normal)
         let normal = shading_normal(f, s);
         // the first reflection off a glossy lobe takes the emitters' light by shadow rays
@@ -192,10 +211,10 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
             let n = select(normal, -normal, dot(ray, normal) > 0.0);
             if b == 0u && view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
-                path.radiance += glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, m.roughness, u);
+                path.radiance += glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, alpha, u);
                 emitters_sampled = true;
             }
-            let sampled = reflect_sampled(ray, n, m.roughness, fract(u + shift * f32(b)));
+            let sampled = reflect_sampled(ray, n, alpha, fract(u + shift * f32(b)));
             ray = sampled.xyz;
             weight *= sampled.w;
         } else {
@@ -206,7 +225,7 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         let leaving = surface_radiance(f, s, b + 1u < view.mirror_bounces) - select(vec3<f32>(0.0), emitted(f), emitters_sampled);
         path.radiance += weight * (max(leaving, vec3<f32>(0.0)) * s.seen + s.background);
         path.throughput = weight * s.seen;
-        weight *= mirror_reflectance(material_of(f)) * s.seen;
+        weight *= specular_at(f, s).xyz * s.seen;
     }
     path.face = s.face;
     path.point = s.point;
@@ -384,8 +403,8 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
-        let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
+        let m0 = specular_at(f0, s0).xyz * s0.seen;
+        let m1 = specular_at(f1, s1).xyz * s1.seen * w1;
         let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         sum += shown[0];
         sum += shown[1] * w1;
@@ -434,8 +453,8 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = mirror_reflectance(material_of(f0)) * s0.seen;
-        let m1 = mirror_reflectance(material_of(f1)) * s1.seen * w1;
+        let m0 = specular_at(f0, s0).xyz * s0.seen;
+        let m1 = specular_at(f1, s1).xyz * s1.seen * w1;
         let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         sum += shown[0];
         sum += shown[1] * w1;

@@ -62,6 +62,13 @@ pub struct Material {
     /// normal per point ([`NormalMap`])
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal_map: Option<NormalMap>,
+    /// the specular part per point (glTF's metallic-roughness and base colour textures split
+    /// per texel, `scene::gltf::metal_rough`): index into Scene::textures of a texture whose rgb
+    /// multiplies `mirror` and whose coverage channel (`Texture::alpha`) is the GGX alpha there.
+    /// `mirror` and `roughness` then hold the surface's means, which propagation carries; the
+    /// views and the path tracer read the texture where their rays land
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub specular_texture: Option<u32>,
 }
 
 /// A normal map: at texture coordinates uv the shading normal is
@@ -105,6 +112,7 @@ impl Material {
             emission_texture: None,
             cutout: None,
             normal_map: None,
+            specular_texture: None,
         }
     }
 

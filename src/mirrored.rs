@@ -67,7 +67,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,
             grid_resolution, tile_page_cells, tile_cell_count, texel_page_cells, normal_records,
-            normal_texels, _pad2
+            normal_texels, specular_records
         }),
         mirrored!(GpuPresent => "PresentParams" in "present.wgsl" {
             viewport_origin, viewport_size, exposure, encode_srgb, show_overlay, _pad0

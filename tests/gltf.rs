@@ -535,12 +535,13 @@ fn generated_classroom_as_gltf_gives_the_obj_light_field() {
     assert_same_light_field(&so, &sg);
 }
 
-/// A metallic-roughness texture decides with the factors (times its means: roughness from green,
+/// A metallic-roughness texture decides per texel with the factors (roughness from green,
 /// metallic from blue, linear): factors 1 and 1 with a texture of roughness 0.4 and metallic 1
-/// are a glossy metal of GGX alpha 0.16; with metallic 0 in the texture, a diffuse surface; each
-/// warned once with the means.
+/// everywhere are a glossy metal of GGX alpha 0.16 (its specular texture 1 everywhere); the
+/// light, whose triangles carry no texture coordinates, is decided by its factors alone
+/// (metallic 1, roughness 1: a rough metal, diffuse), said once.
 #[test]
-fn a_metallic_roughness_texture_decides_by_its_means() {
+fn a_metallic_roughness_texture_decides_per_texel() {
     let dir = tempfile::tempdir().unwrap();
     let png = |rgb: [u8; 3]| {
         let mut b = Vec::new();
@@ -574,10 +575,19 @@ fn a_metallic_roughness_texture_decides_by_its_means() {
         "GGX alpha {} (roughness 0.4 squared)",
         brushed.roughness
     );
-    assert!(w.contains("glTF material \"brushed\": approximated: metallic-roughness texture taken by its means (metallic 1 x 1.000, roughness 1 x 0.400)"), "{w}");
+    let t = &s.textures[brushed.specular_texture.expect("a specular texture") as usize];
+    assert!(t.texels.iter().all(|&c| c == [1.0; 3]), "{:?}", t.texels);
+    assert!(
+        t.alpha.iter().all(|&a| (a - 0.16).abs() < 1e-6),
+        "{:?}",
+        t.alpha
+    );
+    assert!(!w.contains("brushed"), "nothing approximated: {w}");
     let plastic = &s.materials[1];
     assert_eq!(plastic.diffuse, [0.5; 3]);
     assert_eq!(plastic.mirror, [0.0; 3]);
-    assert!(w.contains("metallic 1 x 0.000, roughness 1 x 0.400"), "{w}");
-    assert!(!w.contains("ignored"), "{w}");
+    assert!(
+        w.contains("\"plastic\" have no texture coordinates: their textures are ignored"),
+        "{w}"
+    );
 }

@@ -12,6 +12,8 @@
 #     (`vlf generate classroom --size 100000 --mirrors --glossy`) against the same classroom
 #     without them, 600 frames each: frame time and eye rays per pixel, what glossy costs;
 #   - `vlf bench` of both classrooms' first camera at 1024x768 (GPU ms per view);
+#   - (PARTS=metal-floor) scenes/metal-floor (glTF metallicRoughness textures, split per texel):
+#     the same stills against vlf reference (cameras front and low), and a bench at 1024x768;
 #   - (PARTS=hallway) the shipped Space Ship Hallway with its own mirror floors (no diffuse
 #     override): propagation (report), both cameras at 1024x768, `vlf bench` of a view;
 #   - (PARTS=living-room) the same for Bitterli's living room with its real materials
@@ -31,7 +33,7 @@ pack() {
   # the front camera's stills and references, for comparisons away from edges elsewhere
   # (and the side camera's stills: tools/glossy-mitsuba.sh compares every still with Mitsuba)
   (cd "$work" && ls *-front.exr *-front-reference.exr >/dev/null 2>&1 \
-    && tar cf "$out/glossy-exr.tar" *-front.exr *-front-reference.exr $(ls *-side.exr 2>/dev/null))
+    && tar cf "$out/glossy-exr.tar" *-front.exr *-front-reference.exr $(ls *-side.exr *-low.exr 2>/dev/null))
 }
 trap 'pack; exit 1' TERM
 trap pack EXIT
@@ -44,16 +46,27 @@ cornell() {
   for scene in scenes/cornell-glossy/scene.toml "$work/cornell-glossy-0.3/scene.toml" scenes/glossy-floor/scene.toml; do
     name=$(basename "$(dirname "$scene")")
     cameras="front side"; [ $name = glossy-floor ] && cameras="front floor"
-    "$vlf" propagate "$scene" -o "$work/$name.vlf" --report "$work/propagate-$name.json" 2>&1 | quiet \
-      | tee "$work/propagate-$name.txt" | grep -E "iterations|propagation|converged"
-    for camera in $cameras; do
-      "$vlf" render "$scene" --lightfield "$work/$name.vlf" --camera $camera -o "$work/$name-$camera.exr" 2>&1 | quiet | tail -1
-      "$vlf" reference "$scene" --camera $camera --spp 8192 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
-      "$vlf" compare "$work/$name-$camera.exr" "$work/$name-$camera-reference.exr" --json \
-        --diff "$work/diff-$name-$camera.png" > "$work/compare-$name-$camera.json"
-      grep -E '"(display_mse|rel_mse)"' "$work/compare-$name-$camera.json" | tr -d '\n '; echo " $name $camera"
-    done
+    stills $name "$scene" "$cameras"
   done
+}
+stills() { # NAME SCENE_TOML CAMERAS: propagation (report), each camera's 512x512 still against vlf reference
+  local name=$1 scene=$2 cameras=$3
+  "$vlf" propagate "$scene" -o "$work/$name.vlf" --report "$work/propagate-$name.json" 2>&1 | quiet \
+    | tee "$work/propagate-$name.txt" | grep -E "iterations|propagation|converged"
+  for camera in $cameras; do
+    "$vlf" render "$scene" --lightfield "$work/$name.vlf" --camera $camera -o "$work/$name-$camera.exr" 2>&1 | quiet | tail -1
+    "$vlf" reference "$scene" --camera $camera --spp 8192 -o "$work/$name-$camera-reference.exr" 2>&1 | quiet | tail -1
+    "$vlf" compare "$work/$name-$camera.exr" "$work/$name-$camera-reference.exr" --json \
+      --diff "$work/diff-$name-$camera.png" > "$work/compare-$name-$camera.json"
+    grep -E '"(display_mse|rel_mse)"' "$work/compare-$name-$camera.json" | tr -d '\n '; echo " $name $camera"
+  done
+}
+metal-floor() {
+  # glTF metallicRoughness textures split per texel (scenes/metal-floor): its stills against
+  # vlf reference, and a bench of its first camera at 1024x768
+  stills metal-floor scenes/metal-floor/scene.toml "front low"
+  timeout ${STEP_LIMIT:-240} "$vlf" bench --scene scenes/metal-floor/scene.toml --frames 300 --size 1024x768 \
+    --json "$work/bench-metal-floor.json" 2>&1 | quiet | tee "$work/bench-metal-floor.txt" | grep -iE "render" | head -2
 }
 cave() {
   for variant in plain glossy; do

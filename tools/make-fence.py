@@ -3,18 +3,17 @@
 emitter, and between them a two-sided slatted panel whose slats are cut from a quad by an alpha
 texture (MTL `map_d`, coverage 0.5 in eight stripes): the panel casts a striped shadow on the
 floor. tools/fence-accuracy.py compares vlf's view of it with Mitsuba 3's. Standard library only."""
-import os, struct, zlib
+import os, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene_png import write_png  # noqa: E402
 
 here = os.path.join(os.path.dirname(__file__), "..", "scenes", "fence")
 os.makedirs(here, exist_ok=True)
 
 
 def png_rgba(path, w, h, pixel):
-    raw = b"".join(b"\0" + bytes(c for x in range(w) for c in pixel(x, y)) for y in range(h))
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
-    data = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 6, 0, 0, 0))
-    data += chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
-    open(os.path.join(here, path), "wb").write(data)
+    write_png(os.path.join(here, path), w, h, pixel, alpha=True)
 
 
 # eight slats across u: 2 texels covered, 2 open (coverage 0.5, alpha 0 or 255 only)

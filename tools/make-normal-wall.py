@@ -5,18 +5,17 @@ standing on a grey floor, lit by a small emitter far to its left at grazing inci
 75 degrees from the wall's normal at its middle): the bumps' lit and shaded sides show only
 through the normal map. tools/normalmap-accuracy.py compares vlf's view of it with Mitsuba 3's
 (`normalmap` BSDF). Standard library only."""
-import math, os, struct, zlib
+import math, os, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene_png import write_png  # noqa: E402
 
 here = os.path.join(os.path.dirname(__file__), "..", "scenes", "normal-wall")
 os.makedirs(here, exist_ok=True)
 
 
 def png_rgb(path, w, h, pixel):
-    raw = b"".join(b"\0" + bytes(c for x in range(w) for c in pixel(x, y)) for y in range(h))
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
-    data = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-    data += chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
-    open(os.path.join(here, path), "wb").write(data)
+    write_png(os.path.join(here, path), w, h, pixel)
 
 
 # 4 x 4 round bumps per tile (a spherical cap of slope up to 40 degrees), flat between them;

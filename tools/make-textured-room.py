@@ -1,17 +1,16 @@
 #!/usr/bin/env python3
 """Writes scenes/textured-room/: a room with a checkerboard floor (map_Kd), a painted back
 wall (map_Kd) and a striped light panel (map_Ke). Standard library only."""
-import os, struct, zlib
+import os, sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene_png import write_png  # noqa: E402
 
 here = os.path.join(os.path.dirname(__file__), "..", "scenes", "textured-room")
 os.makedirs(here, exist_ok=True)
 
 def png(path, w, h, pixel):
-    raw = b"".join(b"\0" + bytes(c for x in range(w) for c in pixel(x, y)) for y in range(h))
-    chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xFFFFFFFF)
-    data = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-    data += chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b"")
-    open(os.path.join(here, path), "wb").write(data)
+    write_png(os.path.join(here, path), w, h, pixel)
 
 png("checker.png", 64, 64, lambda x, y: (235, 230, 220) if (x // 16 + y // 16) % 2 == 0 else (40, 45, 60))
 png("painting.png", 64, 64, lambda x, y: (200, 60 + 2 * y, 40) if ((x - 32) ** 2 + (y - 32) ** 2) < 400 else (40, 90, 160 + y))

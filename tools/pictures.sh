@@ -32,6 +32,8 @@ for name in "${names[@]}"; do
       "$vlf" render "$(lf scenes/cornell-mirror/scene.toml)" --camera "${name#cornell-mirror-}" -o "$out/$name.png" ;;
     cornell-glossy-front | cornell-glossy-side)
       "$vlf" render "$(lf scenes/cornell-glossy/scene.toml)" --camera "${name#cornell-glossy-}" -o "$out/$name.png" ;;
+    metal-floor-front | metal-floor-low)
+      "$vlf" render "$(lf scenes/metal-floor/scene.toml)" --camera "${name#metal-floor-}" -o "$out/$name.png" ;;
     textured-room-front)
       "$vlf" render "$(lf scenes/textured-room/scene.toml)" --camera front -o "$out/$name.png" ;;
     textured-room-up)

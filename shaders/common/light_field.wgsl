@@ -111,6 +111,16 @@ fn normal_record(face: u32) -> vec2<u32> {
     return texel_albedo[field.normal_records + face];
 }
 
+// Specular textures (field.specular_records > 0): face `face`'s specular texture (NO_FACE for
+// none; rgb a multiple of its material's mirror colour, w the GGX alpha), stored in
+// texel_albedo after the normal maps (SurfaceDetail::detail_words).
+fn specular_record(face: u32) -> u32 {
+    if field.specular_records == 0u {
+        return NO_FACE;
+    }
+    return texel_albedo[field.specular_records + face].x;
+}
+
 // The light direction and the rest's moment of the texels around point p of face f
 // (common/normal_map.wgsl, tilted_irradiance), bilinear: two records per texel.
 fn light_direction(f: Face, p: vec3<f32>) -> array<vec3<f32>, 2> {

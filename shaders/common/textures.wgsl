@@ -9,13 +9,18 @@
 // Texture `texture` at `uv`, bilinear with wrapping; v = 0 is the image's bottom row (OBJ
 // convention). 1 for NO_FACE (no texture).
 fn texture_at(texture: u32, uv: vec2<f32>) -> vec3<f32> {
+    return texture_rgba_at(texture, uv).xyz;
+}
+
+// The same with the fourth channel (a specular texture's GGX alpha, a coverage); 1 for NO_FACE.
+fn texture_rgba_at(texture: u32, uv: vec2<f32>) -> vec4<f32> {
     if texture == NO_FACE {
-        return vec3<f32>(1.0);
+        return vec4<f32>(1.0);
     }
     let taps = bilinear_taps(texture_info[texture], uv);
-    let a = texture_texels[taps.index.x].xyz;
-    let b = texture_texels[taps.index.y].xyz;
-    let c = texture_texels[taps.index.z].xyz;
-    let d = texture_texels[taps.index.w].xyz;
+    let a = texture_texels[taps.index.x];
+    let b = texture_texels[taps.index.y];
+    let c = texture_texels[taps.index.z];
+    let d = texture_texels[taps.index.w];
     return mix(mix(a, b, taps.f.x), mix(c, d, taps.f.x), taps.f.y);
 }

@@ -153,7 +153,8 @@ struct Field {
     // texel_albedo (0 and 0: none)
     normal_records: u32,
     normal_texels: u32,
-    _pad2: u32,
+    // specular textures: where the faces' records start in texel_albedo (0: none)
+    specular_records: u32,
 }
 
 // mirrors gpu::types::GpuAccumulate

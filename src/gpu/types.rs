@@ -193,7 +193,8 @@ pub struct GpuField {
     /// texture detail's `texel_albedo` (`SurfaceDetail::detail_words`; 0 and 0: none)
     pub normal_records: u32,
     pub normal_texels: u32,
-    pub _pad2: u32,
+    /// specular textures: where the faces' records start in `texel_albedo` (0: none)
+    pub specular_records: u32,
 }
 
 /// Render vertex: position in normalised scene space and the face it belongs to: the render

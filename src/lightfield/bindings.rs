@@ -169,7 +169,7 @@ impl ResidentLightField {
     pub fn field_params(&self, lf: &LightField) -> GpuField {
         let sky = lf.meta.sky.unwrap_or([0.0; 3]);
         let p = &lf.meta.params;
-        let detail_offsets = (lf.detail.as_ref()).map_or([0, 0], |d| d.detail_words().1);
+        let detail_offsets = (lf.detail.as_ref()).map_or([0; 3], |d| d.detail_words().1);
         GpuField {
             sky: [sky[0], sky[1], sky[2], 1.0],
             cell_size: 2.0 / p.grid_resolution as f32,
@@ -183,7 +183,7 @@ impl ResidentLightField {
             texel_page_cells: self.texel_pages.page_cells,
             normal_records: detail_offsets[0],
             normal_texels: detail_offsets[1],
-            ..Default::default()
+            specular_records: detail_offsets[2],
         }
     }
 

@@ -9,10 +9,13 @@ use std::io::Write;
 use std::path::Path;
 
 pub const MAGIC: &[u8; 8] = b"VLFIELD\0";
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// Files of this version (before normal maps) are still read: they have the first
 /// `SECTIONS_V3` sections.
 const SECTIONS_V3: usize = 12;
+/// Files of this version (before specular textures) are still read: they have the first
+/// `SECTIONS_V4` sections.
+const SECTIONS_V4: usize = 14;
 /// Files of this version (before the texture detail) are still read: they have the first
 /// `SECTIONS_V2` sections.
 const OLDEST_READ_VERSION: u32 = 2;
@@ -21,10 +24,11 @@ const SECTIONS_V2: usize = 7;
 /// rectangles, index, radiance; then the texture detail (empty without diffuse textures,
 /// `textures::SurfaceDetail`): texture records, texels, face textures, render triangles' texture
 /// coordinates, texel factors; then the normal maps (empty without them): per face its normal
-/// texture, per texel its light direction.
-const SECTIONS: [&[u8; 4]; 14] = [
+/// texture, per texel its light direction; then per face its specular texture (empty without
+/// them).
+const SECTIONS: [&[u8; 4]; 15] = [
     b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL", b"FTEX",
-    b"RUVS", b"TALB", b"NMAP", b"NDIR",
+    b"RUVS", b"TALB", b"NMAP", b"NDIR", b"SPEC",
 ];
 
 /// The container: magic, version, then (tag, length, CRC32, payload) per section.
@@ -256,7 +260,7 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
     let faces = face_records(&lf.faces, &lf.materials);
     let none = super::textures::SurfaceDetail::default();
     let detail = lf.detail.as_ref().unwrap_or(&none);
-    let payloads: [&[u8]; 14] = [
+    let payloads: [&[u8]; 15] = [
         &meta,
         bytemuck::cast_slice(&faces),
         bytemuck::cast_slice(&lf.render_vertices),
@@ -271,6 +275,7 @@ pub fn encode(lf: &LightField) -> Vec<u8> {
         bytemuck::cast_slice(&detail.texel_albedo),
         bytemuck::cast_slice(&detail.face_normal_maps),
         bytemuck::cast_slice(&detail.texel_directions),
+        bytemuck::cast_slice(&detail.textures.face_specular),
     ];
     let sections: Vec<(&[u8; 4], &[u8])> = SECTIONS.iter().copied().zip(payloads).collect();
     encode_sections(MAGIC, FORMAT_VERSION, &sections)
@@ -344,6 +349,7 @@ pub fn decode(bytes: &[u8]) -> std::result::Result<LightField, String> {
     let (version, tags) = match found {
         Some(OLDEST_READ_VERSION) => (OLDEST_READ_VERSION, &SECTIONS[..SECTIONS_V2]),
         Some(3) => (3, &SECTIONS[..SECTIONS_V3]),
+        Some(4) => (4, &SECTIONS[..SECTIONS_V4]),
         _ => (FORMAT_VERSION, &SECTIONS[..]),
     };
     let payloads = decode_sections(bytes, MAGIC, version, tags, "vlf light field file")?;
@@ -401,21 +407,28 @@ fn decode_detail(
     if payloads.iter().all(|p| p.is_empty()) {
         return Ok(None);
     }
-    // a version 3 file has no normal-map sections
-    let optional = |i: usize, what: &str| match payloads.get(i) {
-        Some(p) => pod_vec(p, what),
-        None => Ok(Vec::new()),
-    };
+    // a version 3 file has no normal-map sections, a version 4 file no specular textures
+    fn optional<T: bytemuck::Pod>(
+        payloads: &[&[u8]],
+        i: usize,
+        what: &str,
+    ) -> std::result::Result<Vec<T>, String> {
+        match payloads.get(i) {
+            Some(p) => pod_vec(p, what),
+            None => Ok(Vec::new()),
+        }
+    }
     Ok(Some(super::textures::SurfaceDetail {
         textures: super::textures::SurfaceTextures {
             info: pod_vec(payloads[0], "TXIN")?,
             texels: pod_vec(payloads[1], "TXTL")?,
             face_textures: pod_vec(payloads[2], "FTEX")?,
+            face_specular: optional(payloads, 7, "SPEC")?,
         },
         triangle_uv: pod_vec(payloads[3], "RUVS")?,
         texel_albedo: pod_vec(payloads[4], "TALB")?,
-        face_normal_maps: optional(5, "NMAP")?,
-        texel_directions: optional(6, "NDIR")?,
+        face_normal_maps: optional(payloads, 5, "NMAP")?,
+        texel_directions: optional(payloads, 6, "NDIR")?,
     }))
 }
 

@@ -26,8 +26,12 @@ pub struct SurfaceTextures {
     pub info: Vec<[u32; 4]>,
     /// every texture's texels (linear rgb, w = 1), row by row from the image's top
     pub texels: Vec<[f32; 4]>,
-    /// per face: (diffuse texture, emission texture, 0, 0), NO_FACE for none
+    /// per face: (diffuse texture, emission texture, coverage texture, cutoff bits), NO_FACE
+    /// for no texture, 0 and 0 for no cut-out
     pub face_textures: Vec<[u32; 4]>,
+    /// per face its specular texture (`Material::specular_texture`: rgb a multiple of the
+    /// mirror colour, w the GGX alpha), NO_FACE for none; empty where no face has one
+    pub face_specular: Vec<u32>,
 }
 
 impl SurfaceTextures {
@@ -77,16 +81,42 @@ impl SurfaceTextures {
                 ]
             })
             .collect();
+        let face_specular: Vec<u32> = (prepared.faces.iter().zip(&has_uv))
+            .map(|(f, &uv)| {
+                let m = &materials[f.material as usize];
+                (m.specular_texture)
+                    .filter(|&t| uv && (t as usize) < textures.len())
+                    .unwrap_or(NO_FACE)
+            })
+            .collect();
         SurfaceTextures {
             info,
             texels,
             face_textures,
+            face_specular: match face_specular.iter().any(|&t| t != NO_FACE) {
+                true => face_specular,
+                false => Vec::new(),
+            },
         }
     }
 
     /// Whether some face has a diffuse texture.
     pub fn any_diffuse(&self) -> bool {
         self.face_textures.iter().any(|t| t[0] != NO_FACE)
+    }
+
+    /// Whether some face has a specular texture.
+    pub fn any_specular(&self) -> bool {
+        !self.face_specular.is_empty()
+    }
+
+    /// Per face its specular texture as the stages bind it: `face_specular`, or one NO_FACE where
+    /// no face has one (a binding is never empty).
+    pub fn specular_records(&self) -> Vec<u32> {
+        match self.any_specular() {
+            true => self.face_specular.clone(),
+            false => vec![NO_FACE],
+        }
     }
 
     /// The cut-outs as propagation binds them, one array (`shaders/common/packed_cutouts.wgsl`):
@@ -166,13 +196,18 @@ impl SurfaceDetail {
     pub fn of(scene: &Scene, prepared: &PreparedScene) -> Option<SurfaceDetail> {
         // no texture factors, cut-outs or normal maps: no face has a texture (nothing to copy)
         let albedo = prepared.atlas.texture_albedo.as_ref();
-        let mapped = scene.materials.iter().any(|m| m.normal_map.is_some());
+        let mapped = (scene.materials.iter())
+            .any(|m| m.normal_map.is_some() || m.specular_texture.is_some());
         if albedo.is_none() && prepared.cutout_textures.is_empty() && !mapped {
             return None;
         }
         let textures = SurfaceTextures::of(scene, prepared);
         let face_normal_maps = normal_maps(scene, prepared);
-        if !textures.any_diffuse() && !textures.any_cutout() && face_normal_maps.is_empty() {
+        if !textures.any_diffuse()
+            && !textures.any_cutout()
+            && !textures.any_specular()
+            && face_normal_maps.is_empty()
+        {
             return None;
         }
         let texel_albedo = match albedo {
@@ -196,18 +231,23 @@ impl SurfaceDetail {
     }
 
     /// What the renderer binds as `texel_albedo` (common/light_field.wgsl): the texel factors,
-    /// then with normal maps the faces' normal-map records and the texels' light directions;
-    /// and where those two start in it (0: none), for `GpuField`.
-    pub fn detail_words(&self) -> (Vec<[u32; 2]>, [u32; 2]) {
+    /// then with normal maps the faces' normal-map records and the texels' light directions,
+    /// then with specular textures the faces' specular texture ([texture, 0] per face); and where
+    /// those three start in it (0: none), for `GpuField`.
+    pub fn detail_words(&self) -> (Vec<[u32; 2]>, [u32; 3]) {
         let mut words = self.texel_albedo.clone();
-        if self.face_normal_maps.is_empty() {
-            return (words, [0, 0]);
+        let mut starts = [0u32; 3];
+        if !self.face_normal_maps.is_empty() {
+            starts[0] = words.len() as u32;
+            words.extend(&self.face_normal_maps);
+            starts[1] = words.len() as u32;
+            words.extend(&self.texel_directions);
         }
-        let records = words.len() as u32;
-        words.extend(&self.face_normal_maps);
-        let directions = words.len() as u32;
-        words.extend(&self.texel_directions);
-        (words, [records, directions])
+        if self.textures.any_specular() {
+            starts[2] = words.len() as u32;
+            words.extend(self.textures.face_specular.iter().map(|&t| [t, 0]));
+        }
+        (words, starts)
     }
 
     /// Texture coordinates of render triangle `i`'s corners.
@@ -306,9 +346,17 @@ impl SurfaceDetail {
                 self.texel_directions.len()
             ));
         }
+        let specular = &self.textures.face_specular;
+        if !specular.is_empty() && specular.len() != faces {
+            return bad(format!(
+                "specular textures: {} face records for {faces} faces",
+                specular.len()
+            ));
+        }
         let textures = self.textures.info.len() as u32;
         if (self.textures.face_textures.iter().flat_map(|t| &t[..2]))
             .chain(self.face_normal_maps.iter().map(|n| &n[0]))
+            .chain(specular)
             .any(|&t| t != NO_FACE && t >= textures)
         {
             return bad("texture detail: a face names a texture that is not there".into());

@@ -194,6 +194,13 @@ impl Tracer {
             STORAGE,
         );
         all.push(&normal_maps);
+        let specular = ctx.buffer_init(
+            &ledger,
+            "specular textures",
+            bytemuck::cast_slice(&t.textures.specular_records()),
+            STORAGE,
+        );
+        all.push(&specular);
         let bind_group = ctx.bind_group(&layout, &all);
         Ok(Tracer {
             params,

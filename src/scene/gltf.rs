@@ -16,7 +16,7 @@
 use super::obj::ImportedMesh;
 use super::texels::{self, TextureMemory, TextureUse};
 use super::weld;
-use super::{Camera, Material, MaterialOverride, Triangle};
+use super::{Camera, Material, MaterialOverride, Texture, Triangle};
 use crate::error::{Result, VlfError};
 use ::gltf::accessor::{DataType, Dimensions};
 use ::gltf::mesh::Mode;
@@ -25,6 +25,7 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 mod material;
+mod metal_rough;
 
 /// Extensions whose content is read (the others are named in a warning, or refused when
 /// the file requires them).
@@ -91,8 +92,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         ));
     }
 
-    let rough_metal = rough_metal_means(doc, (&buffers, dir), path, &mut source_files)?;
-    let plans = material::plan_all(doc, overrides, path, &rough_metal)?;
+    let plans = material::plan_all(doc, overrides, path)?;
     let mut walk = Walk::default();
     walk_nodes(doc, &buffers, &plans, &mut walk).map_err(err)?;
     report_walk(path, &walk, &mut warnings);
@@ -137,25 +137,22 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
         normal_of_image.insert(image, textures.len() as u32);
         textures.push(t);
     }
-    // a mirror holds one colour: its base colour texture's mean (read, averaged, dropped)
-    let mut mirror_means = HashMap::new();
-    for image in plans.iter().filter_map(|p| p.mirror_image()) {
-        let (bytes, name) = image_bytes(doc, image, &buffers, dir, path, &mut source_files)
-            .map_err(|m| err(format!("image {image}: {m}")))?;
-        let (t, _) = texels::decode(&bytes, name, TextureUse::default(), None).map_err(|e| {
-            err(format!(
-                "image {image}: not a readable PNG or JPEG image: {e}"
-            ))
-        })?;
-        mirror_means.insert(image, texels::mean(&t));
-    }
-    let mut materials = material::finish(
+    let mut materials =
+        material::finish(&plans, &texture_of_image, &normal_of_image, &mut warnings);
+    let images = ImageSource {
+        doc,
+        buffers: &buffers,
+        dir,
+        path,
+    };
+    full_bytes += split_metals(
         &plans,
-        &texture_of_image,
-        &normal_of_image,
-        &mirror_means,
-        &mut warnings,
-    );
+        &triangles,
+        (&mut materials, &mut textures),
+        &images,
+        &mut source_files,
+    )?;
+    drop_unused_textures(&mut textures, &mut materials);
     if triangles.iter().any(|t| t.material as usize == plans.len()) {
         materials.push(Material::default_grey());
         warnings.push(format!(
@@ -355,35 +352,153 @@ fn base64_decode(s: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
-/// The means of every metallic-roughness texture the materials read (`material::TextureMeans`),
-/// by image.
-fn rough_metal_means(
-    doc: &::gltf::Document,
-    (buffers, dir): (&[Vec<u8>], &Path),
-    path: &Path,
+/// Where a document's images are read from (`image_bytes`).
+struct ImageSource<'d> {
+    doc: &'d ::gltf::Document,
+    buffers: &'d [Vec<u8>],
+    dir: &'d Path,
+    path: &'d Path,
+}
+
+/// Split every material whose metal varies over its surface, or that is a textured metal
+/// (`metal_rough`), where its triangles carry texture coordinates; elsewhere its factors decide.
+/// Returns the bytes the metallic-roughness images held.
+fn split_metals(
+    plans: &[material::Plan],
+    triangles: &[Triangle],
+    (materials, textures): (&mut [Material], &mut Vec<Texture>),
+    images: &ImageSource,
     source_files: &mut Vec<PathBuf>,
-) -> Result<HashMap<usize, material::TextureMeans>> {
+) -> Result<u64> {
+    let textured = textured_materials(plans.len(), triangles);
+    let mut read_bytes = 0;
+    for (k, plan) in plans.iter().enumerate() {
+        let Some(split) = plan.split() else { continue };
+        let m = &mut materials[k];
+        if textured[k] {
+            read_bytes += split_metal(m, split, images, textures, source_files)?;
+            continue;
+        }
+        // no texture coordinates to read the textures with (report_walk says so): the factors
+        // decide, everywhere
+        let rules = metal_rough::MetalRough {
+            metallic: split.metallic,
+            roughness: split.roughness,
+            texture: None,
+        };
+        let uniform = metal_rough::split(split.base_factor, None, &rules, &m.name);
+        (m.diffuse, m.mirror, m.roughness) = (uniform.diffuse, uniform.mirror, uniform.roughness);
+    }
+    Ok(read_bytes)
+}
+
+/// Per material (of `count`), whether some triangle of it has texture coordinates.
+fn textured_materials(count: usize, triangles: &[Triangle]) -> Vec<bool> {
+    let mut textured = vec![false; count + 1];
+    for t in triangles.iter().filter(|t| t.uv.is_some()) {
+        textured[t.material as usize] = true;
+    }
+    textured
+}
+
+/// Split material `m` per texel (`metal_rough`): its metallic-roughness image read raw, its
+/// base colour texture (already its `diffuse_texture`) and the split's two textures appended to
+/// `textures`. Returns the bytes the read image held.
+fn split_metal(
+    m: &mut Material,
+    plan: &material::SplitPlan,
+    images: &ImageSource,
+    textures: &mut Vec<Texture>,
+    source_files: &mut Vec<PathBuf>,
+) -> Result<u64> {
     let err = |message: String| VlfError::Mesh {
-        path: path.to_path_buf(),
+        path: images.path.to_path_buf(),
         message,
     };
-    let mut rough_metal = HashMap::new();
-    for image in material::rough_metal_images(doc) {
-        let (bytes, name) = image_bytes(doc, image, buffers, dir, path, source_files)
+    let mr = match plan.image {
+        Some(image) => {
+            let (bytes, name) = image_bytes(
+                images.doc,
+                image,
+                images.buffers,
+                images.dir,
+                images.path,
+                source_files,
+            )
             .map_err(|m| err(format!("image {image}: {m}")))?;
-        let [_, roughness, metallic] = texels::channel_means(&bytes).map_err(|e| {
-            err(format!(
-                "image {image} ({}): not a readable PNG or JPEG image: {e}",
-                name.display()
-            ))
-        })?;
-        let means = material::TextureMeans {
-            roughness,
-            metallic,
-        };
-        rough_metal.insert(image, means);
+            let t = texels::decode_normals(&bytes, name, texels::NormalSource::Normals).map_err(
+                |e| {
+                    err(format!(
+                        "image {image}: not a readable PNG or JPEG image: {e}"
+                    ))
+                },
+            )?;
+            Some(t)
+        }
+        None => None,
+    };
+    let rules = metal_rough::MetalRough {
+        metallic: plan.metallic,
+        roughness: plan.roughness,
+        texture: mr.as_ref(),
+    };
+    let base = m.diffuse_texture.map(|i| &textures[i as usize]);
+    let name = base.map_or_else(|| m.name.clone(), |b| b.path.display().to_string());
+    let split = metal_rough::split(plan.base_factor, base, &rules, &name);
+    let mut add = |t: Option<Texture>| {
+        t.map(|t| {
+            textures.push(t);
+            textures.len() as u32 - 1
+        })
+    };
+    m.diffuse_texture = add(split.diffuse_texture);
+    m.specular_texture = add(split.specular_texture);
+    m.diffuse = split.diffuse;
+    m.mirror = split.mirror;
+    m.roughness = split.roughness;
+    Ok(mr.map_or(0, |t| t.texels.len() as u64 * 12))
+}
+
+/// Drop the textures no material names (a split material's base colour texture, once split),
+/// renumbering the materials' references.
+fn drop_unused_textures(textures: &mut Vec<Texture>, materials: &mut [Material]) {
+    let mut used = vec![false; textures.len()];
+    for m in materials.iter_mut() {
+        for t in texture_refs(m) {
+            used[*t as usize] = true;
+        }
     }
-    Ok(rough_metal)
+    let mut new_index = vec![u32::MAX; textures.len()];
+    let mut kept = 0u32;
+    for (i, &u) in used.iter().enumerate() {
+        if u {
+            new_index[i] = kept;
+            kept += 1;
+        }
+    }
+    let mut i = 0;
+    textures.retain(|_| {
+        i += 1;
+        used[i - 1]
+    });
+    for m in materials.iter_mut() {
+        for t in texture_refs(m) {
+            *t = new_index[*t as usize];
+        }
+    }
+}
+
+/// Every texture reference of a material.
+fn texture_refs(m: &mut Material) -> impl Iterator<Item = &mut u32> {
+    [
+        m.diffuse_texture.as_mut(),
+        m.emission_texture.as_mut(),
+        m.cutout.as_mut().map(|c| &mut c.texture),
+        m.normal_map.as_mut().map(|n| &mut n.texture),
+        m.specular_texture.as_mut(),
+    ]
+    .into_iter()
+    .flatten()
 }
 
 /// An image's encoded bytes and the name it goes by (its file, or the model + index).

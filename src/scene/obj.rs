@@ -378,6 +378,7 @@ fn convert_material(
         emission_texture: None,
         cutout: None,
         normal_map: None,
+        specular_texture: None,
     };
     if let Some(message) = material
         .energy_error()

@@ -196,20 +196,6 @@ pub fn mean(t: &Texture) -> [f32; 3] {
     sum.map(|s| (s / n) as f32)
 }
 
-/// The mean of each channel (red, green, blue) of an encoded image (PNG, JPEG) as stored: linear
-/// values in [0, 1], no colour space applied (data textures: glTF's metallic-roughness).
-pub fn channel_means(bytes: &[u8]) -> Result<[f32; 3], image::ImageError> {
-    let img = image::load_from_memory(bytes)?.to_rgb32f();
-    let mut sum = [0.0f64; 3];
-    for p in img.pixels() {
-        for c in 0..3 {
-            sum[c] += p[c] as f64;
-        }
-    }
-    let n = (img.width() as f64 * img.height() as f64).max(1.0);
-    Ok(sum.map(|s| (s / n) as f32))
-}
-
 /// Per texture (of `count`), the area it covers, from the triangles whose material names it as
 /// diffuse, emission or coverage texture.
 pub fn uses(
@@ -238,6 +224,7 @@ pub fn uses(
             m.emission_texture,
             m.cutout.map(|c| c.texture),
             m.normal_map.map(|n| n.texture),
+            m.specular_texture,
         ]
         .into_iter()
         .flatten()

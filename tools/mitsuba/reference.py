@@ -619,25 +619,31 @@ def plan_materials(doc, overrides):
         # a metal's lobe; a dielectric's specular part (a `mirror` override) stays an ideal mirror
         alpha = float(roughness * roughness) if (mirror and roughness > MIRROR_ROUGHNESS) else 0.0
         base_tex, emit_tex = pbr.baseColorTexture, m.emissiveTexture
+        o = overrides.get(name, {})
+        # a scene.toml override of the specular part or the diffuse colour replaces the kind
+        overridden = any(k in o for k in ("mirror", "roughness", "diffuse"))
+        # metal that varies over the surface (a metallic-roughness texture), or a textured metal:
+        # the rules per texel of the base colour texture (split_metal, once the images are read)
+        mr_tex = pbr.metallicRoughnessTexture if not overridden else None
+        split = None
+        if mr_tex is not None or (mirror and base_tex is not None and not overridden):
+            split = {"mr_image": _image_of(doc, mr_tex) if mr_tex is not None else None,
+                     "metallic": float(metallic), "roughness": float(roughness), "base": base_color}
+            mirror, alpha = False, 0.0
         diffuse_info = base_tex if not mirror else None
         # a cut-out as vlf makes one: alpha MASK (BLEND taken as a MASK at 0.5) over the base
         # colour texture's alpha, the factor's alpha folded into the cutoff (a x f < c is a < c / f)
         cut = m.alphaMode in ("MASK", "BLEND") and base_tex is not None and bcf[3] > 0
         alpha_info = base_tex if cut else None
         cutoff = (0.5 if m.alphaMode == "BLEND" or m.alphaCutoff is None else m.alphaCutoff) / (bcf[3] if cut else 1.0)
-        coords = next((i for i in (diffuse_info, alpha_info, emit_tex) if i is not None), None)
+        coords = next((i for i in (diffuse_info, alpha_info, emit_tex, mr_tex) if i is not None), None)
         what = []
-        o = overrides.get(name, {})
-        # a scene.toml override of the specular part or the diffuse colour replaces the kind
-        overridden = any(k in o for k in ("mirror", "roughness", "diffuse"))
-        if overridden:
+        if overridden or split is not None:
             pass
         elif mirror and alpha > 0:
-            what.append(f"metallic {metallic} roughness {roughness}: glossy metal (GGX alpha {alpha}) of the base colour"
-                        + (" (times its texture's mean)" if base_tex is not None else ""))
+            what.append(f"metallic {metallic} roughness {roughness}: glossy metal (GGX alpha {alpha}) of the base colour")
         elif mirror:
-            what.append(f"metallic {metallic} roughness {roughness}: ideal mirror of the base colour"
-                        + (" (times its texture's mean)" if base_tex is not None else ""))
+            what.append(f"metallic {metallic} roughness {roughness}: ideal mirror of the base colour")
         elif metallic > 0:
             what.append(f"metallic {metallic} roughness {roughness}: rough metal taken as diffuse")
         if m.alphaMode in ("MASK", "BLEND") and not cut:
@@ -667,7 +673,7 @@ def plan_materials(doc, overrides):
             "emission_image": _image_of(doc, emit_tex) if emit_tex is not None else None,
             "alpha_image": _image_of(doc, alpha_info) if alpha_info is not None else None,
             "alpha_cutoff": float(cutoff),
-            "mirror_image": _image_of(doc, base_tex) if (mirror and base_tex is not None) else None,
+            "split": split,
             "uv_set": _tex_coord(coords) if coords is not None else None,
             "uv_transform": _uv_transform(coords) if coords is not None else None,
         })
@@ -747,6 +753,57 @@ def texture_mean(rgb8):
 
 # ---------------------------------------------------------------------------------------------
 # the model
+
+
+def _bilinear_at_centres(img, h, w):
+    """img (rows from the top, float) sampled bilinearly with wrapping at the centres of an
+    h x w grid over the same texture space."""
+    ih, iw = img.shape[:2]
+    if (ih, iw) == (h, w):
+        return img
+    y = (np.arange(h) + 0.5) / h * ih - 0.5
+    x = (np.arange(w) + 0.5) / w * iw - 0.5
+    y0, x0 = np.floor(y).astype(int), np.floor(x).astype(int)
+    fy, fx = (y - y0)[:, None, None], (x - x0)[None, :, None]
+    at = lambda yy, xx: img[np.mod(yy, ih)][:, np.mod(xx, iw)]
+    return ((at(y0, x0) * (1 - fx) + at(y0, x0 + 1) * fx) * (1 - fy)
+            + (at(y0 + 1, x0) * (1 - fx) + at(y0 + 1, x0 + 1) * fx) * fy)
+
+
+def split_metal(plan, base_loader, mr_loader):
+    """A metallic-roughness material per texel, by the rules of plan_materials applied to each
+    texel of the base colour texture's grid (the metallic-roughness texture, roughness in green
+    and metallic in blue, raw, sampled bilinearly there): a metal texel (metallic >= 0.5,
+    roughness <= 0.6) reflects the base colour with GGX alpha roughness^2 (0 at roughness 0.2 or
+    less: an ideal mirror, unless another metal texel of the material is glossy, then a lobe of
+    alpha 0.001), any other texel is diffuse of it. Returns linear float arrays: the diffuse
+    part's and the specular part's reflectance (base colour factor included), the alpha per
+    texel (None: every metal texel an ideal mirror; non-metal texels take the metal texels'
+    mean), and whether each part is present."""
+    lut = srgb_lut()
+    base = lut[base_loader()].astype(np.float64) if base_loader is not None else None
+    mr = mr_loader().astype(np.float64) / 255.0 if mr_loader is not None else None
+    h, w = base.shape[:2] if base is not None else (mr.shape[:2] if mr is not None else (1, 1))
+    if base is None:
+        base = np.ones((h, w, 3))
+    if mr is None:
+        metallic, rough = np.full((h, w), plan["metallic"]), np.full((h, w), plan["roughness"])
+    else:
+        mr = _bilinear_at_centres(mr, h, w)
+        metallic, rough = plan["metallic"] * mr[:, :, 2], plan["roughness"] * mr[:, :, 1]
+    metal = (metallic >= MIRROR_METALLIC) & (rough <= GLOSSY_ROUGHNESS)
+    alpha = np.where(rough > MIRROR_ROUGHNESS, rough * rough, 0.0)
+    glossy = bool((alpha[metal] > 0).any())
+    colour = base * np.asarray(plan["base"], dtype=np.float64)
+    diffuse = np.where(metal[:, :, None], 0.0, colour)
+    specular = np.where(metal[:, :, None], colour, 0.0)
+    alpha_map = None
+    if glossy:
+        a = np.maximum(alpha, 1e-3)
+        alpha_map = np.where(metal, a, a[metal].mean())
+    return {"diffuse": diffuse.astype(F32), "specular": specular.astype(F32),
+            "alpha": None if alpha_map is None else alpha_map.astype(F32),
+            "has_diffuse": bool(diffuse.max() > 0), "has_specular": bool(specular.max() > 0)}
 
 
 def _walk_roots(doc):
@@ -926,9 +983,12 @@ def load_gltf(path, overrides):
     materials = []
     for p in plans:
         m = dict(p["material"])
-        if p["mirror_image"] is not None:
-            m["mirror"] = (m["mirror"] * texture_mean(loader(p["mirror_image"])())).astype(F32)
         m["diffuse_tex"] = f"image{p['diffuse_image']}" if p["diffuse_image"] is not None else None
+        if p["split"] is not None:
+            mr = p["split"]["mr_image"]
+            base = loader(p["diffuse_image"]) if p["diffuse_image"] is not None else None
+            m["split"] = split_metal(p["split"], base, loader(mr) if mr is not None else None)
+            m["diffuse_tex"] = None
         m["emission_tex"] = f"image{p['emission_image']}" if p["emission_image"] is not None else None
         if p["alpha_image"] is not None:
             m["alpha_tex"] = f"image{p['alpha_image']}"
@@ -1158,7 +1218,7 @@ def build_gltf(scene):
         sel = g["material"] == mi_
         if not sel.any():
             continue
-        textured = bool(m["diffuse_tex"] or m["emission_tex"] or m.get("alpha_tex"))
+        textured = bool(m["diffuse_tex"] or m["emission_tex"] or m.get("alpha_tex") or m.get("split"))
         for uv in ((True, False) if textured else (False,)):
             s = sel & (g["has_uv"] if uv else ~g["has_uv"]) if textured else sel
             if s.any():
@@ -1312,6 +1372,41 @@ class Textures:
                 write_exr(self.out_dir / file, self.lut[self.rgb8(key)] * f32)
             self.files[fk] = file
         return _texture_xml(name, self.files[fk], raw=not unit)
+
+
+def split_bsdf_xml(out_dir, stem, split):
+    """A material split per texel (split_metal) as Mitsuba BSDFs of float textures: diffuse of
+    the diffuse part's texture plus a GGX `roughconductor` (no Fresnel) of the specular part's
+    texture and the alpha texture, summed by `blendbsdf` at weight 0.5 with both doubled (exact
+    for two non-delta lobes); with ideal mirror texels only, `conductor`, or vlf_mix beside a
+    diffuse part."""
+    (out_dir / "textures").mkdir(exist_ok=True)
+
+    def tex(name, part, values):
+        file = f"textures/{stem}-{part}.exr"
+        write_exr(out_dir / file, values.astype(np.float32))
+        return _texture_xml(name, file)
+
+    d, sp, a = split["diffuse"], split["specular"], split["alpha"]
+    has_d, has_s = split["has_diffuse"], split["has_specular"]
+    if not has_s:
+        return f'<bsdf type="diffuse">{tex("reflectance", "diffuse", d)}</bsdf>'
+    if a is not None:
+        scale = 2.0 if has_d else 1.0
+        lobe = (f'<bsdf type="roughconductor"><string name="material" value="none"/>'
+                f'<string name="distribution" value="ggx"/>{tex("alpha", "alpha", np.repeat(a[:, :, None], 3, axis=2))}'
+                f'{tex("specular_reflectance", "specular", sp * scale)}</bsdf>')
+        if not has_d:
+            return lobe
+        return (f'<bsdf type="blendbsdf"><float name="weight" value="0.5"/>'
+                f'<bsdf type="diffuse">{tex("reflectance", "diffuse", d * 2.0)}</bsdf>{lobe}</bsdf>')
+    if not has_d:
+        return (f'<bsdf type="conductor"><string name="material" value="none"/>'
+                f'{tex("specular_reflectance", "specular", sp)}</bsdf>')
+    lum = lambda c: float((c.reshape(-1, 3) @ np.array([0.2126, 0.7152, 0.0722])).mean())
+    p = min(max(lum(sp) / max(lum(sp) + lum(d), 1e-12), 0.01), 0.99)
+    return (f'<bsdf type="vlf_mix"><float name="mirror_prob" value="{p!r}"/>{tex("diffuse", "diffuse", d)}'
+            f'{tex("mirror", "specular", sp)}</bsdf>')
 
 
 def mask_xml(out_dir, stem, alpha_file, cutoff, bsdf, encoded=None):
@@ -1474,7 +1569,12 @@ def export(scene, built, out_dir, spp=256):
             return (f'<bsdf type="conductor"><string name="material" value="none"/>'
                     f'{color_xml("specular_reflectance", s * scale, "ks")}</bsdf>')
 
-        if has_d and has_s and alpha > 0:
+        if uv and m.get("split") is not None:
+            bsdf = split_bsdf_xml(out_dir, stem, m["split"])
+            if m["split"]["has_diffuse"] and m["split"]["has_specular"] and m["split"]["alpha"] is None:
+                notes.append(f"{mname}: diffuse + mirror textures: `vlf_mix` BSDF (registered by "
+                             "tools/mitsuba/reference.py; the plain mitsuba CLI cannot load this scene)")
+        elif has_d and has_s and alpha > 0:
             # rho_d Lambert + rho_s glossy lobe: blendbsdf is exact for two non-delta lobes
             bsdf = (f'<bsdf type="blendbsdf"><float name="weight" value="0.5"/>'
                     f'<bsdf type="diffuse">{textures.xml("reflectance", dkey, d * 2.0) if dkey is not None else color_xml("reflectance", d * 2.0, "kd")}</bsdf>'
@@ -1643,8 +1743,20 @@ def dump_json(scene, built, path):
     f32 = lambda v: [float(np.float32(x)) for x in np.asarray(v, dtype=np.float64).ravel()]
     doc = {"materials": {}, "groups": [], "cameras": scene["cameras"], "sky": scene["sky"]}
     for name, m in built["materials"].items():
+        split = m.get("split")
+        if split is not None:
+            # a material split per texel: its parts' means (what vlf's factors hold), a texture key
+            # where it has a diffuse part, and the alpha where every metal texel has the same one
+            # (vlf's mean-albedo alpha is not this file's to compute otherwise)
+            a = split["alpha"]
+            metal = split["specular"].max(axis=2) > 0
+            same = a is None or (metal.any() and np.ptp(a[metal]) == 0)
+            m = dict(m, diffuse=split["diffuse"].reshape(-1, 3).astype(np.float64).mean(axis=0),
+                     mirror=split["specular"].reshape(-1, 3).astype(np.float64).mean(axis=0),
+                     roughness=(0.0 if a is None else float(a[metal][0])) if same else None,
+                     diffuse_tex="split" if split["has_diffuse"] else None)
         doc["materials"][name] = {"diffuse": f32(m["diffuse"]), "mirror": f32(m["mirror"]),
-                                  "roughness": float(np.float32(m.get("roughness", 0.0))),
+                                  "roughness": None if m.get("roughness", 0.0) is None else float(np.float32(m.get("roughness", 0.0))),
                                   "emission": f32(m["emission"]), "two_sided": bool(m["two_sided"]),
                                   "diffuse_texture": m["diffuse_tex"], "emission_texture": m["emission_tex"],
                                   "cutoff": m.get("alpha_cutoff") if m.get("alpha_tex") else None}

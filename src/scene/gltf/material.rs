@@ -1,9 +1,9 @@
 //! glTF materials to the light field's: what a metallic-roughness material becomes, by the rules
-//! docs/guide/gltf.md states. The light field holds a diffuse reflectance (with a texture), an
-//! specular reflectance (one colour per material, an ideal mirror or a glossy GGX lobe) and an
-//! emitted radiance (with a texture):
+//! docs/guide/gltf.md states. The light field holds a diffuse reflectance (with a texture), a
+//! specular reflectance (an ideal mirror or a glossy GGX lobe, with a texture of its colour and
+//! alpha) and an emitted radiance (with a texture):
 //! - metallic >= 0.5 and roughness <= 0.2: an ideal mirror of the base colour (factor times
-//!   the texture's mean), no diffuse;
+//!   texture), no diffuse;
 //! - metallic >= 0.5 and 0.2 < roughness <= 0.6: a glossy metal of the base colour (the same),
 //!   GGX alpha = roughness² (glTF's convention);
 //! - everything else (rougher metals, dielectrics): diffuse of the base colour (factor x
@@ -18,9 +18,10 @@
 //! - normalTexture (with its scale): a normal map (`Material::normal_map`), read with the base
 //!   colour's texture coordinates;
 //!
-//! - metallicRoughnessTexture: its means (roughness from green, metallic from blue) times the
-//!   factors decide the rules above, as the light field holds one specular colour and roughness
-//!   per material; warned;
+//! - metallicRoughnessTexture (roughness from green, metallic from blue, times the factors): the
+//!   rules above per texel (`metal_rough::split`): a diffuse texture and a specular texture of
+//!   the base colour, each where its texels are; a metal with a base colour texture is split the
+//!   same way (every texel a metal). The texture is read with the base colour's coordinates;
 //!
 //! and what cannot be represented (transmission, occlusion maps, clamped wrapping) is named in
 //! one warning per material.
@@ -67,8 +68,8 @@ pub struct Plan {
     material: Material,
     diffuse_image: Option<usize>,
     emission_image: Option<usize>,
-    /// the base colour texture of a mirror: its mean multiplies the mirror colour
-    mirror_image: Option<usize>,
+    /// a material split per texel into its diffuse and specular parts (`metal_rough`)
+    split: Option<SplitPlan>,
     /// the base colour texture of a cut-out (its alpha), with the cutoff its factor is folded in
     alpha_image: Option<usize>,
     alpha_cutoff: f32,
@@ -105,10 +106,21 @@ impl Plan {
         self.alpha_image
     }
 
-    /// The base colour image of a mirror, whose mean colour it reflects.
-    pub fn mirror_image(&self) -> Option<usize> {
-        self.mirror_image
+    /// How the material is split per texel, if it is.
+    pub fn split(&self) -> Option<&SplitPlan> {
+        self.split.as_ref()
     }
+}
+
+/// A material whose metal varies over its surface, or a textured metal: split per texel once
+/// its images are read (`metal_rough::split`; its base colour image is its `diffuse_image`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitPlan {
+    /// the metallic-roughness texture's image (None: a metal everywhere)
+    pub image: Option<usize>,
+    pub metallic: f32,
+    pub roughness: f32,
+    pub base_factor: [f32; 3],
 }
 
 fn image_of(info: &::gltf::texture::Info) -> usize {
@@ -116,12 +128,10 @@ fn image_of(info: &::gltf::texture::Info) -> usize {
 }
 
 /// Every material of the document, in its order, with the scene.toml overrides applied.
-/// `rough_metal`: each metallic-roughness texture's means (`TextureMeans`), by image.
 pub fn plan_all(
     doc: &::gltf::Document,
     overrides: &BTreeMap<String, MaterialOverride>,
     path: &Path,
-    rough_metal: &HashMap<usize, TextureMeans>,
 ) -> Result<Vec<Plan>> {
     let mut names = HashMap::new();
     let mut plans = Vec::new();
@@ -138,58 +148,34 @@ pub fn plan_all(
         } else {
             base
         };
-        plans.push(plan(&m, name, (overrides, rough_metal), path)?);
+        plans.push(plan(&m, name, overrides, path)?);
     }
     Ok(plans)
 }
 
-/// A metallic-roughness texture's means over its texels: roughness (green) and metallic (blue),
-/// linear values in [0, 1].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TextureMeans {
-    pub roughness: f32,
-    pub metallic: f32,
-}
-
-/// The images every material's metallic-roughness texture reads (`TextureMeans` are taken of
-/// them before the materials are planned).
-pub fn rough_metal_images(doc: &::gltf::Document) -> Vec<usize> {
-    let mut images: Vec<usize> = (doc.materials())
-        .filter_map(|m| m.pbr_metallic_roughness().metallic_roughness_texture())
-        .map(|info| image_of(&info))
-        .collect();
-    images.sort_unstable();
-    images.dedup();
-    images
-}
-
-/// The metallic and roughness factors times their texture's means where the material has one
-/// (`rough_metal`), said in `notes`: the light field holds one specular colour and roughness per
-/// material, so a texture that varies them over the surface is taken by its means.
-fn metal_and_roughness(
-    pbr: &::gltf::material::PbrMetallicRoughness,
-    rough_metal: &HashMap<usize, TextureMeans>,
+/// The metallic-roughness texture of a material, the texture coordinates it shares with the
+/// base colour texture noted where they differ.
+fn metal_rough_texture<'a>(
+    pbr: &::gltf::material::PbrMetallicRoughness<'a>,
+    base: Option<&::gltf::texture::Info>,
     notes: &mut Vec<String>,
-) -> (f32, f32) {
-    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
-    let means = (pbr.metallic_roughness_texture()).and_then(|i| rough_metal.get(&image_of(&i)));
-    let Some(t) = means else {
-        return (metallic, roughness);
-    };
-    notes.push(format!(
-        "metallic-roughness texture taken by its means (metallic {metallic} x {:.3}, roughness {roughness} x {:.3})",
-        t.metallic, t.roughness
-    ));
-    (metallic * t.metallic, roughness * t.roughness)
+) -> Option<::gltf::texture::Info<'a>> {
+    let info = pbr.metallic_roughness_texture()?;
+    let differs = base.is_some_and(|b| {
+        b.tex_coord() != info.tex_coord() || UvTransform::of(b) != UvTransform::of(&info)
+    });
+    if differs {
+        notes.push(
+            "metallic-roughness texture read with the base colour texture's coordinates".into(),
+        );
+    }
+    Some(info)
 }
 
 fn plan(
     m: &::gltf::Material,
     name: String,
-    (overrides, rough_metal): (
-        &BTreeMap<String, MaterialOverride>,
-        &HashMap<usize, TextureMeans>,
-    ),
+    overrides: &BTreeMap<String, MaterialOverride>,
     path: &Path,
 ) -> Result<Plan> {
     let err = |message: String| VlfError::Material {
@@ -202,7 +188,7 @@ fn plan(
     let base = [r, g, b];
     check_color(&base, true).map_err(|e| err(format!("baseColorFactor {e}")))?;
     let mut notes = Vec::new();
-    let (metallic, roughness) = metal_and_roughness(&pbr, rough_metal, &mut notes);
+    let (metallic, roughness) = (pbr.metallic_factor(), pbr.roughness_factor());
     let strength = m.emissive_strength().unwrap_or(1.0);
     let emission = m.emissive_factor().map(|e| e * strength);
     check_color(&emission, false)
@@ -216,19 +202,34 @@ fn plan(
     };
     let base_tex = pbr.base_color_texture();
     let emit_tex = m.emissive_texture();
-    let textured = base_tex.is_some();
     let o = overrides.get(&name).cloned().unwrap_or_default();
     // what scene.toml gives for the specular part or the diffuse colour replaces the glTF's
     // kind, so the glTF's is not reported as an approximation
-    if o.mirror.is_none() && o.roughness.is_none() && o.diffuse.is_none() {
-        describe_kind((metallic, roughness), (mirror, alpha, textured), &mut notes);
+    let kept = o.mirror.is_none() && o.roughness.is_none() && o.diffuse.is_none();
+    let mr_info = match kept {
+        true => metal_rough_texture(&pbr, base_tex.as_ref(), &mut notes),
+        false => None,
+    };
+    let mr_image = mr_info.as_ref().map(image_of);
+    // a metal that varies over its surface, or a textured one: split per texel
+    let split =
+        (mr_image.is_some() || (mirror && base_tex.is_some() && kept)).then_some(SplitPlan {
+            image: mr_image,
+            metallic,
+            roughness,
+            base_factor: base,
+        });
+    if kept && split.is_none() {
+        describe_kind((metallic, roughness), (mirror, alpha), &mut notes);
     }
+    // a split material's base colour texture is read as a diffuse one, then split
+    let mirror = mirror && split.is_none();
     describe_losses(m, &mut notes);
     let cut = cutout(m, alpha_factor, base_tex.as_ref(), &mut notes);
     // the triangles carry one set of texture coordinates: the base colour's decides
     let diffuse_info = base_tex.as_ref().filter(|_| !mirror);
     let alpha_info = base_tex.as_ref().filter(|_| cut.image.is_some());
-    let coords = diffuse_info.or(alpha_info).or(emit_tex.as_ref());
+    let coords = (diffuse_info.or(alpha_info).or(emit_tex.as_ref())).or(mr_info.as_ref());
     let uv_set = coords.map(|i| {
         i.texture_transform()
             .and_then(|t| t.tex_coord())
@@ -267,6 +268,7 @@ fn plan(
         emission_texture: None,
         cutout: None,
         normal_map: None,
+        specular_texture: None,
     };
     if let Some(message) = material
         .energy_error()
@@ -278,7 +280,7 @@ fn plan(
         name,
         diffuse_image: diffuse_info.map(image_of),
         emission_image: emit_tex.as_ref().map(image_of),
-        mirror_image: base_tex.as_ref().filter(|_| mirror).map(image_of),
+        split,
         alpha_image: cut.image,
         alpha_cutoff: cut.cutoff,
         normal_image: normal.map(|n| (n.texture().source().index(), n.scale())),
@@ -348,21 +350,16 @@ fn cutout(
 }
 
 /// What a metallic-roughness material of `metallic` and `roughness` became, where it is not a
-/// plain dielectric: an ideal `mirror` or glossy metal (GGX `alpha`) of the base colour (times its
-/// texture's mean where `textured`), or a rough metal taken as diffuse.
+/// plain dielectric: an ideal `mirror` or glossy metal (GGX `alpha`) of the base colour, or a
+/// rough metal taken as diffuse.
 fn describe_kind(
     (metallic, roughness): (f32, f32),
-    (mirror, alpha, textured): (bool, f32, bool),
+    (mirror, alpha): (bool, f32),
     notes: &mut Vec<String>,
 ) {
-    let mean = if textured {
-        " (times its texture's mean)"
-    } else {
-        ""
-    };
     let what = match (mirror, alpha > 0.0) {
-        (true, true) => format!("a glossy metal of the base colour{mean} (GGX alpha {alpha})"),
-        (true, false) => format!("an ideal mirror of the base colour{mean}"),
+        (true, true) => format!("a glossy metal of the base colour (GGX alpha {alpha})"),
+        (true, false) => "an ideal mirror of the base colour".to_string(),
         (false, _) if metallic > 0.0 => "a rough metal, taken as diffuse of the base colour".into(),
         (false, _) => return,
     };
@@ -390,7 +387,6 @@ pub fn finish(
     plans: &[Plan],
     texture_of_image: &HashMap<usize, u32>,
     normal_of_image: &HashMap<usize, u32>,
-    mirror_means: &HashMap<usize, [f32; 3]>,
     warnings: &mut Vec<String>,
 ) -> Vec<Material> {
     plans
@@ -407,9 +403,6 @@ pub fn finish(
                 texture,
                 cutoff: p.alpha_cutoff,
             });
-            if let Some(mean) = p.mirror_image.and_then(|i| mirror_means.get(&i)) {
-                m.mirror = std::array::from_fn(|c| m.mirror[c] * mean[c]);
-            }
             if !p.notes.is_empty() {
                 warnings.push(format!(
                     "glTF material {:?}: approximated: {}",
