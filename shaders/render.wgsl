@@ -204,14 +204,17 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         let alpha = specular_at(f, s).w;
         // a normal map turns the reflection (NORMAL_MAPS 0: the face's normal)
         let normal = shading_normal(f, s);
-        // the first reflection off a glossy lobe takes the emitters' light by shadow rays
-        // (glossy_emitter_light) and leaves out the emission its sampled ray meets
+        // a reflection off a glossy lobe takes the emitters' light by shadow rays
+        // (glossy_emitter_light) and leaves out the emission its sampled ray meets: at every
+        // glossy bounce, so that a lobe seen in another lobe (a metal column on a metal floor)
+        // does not sparkle where its sampled ray meets a small emitter
         var emitters_sampled = false;
         if is_glossy(m) {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
             let n = select(normal, -normal, dot(ray, normal) > 0.0);
-            if b == 0u && view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
-                path.radiance += glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, alpha, u);
+            if view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
+                let light = glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, alpha, fract(u + shift * f32(b)));
+                path.radiance += weight * light;
                 emitters_sampled = true;
             }
             let sampled = reflect_sampled(ray, n, alpha, fract(u + shift * f32(b)));
