@@ -47,6 +47,28 @@ fn texel_rim_rays() -> bool {
     return false;
 }
 
+// Word i of the specular textures' factors after the tile headers (grid.specular_words > 0).
+fn specular_word(i: u32) -> u32 {
+    let v = tile_headers[grid.specular_words + i / 4u];
+    return v[i % 4u];
+}
+
+// The specular texture's factor on face f's (id face_id) mirror colour at its atlas texel
+// `texel` (src/propagate/transport.rs, specular_factor_words): 1 where the face has none, so a
+// metal that varies over its surface sends its light on from its metal texels only.
+fn specular_factor(face_id: u32, f: Face, texel: vec2<u32>) -> vec3<f32> {
+    if grid.specular_words == 0u {
+        return vec3<f32>(1.0);
+    }
+    let base = specular_word(face_id);
+    if base == NO_FACE {
+        return vec3<f32>(1.0);
+    }
+    let k = base + 2u * (texel.y * f.atlas_w + texel.x);
+    let rg = specular_word(k);
+    return vec3<f32>(half_float(rg), half_float(rg >> 16u), half_float(specular_word(k + 1u)));
+}
+
 fn sender_specular(s: Face, xs: vec3<f32>, dir_index: u32, travel: vec3<f32>) -> vec3<f32> {
     if s.tile_slot == NO_FACE {
         return vec3<f32>(0.0);
@@ -97,15 +119,18 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let x = select(sample, on_plane, inside);
     let out_dir = d.w * sign(cos_w);
     let m_f = material_of(f);
+    // a specular texture's factor at the cell's texel (1 without one)
+    let factor = specular_factor(face_id, f, texel);
     if is_glossy(m_f) && (grid.flags & GRID_FLAG_BATCHED) == 0u {
-        tile_next[in_page] = gather_lobe(index, x, f, face_id, out_dir, m_f);
+        let lobe = gather_lobe(index, x, f, face_id, out_dir, m_f);
+        tile_next[in_page] = vec4<f32>(lobe.xyz * factor, lobe.w);
         return;
     }
     // the light leaving along out_dir arrived travelling along its mirror image
     let g = gather_along(mirror_direction(out_dir, f.normal), x, face_id);
     if (grid.flags & GRID_FLAG_BATCHED) != 0u {
         weight_sums[grid.texel_count + index] += g.found;
-        tile_next[in_page] += vec4<f32>(carried_reflectance(m_f) * (g.radiance + g.sky), g.sky.x + g.sky.y + g.sky.z);
+        tile_next[in_page] += vec4<f32>(carried_reflectance(m_f) * factor * (g.radiance + g.sky), g.sky.x + g.sky.y + g.sky.z);
         return;
     }
     var radiance = g.radiance;
@@ -115,7 +140,7 @@ fn gather_tiles(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         sky /= g.found;
     }
     // w: the sky radiance this cell received, for the emitted power of the residual
-    tile_next[in_page] = vec4<f32>(carried_reflectance(m_f) * (radiance + sky), sky.x + sky.y + sky.z);
+    tile_next[in_page] = vec4<f32>(carried_reflectance(m_f) * factor * (radiance + sky), sky.x + sky.y + sky.z);
 }
 
 // What arrives at x (on face `face_id`) travelling along `arriving`: the unshot radiance of the

@@ -57,7 +57,7 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             resolution, direction_count, triangle_count, triangle_base, texel_count,
             atlas_width, iteration, flags, sky, cell_size, depth_epsilon, geodesic_frequency,
             tile_size, tile_face_count, direction_weight, tile_cell_count, first_direction,
-            tile_page_cells, texel_page_cells, _pad1, _pad2, _pad3
+            tile_page_cells, texel_page_cells, specular_words, _pad2, _pad3
         }),
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,

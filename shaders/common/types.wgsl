@@ -82,7 +82,9 @@ struct GridParams {
     tile_page_cells: u32,
     // texel arrays in pages (common/upstream.wgsl): texels per page
     texel_page_cells: u32,
-    _pad1: u32,
+    // where the specular textures' factors start after the tile headers, in vec4s (0: none;
+    // specular.wgsl, specular_factor)
+    specular_words: u32,
     _pad2: u32,
     _pad3: u32,
 }

@@ -86,7 +86,9 @@ pub struct GpuGrid {
     pub first_direction: u32,
     pub tile_page_cells: u32,
     pub texel_page_cells: u32,
-    pub _pad1: u32,
+    /// where the specular textures' factors start after the tile headers, in vec4s (0: none;
+    /// `propagate::transport::specular_factor_words`)
+    pub specular_words: u32,
     pub _pad2: u32,
     pub _pad3: u32,
 }

@@ -35,6 +35,9 @@ pub struct Atlas {
     pub texture_albedo: Option<Vec<[f32; 4]>>,
     /// per texel: the `map_Ke` factor (only when some face has an emission texture)
     pub texture_emission: Option<Vec<[f32; 4]>>,
+    /// per texel: the specular texture's factor on `mirror` (rgb) and GGX alpha (w) (only when
+    /// some face has a specular texture, `Material::specular_texture`)
+    pub texture_specular: Option<Vec<[f32; 4]>>,
     /// texels whose sample point lay under other geometry and moved to an open point of their
     /// face (src/prepare/buried.rs)
     pub unburied_texels: u64,
@@ -68,6 +71,7 @@ impl Atlas {
         };
         let albedo_textured = textured(|m| m.diffuse_texture);
         let emission_textured = textured(|m| m.emission_texture);
+        let specular_textured = textured(|m| m.specular_texture);
         let local_min = size_charts(faces, &by_face.corners, density)?;
         let (width, height) = pack_shelves(faces);
         let texels = width as u64 * height as u64;
@@ -85,6 +89,7 @@ impl Atlas {
             charted_texels: 0,
             texture_albedo: albedo_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
             texture_emission: emission_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
+            texture_specular: specular_textured.then(|| vec![[1.0f32; 4]; texels as usize]),
             unburied_texels: 0,
             rejoined_rims: 0,
             open_share: vec![1.0f32; texels as usize],
@@ -134,6 +139,7 @@ impl Atlas {
                 let maps = [
                     texture(material.diffuse_texture),
                     texture(material.emission_texture),
+                    texture(material.specular_texture),
                 ];
                 atlas.unburied_texels += chart.moved as u64;
                 atlas.rejoined_rims += chart.rejoined as u64;
@@ -144,13 +150,14 @@ impl Atlas {
     }
 
     /// Writes the sample points, coverage, open share and texture factors of face `fi`'s chart.
-    /// `maps`: the face's map_Kd and map_Ke (when it has both map and texture coordinates).
+    /// `maps`: the face's map_Kd, map_Ke and specular texture (when it has both map and texture
+    /// coordinates).
     fn write_chart(
         &mut self,
         fi: usize,
         f: &PlanarFace,
         by_face: &FaceTriangles,
-        maps: [Option<&Texture>; 2],
+        maps: [Option<&Texture>; 3],
         chart: ChartSamples,
     ) {
         let r = f.atlas;
@@ -165,11 +172,17 @@ impl Atlas {
                 let idx = ((r.y + j) * self.width + r.x + i) as usize;
                 if maps.iter().any(Option::is_some) {
                     let uv = interpolate_uv(&tris2[tri], uvs[tri].unwrap(), sample);
-                    let outs = [&mut self.texture_albedo, &mut self.texture_emission];
-                    for (map, out) in maps.iter().zip(outs) {
+                    let outs = [
+                        &mut self.texture_albedo,
+                        &mut self.texture_emission,
+                        &mut self.texture_specular,
+                    ];
+                    for (k, (map, out)) in maps.iter().zip(outs).enumerate() {
                         if let (Some(map), Some(out)) = (map, out.as_mut()) {
                             let c = map.sample(uv);
-                            out[idx] = [c[0], c[1], c[2], 1.0];
+                            // the specular texture's alpha channel is its GGX alpha
+                            let w = if k == 2 { map.coverage(uv) } else { 1.0 };
+                            out[idx] = [c[0], c[1], c[2], w];
                         }
                     }
                 }

@@ -440,6 +440,41 @@ fn max_binding(ctx: &GpuContext) -> u64 {
         .min(limits.max_buffer_size)
 }
 
+/// The specular textures' factors per texel of the faces with tiles, as the tiles' gather reads
+/// them after the tile headers (`shaders/specular.wgsl`, `specular_factor`): as words, per face
+/// the word where its texels' factors start (NO_FACE: none), then two words per texel (rgb as
+/// half floats, its atlas rectangle row by row), in vec4s. Empty where no face with tiles has a
+/// specular texture: propagation then carries each material's mean.
+pub fn specular_factor_words(prepared: &PreparedScene, layout: &TileLayout) -> Vec<[u32; 4]> {
+    let Some(factors) = &prepared.atlas.texture_specular else {
+        return Vec::new();
+    };
+    let faces = &prepared.faces;
+    let textured = |f: u32| {
+        let m = &prepared.materials[faces[f as usize].material as usize];
+        m.specular_texture.is_some()
+    };
+    if !layout.faces.iter().any(|&f| textured(f)) {
+        return Vec::new();
+    }
+    let mut words = vec![crate::gpu::types::NO_FACE; faces.len()];
+    for &f in layout.faces.iter().filter(|&&f| textured(f)) {
+        words[f as usize] = words.len() as u32;
+        let r = faces[f as usize].atlas;
+        for j in 0..r.h {
+            for i in 0..r.w {
+                let texel = ((r.y + j) * prepared.atlas.width + r.x + i) as usize;
+                words.extend(crate::lightfield::textures::pack_half_rgb(factors[texel]));
+            }
+        }
+    }
+    words.resize(words.len().div_ceil(4) * 4, 0);
+    words
+        .chunks_exact(4)
+        .map(|c| [c[0], c[1], c[2], c[3]])
+        .collect()
+}
+
 impl Setup<'_> {
     /// Tile layout, faces, pages and the batch plan (`plan`, else one that fits the budget).
     fn sizes(&self, sky: Option<[f32; 3]>, plan: Option<&BatchPlan>) -> Result<Sizes> {
@@ -487,6 +522,10 @@ impl Setup<'_> {
             tile_cell_count: tile_cells as u32,
             tile_page_cells: tile_pages.page_cells,
             texel_page_cells: texel_pages.page_cells,
+            specular_words: match specular_factor_words(prepared, &layout).is_empty() {
+                true => 0,
+                false => layout.headers.len() as u32,
+            },
             ..Default::default()
         };
         Ok(Sizes {
@@ -718,10 +757,15 @@ impl Setup<'_> {
         let gather_tiles = ctx.compute_pipeline(&module, "gather_tiles", &groups);
         let (points, index) = self.directions.gpu_tables();
         let pages = self.tile_pages(&layout, &page_plan, grid.cell_size as f64);
+        // the specular textures' factors ride after the headers (grid.specular_words)
+        let mut headers = layout.headers.clone();
+        if grid.specular_words > 0 {
+            headers.extend(specular_factor_words(self.prepared, &layout));
+        }
         let tables: [(&str, &[u8]); 5] = [
             ("tile rectangles", bytemuck::cast_slice(&layout.rects)),
             ("tile index", bytemuck::cast_slice(&layout.index)),
-            ("tile headers", bytemuck::cast_slice(&layout.headers)),
+            ("tile headers", bytemuck::cast_slice(&headers)),
             ("geodesic points", bytemuck::cast_slice(&points)),
             ("geodesic index", bytemuck::cast_slice(&index)),
         ];
