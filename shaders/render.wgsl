@@ -206,14 +206,17 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         let normal = shading_normal(f, s);
         // a reflection off a glossy lobe takes the emitters' light by shadow rays
         // (glossy_emitter_light) and leaves out the emission its sampled ray meets: at every
-        // glossy bounce, so that a lobe seen in another lobe (a metal column on a metal floor)
-        // does not sparkle where its sampled ray meets a small emitter
+        // glossy bounce, so that a lobe seen in another lobe or in a mirror (a metal column on
+        // a metal floor) does not sparkle where its sampled ray meets a small emitter; one
+        // shadow ray after the first bounce (the view's count on the first), which keeps a
+        // mirror-and-glossy chain within what a frame can spend
         var emitters_sampled = false;
         if is_glossy(m) {
             let shift = vec2<f32>(unit_float(hash(b)), unit_float(hash(b + 17u)));
             let n = select(normal, -normal, dot(ray, normal) > 0.0);
             if view.glossy_light_samples > 0u && probe_grid.emitter_count > 0u {
-                let light = glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, alpha, fract(u + shift * f32(b)));
+                let count = select(1u, view.glossy_light_samples, b == 0u);
+                let light = glossy_emitter_light(s.point + f.normal * select(1e-5, -1e-5, dot(ray, f.normal) > 0.0), n, -ray, alpha, fract(u + shift * f32(b)), count);
                 path.radiance += weight * light;
                 emitters_sampled = true;
             }
@@ -238,15 +241,14 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
 
 // The emitters' direct light that a glossy lobe at point p (normal n, toward the viewer along
 // wo) reflects toward the viewer, per unit of its reflectance (mirror_chain's weights): the
-// lobe's BRDF (common/bsdf.wgsl, ggx_brdf) over view.glossy_light_samples shadow rays, each to a
+// lobe's BRDF (common/bsdf.wgsl, ggx_brdf) over `count` shadow rays, each to a
 // point on an emitting triangle picked by its share of the power through the alias table that
 // the moving objects' shadows use (common/moving_surface.wgsl, pick_emitter: the same cost
 // whatever the number of lights), on a Hammersley set rotated by the chain's lobe sample `u`.
 // The chain's sampled ray then leaves out the emission it meets: a small emitter seen through a
 // sampled lobe is a rare, bright hit (a sparkle on a rough metal), which these rays replace by its
 // expected value. A map_Ke emitter is taken at its face's mean radiance.
-fn glossy_emitter_light(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
-    let count = view.glossy_light_samples;
+fn glossy_emitter_light(p: vec3<f32>, n: vec3<f32>, wo: vec3<f32>, alpha: f32, u: vec2<f32>, count: u32) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var k = 0u; k < count; k++) {
         let v = hammersley(k, count, u);
