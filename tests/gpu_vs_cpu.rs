@@ -243,13 +243,20 @@ fn gpu_mirror_gather_equals_the_cpu_twin() {
     let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
     let (mut unshot, _) = initial_radiance(&prepared, &faces, &materials);
     let mut tile_unshot = vec![[0.0f32; 4]; layout.cell_count() as usize];
+    // the tile headers as the GPU's gather reads them (specular textures' factors after them)
+    let mut headers = layout.headers.clone();
+    if prop.grid.specular_words > 0 {
+        headers.extend(vlf::propagate::transport::specular_factor_words(
+            &prepared, &layout,
+        ));
+    }
     for iteration in 0..3 {
         let mut grid = prop.grid;
         grid.iteration = iteration;
         let tiles = cpu_specular::TileInputs {
             rects: &layout.rects,
             index: &layout.index,
-            headers: &layout.headers,
+            headers: &headers,
             tile_directions: &gdirs,
             set: &directions,
             radiance: &tile_unshot,

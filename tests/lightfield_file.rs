@@ -139,7 +139,7 @@ fn texture_detail_round_trips_and_version_2_files_still_load() {
         file::FORMAT_VERSION,
         &[
             b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL",
-            b"FTEX", b"RUVS", b"TALB", b"NMAP", b"NDIR",
+            b"FTEX", b"RUVS", b"TALB", b"NMAP", b"NDIR", b"SPEC",
         ],
         "test",
     )
@@ -195,12 +195,35 @@ fn normal_maps_round_trip_and_version_3_files_still_load() {
     d.texel_directions.clear();
     let all = [
         b"META", b"FACE", b"RVTX", b"TOTL", b"TRCT", b"TIDX", b"TTOT", b"TXIN", b"TXTL", b"FTEX",
-        b"RUVS", b"TALB", b"NMAP", b"NDIR",
+        b"RUVS", b"TALB", b"NMAP", b"NDIR", b"SPEC",
     ];
     let encoded = file::encode(&plain);
     let sections =
         file::decode_sections(&encoded, file::MAGIC, file::FORMAT_VERSION, &all, "test").unwrap();
-    let old: Vec<(&[u8; 4], &[u8])> = all.into_iter().zip(sections).take(12).collect();
+    let old: Vec<(&[u8; 4], &[u8])> = all.into_iter().zip(sections.clone()).take(12).collect();
     let old_bytes = file::encode_sections(file::MAGIC, 3, &old);
     assert_eq!(file::decode(&old_bytes).unwrap(), plain);
+    // and one written before specular textures (format 4: its first fourteen) with its normal maps
+    let encoded = file::encode(&mapped);
+    let sections =
+        file::decode_sections(&encoded, file::MAGIC, file::FORMAT_VERSION, &all, "test").unwrap();
+    let v4: Vec<(&[u8; 4], &[u8])> = all.into_iter().zip(sections).take(14).collect();
+    let v4_bytes = file::encode_sections(file::MAGIC, 4, &v4);
+    assert_eq!(file::decode(&v4_bytes).unwrap(), mapped);
+    // per face specular textures (a metal split per texel) round-trip; a short list is named
+    let mut specular = mapped.clone();
+    let faces = specular.faces.len();
+    let d = specular.detail.as_mut().unwrap();
+    d.textures.face_specular = vec![vlf::gpu::types::NO_FACE; faces];
+    d.textures.face_specular[0] = 0;
+    assert_eq!(file::decode(&file::encode(&specular)).unwrap(), specular);
+    specular
+        .detail
+        .as_mut()
+        .unwrap()
+        .textures
+        .face_specular
+        .pop();
+    let e = decode_err(&file::encode(&specular));
+    assert!(e.contains("specular textures"), "{e}");
 }

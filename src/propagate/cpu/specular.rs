@@ -15,7 +15,8 @@ pub struct TileInputs<'a> {
     /// per (direction, non-diffuse face): [x0 | y0 << 16, w | h << 16, first index, 0]
     pub rects: &'a [[u32; 4]],
     pub index: &'a [u32],
-    /// per tile: [direction, face, tile x, tile y]
+    /// per tile: [direction, face, tile x, tile y]; with specular textures, their factors after
+    /// them (from `grid.specular_words`: `transport::specular_factor_words`)
     pub headers: &'a [[u32; 4]],
     /// the fixed directions the tiles live in
     pub tile_directions: &'a [GpuDirection],
@@ -159,7 +160,26 @@ impl GatherInputs<'_> {
             radiance /= found;
             sky /= found;
         }
-        let out = material_of(self.materials, f).carried_reflectance() * (radiance + sky);
+        let factor = self.specular_factor(t, face_id, f, texel);
+        let out = material_of(self.materials, f).carried_reflectance() * factor * (radiance + sky);
         [out.x, out.y, out.z, sky.x + sky.y + sky.z]
+    }
+
+    /// specular.wgsl's `specular_factor`: the specular texture's factor on face `face_id`'s
+    /// mirror colour at its atlas texel `texel`, 1 where the face has none.
+    fn specular_factor(&self, t: &TileInputs, face_id: u32, f: &GpuFace, texel: [u32; 2]) -> Vec3 {
+        let start = self.grid.specular_words as usize;
+        if start == 0 {
+            return Vec3::ONE;
+        }
+        let word = |i: u32| t.headers[start + (i / 4) as usize][(i % 4) as usize];
+        let base = word(face_id);
+        if base == NO_FACE {
+            return Vec3::ONE;
+        }
+        let k = base + 2 * (texel[1] * f.atlas_w + texel[0]);
+        let half = |h: u32| half::f16::from_bits((h & 0xffff) as u16).to_f32();
+        let rg = word(k);
+        Vec3::new(half(rg), half(rg >> 16), half(word(k + 1)))
     }
 }
