@@ -389,6 +389,21 @@ fn a_session_runs_frames_through_the_loader_and_ends_cleanly() {
         "{}",
         s.report
     );
+    // the first frames one by one (a start-up burst: began late, or finished late): all 24,
+    // each predicted a refresh or more after the one before, xrWaitFrame returning before it
+    let first = s.report["first_frames"].as_array().unwrap();
+    assert_eq!(first.len(), 24, "{}", s.report["first_frames"]);
+    let display = |f: &serde_json::Value| f["display_ms"].as_f64().unwrap();
+    assert_eq!(display(&first[0]), 0.0);
+    for pair in first.windows(2) {
+        assert!(
+            display(&pair[1]) - display(&pair[0]) >= 11.0,
+            "{}",
+            s.report["first_frames"]
+        );
+        assert!(pair[1]["woke_before_display_ms"].as_f64().unwrap() > 0.0);
+        assert!(pair[1]["gpu_done_before_display_ms"].is_f64());
+    }
     // motion to photon as the runtime predicts it: each timed frame's pose located before its
     // predicted display time
     let photon = &s.report["pose_to_photon_ms"];

@@ -54,6 +54,10 @@ pub struct XrReport {
     /// per timed frame: its predicted display time minus when its GPU work finished (negative:
     /// finished after it)
     pub gpu_done_before_display_ms: Option<Distribution>,
+    /// the first timed frames (up to `FIRST_FRAMES`), one by one: where a run starts with a
+    /// burst of late frames, whether they began late or their GPU work finished late
+    /// (with the runtime's clock; empty without it)
+    pub first_frames: Vec<FrameStart>,
     /// per timed frame: from its head pose (xrLocateViews, predicted by the runtime for the
     /// frame's display time) to that predicted display time: motion to photon as the runtime
     /// predicts it; negative where the pose was located after it, a prediction already past (a
@@ -93,6 +97,20 @@ pub struct XrReport {
     /// the runtime lost the session (headset unplugged, runtime gone) rather than ending it
     pub lost: bool,
     pub screenshot: Option<String>,
+}
+
+/// How many of the first timed frames a report lists one by one (`XrReport::first_frames`).
+pub const FIRST_FRAMES: usize = 64;
+
+/// One of the first timed frames, on the runtime's clock.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FrameStart {
+    /// its predicted display time after the first timed frame's, ms
+    pub display_ms: f64,
+    /// from when xrWaitFrame returned for it to its predicted display time, ms
+    pub woke_before_display_ms: f64,
+    /// from when its GPU work finished to its predicted display time, ms (negative: after it)
+    pub gpu_done_before_display_ms: f64,
 }
 
 impl XrReport {

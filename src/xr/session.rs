@@ -343,6 +343,28 @@ struct DisplayDone {
     lead_ms: f64,
     before_display_ms: crate::stats::Distribution,
     after_display: u64,
+    /// the first timed frames one by one (`XrReport::first_frames`)
+    first_frames: Vec<super::report::FrameStart>,
+}
+
+/// The first timed frames (`XrReport::first_frames`): each one's predicted display time after
+/// the first's, how long before it xrWaitFrame returned, and how long before it the GPU finished
+/// (`before_display_ms`, per frame).
+fn first_frames(shown: &[FrameClock], before_display_ms: &[f64]) -> Vec<super::report::FrameStart> {
+    let Some(first) = shown.first() else {
+        return Vec::new();
+    };
+    (shown.iter().zip(before_display_ms))
+        .take(super::report::FIRST_FRAMES)
+        .filter_map(|(f, &gpu)| {
+            let (_, woke) = f.clock?;
+            Some(super::report::FrameStart {
+                display_ms: (f.display_ns - first.display_ns) as f64 * 1e-6,
+                woke_before_display_ms: (f.display_ns - woke) as f64 * 1e-6,
+                gpu_done_before_display_ms: gpu,
+            })
+        })
+        .collect()
 }
 
 /// A timed frame's predicted display time and period (XrTime, ns), and an instant on this
@@ -506,6 +528,7 @@ impl LoopState {
                 dropped: account.dropped,
                 lead_ms: lead as f64 * 1e-6,
                 after_display: before.iter().filter(|&&b| b < 0.0).count() as u64,
+                first_frames: first_frames(&self.shown, &before),
                 before_display_ms: crate::stats::Distribution::of(&before),
             }
         });
@@ -590,6 +613,10 @@ impl LoopState {
             dropped_frames: display.done.as_ref().map(|d| d.dropped),
             compositor_lead_ms: display.done.as_ref().map(|d| d.lead_ms),
             gpu_done_before_display_ms: display.done.as_ref().map(|d| d.before_display_ms.clone()),
+            first_frames: display
+                .done
+                .as_ref()
+                .map_or_else(Vec::new, |d| d.first_frames.clone()),
             pose_to_photon_ms: display.pose_to_photon_ms.clone(),
             gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
             display_period_ms: display.period_ms.unwrap_or(self.period_ms),
