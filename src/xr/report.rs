@@ -99,6 +99,23 @@ pub struct XrReport {
     pub screenshot: Option<String>,
 }
 
+/// A line on the first frames that finished on the GPU less than the compositor's lead `lead_ms`
+/// before their display (a start-up burst), if any did: how many, and for the first of them
+/// when xrWaitFrame returned and when its GPU work finished, before its display.
+pub fn start_burst(first: &[FrameStart], lead_ms: f64) -> Option<String> {
+    let late: Vec<(usize, &FrameStart)> = (first.iter().enumerate())
+        .filter(|(_, f)| f.gpu_done_before_display_ms < lead_ms)
+        .collect();
+    let (k, f) = *late.first()?;
+    Some(format!(
+        "first frames: {} of the first {} finished on the GPU inside the compositor's lead; the first, frame {k}: xrWaitFrame returned {:.2} ms and its GPU work finished {:.2} ms before its display\n",
+        late.len(),
+        first.len(),
+        f.woke_before_display_ms,
+        f.gpu_done_before_display_ms
+    ))
+}
+
 /// How many of the first timed frames a report lists one by one (`XrReport::first_frames`).
 pub const FIRST_FRAMES: usize = 64;
 
@@ -151,6 +168,11 @@ impl XrReport {
             s.push_str(&format!(
                 "{late} frames shown after their predicted display time, {dropped} never shown (the compositor taking the frames ready {lead:.1} ms before each refresh)\n"
             ));
+        }
+        if let Some(line) =
+            (self.compositor_lead_ms).and_then(|lead| start_burst(&self.first_frames, lead))
+        {
+            s.push_str(&line);
         }
         if let (Some(d), Some(after)) = (
             &self.gpu_done_before_display_ms,
@@ -393,6 +415,23 @@ mod tests {
                 gpu_done_ns: (1000 + 50 * n as i64 - a) * MS,
             })
             .collect()
+    }
+
+    #[test]
+    fn a_start_up_burst_is_named_by_its_first_late_frame() {
+        let frame = |gpu: f64| FrameStart {
+            display_ms: 0.0,
+            woke_before_display_ms: 22.2,
+            gpu_done_before_display_ms: gpu,
+        };
+        let on_time = [frame(10.9), frame(10.8)];
+        assert_eq!(start_burst(&on_time, 7.0), None);
+        let burst = [frame(10.9), frame(3.5), frame(-1.0), frame(10.8)];
+        let line = start_burst(&burst, 7.0).expect("a burst");
+        assert!(
+            line.starts_with("first frames: 2 of the first 4 finished on the GPU inside the compositor's lead; the first, frame 1: xrWaitFrame returned 22.20 ms and its GPU work finished 3.50 ms"),
+            "{line}"
+        );
     }
 
     #[test]
