@@ -6,18 +6,13 @@ floor. tools/fence-accuracy.py compares vlf's view of it with Mitsuba 3's. Stand
 import os, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scene_png import write_png  # noqa: E402
+from scene_png import scene_folder, write_png  # noqa: E402
 
-here = os.path.join(os.path.dirname(__file__), "..", "scenes", "fence")
-os.makedirs(here, exist_ok=True)
-
-
-def png_rgba(path, w, h, pixel):
-    write_png(os.path.join(here, path), w, h, pixel, alpha=True)
+here = scene_folder("fence")
 
 
 # eight slats across u: 2 texels covered, 2 open (coverage 0.5, alpha 0 or 255 only)
-png_rgba("slats.png", 32, 4, lambda x, y: (255, 255, 255, 255 if (x // 2) % 2 == 0 else 0))
+write_png(here, "slats.png", 32, 4, lambda x, y: (255, 255, 255, 255 if (x // 2) % 2 == 0 else 0), alpha=True)
 
 quads = [  # material, corners (counter-clockwise from the front)
     ("floor", [(-1.5, 0, 1.5), (1.5, 0, 1.5), (1.5, 0, -1.5), (-1.5, 0, -1.5)]),

@@ -11,14 +11,9 @@ Standard library only."""
 import json, os, struct, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scene_png import write_png  # noqa: E402
+from scene_png import scene_folder, write_png  # noqa: E402
 
-here = os.path.join(os.path.dirname(__file__), "..", "scenes", "metal-floor")
-os.makedirs(here, exist_ok=True)
-
-
-def png_rgb(path, w, h, pixel):
-    write_png(os.path.join(here, path), w, h, pixel)
+here = scene_folder("metal-floor")
 
 
 # the floor: 4 x 4 tiles of 16 texels; tile (i, j) a glossy metal where i + j is even, matte
@@ -50,9 +45,9 @@ def column_metal_rough(x, y):
     return (0, round((0.25 + 0.35 * t) * 255), 255)
 
 
-png_rgb("floor-base.png", N, N, floor_base)
-png_rgb("floor-metal-rough.png", N, N, floor_metal_rough)
-png_rgb("column-metal-rough.png", 4, COLUMN_H, column_metal_rough)
+write_png(here, "floor-base.png", N, N, floor_base)
+write_png(here, "floor-metal-rough.png", N, N, floor_metal_rough)
+write_png(here, "column-metal-rough.png", 4, COLUMN_H, column_metal_rough)
 
 # geometry: quads as two triangles, counter-clockwise seen from the room
 positions, uvs, indices = [], [], []

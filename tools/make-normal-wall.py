@@ -8,14 +8,9 @@ through the normal map. tools/normalmap-accuracy.py compares vlf's view of it wi
 import math, os, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scene_png import write_png  # noqa: E402
+from scene_png import scene_folder, write_png  # noqa: E402
 
-here = os.path.join(os.path.dirname(__file__), "..", "scenes", "normal-wall")
-os.makedirs(here, exist_ok=True)
-
-
-def png_rgb(path, w, h, pixel):
-    write_png(os.path.join(here, path), w, h, pixel)
+here = scene_folder("normal-wall")
 
 
 # 4 x 4 round bumps per tile (a spherical cap of slope up to 40 degrees), flat between them;
@@ -37,7 +32,7 @@ def bump_normal(x, y):
     return (nx, ny, math.sqrt(max(1 - nx * nx - ny * ny, 0.0)))
 
 
-png_rgb("bumps.png", N, N, lambda x, y: tuple(round(255 * (0.5 + 0.5 * c)) for c in bump_normal(x, y)))
+write_png(here, "bumps.png", N, N, lambda x, y: tuple(round(255 * (0.5 + 0.5 * c)) for c in bump_normal(x, y)))
 
 quads = [  # material, corners (counter-clockwise from the front), texture coordinates
     ("wall", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 0), (2, 0), (2, 2), (0, 2)]),

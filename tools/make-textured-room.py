@@ -4,17 +4,13 @@ wall (map_Kd) and a striped light panel (map_Ke). Standard library only."""
 import os, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from scene_png import write_png  # noqa: E402
+from scene_png import scene_folder, write_png  # noqa: E402
 
-here = os.path.join(os.path.dirname(__file__), "..", "scenes", "textured-room")
-os.makedirs(here, exist_ok=True)
+here = scene_folder("textured-room")
 
-def png(path, w, h, pixel):
-    write_png(os.path.join(here, path), w, h, pixel)
-
-png("checker.png", 64, 64, lambda x, y: (235, 230, 220) if (x // 16 + y // 16) % 2 == 0 else (40, 45, 60))
-png("painting.png", 64, 64, lambda x, y: (200, 60 + 2 * y, 40) if ((x - 32) ** 2 + (y - 32) ** 2) < 400 else (40, 90, 160 + y))
-png("panel.png", 32, 32, lambda x, y: (255, 190, 120) if (x // 8) % 2 == 0 else (120, 170, 255))
+write_png(here, "checker.png", 64, 64, lambda x, y: (235, 230, 220) if (x // 16 + y // 16) % 2 == 0 else (40, 45, 60))
+write_png(here, "painting.png", 64, 64, lambda x, y: (200, 60 + 2 * y, 40) if ((x - 32) ** 2 + (y - 32) ** 2) < 400 else (40, 90, 160 + y))
+write_png(here, "panel.png", 32, 32, lambda x, y: (255, 190, 120) if (x // 8) % 2 == 0 else (120, 170, 255))
 
 quads = [  # material, corners (counter-clockwise from the front), uv scale
     ("floor", [(-1, 0, 1), (1, 0, 1), (1, 0, -1), (-1, 0, -1)], 3),
