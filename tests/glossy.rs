@@ -276,6 +276,29 @@ fn reflected(eye: DVec3, ray: DVec3, c: DVec3, h: f64, rho: f64, alpha: f32) -> 
     rho * sum
 }
 
+/// Whether a ray from `eye` along `ray` meets the floor (y = 0) rather than the sky or the square
+/// emitter of half-size `h` at `c` (facing down): the pixels a highlight is measured over.
+fn sees_floor(eye: DVec3, ray: DVec3, c: DVec3, h: f64) -> bool {
+    ray.y < 0.0 && {
+        let t = (c.y - eye.y) / ray.y;
+        let p = eye + ray * t;
+        t < 0.0 || (p.x - c.x).abs() > h || (p.z - c.z).abs() > h
+    }
+}
+
+/// A highlight's moments over its pixels (x, y, value): its energy (the sum), centroid (x, y)
+/// and width (the RMS distance from the centroid), each weighted by the value.
+fn moments(v: &[(u32, u32, f64)]) -> (f64, f64, f64, f64) {
+    let e: f64 = v.iter().map(|p| p.2).sum();
+    let cx = v.iter().map(|p| p.0 as f64 * p.2).sum::<f64>() / e;
+    let cy = v.iter().map(|p| p.1 as f64 * p.2).sum::<f64>() / e;
+    let var = (v.iter())
+        .map(|p| ((p.0 as f64 - cx).powi(2) + (p.1 as f64 - cy).powi(2)) * p.2)
+        .sum::<f64>()
+        / e;
+    (e, cx, cy, var.sqrt())
+}
+
 /// A glossy floor (reflectance 0.8, GGX alpha 0.15, no diffuse part) under a small square
 /// emitter, seen from above at an angle: the highlight in the image against the lobe integrated
 /// over the emitter for every pixel (computed here from the GGX formulas, not by sampling). Its
@@ -322,30 +345,13 @@ fn a_glossy_floors_highlight_has_the_ggx_lobes_width_and_energy() {
     for y in 0..size {
         for x in 0..size {
             let ray = pixel_ray(eye, target, fov, size, x, y);
-            // the floor only (the emitter's own pixels and the sky are left out)
-            let on_floor = ray.y < 0.0 && {
-                let t = (c.y - eye.y) / ray.y;
-                let p = eye + ray * t;
-                t < 0.0 || (p.x - c.x).abs() > h || (p.z - c.z).abs() > h
-            };
-            if on_floor {
+            if sees_floor(eye, ray, c, h) {
                 seen.push((x, y, frame.pixels[(y * size + x) as usize][1] as f64));
                 unsampled.push(sampled_only.pixels[(y * size + x) as usize][1] as f64);
                 want.push((x, y, reflected(eye, ray, c, h, 0.8, 0.15)));
             }
         }
     }
-    let moments = |v: &[(u32, u32, f64)]| {
-        let e: f64 = v.iter().map(|p| p.2).sum();
-        let cy = v.iter().map(|p| p.1 as f64 * p.2).sum::<f64>() / e;
-        let cx = v.iter().map(|p| p.0 as f64 * p.2).sum::<f64>() / e;
-        let var = v
-            .iter()
-            .map(|p| ((p.0 as f64 - cx).powi(2) + (p.1 as f64 - cy).powi(2)) * p.2)
-            .sum::<f64>()
-            / e;
-        (e, cx, cy, var.sqrt())
-    };
     let (e_seen, cx_seen, cy_seen, w_seen) = moments(&seen);
     let (e_want, cx_want, cy_want, w_want) = moments(&want);
     eprintln!(
@@ -500,13 +506,8 @@ fn a_metal_whose_roughness_varies_shows_each_texels_lobe() {
     for y in 0..size {
         for x in 0..size {
             let ray = pixel_ray(eye, target, fov, size, x, y);
-            if ray.y >= 0.0 {
+            if !sees_floor(eye, ray, c, h) {
                 continue;
-            }
-            let t = (c.y - eye.y) / ray.y;
-            let p = eye + ray * t;
-            if t > 0.0 && (p.x - c.x).abs() <= h && (p.z - c.z).abs() <= h {
-                continue; // the emitter's own pixels
             }
             let hit = eye + ray * (-eye.y / ray.y);
             if hit.x.abs() < 0.07 {
@@ -518,20 +519,11 @@ fn a_metal_whose_roughness_varies_shows_each_texels_lobe() {
             want[half].push((x, y, reflected(eye, ray, c, h, rho, alpha)));
         }
     }
-    let moments = |v: &[(u32, u32, f64)]| {
-        let e: f64 = v.iter().map(|p| p.2).sum();
-        let cx = v.iter().map(|p| p.0 as f64 * p.2).sum::<f64>() / e;
-        let cy = v.iter().map(|p| p.1 as f64 * p.2).sum::<f64>() / e;
-        let var = (v.iter())
-            .map(|p| ((p.0 as f64 - cx).powi(2) + (p.1 as f64 - cy).powi(2)) * p.2)
-            .sum::<f64>()
-            / e;
-        (e, var.sqrt())
-    };
     let mut report = String::new();
     let mut checks = Vec::new();
     for half in 0..2 {
-        let ((e_seen, w_seen), (e_want, w_want)) = (moments(&seen[half]), moments(&want[half]));
+        let (e_seen, _, _, w_seen) = moments(&seen[half]);
+        let (e_want, _, _, w_want) = moments(&want[half]);
         report += &format!(
             "half {half} (alpha {:.3}, reflectance {:.3}): energy {e_seen:.4} / {e_want:.4}, width {w_seen:.3} / {w_want:.3} px; ",
             halves[half].1, halves[half].0
