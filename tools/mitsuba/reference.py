@@ -1374,6 +1374,13 @@ class Textures:
         return _texture_xml(name, self.files[fk], raw=not unit)
 
 
+def mirror_probability(mirror, diffuse):
+    """vlf_mix's probability of sampling the mirror lobe (any value in (0, 1) is unbiased): the
+    mirror's share of the two mean reflectances' luminance, kept within [0.01, 0.99]."""
+    lum = lambda c: float(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
+    return min(max(lum(mirror) / max(lum(mirror) + lum(diffuse), 1e-12), 0.01), 0.99)
+
+
 def split_bsdf_xml(out_dir, stem, split):
     """A material split per texel (split_metal) as Mitsuba BSDFs of float textures: diffuse of
     the diffuse part's texture plus a GGX `roughconductor` (no Fresnel) of the specular part's
@@ -1403,8 +1410,7 @@ def split_bsdf_xml(out_dir, stem, split):
     if not has_d:
         return (f'<bsdf type="conductor"><string name="material" value="none"/>'
                 f'{tex("specular_reflectance", "specular", sp)}</bsdf>')
-    lum = lambda c: float((c.reshape(-1, 3) @ np.array([0.2126, 0.7152, 0.0722])).mean())
-    p = min(max(lum(sp) / max(lum(sp) + lum(d), 1e-12), 0.01), 0.99)
+    p = mirror_probability(sp.reshape(-1, 3).mean(axis=0), d.reshape(-1, 3).mean(axis=0))
     return (f'<bsdf type="vlf_mix"><float name="mirror_prob" value="{p!r}"/>{tex("diffuse", "diffuse", d)}'
             f'{tex("mirror", "specular", sp)}</bsdf>')
 
@@ -1591,9 +1597,7 @@ def export(scene, built, out_dir, spp=256):
                 bsdf = (f'<bsdf type="blendbsdf"><float name="weight" value="{w!r}"/>'
                         f'{diffuse_xml(1 / (1 - w))}{mirror_xml(1 / w)}</bsdf>')
             else:
-                # probability of the mirror lobe (any value in (0,1) is unbiased): by luminance
-                lum = lambda c: float(0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2])
-                p = min(max(lum(s) / max(lum(s) + lum(dmean), 1e-12), 0.01), 0.99)
+                p = mirror_probability(s, dmean)
                 inner = diffuse_xml(1.0)[len('<bsdf type="diffuse">'):-len("</bsdf>")].replace('name="reflectance"', 'name="diffuse"', 1)
                 bsdf = (f'<bsdf type="vlf_mix"><float name="mirror_prob" value="{p!r}"/>{inner}'
                         f'{color_xml("mirror", s, "ks")}</bsdf>')
