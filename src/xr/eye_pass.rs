@@ -14,6 +14,7 @@ pub(super) fn layer_pass(
     (colour, depth): (&wgpu::Texture, Option<&wgpu::Texture>),
     (pipeline, bind_group): (&wgpu::RenderPipeline, &wgpu::BindGroup),
     layer: Option<u32>,
+    timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) {
     let layers = colour.depth_or_array_layers();
     let colour_view = layer_view(colour, layer, layers);
@@ -39,7 +40,7 @@ pub(super) fn layer_pass(
                 stencil_ops: None,
             }
         }),
-        timestamp_writes: None,
+        timestamp_writes,
         occlusion_query_set: None,
         multiview_mask: layer.is_none().then(|| all_views(layers)),
     });

@@ -79,7 +79,7 @@ pub(super) fn warm_up(
         if i + 1 == eyes.len() {
             let colour: Vec<&wgpu::Texture> = colour.iter().collect();
             let depth: Vec<&wgpu::Texture> = depth.iter().collect();
-            layers.draw(&mut encoder, &colour, &depth);
+            layers.draw(&mut encoder, (&colour, &depth), None);
         }
         ctx.queue.submit([encoder.finish()]);
     }

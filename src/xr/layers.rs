@@ -10,7 +10,7 @@ use super::eye_pass::{bind_group, layer_pass, layer_view, pipeline};
 use super::{xr_error, XrOptions};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, Timestamps};
 use crate::render::ViewTargets;
 use openxr as xr;
 
@@ -338,12 +338,13 @@ impl Layers {
     }
 
     /// Put both eyes on `colour` (and their depth on `depth`, when the runtime takes depth):
-    /// images in the swapchains' shape, one per swapchain.
+    /// images in the swapchains' shape, one per swapchain; timed by one pair of `timestamps`,
+    /// from the first pass's start to the last's end.
     pub(super) fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
-        colour: &[&wgpu::Texture],
-        depth: &[&wgpu::Texture],
+        (colour, depth): (&[&wgpu::Texture], &[&wgpu::Texture]),
+        timestamps: Option<&mut Timestamps>,
     ) {
         let eyes = self.eye_count();
         // (colour image, its layer or all of them, the bind group) of each pass
@@ -356,12 +357,20 @@ impl Layers {
                 .map(|i| (i as usize, Some(0), i as usize))
                 .collect(),
         };
-        for (image, layer, group) in passes {
+        let pair = timestamps.and_then(|t| Some((t.next_pair()?, &t.query_set)));
+        let last = passes.len().saturating_sub(1);
+        for (k, (image, layer, group)) in passes.into_iter().enumerate() {
+            let writes = pair.map(|((begin, end), query_set)| wgpu::RenderPassTimestampWrites {
+                query_set,
+                beginning_of_pass_write_index: (k == 0).then_some(begin),
+                end_of_pass_write_index: (k == last).then_some(end),
+            });
             layer_pass(
                 encoder,
                 (colour[image], depth.get(image).copied()),
                 (&self.pipeline, &self.bind_groups[group]),
                 layer,
+                writes,
             );
         }
     }

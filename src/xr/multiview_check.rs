@@ -50,6 +50,7 @@ pub(super) fn multiview_failure(
         (&colour_target, depth_target.as_ref()),
         (pipeline, &bind_group),
         None,
+        None,
     );
     let mut readback = vec![&colour_target];
     readback.extend(depth_target.as_ref());

@@ -74,6 +74,14 @@ pub struct XrReport {
     /// per timed frame with moving objects: GPU time of their pass before the eyes (skin,
     /// refit, their direct light, shadow atlas)
     pub objects_gpu_ms: Option<Distribution>,
+    /// per timed frame: GPU time of the pass that puts the eyes on the swapchains' images
+    pub layers_gpu_ms: Option<Distribution>,
+    /// per timed frame: on the GPU's clock, from its first pass's start to its last pass's end
+    /// (the passes and whatever the GPU did between them)
+    pub frame_gpu_span_ms: Option<Distribution>,
+    /// per timed frame after the first: on the GPU's clock, from the frame before's last pass's
+    /// end to its first pass's start (the GPU idle, or busy with work outside vlf's passes)
+    pub gpu_between_frames_ms: Option<Distribution>,
     /// CPU time from xrBeginFrame to xrEndFrame
     pub cpu_frame_ms: Option<Distribution>,
     /// frames the CPU may record before the GPU has drawn the previous ones
@@ -128,6 +136,10 @@ pub struct FrameStart {
     pub woke_before_display_ms: f64,
     /// from when its GPU work finished to its predicted display time, ms (negative: after it)
     pub gpu_done_before_display_ms: f64,
+    /// on the GPU's clock: its first pass's start to its last pass's end, ms
+    pub gpu_span_ms: Option<f64>,
+    /// on the GPU's clock: the frame before's last pass's end to its first pass's start, ms
+    pub gpu_before_ms: Option<f64>,
 }
 
 impl XrReport {
@@ -225,6 +237,16 @@ impl XrReport {
             s.push_str(&format!(
                 "moving objects' pass before the eyes (skin, refit, direct light, shadow atlas), GPU: p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n",
                 d.median, d.p99, d.max
+            ));
+        }
+        if let (Some(layers), Some(span), Some(between)) = (
+            &self.layers_gpu_ms,
+            &self.frame_gpu_span_ms,
+            &self.gpu_between_frames_ms,
+        ) {
+            s.push_str(&format!(
+                "GPU per frame: swapchain layers' pass p50 {:.3} ms; first pass start to last pass end p50 {:.3} ms, max {:.3} ms; from one frame's end to the next's start p50 {:.3} ms, min {:.3} ms\n",
+                layers.median, span.median, span.max, between.median, between.min
             ));
         }
         if let Some(c) = &self.cpu_frame_ms {
@@ -423,6 +445,8 @@ mod tests {
             display_ms: 0.0,
             woke_before_display_ms: 22.2,
             gpu_done_before_display_ms: gpu,
+            gpu_span_ms: None,
+            gpu_before_ms: None,
         };
         let on_time = [frame(10.9), frame(10.8)];
         assert_eq!(start_burst(&on_time, 7.0), None);

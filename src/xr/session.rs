@@ -20,10 +20,11 @@ use crate::display::post::Draw;
 use crate::display::present::present_pass;
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
-use crate::gpu::{GpuContext, MemoryLedger};
+use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::probes::ObjectLighting;
 use crate::render::{ObjectsToDraw, Renderer};
+use crate::stats::Distribution;
 use crate::tracking::navigator::Navigator;
 use crate::tracking::source::Pose;
 use glam::{Quat, Vec3};
@@ -323,7 +324,18 @@ struct LoopState {
     last_tracked: Option<(Pose, Tracked)>,
     /// the controllers' grips (left, right) in the stage, as this frame located them
     hands: [Option<crate::tracking::pose::WandPose>; 2],
+    /// frames still to end without layers after the frame-time fit (`FRAMES_AFTER_FIT`)
+    empty_frames_left: u32,
 }
+
+/// Frames ended without layers after the frame-time fit. The fit's probe takes many refresh
+/// periods, so xrWaitFrame hands back the frame after it at once, wherever the refresh is: drawn,
+/// its GPU work would start up to a period behind the runtime's rhythm, and with the eyes filling
+/// most of a period the frames after it would stay behind for dozens of frames (on an H200 the
+/// glossy classroom's GPU frame is 10.96 ms of 11.11: late frames drained 0.15 ms a frame,
+/// 5-43 of them shown late in 10 of 11 runs). The frame after an empty one is paced by the runtime;
+/// a second one covers runtimes that hand back two frames at once after a stall.
+const FRAMES_AFTER_FIT: u32 = 2;
 
 /// What the display showed of the timed frames (`display_account`).
 struct Display {
@@ -362,6 +374,9 @@ fn first_frames(shown: &[FrameClock], before_display_ms: &[f64]) -> Vec<super::r
                 display_ms: (f.display_ns - first.display_ns) as f64 * 1e-6,
                 woke_before_display_ms: (f.display_ns - woke) as f64 * 1e-6,
                 gpu_done_before_display_ms: gpu,
+                // from the GPU's clock, once the frames' timestamps are read (`report`)
+                gpu_span_ms: None,
+                gpu_before_ms: None,
             })
         })
         .collect()
@@ -474,6 +489,7 @@ impl LoopState {
             grips_located: [0; 2],
             hands: [None; 2],
             last_tracked: None,
+            empty_frames_left: 0,
         }
     }
 
@@ -576,7 +592,18 @@ impl LoopState {
                 path.display()
             )));
         }
-        let eyes = headset.frame.times().views();
+        let times = headset.frame.times();
+        let eyes = times.views();
+        let (spans, between) = times.gpu_spans();
+        let mut first_frames = display
+            .done
+            .as_ref()
+            .map_or_else(Vec::new, |d| d.first_frames.clone());
+        for (k, f) in first_frames.iter_mut().enumerate() {
+            f.gpu_span_ms = spans.get(k).copied();
+            f.gpu_before_ms = between.get(k).copied().flatten();
+        }
+        let between: Vec<f64> = between.iter().flatten().copied().collect();
         let mut limits = frame_limits(&eyes, None, None);
         limits.push(Limit::check(
             "missed display refreshes",
@@ -613,16 +640,16 @@ impl LoopState {
             dropped_frames: display.done.as_ref().map(|d| d.dropped),
             compositor_lead_ms: display.done.as_ref().map(|d| d.lead_ms),
             gpu_done_before_display_ms: display.done.as_ref().map(|d| d.before_display_ms.clone()),
-            first_frames: display
-                .done
-                .as_ref()
-                .map_or_else(Vec::new, |d| d.first_frames.clone()),
+            first_frames,
             pose_to_photon_ms: display.pose_to_photon_ms.clone(),
             gpu_done_after_display: display.done.as_ref().map(|d| d.after_display),
             display_period_ms: display.period_ms.unwrap_or(self.period_ms),
             eyes,
-            objects_gpu_ms: headset.frame.times().objects_gpu_ms(),
-            cpu_frame_ms: headset.frame.times().cpu_ms(),
+            objects_gpu_ms: times.objects_gpu_ms(),
+            layers_gpu_ms: times.output_gpu_ms(),
+            frame_gpu_span_ms: (!spans.is_empty()).then(|| Distribution::of(spans)),
+            gpu_between_frames_ms: (!between.is_empty()).then(|| Distribution::of(&between)),
+            cpu_frame_ms: times.cpu_ms(),
             frames_in_flight: FRAMES_IN_FLIGHT as u32,
             overlapped_frames: in_flight.map_or(0, |f| f.overlapped),
             serial_frames: in_flight.map_or(0, |f| f.serial),
@@ -806,6 +833,13 @@ impl Headset<'_, '_> {
                 .map_err(xr_error("xrEndFrame"))?;
             return Ok(());
         }
+        if st.empty_frames_left > 0 {
+            st.empty_frames_left -= 1;
+            return self
+                .frame_stream
+                .end(frame_state.predicted_display_time, self.setup.blend, &[])
+                .map_err(xr_error("xrEndFrame"));
+        }
         // what the script sent takes effect from this frame
         self.study.begin_frame();
         self.frame.take_study_changes(&mut self.study)?;
@@ -829,6 +863,7 @@ impl Headset<'_, '_> {
         let pose = self.study.pose(st.navigator.apply(base), located);
         let tracked = self.track_body(st, &views, &pose, frame_state.predicted_display_time)?;
         if options.fit_frame_time && self.frame.fit().is_none() {
+            st.empty_frames_left = FRAMES_AFTER_FIT;
             return self.fit_frame(&frame_state, &views, (&pose, tracked.as_ref()));
         }
         if let Some(t) = &tracked {
@@ -943,10 +978,12 @@ impl Headset<'_, '_> {
         let left_size = self.frame.labels()[0].pixels;
         let (ctx, layers) = (self.ctx, &mut self.layers);
         let mut readback = None;
-        let mut onto_swapchains = |encoder: &mut wgpu::CommandEncoder| -> Result<()> {
+        let mut onto_swapchains = |encoder: &mut wgpu::CommandEncoder,
+                                    timestamps: Option<&mut Timestamps>|
+         -> Result<()> {
             layers.acquire()?;
             let (colour, depth) = layers.acquired();
-            layers.draw(encoder, &colour, &depth);
+            layers.draw(encoder, (&colour, &depth), timestamps);
             if capture {
                 let (texture, target) = layers.left();
                 readback = Some(copy_to_buffer(ctx, encoder, texture, left_size));

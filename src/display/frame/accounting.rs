@@ -195,6 +195,9 @@ impl Accounting {
             pace(p, &frame.ms, &frame.passes);
         }
         self.times.push_gpu(&frame.ms, &frame.passes);
+        if let Some((start, end)) = frame.span_ms {
+            self.times.push_span(start, end);
+        }
     }
 
     /// The frames in flight's counts (overlapped, serial, waited for the GPU).

@@ -22,10 +22,12 @@ struct Slot {
     passes: Vec<Pass>,
 }
 
-/// A finished frame's GPU times: pair i's milliseconds, and what it timed.
+/// A finished frame's GPU times: pair i's milliseconds, and what it timed; and on the GPU's clock
+/// (ms) when its first pass began and its last ended (one queue: its frames' passes are in order).
 pub struct DoneFrame {
     pub ms: Vec<f64>,
     pub passes: Vec<Pass>,
+    pub span_ms: Option<(f64, f64)>,
 }
 
 /// GPU timestamps of frames in flight, read back without waiting for the GPU: each frame takes
@@ -144,11 +146,13 @@ impl InFlight {
             if let Ok(bytes) = range.get_mapped_range() {
                 let ticks: &[u64] = bytemuck::cast_slice(&bytes);
                 let period = ctx.timestamp_period_ns as f64 * 1e-6;
+                let span = ticks.first().zip(ticks.last());
                 done.push(DoneFrame {
                     ms: (ticks.chunks(2))
                         .map(|p| p[1].wrapping_sub(p[0]) as f64 * period)
                         .collect(),
                     passes: std::mem::take(&mut slot.passes),
+                    span_ms: span.map(|(&a, &b)| (a as f64 * period, b as f64 * period)),
                 });
             }
             slot.readback.unmap();

@@ -94,8 +94,10 @@ struct Cave<'a> {
 /// A view read back: its image and its projectors' outputs (named by projector).
 pub type ViewImages = (Frame, Vec<(String, Frame)>);
 
-/// What the frame's last encoder carries besides the views (the headset's swapchain layers).
-pub type LastPasses<'f> = &'f mut dyn FnMut(&mut wgpu::CommandEncoder) -> Result<()>;
+/// What the frame's last encoder carries besides the views (the headset's swapchain layers),
+/// timed as one pair of the timestamps it is given (`Pass::Output`) when the frame is stamped.
+pub type LastPasses<'f> =
+    &'f mut dyn FnMut(&mut wgpu::CommandEncoder, Option<&mut Timestamps>) -> Result<()>;
 
 /// A frame of views: the renderer, the views and their sink, the pacing and the accounting.
 pub struct FrameOfViews<'a> {
@@ -250,8 +252,8 @@ impl<'a> FrameOfViews<'a> {
         let (labels, targets): (Vec<ViewLabel>, Vec<ViewTargets>) = views.into_iter().unzip();
         let clock = Clock::InFlight {
             depth: frames_in_flight,
-            // a pair per eye and one for the moving objects' pass
-            frames: InFlight::new(ctx, labels.len() as u32 + 1, frames_in_flight),
+            // a pair per eye, one for the moving objects' pass and one for the swapchain layers
+            frames: InFlight::new(ctx, labels.len() as u32 + 2, frames_in_flight),
         };
         FrameOfViews {
             ctx: ctx.clone(),
@@ -759,7 +761,10 @@ fn last_passes(
     last: Option<LastPasses<'_>>,
 ) -> Result<()> {
     if let Some(last) = last {
-        last(encoder)?;
+        if acc.stamped() {
+            acc.pass(Pass::Output);
+        }
+        last(encoder, acc.timestamps())?;
     }
     acc.resolve(encoder);
     Ok(())

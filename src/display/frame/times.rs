@@ -155,6 +155,11 @@ pub struct FrameTimes {
     output_gpu: Vec<f64>,
     objects_gpu: Vec<f64>,
     frame_gpu: Vec<f64>,
+    /// frames in flight: each frame's first pass start to last pass end on the GPU's clock, and
+    /// from the frame before's last pass end to its first pass start (the first frame's None)
+    gpu_span: Vec<f64>,
+    gpu_gap: Vec<Option<f64>>,
+    last_end_ms: Option<f64>,
     cpu: Vec<f64>,
 }
 
@@ -166,8 +171,24 @@ impl FrameTimes {
             output_gpu: Vec::new(),
             objects_gpu: Vec::new(),
             frame_gpu: Vec::new(),
+            gpu_span: Vec::new(),
+            gpu_gap: Vec::new(),
+            last_end_ms: None,
             cpu: Vec::new(),
         }
+    }
+
+    /// A frame in flight's first pass start and last pass end on the GPU's clock (ms).
+    pub fn push_span(&mut self, start_ms: f64, end_ms: f64) {
+        self.gpu_span.push(end_ms - start_ms);
+        self.gpu_gap.push(self.last_end_ms.map(|e| start_ms - e));
+        self.last_end_ms = Some(end_ms);
+    }
+
+    /// Per frame in flight, in order: the GPU time from its first pass's start to its last's end,
+    /// and the GPU's time between the frame before and it (idle, or work outside vlf's passes).
+    pub fn gpu_spans(&self) -> (&[f64], &[Option<f64>]) {
+        (&self.gpu_span, &self.gpu_gap)
     }
 
     /// One frame's timestamp pairs in milliseconds, `passes[i]` saying what pair i timed.
