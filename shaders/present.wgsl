@@ -9,6 +9,7 @@
 @group(0) @binding(2) var overlay: texture_2d<f32>;
 
 #include "common/fullscreen.wgsl"
+#include "common/srgb.wgsl"
 
 @fragment
 fn fs_present(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f32> {

@@ -1,6 +1,7 @@
 // Both eyes onto the two layers of one array swapchain in one multiview pass, driven by
 // src/xr/layers.rs: the pass draws each layer once, view_index naming the eye (0 left,
-// 1 right). fs_colour without a depth swapchain, fs_colour_depth with.
+// 1 right). fs_colour without a depth swapchain, fs_colour_depth with, fs_depth for the depth
+// alone where xr_colour.wgsl puts the colour on the swapchain.
 #include "common/types.wgsl"
 #include "common/eye_layer.wgsl"
 
@@ -32,4 +33,9 @@ fn fs_colour(@builtin(position) position: vec4<f32>, @builtin(view_index) eye: u
 fn fs_colour_depth(@builtin(position) position: vec4<f32>, @builtin(view_index) eye: u32) -> ColourDepth {
     let pixel = vec2<u32>(position.xy);
     return ColourDepth(eye_colour(radiance(eye, pixel)), depth(eye, pixel));
+}
+
+@fragment
+fn fs_depth(@builtin(position) position: vec4<f32>, @builtin(view_index) eye: u32) -> @builtin(frag_depth) f32 {
+    return depth(eye, vec2<u32>(position.xy));
 }

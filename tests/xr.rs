@@ -867,7 +867,7 @@ fn both_eyes_go_on_one_array_swapchain_in_one_multiview_pass_with_depth_as_the_p
     assert_eq!(per_eye.report["multiview"], false);
     assert_eq!(
         per_eye.report["eye_layers"],
-        "per-eye swapchains (--swapchains per-eye)"
+        "per-eye swapchains (--swapchains per-eye); the colour by a compute pass and a copy, the depth by the fragment pass"
     );
     assert_eq!(per_eye.runtime["swapchains"], "2 per-eye + depth");
     let layers = runtime_count(&per_eye, "layers_checked");
@@ -891,6 +891,60 @@ fn both_eyes_go_on_one_array_swapchain_in_one_multiview_pass_with_depth_as_the_p
     assert!(
         diff <= 1,
         "the array and per-eye left eyes differ by up to {diff}"
+    );
+}
+
+#[test]
+fn the_compute_colour_pass_puts_on_the_swapchains_what_the_fragment_pass_does() {
+    let eyes = |s: &Session| s.report["eye_layers"].as_str().unwrap().to_string();
+    // the default on the runtime's 8-bit sRGB swapchain: a compute pass and a copy, the fragment
+    // pass writing the depth alone
+    let compute = still_session("colour-compute", &[], &[]);
+    assert!(
+        eyes(&compute)
+            .ends_with("; the colour by a compute pass and a copy, the depth by the fragment pass"),
+        "{}",
+        compute.report
+    );
+    let fragment = still_session("colour-fragment", &["--layer-colour", "fragment"], &[]);
+    assert!(!eyes(&fragment).contains("compute"), "{}", fragment.report);
+    // the same picture within the last bit (the shader's sRGB encoding against the format's)
+    let reference = fragment.screenshot.as_ref().unwrap();
+    let (mean, lit) = brightness(reference);
+    assert!(
+        mean > 3.0 && lit > 0.02,
+        "the left eye is black: {mean} {lit}"
+    );
+    let diff = max_difference(compute.screenshot.as_ref().unwrap(), reference);
+    assert!(
+        diff <= 1,
+        "compute and fragment colour differ by up to {diff}"
+    );
+    // and the same depth in both eyes, as the runtime read it back
+    for key in ["depth_left_min", "depth_left_far_share", "depth_right_mean"] {
+        let mean = |s: &Session| s.runtime[key].parse::<f64>().unwrap();
+        assert!(
+            (mean(&compute) - mean(&fragment)).abs() < 1e-6,
+            "{key}: compute {} fragment {}",
+            mean(&compute),
+            mean(&fragment)
+        );
+    }
+    // without depth there is no fragment pass at all: the same picture
+    let alone = still_session(
+        "colour-compute-alone",
+        &[],
+        &[("VLF_TEST_XR_NO_DEPTH", "1")],
+    );
+    assert!(
+        eyes(&alone).ends_with("; the colour by a compute pass and a copy, no fragment pass"),
+        "{}",
+        alone.report
+    );
+    let diff = max_difference(alone.screenshot.as_ref().unwrap(), reference);
+    assert!(
+        diff <= 1,
+        "compute without depth and fragment differ by up to {diff}"
     );
 }
 

@@ -50,6 +50,11 @@ pub struct XrArgs {
     /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
     #[arg(long, value_enum, default_value = "auto")]
     swapchains: vlf::xr::Swapchains,
+    /// How the eyes' colour goes onto the swapchains: compute (a compute pass and a copy, where
+    /// the swapchain is 8-bit RGBA: GPUs with few graphics units, as NVIDIA's H100/H200, take
+    /// milliseconds for a full-screen fragment pass) or fragment (a full-screen fragment pass)
+    #[arg(long, value_enum, default_value = "compute")]
+    layer_colour: vlf::xr::LayerColour,
     /// Moving objects that follow the headset and controllers: a TOML with a display config's
     /// [[object]] and [object_lighting] tables (e.g. config/headset/body.toml: the participant's
     /// body, its hands on the controllers' grips)
@@ -94,6 +99,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         fit_frame_time,
         first_hits,
         swapchains,
+        layer_colour,
         objects,
         control,
         conditions,
@@ -113,6 +119,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         fit_frame_time,
         first_hits,
         swapchains,
+        layer_colour,
         objects,
         study: vlf::xr::XrStudy {
             control,

@@ -48,7 +48,7 @@ pub(crate) fn present_pipeline(
         ctx,
         ("present.wgsl", "fs_present"),
         &layout,
-        (format, None),
+        (Some(format), None),
         None,
     )?;
     Ok(PresentPipeline {
@@ -59,7 +59,7 @@ pub(crate) fn present_pipeline(
 }
 
 /// A pipeline that draws one triangle over the target (`vs_fullscreen`, common/fullscreen.wgsl)
-/// with `fragment` of `stage`: onto a `colour` target, and writing the fragment's depth into a
+/// with `fragment` of `stage`: onto a `colour` target (none: depth alone), and writing the fragment's depth into a
 /// `depth` target where there is one (no depth test: the pass covers the image once), into the
 /// layers of `multiview_mask` at once where there is one. Windows' present pass and the
 /// headset's eye layers.
@@ -67,9 +67,19 @@ pub(crate) fn fullscreen_pipeline(
     ctx: &GpuContext,
     (stage, fragment): (&str, &str),
     layout: &wgpu::BindGroupLayout,
-    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
+    (colour, depth): (Option<wgpu::TextureFormat>, Option<wgpu::TextureFormat>),
     multiview_mask: Option<std::num::NonZeroU32>,
 ) -> Result<wgpu::RenderPipeline> {
+    // none: a pass that writes depth alone
+    let targets: Vec<Option<wgpu::ColorTargetState>> = (colour.into_iter())
+        .map(|format| {
+            Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })
+        })
+        .collect();
     let device = &ctx.device;
     let module = crate::gpu::shaders::module(device, stage)?;
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -100,11 +110,7 @@ pub(crate) fn fullscreen_pipeline(
                 module: &module,
                 entry_point: Some(fragment),
                 compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: colour,
-                    blend: None,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
+                targets: &targets,
             }),
             multiview_mask,
             cache: None,

@@ -125,6 +125,14 @@ pub const SOURCES: &[(&str, &str)] = &[
         include_str!("../../shaders/common/fullscreen.wgsl"),
     ),
     (
+        "common/srgb.wgsl",
+        include_str!("../../shaders/common/srgb.wgsl"),
+    ),
+    (
+        "common/eye_colour.wgsl",
+        include_str!("../../shaders/common/eye_colour.wgsl"),
+    ),
+    (
         "common/eye_layer.wgsl",
         include_str!("../../shaders/common/eye_layer.wgsl"),
     ),
@@ -132,6 +140,10 @@ pub const SOURCES: &[(&str, &str)] = &[
     (
         "xr_multiview.wgsl",
         include_str!("../../shaders/xr_multiview.wgsl"),
+    ),
+    (
+        "xr_colour.wgsl",
+        include_str!("../../shaders/xr_colour.wgsl"),
     ),
     ("warp.wgsl", include_str!("../../shaders/warp.wgsl")),
 ];
@@ -154,6 +166,7 @@ pub const STAGES: &[&str] = &[
     "present.wgsl",
     "xr_eye.wgsl",
     "xr_multiview.wgsl",
+    "xr_colour.wgsl",
     "warp.wgsl",
     "reference.wgsl",
 ];

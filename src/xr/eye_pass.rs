@@ -3,33 +3,38 @@
 //! every layer at once, its bind group, and the pass itself. The swapchains (`layers`) and the
 //! multiview check (`multiview_check`) both draw with it.
 
-use crate::error::Result;
+use crate::error::{Result, VlfError};
 use crate::gpu::GpuContext;
 use std::num::NonZeroU32;
 
-/// One pass of the eye-layer pipeline onto `layer` of the colour (and depth) image, or onto all
+/// One pass of the eye-layer pipeline onto `layer` of the colour and/or depth image, or onto all
 /// of their layers in one multiview pass (`layer` None).
 pub(super) fn layer_pass(
     encoder: &mut wgpu::CommandEncoder,
-    (colour, depth): (&wgpu::Texture, Option<&wgpu::Texture>),
+    (colour, depth): (Option<&wgpu::Texture>, Option<&wgpu::Texture>),
     (pipeline, bind_group): (&wgpu::RenderPipeline, &wgpu::BindGroup),
     layer: Option<u32>,
     timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
 ) {
-    let layers = colour.depth_or_array_layers();
-    let colour_view = layer_view(colour, layer, layers);
+    let layers = (colour.or(depth)).map_or(1, |t| t.depth_or_array_layers());
+    let colour_view = colour.map(|c| layer_view(c, layer, layers));
     let depth_view = depth.map(|d| layer_view(d, layer, layers));
+    let colour_attachments: Vec<_> = (colour_view.iter())
+        .map(|view| {
+            Some(wgpu::RenderPassColorAttachment {
+                view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })
+        })
+        .collect();
     let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
         label: Some("eye layers"),
-        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-            view: &colour_view,
-            depth_slice: None,
-            resolve_target: None,
-            ops: wgpu::Operations {
-                load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
-                store: wgpu::StoreOp::Store,
-            },
-        })],
+        color_attachments: &colour_attachments,
         depth_stencil_attachment: depth_view.as_ref().map(|view| {
             wgpu::RenderPassDepthStencilAttachment {
                 view,
@@ -91,17 +96,24 @@ pub(super) fn bind_group(
 }
 
 /// The pipeline that puts the eyes on the swapchain images: `stage` (xr_eye.wgsl, or
-/// xr_multiview.wgsl for both eyes at once), writing depth when there is a depth target.
+/// xr_multiview.wgsl for both eyes at once), writing colour where there is a colour target (none:
+/// xr_colour.wgsl puts it there) and depth where there is a depth target.
 pub(super) fn pipeline(
     ctx: &GpuContext,
     stage: &str,
     layout: &wgpu::BindGroupLayout,
-    (colour, depth): (wgpu::TextureFormat, Option<wgpu::TextureFormat>),
+    (colour, depth): (Option<wgpu::TextureFormat>, Option<wgpu::TextureFormat>),
     multiview: bool,
 ) -> Result<wgpu::RenderPipeline> {
-    let fragment = match depth {
-        Some(_) => "fs_colour_depth",
-        None => "fs_colour",
+    let fragment = match (colour, depth) {
+        (Some(_), Some(_)) => "fs_colour_depth",
+        (Some(_), None) => "fs_colour",
+        (None, Some(_)) => "fs_depth",
+        (None, None) => {
+            return Err(VlfError::Display(format!(
+                "{stage}: an eye-layer pipeline needs a colour or a depth target"
+            )))
+        }
     };
     let eyes = multiview.then(|| all_views(2));
     crate::display::present::fullscreen_pipeline(

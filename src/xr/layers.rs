@@ -4,8 +4,11 @@
 //! otherwise, or with `--swapchains per-eye`, a swapchain per eye. With
 //! XR_KHR_composition_layer_depth, a depth swapchain of the same shape takes the renderer's
 //! depth (written as each fragment's depth by the same pass) and is chained into each projection
-//! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject.
+//! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject. On 8-bit RGBA swapchains
+//! the colour goes on by a compute pass and a copy (`colour_pass.rs`), and the fragment pass, if
+//! the runtime takes depth, writes the depth alone.
 
+use super::colour_pass::{copies_onto, ComputeColour, LayerColour};
 use super::eye_pass::{bind_group, layer_pass, layer_view, pipeline};
 use super::{xr_error, XrOptions};
 use crate::error::{Result, VlfError};
@@ -57,7 +60,11 @@ pub(super) struct Layers {
     pub(super) depth: Vec<Chain>,
     /// the depth swapchain's Vulkan format, or why the runtime gets no depth
     pub(super) depth_format: std::result::Result<ash::vk::Format, String>,
-    pipeline: wgpu::RenderPipeline,
+    /// the colour by a compute pass and a copy (None: by the fragment pass)
+    compute: Option<ComputeColour>,
+    /// the fragment pass: colour and depth, or the depth alone after `compute` (None: no
+    /// fragment pass, the compute pass puts the colour and the runtime takes no depth)
+    pipeline: Option<wgpu::RenderPipeline>,
     /// one for both eyes (multiview), else one per eye
     bind_groups: Vec<wgpu::BindGroup>,
     /// the eye pass's parameters (a study's condition changes the exposure), and their buffer
@@ -76,10 +83,14 @@ fn create_chain(
     session: &xr::Session<xr::Vulkan>,
     (vk_format, format): (ash::vk::Format, wgpu::TextureFormat),
     (size, layers): ([u32; 2], u32),
-    label: &str,
+    (label, copy_dst): (&str, bool),
 ) -> Result<std::result::Result<Chain, xr::sys::Result>> {
     let usage_flags = if format.is_depth_stencil_format() {
         xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+    } else if copy_dst {
+        xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+            | xr::SwapchainUsageFlags::TRANSFER_SRC
+            | xr::SwapchainUsageFlags::TRANSFER_DST
     } else {
         xr::SwapchainUsageFlags::COLOR_ATTACHMENT | xr::SwapchainUsageFlags::TRANSFER_SRC
     };
@@ -108,7 +119,7 @@ fn create_chain(
                 image,
                 format,
                 (size, layers),
-                &format!("{label} swapchain image {n}"),
+                (&format!("{label} swapchain image {n}"), copy_dst),
             )
         })
         .collect::<Result<Vec<_>>>()?;
@@ -120,12 +131,12 @@ fn create_chain(
 }
 
 /// The colour swapchains: one array where the runtime takes it (and `mode` allows), else one per
-/// eye; and why per eye.
+/// eye (copy destinations where `copy_dst`); and why per eye.
 fn colour_chains(
     ctx: &GpuContext,
     session: &xr::Session<xr::Vulkan>,
     colour: (ash::vk::Format, wgpu::TextureFormat),
-    sizes: &[[u32; 2]],
+    (sizes, copy_dst): (&[[u32; 2]], bool),
     mode: Swapchains,
 ) -> Result<(Vec<Chain>, Option<String>)> {
     let same_size = sizes.windows(2).all(|w| w[0] == w[1]);
@@ -134,7 +145,7 @@ fn colour_chains(
         (_, false) => format!("the runtime recommends different sizes per eye ({sizes:?})"),
         (_, true) => {
             let layers = sizes.len() as u32;
-            match create_chain(ctx, session, colour, (sizes[0], layers), "eyes")? {
+            match create_chain(ctx, session, colour, (sizes[0], layers), ("eyes", copy_dst))? {
                 Ok(chain) => return Ok((vec![chain], None)),
                 Err(e) => format!("the runtime refused an array swapchain ({e})"),
             }
@@ -147,7 +158,7 @@ fn colour_chains(
     }
     let mut chains = Vec::new();
     for (size, name) in sizes.iter().zip(["left eye", "right eye"]) {
-        let chain = create_chain(ctx, session, colour, (*size, 1), name)?
+        let chain = create_chain(ctx, session, colour, (*size, 1), (name, copy_dst))?
             .map_err(xr_error("xrCreateSwapchain"))?;
         chains.push(chain);
     }
@@ -173,7 +184,7 @@ fn depth_chains(
     };
     let mut chains = Vec::new();
     for shape in shapes {
-        match create_chain(ctx, session, depth, shape, "depth")? {
+        match create_chain(ctx, session, depth, shape, ("depth", false))? {
             Ok(chain) => chains.push(chain),
             Err(e) => {
                 return Ok((
@@ -196,8 +207,14 @@ impl Layers {
         options: &XrOptions,
     ) -> Result<Layers> {
         let sizes: Vec<[u32; 2]> = eyes.iter().map(|t| [t.width, t.height]).collect();
-        let (colour_chains, per_eye_because) =
-            colour_chains(ctx, session, colour, &sizes, options.swapchains)?;
+        let by_compute = options.layer_colour == LayerColour::Compute && copies_onto(colour.1);
+        let (colour_chains, per_eye_because) = colour_chains(
+            ctx,
+            session,
+            colour,
+            (&sizes, by_compute),
+            options.swapchains,
+        )?;
         let array = per_eye_because.is_none();
         let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
         let device = &ctx.device;
@@ -219,11 +236,16 @@ impl Layers {
             },
             false => Shape::PerEye,
         };
-        let (layout, pipeline) = match multiview {
+        let stage = match multiview.is_some() {
+            true => "xr_multiview.wgsl",
+            false => "xr_eye.wgsl",
+        };
+        let (layout, fragment_pipeline) = match multiview {
             Some(checked) => checked,
             None => {
-                let layout = crate::gpu::reflect::layout(device, "xr_eye.wgsl", 0)?;
-                let pipeline = pipeline(ctx, "xr_eye.wgsl", &layout, formats, false)?;
+                let layout = crate::gpu::reflect::layout(device, stage, 0)?;
+                let pipeline =
+                    pipeline(ctx, stage, &layout, (Some(colour.1), depth_target), false)?;
                 (layout, pipeline)
             }
         };
@@ -231,12 +253,26 @@ impl Layers {
             viewport_origin: [0.0, 0.0],
             viewport_size: [sizes[0][0] as f32, sizes[0][1] as f32],
             exposure: options.exposure,
-            encode_srgb: (!colour.1.is_srgb()) as u32,
+            // the compute pass writes 8-bit storage, which never encodes
+            encode_srgb: (by_compute || !colour.1.is_srgb()) as u32,
             show_overlay: 0,
             _pad0: 0,
         };
         let params =
             crate::display::present::params_buffer(ctx, "eye layer parameters", Some(&present));
+        let compute = match by_compute {
+            true => Some(ComputeColour::create(ctx, eyes, &params)?),
+            false => None,
+        };
+        // after the compute pass, the fragment pass writes the depth alone, if any
+        let fragment_pipeline = match (&compute, depth_target) {
+            (None, _) => Some(fragment_pipeline),
+            (Some(_), None) => None,
+            (Some(_), Some(d)) => {
+                let multiview = shape == (Shape::Array { multiview: true });
+                Some(pipeline(ctx, stage, &layout, (None, Some(d)), multiview)?)
+            }
+        };
         let texture = wgpu::BindingResource::TextureView;
         let bind_groups = if shape == (Shape::Array { multiview: true }) {
             let entries = [
@@ -266,7 +302,8 @@ impl Layers {
             colour: colour_chains,
             depth: depth_chains,
             depth_format,
-            pipeline,
+            compute,
+            pipeline: fragment_pipeline,
             bind_groups,
             present,
             params,
@@ -328,7 +365,8 @@ impl Layers {
                         sample_count: 1,
                         dimension: wgpu::TextureDimension::D2,
                         format: t.format(),
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT
+                            | wgpu::TextureUsages::COPY_DST,
                         view_formats: &[],
                     })
                 })
@@ -358,17 +396,37 @@ impl Layers {
                 .collect(),
         };
         let pair = timestamps.and_then(|t| Some((t.next_pair()?, &t.query_set)));
+        if let Some(compute) = &self.compute {
+            let targets: Vec<(&wgpu::Texture, u32)> = match self.shape {
+                Shape::PerEye => (0..eyes as usize).map(|i| (colour[i], 0)).collect(),
+                Shape::Array { .. } => (0..eyes).map(|i| (colour[0], i)).collect(),
+            };
+            let stamps = pair.map(|((begin, end), query_set)| (query_set, begin, end));
+            compute.encode(encoder, &targets, stamps, self.pipeline.is_none());
+        }
+        let Some(fragment_pipeline) = &self.pipeline else {
+            return;
+        };
         let last = passes.len().saturating_sub(1);
         for (k, (image, layer, group)) in passes.into_iter().enumerate() {
-            let writes = pair.map(|((begin, end), query_set)| wgpu::RenderPassTimestampWrites {
-                query_set,
-                beginning_of_pass_write_index: (k == 0).then_some(begin),
-                end_of_pass_write_index: (k == last).then_some(end),
+            let begins = k == 0 && self.compute.is_none();
+            // a pass between the first and the last writes no timestamp
+            let writes = (pair.filter(|_| begins || k == last)).map(|((begin, end), query_set)| {
+                wgpu::RenderPassTimestampWrites {
+                    query_set,
+                    beginning_of_pass_write_index: begins.then_some(begin),
+                    end_of_pass_write_index: (k == last).then_some(end),
+                }
             });
+            // after the compute pass, the depth alone
+            let colour = colour
+                .get(image)
+                .copied()
+                .filter(|_| self.compute.is_none());
             layer_pass(
                 encoder,
-                (colour[image], depth.get(image).copied()),
-                (&self.pipeline, &self.bind_groups[group]),
+                (colour, depth.get(image).copied()),
+                (fragment_pipeline, &self.bind_groups[group]),
                 layer,
                 writes,
             );
@@ -465,6 +523,20 @@ impl Layers {
 
     /// How the eyes reached the runtime, in words.
     pub(super) fn eyes_text(&self) -> String {
+        let passes = self.passes_text();
+        match (&self.compute, &self.pipeline) {
+            (None, _) => passes,
+            (Some(_), Some(_)) => format!(
+                "{passes}; the colour by a compute pass and a copy, the depth by the fragment pass"
+            ),
+            (Some(_), None) => {
+                format!("{passes}; the colour by a compute pass and a copy, no fragment pass")
+            }
+        }
+    }
+
+    /// The swapchains and the fragment pass that puts the eyes on them, in words.
+    fn passes_text(&self) -> String {
         match (self.shape, &self.per_eye_because) {
             (Shape::Array { multiview: true }, _) => {
                 "one array swapchain (2 layers), both eyes in one pass (multiview)".into()
@@ -509,7 +581,7 @@ fn multiview_pipeline(
     }
     let stage = "xr_multiview.wgsl";
     let layout = crate::gpu::reflect::layout(device, stage, 0)?;
-    let pipeline = pipeline(ctx, stage, &layout, formats, true)?;
+    let pipeline = pipeline(ctx, stage, &layout, (Some(formats.0), formats.1), true)?;
     match super::multiview_check::multiview_failure(ctx, (&layout, &pipeline), formats)? {
         None => Ok(Ok((layout, pipeline))),
         Some(what) => {

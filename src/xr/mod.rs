@@ -7,6 +7,7 @@
 //! objects' file and what they follow (the head and the controllers' grips).
 
 pub mod body;
+mod colour_pass;
 mod controls;
 mod eye_pass;
 mod eyes;
@@ -17,6 +18,7 @@ pub mod session;
 pub mod study;
 pub mod vulkan;
 
+pub use colour_pass::LayerColour;
 pub use layers::Swapchains;
 pub use report::XrReport;
 pub use study::XrStudy;
@@ -54,6 +56,8 @@ pub struct XrOptions {
     pub first_hits: crate::render::raster::FirstHits,
     /// one array swapchain for both eyes, or one per eye
     pub swapchains: Swapchains,
+    /// how the eyes' colour reaches the swapchains (`colour_pass.rs`)
+    pub layer_colour: LayerColour,
     /// a file of moving objects (`body::ObjectsFile`): the participant's body, props in the hands
     pub objects: Option<std::path::PathBuf>,
     /// an experiment script's commands, the session log, LSL (`study.rs`)

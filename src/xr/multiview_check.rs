@@ -47,7 +47,7 @@ pub(super) fn multiview_failure(
     let mut encoder = device.create_command_encoder(&Default::default());
     super::eye_pass::layer_pass(
         &mut encoder,
-        (&colour_target, depth_target.as_ref()),
+        (Some(&colour_target), depth_target.as_ref()),
         (pipeline, &bind_group),
         None,
         None,

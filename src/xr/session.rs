@@ -979,7 +979,7 @@ impl Headset<'_, '_> {
         let (ctx, layers) = (self.ctx, &mut self.layers);
         let mut readback = None;
         let mut onto_swapchains = |encoder: &mut wgpu::CommandEncoder,
-                                    timestamps: Option<&mut Timestamps>|
+                                   timestamps: Option<&mut Timestamps>|
          -> Result<()> {
             layers.acquire()?;
             let (colour, depth) = layers.acquired();

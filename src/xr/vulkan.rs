@@ -289,14 +289,15 @@ pub const DEPTH_FORMATS: [(vk::Format, wgpu::TextureFormat); 2] = [
 ];
 
 /// Wrap one of the runtime's swapchain images (`layers` array layers) as a wgpu texture: a
-/// colour image as render target and copy source, a depth image as depth attachment. The
-/// runtime owns the image: wgpu must not destroy it.
+/// colour image as render target and copy source (and copy destination where `copy_dst`: made
+/// with transfer-destination usage), a depth image as depth attachment. The runtime owns the
+/// image: wgpu must not destroy it.
 pub fn wrap_swapchain_image(
     ctx: &GpuContext,
     image: u64,
     format: wgpu::TextureFormat,
     ([width, height], layers): ([u32; 2], u32),
-    label: &str,
+    (label, copy_dst): (&str, bool),
 ) -> Result<wgpu::Texture> {
     let size = wgpu::Extent3d {
         width,
@@ -308,6 +309,15 @@ pub fn wrap_swapchain_image(
         (
             wgpu::TextureUses::DEPTH_STENCIL_WRITE,
             wgpu::TextureUsages::RENDER_ATTACHMENT,
+        )
+    } else if copy_dst {
+        (
+            wgpu::TextureUses::COLOR_TARGET
+                | wgpu::TextureUses::COPY_SRC
+                | wgpu::TextureUses::COPY_DST,
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
         )
     } else {
         (
@@ -327,7 +337,7 @@ pub fn wrap_swapchain_image(
         view_formats: vec![],
     };
     // SAFETY: the image is the runtime's, created on this device with colour-attachment and
-    // transfer-source usage (depth: depth-attachment) and this size, layer count and format; it outlives the texture (the swapchain
+    // transfer-source usage (and transfer-destination where `copy_dst`; depth: depth-attachment) and this size, layer count and format; it outlives the texture (the swapchain
     // is destroyed after the textures). The drop callback stops wgpu-hal destroying it.
     let hal_device = unsafe { ctx.device.as_hal::<Vulkan>() }
         .ok_or_else(|| VlfError::Display("the OpenXR device is not a Vulkan device".into()))?;

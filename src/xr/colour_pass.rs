@@ -1,0 +1,133 @@
+//! The eyes' colour onto the swapchain images without the rasteriser: a compute pass per eye
+//! (`shaders/xr_colour.wgsl`) writes the swapchain's bytes into an 8-bit image of the eye's size,
+//! and a copy puts them on the eye's swapchain image (its layer of an array swapchain). An H200
+//! has graphics units on a small part of the chip: the full-screen fragment pass that put both
+//! 2064x2208 eyes on the swapchains took 1.4 ms of GPU per frame, 2.6 ms with their depth, a
+//! quarter of a 90 Hz frame. Used for 8-bit RGBA swapchains (sRGB or not), the formats vlf asks
+//! for first; others, and `--layer-colour fragment`, keep the fragment pass (`layers.rs`). The
+//! depth, where the runtime takes it, still needs a fragment pass: only a render pass writes a
+//! depth image.
+
+use super::eye_pass::bind_group;
+use crate::display::present::present_pass;
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::render::ViewTargets;
+
+/// How the eyes' colour reaches the swapchain images (`vlf xr --layer-colour`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LayerColour {
+    /// a compute pass and a copy where the swapchain is 8-bit RGBA, else a fragment pass
+    Compute,
+    /// a full-screen fragment pass (with the depth, where the runtime takes depth)
+    Fragment,
+}
+
+/// The storage format the pass writes: a copy puts its bytes on swapchains of this format or its
+/// sRGB twin unchanged.
+const STORAGE: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
+
+/// Whether swapchain images of `format` take the compute pass's bytes by a copy.
+pub(super) fn copies_onto(format: wgpu::TextureFormat) -> bool {
+    format.remove_srgb_suffix() == STORAGE
+}
+
+/// The compute pass, and per eye its bind group and the image it writes.
+pub(super) struct ComputeColour {
+    pipeline: wgpu::ComputePipeline,
+    eyes: Vec<(wgpu::BindGroup, wgpu::Texture)>,
+}
+
+impl ComputeColour {
+    /// For `eyes` (their linear images), with the eye-layer parameters `params` (exposure; sRGB
+    /// encoding on, as the storage does not encode).
+    pub(super) fn create(
+        ctx: &GpuContext,
+        eyes: &[&ViewTargets],
+        params: &wgpu::Buffer,
+    ) -> Result<ComputeColour> {
+        let stage = "xr_colour.wgsl";
+        let layout = crate::gpu::reflect::layout(&ctx.device, stage, 0)?;
+        let module = crate::gpu::shaders::module(&ctx.device, stage)?;
+        let pipeline = ctx.compute_pipeline(&module, "cs_colour", &[&layout]);
+        let eyes = (eyes.iter())
+            .map(|eye| {
+                let image = ctx.device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("eye colour for the swapchain"),
+                    size: wgpu::Extent3d {
+                        width: eye.width,
+                        height: eye.height,
+                        depth_or_array_layers: 1,
+                    },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: STORAGE,
+                    usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::COPY_SRC,
+                    view_formats: &[],
+                });
+                let view = image.create_view(&Default::default());
+                let entries = [
+                    params.as_entire_binding(),
+                    wgpu::BindingResource::TextureView(&eye.image_view),
+                    wgpu::BindingResource::TextureView(&view),
+                ];
+                (bind_group(ctx, &layout, &entries), image)
+            })
+            .collect();
+        Ok(ComputeColour { pipeline, eyes })
+    }
+
+    /// Each eye's pass, then its copy onto `targets[i]` (the swapchain image and its layer), and
+    /// an empty render pass on that layer: the runtime takes its images back as colour
+    /// attachments (XR_KHR_vulkan_enable2), the layout a render pass leaves them in.
+    /// `timestamps` (query set, begin, end) time the compute passes: begin at the first, end at
+    /// the last where `ends` (else a later pass ends the pair).
+    pub(super) fn encode(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        targets: &[(&wgpu::Texture, u32)],
+        timestamps: Option<(&wgpu::QuerySet, u32, u32)>,
+        ends: bool,
+    ) {
+        let last = self.eyes.len().saturating_sub(1);
+        for (i, (group, image)) in self.eyes.iter().enumerate() {
+            let ending = ends && i == last;
+            // a pass between the first and the last writes no timestamp
+            let writes =
+                (timestamps.filter(|_| i == 0 || ending)).map(|(query_set, begin, end)| {
+                    wgpu::ComputePassTimestampWrites {
+                        query_set,
+                        beginning_of_pass_write_index: (i == 0).then_some(begin),
+                        end_of_pass_write_index: ending.then_some(end),
+                    }
+                });
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("eye colour"),
+                timestamp_writes: writes,
+            });
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, group, &[]);
+            let size = image.size();
+            pass.dispatch_workgroups(size.width.div_ceil(8), size.height.div_ceil(8), 1);
+        }
+        for ((_, image), &(target, layer)) in self.eyes.iter().zip(targets) {
+            encoder.copy_texture_to_texture(
+                image.as_image_copy(),
+                wgpu::TexelCopyTextureInfo {
+                    texture: target,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                image.size(),
+            );
+            let view = super::eye_pass::layer_view(target, Some(layer), 1);
+            drop(present_pass(encoder, &view, wgpu::LoadOp::Load));
+        }
+    }
+}
