@@ -184,24 +184,26 @@ struct Path {
     ray: vec3<f32>,
 }
 
-// The reflections that follow surface `first` (met along `ray_in`): view.mirror_bounces of them,
+// The reflections that follow surface `first` (met along `ray_in`, its lobe's GGX alpha
+// `first_alpha`: specular_at's, which the caller has): view.mirror_bounces of them,
 // every one traced whatever it carries, with the weights relative to the light leaving `first`
 // by its specular part (the caller multiplies by that part's reflectance). Off an ideal mirror a
 // reflection follows the mirror direction; off a glossy lobe, a direction sampled from it with
 // `u` (the first reflection; later ones with `u` shifted by a hash of the bounce), weighted by
 // the sample's weight (common/bsdf.wgsl, reflect_sampled).
-fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
+fn mirror_chain(first: Surface, ray_in: vec3<f32>, first_alpha: f32, u: vec2<f32>) -> Path {
     var s = first;
     var ray = ray_in;
     var f = faces[s.face];
     var weight = vec3<f32>(1.0);
+    // the lobe's alpha at the point (a specular texture's, else the material's), each bounce's
+    // from the specular_at that weighs the one before
+    var alpha = first_alpha;
     var path: Path;
     path.radiance = vec3<f32>(0.0);
     path.throughput = vec3<f32>(1.0);
     for (var b = 0u; b < view.mirror_bounces; b++) {
         let m = material_of(f);
-        // the lobe's alpha at the point (a specular texture's, else the material's)
-        let alpha = specular_at(f, s).w;
         // a normal map turns the reflection (NORMAL_MAPS 0: the face's normal)
         let normal = shading_normal(f, s);
         // a reflection off a glossy lobe takes the emitters' light by shadow rays
@@ -231,7 +233,9 @@ fn mirror_chain(first: Surface, ray_in: vec3<f32>, u: vec2<f32>) -> Path {
         let leaving = surface_radiance(f, s, b + 1u < view.mirror_bounces) - select(vec3<f32>(0.0), emitted(f), emitters_sampled);
         path.radiance += weight * (max(leaving, vec3<f32>(0.0)) * s.seen + s.background);
         path.throughput = weight * s.seen;
-        weight *= specular_at(f, s).xyz * s.seen;
+        let specular = specular_at(f, s);
+        weight *= specular.xyz * s.seen;
+        alpha = specular.w;
     }
     path.face = s.face;
     path.point = s.point;
@@ -408,8 +412,10 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
         depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = specular_at(f0, s0).xyz * s0.seen;
-        let m1 = specular_at(f1, s1).xyz * s1.seen * w1;
+        let sp0 = specular_at(f0, s0);
+        let sp1 = specular_at(f1, s1);
+        let m0 = sp0.xyz * s0.seen;
+        let m1 = sp1.xyz * s1.seen * w1;
         let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         sum += shown[0];
         sum += shown[1] * w1;
@@ -424,7 +430,7 @@ fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workg
             var reflected = vec3<f32>(0.0);
             for (var j = 0u; j < chains; j++) {
                 let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
-                reflected += mirror_chain(s, ray, u).radiance;
+                reflected += mirror_chain(s, ray, select(sp0.w, sp1.w, use_second), u).radiance;
             }
             sum += (m0 + m1) * reflected / f32(chains);
         }
@@ -458,8 +464,10 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
         depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
         let f0 = faces[s0.face];
         let f1 = faces[s1.face];
-        let m0 = specular_at(f0, s0).xyz * s0.seen;
-        let m1 = specular_at(f1, s1).xyz * s1.seen * w1;
+        let sp0 = specular_at(f0, s0);
+        let sp1 = specular_at(f1, s1);
+        let m0 = sp0.xyz * s0.seen;
+        let m1 = sp1.xyz * s1.seen * w1;
         let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
         sum += shown[0];
         sum += shown[1] * w1;
@@ -478,7 +486,7 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
             var reflected = vec3<f32>(0.0);
             for (var j = 0u; j < chains; j++) {
                 let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
-                let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), u);
+                let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), select(sp0.w, sp1.w, use_second), u);
                 let f = faces[chain.face];
                 // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
                 let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);

@@ -440,6 +440,19 @@ fn max_binding(ctx: &GpuContext) -> u64 {
         .min(limits.max_buffer_size)
 }
 
+/// Whether some face with tiles has a specular texture (then `specular_factor_words` has words).
+fn has_specular_factors(prepared: &PreparedScene, layout: &TileLayout) -> bool {
+    prepared.atlas.texture_specular.is_some()
+        && (layout.faces.iter()).any(|&f| has_specular_texture(prepared, f))
+}
+
+fn has_specular_texture(prepared: &PreparedScene, face: u32) -> bool {
+    let material = prepared.faces[face as usize].material;
+    prepared.materials[material as usize]
+        .specular_texture
+        .is_some()
+}
+
 /// The specular textures' factors per texel of the faces with tiles, as the tiles' gather reads
 /// them after the tile headers (`shaders/specular.wgsl`, `specular_factor`): as words, per face
 /// the word where its texels' factors start (NO_FACE: none), then two words per texel (rgb as
@@ -449,16 +462,13 @@ pub fn specular_factor_words(prepared: &PreparedScene, layout: &TileLayout) -> V
     let Some(factors) = &prepared.atlas.texture_specular else {
         return Vec::new();
     };
-    let faces = &prepared.faces;
-    let textured = |f: u32| {
-        let m = &prepared.materials[faces[f as usize].material as usize];
-        m.specular_texture.is_some()
-    };
-    if !layout.faces.iter().any(|&f| textured(f)) {
+    if !has_specular_factors(prepared, layout) {
         return Vec::new();
     }
+    let faces = &prepared.faces;
+    let textured = |&f: &u32| has_specular_texture(prepared, f);
     let mut words = vec![crate::gpu::types::NO_FACE; faces.len()];
-    for &f in layout.faces.iter().filter(|&&f| textured(f)) {
+    for &f in layout.faces.iter().filter(|f| textured(f)) {
         words[f as usize] = words.len() as u32;
         let r = faces[f as usize].atlas;
         for j in 0..r.h {
@@ -522,9 +532,9 @@ impl Setup<'_> {
             tile_cell_count: tile_cells as u32,
             tile_page_cells: tile_pages.page_cells,
             texel_page_cells: texel_pages.page_cells,
-            specular_words: match specular_factor_words(prepared, &layout).is_empty() {
-                true => 0,
-                false => layout.headers.len() as u32,
+            specular_words: match has_specular_factors(prepared, &layout) {
+                true => layout.headers.len() as u32,
+                false => 0,
             },
             ..Default::default()
         };

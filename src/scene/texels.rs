@@ -184,15 +184,15 @@ fn height_normals(raw: &[[f32; 3]], w: usize, h: usize, bm: f32) -> Vec<[f32; 3]
     out
 }
 
-/// The mean of a texture (for a material that can hold only one colour, e.g. a mirror).
-pub fn mean(t: &Texture) -> [f32; 3] {
+/// The mean of a texture's texels, per channel (a part of a split metal, gltf/metal_rough.rs).
+pub fn mean(texels: &[[f32; 3]]) -> [f32; 3] {
     let mut sum = [0.0f64; 3];
-    for p in &t.texels {
+    for p in texels {
         for c in 0..3 {
             sum[c] += p[c] as f64;
         }
     }
-    let n = t.texels.len().max(1) as f64;
+    let n = texels.len().max(1) as f64;
     sum.map(|s| (s / n) as f32)
 }
 

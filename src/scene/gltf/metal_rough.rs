@@ -148,13 +148,7 @@ fn normalised(
     name: &str,
     part: &str,
 ) -> ([f32; 3], Option<Texture>) {
-    let mut sum = [0.0f64; 3];
-    for t in &texels {
-        for c in 0..3 {
-            sum[c] += t[c] as f64;
-        }
-    }
-    let mean: [f32; 3] = sum.map(|s| (s / texels.len().max(1) as f64) as f32);
+    let mean = crate::scene::texels::mean(&texels);
     if mean.iter().all(|&m| m <= 0.0) {
         return ([0.0; 3], None);
     }
