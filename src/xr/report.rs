@@ -209,6 +209,35 @@ impl XrReport {
                 .collect();
             s.push_str(&format!("missed after frame(s): {}\n", list.join(", ")));
         }
+        s += &self.gpu_lines();
+        if let Some(c) = &self.cpu_frame_ms {
+            s.push_str(&format!(
+                "CPU frame (begin to end): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n",
+                c.median, c.p99, c.max
+            ));
+        }
+        s.push_str(&format!(
+            "frames in flight: up to {}; the CPU began {} frames while the GPU still drew the one before, {} with the GPU idle; waited for the GPU {} times\n",
+            self.frames_in_flight, self.overlapped_frames, self.serial_frames, self.waited_for_gpu
+        ));
+        for line in Limit::lines(&self.limits).lines() {
+            s.push_str(line.trim_start());
+            s.push('\n');
+        }
+        s.push_str(&format!(
+            "session states: {}\nended: {}\n",
+            self.states.join(" -> "),
+            self.ended
+        ));
+        if let Some(p) = &self.screenshot {
+            s.push_str(&format!("screenshot (left eye): {p}\n"));
+        }
+        s
+    }
+
+    /// The table's GPU lines: per eye, the moving objects' pass, and the frame's passes as one.
+    fn gpu_lines(&self) -> String {
+        let mut s = String::new();
         s.push_str("eye    pixels      GPU p50 ms  p99 ms   max ms   p99/p50\n");
         for e in &self.eyes {
             match &e.gpu_ms {
@@ -248,28 +277,6 @@ impl XrReport {
                 "GPU per frame: swapchain layers' pass p50 {:.3} ms; first pass start to last pass end p50 {:.3} ms, max {:.3} ms; from one frame's end to the next's start p50 {:.3} ms, min {:.3} ms\n",
                 layers.median, span.median, span.max, between.median, between.min
             ));
-        }
-        if let Some(c) = &self.cpu_frame_ms {
-            s.push_str(&format!(
-                "CPU frame (begin to end): p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms\n",
-                c.median, c.p99, c.max
-            ));
-        }
-        s.push_str(&format!(
-            "frames in flight: up to {}; the CPU began {} frames while the GPU still drew the one before, {} with the GPU idle; waited for the GPU {} times\n",
-            self.frames_in_flight, self.overlapped_frames, self.serial_frames, self.waited_for_gpu
-        ));
-        for line in Limit::lines(&self.limits).lines() {
-            s.push_str(line.trim_start());
-            s.push('\n');
-        }
-        s.push_str(&format!(
-            "session states: {}\nended: {}\n",
-            self.states.join(" -> "),
-            self.ended
-        ));
-        if let Some(p) = &self.screenshot {
-            s.push_str(&format!("screenshot (left eye): {p}\n"));
         }
         s
     }
