@@ -208,13 +208,17 @@ impl Layers {
     ) -> Result<Layers> {
         let sizes: Vec<[u32; 2]> = eyes.iter().map(|t| [t.width, t.height]).collect();
         let by_compute = options.layer_colour == LayerColour::Compute && copies_onto(colour.1);
-        let (colour_chains, per_eye_because) = colour_chains(
-            ctx,
-            session,
-            colour,
-            (&sizes, by_compute),
-            options.swapchains,
-        )?;
+        let chains =
+            |copy_dst| colour_chains(ctx, session, colour, (&sizes, copy_dst), options.swapchains);
+        // a runtime that refuses copies onto its images gets the fragment pass
+        let (by_compute, (colour_chains, per_eye_because)) = match chains(by_compute) {
+            Ok(made) => (by_compute, made),
+            Err(e) if by_compute => {
+                log::warn!("{e} (swapchains that take copies, for --layer-colour compute); the eyes' colour goes on by the fragment pass");
+                (false, chains(false)?)
+            }
+            Err(e) => return Err(e),
+        };
         let array = per_eye_because.is_none();
         let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
         let device = &ctx.device;
