@@ -92,8 +92,8 @@ if [ -f "$pacing_dir/gpu.txt" ]; then
   bash "$(dirname "$0")/pacing-md.sh" "$pacing_dir"
 fi
 # the headset's first frames (tools/gpu-xr-start.sh): DIR's h200 sibling headset-start/
-if [ -d "$(dirname "$(dirname "$dir")")/h200/headset-start" ]; then
-  python3 "$(dirname "$0")/headset-start-md.py" "$(dirname "$(dirname "$dir")")/h200/headset-start"
+if [ -d "$results/h200/headset-start" ]; then
+  python3 "$(dirname "$0")/headset-start-md.py" "$results/h200/headset-start"
 fi
 # the body in the walk CAVE (tools/gpu-body.sh): the newest run (docs/results/h200/
 # body-warm-up/, a frame drawn unshown after the fit), the ones before (body-reserve/, the

@@ -25,7 +25,7 @@ for scene in ${SCENES:-classroom-100k-glossy}; do
     XR_RUNTIME_JSON=$manifest VLF_TEST_XR_EYE_PIXELS=2064x2208 VLF_TEST_XR_REPORT=$work/$name-runtime.txt \
       "$vlf" xr --scene $work/$scene.vlf --frames $frames --fit-frame-time ${XR_ARGS:-} \
       --json $work/$name.json > $work/$name.txt 2>&1
-    python3 tools/xr-start-line.py $work/$name.json
+    python3 "$(dirname "$0")/xr-start-line.py" $work/$name.json
     names+=($name.json $name.txt $name-runtime.txt)
   done
 done

@@ -29,15 +29,16 @@ def medians(reports, key):
 
 
 def row(folder, what, reports):
-    late = [r["late_frames"] for r in reports]
+    # null where the runtime could not convert its clock: not counted
+    late = [r["late_frames"] for r in reports if r.get("late_frames") is not None]
     with_late = [n for n in late if n > 0]
     per_run = f"{min(with_late)}-{max(with_late)}" if with_late else "0"
-    dropped = sum(r["dropped_frames"] for r in reports)
+    dropped = sum(r.get("dropped_frames") or 0 for r in reports)
     cells = [
         f"`{folder}/`",
         what,
         str(len(reports)),
-        f"{len(with_late)} of {len(reports)}",
+        f"{len(with_late)} of {len(late)}",
         per_run,
         str(dropped),
         medians(reports, "layers_gpu_ms"),
@@ -47,18 +48,37 @@ def row(folder, what, reports):
     return "| " + " | ".join(cells) + " |"
 
 
+def reports_of(root, folder, contains=""):
+    paths = sorted(glob.glob(os.path.join(root, folder, f"xr-*{contains}*.json")))
+    return [json.load(open(p)) for p in paths]
+
+
+def median_of(reports, key):
+    values = sorted(r[key]["median"] for r in reports if r.get(key))
+    return values[len(values) // 2] if values else float("nan")
+
+
+def newest(root, name):
+    """The newest folder's `name` file (date.txt, gpu.txt), by its date."""
+    folders = [f for f, _ in FOLDERS if os.path.exists(os.path.join(root, f, "date.txt"))]
+    folder = max(folders, key=lambda f: open(os.path.join(root, f, "date.txt")).read())
+    return open(os.path.join(root, folder, name)).read().strip()
+
+
 def main():
     root = sys.argv[1]
-    date = open(os.path.join(root, "ca6dca7", "date.txt")).read().strip()[:10]
-    gpu = open(os.path.join(root, "ca6dca7", "gpu.txt")).read().strip()
+    date, gpu = newest(root, "date.txt")[:10], newest(root, "gpu.txt")
+    before = reports_of(root, "instrumented")
+    period = before[0]["display_period_ms"]
     print(f"#### The headset's first frames, and the pass that puts the eyes on the swapchains — {date}\n")
     print(
         f"{gpu}, `tools/gpu-xr-start.sh` (the paced headset, 2064x2208 per eye at 90 Hz on vlf's test "
         "runtime, runs of 900 frames of the 100K classroom with glossy floors and metal, a few without "
         "them; per-run table and raw reports: "
         "[docs/results/h200/headset-start/](docs/results/h200/headset-start/README.md)). The \"about 2.8 ms "
-        "of slack a frame\" assumed above was 0.15 ms: the pass that puts both eyes on the swapchains (a "
-        "full-screen fragment pass, untimed until then) took 2.6 ms of each 11.1 ms frame on the H200, "
+        f"of slack a frame\" assumed above was {period - median_of(before, 'frame_gpu_span_ms'):.2f} ms: "
+        "the pass that puts both eyes on the swapchains (a full-screen fragment pass, untimed until then) "
+        f"took {median_of(before, 'layers_gpu_ms'):.1f} ms of each {period:.1f} ms frame on the H200, "
         "whose graphics units are a small part of the chip, so a frame that starts late (the first after "
         "the frame-time fit always did: xrWaitFrame hands it back at once) left the GPU behind for dozens "
         "of frames.\n"
@@ -72,9 +92,11 @@ def main():
         paths = sorted(glob.glob(os.path.join(root, folder, "xr-*.json")))
         if paths:
             print(row(folder, what, [json.load(open(p)) for p in paths]))
+    with_depth = median_of(reports_of(root, "1496ca9", "compute-run"), "layers_gpu_ms")
+    alone = median_of(reports_of(root, "1496ca9-beside-pictures", "compute-nodepth"), "layers_gpu_ms")
     print(
-        "\nWhere the runtime takes depth, the depth-only fragment pass (2.0 ms) is what remains of the "
-        "layers' pass; without depth the compute passes take 0.10 ms.\n"
+        f"\nWith the compute pass the layers' pass takes {with_depth:.2f} ms where the runtime takes "
+        f"depth (the depth-only fragment pass is most of it) and {alone:.2f} ms without depth.\n"
     )
 
 

@@ -59,10 +59,10 @@ pub(crate) fn present_pipeline(
 }
 
 /// A pipeline that draws one triangle over the target (`vs_fullscreen`, common/fullscreen.wgsl)
-/// with `fragment` of `stage`: onto a `colour` target (none: depth alone), and writing the fragment's depth into a
-/// `depth` target where there is one (no depth test: the pass covers the image once), into the
-/// layers of `multiview_mask` at once where there is one. Windows' present pass and the
-/// headset's eye layers.
+/// with `fragment` of `stage`: onto a `colour` target (none: depth alone), and writing the
+/// fragment's depth into a `depth` target where there is one (no depth test: the pass covers the
+/// image once), into the layers of `multiview_mask` at once where there is one. Windows' present
+/// pass and the headset's eye layers.
 pub(crate) fn fullscreen_pipeline(
     ctx: &GpuContext,
     (stage, fragment): (&str, &str),

@@ -486,6 +486,44 @@ impl GpuContext {
 }
 
 /// Pairs of GPU timestamps around passes, resolved to milliseconds.
+/// One timestamp pair spanning several passes: its beginning written by the first, its end by the
+/// last, nothing by those between.
+#[derive(Clone, Copy)]
+pub struct PairSpan<'q> {
+    pub query_set: &'q wgpu::QuerySet,
+    pub begin: u32,
+    pub end: u32,
+}
+
+impl<'q> PairSpan<'q> {
+    /// Pass `k` of the span (`last`: the index of its last pass): the indices it writes, or None
+    /// for a pass between the first and the last.
+    fn writes(&self, k: usize, last: usize) -> Option<(Option<u32>, Option<u32>)> {
+        let (first, ending) = (k == 0, k == last);
+        (first || ending).then_some((first.then_some(self.begin), ending.then_some(self.end)))
+    }
+
+    /// Compute pass `k`'s timestamp writes (see `writes`).
+    pub fn compute(&self, k: usize, last: usize) -> Option<wgpu::ComputePassTimestampWrites<'q>> {
+        let (begin, end) = self.writes(k, last)?;
+        Some(wgpu::ComputePassTimestampWrites {
+            query_set: self.query_set,
+            beginning_of_pass_write_index: begin,
+            end_of_pass_write_index: end,
+        })
+    }
+
+    /// Render pass `k`'s timestamp writes (see `writes`).
+    pub fn render(&self, k: usize, last: usize) -> Option<wgpu::RenderPassTimestampWrites<'q>> {
+        let (begin, end) = self.writes(k, last)?;
+        Some(wgpu::RenderPassTimestampWrites {
+            query_set: self.query_set,
+            beginning_of_pass_write_index: begin,
+            end_of_pass_write_index: end,
+        })
+    }
+}
+
 pub struct Timestamps {
     pub query_set: wgpu::QuerySet,
     resolve: wgpu::Buffer,
@@ -515,6 +553,16 @@ impl Timestamps {
             resolve,
             capacity,
             used: 0,
+        })
+    }
+
+    /// The next pair as a span over several passes (`PairSpan`), or None when full.
+    pub fn next_span(&mut self) -> Option<PairSpan<'_>> {
+        let (begin, end) = self.next_pair()?;
+        Some(PairSpan {
+            query_set: &self.query_set,
+            begin,
+            end,
         })
     }
 

@@ -9,9 +9,8 @@
 //! depth image.
 
 use super::eye_pass::bind_group;
-use crate::display::present::present_pass;
 use crate::error::Result;
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, PairSpan};
 use crate::render::ViewTargets;
 
 /// How the eyes' colour reaches the swapchain images (`vlf xr --layer-colour`).
@@ -78,40 +77,34 @@ impl ComputeColour {
         Ok(ComputeColour { pipeline, eyes })
     }
 
-    /// Each eye's pass, then its copy onto `targets[i]` (the swapchain image and its layer), and
+    /// The passes `encode` writes, for a timestamp span over them: a compute pass and an empty
+    /// render pass per eye.
+    pub(super) fn passes(&self) -> usize {
+        2 * self.eyes.len()
+    }
+
+    /// Each eye's pass, then its copy onto `targets[i]` (the swapchain image and its layer) and
     /// an empty render pass on that layer: the runtime takes its images back as colour
-    /// attachments (XR_KHR_vulkan_enable2), the layout a render pass leaves them in.
-    /// `timestamps` (query set, begin, end) time the compute passes: begin at the first, end at
-    /// the last where `ends` (else a later pass ends the pair).
+    /// attachments (XR_KHR_vulkan_enable2), the layout a render pass leaves them in. `span`
+    /// (with the index of its last pass, from later passes where there are any) times them.
     pub(super) fn encode(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         targets: &[(&wgpu::Texture, u32)],
-        timestamps: Option<(&wgpu::QuerySet, u32, u32)>,
-        ends: bool,
+        span: Option<(PairSpan<'_>, usize)>,
     ) {
-        let last = self.eyes.len().saturating_sub(1);
         for (i, (group, image)) in self.eyes.iter().enumerate() {
-            let ending = ends && i == last;
-            // a pass between the first and the last writes no timestamp
-            let writes =
-                (timestamps.filter(|_| i == 0 || ending)).map(|(query_set, begin, end)| {
-                    wgpu::ComputePassTimestampWrites {
-                        query_set,
-                        beginning_of_pass_write_index: (i == 0).then_some(begin),
-                        end_of_pass_write_index: ending.then_some(end),
-                    }
-                });
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("eye colour"),
-                timestamp_writes: writes,
+                timestamp_writes: span.and_then(|(s, last)| s.compute(i, last)),
             });
             pass.set_pipeline(&self.pipeline);
             pass.set_bind_group(0, group, &[]);
             let size = image.size();
             pass.dispatch_workgroups(size.width.div_ceil(8), size.height.div_ceil(8), 1);
         }
-        for ((_, image), &(target, layer)) in self.eyes.iter().zip(targets) {
+        let computed = self.eyes.len();
+        for (k, ((_, image), &(target, layer))) in self.eyes.iter().zip(targets).enumerate() {
             encoder.copy_texture_to_texture(
                 image.as_image_copy(),
                 wgpu::TexelCopyTextureInfo {
@@ -126,8 +119,34 @@ impl ComputeColour {
                 },
                 image.size(),
             );
-            let view = super::eye_pass::layer_view(target, Some(layer), 1);
-            drop(present_pass(encoder, &view, wgpu::LoadOp::Load));
+            let writes = span.and_then(|(s, last)| s.render(computed + k, last));
+            keep_as_attachment(encoder, target, layer, writes);
         }
     }
+}
+
+/// An empty render pass on `layer` of `target`, which leaves it a colour attachment.
+fn keep_as_attachment(
+    encoder: &mut wgpu::CommandEncoder,
+    target: &wgpu::Texture,
+    layer: u32,
+    timestamp_writes: Option<wgpu::RenderPassTimestampWrites<'_>>,
+) {
+    let view = super::eye_pass::layer_view(target, Some(layer), 1);
+    drop(encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+        label: Some("eye colour: back to a colour attachment"),
+        color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+            view: &view,
+            depth_slice: None,
+            resolve_target: None,
+            ops: wgpu::Operations {
+                load: wgpu::LoadOp::Load,
+                store: wgpu::StoreOp::Store,
+            },
+        })],
+        depth_stencil_attachment: None,
+        timestamp_writes,
+        occlusion_query_set: None,
+        multiview_mask: None,
+    }));
 }

@@ -62,7 +62,8 @@ pub(super) fn warm_up(
     layers: &Layers,
 ) -> Result<()> {
     let (colour, depth) = layers.scratch(ctx);
-    let mut timestamps = Timestamps::new(ctx, 2);
+    // a pair per eye and one for the layers, as a timed frame writes them
+    let mut timestamps = Timestamps::new(ctx, 3);
     for (i, eye) in eyes.iter().enumerate() {
         let view_proj = crate::render::view_projection(
             camera,
@@ -79,7 +80,8 @@ pub(super) fn warm_up(
         if i + 1 == eyes.len() {
             let colour: Vec<&wgpu::Texture> = colour.iter().collect();
             let depth: Vec<&wgpu::Texture> = depth.iter().collect();
-            layers.draw(&mut encoder, (&colour, &depth), None);
+            let span = timestamps.as_mut().and_then(|t| t.next_span());
+            layers.draw(&mut encoder, (&colour, &depth), span);
         }
         ctx.queue.submit([encoder.finish()]);
     }

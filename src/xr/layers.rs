@@ -13,7 +13,7 @@ use super::eye_pass::{bind_group, layer_pass, layer_view, pipeline};
 use super::{xr_error, XrOptions};
 use crate::error::{Result, VlfError};
 use crate::gpu::types::GpuPresent;
-use crate::gpu::{GpuContext, Timestamps};
+use crate::gpu::{GpuContext, PairSpan};
 use crate::render::ViewTargets;
 use openxr as xr;
 
@@ -62,6 +62,8 @@ pub(super) struct Layers {
     pub(super) depth_format: std::result::Result<ash::vk::Format, String>,
     /// the colour by a compute pass and a copy (None: by the fragment pass)
     compute: Option<ComputeColour>,
+    /// why the runtime's swapchains could not take copies, where `--layer-colour compute` asked
+    compute_refused: Option<String>,
     /// the fragment pass: colour and depth, or the depth alone after `compute` (None: no
     /// fragment pass, the compute pass puts the colour and the runtime takes no depth)
     pipeline: Option<wgpu::RenderPipeline>,
@@ -211,14 +213,18 @@ impl Layers {
         let chains =
             |copy_dst| colour_chains(ctx, session, colour, (&sizes, copy_dst), options.swapchains);
         // a runtime that refuses copies onto its images gets the fragment pass
-        let (by_compute, (colour_chains, per_eye_because)) = match chains(by_compute) {
-            Ok(made) => (by_compute, made),
-            Err(e) if by_compute => {
-                log::warn!("{e} (swapchains that take copies, for --layer-colour compute); the eyes' colour goes on by the fragment pass");
-                (false, chains(false)?)
-            }
-            Err(e) => return Err(e),
-        };
+        let (by_compute, compute_refused, (colour_chains, per_eye_because)) =
+            match chains(by_compute) {
+                Ok(made) => (by_compute, None, made),
+                Err(e) if by_compute => {
+                    log::warn!(
+                        "{e} (swapchains that take copies, for --layer-colour compute); \
+                         the eyes' colour goes on by the fragment pass"
+                    );
+                    (false, Some(e.to_string()), chains(false)?)
+                }
+                Err(e) => return Err(e),
+            };
         let array = per_eye_because.is_none();
         let (depth_chains, depth_format) = depth_chains(ctx, session, &depth, &sizes, array)?;
         let device = &ctx.device;
@@ -307,6 +313,7 @@ impl Layers {
             depth: depth_chains,
             depth_format,
             compute,
+            compute_refused,
             pipeline: fragment_pipeline,
             bind_groups,
             present,
@@ -380,16 +387,16 @@ impl Layers {
     }
 
     /// Put both eyes on `colour` (and their depth on `depth`, when the runtime takes depth):
-    /// images in the swapchains' shape, one per swapchain; timed by one pair of `timestamps`,
-    /// from the first pass's start to the last's end.
+    /// images in the swapchains' shape, one per swapchain; timed by `span`, from the first pass's
+    /// start to the last's end.
     pub(super) fn draw(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         (colour, depth): (&[&wgpu::Texture], &[&wgpu::Texture]),
-        timestamps: Option<&mut Timestamps>,
+        span: Option<PairSpan<'_>>,
     ) {
         let eyes = self.eye_count();
-        // (colour image, its layer or all of them, the bind group) of each pass
+        // (colour image, its layer or all of them, the bind group) of each fragment pass
         let passes: Vec<(usize, Option<u32>, usize)> = match self.shape {
             Shape::Array { multiview: true } => vec![(0, None, 0)],
             Shape::Array { multiview: false } => {
@@ -399,29 +406,22 @@ impl Layers {
                 .map(|i| (i as usize, Some(0), i as usize))
                 .collect(),
         };
-        let pair = timestamps.and_then(|t| Some((t.next_pair()?, &t.query_set)));
+        let fragment = self.pipeline.as_ref().map(|p| (p, passes.len()));
+        // the span's passes: the compute pass's, then the fragment passes
+        let compute_passes = self.compute.as_ref().map_or(0, |c| c.passes());
+        let last = (compute_passes + fragment.map_or(0, |(_, n)| n)).saturating_sub(1);
         if let Some(compute) = &self.compute {
             let targets: Vec<(&wgpu::Texture, u32)> = match self.shape {
                 Shape::PerEye => (0..eyes as usize).map(|i| (colour[i], 0)).collect(),
                 Shape::Array { .. } => (0..eyes).map(|i| (colour[0], i)).collect(),
             };
-            let stamps = pair.map(|((begin, end), query_set)| (query_set, begin, end));
-            compute.encode(encoder, &targets, stamps, self.pipeline.is_none());
+            compute.encode(encoder, &targets, span.map(|s| (s, last)));
         }
-        let Some(fragment_pipeline) = &self.pipeline else {
+        let Some((fragment_pipeline, _)) = fragment else {
             return;
         };
-        let last = passes.len().saturating_sub(1);
         for (k, (image, layer, group)) in passes.into_iter().enumerate() {
-            let begins = k == 0 && self.compute.is_none();
-            // a pass between the first and the last writes no timestamp
-            let writes = (pair.filter(|_| begins || k == last)).map(|((begin, end), query_set)| {
-                wgpu::RenderPassTimestampWrites {
-                    query_set,
-                    beginning_of_pass_write_index: begins.then_some(begin),
-                    end_of_pass_write_index: (k == last).then_some(end),
-                }
-            });
+            let writes = span.and_then(|s| s.render(compute_passes + k, last));
             // after the compute pass, the depth alone
             let colour = colour
                 .get(image)
@@ -528,14 +528,28 @@ impl Layers {
     /// How the eyes reached the runtime, in words.
     pub(super) fn eyes_text(&self) -> String {
         let passes = self.passes_text();
-        match (&self.compute, &self.pipeline) {
-            (None, _) => passes,
-            (Some(_), Some(_)) => format!(
+        match (&self.compute, &self.pipeline, &self.compute_refused) {
+            (None, _, None) => passes,
+            (None, _, Some(why)) => format!(
+                "{passes}; the colour by the fragment pass \
+                 (the runtime refused swapchains that take copies: {why})"
+            ),
+            (Some(_), Some(_), _) => format!(
                 "{passes}; the colour by a compute pass and a copy, the depth by the fragment pass"
             ),
-            (Some(_), None) => {
-                format!("{passes}; the colour by a compute pass and a copy, no fragment pass")
-            }
+            (Some(_), None, _) => format!(
+                "{}; the colour by a compute pass and a copy, no fragment pass",
+                self.swapchains_text()
+            ),
+        }
+    }
+
+    /// The swapchains alone, in words.
+    fn swapchains_text(&self) -> String {
+        match (self.shape, &self.per_eye_because) {
+            (Shape::Array { .. }, _) => "one array swapchain (2 layers)".into(),
+            (Shape::PerEye, Some(why)) => format!("per-eye swapchains ({why})"),
+            (Shape::PerEye, None) => "per-eye swapchains".into(),
         }
     }
 

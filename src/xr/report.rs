@@ -268,15 +268,25 @@ impl XrReport {
                 d.median, d.p99, d.max
             ));
         }
-        if let (Some(layers), Some(span), Some(between)) = (
-            &self.layers_gpu_ms,
-            &self.frame_gpu_span_ms,
-            &self.gpu_between_frames_ms,
-        ) {
-            s.push_str(&format!(
-                "GPU per frame: swapchain layers' pass p50 {:.3} ms; first pass start to last pass end p50 {:.3} ms, max {:.3} ms; from one frame's end to the next's start p50 {:.3} ms, min {:.3} ms\n",
-                layers.median, span.median, span.max, between.median, between.min
+        // each part where it was measured (a run of one frame has no time between frames)
+        let mut parts = Vec::new();
+        if let Some(d) = &self.layers_gpu_ms {
+            parts.push(format!("swapchain layers' pass p50 {:.3} ms", d.median));
+        }
+        if let Some(d) = &self.frame_gpu_span_ms {
+            parts.push(format!(
+                "first pass start to last pass end p50 {:.3} ms, max {:.3} ms",
+                d.median, d.max
             ));
+        }
+        if let Some(d) = &self.gpu_between_frames_ms {
+            parts.push(format!(
+                "from one frame's end to the next's start p50 {:.3} ms, min {:.3} ms",
+                d.median, d.min
+            ));
+        }
+        if !parts.is_empty() {
+            s.push_str(&format!("GPU per frame: {}\n", parts.join("; ")));
         }
         s
     }

@@ -20,7 +20,7 @@ use crate::display::post::Draw;
 use crate::display::present::present_pass;
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
-use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
+use crate::gpu::{GpuContext, MemoryLedger, PairSpan};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::probes::ObjectLighting;
 use crate::render::{ObjectsToDraw, Renderer};
@@ -978,21 +978,20 @@ impl Headset<'_, '_> {
         let left_size = self.frame.labels()[0].pixels;
         let (ctx, layers) = (self.ctx, &mut self.layers);
         let mut readback = None;
-        let mut onto_swapchains = |encoder: &mut wgpu::CommandEncoder,
-                                   timestamps: Option<&mut Timestamps>|
-         -> Result<()> {
-            layers.acquire()?;
-            let (colour, depth) = layers.acquired();
-            layers.draw(encoder, (&colour, &depth), timestamps);
-            if capture {
-                let (texture, target) = layers.left();
-                readback = Some(copy_to_buffer(ctx, encoder, texture, left_size));
-                // the runtime expects its image back as a colour attachment: an empty pass
-                // that keeps the image leaves it in that layout
-                drop(present_pass(encoder, &target, wgpu::LoadOp::Load));
-            }
-            Ok(())
-        };
+        let mut onto_swapchains =
+            |encoder: &mut wgpu::CommandEncoder, span: Option<PairSpan<'_>>| -> Result<()> {
+                layers.acquire()?;
+                let (colour, depth) = layers.acquired();
+                layers.draw(encoder, (&colour, &depth), span);
+                if capture {
+                    let (texture, target) = layers.left();
+                    readback = Some(copy_to_buffer(ctx, encoder, texture, left_size));
+                    // the runtime expects its image back as a colour attachment: an empty pass
+                    // that keeps the image leaves it in that layout
+                    drop(present_pass(encoder, &target, wgpu::LoadOp::Load));
+                }
+                Ok(())
+            };
         let last = Some(&mut onto_swapchains as crate::display::frame::LastPasses<'_>);
         let eyes = Poses::Eyes {
             matrices: &matrices,

@@ -337,8 +337,9 @@ pub fn wrap_swapchain_image(
         view_formats: vec![],
     };
     // SAFETY: the image is the runtime's, created on this device with colour-attachment and
-    // transfer-source usage (and transfer-destination where `copy_dst`; depth: depth-attachment) and this size, layer count and format; it outlives the texture (the swapchain
-    // is destroyed after the textures). The drop callback stops wgpu-hal destroying it.
+    // transfer-source usage (and transfer-destination where `copy_dst`; depth: depth-attachment)
+    // and this size, layer count and format; it outlives the texture (the swapchain is destroyed
+    // after the textures). The drop callback stops wgpu-hal destroying it.
     let hal_device = unsafe { ctx.device.as_hal::<Vulkan>() }
         .ok_or_else(|| VlfError::Display("the OpenXR device is not a Vulkan device".into()))?;
     let hal_texture = unsafe {

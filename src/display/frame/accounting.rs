@@ -188,15 +188,15 @@ impl Accounting {
         Ok(())
     }
 
-    /// A finished frame in flight's times (its views', and the moving objects' pass before
-    /// them) to the pacer and the report.
+    /// A finished frame in flight's times (its views', the moving objects' pass before them, the
+    /// swapchain layers' after) to the pacer and the report, and its span on the GPU's clock.
     fn push_done(&mut self, frame: &DoneFrame, pacer: Option<&mut Pacer>) {
         if let Some(p) = pacer {
             pace(p, &frame.ms, &frame.passes);
         }
         self.times.push_gpu(&frame.ms, &frame.passes);
-        if let Some((start, end)) = frame.span_ms {
-            self.times.push_span(start, end);
+        if let Some((start, end)) = frame.span_ticks {
+            self.times.push_span((start, end), frame.tick_ms);
         }
     }
 

@@ -22,12 +22,14 @@ struct Slot {
     passes: Vec<Pass>,
 }
 
-/// A finished frame's GPU times: pair i's milliseconds, and what it timed; and on the GPU's clock
-/// (ms) when its first pass began and its last ended (one queue: its frames' passes are in order).
+/// A finished frame's GPU times: pair i's milliseconds, and what it timed; and the GPU's clock
+/// (ticks of `tick_ms`) when its first pass began and its last ended (one queue: its frames'
+/// passes are in order), for the frame's span and the GPU's time between frames.
 pub struct DoneFrame {
     pub ms: Vec<f64>,
     pub passes: Vec<Pass>,
-    pub span_ms: Option<(f64, f64)>,
+    pub span_ticks: Option<(u64, u64)>,
+    pub tick_ms: f64,
 }
 
 /// GPU timestamps of frames in flight, read back without waiting for the GPU: each frame takes
@@ -45,8 +47,9 @@ pub struct InFlight {
 }
 
 impl InFlight {
-    /// `pairs_per_frame`: the most timestamp pairs one frame writes (its views and the moving
-    /// objects' pass). None where the adapter has no timestamp queries.
+    /// `pairs_per_frame`: the most timestamp pairs one frame writes (its views, the moving
+    /// objects' pass, the headset's swapchain layers). None where the adapter has no timestamp
+    /// queries.
     pub fn new(ctx: &GpuContext, pairs_per_frame: u32, depth: usize) -> Option<InFlight> {
         let slots = (0..depth.max(1))
             .map(|_| {
@@ -146,13 +149,13 @@ impl InFlight {
             if let Ok(bytes) = range.get_mapped_range() {
                 let ticks: &[u64] = bytemuck::cast_slice(&bytes);
                 let period = ctx.timestamp_period_ns as f64 * 1e-6;
-                let span = ticks.first().zip(ticks.last());
                 done.push(DoneFrame {
                     ms: (ticks.chunks(2))
                         .map(|p| p[1].wrapping_sub(p[0]) as f64 * period)
                         .collect(),
                     passes: std::mem::take(&mut slot.passes),
-                    span_ms: span.map(|(&a, &b)| (a as f64 * period, b as f64 * period)),
+                    span_ticks: ticks.first().copied().zip(ticks.last().copied()),
+                    tick_ms: period,
                 });
             }
             slot.readback.unmap();

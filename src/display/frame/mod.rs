@@ -28,7 +28,7 @@ use super::post::{Draw, Outputs, WandOverlay};
 use super::DisplayConfig;
 use crate::dynamic::{Objects, Tracked};
 use crate::error::{Result, VlfError};
-use crate::gpu::{GpuContext, MemoryLedger, Timestamps};
+use crate::gpu::{GpuContext, MemoryLedger, PairSpan, Timestamps};
 use crate::lightfield::{LightField, ResidentLightField};
 use crate::render::budget::{BudgetFit, Pacer, PacerReport, ProbeView, Quality, ViewSettings};
 use crate::render::{Frame, ObjectsToDraw, Renderer, ViewTargets};
@@ -95,9 +95,9 @@ struct Cave<'a> {
 pub type ViewImages = (Frame, Vec<(String, Frame)>);
 
 /// What the frame's last encoder carries besides the views (the headset's swapchain layers),
-/// timed as one pair of the timestamps it is given (`Pass::Output`) when the frame is stamped.
+/// timed by the pair it is given (`Pass::Output`) when the frame is stamped.
 pub type LastPasses<'f> =
-    &'f mut dyn FnMut(&mut wgpu::CommandEncoder, Option<&mut Timestamps>) -> Result<()>;
+    &'f mut dyn FnMut(&mut wgpu::CommandEncoder, Option<PairSpan<'_>>) -> Result<()>;
 
 /// A frame of views: the renderer, the views and their sink, the pacing and the accounting.
 pub struct FrameOfViews<'a> {
@@ -761,10 +761,12 @@ fn last_passes(
     last: Option<LastPasses<'_>>,
 ) -> Result<()> {
     if let Some(last) = last {
-        if acc.stamped() {
+        let span = acc.timestamps().and_then(|t| t.next_span());
+        let timed = span.is_some();
+        last(encoder, span)?;
+        if timed {
             acc.pass(Pass::Output);
         }
-        last(encoder, acc.timestamps())?;
     }
     acc.resolve(encoder);
     Ok(())

@@ -159,7 +159,7 @@ pub struct FrameTimes {
     /// from the frame before's last pass end to its first pass start (the first frame's None)
     gpu_span: Vec<f64>,
     gpu_gap: Vec<Option<f64>>,
-    last_end_ms: Option<f64>,
+    last_end_tick: Option<u64>,
     cpu: Vec<f64>,
 }
 
@@ -173,16 +173,20 @@ impl FrameTimes {
             frame_gpu: Vec::new(),
             gpu_span: Vec::new(),
             gpu_gap: Vec::new(),
-            last_end_ms: None,
+            last_end_tick: None,
             cpu: Vec::new(),
         }
     }
 
-    /// A frame in flight's first pass start and last pass end on the GPU's clock (ms).
-    pub fn push_span(&mut self, start_ms: f64, end_ms: f64) {
-        self.gpu_span.push(end_ms - start_ms);
-        self.gpu_gap.push(self.last_end_ms.map(|e| start_ms - e));
-        self.last_end_ms = Some(end_ms);
+    /// A frame in flight's first pass start and last pass end on the GPU's clock, in ticks of
+    /// `tick_ms` (subtracted as integers: the clock's counts are too large for an f64's ticks).
+    pub fn push_span(&mut self, (start, end): (u64, u64), tick_ms: f64) {
+        self.gpu_span.push(end.wrapping_sub(start) as f64 * tick_ms);
+        (self.gpu_gap).push(
+            self.last_end_tick
+                .map(|e| start.wrapping_sub(e) as i64 as f64 * tick_ms),
+        );
+        self.last_end_tick = Some(end);
     }
 
     /// Per frame in flight, in order: the GPU time from its first pass's start to its last's end,
