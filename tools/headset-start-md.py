@@ -17,6 +17,7 @@ FOLDERS = [
     ("1496ca9-beside-pictures", "the colour by a compute pass; its first three runs beside tools/pictures.sh on the same GPU: not a measure"),
     ("1496ca9", "the colour by a compute pass and a copy (`--layer-colour compute`; one run with `fragment`)"),
     ("872cc80", "the same after render.wgsl's one specular lookup a bounce"),
+    ("d025f1f", "the layers' pair ending after the compute path's copies (one run without depth)"),
 ]
 
 
@@ -93,10 +94,11 @@ def main():
         if paths:
             print(row(folder, what, [json.load(open(p)) for p in paths]))
     with_depth = median_of(reports_of(root, "1496ca9", "compute-run"), "layers_gpu_ms")
-    alone = median_of(reports_of(root, "1496ca9-beside-pictures", "compute-nodepth"), "layers_gpu_ms")
+    alone = median_of(reports_of(root, "d025f1f", "nodepth"), "layers_gpu_ms")
     print(
         f"\nWith the compute pass the layers' pass takes {with_depth:.2f} ms where the runtime takes "
-        f"depth (the depth-only fragment pass is most of it) and {alone:.2f} ms without depth.\n"
+        f"depth (with the depth-only fragment pass) and {alone:.2f} ms without depth (compute passes, "
+        "copies and the empty passes that hand the images back).\n"
     )
 
 
