@@ -946,6 +946,21 @@ fn the_compute_colour_pass_puts_on_the_swapchains_what_the_fragment_pass_does() 
         diff <= 1,
         "compute without depth and fragment differ by up to {diff}"
     );
+    // a runtime whose swapchains take no copies: the fragment pass, and the report says why
+    let refused = still_session("colour-no-copies", &[], &[("VLF_TEST_XR_NO_COPY_DST", "1")]);
+    assert!(
+        eyes(&refused).contains(
+            "; the colour by the fragment pass (the runtime refused swapchains that take copies"
+        ),
+        "{}",
+        refused.report
+    );
+    assert_eq!(refused.report["swapchains"], "array", "{}", refused.report);
+    let diff = max_difference(refused.screenshot.as_ref().unwrap(), reference);
+    assert_eq!(
+        diff, 0,
+        "the fallback and the fragment pass differ by up to {diff}"
+    );
 }
 
 #[test]

@@ -209,6 +209,12 @@ pub(crate) unsafe extern "system" fn create_swapchain(
         return xr::Result::ERROR_FEATURE_UNSUPPORTED;
     }
     let flags = info.usage_flags;
+    // a runtime whose images take no copies (the application's compute colour path falls back)
+    if flags.contains(xr::SwapchainUsageFlags::TRANSFER_DST)
+        && std::env::var_os("VLF_TEST_XR_NO_COPY_DST").is_some()
+    {
+        return xr::Result::ERROR_FEATURE_UNSUPPORTED;
+    }
     let (attachment, other) = if depth {
         (
             xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT,
