@@ -18,6 +18,7 @@ FOLDERS = [
     ("1496ca9", "the colour by a compute pass and a copy (`--layer-colour compute`; one run with `fragment`)"),
     ("872cc80", "the same after render.wgsl's one specular lookup a bounce"),
     ("d025f1f", "the layers' pair ending after the compute path's copies (one run without depth)"),
+    ("load", "the layers' passes load their images instead of clearing them: compute (2 runs), fragment (1 run, now the default)"),
 ]
 
 
@@ -80,7 +81,7 @@ def main():
         f"of slack a frame\" assumed above was {period - median_of(before, 'frame_gpu_span_ms'):.2f} ms: "
         "the pass that puts both eyes on the swapchains (a full-screen fragment pass, untimed until then) "
         f"took {median_of(before, 'layers_gpu_ms'):.1f} ms of each {period:.1f} ms frame on the H200, "
-        "whose graphics units are a small part of the chip, so a frame that starts late (the first after "
+        "most of it clearing the swapchain images first (below), so a frame that starts late (the first after "
         "the frame-time fit always did: xrWaitFrame hands it back at once) left the GPU behind for dozens "
         "of frames.\n"
     )
@@ -95,10 +96,15 @@ def main():
             print(row(folder, what, [json.load(open(p)) for p in paths]))
     with_depth = median_of(reports_of(root, "1496ca9", "compute-run"), "layers_gpu_ms")
     alone = median_of(reports_of(root, "d025f1f", "nodepth"), "layers_gpu_ms")
+    loaded = median_of(reports_of(root, "load", "load-run"), "layers_gpu_ms")
+    fragment = median_of(reports_of(root, "load", "load-fragment"), "layers_gpu_ms")
     print(
-        f"\nWith the compute pass the layers' pass takes {with_depth:.2f} ms where the runtime takes "
+        f"\nWith the compute pass the layers' pass took {with_depth:.2f} ms where the runtime takes "
         f"depth (with the depth-only fragment pass) and {alone:.2f} ms without depth (compute passes, "
-        "copies and the empty passes that hand the images back).\n"
+        "copies and the empty passes that hand the images back). Most of the fragment pass's cost was "
+        f"clearing its images first: loading them instead, the fragment pass with the depth takes "
+        f"{fragment:.2f} ms and the compute path {loaded:.2f} ms, so the fragment pass is the default "
+        "again.\n"
     )
 
 

@@ -25,8 +25,9 @@ pub(super) fn layer_pass(
                 view,
                 depth_slice: None,
                 resolve_target: None,
+                // the triangle covers every pixel: nothing to clear first
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    load: wgpu::LoadOp::Load,
                     store: wgpu::StoreOp::Store,
                 },
             })
@@ -39,7 +40,7 @@ pub(super) fn layer_pass(
             wgpu::RenderPassDepthStencilAttachment {
                 view,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
+                    load: wgpu::LoadOp::Load,
                     store: wgpu::StoreOp::Store,
                 }),
                 stencil_ops: None,

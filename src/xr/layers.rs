@@ -4,9 +4,9 @@
 //! otherwise, or with `--swapchains per-eye`, a swapchain per eye. With
 //! XR_KHR_composition_layer_depth, a depth swapchain of the same shape takes the renderer's
 //! depth (written as each fragment's depth by the same pass) and is chained into each projection
-//! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject. On 8-bit RGBA swapchains
-//! the colour goes on by a compute pass and a copy (`colour_pass.rs`), and the fragment pass, if
-//! the runtime takes depth, writes the depth alone.
+//! view (XrCompositionLayerDepthInfoKHR), so the runtime can reproject. With `--layer-colour
+//! compute`, on 8-bit RGBA swapchains the colour goes on by a compute pass and a copy
+//! (`colour_pass.rs`), and the fragment pass, if the runtime takes depth, writes the depth alone.
 
 use super::colour_pass::{copies_onto, ComputeColour, LayerColour};
 use super::eye_pass::{bind_group, layer_pass, layer_view, pipeline};
