@@ -485,7 +485,6 @@ impl GpuContext {
     }
 }
 
-/// Pairs of GPU timestamps around passes, resolved to milliseconds.
 /// One timestamp pair spanning several passes: its beginning written by the first, its end by the
 /// last, nothing by those between.
 #[derive(Clone, Copy)]
@@ -524,6 +523,7 @@ impl<'q> PairSpan<'q> {
     }
 }
 
+/// Pairs of GPU timestamps around passes, resolved to milliseconds.
 pub struct Timestamps {
     pub query_set: wgpu::QuerySet,
     resolve: wgpu::Buffer,

@@ -107,16 +107,7 @@ impl ComputeColour {
         for (k, ((_, image), &(target, layer))) in self.eyes.iter().zip(targets).enumerate() {
             encoder.copy_texture_to_texture(
                 image.as_image_copy(),
-                wgpu::TexelCopyTextureInfo {
-                    texture: target,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: 0,
-                        y: 0,
-                        z: layer,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
+                super::eye_pass::layer_copy(target, layer),
                 image.size(),
             );
             let writes = span.and_then(|(s, last)| s.render(computed + k, last));

@@ -55,6 +55,21 @@ pub(super) fn layer_pass(
     pass.draw(0..3, 0..1);
 }
 
+/// Layer `layer` of `texture` (its first mip, from its corner) as a copy's source or
+/// destination.
+pub(super) fn layer_copy(texture: &wgpu::Texture, layer: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+    wgpu::TexelCopyTextureInfo {
+        texture,
+        mip_level: 0,
+        origin: wgpu::Origin3d {
+            x: 0,
+            y: 0,
+            z: layer,
+        },
+        aspect: wgpu::TextureAspect::All,
+    }
+}
+
 /// All of the views of a multiview pass.
 fn all_views(eyes: u32) -> NonZeroU32 {
     NonZeroU32::new((1u32 << eyes) - 1).unwrap_or(NonZeroU32::MIN)

@@ -163,16 +163,7 @@ fn copy_layer(
     (buffer, offset, row): (&wgpu::Buffer, u64, u32),
 ) {
     encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d {
-                x: 0,
-                y: 0,
-                z: layer,
-            },
-            aspect: wgpu::TextureAspect::All,
-        },
+        super::eye_pass::layer_copy(texture, layer),
         wgpu::TexelCopyBufferInfo {
             buffer,
             layout: wgpu::TexelCopyBufferLayout {

@@ -332,8 +332,9 @@ struct LoopState {
 /// periods, so xrWaitFrame hands back the frame after it at once, wherever the refresh is: drawn,
 /// its GPU work would start up to a period behind the runtime's rhythm, and with the eyes filling
 /// most of a period the frames after it would stay behind for dozens of frames (on an H200 the
-/// glossy classroom's GPU frame is 10.96 ms of 11.11: late frames drained 0.15 ms a frame,
-/// 5-43 of them shown late in 10 of 11 runs). The frame after an empty one is paced by the runtime;
+/// glossy classroom's GPU frame was 10.96 ms of 11.11 while the layers' pass still cleared its
+/// images: late frames drained 0.15 ms a frame, 5-43 of them shown late in 10 of 11 runs; it is
+/// 9.70 ms now). The frame after an empty one is paced by the runtime;
 /// a second one covers runtimes that hand back two frames at once after a stall.
 const FRAMES_AFTER_FIT: u32 = 2;
 
@@ -802,6 +803,11 @@ impl Headset<'_, '_> {
             tracked,
         };
         (self.frame).fit_frame_time(eyes, period_ms)?;
+        self.end_empty(frame_state)
+    }
+
+    /// End the frame begun for `frame_state` with no layers: the runtime shows nothing new.
+    fn end_empty(&mut self, frame_state: &xr::FrameState) -> Result<()> {
         self.frame_stream
             .end(frame_state.predicted_display_time, self.setup.blend, &[])
             .map_err(xr_error("xrEndFrame"))
@@ -828,17 +834,11 @@ impl Headset<'_, '_> {
             .map_err(xr_error("xrBeginFrame"))?;
         if !frame_state.should_render {
             st.skipped += 1;
-            self.frame_stream
-                .end(frame_state.predicted_display_time, self.setup.blend, &[])
-                .map_err(xr_error("xrEndFrame"))?;
-            return Ok(());
+            return self.end_empty(&frame_state);
         }
         if st.empty_frames_left > 0 {
             st.empty_frames_left -= 1;
-            return self
-                .frame_stream
-                .end(frame_state.predicted_display_time, self.setup.blend, &[])
-                .map_err(xr_error("xrEndFrame"));
+            return self.end_empty(&frame_state);
         }
         // what the script sent takes effect from this frame
         self.study.begin_frame();
