@@ -52,6 +52,9 @@ const SURFACE_TEXTURES: u32 = 1u;
 const RASTER_FIRST_HITS: u32 = 0u;
 // 1: some face has a normal map (in the texture detail; src/render/mod.rs sets 0 without one)
 const NORMAL_MAPS: u32 = 1u;
+// 1: the light field has mirror tiles, which end chains of reflections (pair_mixed); 0: it has
+// none (pair_diffuse; src/render/mod.rs sets it)
+const TILES: u32 = 1u;
 
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> faces: array<Face>;
@@ -69,6 +72,59 @@ const NORMAL_MAPS: u32 = 1u;
 // raster first hits: per MSAA sample, the triangle its eye ray meets first plus one (0: none),
 // in two 16-bit halves (visibility_raster.wgsl); a placeholder that is never read without them
 @group(0) @binding(8) var visibility: texture_multisampled_2d<u32>;
+// edge antialiasing (view.edge_samples > 0): each pixel's first pass, the pixels find_edges
+// picks and the refine pass's workgroups (one buffer: the stage is at the 32 storage buffers
+// some adapters allow)
+@group(0) @binding(9) var<storage, read_write> edges: EdgeBuffer;
+
+// A pixel as the first pass of edge antialiasing leaves it.
+struct EdgePixel {
+    colour: vec3<f32>,
+    // edge_signature of its first eye ray, | EDGE_MIXED where its eye rays met different things
+    signature: u32,
+}
+
+// Edge antialiasing's buffer: the refine pass's workgroups (x, y, z: the arguments of
+// dispatch_workgroups_indirect, written by edge_dispatch), how many pixels it refines, then in
+// `words` every pixel's EdgePixel row by row (4 words each: edge_pixel) and after them the
+// pixels it refines (x | y << 16: edge_listed).
+struct EdgeBuffer {
+    x: u32,
+    y: u32,
+    z: u32,
+    count: atomic<u32>,
+    words: array<u32>,
+}
+
+// Pixel `i`'s first pass (row by row).
+fn edge_pixel(i: u32) -> EdgePixel {
+    let w = 4u * i;
+    let colour = vec3<f32>(bitcast<f32>(edges.words[w]), bitcast<f32>(edges.words[w + 1u]), bitcast<f32>(edges.words[w + 2u]));
+    return EdgePixel(colour, edges.words[w + 3u]);
+}
+
+fn store_edge_pixel(i: u32, p: EdgePixel) {
+    let w = 4u * i;
+    edges.words[w] = bitcast<u32>(p.colour.x);
+    edges.words[w + 1u] = bitcast<u32>(p.colour.y);
+    edges.words[w + 2u] = bitcast<u32>(p.colour.z);
+    edges.words[w + 3u] = p.signature;
+}
+
+// Where entry `j` of the list of refined pixels is in `words`, for a view of `size`.
+fn edge_listed(j: u32, size: vec2<u32>) -> u32 {
+    return 4u * size.x * size.y + j;
+}
+
+// EdgePixel.signature: a pixel's eye rays met more than one thing.
+const EDGE_MIXED: u32 = 0x80000000u;
+// edge_signature of an eye ray that meets no face (the sky, or nothing)
+const SIGNATURE_SKY: u32 = 0x7fffffffu;
+// edge_signature of an eye ray that meets a moving object or an absorbing back
+const SIGNATURE_OTHER: u32 = 0x7ffffffeu;
+// refine's workgroup size, and the most workgroups one indirect dispatch may have
+const REFINE_GROUP: u32 = 64u;
+const MAX_GROUPS: u32 = 65535u;
 
 // The view's clip depth of `point`, the first point an eye ray from `origin` meets: 1 (far)
 // where it meets nothing (cast_ray leaves such a ray's stand-in point at its origin).
@@ -337,7 +393,24 @@ fn sample_position(k: u32, n: u32) -> vec2<f32> {
     if view.msaa_samples > 0u {
         return MSAA_POSITIONS[view.msaa_samples - 1u + msaa_sample(k)];
     }
+    if view.edge_samples > 0u {
+        return progressive_position(k);
+    }
     return sample_offset(k, n);
+}
+
+// Sample k of the 2D Sobol sequence shifted by half a pixel: every prefix of 2^m samples is a
+// (0, m, 2)-net in base 2 (a shift by 1/2 maps elementary boxes onto elementary boxes), so a
+// pixel's first eye ray goes through its centre and the eye rays edge antialiasing adds to an
+// edge pixel complete a well spread set of view.edge_samples.
+fn progressive_position(k: u32) -> vec2<f32> {
+    var v = 0x80000000u;
+    var y = 0u;
+    for (var i = k; i != 0u; i >>= 1u) {
+        y ^= select(0u, v, (i & 1u) != 0u);
+        v ^= v >> 1u;
+    }
+    return fract(vec2<f32>(unit_float(reverseBits(k)), unit_float(y)) + 0.5);
 }
 
 // Eye rays per pixel of the 8x8 tile `tile`: samples_per_pixel, or paced_samples for the share
@@ -377,6 +450,16 @@ fn first_hit(pixel: vec2<u32>, k: u32, n: u32, size: vec2<u32>) -> EyeHit {
     return EyeHit(r[0], r[1], hit_surface(hit, r[0], r[1]));
 }
 
+// What an eye ray meets, for finding edges: the face (each side of a two-sided surface its own),
+// SIGNATURE_SKY where it meets no face, SIGNATURE_OTHER where it meets a moving object or an
+// absorbing back (their detail is left to the colour test).
+fn edge_signature(h: EyeHit) -> u32 {
+    if h.surface.seen > 0.0 {
+        return h.surface.face;
+    }
+    return select(SIGNATURE_OTHER, SIGNATURE_SKY, all(h.surface.point == h.origin));
+}
+
 // Whether a pair of eye rays traces its reflection chain: always with view.fixed_work (every
 // pixel the same work, a pixel that sees no mirror tracing a stand-in times zero), else only
 // where one of them meets a mirror (frame pacing holds the time instead, render/budget.rs).
@@ -384,67 +467,130 @@ fn reflection_traced(mirror: vec3<f32>) -> bool {
     return view.fixed_work != 0u || max(mirror.x, max(mirror.y, mirror.z)) > 0.0;
 }
 
+// What a pair of eye rays (k and k + 1 of a pixel's n; the second weighted 0 past n) adds to
+// the pixel's sum, the nearest clip depth they meet, and the signatures of what each meets
+// (edge_signature).
+struct PairLight {
+    radiance: vec3<f32>,
+    depth: f32,
+    signatures: vec2<u32>,
+}
+
+// Which chains of a glossy lobe pair `k` of a pixel traces: the pair's place among the pixel's
+// `pairs` pairs that draw from one stratified set (a refined pixel's added pairs draw from a
+// set of their own: they start at `first`).
+struct LobeSet {
+    first: u32,
+    pairs: u32,
+}
+
 // Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
 // from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
 // a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
 // reflections per pixel (the reflection is what a mirror makes expensive).
-@compute @workgroup_size(8, 8)
-fn resolve_diffuse(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>) {
+fn pair_diffuse(pixel: vec2<u32>, k: u32, n: u32, lobes: LobeSet) -> PairLight {
     let size = textureDimensions(image);
-    if gid.x >= size.x || gid.y >= size.y {
-        return;
+    // an odd count's last pair repeats its ray with weight 0
+    let w1 = select(0.0, 1.0, k + 1u < n);
+    let h0 = first_hit(pixel, k, n, size);
+    // an odd count's last pair has one eye ray: h1 is h0 (no second cast: 1 eye ray per
+    // pixel costs one cast and one reflection, not two casts)
+    var h1 = h0;
+    if k + 1u < n {
+        h1 = first_hit(pixel, k + 1u, n, size);
     }
-    let n = tile_samples(tile.xy);
-    var sum = vec3<f32>(0.0);
-    var depth = 1.0;
-    for (var k = 0u; k < n; k += 2u) {
-        // an odd count's last pair repeats its ray with weight 0
-        let w1 = select(0.0, 1.0, k + 1u < n);
-        let h0 = first_hit(gid.xy, k, n, size);
-        // an odd count's last pair has one eye ray: h1 is h0 (no second cast: 1 eye ray per
-        // pixel costs one cast and one reflection, not two casts)
-        var h1 = h0;
-        if k + 1u < n {
-            h1 = first_hit(gid.xy, k + 1u, n, size);
+    let s0 = h0.surface;
+    let s1 = h1.surface;
+    var out = PairLight(vec3<f32>(0.0), min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)), vec2<u32>(edge_signature(h0), edge_signature(h1)));
+    let f0 = faces[s0.face];
+    let f1 = faces[s1.face];
+    let sp0 = specular_at(f0, s0);
+    let sp1 = specular_at(f1, s1);
+    let m0 = sp0.xyz * s0.seen;
+    let m1 = sp1.xyz * s1.seen * w1;
+    let shown = pair_shown(s0, f0, s1, f1, hash(pixel.x ^ hash(pixel.y ^ hash(k))));
+    out.radiance = shown[0] + shown[1] * w1;
+    if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
+        let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+        var s = s0;
+        if use_second {
+            s = s1;
         }
-        let s0 = h0.surface;
-        let s1 = h1.surface;
-        depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
-        let f0 = faces[s0.face];
-        let f1 = faces[s1.face];
-        let sp0 = specular_at(f0, s0);
-        let sp1 = specular_at(f1, s1);
-        let m0 = sp0.xyz * s0.seen;
-        let m1 = sp1.xyz * s1.seen * w1;
-        let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
-        sum += shown[0];
-        sum += shown[1] * w1;
-        if view.mirror_bounces > 0u && reflection_traced(m0 + m1) {
-            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
-            var s = s0;
-            if use_second {
-                s = s1;
-            }
-            let ray = select(h0.ray, h1.ray, use_second);
-            let chains = chains_of(s);
-            var reflected = vec3<f32>(0.0);
-            for (var j = 0u; j < chains; j++) {
-                let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
-                reflected += mirror_chain(s, ray, select(sp0.w, sp1.w, use_second), u).radiance;
-            }
-            sum += (m0 + m1) * reflected / f32(chains);
+        let ray = select(h0.ray, h1.ray, use_second);
+        let chains = chains_of(s);
+        var reflected = vec3<f32>(0.0);
+        for (var j = 0u; j < chains; j++) {
+            let u = lobe_sample(pixel, ((k - lobes.first) / 2u) * chains + j, lobes.pairs * chains);
+            reflected += mirror_chain(s, ray, select(sp0.w, sp1.w, use_second), u).radiance;
         }
+        out.radiance += (m0 + m1) * reflected / f32(chains);
     }
-    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
-    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
+    return out;
 }
 
-// With tiles (mirrors facing each other) eye rays go in pairs as in resolve_diffuse: the pair's
+// With tiles (mirrors facing each other) eye rays go in pairs as in pair_diffuse: the pair's
 // chain of view.mirror_bounces reflections, from the ray that meets more mirror, is shared by
 // both and ends in the tiles of the last surface: n eye rays, n/2 chains and n/2 tile lookups
 // per pixel.
+fn pair_mixed(pixel: vec2<u32>, k: u32, n: u32, lobes: LobeSet) -> PairLight {
+    let size = textureDimensions(image);
+    let w1 = select(0.0, 1.0, k + 1u < n);
+    let h0 = first_hit(pixel, k, n, size);
+    var h1 = h0;
+    if k + 1u < n {
+        h1 = first_hit(pixel, k + 1u, n, size);
+    }
+    let s0 = h0.surface;
+    let s1 = h1.surface;
+    var out = PairLight(vec3<f32>(0.0), min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)), vec2<u32>(edge_signature(h0), edge_signature(h1)));
+    let f0 = faces[s0.face];
+    let f1 = faces[s1.face];
+    let sp0 = specular_at(f0, s0);
+    let sp1 = specular_at(f1, s1);
+    let m0 = sp0.xyz * s0.seen;
+    let m1 = sp1.xyz * s1.seen * w1;
+    let shown = pair_shown(s0, f0, s1, f1, hash(pixel.x ^ hash(pixel.y ^ hash(k))));
+    out.radiance = shown[0] + shown[1] * w1;
+    if reflection_traced(m0 + m1) {
+        let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
+        var s = s0;
+        if use_second {
+            s = s1;
+        }
+        // the tiles hold the radiance the mirror reflects toward where the ray came from (its
+        // reflectance included): with no reflection traced they weigh by the eye rays that meet
+        // a mirror, after one or more by the mirrors' reflectance along the chain
+        let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
+        let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
+        let chains = chains_of(s);
+        var reflected = vec3<f32>(0.0);
+        for (var j = 0u; j < chains; j++) {
+            let u = lobe_sample(pixel, ((k - lobes.first) / 2u) * chains + j, lobes.pairs * chains);
+            let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), select(sp0.w, sp1.w, use_second), u);
+            let f = faces[chain.face];
+            // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
+            let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
+            let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
+            reflected += chain.radiance + carried * tile_radiance_leaving(f, slot, chain.point, -chain.ray);
+        }
+        out.radiance += weight * reflected / f32(chains);
+    }
+    return out;
+}
+
+// Eye-ray pair k of n of `pixel`, drawn the light field's way (TILES: with its mirror tiles).
+fn pair_light(pixel: vec2<u32>, k: u32, n: u32, lobes: LobeSet) -> PairLight {
+    if TILES != 0u {
+        return pair_mixed(pixel, k, n, lobes);
+    }
+    return pair_diffuse(pixel, k, n, lobes);
+}
+
+// One thread per pixel: its tile's eye rays, in pairs. With edge antialiasing
+// (view.edge_samples above them) the pixel also leaves its average and what its eye rays met
+// for find_edges.
 @compute @workgroup_size(8, 8)
-fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>) {
+fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id) tile: vec3<u32>) {
     let size = textureDimensions(image);
     if gid.x >= size.x || gid.y >= size.y {
         return;
@@ -452,50 +598,103 @@ fn resolve_mixed(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgro
     let n = tile_samples(tile.xy);
     var sum = vec3<f32>(0.0);
     var depth = 1.0;
+    var signature = 0u;
+    var mixed = 0u;
     for (var k = 0u; k < n; k += 2u) {
-        let w1 = select(0.0, 1.0, k + 1u < n);
-        let h0 = first_hit(gid.xy, k, n, size);
-        var h1 = h0;
-        if k + 1u < n {
-            h1 = first_hit(gid.xy, k + 1u, n, size);
+        let pair = pair_light(gid.xy, k, n, LobeSet(0u, (n + 1u) / 2u));
+        sum += pair.radiance;
+        depth = min(depth, pair.depth);
+        if k == 0u {
+            signature = pair.signatures.x;
         }
-        let s0 = h0.surface;
-        let s1 = h1.surface;
-        depth = min(depth, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)));
-        let f0 = faces[s0.face];
-        let f1 = faces[s1.face];
-        let sp0 = specular_at(f0, s0);
-        let sp1 = specular_at(f1, s1);
-        let m0 = sp0.xyz * s0.seen;
-        let m1 = sp1.xyz * s1.seen * w1;
-        let shown = pair_shown(s0, f0, s1, f1, hash(gid.x ^ hash(gid.y ^ hash(k))));
-        sum += shown[0];
-        sum += shown[1] * w1;
-        if reflection_traced(m0 + m1) {
-            let use_second = max(m1.x, max(m1.y, m1.z)) > max(m0.x, max(m0.y, m0.z));
-            var s = s0;
-            if use_second {
-                s = s1;
+        mixed |= select(0u, EDGE_MIXED, any(pair.signatures != vec2<u32>(signature)));
+    }
+    signature |= mixed;
+    let colour = sum / f32(n);
+    textureStore(image, gid.xy, vec4<f32>(colour, 1.0));
+    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
+    if view.edge_samples > n {
+        store_edge_pixel(gid.y * size.x + gid.x, EdgePixel(colour, signature));
+    }
+}
+
+// Whether pixel q's first pass differs from pixel p's enough to call p an edge: they met
+// different things, or their luminances differ by more than view.edge_contrast of the larger.
+fn differs(p: EdgePixel, q: EdgePixel) -> bool {
+    if (p.signature & ~EDGE_MIXED) != (q.signature & ~EDGE_MIXED) {
+        return true;
+    }
+    let weights = vec3<f32>(0.2126, 0.7152, 0.0722);
+    let a = dot(p.colour, weights);
+    let b = dot(q.colour, weights);
+    return abs(a - b) > view.edge_contrast * max(a, b) + 1e-6;
+}
+
+var<workgroup> tile_edges: atomic<u32>;
+var<workgroup> tile_first: u32;
+
+// The pixels edge antialiasing refines: those whose eye rays met more than one thing, or whose
+// 3x3 neighbourhood differs from them (differs). Each tile appends its pixels with one global
+// atomic (the list stays in tile order, near pixels together).
+@compute @workgroup_size(8, 8)
+fn find_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lane: u32, @builtin(workgroup_id) tile: vec3<u32>) {
+    let size = textureDimensions(image);
+    var edge = false;
+    if gid.x < size.x && gid.y < size.y && view.edge_samples > tile_samples(tile.xy) {
+        let me = edge_pixel(gid.y * size.x + gid.x);
+        edge = (me.signature & EDGE_MIXED) != 0u;
+        let low = max(vec2<i32>(gid.xy) - 1, vec2<i32>(0));
+        let high = min(vec2<i32>(gid.xy) + 1, vec2<i32>(size) - 1);
+        for (var y = low.y; y <= high.y; y++) {
+            for (var x = low.x; x <= high.x; x++) {
+                edge = edge || differs(me, edge_pixel(u32(y) * size.x + u32(x)));
             }
-            // the tiles hold the radiance the mirror reflects toward where the ray came from (its
-            // reflectance included): with no reflection traced they weigh by the eye rays that meet
-            // a mirror, after one or more by the mirrors' reflectance along the chain
-            let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
-            let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
-            let chains = chains_of(s);
-            var reflected = vec3<f32>(0.0);
-            for (var j = 0u; j < chains; j++) {
-                let u = lobe_sample(gid.xy, (k / 2u) * chains + j, ((n + 1u) / 2u) * chains);
-                let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), select(sp0.w, sp1.w, use_second), u);
-                let f = faces[chain.face];
-                // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
-                let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);
-                let slot = select(f.tile_slot, 0u, f.tile_slot == NO_FACE);
-                reflected += chain.radiance + carried * tile_radiance_leaving(f, slot, chain.point, -chain.ray);
-            }
-            sum += weight * reflected / f32(chains);
         }
     }
-    textureStore(image, gid.xy, vec4<f32>(sum / f32(n), 1.0));
-    textureStore(depth_image, gid.xy, vec4<f32>(depth, 0.0, 0.0, 0.0));
+    var slot = 0u;
+    if edge {
+        slot = atomicAdd(&tile_edges, 1u);
+    }
+    workgroupBarrier();
+    if lane == 0u {
+        let count = atomicLoad(&tile_edges);
+        if count > 0u {
+            tile_first = atomicAdd(&edges.count, count);
+        }
+    }
+    let first = workgroupUniformLoad(&tile_first);
+    if edge {
+        edges.words[edge_listed(first + slot, size)] = gid.x | (gid.y << 16u);
+    }
+}
+
+// The refine pass's workgroups for the pixels find_edges picked (one thread).
+@compute @workgroup_size(1)
+fn edge_dispatch() {
+    let count = atomicLoad(&edges.count);
+    edges.x = min((count + REFINE_GROUP - 1u) / REFINE_GROUP, MAX_GROUPS);
+    edges.y = 1u;
+    edges.z = 1u;
+}
+
+// Edge antialiasing's second pass: each picked pixel adds eye rays up to view.edge_samples (the
+// next of the same progressive set, in pairs of their own) to the average its first eye rays
+// left. Threads step through the list by the whole dispatch, which may hold fewer workgroups
+// than the list needs.
+@compute @workgroup_size(64)
+fn refine(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let size = textureDimensions(image);
+    let count = atomicLoad(&edges.count);
+    let total = view.edge_samples;
+    for (var i = gid.x; i < count; i += MAX_GROUPS * REFINE_GROUP) {
+        let packed = edges.words[edge_listed(i, size)];
+        let pixel = vec2<u32>(packed & 0xffffu, packed >> 16u);
+        let n = tile_samples(pixel / 8u);
+        var sum = edge_pixel(pixel.y * size.x + pixel.x).colour * f32(n);
+        let lobes = LobeSet(n, (total - n + 1u) / 2u);
+        for (var k = n; k < total; k += 2u) {
+            sum += pair_light(pixel, k, total, lobes).radiance;
+        }
+        textureStore(image, pixel, vec4<f32>(sum / f32(total), 1.0));
+    }
 }

@@ -62,7 +62,8 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
         mirrored!(GpuView => "View" in "render.wgsl" {
             view_proj, inv_view_proj, eye, samples_per_pixel, mirror_bounces, paced_samples,
             paced_fraction, fixed_work, exhaustive_triangles, moving_root, moving_first, moving_flags,
-            msaa_samples, lobe_samples, glossy_light_samples, _pad2
+            msaa_samples, lobe_samples, glossy_light_samples, edge_samples, edge_contrast,
+            _pad3, _pad4, _pad5
         }),
         mirrored!(GpuField => "Field" in "render.wgsl" {
             sky, cell_size, atlas_width, geodesic_frequency, tile_size, tile_face_count,

@@ -16,6 +16,7 @@ mod config;
 mod cutouts;
 mod displays;
 mod docs;
+mod edges;
 mod extremes;
 mod glossy;
 mod gltf;

@@ -133,7 +133,15 @@ struct View {
     // shadow rays to the emitters per chain's first glossy reflection (render.wgsl,
     // glossy_emitter_light; 0: the lobe's sampled rays alone)
     glossy_light_samples: u32,
-    _pad2: u32,
+    // edge antialiasing (render.wgsl, find_edges and refine): 0 off; else the eye rays per pixel
+    // of the pixels that differ from a neighbour, all on one progressive set whose first ray
+    // goes through the pixel's centre
+    edge_samples: u32,
+    // the relative difference in luminance from a neighbour that makes a pixel an edge
+    edge_contrast: f32,
+    _pad3: u32,
+    _pad4: u32,
+    _pad5: u32,
 }
 
 // mirrors gpu::types::GpuField: the layout of the light field a stage reads and the scene's

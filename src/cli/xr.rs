@@ -46,6 +46,14 @@ pub struct XrArgs {
     /// adapter takes, 4 on every one)
     #[arg(long, default_value = "rays")]
     first_hits: vlf::render::raster::FirstHits,
+    /// Edge antialiasing: pixels that differ from a neighbour (another face, or a luminance
+    /// step over --edge-contrast) take N eye rays, the others --aa. Left out: --aa everywhere
+    #[arg(long)]
+    edge_samples: Option<u32>,
+    /// Edge antialiasing: the relative difference in luminance from a neighbour that makes a
+    /// pixel an edge
+    #[arg(long, default_value_t = vlf::render::edges::DEFAULT_EDGE_CONTRAST)]
+    edge_contrast: f32,
     /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
     /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
     #[arg(long, value_enum, default_value = "auto")]
@@ -98,6 +106,8 @@ pub fn run(a: XrArgs) -> Result<()> {
         aa,
         fit_frame_time,
         first_hits,
+        edge_samples,
+        edge_contrast,
         swapchains,
         layer_colour,
         objects,
@@ -118,6 +128,15 @@ pub fn run(a: XrArgs) -> Result<()> {
         antialiasing: aa,
         fit_frame_time,
         first_hits,
+        edge_antialiasing: edge_samples
+            .map(|n| {
+                vlf::render::edges::EdgeAntialiasing::new(
+                    n,
+                    edge_contrast,
+                    vlf::render::MAX_SAMPLES,
+                )
+            })
+            .transpose()?,
         swapchains,
         layer_colour,
         objects,

@@ -65,6 +65,11 @@ pub struct DisplayConfig {
         skip_serializing_if = "crate::render::raster::FirstHits::is_rays"
     )]
     pub first_hits: crate::render::raster::FirstHits,
+    /// edge antialiasing (`render/edges.rs`): pixels that differ from a neighbour (another face,
+    /// a step in luminance over `contrast`) take `samples` eye rays, the others `antialiasing`;
+    /// e.g. `edge_antialiasing = { samples = 8 }` with `antialiasing = 1`
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_antialiasing: Option<crate::render::edges::EdgeAntialiasing>,
     /// the tracked wand's ray, drawn on every wall (`post.rs`)
     #[serde(default)]
     pub wand_ray: post::WandRay,

@@ -162,7 +162,15 @@ pub struct GpuView {
     /// shadow rays to the emitters per chain's first glossy reflection (0: the lobe's sampled
     /// rays alone)
     pub glossy_light_samples: u32,
-    pub _pad2: u32,
+    /// edge antialiasing (`render::edges`): 0 off; else the eye rays per pixel of the pixels
+    /// that differ from a neighbour, on one progressive set whose first ray is the pixel's
+    /// centre
+    pub edge_samples: u32,
+    /// the relative difference in luminance from a neighbour that makes a pixel an edge
+    pub edge_contrast: f32,
+    pub _pad3: u32,
+    pub _pad4: u32,
+    pub _pad5: u32,
 }
 
 /// `GpuView::moving_flags`: the moving objects take direct light from the scene (their shadows).

@@ -62,6 +62,13 @@ pub struct Quality {
     /// how eye rays find their first hits (left out of reports: rays)
     #[serde(skip_serializing_if = "super::raster::FirstHits::is_rays")]
     pub first_hits: super::raster::FirstHits,
+    /// edge antialiasing's eye rays per edge pixel (left out of reports: 0, off)
+    #[serde(skip_serializing_if = "is_zero")]
+    pub edge_samples: u32,
+}
+
+fn is_zero(n: &u32) -> bool {
+    *n == 0
 }
 
 impl std::fmt::Display for Quality {
@@ -77,6 +84,9 @@ impl std::fmt::Display for Quality {
                 f,
                 "{n} to {paced} eye rays per pixel (paced by tile), {b} mirror reflection(s)"
             )?,
+        }
+        if self.edge_samples > 0 {
+            write!(f, ", {} at edges", self.edge_samples)?;
         }
         match self.first_hits {
             super::raster::FirstHits::Rays => Ok(()),
@@ -161,6 +171,7 @@ impl Renderer {
                 paced_eye_rays_per_pixel: p.max_samples,
                 mirror_bounces: self.view_template.mirror_bounces,
                 first_hits: self.first_hits(),
+                edge_samples: self.view_template.edge_samples,
             },
             None => self.quality(),
         }
@@ -181,6 +192,7 @@ impl Renderer {
             paced_eye_rays_per_pixel: self.view_template.paced_samples,
             mirror_bounces: self.view_template.mirror_bounces,
             first_hits: self.first_hits(),
+            edge_samples: self.view_template.edge_samples,
         }
     }
 

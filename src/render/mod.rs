@@ -3,6 +3,7 @@
 //! written as EXR or tonemapped PNG by `image_io.rs`.
 
 pub mod budget;
+pub mod edges;
 pub mod image_io;
 pub mod moving;
 pub mod moving_light;
@@ -106,6 +107,8 @@ pub struct ViewTargets {
     pub depth_view: wgpu::TextureView,
     /// with raster first hits, the visibility buffer the view's eye rays read
     raster: Option<raster::RasterTargets>,
+    /// with edge antialiasing, its first pass and list of edge pixels
+    edges: Option<edges::EdgeTargets>,
     /// the resolve's view group for each of the renderer's light fields (their faces and
     /// materials), made by the renderer `owner`
     resolve_bind_groups: Vec<wgpu::BindGroup>,
@@ -133,6 +136,10 @@ pub struct Renderer {
     raster: Option<raster::RasterPass>,
     /// the visibility binding of views drawn by ray casting (never read)
     placeholder_visibility: wgpu::TextureView,
+    /// edge antialiasing's settings and dispatches (none: off)
+    edges: Option<(edges::EdgeAntialiasing, edges::EdgePass)>,
+    /// its bindings for views drawn without it (never read)
+    placeholder_edges: edges::EdgeTargets,
     /// the scene's triangles and the moving objects' after them
     triangle_count: u32,
     view_buffer: wgpu::Buffer,
@@ -326,6 +333,8 @@ impl Renderer {
             variant,
             raster: None,
             placeholder_visibility: raster::placeholder_visibility(device),
+            edges: None,
+            placeholder_edges: edges::EdgeTargets::placeholder(device),
             triangle_count,
             resolve_layout: layouts.view,
             field_layout: layouts.field,
@@ -580,6 +589,15 @@ impl Renderer {
         self.target = None;
         self.raster = None;
         self.view_template.msaa_samples = 0;
+        if hits == raster::FirstHits::Raster && self.edges.is_some() {
+            return Err(VlfError::Parameter {
+                name: "first_hits",
+                message: "raster first hits read a fixed number of MSAA samples per pixel, and \
+                          edge antialiasing adds eye rays where it finds edges: use \"rays\" \
+                          with edge antialiasing (edge_samples), or leave it out"
+                    .into(),
+            });
+        }
         if hits == raster::FirstHits::Raster && self.variant.cutouts {
             return Err(VlfError::Parameter {
                 name: "first_hits",
@@ -621,7 +639,10 @@ impl Renderer {
     /// Hammersley set), as raster first hits have them: the two ways compared sample by sample
     /// (tests/raster.rs). Ray casting only.
     pub fn set_msaa_sample_positions(&mut self, samples: u32) -> Result<()> {
-        if ![0, 1, 2, 4, 8, 16].contains(&samples) || self.raster.is_some() {
+        if ![0, 1, 2, 4, 8, 16].contains(&samples)
+            || self.raster.is_some()
+            || (samples > 0 && self.edges.is_some())
+        {
             return Err(VlfError::Parameter {
                 name: "first_hits",
                 message: format!(
@@ -631,6 +652,52 @@ impl Renderer {
         }
         self.view_template.msaa_samples = samples;
         Ok(())
+    }
+
+    /// Edge antialiasing (`edges.rs`; None: off): pixels that differ from a neighbour take
+    /// `samples` eye rays, the others the view's own count, all on one progressive set whose
+    /// first ray goes through the pixel's centre. Set it before making view targets (those made
+    /// before have no buffers for it and are drawn without it); ray-cast first hits only.
+    pub fn set_edge_antialiasing(&mut self, edge: Option<edges::EdgeAntialiasing>) -> Result<()> {
+        self.target = None;
+        let Some(edge) = edge else {
+            self.edges = None;
+            self.view_template.edge_samples = 0;
+            return Ok(());
+        };
+        let edge = edges::EdgeAntialiasing::new(edge.samples, edge.contrast, MAX_SAMPLES)?;
+        if self.raster.is_some() || self.view_template.msaa_samples > 0 {
+            return Err(VlfError::Parameter {
+                name: "edge_samples",
+                message: "edge antialiasing casts its eye rays on its own progressive set: \
+                          it cannot read raster first hits' or MSAA sample positions (use \
+                          first_hits = \"rays\")"
+                    .into(),
+            });
+        }
+        let module = resolve_module(&self.ctx, self.variant)?;
+        let layouts = [
+            &self.resolve_layout,
+            &self.field_layout.layout,
+            &self.moving_layout,
+        ];
+        self.edges = Some((edge, edges::EdgePass::new(&self.ctx, &module, &layouts)));
+        self.view_template.edge_samples = edge.samples;
+        self.view_template.edge_contrast = edge.contrast;
+        Ok(())
+    }
+
+    pub fn edge_antialiasing(&self) -> Option<edges::EdgeAntialiasing> {
+        self.edges.as_ref().map(|(e, _)| *e)
+    }
+
+    /// How many pixels edge antialiasing refined in the view `render` drew last, of how many
+    /// (None without it; waits for the GPU).
+    pub fn refined_pixels(&self) -> Result<Option<(u32, u32)>> {
+        match self.target.as_ref().and_then(|t| t.targets.edges.as_ref()) {
+            Some(e) if self.edges.is_some() => e.refined(&self.ctx).map(Some),
+            _ => Ok(None),
+        }
     }
 
     /// Chains of reflections sampled from a glossy lobe per eye-ray pair that meets one (at
@@ -664,7 +731,10 @@ impl Renderer {
         let visibility = raster
             .as_ref()
             .map_or(&self.placeholder_visibility, |r| &r.visibility);
-        let resolve_bind_groups = self.view_groups((&image_view, &depth_view), visibility);
+        let edges = (self.edges.as_ref()).map(|_| edges::EdgeTargets::new(device, [width, height]));
+        let edge_buffers = edges.as_ref().unwrap_or(&self.placeholder_edges);
+        let resolve_bind_groups =
+            self.view_groups((&image_view, &depth_view), visibility, edge_buffers);
         ViewTargets {
             width,
             height,
@@ -673,6 +743,7 @@ impl Renderer {
             depth,
             depth_view,
             raster,
+            edges,
             resolve_bind_groups,
             owner: self.id,
             other_groups: Vec::new(),
@@ -694,7 +765,12 @@ impl Renderer {
         }
         let visibility =
             (targets.raster.as_ref()).map_or(&self.placeholder_visibility, |r| &r.visibility);
-        let groups = self.view_groups((&targets.image_view, &targets.depth_view), visibility);
+        let edge_buffers = targets.edges.as_ref().unwrap_or(&self.placeholder_edges);
+        let groups = self.view_groups(
+            (&targets.image_view, &targets.depth_view),
+            visibility,
+            edge_buffers,
+        );
         match (own, at) {
             (true, _) => targets.resolve_bind_groups = groups,
             (false, Some(k)) => targets.other_groups[k].1 = groups,
@@ -707,6 +783,7 @@ impl Renderer {
         &self,
         (image_view, depth_view): (&wgpu::TextureView, &wgpu::TextureView),
         visibility: &wgpu::TextureView,
+        edges: &edges::EdgeTargets,
     ) -> Vec<wgpu::BindGroup> {
         let device = &self.ctx.device;
         let group = |field: &FieldSet| {
@@ -749,6 +826,10 @@ impl Renderer {
                     wgpu::BindGroupEntry {
                         binding: 8,
                         resource: wgpu::BindingResource::TextureView(visibility),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: edges.buffer.as_entire_binding(),
                     },
                 ],
             })
@@ -798,29 +879,64 @@ impl Renderer {
     }
 
     /// Draw the view last set with `set_view_matrix` into `targets`: one compute pass, after
-    /// the raster pass of its visibility buffer with raster first hits (timed as one).
+    /// the raster pass of its visibility buffer with raster first hits, and with edge
+    /// antialiasing a refine pass after it (each timed as one).
     pub fn encode_view(
         &self,
         encoder: &mut wgpu::CommandEncoder,
         targets: &ViewTargets,
         timestamps: Option<&mut Timestamps>,
     ) {
-        let (pipeline, timestamp_writes) = match (&self.raster, &targets.raster) {
-            (Some(raster), Some(visibility)) if raster.samples == visibility.samples => {
-                let (begin, end) = timestamps.and_then(|t| t.spanning_writes()).unzip();
-                raster.encode(encoder, visibility, begin);
-                (&raster.resolve, end)
+        let edges = match (&self.edges, &targets.edges) {
+            (Some((_, pass)), Some(buffers)) => {
+                buffers.clear(encoder);
+                Some((pass, buffers))
             }
-            _ => (
-                &self.resolve_pipeline,
-                timestamps.and_then(|t| t.compute_writes()),
-            ),
+            _ => None,
         };
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("view"),
-            timestamp_writes,
-        });
-        pass.set_pipeline(pipeline);
+        let (pipeline, timestamp_writes, refine_writes) =
+            match (&self.raster, &targets.raster, edges) {
+                (Some(raster), Some(visibility), _) if raster.samples == visibility.samples => {
+                    let (begin, end) = timestamps.and_then(|t| t.spanning_writes()).unzip();
+                    raster.encode(encoder, visibility, begin);
+                    (&raster.resolve, end, None)
+                }
+                (_, _, Some(_)) => {
+                    let (begin, end) = timestamps.and_then(|t| t.split_compute_writes()).unzip();
+                    (&self.resolve_pipeline, begin, end)
+                }
+                _ => (
+                    &self.resolve_pipeline,
+                    timestamps.and_then(|t| t.compute_writes()),
+                    None,
+                ),
+            };
+        let size = [targets.width, targets.height];
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("view"),
+                timestamp_writes,
+            });
+            self.set_view_groups(&mut pass, targets);
+            pass.set_pipeline(pipeline);
+            pass.dispatch_workgroups(size[0].div_ceil(8), size[1].div_ceil(8), 1);
+            if let Some((edge_pass, _)) = edges {
+                edge_pass.encode_find(&mut pass, size);
+            }
+        }
+        if let Some((edge_pass, buffers)) = edges {
+            edge_pass.encode_arguments(encoder, buffers);
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("view: edges"),
+                timestamp_writes: refine_writes,
+            });
+            self.set_view_groups(&mut pass, targets);
+            edge_pass.encode_refine(&mut pass, buffers);
+        }
+    }
+
+    /// The resolve's bind groups for a view into `targets`, with the light field in use.
+    fn set_view_groups(&self, pass: &mut wgpu::ComputePass, targets: &ViewTargets) {
         let field = &self.fields[self.active];
         let groups = match targets.owner == self.id {
             true => &targets.resolve_bind_groups,
@@ -832,7 +948,6 @@ impl Renderer {
         pass.set_bind_group(0, view_group, &[]);
         pass.set_bind_group(1, &field.field_bind_group, &[]);
         pass.set_bind_group(2, &field.moving_group, &[]);
-        pass.dispatch_workgroups(targets.width.div_ceil(8), targets.height.div_ceil(8), 1);
     }
 
     fn set_view(&mut self, camera: &Camera, width: u32, height: u32) {
@@ -1055,6 +1170,30 @@ fn resolve_pipeline(
     variant: ResolveVariant,
 ) -> Result<(wgpu::ComputePipeline, ResolveLayouts)> {
     let device = &ctx.device;
+    let module = resolve_module(ctx, variant)?;
+    let view = reflect::layout(device, "render.wgsl", 0)?;
+    let field = crate::lightfield::bindings::layout(device, "render.wgsl")?;
+    let moving = reflect::layout(device, "render.wgsl", 2)?;
+    if field.group != 1 {
+        return Err(VlfError::Gpu(format!(
+            "shaders/render.wgsl binds the light field at group {}; the renderer binds it at 1",
+            field.group
+        )));
+    }
+    let pipeline = ctx.compute_pipeline(&module, "resolve", &[&view, &field.layout, &moving]);
+    Ok((
+        pipeline,
+        ResolveLayouts {
+            view,
+            field,
+            moving,
+        },
+    ))
+}
+
+/// `shaders/render.wgsl` compiled for `variant` (every entry point: the resolve and edge
+/// antialiasing's).
+fn resolve_module(ctx: &GpuContext, variant: ResolveVariant) -> Result<wgpu::ShaderModule> {
     let ResolveVariant {
         tiles,
         stack,
@@ -1065,6 +1204,7 @@ fn resolve_pipeline(
         raster,
     } = variant;
     let constants = [
+        ("TILES", u32::from(tiles)),
         ("PAIR_STACK", stack),
         ("MOVING_OBJECTS", u32::from(moving)),
         ("SURFACE_TEXTURES", u32::from(textured)),
@@ -1072,30 +1212,7 @@ fn resolve_pipeline(
         ("NORMAL_MAPS", u32::from(normal_maps && textured)),
         ("RASTER_FIRST_HITS", u32::from(raster)),
     ];
-    let module = shaders::module_with(device, "render.wgsl", &constants)?;
-    let view = reflect::layout(device, "render.wgsl", 0)?;
-    let field = crate::lightfield::bindings::layout(device, "render.wgsl")?;
-    let moving = reflect::layout(device, "render.wgsl", 2)?;
-    if field.group != 1 {
-        return Err(VlfError::Gpu(format!(
-            "shaders/render.wgsl binds the light field at group {}; the renderer binds it at 1",
-            field.group
-        )));
-    }
-    let entry = if tiles {
-        "resolve_mixed"
-    } else {
-        "resolve_diffuse"
-    };
-    let pipeline = ctx.compute_pipeline(&module, entry, &[&view, &field.layout, &moving]);
-    Ok((
-        pipeline,
-        ResolveLayouts {
-            view,
-            field,
-            moving,
-        },
-    ))
+    shaders::module_with(&ctx.device, "render.wgsl", &constants)
 }
 
 /// The moving objects' group of the resolve pass: their shading records, materials and probes,

@@ -54,6 +54,8 @@ pub struct XrOptions {
     pub fit_frame_time: bool,
     /// how eye rays find their first hits (`render::raster`)
     pub first_hits: crate::render::raster::FirstHits,
+    /// edge antialiasing (None: `antialiasing` eye rays on every pixel)
+    pub edge_antialiasing: Option<crate::render::edges::EdgeAntialiasing>,
     /// one array swapchain for both eyes, or one per eye
     pub swapchains: Swapchains,
     /// how the eyes' colour reaches the swapchains (`colour_pass.rs`)

@@ -155,6 +155,7 @@ pub fn run(
     let mut renderer = Renderer::with_objects(&resident, &lf, &MemoryLedger::default(), to_draw)?;
     renderer.set_samples_per_pixel(options.antialiasing)?;
     renderer.set_first_hits(options.first_hits)?;
+    renderer.set_edge_antialiasing(options.edge_antialiasing)?;
     let controls = controls(&instance)?;
 
     // SAFETY: the session info names the instance, device and queue the runtime created for

@@ -63,6 +63,7 @@ impl<'a> FrameOfViews<'a> {
         let mut r = Renderer::with_objects(&field.resident, &field.lf, &ledger, to_draw)?;
         r.set_samples_per_pixel(self.renderer.samples_per_pixel())?;
         r.set_first_hits(self.renderer.first_hits())?;
+        r.set_edge_antialiasing(self.renderer.edge_antialiasing())?;
         let (shadows, in_mirrors) = self.object_switches;
         r.set_object_switches(shadows, in_mirrors);
         Ok(r)

@@ -167,6 +167,7 @@ impl<'a> FrameOfViews<'a> {
         let mut renderer = Renderer::with_objects(resident, lf, &MemoryLedger::default(), to_draw)?;
         renderer.set_samples_per_pixel(config.antialiasing)?;
         renderer.set_first_hits(config.first_hits)?;
+        renderer.set_edge_antialiasing(config.edge_antialiasing)?;
         let views = wall_views(config);
         let specs = super::warp::load_outputs(config, config_path)?;
         let post = Outputs::needed(config, &specs, poses.may_have_wand(&config.tracking));
