@@ -3,13 +3,16 @@
 # against eye rays on every pixel. The 4-wall stereo CAVE of config/displays/cave-4wall-walk.toml
 # (8 views of 1920x1200) walks the shipped walks of config/paths/ through the generated scenes,
 # unpaced (fit_frame_time = false), once per variant:
-#   aa16     16 eye rays per pixel (the still each run's last frame is compared with)
+#   ref64    64 eye rays on every pixel, each with its own reflection (edge antialiasing with no
+#            contrast allowed: every pixel that differs at all from a neighbour is refined)
+#   aa16     16 eye rays per pixel (the still the issue's edge error is measured against; two
+#            eye rays share a reflection)
 #   aa4      4 eye rays per pixel (today's real-time default)
 #   aa1      1 eye ray per pixel
 #   edges8   1 eye ray per pixel, 8 where a pixel differs from a neighbour
 #   edges16  1 eye ray per pixel, 16 there
 # Each run writes its last frame's views as EXR; the edge error is each view's display MSE
-# against aa16's same view of the same frame (tools/edge-error.py). Prints per variant the
+# against aa16's same view of the same frame, and against ref64's (tools/edge-error.py). Prints per variant the
 # views' GPU p50/p99, the frame's GPU median and p99, and the edge error; the reports, the EXRs'
 # comparisons and the overviews go into OUT_DIR/edges.tar.
 # SCENES (default "classroom-100k classroom-1m"), VARIANTS pick; WORK=dir keeps the generated
@@ -19,9 +22,10 @@ set -uo pipefail
 vlf=$1; out=$2; frames=${3:-300}; work=${WORK:-$(mktemp -d)}; mkdir -p $work "$out"
 quiet() { grep -v XDG_RUNTIME_DIR; }
 source "$(dirname "$0")/walk-scenes.sh"
-variants=${VARIANTS:-aa16 aa4 aa1 edges8 edges16}
+variants=${VARIANTS:-ref64 aa16 aa4 aa1 edges8 edges16}
 settings() {  # variant -> the display TOML's lines
   case $1 in
+    ref64) printf 'antialiasing = 1\nedge_antialiasing = { samples = 64, contrast = 0.0 }' ;;
     aa*) echo "antialiasing = ${1#aa}" ;;
     edges*) printf 'antialiasing = 1\nedge_antialiasing = { samples = %s }' "${1#edges}" ;;
   esac

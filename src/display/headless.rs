@@ -57,6 +57,12 @@ pub struct CaveReport {
     pub motion_to_photon: Option<crate::study::MotionToPhoton>,
     /// the settings every frame was drawn with, and with `fit_frame_time` what was probed
     pub quality: crate::render::budget::Quality,
+    /// with edge antialiasing: the share of each view's pixels it refined in the last frame
+    /// (each view drawn again and read back), and the eye rays per pixel that makes
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub refined_last_frame: Vec<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub eye_rays_per_pixel_last_frame: Option<f64>,
     pub fit: Option<BudgetFit>,
     /// with a fit: the share of each view's tiles the pacer drew at the high eye-ray count
     pub pacer: Option<PacerReport>,
@@ -415,7 +421,9 @@ fn cave_report(
     let worst = worst_ratio(&views);
     let cpu_frame_ms = frame.times().cpu_ms().expect("one frame at least");
     let limits = frame_limits(&views, Some(&cpu_frame_ms), config.frame_budget_ms());
+    let refined = frame.refined_shares().to_vec();
     CaveReport {
+        eye_rays_per_pixel_last_frame: edge_eye_rays(&frame.quality(), &refined),
         worst_p99_over_p50: worst,
         constant_frame_time: worst.map(|w| w <= CONSTANT_FRAME_TIME),
         limits,
@@ -431,11 +439,24 @@ fn cave_report(
         tracking_latency_ms: frame.latency_ms(),
         motion_to_photon,
         quality: frame.quality(),
+        refined_last_frame: refined,
         fit: frame.fit().cloned(),
         pacer: frame.pacer_report(),
         images,
         series: frame.series(),
     }
+}
+
+/// The eye rays per pixel edge antialiasing drew, over the views whose refined shares are
+/// `refined`: each pixel's own count, and the edge count on those refined (exact unpaced; paced,
+/// as if every tile drew the low count). None without edge antialiasing.
+fn edge_eye_rays(quality: &crate::render::budget::Quality, refined: &[f64]) -> Option<f64> {
+    if quality.edge_samples == 0 || refined.is_empty() {
+        return None;
+    }
+    let share = refined.iter().sum::<f64>() / refined.len() as f64;
+    let own = quality.eye_rays_per_pixel as f64;
+    Some(own + share * (quality.edge_samples as f64 - own).max(0.0))
 }
 
 /// A timed frame: every view submitted back to back, then waited for (and every rank, with a
@@ -611,6 +632,15 @@ impl CaveReport {
         }
         if let Some(p) = &self.pacer {
             s += &p.line();
+        }
+        if let Some(rays) = self.eye_rays_per_pixel_last_frame {
+            let shares: Vec<String> = (self.refined_last_frame.iter())
+                .map(|r| format!("{:.1}%", r * 100.0))
+                .collect();
+            s += &format!(
+                "  edge antialiasing, last frame: {} of the views' pixels refined, {rays:.2} eye rays per pixel\n",
+                shares.join(" ")
+            );
         }
         for v in &self.views {
             s.push_str(&v.row());

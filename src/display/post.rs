@@ -572,6 +572,11 @@ impl Outputs {
 
     /// Read back `slot`'s whole wall image (after the pass: its whole-wall output, so draw with
     /// `Draw::Everything` first) and each projector's output, named.
+    /// Slot `slot`'s wall image and its bindings.
+    pub fn target(&self, slot: usize) -> &ViewTargets {
+        &self.slots[slot].target
+    }
+
     pub fn read(&self, slot: usize) -> Result<(Frame, Vec<(String, Frame)>)> {
         let s = &self.slots[slot];
         let whole = s.whole.as_ref().map_or(&s.target.image, |w| &w.image);

@@ -118,6 +118,19 @@ pub struct ViewTargets {
     other_groups: Vec<(u64, Vec<wgpu::BindGroup>)>,
 }
 
+impl ViewTargets {
+    /// With edge antialiasing: the share of the pixels the view drawn last into these targets
+    /// refined (None without it; waits for the GPU).
+    pub fn refined_share(&self, ctx: &GpuContext) -> Result<Option<f64>> {
+        match &self.edges {
+            Some(e) => e
+                .refined(ctx)
+                .map(|(refined, pixels)| Some(refined as f64 / pixels.max(1) as f64)),
+            None => Ok(None),
+        }
+    }
+}
+
 struct Target {
     targets: ViewTargets,
     readback: wgpu::Buffer,

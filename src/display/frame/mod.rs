@@ -112,6 +112,8 @@ pub struct FrameOfViews<'a> {
     acc: Accounting,
     /// what each view of the last frame was drawn with (a session log records it)
     drawn: Vec<ViewSettings>,
+    /// with edge antialiasing, the share of each view's pixels it refined when last read back
+    refined: Vec<f64>,
     /// each view's settings given from outside instead of the pacer's (`vlf replay`)
     forced: Option<Vec<ViewSettings>>,
     /// the display's moving objects (`crate::dynamic`), posed before each frame's views, and the
@@ -197,6 +199,7 @@ impl<'a> FrameOfViews<'a> {
             fit: None,
             pacer: None,
             drawn: Vec::new(),
+            refined: Vec::new(),
             forced: None,
             objects,
             object_time: 0.0,
@@ -265,6 +268,7 @@ impl<'a> FrameOfViews<'a> {
             pacer: None,
             acc: Accounting::new(labels, clock),
             drawn: Vec::new(),
+            refined: Vec::new(),
             forced: None,
             objects,
             object_time: 0.0,
@@ -613,6 +617,7 @@ impl<'a> FrameOfViews<'a> {
     pub fn read_back(&mut self, poses: Poses<'_>) -> Result<Vec<ViewImages>> {
         let mut images = Vec::new();
         self.drawn.clear();
+        self.refined.clear();
         self.pose_objects(&poses, false);
         for i in 0..self.labels().len() {
             self.apply_forced(i);
@@ -622,6 +627,8 @@ impl<'a> FrameOfViews<'a> {
                     let (r, slot) = (&mut self.renderer, slots[i]);
                     outputs.encode(r, slot, view, overlay.as_ref(), None, Draw::Everything);
                     images.push(outputs.read(slot)?);
+                    self.refined
+                        .extend(outputs.target(slot).refined_share(&self.ctx)?);
                 }
                 Sink::Targets(targets) => {
                     self.renderer.set_view_matrix(view.0, view.1);
@@ -630,6 +637,7 @@ impl<'a> FrameOfViews<'a> {
                     self.ctx.queue.submit([encoder.finish()]);
                     let image = super::post::read_texture(&self.ctx, &targets[i].image)?;
                     images.push((image, Vec::new()));
+                    self.refined.extend(targets[i].refined_share(&self.ctx)?);
                 }
             }
         }
@@ -665,6 +673,12 @@ impl<'a> FrameOfViews<'a> {
     }
 
     /// What each view of the last frame drawn was drawn with, in view order.
+    /// With edge antialiasing, the share of each view's pixels it refined in the frame read
+    /// back last (empty without it).
+    pub fn refined_shares(&self) -> &[f64] {
+        &self.refined
+    }
+
     pub fn drawn(&self) -> &[ViewSettings] {
         &self.drawn
     }
