@@ -16,9 +16,12 @@
 //   radiance where it lands, with the geometric sharpness of a path tracer. Every reflection is
 //   traced whatever it carries (a pixel that sees no mirror traces a stand-in and multiplies
 //   it by zero), and two eye rays share one chain of reflections. Where a chain of mirrors can
-//   be longer than that (facing mirrors), resolve_mixed ends it with the mirror tiles: the
+//   be longer than that (facing mirrors), pair_mixed ends it with the mirror tiles: the
 //   three fixed directions around the reflected ray, looked up in the face's tiles (a diffuse
 //   or sky sample does the same lookups on a stand-in, times zero).
+// - edge antialiasing (view.edge_samples > 0; src/render/edges.rs): one eye ray through each
+//   pixel's centre, then find_edges lists the pixels that differ from a neighbour and refine
+//   adds eye rays there, up to view.edge_samples, on one progressive (Sobol) set.
 // With raster first hits (src/render/raster.rs, RASTER_FIRST_HITS 1) the eye rays' first hits
 // come from a visibility buffer the hardware rasteriser drew before this pass
 // (visibility_raster.wgsl): each MSAA sample names the triangle its eye ray meets, the ray meets
@@ -229,7 +232,7 @@ fn pair_shown(s0: Surface, f0: Face, s1: Surface, f1: Face, seed: u32) -> array<
 
 // One eye ray's radiance through up to view.mirror_bounces mirror reflections, and where the
 // chain ends: the last surface, its direction of travel and the weight still carried (for the
-// tiles, in resolve_mixed).
+// tiles, in pair_mixed).
 struct Path {
     radiance: vec3<f32>,
     // the weight carried to the last surface (its own mirror reflectance not included: the
@@ -633,36 +636,53 @@ fn resolve(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(workgroup_id)
     }
 }
 
+// What find_edges compares of a pixel's first pass: its signature and luminance.
+struct EdgeKey {
+    signature: u32,
+    luminance: f32,
+}
+
+fn edge_key(p: EdgePixel) -> EdgeKey {
+    return EdgeKey(p.signature, dot(p.colour, vec3<f32>(0.2126, 0.7152, 0.0722)));
+}
+
 // Whether pixel q's first pass differs from pixel p's enough to call p an edge: they met
 // different things, or their luminances differ by more than view.edge_contrast of the larger.
-fn differs(p: EdgePixel, q: EdgePixel) -> bool {
+fn differs(p: EdgeKey, q: EdgeKey) -> bool {
     if (p.signature & ~EDGE_MIXED) != (q.signature & ~EDGE_MIXED) {
         return true;
     }
-    let weights = vec3<f32>(0.2126, 0.7152, 0.0722);
-    let a = dot(p.colour, weights);
-    let b = dot(q.colour, weights);
+    let a = p.luminance;
+    let b = q.luminance;
     return abs(a - b) > view.edge_contrast * max(a, b) + 1e-6;
 }
 
 var<workgroup> tile_edges: atomic<u32>;
 var<workgroup> tile_first: u32;
+// the tile's pixels and the ring of pixels around it (10 x 10, row by row; clamped to the view)
+var<workgroup> tile_keys: array<EdgeKey, 100>;
 
 // The pixels edge antialiasing refines: those whose eye rays met more than one thing, or whose
-// 3x3 neighbourhood differs from them (differs). Each tile appends its pixels with one global
-// atomic (the list stays in tile order, near pixels together).
+// 3x3 neighbourhood differs from them (differs). The tile and the ring around it are read once
+// into workgroup memory (100 reads for 64 pixels, not 576), and each tile appends its pixels
+// with one global atomic (the list stays in tile order, near pixels together).
 @compute @workgroup_size(8, 8)
 fn find_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invocation_index) lane: u32, @builtin(workgroup_id) tile: vec3<u32>) {
     let size = textureDimensions(image);
+    let corner = vec2<i32>(tile.xy * 8u) - 1;
+    for (var i = lane; i < 100u; i += 64u) {
+        let at = clamp(corner + vec2<i32>(i32(i % 10u), i32(i / 10u)), vec2<i32>(0), vec2<i32>(size) - 1);
+        tile_keys[i] = edge_key(edge_pixel(u32(at.y) * size.x + u32(at.x)));
+    }
+    workgroupBarrier();
     var edge = false;
     if gid.x < size.x && gid.y < size.y && view.edge_samples > tile_samples(tile.xy) {
-        let me = edge_pixel(gid.y * size.x + gid.x);
+        let local = vec2<u32>(lane % 8u, lane / 8u) + 1u;
+        let me = tile_keys[local.y * 10u + local.x];
         edge = (me.signature & EDGE_MIXED) != 0u;
-        let low = max(vec2<i32>(gid.xy) - 1, vec2<i32>(0));
-        let high = min(vec2<i32>(gid.xy) + 1, vec2<i32>(size) - 1);
-        for (var y = low.y; y <= high.y; y++) {
-            for (var x = low.x; x <= high.x; x++) {
-                edge = edge || differs(me, edge_pixel(u32(y) * size.x + u32(x)));
+        for (var y = local.y - 1u; y <= local.y + 1u; y++) {
+            for (var x = local.x - 1u; x <= local.x + 1u; x++) {
+                edge = edge || differs(me, tile_keys[y * 10u + x]);
             }
         }
     }

@@ -11,6 +11,8 @@
 #   aa1      1 eye ray per pixel
 #   edges8   1 eye ray per pixel, 8 where a pixel differs from a neighbour
 #   edges16  1 eye ray per pixel, 16 there
+#   paced-aa4, paced-edges8  the same, frame pacing on (fit_frame_time = true: 1 to 4 eye rays
+#            per pixel by tile as the views' GPU time allows, and with edges8 8 on edges)
 # Each run writes its last frame's views as EXR; the edge error is each view's display MSE
 # against aa16's same view of the same frame, and against ref64's (tools/edge-error.py). Prints per variant the
 # views' GPU p50/p99, the frame's GPU median and p99, and the edge error; the reports, the EXRs'
@@ -25,6 +27,8 @@ source "$(dirname "$0")/walk-scenes.sh"
 variants=${VARIANTS:-ref64 aa16 aa4 aa1 edges8 edges16}
 settings() {  # variant -> the display TOML's lines
   case $1 in
+    paced-aa4) echo "antialiasing = 4" ;;
+    paced-edges8) printf 'antialiasing = 4\nedge_antialiasing = { samples = 8 }' ;;
     ref64) printf 'antialiasing = 1\nedge_antialiasing = { samples = 64, contrast = 0.0 }' ;;
     aa*) echo "antialiasing = ${1#aa}" ;;
     edges*) printf 'antialiasing = 1\nedge_antialiasing = { samples = %s }' "${1#edges}" ;;
@@ -38,7 +42,8 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
   for v in $variants; do
     name=$scene-$v
     sed -e "s|^path = .*|path = \"$(walk_path $scene)\"|" \
-        -e "s|^fit_frame_time = .*|fit_frame_time = false|" config/displays/cave-4wall-walk.toml |
+        -e "s|^fit_frame_time = .*|fit_frame_time = $([[ $v == paced-* ]] && echo true || echo false)|" \
+        config/displays/cave-4wall-walk.toml |
       EXTRA="$(settings $v)" awk '{print} /^refresh_hz/ {print ENVIRON["EXTRA"]}' > $work/cave-$name.toml
     "$vlf" cave $work/cave-$name.toml --scene $work/$scene.vlf --headless --frames $frames --exr \
       --out $work/out-$name --json $work/cave-$name.json 2>&1 | quiet > $work/cave-$name.txt

@@ -28,7 +28,7 @@ pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba32Float;
 pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 /// Antialiasing of real-time views (CAVE walls, headset eyes): eye rays per pixel. With
-/// mirrors, two eye rays share one traced reflection (shaders/render.wgsl, resolve_diffuse):
+/// mirrors, two eye rays share one traced reflection (shaders/render.wgsl, pair_diffuse):
 /// the 4-wall stereo CAVE at 1920x1200 per eye (8 views) of Cornell-mirror took 10.6 ms on an
 /// H100 with a reflection per eye ray, over 120 Hz's 8.3 ms.
 pub const REALTIME_SAMPLES: u32 = 4;
@@ -168,7 +168,7 @@ pub struct Renderer {
     /// the resolve's light field and moving objects' layouts, for the fields added
     field_layout: crate::lightfield::bindings::FieldLayout,
     moving_layout: wgpu::BindGroupLayout,
-    /// whether the light field's mirror tiles are resident (`resolve_mixed` reads them)
+    /// whether the light field's mirror tiles are resident (`pair_mixed` reads them)
     view_dependent: bool,
     normalisation: Normalisation,
     view_template: GpuView,
@@ -1169,8 +1169,8 @@ struct ResolveVariant {
     raster: bool,
 }
 
-/// The resolve pass: its pipeline and layouts. A light field with mirror tiles is drawn by
-/// `resolve_mixed`, which reads them; a diffuse-only one by `resolve_diffuse`. The traversal's
+/// The resolve pass: its pipeline and layouts. A light field with mirror tiles is drawn with
+/// `pair_mixed`, which reads them; a diffuse-only one with `pair_diffuse` (`TILES`). The traversal's
 /// stack has `stack` entries, as deep as the scene's tree needs: local memory per thread is what
 /// a ray cast waits on (an H100 cast the 100K classroom's views 1.6x faster with 24 entries than
 /// with 64). Without moving objects their code is compiled out (`MOVING_OBJECTS` 0), and so is
