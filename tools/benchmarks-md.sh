@@ -95,6 +95,10 @@ fi
 if [ -d "$results/h200/headset-start" ]; then
   python3 "$(dirname "$0")/headset-start-md.py" "$results/h200/headset-start"
 fi
+# edge antialiasing on the walk CAVE (tools/gpu-edges.sh): DIR's h200 sibling edges/
+if [ -d "$results/h200/edges" ]; then
+  python3 "$(dirname "$0")/edges-md.py" "$results/h200/edges"
+fi
 # the body in the walk CAVE (tools/gpu-body.sh): the newest run (docs/results/h200/
 # body-warm-up/, a frame drawn unshown after the fit), the ones before (body-reserve/, the
 # pacer's reserve made at the fit; body-vertex-light/, the vertices' light), then DIR's sibling

@@ -11,7 +11,7 @@
 #   aa1      1 eye ray per pixel
 #   edges8   1 eye ray per pixel, 8 where a pixel differs from a neighbour
 #   edges16  1 eye ray per pixel, 16 there
-#   paced-aa4, paced-edges8  the same, frame pacing on (fit_frame_time = true: 1 to 4 eye rays
+#   paced-aa4, paced-edges8  the same, frame pacing on (fit_frame_time = true: 1 to 16 eye rays
 #            per pixel by tile as the views' GPU time allows, and with edges8 8 on edges)
 # Each run writes its last frame's views as EXR; the edge error is each view's display MSE
 # against aa16's same view of the same frame, and against ref64's (tools/edge-error.py). Prints per variant the
