@@ -663,7 +663,8 @@ var<workgroup> tile_first: u32;
 var<workgroup> tile_keys: array<EdgeKey, 100>;
 
 // The pixels edge antialiasing refines: those whose eye rays met more than one thing, or whose
-// 3x3 neighbourhood differs from them (differs). The tile and the ring around it are read once
+// 3x3 neighbourhood differs from them (differs), in every tile, or paced in the tiles the pacer
+// gives 2 eye rays per pixel or more. The tile and the ring around it are read once
 // into workgroup memory (100 reads for 64 pixels, not 576), and each tile appends its pixels
 // with one global atomic (the list stays in tile order, near pixels together).
 @compute @workgroup_size(8, 8)
@@ -676,7 +677,12 @@ fn find_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invo
     }
     workgroupBarrier();
     var edge = false;
-    if gid.x < size.x && gid.y < size.y && view.edge_samples > tile_samples(tile.xy) {
+    let n = tile_samples(tile.xy);
+    // paced (view.fixed_work 0), a tile refines its edges where the pacer gives it 2 eye rays
+    // per pixel or more: the refine pass's cost is in the share the pacer moves, not a floor
+    // under it
+    let refined = view.edge_samples > n && (view.fixed_work != 0u || n >= 2u);
+    if gid.x < size.x && gid.y < size.y && refined {
         let local = vec2<u32>(lane % 8u, lane / 8u) + 1u;
         let me = tile_keys[local.y * 10u + local.x];
         edge = (me.signature & EDGE_MIXED) != 0u;

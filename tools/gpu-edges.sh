@@ -11,8 +11,9 @@
 #   aa1      1 eye ray per pixel
 #   edges8   1 eye ray per pixel, 8 where a pixel differs from a neighbour
 #   edges16  1 eye ray per pixel, 16 there
-#   paced-aa4, paced-edges8  the same, frame pacing on (fit_frame_time = true: 1 to 16 eye rays
-#            per pixel by tile as the views' GPU time allows, and with edges8 8 on edges)
+#   paced-aa4, paced-edges8, paced-edges16  the same, frame pacing on (fit_frame_time = true: 1
+#            to 16 eye rays per pixel by tile as the views' GPU time allows, and on the edges of
+#            the tiles it gives 2 or more, 8 or 16)
 # Each run writes its last frame's views as EXR; the edge error is each view's display MSE
 # against aa16's same view of the same frame, and against ref64's (tools/edge-error.py). Prints per variant the
 # views' GPU p50/p99, the frame's GPU median and p99, and the edge error; the reports, the EXRs'
@@ -28,7 +29,7 @@ variants=${VARIANTS:-ref64 aa16 aa4 aa1 edges8 edges16}
 settings() {  # variant -> the display TOML's lines
   case $1 in
     paced-aa4) echo "antialiasing = 4" ;;
-    paced-edges8) printf 'antialiasing = 4\nedge_antialiasing = { samples = 8 }' ;;
+    paced-edges*) printf 'antialiasing = 4\nedge_antialiasing = { samples = %s }' "${1#paced-edges}" ;;
     ref64) printf 'antialiasing = 1\nedge_antialiasing = { samples = 64, contrast = 0.0 }' ;;
     aa*) echo "antialiasing = ${1#aa}" ;;
     edges*) printf 'antialiasing = 1\nedge_antialiasing = { samples = %s }' "${1#edges}" ;;

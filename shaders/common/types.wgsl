@@ -113,7 +113,8 @@ struct View {
     // draws paced_samples eye rays per pixel instead of samples_per_pixel
     paced_samples: u32,
     paced_fraction: f32,
-    // 1: every pixel traces its reflections whatever it sees (see render.wgsl)
+    // 1: every pixel traces its reflections whatever it sees (see render.wgsl); 0: paced, and
+    // with edge antialiasing only tiles of 2 eye rays or more refine their edges
     fixed_work: u32,
     // > 0: the mesh is this small, and every eye ray tests every triangle
     exhaustive_triangles: u32,

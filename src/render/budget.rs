@@ -244,7 +244,8 @@ impl Renderer {
         let high = self.view_template.samples_per_pixel;
         let ladder = self.bounce_ladder();
         // paced, a pixel that sees no mirror traces no stand-in reflection: the pacer spends
-        // the time saved on more eye rays elsewhere
+        // the time saved on more eye rays elsewhere (and with edge antialiasing, only the tiles
+        // it gives 2 eye rays or more refine their edges: render.wgsl, find_edges)
         self.view_template.fixed_work = 0;
         let mut probes = Vec::new();
         let mut timestamps = true;

@@ -13,8 +13,11 @@
 //!   `edge_samples` from the same set, so an edge pixel is what a still with that many eye
 //!   rays shows there (to within the pairing of reflections).
 //!
-//! The cost follows how many pixels are edges, which frame pacing sees in the view's time like
-//! any other change of the view.
+//! The cost follows how many pixels are edges. Paced (`budget.rs`), only the tiles the pacer
+//! gives 2 eye rays per pixel or more refine their edges: the fit's 1 eye ray per pixel stays the
+//! floor, and the share of tiles the pacer moves carries the edges' cost with it (refining every
+//! tile's edges put a floor under the pacer that it could not go below: on an H200 the 1M
+//! classroom's walk CAVE took 8.6 ms a frame, over the 8.3 ms period).
 
 use crate::error::{Result, VlfError};
 use crate::gpu::GpuContext;
