@@ -10,6 +10,7 @@ import sys
 
 # the builds, newest first, and what each ran (DIR/README.md says more)
 FOLDERS = [
+    ("aaafd6b", "paced, edges refined only in the tiles the pacer gives 2 eye rays or more"),
     ("5499b50", "unpaced and paced (`paced-*`: frame pacing on)"),
     ("5af0e9d", "unpaced, with 64 eye rays of their own reflection as a second reference"),
 ]
