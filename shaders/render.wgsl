@@ -709,35 +709,71 @@ fn find_edges(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(local_invo
     }
 }
 
+// How many threads share a refined pixel's added eye rays: view.edge_samples rounded up to a
+// power of two, at most a workgroup.
+fn refine_lanes() -> u32 {
+    return min(1u << (32u - countLeadingZeros(max(view.edge_samples, 2u) - 1u)), REFINE_GROUP);
+}
+
 // The refine pass's workgroups for the pixels find_edges picked (one thread).
 @compute @workgroup_size(1)
 fn edge_dispatch() {
     let count = atomicLoad(&edges.count);
-    edges.x = min((count + REFINE_GROUP - 1u) / REFINE_GROUP, MAX_GROUPS);
+    let per_group = REFINE_GROUP / refine_lanes();
+    edges.x = min((count + per_group - 1u) / per_group, MAX_GROUPS);
     edges.y = 1u;
     edges.z = 1u;
 }
+
+var<workgroup> refine_count: u32;
+var<workgroup> lane_sums: array<vec3<f32>, 64>;
 
 // Edge antialiasing's second pass: each picked pixel adds eye rays up to view.edge_samples (the
 // next of the same progressive set) to the average its first eye rays left, each eye ray with
 // its own reflection: the set's consecutive points lie in opposite halves of the pixel (a pair
 // sharing the first's reflection would see a mirror's edges from one half only), and an edge
-// pixel is where the reflection's detail is. Threads step through the list by the whole
-// dispatch, which may hold fewer workgroups than the list needs.
+// pixel is where the reflection's detail is. A pixel's added eye rays are cast side by side by
+// refine_lanes() threads and summed in workgroup memory (one thread casting them one after
+// another made the pass as long as 7 or 15 casts however few pixels it had: a latency the
+// pacer saw as a step each time a tile's edges came or went). The workgroups step through the
+// list by the whole dispatch, which may hold fewer of them than the list needs.
 @compute @workgroup_size(64)
-fn refine(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn refine(@builtin(workgroup_id) group: vec3<u32>, @builtin(local_invocation_index) lane: u32, @builtin(num_workgroups) groups: vec3<u32>) {
     let size = textureDimensions(image);
-    let count = atomicLoad(&edges.count);
+    if lane == 0u {
+        refine_count = atomicLoad(&edges.count);
+    }
+    let count = workgroupUniformLoad(&refine_count);
     let total = view.edge_samples;
-    for (var i = gid.x; i < count; i += MAX_GROUPS * REFINE_GROUP) {
-        let packed = edges.words[edge_listed(i, size)];
-        let pixel = vec2<u32>(packed & 0xffffu, packed >> 16u);
-        let n = tile_samples(pixel / 8u);
-        var sum = edge_pixel(pixel.y * size.x + pixel.x).colour * f32(n);
-        for (var k = n; k < total; k++) {
-            // a "pair" of one eye ray (its second weighted 0, not cast)
-            sum += pair_light(pixel, k, k + 1u, ChainSet(k - n, total - n, false)).radiance;
+    let lanes = refine_lanes();
+    let per_group = REFINE_GROUP / lanes;
+    // which of the group's pixels this thread works on, and its first added eye ray
+    let slot = lane / lanes;
+    let first = lane % lanes;
+    let stride = per_group * groups.x;
+    for (var batch = group.x * per_group; batch < count; batch += stride) {
+        let i = batch + slot;
+        var sum = vec3<f32>(0.0);
+        var pixel = vec2<u32>(0u);
+        var n = 0u;
+        if i < count {
+            let packed = edges.words[edge_listed(i, size)];
+            pixel = vec2<u32>(packed & 0xffffu, packed >> 16u);
+            n = tile_samples(pixel / 8u);
+            for (var j = first; n + j < total; j += lanes) {
+                // a "pair" of one eye ray (its second weighted 0, not cast)
+                sum += pair_light(pixel, n + j, n + j + 1u, ChainSet(j, total - n, false)).radiance;
+            }
         }
-        textureStore(image, pixel, vec4<f32>(sum / f32(total), 1.0));
+        lane_sums[lane] = sum;
+        workgroupBarrier();
+        if i < count && first == 0u {
+            sum = edge_pixel(pixel.y * size.x + pixel.x).colour * f32(n);
+            for (var l = 0u; l < lanes; l++) {
+                sum += lane_sums[slot * lanes + l];
+            }
+            textureStore(image, pixel, vec4<f32>(sum / f32(total), 1.0));
+        }
+        workgroupBarrier();
     }
 }

@@ -25,14 +25,24 @@ fn cornell() -> (LightField, ResidentLightField) {
 /// The Cornell box's camera drawn with `aa` eye rays per pixel and edge antialiasing `edges`;
 /// with it, how many pixels it refined.
 fn draw(
+    field: &(LightField, ResidentLightField),
+    aa: u32,
+    edges: Option<EdgeAntialiasing>,
+) -> (Frame, Option<(u32, u32)>) {
+    draw_at(field, SIZE, aa, edges)
+}
+
+/// `draw` at `size`.
+fn draw_at(
     (lf, resident): &(LightField, ResidentLightField),
+    size: [u32; 2],
     aa: u32,
     edges: Option<EdgeAntialiasing>,
 ) -> (Frame, Option<(u32, u32)>) {
     let mut r = Renderer::new(resident, lf, &MemoryLedger::default()).unwrap();
     r.set_samples_per_pixel(aa).unwrap();
     r.set_edge_antialiasing(edges).unwrap();
-    let frame = r.render(&lf.meta.cameras[0], SIZE[0], SIZE[1]).unwrap();
+    let frame = r.render(&lf.meta.cameras[0], size[0], size[1]).unwrap();
     (frame, r.refined_pixels().unwrap())
 }
 
@@ -85,15 +95,35 @@ fn edge_antialiasing_is_closer_to_a_still_than_4_eye_rays_with_fewer_rays() {
 /// them match).
 #[test]
 fn a_refined_pixel_is_what_all_its_eye_rays_show() {
-    let field = cornell();
-    let (at_once, none) = draw(&field, 16, edges(16, 0.0));
-    assert_eq!(
-        none,
-        Some((0, SIZE[0] * SIZE[1])),
-        "16 of 16 eye rays: nothing to refine"
+    let refined = assert_refined_pixels_match(&cornell(), SIZE, 16);
+    assert!(refined as f64 >= 0.9 * (SIZE[0] * SIZE[1]) as f64);
+}
+
+/// The same with 64 eye rays a pixel at 400x300: a workgroup refines one pixel (64 threads, one
+/// eye ray each), and the list is longer than one dispatch's 65,535 workgroups, so the refine
+/// pass's workgroups go round twice.
+#[test]
+fn a_list_longer_than_one_dispatch_is_refined_whole() {
+    let refined = assert_refined_pixels_match(&cornell(), [400, 300], 64);
+    assert!(
+        refined > 65_535,
+        "{refined} refined: one dispatch holds them all"
     );
-    let (refined_frame, refined) = draw(&field, 1, edges(16, 0.0));
-    let (one_ray, _) = draw(&field, 1, None);
+}
+
+/// With no contrast allowed, drawn at `size` with 1 eye ray and `samples` at edges and with
+/// `samples` at once: at least 60% of the pixels refined (the rest lie where the light is flat),
+/// at least as many pixels the same within 1e-5 as were refined, and the 1-eye-ray image the
+/// same on fewer, by at least half the refined pixels. How many were refined.
+fn assert_refined_pixels_match(
+    field: &(LightField, ResidentLightField),
+    size: [u32; 2],
+    samples: u32,
+) -> u32 {
+    let (at_once, none) = draw_at(field, size, samples, edges(samples, 0.0));
+    assert_eq!(none, Some((0, size[0] * size[1])), "nothing to refine");
+    let (refined_frame, refined) = draw_at(field, size, 1, edges(samples, 0.0));
+    let (one_ray, _) = draw_at(field, size, 1, None);
     let (refined, pixels) = refined.unwrap();
     let matching = |frame: &Frame| {
         (frame.pixels.iter().zip(&at_once.pixels))
@@ -102,11 +132,11 @@ fn a_refined_pixel_is_what_all_its_eye_rays_show() {
     };
     let (matching, one_ray_matching) = (matching(&refined_frame), matching(&one_ray));
     eprintln!(
-        "{refined} of {pixels} refined, {matching} match the 16 eye rays drawn at once (with 1 \
-         eye ray per pixel {one_ray_matching})"
+        "{refined} of {pixels} refined, {matching} match the {samples} eye rays drawn at once \
+         (with 1 eye ray per pixel {one_ray_matching})"
     );
     assert!(
-        refined as f64 >= 0.9 * pixels as f64,
+        refined as f64 >= 0.6 * pixels as f64,
         "{refined} of {pixels} refined"
     );
     assert!(
@@ -114,9 +144,10 @@ fn a_refined_pixel_is_what_all_its_eye_rays_show() {
         "{matching} match, {refined} refined"
     );
     assert!(
-        one_ray_matching < pixels as usize / 2,
-        "{one_ray_matching} pixels of 1 eye ray match"
+        one_ray_matching + refined as usize / 2 <= matching,
+        "{one_ray_matching} pixels of 1 eye ray match, {matching} refined ones"
     );
+    refined
 }
 
 /// Edge antialiasing casts its own progressive set: raster first hits and MSAA positions are
