@@ -10,6 +10,7 @@ import sys
 
 # the builds, newest first, and what each ran (DIR/README.md says more)
 FOLDERS = [
+    ("ff4f2c7", "a refined pixel's eye rays cast side by side; 150 frames a run"),
     ("aaafd6b", "paced, edges refined only in the tiles the pacer gives 2 eye rays or more"),
     ("5499b50", "unpaced and paced (`paced-*`: frame pacing on)"),
     ("5af0e9d", "unpaced, with 64 eye rays of their own reflection as a second reference"),
@@ -61,9 +62,12 @@ def main():
             continue
         gpu = open(os.path.join(d, "gpu.txt")).read().strip()
         date = open(os.path.join(d, "date.txt")).read().strip()[:10]
+        frames = next(json.load(open(os.path.join(d, f"edges-{scene}.json"))).popitem()[1]["frames"]
+                      for scene, _ in SCENES
+                      if os.path.exists(os.path.join(d, f"edges-{scene}.json")))
         print(f"### Edge antialiasing on the walk CAVE (issue 32), {folder}: {what} — {date}\n")
-        print(f"{gpu}; `bash tools/gpu-edges.sh VLF OUT 200`, the 8-view 1920x1200 walk CAVE, "
-              "200 frames per run; eye rays per pixel and edge error from the last frame "
+        print(f"{gpu}; `bash tools/gpu-edges.sh VLF OUT {frames}`, the 8-view 1920x1200 walk "
+              f"CAVE, {frames} frames per run; eye rays per pixel and edge error from the last frame "
               "(display MSE against the same frame with 16 eye rays per pixel, and with 64 of "
               "their own reflection; paced runs counted as if every tile drew its low count, the "
               "pacer's shares are in each report's `pacer`); raw reports in "
