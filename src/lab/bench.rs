@@ -30,6 +30,12 @@ pub struct BenchReport {
     pub eye_rays_per_pixel: u32,
     #[serde(default)]
     pub mirror_bounces: u32,
+    /// edge antialiasing of the timed view: eye rays per edge pixel (0: off) and the share of
+    /// the view's pixels it refined
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub edge_samples: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refined_share: Option<f64>,
     pub render_frame_ms: Distribution,
     pub render_timing_source: String,
     /// the view's frame time against the constancy limit (p99/p50 <= 1.10), said in the table
@@ -37,18 +43,36 @@ pub struct BenchReport {
     pub limits: Vec<Limit>,
 }
 
+fn is_zero(n: &u32) -> bool {
+    *n == 0
+}
+
+/// How the timed view is drawn: eye rays per pixel and edge antialiasing (None: off).
+#[derive(Clone, Copy, Debug)]
+pub struct TimedView {
+    pub size: [u32; 2],
+    pub frames: u32,
+    pub samples_per_pixel: u32,
+    pub edges: Option<crate::render::edges::EdgeAntialiasing>,
+}
+
 pub fn run(
     ctx: Arc<GpuContext>,
     scene: &Scene,
     params: &PropagationParams,
-    size: [u32; 2],
-    frames: u32,
-    samples_per_pixel: u32,
+    view: TimedView,
 ) -> Result<BenchReport> {
+    let TimedView {
+        size,
+        frames,
+        samples_per_pixel,
+        edges,
+    } = view;
     let (lf, resident, report) = crate::propagate::propagate(ctx.clone(), scene, params, &Silent)?;
     let ledger = MemoryLedger::default();
     let mut renderer = Renderer::new(&resident, &lf, &ledger)?;
     renderer.set_samples_per_pixel(samples_per_pixel)?;
+    renderer.set_edge_antialiasing(edges)?;
     let camera = lf.camera(None)?.clone();
     // warm up, then measure
     renderer.time_frames(&camera, size[0], size[1], 10)?;
@@ -69,6 +93,9 @@ pub fn run(
         render_size: size,
         eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
+        edge_samples: edges.map_or(0, |e| e.samples),
+        refined_share: (renderer.refined_pixels()?)
+            .map(|(refined, pixels)| refined as f64 / pixels.max(1) as f64),
         limits: render_limits(&Distribution::of(&frame_ms)),
         render_frame_ms: Distribution::of(&frame_ms),
         render_timing_source: if gpu {
@@ -160,6 +187,14 @@ impl BenchReport {
             "  render {}x{}            median {:.4} ms, p99 {:.4} ms, max {:.4} ms over {} frames ({})\n",
             self.render_size[0], self.render_size[1], r.median, r.p99, r.max, r.samples, self.render_timing_source
         ));
+        if let Some(share) = self.refined_share {
+            s.push_str(&format!(
+                "  edge antialiasing         {} eye rays on {:.1}% of the pixels, {} on the rest\n",
+                self.edge_samples,
+                share * 100.0,
+                self.eye_rays_per_pixel
+            ));
+        }
         s.push_str(&Limit::lines(&self.limits));
         s
     }
