@@ -121,10 +121,9 @@ pub struct BenchArgs {
     /// Antialiasing of the timed view: N eye rays per pixel (default: the real-time one)
     #[arg(long, default_value_t = vlf::render::REALTIME_SAMPLES)]
     aa: u32,
-    /// Edge antialiasing of the timed view: N eye rays on pixels that differ from a neighbour,
-    /// --aa on the others (e.g. --aa 1 --edge-samples 8)
-    #[arg(long)]
-    edge_samples: Option<u32>,
+    // edge antialiasing of the timed view (e.g. --aa 1 --edge-samples 8)
+    #[command(flatten)]
+    edges: super::edge_args::EdgeArgs,
     #[command(flatten)]
     params: ParamArgs,
 }
@@ -308,20 +307,11 @@ fn suite(ctx: std::sync::Arc<GpuContext>, a: &BenchArgs) -> Result<()> {
 fn bench_scene(ctx: std::sync::Arc<GpuContext>, a: &BenchArgs) -> Result<()> {
     let scene = Scene::load(&a.scene)?;
     let params = a.params.for_adapter(&ctx)?;
-    let edges = (a.edge_samples)
-        .map(|n| {
-            vlf::render::edges::EdgeAntialiasing::new(
-                n,
-                vlf::render::edges::DEFAULT_EDGE_CONTRAST,
-                vlf::render::MAX_SAMPLES,
-            )
-        })
-        .transpose()?;
     let view = vlf::lab::bench::TimedView {
         size: a.size,
         frames: a.frames,
         samples_per_pixel: a.aa,
-        edges,
+        edges: a.edges.edge_antialiasing()?,
     };
     let report = vlf::lab::bench::run(ctx, &scene, &params, view)?;
     print!("{}", report.table());

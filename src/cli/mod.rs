@@ -6,6 +6,7 @@
 pub mod cave;
 pub mod compare;
 pub mod demo;
+pub mod edge_args;
 pub mod export;
 #[cfg(feature = "lab")]
 pub mod lab;

@@ -45,15 +45,8 @@ pub struct RenderArgs {
     /// adapter takes, 4 on every one)
     #[arg(long, default_value = "rays")]
     first_hits: vlf::render::raster::FirstHits,
-    /// Edge antialiasing: pixels that differ from a neighbour (another face, or a luminance
-    /// step over --edge-contrast) take N eye rays, the others --aa (1: through the pixel's
-    /// centre); all on one progressive set. Left out: --aa everywhere
-    #[arg(long)]
-    edge_samples: Option<u32>,
-    /// Edge antialiasing: the relative difference in luminance from a neighbour that makes a
-    /// pixel an edge
-    #[arg(long, default_value_t = vlf::render::edges::DEFAULT_EDGE_CONTRAST)]
-    edge_contrast: f32,
+    #[command(flatten)]
+    edges: super::edge_args::EdgeArgs,
     /// out.exr (linear radiance) or out.png (tonemapped)
     #[arg(short, long)]
     output: PathBuf,
@@ -92,16 +85,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     renderer.set_lobe_samples(args.lobe_samples);
     renderer.set_glossy_light_samples(args.glossy_light_samples);
     renderer.set_first_hits(args.first_hits)?;
-    let edges = (args.edge_samples)
-        .map(|n| {
-            vlf::render::edges::EdgeAntialiasing::new(
-                n,
-                args.edge_contrast,
-                vlf::render::MAX_SAMPLES,
-            )
-        })
-        .transpose()?;
-    renderer.set_edge_antialiasing(edges)?;
+    renderer.set_edge_antialiasing(args.edges.edge_antialiasing()?)?;
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
     image_io::write_image(&frame, &args.output, args.exposure)?;
     println!("{} ({w}x{h}, camera {:?})", args.output.display(), cam.name);
@@ -110,7 +94,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
             "edge antialiasing: {refined} of {pixels} pixels ({:.1}%) took {} eye rays, the \
              others {}",
             100.0 * refined as f64 / pixels.max(1) as f64,
-            args.edge_samples.unwrap_or(0),
+            args.edges.edge_samples.unwrap_or(0),
             args.aa
         );
     }

@@ -46,14 +46,8 @@ pub struct XrArgs {
     /// adapter takes, 4 on every one)
     #[arg(long, default_value = "rays")]
     first_hits: vlf::render::raster::FirstHits,
-    /// Edge antialiasing: pixels that differ from a neighbour (another face, or a luminance
-    /// step over --edge-contrast) take N eye rays, the others --aa. Left out: --aa everywhere
-    #[arg(long)]
-    edge_samples: Option<u32>,
-    /// Edge antialiasing: the relative difference in luminance from a neighbour that makes a
-    /// pixel an edge
-    #[arg(long, default_value_t = vlf::render::edges::DEFAULT_EDGE_CONTRAST)]
-    edge_contrast: f32,
+    #[command(flatten)]
+    edges: super::edge_args::EdgeArgs,
     /// The eyes' swapchains: one array swapchain with a layer per eye where the runtime takes it
     /// (auto, else one per eye), insist on the array (array), or one per eye (per-eye)
     #[arg(long, value_enum, default_value = "auto")]
@@ -106,8 +100,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         aa,
         fit_frame_time,
         first_hits,
-        edge_samples,
-        edge_contrast,
+        edges,
         swapchains,
         layer_colour,
         objects,
@@ -128,15 +121,7 @@ pub fn run(a: XrArgs) -> Result<()> {
         antialiasing: aa,
         fit_frame_time,
         first_hits,
-        edge_antialiasing: edge_samples
-            .map(|n| {
-                vlf::render::edges::EdgeAntialiasing::new(
-                    n,
-                    edge_contrast,
-                    vlf::render::MAX_SAMPLES,
-                )
-            })
-            .transpose()?,
+        edge_antialiasing: edges.edge_antialiasing()?,
         swapchains,
         layer_colour,
         objects,

@@ -30,10 +30,10 @@ pub struct BenchReport {
     pub eye_rays_per_pixel: u32,
     #[serde(default)]
     pub mirror_bounces: u32,
-    /// edge antialiasing of the timed view: eye rays per edge pixel (0: off) and the share of
+    /// edge antialiasing of the timed view: eye rays per edge pixel (None: off) and the share of
     /// the view's pixels it refined
-    #[serde(default, skip_serializing_if = "is_zero")]
-    pub edge_samples: u32,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_samples: Option<u32>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub refined_share: Option<f64>,
     pub render_frame_ms: Distribution,
@@ -41,10 +41,6 @@ pub struct BenchReport {
     /// the view's frame time against the constancy limit (p99/p50 <= 1.10), said in the table
     #[serde(default)]
     pub limits: Vec<Limit>,
-}
-
-fn is_zero(n: &u32) -> bool {
-    *n == 0
 }
 
 /// How the timed view is drawn: eye rays per pixel and edge antialiasing (None: off).
@@ -93,7 +89,7 @@ pub fn run(
         render_size: size,
         eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
-        edge_samples: edges.map_or(0, |e| e.samples),
+        edge_samples: edges.map(|e| e.samples),
         refined_share: (renderer.refined_pixels()?)
             .map(|(refined, pixels)| refined as f64 / pixels.max(1) as f64),
         limits: render_limits(&Distribution::of(&frame_ms)),
@@ -187,10 +183,9 @@ impl BenchReport {
             "  render {}x{}            median {:.4} ms, p99 {:.4} ms, max {:.4} ms over {} frames ({})\n",
             self.render_size[0], self.render_size[1], r.median, r.p99, r.max, r.samples, self.render_timing_source
         ));
-        if let Some(share) = self.refined_share {
+        if let Some((samples, share)) = self.edge_samples.zip(self.refined_share) {
             s.push_str(&format!(
-                "  edge antialiasing         {} eye rays on {:.1}% of the pixels, {} on the rest\n",
-                self.edge_samples,
+                "  edge antialiasing         {samples} eye rays on {:.1}% of the pixels, {} on the rest\n",
                 share * 100.0,
                 self.eye_rays_per_pixel
             ));
