@@ -502,13 +502,22 @@ fn traces_second(m0: vec3<f32>, m1: vec3<f32>, k: u32, w1: f32) -> bool {
     return second > first || (second == first && w1 > 0.0 && ((k / 2u) & 1u) == 1u);
 }
 
-// Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
-// from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
-// a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
-// reflections per pixel (the reflection is what a mirror makes expensive).
-fn pair_diffuse(pixel: vec2<u32>, k: u32, n: u32, chain_set: ChainSet) -> PairLight {
+// A pair of eye rays (k and k + 1 of n; an odd count's last pair repeats its ray with weight
+// w1 = 0) as both ways of drawing meet it: where each ray lands, the mirror each meets, and
+// the pair's light before any reflection (with its depth and what it met, for edges).
+struct PairHits {
+    h0: EyeHit,
+    h1: EyeHit,
+    sp0: vec4<f32>,
+    sp1: vec4<f32>,
+    m0: vec3<f32>,
+    m1: vec3<f32>,
+    w1: f32,
+    shown: PairLight,
+}
+
+fn pair_hits(pixel: vec2<u32>, k: u32, n: u32) -> PairHits {
     let size = textureDimensions(image);
-    // an odd count's last pair repeats its ray with weight 0
     let w1 = select(0.0, 1.0, k + 1u < n);
     let h0 = first_hit(pixel, k, n, size);
     // an odd count's last pair has one eye ray: h1 is h0 (no second cast: 1 eye ray per
@@ -519,29 +528,35 @@ fn pair_diffuse(pixel: vec2<u32>, k: u32, n: u32, chain_set: ChainSet) -> PairLi
     }
     let s0 = h0.surface;
     let s1 = h1.surface;
-    var out = PairLight(vec3<f32>(0.0), min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)), vec2<u32>(edge_signature(h0), edge_signature(h1)));
     let f0 = faces[s0.face];
     let f1 = faces[s1.face];
     let sp0 = specular_at(f0, s0);
     let sp1 = specular_at(f1, s1);
-    let m0 = sp0.xyz * s0.seen;
-    let m1 = sp1.xyz * s1.seen * w1;
     let shown = pair_shown(s0, f0, s1, f1, hash(pixel.x ^ hash(pixel.y ^ hash(k))));
-    out.radiance = shown[0] + shown[1] * w1;
-    if view.mirror_bounces > 0u && reflection_traced(m0 + m1, chain_set.stand_ins) {
-        let use_second = traces_second(m0, m1, k, w1);
-        var s = s0;
+    let light = PairLight(shown[0] + shown[1] * w1, min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)), vec2<u32>(edge_signature(h0), edge_signature(h1)));
+    return PairHits(h0, h1, sp0, sp1, sp0.xyz * s0.seen, sp1.xyz * s1.seen * w1, w1, light);
+}
+
+// Without tiles (no facing mirrors) eye rays go in pairs, and each pair traces one reflection:
+// from the ray of the two that meets more mirror, shared by both. Edges keep every eye ray;
+// a reflection inside a mirror gets half as many, and the cost stays fixed: n eye rays and n/2
+// reflections per pixel (the reflection is what a mirror makes expensive).
+fn pair_diffuse(pixel: vec2<u32>, k: u32, n: u32, chain_set: ChainSet) -> PairLight {
+    let p = pair_hits(pixel, k, n);
+    var out = p.shown;
+    if view.mirror_bounces > 0u && reflection_traced(p.m0 + p.m1, chain_set.stand_ins) {
+        let use_second = traces_second(p.m0, p.m1, k, p.w1);
+        var h = p.h0;
         if use_second {
-            s = s1;
+            h = p.h1;
         }
-        let ray = select(h0.ray, h1.ray, use_second);
-        let chains = chains_of(s);
+        let chains = chains_of(h.surface);
         var reflected = vec3<f32>(0.0);
         for (var j = 0u; j < chains; j++) {
             let u = lobe_sample(pixel, chain_set.index * chains + j, chain_set.count * chains);
-            reflected += mirror_chain(s, ray, select(sp0.w, sp1.w, use_second), u).radiance;
+            reflected += mirror_chain(h.surface, h.ray, select(p.sp0.w, p.sp1.w, use_second), u).radiance;
         }
-        out.radiance += (m0 + m1) * reflected / f32(chains);
+        out.radiance += (p.m0 + p.m1) * reflected / f32(chains);
     }
     return out;
 }
@@ -551,40 +566,24 @@ fn pair_diffuse(pixel: vec2<u32>, k: u32, n: u32, chain_set: ChainSet) -> PairLi
 // both and ends in the tiles of the last surface: n eye rays, n/2 chains and n/2 tile lookups
 // per pixel.
 fn pair_mixed(pixel: vec2<u32>, k: u32, n: u32, chain_set: ChainSet) -> PairLight {
-    let size = textureDimensions(image);
-    let w1 = select(0.0, 1.0, k + 1u < n);
-    let h0 = first_hit(pixel, k, n, size);
-    var h1 = h0;
-    if k + 1u < n {
-        h1 = first_hit(pixel, k + 1u, n, size);
-    }
-    let s0 = h0.surface;
-    let s1 = h1.surface;
-    var out = PairLight(vec3<f32>(0.0), min(eye_depth(h0.origin, s0.point), eye_depth(h1.origin, s1.point)), vec2<u32>(edge_signature(h0), edge_signature(h1)));
-    let f0 = faces[s0.face];
-    let f1 = faces[s1.face];
-    let sp0 = specular_at(f0, s0);
-    let sp1 = specular_at(f1, s1);
-    let m0 = sp0.xyz * s0.seen;
-    let m1 = sp1.xyz * s1.seen * w1;
-    let shown = pair_shown(s0, f0, s1, f1, hash(pixel.x ^ hash(pixel.y ^ hash(k))));
-    out.radiance = shown[0] + shown[1] * w1;
-    if reflection_traced(m0 + m1, chain_set.stand_ins) {
-        let use_second = traces_second(m0, m1, k, w1);
-        var s = s0;
+    let p = pair_hits(pixel, k, n);
+    var out = p.shown;
+    if reflection_traced(p.m0 + p.m1, chain_set.stand_ins) {
+        let use_second = traces_second(p.m0, p.m1, k, p.w1);
+        var h = p.h0;
         if use_second {
-            s = s1;
+            h = p.h1;
         }
         // the tiles hold the radiance the mirror reflects toward where the ray came from (its
         // reflectance included): with no reflection traced they weigh by the eye rays that meet
         // a mirror, after one or more by the mirrors' reflectance along the chain
-        let mirrored_rays = select(0.0, s0.seen, max(m0.x, max(m0.y, m0.z)) > 0.0) + select(0.0, s1.seen * w1, max(m1.x, max(m1.y, m1.z)) > 0.0);
-        let weight = select(m0 + m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
-        let chains = chains_of(s);
+        let mirrored_rays = select(0.0, p.h0.surface.seen, max(p.m0.x, max(p.m0.y, p.m0.z)) > 0.0) + select(0.0, p.h1.surface.seen * p.w1, max(p.m1.x, max(p.m1.y, p.m1.z)) > 0.0);
+        let weight = select(p.m0 + p.m1, vec3<f32>(mirrored_rays), view.mirror_bounces == 0u);
+        let chains = chains_of(h.surface);
         var reflected = vec3<f32>(0.0);
         for (var j = 0u; j < chains; j++) {
             let u = lobe_sample(pixel, chain_set.index * chains + j, chain_set.count * chains);
-            let chain = mirror_chain(s, select(h0.ray, h1.ray, use_second), select(sp0.w, sp1.w, use_second), u);
+            let chain = mirror_chain(h.surface, h.ray, select(p.sp0.w, p.sp1.w, use_second), u);
             let f = faces[chain.face];
             // a face without tiles looks up the first mirror face's (slot 0) and keeps none of it
             let carried = select(chain.throughput, vec3<f32>(0.0), f.tile_slot == NO_FACE);

@@ -10,7 +10,7 @@ use vlf::gpu::MemoryLedger;
 use vlf::lightfield::{LightField, ResidentLightField};
 use vlf::metrics::compare;
 use vlf::progress::Silent;
-use vlf::render::edges::EdgeAntialiasing;
+use vlf::render::edges::{EdgeAntialiasing, Refined};
 use vlf::render::{Frame, Renderer};
 
 const SIZE: [u32; 2] = [256, 256];
@@ -28,7 +28,7 @@ fn draw(
     field: &(LightField, ResidentLightField),
     aa: u32,
     edges: Option<EdgeAntialiasing>,
-) -> (Frame, Option<(u32, u32)>) {
+) -> (Frame, Option<Refined>) {
     draw_at(field, SIZE, aa, edges)
 }
 
@@ -38,7 +38,7 @@ fn draw_at(
     size: [u32; 2],
     aa: u32,
     edges: Option<EdgeAntialiasing>,
-) -> (Frame, Option<(u32, u32)>) {
+) -> (Frame, Option<Refined>) {
     let mut r = Renderer::new(resident, lf, &MemoryLedger::default()).unwrap();
     r.set_samples_per_pixel(aa).unwrap();
     r.set_edge_antialiasing(edges).unwrap();
@@ -47,7 +47,7 @@ fn draw_at(
 }
 
 fn edges(samples: u32, contrast: f32) -> Option<EdgeAntialiasing> {
-    Some(EdgeAntialiasing::new(samples, contrast, vlf::render::MAX_SAMPLES).unwrap())
+    Some(EdgeAntialiasing::new(samples, contrast).unwrap())
 }
 
 /// Measured (lavapipe, 256x256, draft light field), display MSE against the 16-eye-ray still:
@@ -60,8 +60,7 @@ fn edge_antialiasing_is_closer_to_a_still_than_4_eye_rays_with_fewer_rays() {
     let (still, _) = draw(&field, 16, None);
     let (four, _) = draw(&field, 4, None);
     let (adaptive, refined) = draw(&field, 1, edges(16, 0.1));
-    let (refined, pixels) = refined.expect("edge antialiasing reports what it refined");
-    let share = refined as f64 / pixels as f64;
+    let share = (refined.expect("edge antialiasing reports what it refined")).share();
     let rays = 1.0 + share * 15.0;
     let four_error = compare(&four, &still).unwrap().display_mse;
     let error = compare(&adaptive, &still).unwrap().display_mse;
@@ -121,10 +120,18 @@ fn assert_refined_pixels_match(
     samples: u32,
 ) -> u32 {
     let (at_once, none) = draw_at(field, size, samples, edges(samples, 0.0));
-    assert_eq!(none, Some((0, size[0] * size[1])), "nothing to refine");
+    let all = size[0] * size[1];
+    assert_eq!(
+        none,
+        Some(Refined { pixels: 0, of: all }),
+        "nothing to refine"
+    );
     let (refined_frame, refined) = draw_at(field, size, 1, edges(samples, 0.0));
     let (one_ray, _) = draw_at(field, size, 1, None);
-    let (refined, pixels) = refined.unwrap();
+    let Refined {
+        pixels: refined,
+        of: pixels,
+    } = refined.unwrap();
     let matching = |frame: &Frame| {
         (frame.pixels.iter().zip(&at_once.pixels))
             .filter(|(a, b)| (0..3).all(|c| (a[c] - b[c]).abs() <= 1e-5 * b[c].abs().max(1.0)))
@@ -165,7 +172,7 @@ fn edge_antialiasing_refuses_what_it_cannot_draw_with() {
     assert!(err.contains("edge_samples"), "{err}");
     assert!(r.set_msaa_sample_positions(4).is_err());
     for (samples, contrast) in [(1, 0.1), (1000, 0.1), (8, -1.0), (8, f32::NAN)] {
-        let err = EdgeAntialiasing::new(samples, contrast, vlf::render::MAX_SAMPLES)
+        let err = EdgeAntialiasing::new(samples, contrast)
             .unwrap_err()
             .to_string();
         assert!(err.contains("edge_"), "{samples} {contrast}: {err}");
@@ -192,7 +199,7 @@ fn paced_tiles_refine_their_edges_only_where_the_pacer_gives_two_eye_rays() {
     r.set_edge_antialiasing(edges(8, 0.1)).unwrap();
     let camera = &lf.meta.cameras[0];
     r.render(camera, SIZE[0], SIZE[1]).unwrap();
-    let (unpaced, _) = r.refined_pixels().unwrap().unwrap();
+    let unpaced = r.refined_pixels().unwrap().unwrap().pixels;
     let mut refined_at = |fraction: f32| {
         r.set_view_settings(vlf::render::budget::ViewSettings {
             samples_per_pixel: 1,
@@ -202,7 +209,7 @@ fn paced_tiles_refine_their_edges_only_where_the_pacer_gives_two_eye_rays() {
             fixed_work: 0,
         });
         r.render(camera, SIZE[0], SIZE[1]).unwrap();
-        r.refined_pixels().unwrap().unwrap().0
+        r.refined_pixels().unwrap().unwrap().pixels
     };
     let (none, half, all) = (refined_at(0.0), refined_at(0.5), refined_at(1.0));
     eprintln!("refined: unpaced {unpaced}, paced at shares 0, 0.5, 1: {none}, {half}, {all}");

@@ -21,7 +21,7 @@ pub struct EdgeArgs {
 impl EdgeArgs {
     /// The checked settings (None without --edge-samples).
     pub fn edge_antialiasing(&self) -> Result<Option<EdgeAntialiasing>> {
-        let checked = |n| EdgeAntialiasing::new(n, self.edge_contrast, vlf::render::MAX_SAMPLES);
+        let checked = |n| EdgeAntialiasing::new(n, self.edge_contrast);
         Ok(self.edge_samples.map(checked).transpose()?)
     }
 }

@@ -89,11 +89,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let frame = renderer.render_antialiased(&cam, w, h, ssaa)?;
     image_io::write_image(&frame, &args.output, args.exposure)?;
     println!("{} ({w}x{h}, camera {:?})", args.output.display(), cam.name);
-    if let Some((refined, pixels)) = renderer.refined_pixels()? {
+    if let Some(refined) = renderer.refined_pixels()? {
         println!(
-            "edge antialiasing: {refined} of {pixels} pixels ({:.1}%) took {} eye rays, the \
-             others {}",
-            100.0 * refined as f64 / pixels.max(1) as f64,
+            "edge antialiasing: {} of {} pixels ({:.1}%) took {} eye rays, the others {}",
+            refined.pixels,
+            refined.of,
+            100.0 * refined.share(),
             args.edges.edge_samples.unwrap_or(0),
             args.aa
         );

@@ -585,48 +585,6 @@ impl Timestamps {
         })
     }
 
-    /// One pair spanning two compute passes: its first timestamp at the start of the first,
-    /// its second at the end of the second (a view drawn with edge antialiasing, whose refine
-    /// pass reads its workgroups from a buffer the first wrote, timed as one).
-    pub fn split_compute_writes(
-        &mut self,
-    ) -> Option<(
-        wgpu::ComputePassTimestampWrites<'_>,
-        wgpu::ComputePassTimestampWrites<'_>,
-    )> {
-        let (a, b) = self.next_pair()?;
-        let write = |begin, end| wgpu::ComputePassTimestampWrites {
-            query_set: &self.query_set,
-            beginning_of_pass_write_index: begin,
-            end_of_pass_write_index: end,
-        };
-        Some((write(Some(a), None), write(None, Some(b))))
-    }
-
-    /// One pair spanning two passes: its first timestamp at the start of a render pass, its
-    /// second at the end of the compute pass after it (a view drawn by raster first hits and
-    /// its resolve, timed as one).
-    pub fn spanning_writes(
-        &mut self,
-    ) -> Option<(
-        wgpu::RenderPassTimestampWrites<'_>,
-        wgpu::ComputePassTimestampWrites<'_>,
-    )> {
-        let (a, b) = self.next_pair()?;
-        Some((
-            wgpu::RenderPassTimestampWrites {
-                query_set: &self.query_set,
-                beginning_of_pass_write_index: Some(a),
-                end_of_pass_write_index: None,
-            },
-            wgpu::ComputePassTimestampWrites {
-                query_set: &self.query_set,
-                beginning_of_pass_write_index: None,
-                end_of_pass_write_index: Some(b),
-            },
-        ))
-    }
-
     pub fn render_writes(&mut self) -> Option<wgpu::RenderPassTimestampWrites<'_>> {
         let (a, b) = self.next_pair()?;
         Some(wgpu::RenderPassTimestampWrites {

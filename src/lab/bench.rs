@@ -90,8 +90,7 @@ pub fn run(
         eye_rays_per_pixel: samples_per_pixel,
         mirror_bounces: renderer.mirror_bounces(),
         edge_samples: edges.map(|e| e.samples),
-        refined_share: (renderer.refined_pixels()?)
-            .map(|(refined, pixels)| refined as f64 / pixels.max(1) as f64),
+        refined_share: renderer.refined_pixels()?.map(|r| r.share()),
         limits: render_limits(&Distribution::of(&frame_ms)),
         render_frame_ms: Distribution::of(&frame_ms),
         render_timing_source: if gpu {

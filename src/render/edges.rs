@@ -3,15 +3,17 @@
 //! Inside a surface the light field varies slowly across a pixel: one eye ray through the
 //! pixel's centre shows what 16 would, and what the extra rays buy is the edges (a face's
 //! silhouette, a crease between two faces, a sharp change of texture or light). So a view is
-//! drawn in three compute dispatches of one pass (`shaders/render.wgsl`):
-//! - `resolve`: each pixel its tile's eye rays (frame pacing's count), on one progressive set
-//!   whose first ray goes through the pixel's centre; it leaves its average and what its first
-//!   ray met (the face, the sky or a moving object);
-//! - `find_edges`: a pixel whose eye rays met different things, or whose 3x3 neighbours met
-//!   something else or differ in luminance by more than `edge_contrast`, goes on a list;
-//! - `refine` (dispatched indirectly, one thread per listed pixel): adds eye rays up to
-//!   `edge_samples` from the same set, so an edge pixel is what a still with that many eye
-//!   rays shows there (to within the pairing of reflections).
+//! drawn in two compute passes (`shaders/render.wgsl`):
+//! - the first pass: `resolve`, each pixel its tile's eye rays (frame pacing's count), on one
+//!   progressive set whose first ray goes through the pixel's centre, leaving its average and
+//!   what its first ray met (the face, the sky or a moving object); `find_edges`, which lists a
+//!   pixel whose eye rays met different things, or whose 3x3 neighbours met something else or
+//!   differ in luminance by more than `edge_contrast`; `edge_dispatch`, one thread that sizes
+//!   the second pass;
+//! - `refine`, dispatched indirectly: each listed pixel adds eye rays up to `edge_samples` from
+//!   the same set, each with its own reflection, cast side by side by up to 64 threads and
+//!   summed in workgroup memory, so an edge pixel is what a still with that many eye rays shows
+//!   there (to within the pairing of reflections).
 //!
 //! The cost follows how many pixels are edges. Paced (`budget.rs`), only the tiles the pacer
 //! gives 2 eye rays per pixel or more refine their edges: the fit's 1 eye ray per pixel stays the
@@ -47,8 +49,9 @@ fn default_contrast() -> f32 {
 }
 
 impl EdgeAntialiasing {
-    /// Checked settings (`samples` 2 to `max`, `contrast` finite and not negative).
-    pub fn new(samples: u32, contrast: f32, max: u32) -> Result<EdgeAntialiasing> {
+    /// Checked settings (`samples` 2 to MAX_SAMPLES, `contrast` finite and not negative).
+    pub fn new(samples: u32, contrast: f32) -> Result<EdgeAntialiasing> {
+        let max = super::MAX_SAMPLES;
         if !(2..=max).contains(&samples) {
             return Err(VlfError::Parameter {
                 name: "edge_samples",
@@ -69,6 +72,11 @@ impl EdgeAntialiasing {
         }
         Ok(EdgeAntialiasing { samples, contrast })
     }
+
+    /// These settings checked as `new` checks them (a display config's, read unchecked).
+    pub fn checked(self) -> Result<EdgeAntialiasing> {
+        EdgeAntialiasing::new(self.samples, self.contrast)
+    }
 }
 
 /// The dispatches after the resolve: `find_edges` and `edge_dispatch` in the resolve's pass,
@@ -78,6 +86,20 @@ pub struct EdgePass {
     find_edges: wgpu::ComputePipeline,
     edge_dispatch: wgpu::ComputePipeline,
     refine: wgpu::ComputePipeline,
+}
+
+/// How many of a view's pixels edge antialiasing refined in its last pass, of how many.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Refined {
+    pub pixels: u32,
+    pub of: u32,
+}
+
+impl Refined {
+    /// The refined pixels' share of the view's.
+    pub fn share(&self) -> f64 {
+        self.pixels as f64 / self.of.max(1) as f64
+    }
 }
 
 /// One view's buffer for edge antialiasing (render.wgsl `EdgeBuffer`: the refine pass's
@@ -162,9 +184,12 @@ impl EdgeTargets {
         encoder.clear_buffer(&self.buffer, 0, Some(HEADER_BYTES));
     }
 
-    /// How many pixels the last pass refined, and of how many (waits for the GPU).
-    pub fn refined(&self, ctx: &GpuContext) -> Result<(u32, u32)> {
+    /// How many pixels the last pass refined (waits for the GPU).
+    pub fn refined(&self, ctx: &GpuContext) -> Result<Refined> {
         let header: Vec<u32> = ctx.read_buffer(&self.buffer, HEADER_BYTES)?;
-        Ok((header[3], self.pixel_count))
+        Ok(Refined {
+            pixels: header[3],
+            of: self.pixel_count,
+        })
     }
 }

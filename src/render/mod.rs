@@ -123,9 +123,7 @@ impl ViewTargets {
     /// refined (None without it; waits for the GPU).
     pub fn refined_share(&self, ctx: &GpuContext) -> Result<Option<f64>> {
         match &self.edges {
-            Some(e) => e
-                .refined(ctx)
-                .map(|(refined, pixels)| Some(refined as f64 / pixels.max(1) as f64)),
+            Some(e) => e.refined(ctx).map(|r| Some(r.share())),
             None => Ok(None),
         }
     }
@@ -143,6 +141,8 @@ pub struct Renderer {
     ctx: Arc<GpuContext>,
     resolve_pipeline: wgpu::ComputePipeline,
     resolve_layout: wgpu::BindGroupLayout,
+    /// render.wgsl compiled for `variant` (edge antialiasing's pipelines are made from it)
+    resolve_module: wgpu::ShaderModule,
     /// what the resolve pipeline was compiled for (the raster one is compiled from it)
     variant: ResolveVariant,
     /// with raster first hits, the pass that draws each view's visibility buffer first
@@ -350,6 +350,7 @@ impl Renderer {
             placeholder_edges: edges::EdgeTargets::placeholder(device),
             triangle_count,
             resolve_layout: layouts.view,
+            resolve_module: layouts.module,
             field_layout: layouts.field,
             moving_layout: layouts.moving,
             view_buffer,
@@ -678,7 +679,7 @@ impl Renderer {
             self.view_template.edge_samples = 0;
             return Ok(());
         };
-        let edge = edges::EdgeAntialiasing::new(edge.samples, edge.contrast, MAX_SAMPLES)?;
+        let edge = edge.checked()?;
         if self.raster.is_some() || self.view_template.msaa_samples > 0 {
             return Err(VlfError::Parameter {
                 name: "edge_samples",
@@ -688,13 +689,15 @@ impl Renderer {
                     .into(),
             });
         }
-        let module = resolve_module(&self.ctx, self.variant)?;
         let layouts = [
             &self.resolve_layout,
             &self.field_layout.layout,
             &self.moving_layout,
         ];
-        self.edges = Some((edge, edges::EdgePass::new(&self.ctx, &module, &layouts)));
+        self.edges = Some((
+            edge,
+            edges::EdgePass::new(&self.ctx, &self.resolve_module, &layouts),
+        ));
         self.view_template.edge_samples = edge.samples;
         self.view_template.edge_contrast = edge.contrast;
         Ok(())
@@ -704,9 +707,9 @@ impl Renderer {
         self.edges.as_ref().map(|(e, _)| *e)
     }
 
-    /// How many pixels edge antialiasing refined in the view `render` drew last, of how many
-    /// (None without it; waits for the GPU).
-    pub fn refined_pixels(&self) -> Result<Option<(u32, u32)>> {
+    /// How many pixels edge antialiasing refined in the view `render` drew last (None without
+    /// it; waits for the GPU).
+    pub fn refined_pixels(&self) -> Result<Option<edges::Refined>> {
         match self.target.as_ref().and_then(|t| t.targets.edges.as_ref()) {
             Some(e) if self.edges.is_some() => e.refined(&self.ctx).map(Some),
             _ => Ok(None),
@@ -907,20 +910,23 @@ impl Renderer {
             }
             _ => None,
         };
+        // one timestamp pair spans the view's passes: raster then resolve, or resolve then
+        // refine, or the resolve alone
+        let span = timestamps.and_then(|t| t.next_span());
         let (pipeline, timestamp_writes, refine_writes) =
             match (&self.raster, &targets.raster, edges) {
                 (Some(raster), Some(visibility), _) if raster.samples == visibility.samples => {
-                    let (begin, end) = timestamps.and_then(|t| t.spanning_writes()).unzip();
-                    raster.encode(encoder, visibility, begin);
-                    (&raster.resolve, end, None)
+                    raster.encode(encoder, visibility, span.and_then(|s| s.render(0, 1)));
+                    (&raster.resolve, span.and_then(|s| s.compute(1, 1)), None)
                 }
-                (_, _, Some(_)) => {
-                    let (begin, end) = timestamps.and_then(|t| t.split_compute_writes()).unzip();
-                    (&self.resolve_pipeline, begin, end)
-                }
+                (_, _, Some(_)) => (
+                    &self.resolve_pipeline,
+                    span.and_then(|s| s.compute(0, 1)),
+                    span.and_then(|s| s.compute(1, 1)),
+                ),
                 _ => (
                     &self.resolve_pipeline,
-                    timestamps.and_then(|t| t.compute_writes()),
+                    span.and_then(|s| s.compute(0, 0)),
                     None,
                 ),
             };
@@ -1145,6 +1151,8 @@ impl Renderer {
 /// The resolve pass's bind group layouts: its own group (the view, the render mesh, the
 /// targets), the light field's (`lightfield::bindings`) and the moving objects'.
 struct ResolveLayouts {
+    /// render.wgsl as compiled for the pipeline (edge antialiasing's entry points come from it)
+    module: wgpu::ShaderModule,
     view: wgpu::BindGroupLayout,
     field: crate::lightfield::bindings::FieldLayout,
     moving: wgpu::BindGroupLayout,
@@ -1197,6 +1205,7 @@ fn resolve_pipeline(
     Ok((
         pipeline,
         ResolveLayouts {
+            module,
             view,
             field,
             moving,
