@@ -1,15 +1,17 @@
 // The moving objects' shadows on the static scene, once per frame for every view, driven by
 // src/render/shadow_atlas.rs after the moving objects' refit (the same compute pass): for the
-// texels of the static faces a moving object can shadow, the direct irradiance the objects block
-// (common/moving_surface.wgsl, direct_samples: emitter samples through the alias table and
-// cosine-weighted sky samples, counted where a moving object blocks and the scene does not),
-// into texels laid out per face as the light field's atlas lays out its chart, which the views
-// read (common/moving_shadow.wgsl). Four steps: `reset` the counters; `cull` the faces (one
-// thread each: a face is a candidate where a moving object's box meets the hull of the face's
-// chart and a group of emitters' box, or lies within shadow.sky_reach of it under a sky; each
-// candidate takes its texels and its ITEM_TEXELS-texel items); `evaluate` the items, a workgroup
-// per item and LANES threads per texel, each casting a share of the texel's rays. The sample
-// pattern of a texel is fixed (a hash of the face and texel), so a still scene does not flicker.
+// texels of the static faces a moving object can shadow, the irradiance the objects block: the
+// direct light (common/moving_surface.wgsl, direct_samples: emitter samples through the alias
+// table and cosine-weighted sky samples, counted where a moving object blocks and the scene does
+// not) and, near the objects, the indirect light (indirect_part: the probes' radiance from the
+// directions they cover, less what they send back), into texels laid out per face as the light
+// field's atlas lays out its chart, which the views read (common/moving_shadow.wgsl). Four
+// steps: `reset` the counters; `cull` the faces (one thread each: a face is a candidate where a
+// moving object's box meets the hull of the face's chart and a group of emitters' box, or lies
+// within shadow.sky_reach of it under a sky or within shadow.indirect_reach; each candidate
+// takes its texels and its ITEM_TEXELS-texel items); `evaluate` the items, a workgroup per item
+// and LANES threads per texel, each casting a share of the texel's rays. The sample pattern of a
+// texel is fixed (a hash of the face and texel), so a still scene does not flicker.
 #include "common/types.wgsl"
 #include "common/bsdf.wgsl"
 #include "common/atlas.wgsl"
@@ -39,7 +41,13 @@ struct ShadowAtlas {
     // the sky's shadow within this distance of the objects' boxes (normalised space), fading
     // over the outer half
     sky_reach: f32,
-    _pad: u32,
+    // rays per texel against the moving objects for the indirect light they block (0: none),
+    // within this distance of their boxes, fading over the outer half
+    indirect_rays: u32,
+    indirect_reach: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // the scene as the renderer binds it (its view uniform for the casting mode and the moving tree)
@@ -95,7 +103,8 @@ fn box_distance(a_lo: vec3<f32>, a_hi: vec3<f32>, b_lo: vec3<f32>, b_hi: vec3<f3
 
 // Whether face f can take a moving object's shadow this frame, for a side of the tree's top
 // (box lo..hi): the box rises above the face's plane, and it meets the hull of the face's chart
-// and one group of emitters, or under a sky lies within shadow.sky_reach of the chart.
+// and one group of emitters, or under a sky lies within shadow.sky_reach of the chart, or within
+// shadow.indirect_reach where the indirect light's shadow is taken.
 fn side_shadows(f: Face, f_lo: vec3<f32>, f_hi: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> bool {
     if empty_box(lo) || dot(select(lo, hi, f.normal > vec3<f32>(0.0)) - f.origin, f.normal) <= 0.0 {
         return false;
@@ -111,7 +120,9 @@ fn side_shadows(f: Face, f_lo: vec3<f32>, f_hi: vec3<f32>, lo: vec3<f32>, hi: ve
         }
     }
     let sky = field.sky.xyz;
-    return shadow.samples.y > 0u && max(sky.x, max(sky.y, sky.z)) > 0.0 && box_distance(f_lo, f_hi, b_lo, b_hi) < shadow.sky_reach;
+    let apart = box_distance(f_lo, f_hi, b_lo, b_hi);
+    let sky_shadow = shadow.samples.y > 0u && max(sky.x, max(sky.y, sky.z)) > 0.0 && apart < shadow.sky_reach;
+    return sky_shadow || (shadow.indirect_rays > 0u && apart < shadow.indirect_reach);
 }
 
 // Whether face f is a candidate: a diffuse albedo, and a side of the moving objects' tree that
@@ -199,7 +210,35 @@ fn texel_part(face: u32, texel: u32, part: u32) -> vec3<f32> {
     if fade > 0.0 && shadow.samples.y > 0u {
         blocked += fade * direct_samples_part(origin, f.normal, seed, true, vec2<u32>(0u, shadow.samples.y), lanes);
     }
+    let indirect_fade = clamp(2.0 - 2.0 * d / max(shadow.indirect_reach, 1e-20), 0.0, 1.0);
+    if indirect_fade > 0.0 && shadow.indirect_rays > 0u {
+        blocked += indirect_fade * indirect_part(origin, f.normal, seed, lanes);
+    }
     return blocked;
+}
+
+// This thread's share (`part`) of the indirect irradiance the moving objects take from a static
+// point at `origin` facing `normal`: shadow.indirect_rays cosine-weighted rays, each that meets a
+// moving object before the scene taking away the probes' radiance from its direction (the light
+// field's indirect light arriving there, as the probes hold it: without the emitters' and the
+// sky's, which the shadow rays take) and giving back what the object shows toward the point
+// (moving_radiance: its albedo lit by the probes and the vertices' light, its emission). Each
+// ray stands for pi / indirect_rays of the irradiance. The probes' light is smooth (order-2
+// spherical harmonics): what the objects hide of a sharp indirect light is taken as smooth.
+fn indirect_part(origin: vec3<f32>, normal: vec3<f32>, seed: u32, part: vec2<u32>) -> vec3<f32> {
+    let m = shadow.indirect_rays;
+    let coefficients = radiance_coefficients_at(origin);
+    let frame = moving_frame(normal);
+    let shift = vec2<f32>(unit_float(hash(seed ^ 0x68e31da4u)), unit_float(hash(seed + 0x1b56c4e9u)));
+    var blocked = vec3<f32>(0.0);
+    for (var k = part.x; k < m; k += part.y) {
+        let ray = cosine_direction(frame, hammersley(k, m, shift));
+        let hit = cast_bvh(origin, ray, view.moving_root, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
+        if hit.tri != NO_FACE && !blocks(origin, ray, hit.t, 0u) {
+            blocked += sh_radiance(coefficients, ray) - moving_radiance(hit.tri - view.moving_first, origin + ray * hit.t, ray);
+        }
+    }
+    return blocked * (PI / f32(max(m, 1u)));
 }
 
 @compute @workgroup_size(64)

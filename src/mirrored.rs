@@ -112,7 +112,8 @@ pub fn mirrored_structs() -> Vec<MirroredStruct> {
             vertex_count, emitter_samples, sky_samples, occlusion_rays
         }),
         mirrored!(GpuShadowAtlas => "ShadowAtlas" in "shadow_atlas.wgsl" {
-            face_count, texel_capacity, item_capacity, box_count, samples, sky_reach, _pad
+            face_count, texel_capacity, item_capacity, box_count, samples, sky_reach,
+            indirect_rays, indirect_reach, _pad0, _pad1, _pad2
         }),
         mirrored!(GpuBvhPair => "BvhPair" in "render.wgsl" {
             lo_left, left, hi_left, right, lo_right, _pad0, hi_right, _pad1

@@ -10,6 +10,9 @@ import sys
 
 # the builds, newest first, and what each ran (DIR/README.md says more)
 FOLDERS = [
+    ("e878842-3000", "paced, the pacer learning each view's cost of an eye ray; 3000 frames a run "
+     "(the 12 s walk at 0.48x its speed)"),
+    ("e878842", "the same, 150 frames a run (the walk at about 10x its speed)"),
     ("ff4f2c7", "a refined pixel's eye rays cast side by side; 150 frames a run"),
     ("aaafd6b", "paced, edges refined only in the tiles the pacer gives 2 eye rays or more"),
     ("5499b50", "unpaced and paced (`paced-*`: frame pacing on)"),

@@ -79,6 +79,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     });
     let mut renderer = Renderer::with_objects(&resident, &lf, &resident.ledger, draw)?;
     if let Some(s) = &still {
+        // twice, as a display's frames follow each other: the shadow atlas's objects send back
+        // what the vertices' correction of the pose before says they show
+        renderer.pose_objects(&s.joints, None);
         renderer.pose_objects(&s.joints, None);
     }
     renderer.set_samples_per_pixel(args.aa)?;

@@ -342,7 +342,8 @@ pub struct GpuMovingMaterial {
 }
 
 /// Mirrors WGSL `ShadowAtlas` (shaders/shadow_atlas.wgsl): the faces, what the atlas's buffers
-/// hold, the emitters' boxes, the shadow rays per texel and the sky's reach.
+/// hold, the emitters' boxes, the shadow rays per texel and the sky's reach, the rays per texel
+/// for the indirect light and its reach.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
 pub struct GpuShadowAtlas {
@@ -352,7 +353,11 @@ pub struct GpuShadowAtlas {
     pub box_count: u32,
     pub samples: [u32; 2],
     pub sky_reach: f32,
-    pub _pad: u32,
+    pub indirect_rays: u32,
+    pub indirect_reach: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// Mirrors WGSL `ProbeGrid` (shaders/common/irradiance.wgsl): probe (i, j, k) at

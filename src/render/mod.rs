@@ -503,8 +503,9 @@ impl Renderer {
         };
         let probes = probes::bake(&self.ctx, ledger, grid, &inputs)?;
         let atlas = self.shadow_atlas.as_ref();
-        let shadow = atlas.map(|a| a.field(&self.ctx, ledger, &inputs, (moving, &probes)));
         let light = self.moving_light.as_ref();
+        let lit = light.map(|l| &l.lit);
+        let shadow = atlas.map(|a| a.field(&self.ctx, ledger, &inputs, (moving, &probes, lit)));
         let vertex_light =
             light.map(|l| l.field(&self.ctx, ledger, &inputs, (moving, &probes), atlas));
         let passes = (atlas, light);
@@ -530,13 +531,18 @@ impl Renderer {
             let set = &self.fields[self.active];
             let shadows = self.shadow_atlas.as_ref().zip(set.shadow.as_ref());
             let light = self.moving_light.as_ref().zip(set.vertex_light.as_ref());
-            // the shadows first: the vertices' light reads them
+            // the vertices' direct light, then the shadows (what the objects send back of the
+            // indirect light they block reads it), then the probes' correction at the vertices
+            // (it reads the shadows)
             let after_refit = move |pass: &mut wgpu::ComputePass<'_>| {
+                if let Some((l, f)) = light {
+                    l.encode_direct(pass, f);
+                }
                 if let Some((a, f)) = shadows {
                     a.encode(pass, f);
                 }
                 if let Some((l, f)) = light {
-                    l.encode(pass, f);
+                    l.encode_occlusion(pass, f);
                 }
             };
             m.encode(&mut encoder, timestamps, Some(after_refit));

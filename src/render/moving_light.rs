@@ -155,10 +155,28 @@ impl MovingLight {
         }
     }
 
-    /// This frame's light at every vertex for `field`, in the moving objects' pass after their
-    /// refit: the direct light, then (reading it where the objects meet themselves) the probes'
-    /// correction. (wgpu orders the two dispatches: the buffer is written by both.)
-    pub fn encode(&self, pass: &mut wgpu::ComputePass<'_>, field: &MovingLightField) {
+    /// This frame's direct light at every vertex for `field`, in the moving objects' pass after
+    /// their refit (the shadow atlas reads it next, for what the objects send back of the
+    /// indirect light they block).
+    pub fn encode_direct(&self, pass: &mut wgpu::ComputePass<'_>, field: &MovingLightField) {
+        self.dispatch(pass, field, &self.pipeline);
+    }
+
+    /// Then the probes' correction at every vertex (reading the direct light where the objects
+    /// meet themselves, and the shadow atlas where they shade the scene). wgpu orders the
+    /// dispatches: the buffer is written by both.
+    pub fn encode_occlusion(&self, pass: &mut wgpu::ComputePass<'_>, field: &MovingLightField) {
+        if self.params.occlusion_rays > 0 {
+            self.dispatch(pass, field, &self.occlusion);
+        }
+    }
+
+    fn dispatch(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        field: &MovingLightField,
+        pipeline: &wgpu::ComputePipeline,
+    ) {
         pass.set_bind_group(0, &field.scene, &[]);
         pass.set_bind_group(1, &field.field, &[]);
         pass.set_bind_group(2, &field.moving, &[]);
@@ -166,12 +184,8 @@ impl MovingLight {
         let groups = (self.params.vertex_count as u64 * LANES)
             .div_ceil(64)
             .max(1) as u32;
-        pass.set_pipeline(&self.pipeline);
+        pass.set_pipeline(pipeline);
         pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
-        if self.params.occlusion_rays > 0 {
-            pass.set_pipeline(&self.occlusion);
-            pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
-        }
     }
 }
 

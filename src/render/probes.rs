@@ -58,6 +58,15 @@ pub struct ObjectLighting {
     /// objects' boxes, fading out over its outer half
     #[serde(default = "default_sky_shadow_reach")]
     pub sky_shadow_reach: f32,
+    /// the shadow atlas: rays per texel against the moving objects for the indirect light they
+    /// block (the probes' radiance from the directions they cover, less what they send back;
+    /// 0: none, the objects take only direct light from the scene)
+    #[serde(default = "default_atlas_indirect_rays")]
+    pub atlas_indirect_rays: u32,
+    /// the shadow atlas: the indirect light's shadow within this many metres of the objects'
+    /// boxes, fading out over its outer half
+    #[serde(default = "default_indirect_shadow_reach")]
+    pub indirect_shadow_reach: f32,
     /// the shadow atlas: its texels along each side of a light-field texel (1 to 4)
     #[serde(default = "default_shadow_atlas_subdivision")]
     pub shadow_atlas_subdivision: u32,
@@ -134,6 +143,14 @@ fn default_sky_shadow_reach() -> f32 {
     1.0
 }
 
+fn default_atlas_indirect_rays() -> u32 {
+    16
+}
+
+fn default_indirect_shadow_reach() -> f32 {
+    1.0
+}
+
 fn default_shadow_atlas_subdivision() -> u32 {
     2
 }
@@ -158,6 +175,8 @@ impl Default for ObjectLighting {
             atlas_shadow_samples: default_atlas_shadow_samples(),
             atlas_sky_shadow_samples: default_atlas_sky_shadow_samples(),
             sky_shadow_reach: default_sky_shadow_reach(),
+            atlas_indirect_rays: default_atlas_indirect_rays(),
+            indirect_shadow_reach: default_indirect_shadow_reach(),
             shadow_atlas_subdivision: default_shadow_atlas_subdivision(),
             shadow_atlas_texels: default_shadow_atlas_texels(),
         }
@@ -178,7 +197,7 @@ impl ObjectLighting {
 
     /// What of their direct light the moving surfaces sample themselves (the probes leave it
     /// out): `gpu::types::DIRECT_EMITTERS` | `DIRECT_SKY`.
-    fn direct_sampled(&self) -> u32 {
+    pub(super) fn direct_sampled(&self) -> u32 {
         use crate::gpu::types::{DIRECT_EMITTERS, DIRECT_SKY};
         let [emitters, sky] = self.direct_samples();
         (if emitters > 0 { DIRECT_EMITTERS } else { 0 }) | if sky > 0 { DIRECT_SKY } else { 0 }
@@ -206,16 +225,25 @@ impl ObjectLighting {
             ("sky_shadow_samples", self.sky_shadow_samples),
             ("atlas_shadow_samples", self.atlas_shadow_samples),
             ("atlas_sky_shadow_samples", self.atlas_sky_shadow_samples),
+            ("atlas_indirect_rays", self.atlas_indirect_rays),
         ] {
             if n > 256 {
                 return Err(format!("{at} {key} = {n}: use 0 (none) to 256"));
             }
         }
-        let reach = self.sky_shadow_reach;
-        if !(reach.is_finite() && reach >= 0.0) {
-            return Err(format!(
-                "{at} sky_shadow_reach = {reach}: use metres, 0 (no sky shadow in the atlas) or more"
-            ));
+        for (key, reach, what) in [
+            ("sky_shadow_reach", self.sky_shadow_reach, "sky"),
+            (
+                "indirect_shadow_reach",
+                self.indirect_shadow_reach,
+                "indirect",
+            ),
+        ] {
+            if !(reach.is_finite() && reach >= 0.0) {
+                return Err(format!(
+                    "{at} {key} = {reach}: use metres, 0 (no {what} shadow in the atlas) or more"
+                ));
+            }
         }
         let subdivision = self.shadow_atlas_subdivision;
         if !(1..=4).contains(&subdivision) {
@@ -282,6 +310,7 @@ impl Probes {
         ctx: &GpuContext,
         layout: &wgpu::BindGroupLayout,
         objects: &super::moving::MovingObjects,
+        vertex_light: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
         let unread = ctx.buffer_init(
             &MemoryLedger::default(),
@@ -298,7 +327,7 @@ impl Probes {
                 &self.coefficients,
                 &self.emitters,
                 &self.emitter_alias,
-                &unread,
+                vertex_light.unwrap_or(&unread),
                 &objects.corners,
             ],
         )
@@ -503,6 +532,8 @@ mod tests {
             ("shadow_atlas_texels = 10", "shadow_atlas_texels"),
             ("sky_shadow_reach = -1.0", "sky_shadow_reach"),
             ("atlas_shadow_samples = 1000", "atlas_shadow_samples"),
+            ("indirect_shadow_reach = -2.0", "indirect_shadow_reach"),
+            ("atlas_indirect_rays = 300", "atlas_indirect_rays"),
         ] {
             let e = read(text).unwrap().check().unwrap_err();
             assert!(e.contains(key), "{text}: {e}");

@@ -145,19 +145,23 @@ impl ShadowAtlas {
                     settings.atlas_sky_shadow_samples,
                 ],
                 sky_reach: (settings.sky_shadow_reach as f64 * scene.scale) as f32,
-                _pad: 0,
+                indirect_rays: indirect_rays(settings),
+                indirect_reach: (settings.indirect_shadow_reach as f64 * scene.scale) as f32,
+                ..Default::default()
             },
         })
     }
 
     /// The groups that evaluate the atlas in the light field `inputs` binds (the probes' bake
-    /// inputs: the same scene buffers), with that field's probes and emitters.
+    /// inputs: the same scene buffers), with that field's probes and emitters, and the
+    /// vertices' light where the moving objects carry it (what they send back of the indirect
+    /// light they block: `render::moving_light`, whose direct step runs before the atlas).
     pub fn field(
         &self,
         ctx: &GpuContext,
         ledger: &MemoryLedger,
         inputs: &BakeInputs,
-        (objects, probes): (&MovingObjects, &Probes),
+        (objects, probes, vertex_light): (&MovingObjects, &Probes, Option<&wgpu::Buffer>),
     ) -> ShadowField {
         let boxes = emitter_boxes(inputs.emitters);
         let params = GpuShadowAtlas {
@@ -199,7 +203,7 @@ impl ShadowAtlas {
         ShadowField {
             scene,
             field: inputs.resident.bind_group(&self.field_layout, inputs.field),
-            moving: probes.moving_group(ctx, &self.moving_layout, objects),
+            moving: probes.moving_group(ctx, &self.moving_layout, objects, vertex_light),
         }
     }
 
@@ -218,6 +222,20 @@ impl ShadowAtlas {
         pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
         pass.set_pipeline(&self.evaluate);
         pass.dispatch_workgroups(EVALUATION_GROUPS, 1, 1);
+    }
+}
+
+/// The rays per texel for the indirect light the objects block: as configured where the probes
+/// leave out the direct light the atlas samples itself (else a blocked emitter's or sky's light
+/// would be taken twice, once by the shadow rays and once through the probes), else none.
+fn indirect_rays(settings: &ObjectLighting) -> u32 {
+    use crate::gpu::types::{DIRECT_EMITTERS, DIRECT_SKY};
+    let left_out = settings.direct_sampled();
+    let emitters = settings.atlas_shadow_samples == 0 || left_out & DIRECT_EMITTERS != 0;
+    let sky = settings.atlas_sky_shadow_samples == 0 || left_out & DIRECT_SKY != 0;
+    match emitters && sky {
+        true => settings.atlas_indirect_rays,
+        false => 0,
     }
 }
 
