@@ -3,8 +3,8 @@
 // texels of the static faces a moving object can shadow, the irradiance the objects block: the
 // direct light (common/moving_surface.wgsl, direct_samples: emitter samples through the alias
 // table and cosine-weighted sky samples, counted where a moving object blocks and the scene does
-// not) and, near the objects, the indirect light (indirect_part: the probes' radiance from the
-// directions they cover, less what they send back), into texels laid out per face as the light
+// not) and, near the objects, the indirect light (indirect_part: the light field's radiance from
+// the directions they cover, less what they send back), into texels laid out per face as the light
 // field's atlas lays out its chart, which the views read (common/moving_shadow.wgsl). Four
 // steps: `reset` the counters; `cull` the faces (one thread each: a face is a candidate where a
 // moving object's box meets the hull of the face's chart and a group of emitters' box, or lies
@@ -24,6 +24,7 @@
 #include "common/scene_cast.wgsl"
 #include "common/irradiance.wgsl"
 #include "common/moving_surface.wgsl"
+#include "common/arriving.wgsl"
 
 const LIGHT_FIELD_GROUP: u32 = 1u;
 const MOVING_OBJECTS: u32 = 1u;
@@ -219,23 +220,28 @@ fn texel_part(face: u32, texel: u32, part: u32) -> vec3<f32> {
 
 // This thread's share (`part`) of the indirect irradiance the moving objects take from a static
 // point at `origin` facing `normal`: shadow.indirect_rays cosine-weighted rays, each that meets a
-// moving object before the scene taking away the probes' radiance from its direction (the light
-// field's indirect light arriving there, as the probes hold it: without the emitters' and the
-// sky's, which the shadow rays take) and giving back what the object shows toward the point
-// (moving_radiance: its albedo lit by the probes and the vertices' light, its emission). Each
-// ray stands for pi / indirect_rays of the irradiance. The probes' light is smooth (order-2
-// spherical harmonics): what the objects hide of a sharp indirect light is taken as smooth.
+// moving object before the scene taking away the light field's radiance from its direction (what
+// arrives there from the static surface behind the object, as the probes are baked from it:
+// common/arriving.wgsl, without the emitters' and the sky's own light, which the shadow rays
+// take) and giving back what the object shows toward the point (moving_radiance: its albedo lit
+// by the probes and the vertices' light, its emission). Each ray stands for pi / indirect_rays
+// of the irradiance.
 fn indirect_part(origin: vec3<f32>, normal: vec3<f32>, seed: u32, part: vec2<u32>) -> vec3<f32> {
     let m = shadow.indirect_rays;
-    let coefficients = radiance_coefficients_at(origin);
     let frame = moving_frame(normal);
     let shift = vec2<f32>(unit_float(hash(seed ^ 0x68e31da4u)), unit_float(hash(seed + 0x1b56c4e9u)));
     var blocked = vec3<f32>(0.0);
     for (var k = part.x; k < m; k += part.y) {
         let ray = cosine_direction(frame, hammersley(k, m, shift));
         let hit = cast_bvh(origin, ray, view.moving_root, NO_NODE, Hit(1e30, NO_FACE, 0.0, 0.0), false);
-        if hit.tri != NO_FACE && !blocks(origin, ray, hit.t, 0u) {
-            blocked += sh_radiance(coefficients, ray) - moving_radiance(hit.tri - view.moving_first, origin + ray * hit.t, ray);
+        if hit.tri == NO_FACE {
+            continue;
+        }
+        let s = cast_ray(origin, ray, false);
+        // the object hides the scene only where the scene lies behind it (the sky's stand-in
+        // point is the origin itself: behind everything)
+        if all(s.point == origin) || distance(s.point, origin) > hit.t {
+            blocked += arriving_from(origin, ray, s).xyz - moving_radiance(hit.tri - view.moving_first, origin + ray * hit.t, ray);
         }
     }
     return blocked * (PI / f32(max(m, 1u)));

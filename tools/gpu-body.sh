@@ -9,9 +9,10 @@
 # the shadow atlas (`[object_lighting] shadows = "per_pixel"`), and with its own direct light by
 # shadow rays per eye ray instead of once per frame at its vertices (`direct_light = "per_pixel"`,
 # as before per-vertex light), and the avatar and the prop without the occlusion rays that correct
-# the probes' light on them (`occlusion_rays = 0`, as before them). VARIANTS picks some of
+# the probes' light on them (`occlusion_rays = 0`, as before them), and the avatar without the
+# shadow atlas's indirect rays (`atlas_indirect_rays = 0`, as before them). VARIANTS picks some of
 # "none body body-noshadow body-perpixel body-pixeldirect body-prop body-noocclusion
-# body-prop-noocclusion" (tools/gpu-shadow.sh: the shadows' three).
+# body-prop-noocclusion body-noindirect" (tools/gpu-shadow.sh: the shadows' three).
 # Reports (JSON + text, the last frame's overview) into OUT_DIR/body.tar; the reports' "moving
 # objects' update" line is the skinning + triangles + refit pass's GPU time per frame, with the
 # vertices' direct light and the shadow atlas where they are made once per frame.
@@ -63,6 +64,8 @@ for scene in ${SCENES:-classroom-100k classroom-1m}; do
   # what the occlusion rays cost: the probes' light as it is (before they were added)
   { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "occlusion_rays = 0"; } > $work/cave-$scene-body-noocclusion.toml
   { cat $work/cave-$scene-body-prop.toml; echo; echo "[object_lighting]"; echo "occlusion_rays = 0"; } > $work/cave-$scene-body-prop-noocclusion.toml
+  # what the shadow atlas's indirect rays cost: the direct light's shadow only (before them)
+  { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "atlas_indirect_rays = 0"; } > $work/cave-$scene-body-noindirect.toml
   # the shadows per pixel of every view (before the shadow atlas)
   { cat $work/cave-$scene-body.toml; echo; echo "[object_lighting]"; echo "shadows = \"per_pixel\""; } > $work/cave-$scene-body-perpixel.toml
   for variant in ${VARIANTS:-none body body-noshadow body-perpixel body-prop}; do

@@ -104,6 +104,10 @@ pub const SOURCES: &[(&str, &str)] = &[
         "common/moving_shadow.wgsl",
         include_str!("../../shaders/common/moving_shadow.wgsl"),
     ),
+    (
+        "common/arriving.wgsl",
+        include_str!("../../shaders/common/arriving.wgsl"),
+    ),
     ("render.wgsl", include_str!("../../shaders/render.wgsl")),
     (
         "shadow_atlas.wgsl",
