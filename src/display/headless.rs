@@ -67,6 +67,8 @@ pub struct CaveReport {
     /// with a fit: the share of each view's tiles the pacer drew at the high eye-ray count
     pub pacer: Option<PacerReport>,
     pub images: Vec<String>,
+    /// the slowest frames by CPU+GPU time (SLOWEST_FRAMES of them), each with what it waited on
+    pub slowest_frames: Vec<super::frame::SlowFrame>,
     /// every timed frame in order
     pub series: super::frame::FrameSeries,
 }
@@ -422,6 +424,9 @@ fn cave_report(
     let cpu_frame_ms = frame.times().cpu_ms().expect("one frame at least");
     let limits = frame_limits(&views, Some(&cpu_frame_ms), config.frame_budget_ms());
     let refined = frame.refined_shares().to_vec();
+    let series = frame.series();
+    let slowest =
+        super::frame::slowest_frames(&series, frame.labels(), super::frame::SLOWEST_FRAMES);
     CaveReport {
         eye_rays_per_pixel_last_frame: edge_eye_rays(&frame.quality(), &refined),
         worst_p99_over_p50: worst,
@@ -443,7 +448,8 @@ fn cave_report(
         fit: frame.fit().cloned(),
         pacer: frame.pacer_report(),
         images,
-        series: frame.series(),
+        slowest_frames: slowest,
+        series,
     }
 }
 
@@ -680,6 +686,12 @@ impl CaveReport {
             ));
         }
         s.push_str(&Limit::lines(&self.limits));
+        if !self.slowest_frames.is_empty() {
+            s.push_str("  slowest frames (CPU+GPU, ms) and what each waited on:\n");
+            for f in &self.slowest_frames {
+                s.push_str(&f.line());
+            }
+        }
         s
     }
 }

@@ -12,11 +12,13 @@
 mod accounting;
 mod geometries;
 mod in_flight;
+mod slowest;
 pub mod study;
 mod times;
 mod views;
 
 pub use in_flight::InFlight;
+pub use slowest::{slowest_frames, SlowFrame, SLOWEST_FRAMES};
 pub use times::{
     frame_limits, worst_ratio, FrameSeries, FrameTimes, Limit, Pass, ViewTiming,
     CONSTANT_CPU_FRAME_TIME, CONSTANT_FRAME_TIME, MAX_OVER_MEDIAN,

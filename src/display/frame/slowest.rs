@@ -1,0 +1,207 @@
+//! A run's slowest frames and what each waited on: a hitch a subject sees is one frame, and
+//! its cause is in what that frame spent its time on, set beside what the run's frames spend
+//! on it as a rule. A frame's CPU time (all its passes submitted, the GPU done) splits into the
+//! GPU's time for its passes, the CPU's time encoding and submitting them, and the rest (the
+//! GPU idle between them, or the CPU late to see it finish); the part furthest above its own
+//! median names what the frame waited on.
+
+use super::times::FrameSeries;
+use super::views::ViewLabel;
+use serde::{Deserialize, Serialize};
+
+/// How many of the slowest frames a report lists.
+pub const SLOWEST_FRAMES: usize = 10;
+/// An excess over the median smaller than this (ms) names nothing: frame-to-frame jitter.
+const NOTHING_STANDS_OUT_MS: f64 = 0.05;
+
+/// One of a run's slowest frames by its CPU+GPU time.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SlowFrame {
+    /// the frame's place among the run's timed frames (0: the first)
+    pub frame: usize,
+    /// the frame's CPU time: every pass submitted and the GPU done (ms)
+    pub cpu_gpu_ms: f64,
+    /// the GPU's time for all of its passes (ms; None without timestamps)
+    pub gpu_ms: Option<f64>,
+    /// the CPU's time encoding and submitting them (ms; None where not measured)
+    pub submit_ms: Option<f64>,
+    /// the rest: cpu_gpu_ms less the two (ms)
+    pub other_ms: Option<f64>,
+    /// its slowest view against that view's median: the view, its time, its median (ms)
+    pub slowest_view: Option<(String, f64, f64)>,
+    /// what the frame waited on, in words
+    pub waited_on: String,
+}
+
+impl SlowFrame {
+    /// One line of a report.
+    pub fn line(&self) -> String {
+        let part = |name: &str, ms: Option<f64>| {
+            ms.map_or(String::new(), |ms| format!(", {name} {ms:.2}"))
+        };
+        format!(
+            "    frame {:>5}: {:.2} ms{}{}{}: {}\n",
+            self.frame,
+            self.cpu_gpu_ms,
+            part("GPU", self.gpu_ms),
+            part("submit", self.submit_ms),
+            part("other", self.other_ms),
+            self.waited_on
+        )
+    }
+}
+
+fn median(values: &[f64]) -> f64 {
+    let mut v: Vec<f64> = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// The `n` frames of `series` with the longest CPU+GPU time, slowest first, each with what it
+/// waited on (`labels` name the views, in the series' order).
+pub fn slowest_frames(series: &FrameSeries, labels: &[ViewLabel], n: usize) -> Vec<SlowFrame> {
+    let cpu = &series.cpu_frame_ms;
+    let at = |v: &[f64], i: usize| v.get(i).copied();
+    let other: Vec<f64> = (0..cpu.len())
+        .filter_map(|i| Some(cpu[i] - at(&series.frame_gpu_ms, i)? - at(&series.submit_ms, i)?))
+        .collect();
+    let medians = [
+        median(&series.frame_gpu_ms),
+        median(&series.submit_ms),
+        median(&other),
+    ];
+    let view_medians: Vec<f64> = series.view_gpu_ms.iter().map(|v| median(v)).collect();
+    let mut order: Vec<usize> = (0..cpu.len()).collect();
+    order.sort_by(|&a, &b| cpu[b].total_cmp(&cpu[a]));
+    order.truncate(n);
+    (order.into_iter())
+        .map(|i| {
+            let gpu = at(&series.frame_gpu_ms, i);
+            let submit = at(&series.submit_ms, i);
+            let other = gpu.zip(submit).map(|(g, s)| cpu[i] - g - s);
+            let slowest_view = (series.view_gpu_ms.iter().enumerate())
+                .filter_map(|(v, times)| Some((v, at(times, i)? - view_medians[v])))
+                .max_by(|a, b| a.1.total_cmp(&b.1))
+                .map(|(v, _)| {
+                    let name = labels
+                        .get(v)
+                        .map_or(format!("view {v}"), |l| format!("{} {}", l.wall, l.eye));
+                    (name, series.view_gpu_ms[v][i], view_medians[v])
+                });
+            SlowFrame {
+                frame: i,
+                cpu_gpu_ms: cpu[i],
+                gpu_ms: gpu,
+                submit_ms: submit,
+                other_ms: other,
+                waited_on: waited_on([gpu, submit, other], medians, slowest_view.as_ref()),
+                slowest_view,
+            }
+        })
+        .collect()
+}
+
+/// The part of a frame furthest above its median, in words.
+fn waited_on(
+    parts: [Option<f64>; 3],
+    medians: [f64; 3],
+    slowest_view: Option<&(String, f64, f64)>,
+) -> String {
+    let excess: Vec<(usize, f64)> = (parts.iter().enumerate())
+        .filter_map(|(k, p)| Some((k, (*p)? - medians[k])))
+        .collect();
+    let Some(&(k, over)) = excess.iter().max_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return "not known (no GPU timestamps)".into();
+    };
+    if over < NOTHING_STANDS_OUT_MS {
+        return format!(
+            "nothing stands out (each part within {NOTHING_STANDS_OUT_MS} ms of its median)"
+        );
+    }
+    match k {
+        0 => {
+            let view = slowest_view.map_or(String::new(), |(name, ms, median)| {
+                format!("; {name} {ms:.2} ms against its median {median:.2}")
+            });
+            format!("the GPU: its passes {over:.2} ms over their median{view}")
+        }
+        1 => format!("the CPU encoding and submitting: {over:.2} ms over its median"),
+        _ => format!(
+            "neither the GPU's passes nor submitting: {over:.2} ms more between them than the \
+             median (the GPU idle between passes, or the CPU late to see it finish)"
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Twelve frames of two views: one with a slow view, one slow to submit, one where the
+    /// GPU finished early but the frame ended late; each is named for what it waited on, and
+    /// the even frames (nothing above the medians) say nothing stands out.
+    #[test]
+    fn each_slow_frame_is_named_for_what_it_waited_on() {
+        let mut series = FrameSeries {
+            view_gpu_ms: vec![vec![1.0; 12], vec![1.0; 12]],
+            frame_gpu_ms: vec![2.0; 12],
+            cpu_frame_ms: vec![3.0; 12],
+            submit_ms: vec![0.5; 12],
+        };
+        // frame 3: the second view took 1.8 ms more
+        series.view_gpu_ms[1][3] = 2.8;
+        series.frame_gpu_ms[3] = 3.8;
+        series.cpu_frame_ms[3] = 4.8;
+        // frame 7: submitting took 1 ms more
+        series.submit_ms[7] = 1.5;
+        series.cpu_frame_ms[7] = 4.0;
+        // frame 9: the GPU as usual, the frame 0.7 ms longer
+        series.cpu_frame_ms[9] = 3.7;
+        let labels = vec![
+            ViewLabel {
+                wall: "front".into(),
+                eye: "left",
+                pixels: [8, 8],
+            },
+            ViewLabel {
+                wall: "front".into(),
+                eye: "right",
+                pixels: [8, 8],
+            },
+        ];
+        let slow = slowest_frames(&series, &labels, 4);
+        let frames: Vec<usize> = slow.iter().map(|f| f.frame).collect();
+        assert_eq!(frames[..3], [3, 7, 9]);
+        assert!(
+            slow[0].waited_on.starts_with("the GPU: its passes 1.80 ms"),
+            "{}",
+            slow[0].waited_on
+        );
+        assert!(
+            slow[0].waited_on.contains("front right 2.80 ms"),
+            "{}",
+            slow[0].waited_on
+        );
+        assert!(
+            slow[1]
+                .waited_on
+                .starts_with("the CPU encoding and submitting: 1.00"),
+            "{}",
+            slow[1].waited_on
+        );
+        assert!(
+            slow[2].waited_on.starts_with("neither"),
+            "{}",
+            slow[2].waited_on
+        );
+        assert!((slow[2].other_ms.unwrap() - 1.2).abs() < 1e-9);
+        assert!(
+            slow[3].waited_on.starts_with("nothing stands out"),
+            "{}",
+            slow[3].waited_on
+        );
+        assert!(slow[0]
+            .line()
+            .contains("frame     3: 4.80 ms, GPU 3.80, submit 0.50, other 0.50"));
+    }
+}
