@@ -12,19 +12,22 @@ gpu = open(os.path.join(d, "gpu.txt")).read().strip()
 commit = open(os.path.join(d, "commit.txt")).read().strip()
 date = open(os.path.join(d, "date.txt")).read().strip()[:10]
 print(f"### A body in the walk CAVE (issue 28) — {date}\n")
-print(f"{gpu}, build {commit}, `bash tools/gpu-body.sh VLF OUT 300`: the walk CAVE "
+frames = next(json.load(open(p))["frames"] for p in sorted(glob.glob(os.path.join(d, "cave-*.json"))))
+print(f"{gpu}, build {commit}, `bash tools/gpu-body.sh VLF OUT {frames}`: the walk CAVE "
       "(`config/displays/cave-4wall-walk.toml`: 8 views of 1920x1200, 120 Hz, paced) on the "
-      "classroom walks, 300 frames each: without moving objects, with the shipped avatar on the "
+      f"classroom walks, {frames} frames each: without moving objects, with the shipped avatar on the "
       "walking head (`assets/avatar/mannequin.glb`, 4,456 triangles), the same without its "
-      "shadows, with its own direct light per pixel rather than at its vertices (where run), and the "
+      "shadows, with its own direct light per pixel rather than at its vertices, without the "
+      "shadow atlas's indirect rays (where run), and the "
       f"avatar with a 199,712-triangle prop. Raw reports: `{os.path.relpath(d)}/`.\n")
 print("| scene | objects | all views GPU p50 / p99 | eye rays per pixel, median per view | moving objects' pass p50 / p99 | worst view p99/p50 | frame max |")
 print("|---|---|---|---|---|---|---|")
 names = {"none": "none", "body-noshadow": "avatar, no shadows", "body": "avatar with shadows",
          "body-perpixel": "avatar, shadows per pixel", "body-prop": "avatar + 200K prop, shadows",
-         "body-pixeldirect": "avatar with shadows, its direct light per pixel"}
+         "body-pixeldirect": "avatar with shadows, its direct light per pixel",
+         "body-noindirect": "avatar with shadows, no indirect rays in the atlas"}
 for scene, label in [("classroom-100k", "100K classroom"), ("classroom-1m", "1M classroom")]:
-    for variant in ["none", "body-noshadow", "body", "body-pixeldirect", "body-perpixel", "body-prop"]:
+    for variant in ["none", "body-noshadow", "body-noindirect", "body", "body-pixeldirect", "body-perpixel", "body-prop"]:
         path = os.path.join(d, f"cave-{scene}-{variant}.json")
         if not os.path.exists(path):
             continue
