@@ -48,6 +48,10 @@
 const LIGHT_FIELD_GROUP: u32 = 1u;
 // 1: the pipeline draws moving objects (src/render/mod.rs sets 0 for a renderer without them)
 const MOVING_OBJECTS: u32 = 1u;
+// 1: moving surfaces sample their direct light per point, or shadows are drawn per pixel
+// (common/moving_surface.wgsl; src/render/mod.rs sets 0 where the vertices and the shadow atlas
+// carry both)
+const SAMPLED_DIRECT: u32 = 1u;
 // 1: the light field has texture detail, read per pixel (src/render/mod.rs sets 0 without it)
 const SURFACE_TEXTURES: u32 = 1u;
 // 1: eye rays take their first hits from `visibility` (raster first hits); 0: they cast rays

@@ -28,6 +28,8 @@
 
 const LIGHT_FIELD_GROUP: u32 = 1u;
 const MOVING_OBJECTS: u32 = 1u;
+// this pass samples direct light per point (common/moving_surface.wgsl)
+const SAMPLED_DIRECT: u32 = 1u;
 
 // mirrors gpu::types::GpuShadowAtlas
 struct ShadowAtlas {

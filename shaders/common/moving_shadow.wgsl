@@ -36,6 +36,9 @@ fn moving_shadow(face: u32, p: vec3<f32>, seed: u32) -> vec3<f32> {
         let blocked = shadow_texels[slot + taps.index.x].xyz * taps.weight.x + shadow_texels[slot + taps.index.y].xyz * taps.weight.y + shadow_texels[slot + taps.index.z].xyz * taps.weight.z + shadow_texels[slot + taps.index.w].xyz * taps.weight.w;
         return albedo / PI * blocked;
     }
+    if SAMPLED_DIRECT == 0u {
+        return vec3<f32>(0.0);
+    }
     let counts = vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples);
     return albedo / PI * direct_samples(p + f.normal * 1e-5, f.normal, seed, true, counts);
 }

@@ -7,7 +7,12 @@
 // per frame (probe_grid.vertex_light), or sampled per eye ray. The renderer binds this group;
 // cast_ray (common/scene_cast.wgsl) calls moving_radiance. The shadow atlas's pass
 // (shadow_atlas.wgsl) and the vertices' light pass (moving_light.wgsl) bind it too, for
-// direct_samples, with placeholders for the vertices' light.
+// direct_samples, with placeholders for the vertices' light. The includer declares
+// `const SAMPLED_DIRECT: u32`: 1 keeps the shadow rays a point samples itself where the vertices
+// carry no direct light (moving_radiance) and the per-pixel shadows (common/moving_shadow.wgsl);
+// 0 compiles them out, for a renderer whose moving surfaces take their direct light from their
+// vertices and whose shadows come from the shadow atlas (eye and mirror rays never meet a moving
+// back: cast_ray passes them by), so its pipeline carries no second traversal.
 
 // mirrors gpu::types::GpuMovingMaterial
 struct MovingMaterial {
@@ -186,7 +191,7 @@ fn moving_radiance(index: u32, point: vec3<f32>, ray: vec3<f32>) -> vec3<f32> {
     var e = irradiance_at(point, at.n);
     if probe_grid.vertex_light != 0u && at.front {
         e = max(e + corners_light(index, at.u, at.v, 0u) + corners_light(index, at.u, at.v, 1u), vec3<f32>(0.0));
-    } else {
+    } else if SAMPLED_DIRECT != 0u {
         let seed = hash(bitcast<u32>(point.x) ^ hash(bitcast<u32>(point.y) ^ hash(bitcast<u32>(point.z))));
         e += direct_samples(point + at.n * 1e-3, at.n, seed, false, vec2<u32>(probe_grid.shadow_samples, probe_grid.sky_shadow_samples));
     }

@@ -306,6 +306,10 @@ impl Renderer {
             cutouts: detail.is_some_and(|d| d.textures.any_cutout()),
             normal_maps: detail.is_some_and(|d| !d.face_normal_maps.is_empty()),
             raster: false,
+            sampled_direct: objects.as_ref().is_some_and(|o| {
+                o.lighting.direct_light == probes::DirectLightMethod::PerPixel
+                    || o.lighting.shadows == probes::ShadowMethod::PerPixel
+            }),
         };
         let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
         let triangle_count = triangles.len() as u32;
@@ -1181,6 +1185,9 @@ struct ResolveVariant {
     normal_maps: bool,
     /// eye rays read their first hits from a visibility buffer (`raster`)
     raster: bool,
+    /// moving surfaces sample their direct light per point, or their shadows are drawn per
+    /// pixel (`SAMPLED_DIRECT`; else the vertices and the shadow atlas carry both)
+    sampled_direct: bool,
 }
 
 /// The resolve pass: its pipeline and layouts. A light field with mirror tiles is drawn with
@@ -1230,6 +1237,7 @@ fn resolve_module(ctx: &GpuContext, variant: ResolveVariant) -> Result<wgpu::Sha
         cutouts,
         normal_maps,
         raster,
+        sampled_direct,
     } = variant;
     let constants = [
         ("TILES", u32::from(tiles)),
@@ -1239,6 +1247,7 @@ fn resolve_module(ctx: &GpuContext, variant: ResolveVariant) -> Result<wgpu::Sha
         ("ALPHA_MASKS", u32::from(cutouts)),
         ("NORMAL_MAPS", u32::from(normal_maps && textured)),
         ("RASTER_FIRST_HITS", u32::from(raster)),
+        ("SAMPLED_DIRECT", u32::from(sampled_direct)),
     ];
     shaders::module_with(&ctx.device, "render.wgsl", &constants)
 }
