@@ -306,10 +306,9 @@ impl Renderer {
             cutouts: detail.is_some_and(|d| d.textures.any_cutout()),
             normal_maps: detail.is_some_and(|d| !d.face_normal_maps.is_empty()),
             raster: false,
-            sampled_direct: objects.as_ref().is_some_and(|o| {
-                o.lighting.direct_light == probes::DirectLightMethod::PerPixel
-                    || o.lighting.shadows == probes::ShadowMethod::PerPixel
-            }),
+            sampled_direct: objects
+                .as_ref()
+                .is_some_and(|o| o.lighting.samples_direct()),
         };
         let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
         let triangle_count = triangles.len() as u32;

@@ -195,6 +195,13 @@ impl ObjectLighting {
         }
     }
 
+    /// Whether points sample direct light with shadow rays of their own in the views: a moving
+    /// surface's (`direct_light = "per_pixel"`) or a shadow's (`shadows = "per_pixel"`); else
+    /// the vertices and the shadow atlas carry it (`SAMPLED_DIRECT` in render.wgsl).
+    pub fn samples_direct(&self) -> bool {
+        self.direct_light == DirectLightMethod::PerPixel || self.shadows == ShadowMethod::PerPixel
+    }
+
     /// What of their direct light the moving surfaces sample themselves (the probes leave it
     /// out): `gpu::types::DIRECT_EMITTERS` | `DIRECT_SKY`.
     pub(super) fn direct_sampled(&self) -> u32 {

@@ -29,6 +29,9 @@ pub struct SlowFrame {
     pub other_ms: Option<f64>,
     /// its slowest view against that view's median: the view, its time, its median (ms)
     pub slowest_view: Option<(String, f64, f64)>,
+    /// the moving objects' pass before the views, and its median (ms; None without objects)
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub objects_ms: Option<(f64, f64)>,
     /// what the frame waited on, in words
     pub waited_on: String,
 }
@@ -71,6 +74,7 @@ pub fn slowest_frames(series: &FrameSeries, labels: &[ViewLabel], n: usize) -> V
         median(&other),
     ];
     let view_medians: Vec<f64> = series.view_gpu_ms.iter().map(|v| median(v)).collect();
+    let objects_median = median(&series.objects_gpu_ms);
     let mut order: Vec<usize> = (0..cpu.len()).collect();
     order.sort_by(|&a, &b| cpu[b].total_cmp(&cpu[a]));
     order.truncate(n);
@@ -88,25 +92,51 @@ pub fn slowest_frames(series: &FrameSeries, labels: &[ViewLabel], n: usize) -> V
                         .map_or(format!("view {v}"), |l| format!("{} {}", l.wall, l.eye));
                     (name, series.view_gpu_ms[v][i], view_medians[v])
                 });
+            let objects_ms = at(&series.objects_gpu_ms, i).map(|ms| (ms, objects_median));
+            let gpu_part = GpuPart {
+                view: slowest_view.as_ref(),
+                objects: objects_ms,
+            };
             SlowFrame {
                 frame: i,
                 cpu_gpu_ms: cpu[i],
                 gpu_ms: gpu,
                 submit_ms: submit,
                 other_ms: other,
-                waited_on: waited_on([gpu, submit, other], medians, slowest_view.as_ref()),
+                waited_on: waited_on([gpu, submit, other], medians, gpu_part),
                 slowest_view,
+                objects_ms,
             }
         })
         .collect()
 }
 
+/// Within a frame's GPU time: its slowest view against its median, and the moving objects'
+/// pass against its median.
+struct GpuPart<'a> {
+    view: Option<&'a (String, f64, f64)>,
+    objects: Option<(f64, f64)>,
+}
+
+impl GpuPart<'_> {
+    /// Which of the two rose more over its median, in words.
+    fn words(&self) -> String {
+        let view_over = self.view.map_or(f64::MIN, |(_, ms, median)| ms - median);
+        let objects_over = self.objects.map_or(f64::MIN, |(ms, median)| ms - median);
+        match (self.view, self.objects) {
+            (_, Some((ms, median))) if objects_over >= view_over => {
+                format!("; the moving objects' pass {ms:.2} ms against its median {median:.2}")
+            }
+            (Some((name, ms, median)), _) => {
+                format!("; {name} {ms:.2} ms against its median {median:.2}")
+            }
+            _ => String::new(),
+        }
+    }
+}
+
 /// The part of a frame furthest above its median, in words.
-fn waited_on(
-    parts: [Option<f64>; 3],
-    medians: [f64; 3],
-    slowest_view: Option<&(String, f64, f64)>,
-) -> String {
+fn waited_on(parts: [Option<f64>; 3], medians: [f64; 3], gpu_part: GpuPart<'_>) -> String {
     let excess: Vec<(usize, f64)> = (parts.iter().enumerate())
         .filter_map(|(k, p)| Some((k, (*p)? - medians[k])))
         .collect();
@@ -119,12 +149,10 @@ fn waited_on(
         );
     }
     match k {
-        0 => {
-            let view = slowest_view.map_or(String::new(), |(name, ms, median)| {
-                format!("; {name} {ms:.2} ms against its median {median:.2}")
-            });
-            format!("the GPU: its passes {over:.2} ms over their median{view}")
-        }
+        0 => format!(
+            "the GPU: its passes {over:.2} ms over their median{}",
+            gpu_part.words()
+        ),
         1 => format!("the CPU encoding and submitting: {over:.2} ms over its median"),
         _ => format!(
             "neither the GPU's passes nor submitting: {over:.2} ms more between them than the \
@@ -139,7 +167,8 @@ mod tests {
 
     /// Twelve frames of two views: one with a slow view, one slow to submit, one where the
     /// GPU finished early but the frame ended late; each is named for what it waited on, and
-    /// the even frames (nothing above the medians) say nothing stands out.
+    /// the even frames (nothing above the medians) say nothing stands out; then with a moving
+    /// objects' pass, a frame whose pass rose is named for it.
     #[test]
     fn each_slow_frame_is_named_for_what_it_waited_on() {
         let mut series = FrameSeries {
@@ -147,6 +176,7 @@ mod tests {
             frame_gpu_ms: vec![2.0; 12],
             cpu_frame_ms: vec![3.0; 12],
             submit_ms: vec![0.5; 12],
+            objects_gpu_ms: Vec::new(),
         };
         // frame 3: the second view took 1.8 ms more
         series.view_gpu_ms[1][3] = 2.8;
@@ -203,5 +233,23 @@ mod tests {
         assert!(slow[0]
             .line()
             .contains("frame     3: 4.80 ms, GPU 3.80, submit 0.50, other 0.50"));
+        // with a moving objects' pass: a frame whose pass took 1.5 ms more is named for it
+        series.objects_gpu_ms = vec![1.0; 12];
+        series.objects_gpu_ms[5] = 2.5;
+        series.frame_gpu_ms[5] = 3.5;
+        series.cpu_frame_ms[5] = 4.5;
+        let slow = slowest_frames(&series, &labels, 2);
+        assert_eq!(slow[1].frame, 5);
+        let objects = "the moving objects' pass 2.50 ms against its median 1.00";
+        assert!(
+            slow[1].waited_on.ends_with(objects),
+            "{}",
+            slow[1].waited_on
+        );
+        assert!(
+            slow[0].waited_on.contains("front right 2.80 ms"),
+            "{}",
+            slow[0].waited_on
+        );
     }
 }

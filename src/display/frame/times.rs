@@ -259,6 +259,7 @@ impl FrameTimes {
             frame_gpu_ms: self.frame_gpu.clone(),
             cpu_frame_ms: self.cpu.clone(),
             submit_ms: Vec::new(),
+            objects_gpu_ms: self.objects_gpu.clone(),
         }
     }
 }
@@ -272,6 +273,9 @@ pub struct FrameSeries {
     /// of each frame's CPU time, the part spent encoding and submitting its passes (headless;
     /// the rest is waiting for the GPU)
     pub submit_ms: Vec<f64>,
+    /// of each frame's GPU time, the moving objects' pass before the views (empty without them)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub objects_gpu_ms: Vec<f64>,
 }
 
 /// The largest p99/p50 among the views.
