@@ -306,9 +306,7 @@ impl Renderer {
             cutouts: detail.is_some_and(|d| d.textures.any_cutout()),
             normal_maps: detail.is_some_and(|d| !d.face_normal_maps.is_empty()),
             raster: false,
-            sampled_direct: objects
-                .as_ref()
-                .is_some_and(|o| o.lighting.samples_direct()),
+            sampled_direct: objects.as_ref().is_some_and(samples_direct),
         };
         let (resolve_pipeline, layouts) = resolve_pipeline(&ctx, variant)?;
         let triangle_count = triangles.len() as u32;
@@ -1165,6 +1163,11 @@ struct ResolveLayouts {
     view: wgpu::BindGroupLayout,
     field: crate::lightfield::bindings::FieldLayout,
     moving: wgpu::BindGroupLayout,
+}
+
+/// Whether `objects` sample direct light per point in the views (`SAMPLED_DIRECT`).
+fn samples_direct(objects: &ObjectsToDraw) -> bool {
+    objects.lighting.samples_direct()
 }
 
 /// What a resolve pipeline is compiled for.

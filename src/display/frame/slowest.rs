@@ -199,40 +199,19 @@ mod tests {
                 pixels: [8, 8],
             },
         ];
+        let said =
+            |f: &SlowFrame, words: &str| assert!(f.waited_on.contains(words), "{}", f.waited_on);
         let slow = slowest_frames(&series, &labels, 4);
         let frames: Vec<usize> = slow.iter().map(|f| f.frame).collect();
         assert_eq!(frames[..3], [3, 7, 9]);
-        assert!(
-            slow[0].waited_on.starts_with("the GPU: its passes 1.80 ms"),
-            "{}",
-            slow[0].waited_on
-        );
-        assert!(
-            slow[0].waited_on.contains("front right 2.80 ms"),
-            "{}",
-            slow[0].waited_on
-        );
-        assert!(
-            slow[1]
-                .waited_on
-                .starts_with("the CPU encoding and submitting: 1.00"),
-            "{}",
-            slow[1].waited_on
-        );
-        assert!(
-            slow[2].waited_on.starts_with("neither"),
-            "{}",
-            slow[2].waited_on
-        );
+        said(&slow[0], "the GPU: its passes 1.80 ms");
+        said(&slow[0], "front right 2.80 ms");
+        said(&slow[1], "the CPU encoding and submitting: 1.00");
+        said(&slow[2], "neither");
         assert!((slow[2].other_ms.unwrap() - 1.2).abs() < 1e-9);
-        assert!(
-            slow[3].waited_on.starts_with("nothing stands out"),
-            "{}",
-            slow[3].waited_on
-        );
-        assert!(slow[0]
-            .line()
-            .contains("frame     3: 4.80 ms, GPU 3.80, submit 0.50, other 0.50"));
+        said(&slow[3], "nothing stands out");
+        let line = slow[0].line();
+        assert!(line.contains("frame     3: 4.80 ms, GPU 3.80, submit 0.50, other 0.50"));
         // with a moving objects' pass: a frame whose pass took 1.5 ms more is named for it
         series.objects_gpu_ms = vec![1.0; 12];
         series.objects_gpu_ms[5] = 2.5;
@@ -240,16 +219,10 @@ mod tests {
         series.cpu_frame_ms[5] = 4.5;
         let slow = slowest_frames(&series, &labels, 2);
         assert_eq!(slow[1].frame, 5);
-        let objects = "the moving objects' pass 2.50 ms against its median 1.00";
-        assert!(
-            slow[1].waited_on.ends_with(objects),
-            "{}",
-            slow[1].waited_on
+        said(
+            &slow[1],
+            "the moving objects' pass 2.50 ms against its median 1.00",
         );
-        assert!(
-            slow[0].waited_on.contains("front right 2.80 ms"),
-            "{}",
-            slow[0].waited_on
-        );
+        said(&slow[0], "front right 2.80 ms");
     }
 }
