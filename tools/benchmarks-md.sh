@@ -100,12 +100,13 @@ if [ -d "$results/h200/edges" ]; then
   python3 "$(dirname "$0")/edges-md.py" "$results/h200/edges"
 fi
 # the body in the walk CAVE (tools/gpu-body.sh): the newest run (docs/results/h200/
-# body-indirect/walks/, the shadow atlas's indirect rays and the fit's warm-up), then
+# body-indirect/walks-7caab06/, the resolve without the per-point shadow rays; walks/, the shadow
+# atlas's indirect rays and the fit's warm-up), then
 # body-warm-up/ (a frame drawn unshown after the fit), the ones before (body-reserve/, the
 # pacer's reserve made at the fit; body-vertex-light/, the vertices' light), then DIR's sibling
 # body/
 h200=$(dirname "$(dirname "$dir")")/h200
-for body_dir in "$h200/body-indirect/walks" "$h200/body-warm-up" "$h200/body-reserve" "$h200/body-vertex-light" "$(dirname "$dir")/body"; do
+for body_dir in "$h200/body-indirect/walks-7caab06" "$h200/body-indirect/walks" "$h200/body-warm-up" "$h200/body-reserve" "$h200/body-vertex-light" "$(dirname "$dir")/body"; do
   if [ -f "$body_dir/gpu.txt" ]; then
     bash "$(dirname "$0")/body-md.sh" "$body_dir"
   fi
