@@ -259,14 +259,15 @@ impl Renderer {
         let mut probes = Vec::new();
         let mut timestamps = true;
         let mut fits = false;
-        self.warm_up(views, ladder[0])?;
+        let mut warm_up = !self.ctx.summary.software;
         for &bounces in &ladder {
             self.view_template.mirror_bounces = bounces;
             // 1 eye ray per pixel must fit; the configured count shows what the pacer can add
             let counts = if high > 1 { vec![1, high] } else { vec![1] };
             for n in counts {
                 self.set_samples_per_pixel(n)?;
-                let (view_gpu_ms, timed) = self.probe_views(views)?;
+                // the first probe draws for PROBE_WARM_UP first (on a GPU)
+                let (view_gpu_ms, timed) = self.probe_views(views, std::mem::take(&mut warm_up))?;
                 timestamps &= timed;
                 let frame_gpu_ms = view_gpu_ms.iter().sum();
                 if n == 1 {
@@ -309,42 +310,24 @@ impl Renderer {
         })
     }
 
-    /// Draw `views` at 1 eye ray per pixel with `bounces` reflections, round after round, for
-    /// PROBE_WARM_UP (on a GPU; nothing on the software adapter), untimed.
-    fn warm_up(&mut self, views: &[ProbeView], bounces: u32) -> Result<()> {
-        let ctx = self.ctx.clone();
-        if ctx.summary.software {
-            return Ok(());
-        }
-        self.view_template.mirror_bounces = bounces;
-        self.set_samples_per_pixel(1)?;
-        let targets: Vec<_> = (views.iter())
-            .map(|v| self.view_targets(v.size[0], v.size[1]))
-            .collect();
-        let started = std::time::Instant::now();
-        while started.elapsed() < PROBE_WARM_UP {
-            for (view, target) in views.iter().zip(&targets) {
-                self.set_view_matrix(view.view_proj, view.eye);
-                let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                self.encode_view(&mut encoder, target, None);
-                ctx.queue.submit([encoder.finish()]);
-            }
-            ctx.wait()?;
-        }
-        Ok(())
-    }
-
     /// The views drawn offscreen round after round, one submission each as a display does,
     /// the first a warm-up, until two rounds in a row agree within PROBE_AGREE (a GPU idle while the light field
     /// loaded may take a few hundred milliseconds to come up to speed: on an H200 the first
     /// eight frames after loading the 1M classroom took 3x the rest), at most PROBE_ROUNDS; each
     /// view's slower time of those two rounds, in milliseconds, and whether they come from
-    /// timestamps.
-    fn probe_views(&mut self, views: &[ProbeView]) -> Result<(Vec<f64>, bool)> {
+    /// timestamps. With `warm_up`, the views are first drawn untimed for PROBE_WARM_UP.
+    fn probe_views(&mut self, views: &[ProbeView], warm_up: bool) -> Result<(Vec<f64>, bool)> {
         let targets: Vec<_> = (views.iter())
             .map(|v| self.view_targets(v.size[0], v.size[1]))
             .collect();
         let ctx = self.ctx.clone();
+        let started = std::time::Instant::now();
+        while warm_up && started.elapsed() < PROBE_WARM_UP {
+            for (view, target) in views.iter().zip(&targets) {
+                self.submit_view(view, target, None);
+            }
+            ctx.wait()?;
+        }
         let mut timestamps = Timestamps::new(&ctx, views.len() as u32);
         // the software adapter (the CPU: no clocks to come up) draws the three rounds it always
         // did, its first a warm-up: its times jitter by more than PROBE_AGREE between rounds,
@@ -360,10 +343,7 @@ impl Renderer {
             let mut wall = Vec::new();
             for (view, target) in views.iter().zip(&targets) {
                 let started = std::time::Instant::now();
-                self.set_view_matrix(view.view_proj, view.eye);
-                let mut encoder = ctx.device.create_command_encoder(&Default::default());
-                self.encode_view(&mut encoder, target, timestamps.as_mut());
-                ctx.queue.submit([encoder.finish()]);
+                self.submit_view(view, target, timestamps.as_mut());
                 if timestamps.is_none() {
                     ctx.wait()?;
                 }
@@ -384,6 +364,19 @@ impl Renderer {
             last = Some(ms);
         }
         Ok((slowest_of_last_two, timestamps.is_some()))
+    }
+
+    /// Draw `view` into `targets` in a submission of its own, as a display does.
+    fn submit_view(
+        &mut self,
+        view: &ProbeView,
+        targets: &super::ViewTargets,
+        timestamps: Option<&mut Timestamps>,
+    ) {
+        self.set_view_matrix(view.view_proj, view.eye);
+        let mut encoder = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_view(&mut encoder, targets, timestamps);
+        self.ctx.queue.submit([encoder.finish()]);
     }
 }
 

@@ -54,10 +54,12 @@ impl SlowFrame {
     }
 }
 
+/// The median of `values` as the reports compute it (0 for none).
 fn median(values: &[f64]) -> f64 {
-    let mut v: Vec<f64> = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(0.0)
+    match values.is_empty() {
+        true => 0.0,
+        false => crate::stats::Distribution::of(values).median,
+    }
 }
 
 /// The `n` frames of `series` with the longest CPU+GPU time, slowest first, each with what it
