@@ -10,6 +10,9 @@ import sys
 
 # the builds, newest first, and what each ran (DIR/README.md says more)
 FOLDERS = [
+    ("6da8314-gallery-3000", "the mirror gallery's walk, paced with 8 at edges; 3000 frames (its walk at "
+     "about half its speed)"),
+    ("6da8314-gallery", "the mirror gallery's walk; 150 frames a run"),
     ("e878842-3000", "paced, the pacer learning each view's cost of an eye ray; 3000 frames a run "
      "(the 12 s walk at 0.48x its speed)"),
     ("e878842", "the same, 150 frames a run (the walk at about 10x its speed)"),
@@ -21,6 +24,7 @@ FOLDERS = [
 SCENES = [
     ("classroom-100k", "the 100K-triangle classroom with a mirror"),
     ("classroom-1m", "the 1M-triangle classroom with a mirror"),
+    ("gallery", "the mirror gallery (mirrors facing each other, two reflections)"),
 ]
 
 
