@@ -39,11 +39,21 @@ fn draw_at(
     aa: u32,
     edges: Option<EdgeAntialiasing>,
 ) -> (Frame, Option<Refined>) {
+    let mut r = renderer((lf, resident), aa, edges);
+    let frame = r.render(&lf.meta.cameras[0], size[0], size[1]).unwrap();
+    (frame, r.refined_pixels().unwrap())
+}
+
+/// A renderer of the light field with `aa` eye rays per pixel and edge antialiasing `edges`.
+fn renderer(
+    (lf, resident): (&LightField, &ResidentLightField),
+    aa: u32,
+    edges: Option<EdgeAntialiasing>,
+) -> Renderer {
     let mut r = Renderer::new(resident, lf, &MemoryLedger::default()).unwrap();
     r.set_samples_per_pixel(aa).unwrap();
     r.set_edge_antialiasing(edges).unwrap();
-    let frame = r.render(&lf.meta.cameras[0], size[0], size[1]).unwrap();
-    (frame, r.refined_pixels().unwrap())
+    r
 }
 
 fn edges(samples: u32, contrast: f32) -> Option<EdgeAntialiasing> {
@@ -162,9 +172,7 @@ fn assert_refined_pixels_match(
 #[test]
 fn edge_antialiasing_refuses_what_it_cannot_draw_with() {
     let (lf, resident) = cornell();
-    let mut r = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
-    r.set_samples_per_pixel(4).unwrap();
-    r.set_edge_antialiasing(edges(8, 0.1)).unwrap();
+    let mut r = renderer((&lf, &resident), 4, edges(8, 0.1));
     let err = r
         .set_first_hits(vlf::render::raster::FirstHits::Raster)
         .unwrap_err()
@@ -194,9 +202,7 @@ fn edge_antialiasing_refuses_what_it_cannot_draw_with() {
 #[test]
 fn paced_tiles_refine_their_edges_only_where_the_pacer_gives_two_eye_rays() {
     let (lf, resident) = cornell();
-    let mut r = Renderer::new(&resident, &lf, &MemoryLedger::default()).unwrap();
-    r.set_samples_per_pixel(1).unwrap();
-    r.set_edge_antialiasing(edges(8, 0.1)).unwrap();
+    let mut r = renderer((&lf, &resident), 1, edges(8, 0.1));
     let camera = &lf.meta.cameras[0];
     r.render(camera, SIZE[0], SIZE[1]).unwrap();
     let unpaced = r.refined_pixels().unwrap().unwrap().pixels;

@@ -570,13 +570,13 @@ impl Outputs {
         self.ctx.queue.submit([encoder.finish()]);
     }
 
-    /// Read back `slot`'s whole wall image (after the pass: its whole-wall output, so draw with
-    /// `Draw::Everything` first) and each projector's output, named.
     /// Slot `slot`'s wall image and its bindings.
     pub fn target(&self, slot: usize) -> &ViewTargets {
         &self.slots[slot].target
     }
 
+    /// Read back `slot`'s whole wall image (after the pass: its whole-wall output, so draw with
+    /// `Draw::Everything` first) and each projector's output, named.
     pub fn read(&self, slot: usize) -> Result<(Frame, Vec<(String, Frame)>)> {
         let s = &self.slots[slot];
         let whole = s.whole.as_ref().map_or(&s.target.image, |w| &w.image);

@@ -59,8 +59,8 @@ pub struct ObjectLighting {
     #[serde(default = "default_sky_shadow_reach")]
     pub sky_shadow_reach: f32,
     /// the shadow atlas: rays per texel against the moving objects for the indirect light they
-    /// block (the probes' radiance from the directions they cover, less what they send back;
-    /// 0: none, the objects take only direct light from the scene)
+    /// block (the light field's radiance from the directions they cover, less what they send
+    /// back; 0: none, the objects take only direct light from the scene)
     #[serde(default = "default_atlas_indirect_rays")]
     pub atlas_indirect_rays: u32,
     /// the shadow atlas: the indirect light's shadow within this many metres of the objects'
@@ -310,8 +310,9 @@ pub struct Probes {
 impl Probes {
     /// The moving objects' shading group (`common/moving_surface.wgsl`, group 2) for the passes
     /// that sample the objects' direct light once per frame (`render::shadow_atlas`,
-    /// `render::moving_light`): `objects`' records with these probes and emitters; the vertices'
-    /// light a placeholder (those passes never read it; the second writes it).
+    /// `render::moving_light`): `objects`' records with these probes and emitters, and the
+    /// vertices' light where given (the shadow atlas reads what the objects send back from it;
+    /// the vertices' own pass binds a placeholder here and writes the light in its own group).
     pub fn moving_group(
         &self,
         ctx: &GpuContext,
@@ -319,12 +320,20 @@ impl Probes {
         objects: &super::moving::MovingObjects,
         vertex_light: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
-        let unread = ctx.buffer_init(
-            &MemoryLedger::default(),
-            "moving objects: no vertices' light",
-            &[0u8; 16],
-            STORAGE,
-        );
+        // a placeholder, never read, where the objects carry no vertices' light
+        let unread;
+        let lit = match vertex_light {
+            Some(buffer) => buffer,
+            None => {
+                unread = ctx.buffer_init(
+                    &MemoryLedger::default(),
+                    "moving objects: no vertices' light",
+                    &[0u8; 16],
+                    STORAGE,
+                );
+                &unread
+            }
+        };
         ctx.bind_group(
             layout,
             &[
@@ -334,7 +343,7 @@ impl Probes {
                 &self.coefficients,
                 &self.emitters,
                 &self.emitter_alias,
-                vertex_light.unwrap_or(&unread),
+                lit,
                 &objects.corners,
             ],
         )

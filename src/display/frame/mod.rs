@@ -674,13 +674,13 @@ impl<'a> FrameOfViews<'a> {
         self.forced = Some(settings);
     }
 
-    /// What each view of the last frame drawn was drawn with, in view order.
     /// With edge antialiasing, the share of each view's pixels it refined in the frame read
     /// back last (empty without it).
     pub fn refined_shares(&self) -> &[f64] {
         &self.refined
     }
 
+    /// What each view of the last frame drawn was drawn with, in view order.
     pub fn drawn(&self) -> &[ViewSettings] {
         &self.drawn
     }
