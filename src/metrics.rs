@@ -22,6 +22,10 @@ pub struct Comparison {
     /// pixels compared (all, or those a mask keeps)
     #[serde(default)]
     pub pixels: u64,
+    /// the image's mean over the reference's (pixels compared, channels averaged): a light
+    /// field too dark or too bright as a whole shows here first
+    #[serde(default)]
+    pub mean_ratio: f64,
 }
 
 fn display_bytes(frame: &Frame) -> Vec<u8> {
@@ -63,6 +67,7 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
     }
     let n = (pixels * 3) as f64;
     let (mut se, mut rel, mut max_abs, mut display) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (mut sum, mut sum_reference) = (0.0f64, 0.0f64);
     for (i, (a, b)) in test.pixels.iter().zip(&reference.pixels).enumerate() {
         if !kept(i) {
             continue;
@@ -76,6 +81,8 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
                 });
             }
             let d = x - y;
+            sum += x;
+            sum_reference += y;
             se += d * d;
             rel += d * d / (y * y + 0.01);
             max_abs = max_abs.max(d.abs());
@@ -106,6 +113,7 @@ pub fn compare_where(test: &Frame, reference: &Frame, keep: Option<&[bool]>) -> 
         display_mse: display / n,
         flip_mean,
         pixels: pixels as u64,
+        mean_ratio: sum / sum_reference.max(1e-30),
     })
 }
 
@@ -139,8 +147,8 @@ pub fn write_difference_png(test: &Frame, reference: &Frame, path: &std::path::P
 impl Comparison {
     pub fn table(&self) -> String {
         format!(
-            "  size         {}x{} ({} pixels compared)\n  MSE          {:.6e}\n  RMSE         {:.6e}\n  relMSE       {:.6e}\n  max |a-b|    {:.6e}\n  display MSE  {:.6e}\n  FLIP (mean)  {:.6}\n",
-            self.width, self.height, self.pixels, self.mse, self.rmse, self.rel_mse, self.max_abs, self.display_mse, self.flip_mean
+            "  size         {}x{} ({} pixels compared)\n  mean ratio   {:.6}\n  MSE          {:.6e}\n  RMSE         {:.6e}\n  relMSE       {:.6e}\n  max |a-b|    {:.6e}\n  display MSE  {:.6e}\n  FLIP (mean)  {:.6}\n",
+            self.width, self.height, self.pixels, self.mean_ratio, self.mse, self.rmse, self.rel_mse, self.max_abs, self.display_mse, self.flip_mean
         )
     }
 }

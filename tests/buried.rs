@@ -341,18 +341,22 @@ fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
     );
 }
 
-/// Open (issue 26): a sealed room (inward walls) under a uniform sky whose -x wall has a slot
-/// 2 cm high open to the outside, covered on the room's side by a moulding (a board 3 cm in
-/// front of the wall, capped above and below): the cavity behind the moulding sees the sky,
-/// the room does not, so the visible wall just below the moulding must be black. At texels of
-/// about 2 cm the cavity is deeper than a cover's reach, so the wall's texels in it keep their
-/// points (not buried), see the sky through the slot, and the bilinear lookup of the visible
-/// wall below blends them in. The Grey & White Room's window sills (profiles with cavities
-/// behind them) are six times too bright in their indirect light, probably for this reason: the
-/// fix is to stop a chart where another surface's edge lies on its face (the moulding's cap
-/// here), as charts already stop at mesh edges that a third surface meets.
+/// A sealed room (inward walls) under a uniform sky whose -x wall has a slot 2 cm high open to
+/// the outside, covered on the room's side by a moulding (a board 3 cm in front of the wall,
+/// capped above and below): the cavity behind the moulding sees the sky, the room does not, so
+/// the visible wall just below the moulding must be black, and the room's floor nearly so. The
+/// caps' rim texels take the nearest point of their face, on the edge where a cap meets the
+/// wall. That point used to move a hair toward its triangle's middle, which for the cap's long
+/// thin triangles lies almost along that edge: it stayed a millionth of a metre from the wall,
+/// closer than the shadow rays' shortest hit, and the sky's shadow rays from it passed behind
+/// the wall to the sky. The caps' rims then held a quarter of the sky's light, and the wall
+/// below and the room took it in. Measured on the software adapter before the rim points moved
+/// straight away from their edge (`inset` in src/prepare/atlas.rs): the wall a tenth of a texel
+/// below the moulding 5.9e-3 of the sky's radiance, the floor's mean 3.7e-4, the caps' 0.095;
+/// after: 5.3e-6, 7.7e-6 and 2.8e-5 (what is left comes from the side walls' texels inside the
+/// cavity, which do see the sky through the slot). The Grey & White Room's window sills, six
+/// times too bright in their indirect light, are mouldings of that kind.
 #[test]
-#[ignore = "open (issue 26): the wall's texels in the cavity behind the moulding blend the sky's light into the visible wall below it: 5.9e-3 of the sky's radiance a tenth of a texel below (lavapipe, 2026-11-28); run with --ignored"]
 fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room() {
     let dir = tempfile::tempdir().unwrap();
     let mut obj = ObjBuilder::default();
@@ -424,14 +428,20 @@ fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room
             }
         }
     }
+    let floor = floor_face(p);
+    let on_floor: Vec<f64> = (p.atlas.points.iter().zip(&lit.lf.total))
+        .filter(|(pt, _)| pt[3].to_bits() == floor)
+        .map(|(_, t)| t[1] as f64)
+        .collect();
+    let floor_mean = on_floor.iter().sum::<f64>() / on_floor.len() as f64;
     eprintln!(
-        "the wall below the moulding: at most {:.2e} of the sky ({:.1} texels below it; a texel is {:.3} m)",
+        "the wall below the moulding: at most {:.2e} of the sky ({:.1} texels below it; a texel is {:.3} m); the floor's mean {floor_mean:.2e}",
         worst.0, worst.1, lit.texel
     );
     assert!(
-        worst.0 < 1e-4,
+        worst.0 < 1e-4 && floor_mean < 3e-5,
         "sky light in a sealed room: the wall {:.1} texels below the moulding holds {:.3e} of \
-         the sky's radiance",
+         the sky's radiance, the floor {floor_mean:.3e} on average",
         worst.1,
         worst.0
     );

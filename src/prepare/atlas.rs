@@ -429,20 +429,63 @@ fn sample_texel(
     if let Some(&t) = near.iter().find(|&&t| inside(&tris[t], centre)) {
         return (centre, cover, t);
     }
-    // nearest point of the face, nudged inside so that visibility finds the face there
-    let mut best = (f64::INFINITY, centre, centre, 0);
+    // nearest point of the face, moved inside it (`inset`)
+    let mut best = (f64::INFINITY, centre, 0, 0);
     for (ti, t) in tris.iter().enumerate() {
-        let c = (t[0] + t[1] + t[2]) / 3.0;
         for k in 0..3 {
             let q = closest_on_segment(t[k], t[(k + 1) % 3], centre);
             let d = q.distance_squared(centre);
             if d < best.0 {
-                best = (d, q, c, ti);
+                best = (d, q, ti, k);
             }
         }
     }
-    let (_, q, c, tri) = best;
-    let to_c = c - q;
-    let nudge = (half * 0.02).min(to_c.length() * 0.5);
-    (q + to_c.normalize_or_zero() * nudge, cover, tri)
+    let (_, q, tri, edge) = best;
+    let holding = |p: DVec2| {
+        (0..tris.len()).find(|&t| {
+            bounds[t].0.cmple(p).all() && bounds[t].1.cmpge(p).all() && inside(&tris[t], p)
+        })
+    };
+    let (p, holder) = inset(&tris[tri], edge, q, half * 0.02, holding);
+    (p, cover, holder.unwrap_or(tri))
+}
+
+/// Point `q` on edge `edge` (from corner `edge` to the next) of triangle `t`, moved `by` into the
+/// face, and the face's triangle that holds it (`holding`; None for `t`): straight away from the
+/// edge, and along it too where `q` is one of its ends; where that leaves the face (a sharp
+/// corner), toward `t`'s middle. Away from the edge, not toward the middle as before: the point
+/// must lie clear of a surface standing on the edge (a moulding's cap on the wall it meets),
+/// farther than the shadow rays' shortest hit (1e-5 of the normalised scene), or those rays
+/// start behind that surface. A long thin triangle's middle lies almost along its long edge: a
+/// cap's rim points, moved toward it, stayed a millionth of a metre from the wall behind them,
+/// and their shadow rays passed behind the wall to the sky (`tests/buried.rs`, the cavity).
+fn inset(
+    t: &[DVec2; 3],
+    edge: usize,
+    q: DVec2,
+    by: f64,
+    holding: impl Fn(DVec2) -> Option<usize>,
+) -> (DVec2, Option<usize>) {
+    let (a, b, c) = (t[edge], t[(edge + 1) % 3], t[(edge + 2) % 3]);
+    let along = (b - a).normalize_or_zero();
+    let mut inward = along.perp();
+    if inward.dot(c - a) < 0.0 {
+        inward = -inward;
+    }
+    let mut p = q + inward * by;
+    if q.distance_squared(a) < 1e-24 {
+        p += along * by;
+    } else if q.distance_squared(b) < 1e-24 {
+        p -= along * by;
+    }
+    match holding(p) {
+        Some(holder) => (p, Some(holder)),
+        None => {
+            let to_c = (a + b + c) / 3.0 - q;
+            (
+                q + to_c.normalize_or_zero() * by.min(to_c.length() * 0.5),
+                None,
+            )
+        }
+    }
 }
