@@ -45,6 +45,11 @@ const SOLID_TEXELS: f64 = 8.0;
 const TILT: f64 = 1.732_050_8;
 /// Where a buried texel looks for an open point: offsets in thirds of a texel, up to one texel.
 const SEARCH_STEPS: i32 = 3;
+/// How close to a surface (normalised units) a point counts as lying in it: four times the
+/// shortest hit of the shadow and crossing rays (1e-5, shaders/common/ray.wgsl and src/bvh.rs).
+/// A rim point this close past a crossing surface is moved clear of it like one beyond it: its
+/// shadow rays would not see the surface and pass behind it.
+const BLIND_BAND: f64 = 4e-5;
 
 /// The scene's BVH (`PreparedScene::bvh`), for the buried-point test, and which faces are the
 /// generated backs of two-sided surfaces.
@@ -252,8 +257,11 @@ fn cut_off(
     let length = from.distance(to);
     let dir = (to - from) / length;
     let (nodes, tris) = (&occluders.bvh.nodes, &occluders.bvh.triangles);
-    let (origin, ray) = (from.as_vec3(), dir.as_vec3());
-    let (t, hit) = crate::bvh::closest_hit(nodes, tris, origin, ray, length as f32, skip)?;
+    // from a hair before the point, so that a surface it lies on or just past counts too
+    let (origin, ray) = ((from - dir * BLIND_BAND).as_vec3(), dir.as_vec3());
+    let span = (length + BLIND_BAND) as f32;
+    let (t, hit) = crate::bvh::closest_hit(nodes, tris, origin, ray, span, skip)?;
+    let t = t as f64 - BLIND_BAND;
     let tri = &tris[hit];
     let normal = Vec3::from(tri.e1)
         .cross(Vec3::from(tri.e2))
@@ -262,13 +270,13 @@ fn cut_off(
     let depth = (from - Vec3::from(tri.v0).as_dvec3()).dot(normal).abs();
     let reach = REACH_TEXELS / density;
     let thin = match target {
-        Target::Neighbour(_) => (t as f64) < reach,
+        Target::Neighbour(_) => t < reach,
         Target::Middle(_) => depth < reach,
     };
     // a hundredth of a texel clear of the surface's plane, short of the target
     let slant = dir.dot(normal).abs().max(1e-3);
-    let past = (0.01 / density / slant).min((length - t as f64) * 0.5);
-    thin.then(|| p + (q - p) * ((t as f64 + past) / length))
+    let past = (0.01 / density / slant).min((length - t) * 0.5);
+    thin.then(|| p + (q - p) * ((t + past) / length))
 }
 
 /// The open share of the 4 x 4 sub-points of the texel at `centre` that lie on the face.
