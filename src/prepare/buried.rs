@@ -96,6 +96,21 @@ impl<'a> Occluders<'a> {
     }
 }
 
+impl Occluders<'_> {
+    /// Whether a surface lies over point `p` of face `face` along its normal within a cover's
+    /// reach, at texel density `density`: for a rim point, which serves the lookups of the open
+    /// face beside it, a slot behind a frame's overhanging lip is cover enough (`unbury`).
+    pub fn overhung(&self, p: DVec3, face: u32, f: &PlanarFace, density: f64) -> bool {
+        let reach = REACH_TEXELS / density;
+        let twin = f.twin.unwrap_or(face);
+        let origin = (p + f.normal * (reach * 1e-3)).as_vec3();
+        let skip = |g: u32| g == face || g == twin || self.is_back[g as usize];
+        let (nodes, tris) = (&self.bvh.nodes, &self.bvh.triangles);
+        let dir = f.normal.as_vec3();
+        crate::bvh::closest_hit(nodes, tris, origin, dir, reach as f32, skip).is_some()
+    }
+}
+
 /// One texel of a chart: its sample point in face coordinates, the share of it the face covers,
 /// and the face's triangle that holds the point.
 pub type ChartTexel = (DVec2, f64, usize);
@@ -124,7 +139,23 @@ pub fn unbury(
 ) -> usize {
     let (face, f, density) = (chart.face, chart.f, chart.density);
     let open = |c: DVec2| !occluders.buried(to_space(c), face, f, density);
-    let buried: Vec<bool> = texels.iter().map(|t| !open(t.0)).collect();
+    // where a moved point may go: open, and not under an overhang
+    let clear = |c: DVec2| open(c) && !occluders.overhung(to_space(c), face, f, density);
+    let (w, h) = (chart.size.0 as i64, chart.size.1 as i64);
+    let centre_of = |k: i64| {
+        DVec2::new(
+            ((k % w) as f64 + 0.5) / density,
+            ((k / w) as f64 + 0.5) / density,
+        )
+    };
+    // a rim point (off its texel's centre) under an overhang is buried too: its lookups serve
+    // the open face beside it (a frame's flat face whose top runs into the slot behind its lip)
+    let buried: Vec<bool> = (texels.iter().enumerate())
+        .map(|(k, t)| {
+            let rim = t.0 != centre_of(k as i64);
+            !open(t.0) || (rim && occluders.overhung(to_space(t.0), face, f, density))
+        })
+        .collect();
     if !buried.iter().any(|&b| b) {
         return 0;
     }
@@ -134,7 +165,6 @@ pub fn unbury(
         .map(|o| o / (SEARCH_STEPS as f64 * density))
         .collect();
     offsets.sort_by(|a, b| a.length_squared().total_cmp(&b.length_squared()));
-    let (w, h) = (chart.size.0 as i64, chart.size.1 as i64);
     let open_beside = |i: i64, j: i64| {
         (-1..=1).any(|dy| {
             (-1..=1).any(|dx| {
@@ -158,7 +188,7 @@ pub fn unbury(
             let found = offsets.iter().find_map(|&o| {
                 let c = centre + o;
                 let tri = inside(c)?;
-                open(c).then_some((c, tri))
+                clear(c).then_some((c, tri))
             });
             if let Some((c, tri)) = found {
                 texels[idx].0 = c;
