@@ -12,10 +12,7 @@
 //! wall, a block on the floor: its bottom lies in the face's plane, where no ray meets it).
 //! Sides are the modelled ones: the generated backs of two-sided surfaces are passed by. A
 //! corner, where a floor meets a wall, is open above and is not buried; nor is a point under a
-//! table. A rim point (off its texel's centre) is buried too when a surface overhangs it along
-//! its normal within a quarter of a texel: the slot behind a frame's lip, where one tilted ray
-//! escapes, but whose shade the lookups of the open face beside it would blend in. A buried
-//! texel that borders an
+//! table. A buried texel that borders an
 //! open one takes instead the nearest open point of its face within a texel of its centre, as
 //! a texel whose centre lies off its face takes the face's nearest point: it then carries the
 //! light of the visible surface it is read for. Texels deeper under a cover keep their point:
