@@ -52,6 +52,29 @@ fn a_constant_offset_gives_the_analytic_values() {
         c.display_mse
     );
     assert!(c.flip_mean > 0.0);
+    assert!((c.mean_ratio - 1.2).abs() < 1e-6, "{}", c.mean_ratio);
+    assert!((c.mean_ratio - 1.0).abs() > 0.1 && c.rel_mse > 0.0);
+}
+
+/// The mean ratio is over the pixels compared and the three channels: a test image bright on
+/// one half and dark on the other by as much has the reference's mean; a mask that keeps the
+/// bright half alone gives that half's ratio.
+#[test]
+fn the_mean_ratio_weighs_every_pixel_and_channel_and_follows_the_mask() {
+    let reference = frame(8, 8, |_, _| [0.5, 0.25, 1.0]);
+    let test = frame(8, 8, |x, _| {
+        let k = if x < 4 { 1.5 } else { 0.5 };
+        [0.5 * k, 0.25 * k, 1.0 * k]
+    });
+    let c = compare(&test, &reference).unwrap();
+    assert!((c.mean_ratio - 1.0).abs() < 1e-6, "{}", c.mean_ratio);
+    let left: Vec<bool> = (0..64).map(|i| i % 8 < 4).collect();
+    let masked = vlf::metrics::compare_where(&test, &reference, Some(&left)).unwrap();
+    assert!(
+        (masked.mean_ratio - 1.5).abs() < 1e-6,
+        "{}",
+        masked.mean_ratio
+    );
 }
 
 #[test]
