@@ -184,6 +184,15 @@ impl SkyLit {
             .collect()
     }
 
+    /// The mean green radiance of the texels whose sample point lies on face `face`.
+    fn mean_on(&self, face: u32) -> f64 {
+        let on_face: Vec<f64> = (self.p.atlas.points.iter().zip(&self.lf.total))
+            .filter(|(pt, _)| pt[3].to_bits() == face)
+            .map(|(_, t)| t[1] as f64)
+            .collect();
+        on_face.iter().sum::<f64>() / on_face.len() as f64
+    }
+
     /// The green radiance that a view of face `face` reads at the world point `world`.
     fn read(&self, face: usize, world: [f32; 3]) -> f64 {
         let at = self.p.normalisation.to_unit(world).as_vec3();
@@ -346,12 +355,7 @@ fn a_panel_and_a_cornice_running_through_a_sealed_room_bring_no_sky_in() {
             }
         }
     }
-    let floor = floor_face(p);
-    let on_floor: Vec<f64> = (p.atlas.points.iter().zip(&lit.lf.total))
-        .filter(|(pt, _)| pt[3].to_bits() == floor)
-        .map(|(_, t)| t[1] as f64)
-        .collect();
-    let floor_mean = on_floor.iter().sum::<f64>() / on_floor.len() as f64;
+    let floor_mean = lit.mean_on(floor_face(p));
     eprintln!(
         "at most {:.2e} of the sky on the panel ({:.1} texels above the floor), {:.2e} on the \
          strip ({:.1} texels below the ceiling), {:.2e} on the skirting ({:.1} texels above the \
@@ -459,12 +463,7 @@ fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room
             }
         }
     }
-    let floor = floor_face(p);
-    let on_floor: Vec<f64> = (p.atlas.points.iter().zip(&lit.lf.total))
-        .filter(|(pt, _)| pt[3].to_bits() == floor)
-        .map(|(_, t)| t[1] as f64)
-        .collect();
-    let floor_mean = on_floor.iter().sum::<f64>() / on_floor.len() as f64;
+    let floor_mean = lit.mean_on(floor_face(p));
     eprintln!(
         "the wall below the moulding: at most {:.2e} of the sky ({:.1} texels below it; a texel is {:.3} m); the floor's mean {floor_mean:.2e}",
         worst.0, worst.1, lit.texel
