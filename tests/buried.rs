@@ -476,3 +476,68 @@ fn a_cavity_open_to_the_sky_behind_a_moulding_brings_no_light_into_a_sealed_room
         worst.0
     );
 }
+
+/// A wall whose top edge runs into the slot behind a frame's lip, as the Wooden Staircase's
+/// large painting frame does: the lip, 3.5 mm in front of the wall, overhangs the wall's top
+/// 1.6 mm. The wall's rim points, moved a hundredth of a texel into the wall, lie in that slot,
+/// where the buried-point test's ray tilted down escapes below the lip; the bilinear lookups of
+/// the visible wall just below the lip must still read points outside the slot (else they
+/// blend its shade in: on the staircase a dark line along the frame, 0.34 against 0.75). A rim
+/// point with a surface along its normal within a cover's reach counts as buried and moves
+/// (`Occluders::overhung`). Checked without it (`overhung` answering false): the lookups read
+/// points in the slot and this test fails.
+#[test]
+fn the_visible_wall_below_a_frames_lip_reads_no_point_from_the_slot_behind_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let lip_bottom = 0.9984;
+    let mut obj = ObjBuilder::default();
+    obj.quad("wall", DVec3::new(0.0, 0.5, 0.0), DVec3::X, [1.0, 2.0], 0.0);
+    obj.quad(
+        "lip",
+        DVec3::new(0.0035, (lip_bottom + 1.05) / 2.0, 0.0),
+        DVec3::X,
+        [1.05 - lip_bottom, 2.0],
+        0.0,
+    );
+    // its underside, 3 mm thick in front of the board: the slot behind the lip stays open below
+    obj.quad(
+        "lip",
+        DVec3::new(0.005, lip_bottom, 0.0),
+        -DVec3::Y,
+        [0.003, 2.0],
+        0.0,
+    );
+    let toml = sky_scene(dir.path(), &obj, &[("wall", 0.5), ("lip", 0.5)]);
+    let p = PreparedScene::new(&Scene::load(&toml).unwrap(), DENSITY).unwrap();
+    let faces = vlf::propagate::gpu_faces(&p, &vec![u32::MAX; p.faces.len()]);
+    let n = p.normalisation;
+    let at = n.to_unit([0.0, 0.5, 0.0]);
+    let wall = (p.faces.iter())
+        .position(|f| f.normal.x > 0.99 && (f.plane_offset - at.x).abs() < 1e-6)
+        .expect("the wall is a face") as u32;
+    let texel = 1.0 / (DENSITY * n.scale);
+    let world_y = |k: usize| p.atlas.points[k][1] as f64 / n.scale + n.center[1];
+    let mut in_slot = Vec::new();
+    for k in 1..=5 {
+        let y = lip_bottom - texel * k as f64 / 10.0;
+        for z in [-0.5f32, 0.0, 0.5] {
+            let point = n.to_unit([0.0, y as f32, z]).as_vec3();
+            let taps = vlf::lightfield::atlas_lookup::atlas_taps(
+                &faces[wall as usize],
+                point,
+                p.atlas.width,
+            );
+            for i in 0..4 {
+                let k = taps.index[i] as usize;
+                if taps.weight[i] > 0.0 && world_y(k) > lip_bottom {
+                    in_slot.push((y, world_y(k)));
+                }
+            }
+        }
+    }
+    assert!(
+        in_slot.is_empty(),
+        "the visible wall below the lip (at {lip_bottom} m) reads texels whose point lies in the \
+         slot behind it (the read's height, the point's): {in_slot:?}"
+    );
+}
