@@ -7,6 +7,7 @@
 //! propagation. The build splits its subtrees over the CPU's threads; the tree is the same
 //! whatever their number.
 
+use crate::parallel::map_indices;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
 
@@ -143,6 +144,12 @@ struct Bounds {
     hi: Vec3,
 }
 
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds::EMPTY
+    }
+}
+
 impl Bounds {
     const EMPTY: Bounds = Bounds {
         lo: Vec3::splat(f32::INFINITY),
@@ -265,26 +272,24 @@ pub struct SceneBvh {
 /// direct light's and the renderer's ray casting share it).
 pub fn bvh_triangles(
     corners: &[[Vec3; 3]],
-    face_of: impl Fn(usize) -> u32,
-    uv_of: impl Fn(usize) -> [[f32; 2]; 3],
+    face_of: impl Fn(usize) -> u32 + Sync,
+    uv_of: impl Fn(usize) -> [[f32; 2]; 3] + Sync,
 ) -> (Vec<GpuBvhNode>, Vec<GpuTriangle>) {
     let (nodes, order) = build_bvh(corners);
-    let triangles = order
-        .iter()
-        .map(|&i| {
-            let [a, b, c] = corners[i as usize];
-            let uv = uv_of(i as usize);
-            GpuTriangle {
-                v0: a.into(),
-                face: face_of(i as usize),
-                e1: (b - a).into(),
-                e2: (c - a).into(),
-                uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
-                uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
-                ..Default::default()
-            }
-        })
-        .collect();
+    let triangles = map_indices(order.len(), |k| {
+        let i = order[k];
+        let [a, b, c] = corners[i as usize];
+        let uv = uv_of(i as usize);
+        GpuTriangle {
+            v0: a.into(),
+            face: face_of(i as usize),
+            e1: (b - a).into(),
+            e2: (c - a).into(),
+            uv01: [uv[0][0], uv[0][1], uv[1][0], uv[1][1]],
+            uv2: [uv[2][0], uv[2][1], 0.0, 0.0],
+            ..Default::default()
+        }
+    });
     (nodes, triangles)
 }
 
@@ -378,26 +383,23 @@ pub fn closest_hit(
 /// splits past depth SAH_DEPTH); returns the nodes and the triangle order the leaves refer to.
 /// The left child of an internal node is the node after it; `index` holds the right child.
 pub fn build_bvh(triangles: &[[Vec3; 3]]) -> (Vec<GpuBvhNode>, Vec<u32>) {
-    build_bvh_on(
-        triangles,
-        std::thread::available_parallelism().map_or(1, |n| n.get()),
-    )
+    build_bvh_on(triangles, crate::parallel::threads())
 }
 
 /// `build_bvh` on at most `threads` threads: the same tree whatever their number.
 fn build_bvh_on(triangles: &[[Vec3; 3]], threads: usize) -> (Vec<GpuBvhNode>, Vec<u32>) {
     let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
-    let centroids: Vec<Vec3> = triangles
-        .iter()
-        .map(|t| (t[0] + t[1] + t[2]) / 3.0)
-        .collect();
-    let boxes: Vec<Bounds> = triangles
-        .iter()
-        .map(|t| Bounds {
+    let centroids: Vec<Vec3> = map_indices(triangles.len(), |i| {
+        let t = triangles[i];
+        (t[0] + t[1] + t[2]) / 3.0
+    });
+    let boxes: Vec<Bounds> = map_indices(triangles.len(), |i| {
+        let t = triangles[i];
+        Bounds {
             lo: t[0].min(t[1]).min(t[2]),
             hi: t[0].max(t[1]).max(t[2]),
-        })
-        .collect();
+        }
+    });
     let mut nodes = Vec::with_capacity(triangles.len() * 2 / LEAF_SIZE + 1);
     if !triangles.is_empty() {
         let input = BuildInput {
@@ -534,23 +536,36 @@ fn build_children(
     input: &BuildInput,
 ) -> u32 {
     let (left, right) = order.split_at_mut(mid);
-    if input.threads < 2 || right.len() < PARALLEL_TRIANGLES {
+    // where one side is too small for a thread of its own, the sides are built one after the
+    // other, each with every thread; otherwise the threads are shared by size (halving them
+    // left most idle: SAH splits of furnished rooms peel off a few dozen triangles beside
+    // millions, and the threads given to those had nothing to do)
+    if input.threads < 2 || left.len().min(right.len()) < PARALLEL_TRIANGLES {
         build_node(nodes, left, first, depth + 1, input);
         return build_node(nodes, right, first + mid, depth + 1, input);
     }
+    let total = left.len() + right.len();
+    let left_threads =
+        ((input.threads * left.len() + total / 2) / total).clamp(1, input.threads - 1);
     // the right subtree on a thread of its own, into its own nodes, appended after the left
     // one's: the same nodes in the same order as one thread makes
-    let half = BuildInput {
-        threads: input.threads / 2,
-        ..*input
-    };
+    let (left_input, right_input) = (
+        BuildInput {
+            threads: left_threads,
+            ..*input
+        },
+        BuildInput {
+            threads: input.threads - left_threads,
+            ..*input
+        },
+    );
     let mut right_nodes = std::thread::scope(|scope| {
         let worker = scope.spawn(|| {
             let mut own = Vec::with_capacity(right.len() * 2 / LEAF_SIZE + 1);
-            build_node(&mut own, right, first + mid, depth + 1, &half);
+            build_node(&mut own, right, first + mid, depth + 1, &right_input);
             own
         });
-        build_node(nodes, left, first, depth + 1, &half);
+        build_node(nodes, left, first, depth + 1, &left_input);
         worker.join().expect("a BVH builder thread panicked")
     });
     let offset = nodes.len() as u32;

@@ -23,6 +23,7 @@ pub mod lightfield;
 pub mod material;
 pub mod metrics;
 pub mod mirrored;
+pub mod parallel;
 pub mod params;
 pub mod prepare;
 pub mod progress;

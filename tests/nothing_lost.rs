@@ -103,17 +103,12 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         max_iterations: 2,
         ..params.clone()
     };
-    vlf::propagate::propagate_with(
-        ctx.clone(),
-        &scene,
-        &cut,
-        &Silent,
-        Some(&CheckpointPlan {
-            resume: false,
-            ..plan.clone()
-        }),
-    )
-    .unwrap();
+    let fresh = CheckpointPlan {
+        resume: false,
+        ..plan.clone()
+    };
+    vlf::propagate::propagate_with(ctx.clone(), &scene, &cut, &Silent, checkpoints(&fresh))
+        .unwrap();
     // the cap is part of the settings: resume with the original ones
     let cp = vlf::propagate::checkpoint::Checkpoint::load(&plan.path).unwrap();
     assert_eq!(cp.meta.iteration, 2);
@@ -121,7 +116,8 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
     patched.meta.params = params.clone();
     patched.save(&plan.path).unwrap();
     let (resumed, _, report) =
-        vlf::propagate::propagate_with(ctx.clone(), &scene, &params, &Silent, Some(&plan)).unwrap();
+        vlf::propagate::propagate_with(ctx.clone(), &scene, &params, &Silent, checkpoints(&plan))
+            .unwrap();
     assert_eq!(report.iterations, whole_report.iterations);
     assert!(report.warnings.iter().any(|w| w.contains("resumed")));
     let bits = |t: &[[f32; 4]]| t.iter().flatten().map(|x| x.to_bits()).collect::<Vec<_>>();
@@ -136,7 +132,7 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         texel_density: 9.0,
         ..params
     };
-    let e = vlf::propagate::propagate_with(ctx, &scene, &other, &Silent, Some(&plan))
+    let e = vlf::propagate::propagate_with(ctx, &scene, &other, &Silent, checkpoints(&plan))
         .err()
         .unwrap()
         .to_string();
@@ -144,4 +140,12 @@ fn a_resumed_propagation_ends_where_an_uninterrupted_one_does() {
         e.contains("run.checkpoint") && e.contains("other settings"),
         "{e}"
     );
+}
+
+/// A propagation's outputs: checkpoints as `plan` says, the light field left to the caller.
+fn checkpoints(plan: &CheckpointPlan) -> vlf::propagate::Outputs<'_> {
+    vlf::propagate::Outputs {
+        checkpoints: Some(plan),
+        light_field: None,
+    }
 }

@@ -32,9 +32,15 @@ fn params(mirror_direct: bool) -> PropagationParams {
 }
 
 fn run(scene: &Scene, params: &PropagationParams, regression: Regression) -> PropagationReport {
-    let (_, _, report) =
-        vlf::propagate::propagate_with_regression(gpu(), scene, params, &Silent, None, regression)
-            .unwrap();
+    let (_, _, report) = vlf::propagate::propagate_with_regression(
+        gpu(),
+        scene,
+        params,
+        &Silent,
+        Default::default(),
+        regression,
+    )
+    .unwrap();
     let b = balance(&report);
     eprintln!("{}: {}", report.scene, b.verdict);
     for s in &report.per_iteration {

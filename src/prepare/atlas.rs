@@ -103,7 +103,7 @@ impl Atlas {
         let faces: &[PlanarFace] = faces;
         // charts are sampled in parallel (the buried-point test casts rays), a batch of faces at
         // a time so that the samples in flight stay small, and written in order
-        let workers = std::thread::available_parallelism().map_or(1, |n| n.get());
+        let workers = crate::parallel::threads();
         for batch in (0..faces.len()).step_by(CHART_BATCH) {
             let batch = batch..(batch + CHART_BATCH).min(faces.len());
             let next = std::sync::atomic::AtomicUsize::new(batch.start);

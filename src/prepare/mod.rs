@@ -9,6 +9,7 @@ pub mod packing;
 
 use crate::bvh::SceneBvh;
 use crate::error::{Result, VlfError};
+use crate::parallel::map_indices;
 pub use crate::scene::normalise::{normalise, Normalisation, NORMALISED_RADIUS};
 use crate::scene::{Material, Scene};
 use glam::DVec3;
@@ -171,9 +172,11 @@ impl PreparedScene {
 /// The BVH of the prepared triangles; texture coordinates only where some material cuts holes
 /// (for shaders/common/coverage.wgsl's test), zero otherwise.
 fn scene_bvh(positions: &[DVec3], triangles: &[PreparedTriangle], cutouts: bool) -> SceneBvh {
-    let corners: Vec<[glam::Vec3; 3]> = (triangles.iter())
-        .map(|t| t.vertices.map(|v| positions[v as usize].as_vec3()))
-        .collect();
+    let corners: Vec<[glam::Vec3; 3]> = map_indices(triangles.len(), |i| {
+        triangles[i]
+            .vertices
+            .map(|v| positions[v as usize].as_vec3())
+    });
     let uv = |i: usize| match cutouts {
         true => triangles[i].uv.unwrap_or([[0.0; 2]; 3]),
         false => [[0.0; 2]; 3],
@@ -251,19 +254,40 @@ struct EdgeRuns {
 }
 
 impl EdgeRuns {
+    /// On the CPU's threads: the edges are bucketed by their lower vertex, one bucket a thread
+    /// (it gathers, sorts and finds the runs of its own edges, which no other bucket shares), and
+    /// the buckets joined in order: the same runs as one sort of all edges gives.
     fn of(scene: &Scene) -> EdgeRuns {
-        let edges = sorted_edges(scene);
-        let mut runs = vec![(0u32, 0u32); scene.triangles.len() * 3];
-        let mut start = 0;
-        while start < edges.len() {
-            let key = edges[start].0;
-            let end = start + edges[start..].iter().take_while(|e| e.0 == key).count();
-            for e in &edges[start..end] {
-                runs[e.1 as usize] = (start as u32, (end - start) as u32);
-            }
-            start = end;
-        }
-        let triangles = edges.iter().map(|e| e.1 / 3).collect();
+        let key_of = |slot: usize| {
+            let v = scene.triangles[slot / 3].vertices;
+            edge_key(v[slot % 3], v[(slot % 3 + 1) % 3])
+        };
+        let slots = scene.triangles.len() * 3;
+        let buckets = crate::parallel::threads().min(u16::MAX as usize) as u64;
+        let vertices = scene.positions.len().max(1) as u64;
+        let bucket: Vec<u16> = map_indices(slots, |slot| {
+            ((key_of(slot) >> 32) * buckets / vertices).min(buckets - 1) as u16
+        });
+        let sorted: Vec<Vec<(u64, u32)>> = std::thread::scope(|scope| {
+            let sorting: Vec<_> = (0..buckets as u16)
+                .map(|b| {
+                    let (bucket, key_of) = (&bucket, &key_of);
+                    scope.spawn(move || {
+                        let mut own: Vec<(u64, u32)> = (0..slots)
+                            .filter(|&slot| bucket[slot] == b)
+                            .map(|slot| (key_of(slot), slot as u32))
+                            .collect();
+                        own.sort_unstable();
+                        own
+                    })
+                })
+                .collect();
+            (sorting.into_iter())
+                .map(|h| h.join().expect("an edge sorter panicked"))
+                .collect()
+        });
+        let runs = bucket_runs(&sorted, slots);
+        let triangles = sorted.iter().flatten().map(|e| e.1 / 3).collect();
         EdgeRuns { triangles, runs }
     }
 
@@ -273,59 +297,39 @@ impl EdgeRuns {
     }
 }
 
-/// Every (edge, triangle edge slot 3 t + e) pair, sorted: buckets by the edge's lower vertex,
-/// each bucket sorted on a thread of its own (the pairs are unique, so the order is the one a
-/// single sort gives).
-fn sorted_edges(scene: &Scene) -> Vec<(u64, u32)> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let vertices = scene.positions.len().max(1) as u64;
-    let buckets = (threads * 4) as u64;
-    let bucket_of = |key: u64| ((key >> 32) * buckets / vertices).min(buckets - 1) as usize;
-    let mut sizes = vec![0usize; buckets as usize + 1];
-    let key_of = |slot: usize| {
-        let v = scene.triangles[slot / 3].vertices;
-        edge_key(v[slot % 3], v[(slot % 3 + 1) % 3])
-    };
-    let slots = scene.triangles.len() * 3;
-    for slot in 0..slots {
-        sizes[bucket_of(key_of(slot)) + 1] += 1;
-    }
-    for b in 1..sizes.len() {
-        sizes[b] += sizes[b - 1];
-    }
-    let mut edges = vec![(0u64, 0u32); slots];
-    let mut next = sizes.clone();
-    for slot in 0..slots {
-        let key = key_of(slot);
-        let b = bucket_of(key);
-        edges[next[b]] = (key, slot as u32);
-        next[b] += 1;
-    }
-    let mut rest = &mut edges[..];
-    let mut parts = Vec::new();
-    for b in 0..buckets as usize {
-        let (part, tail) = rest.split_at_mut(sizes[b + 1] - sizes[b]);
-        parts.push(part);
-        rest = tail;
-    }
-    let next_part = std::sync::Mutex::new(parts.into_iter());
+/// Where each triangle edge's run of equal edges starts in the joined `sorted` buckets, and its
+/// length, found a bucket a thread (slots are unique, so each is written once).
+fn bucket_runs(sorted: &[Vec<(u64, u32)>], slots: usize) -> Vec<(u32, u32)> {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    let packed: Vec<AtomicU64> = (0..slots).map(|_| AtomicU64::new(0)).collect();
+    let mut offset = 0;
     std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| loop {
-                let part = next_part.lock().expect("edge sorter").next();
-                match part {
-                    Some(part) => part.sort_unstable(),
-                    None => return,
+        for edges in sorted {
+            let (packed, first) = (&packed, offset);
+            offset += edges.len();
+            scope.spawn(move || {
+                let mut start = 0;
+                while start < edges.len() {
+                    let key = edges[start].0;
+                    let end = start + edges[start..].iter().take_while(|e| e.0 == key).count();
+                    let run = ((first + start) as u64) << 32 | (end - start) as u64;
+                    for e in &edges[start..end] {
+                        packed[e.1 as usize].store(run, Relaxed);
+                    }
+                    start = end;
                 }
             });
         }
     });
-    edges
+    map_indices(slots, |slot| {
+        let run = packed[slot].load(Relaxed);
+        ((run >> 32) as u32, run as u32)
+    })
 }
 
 /// The planar faces of `charts` (material, triangles), made on the CPU's threads, in order.
 fn make_faces(scene: &Scene, positions: &[DVec3], charts: Vec<(u32, Vec<u32>)>) -> Vec<PlanarFace> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let threads = crate::parallel::threads();
     let next = std::sync::atomic::AtomicUsize::new(0);
     let made: Vec<Vec<(usize, PlanarFace)>> = std::thread::scope(|scope| {
         let work = || {

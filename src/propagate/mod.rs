@@ -334,18 +334,28 @@ pub fn propagate(
     params: &PropagationParams,
     progress: &dyn Progress,
 ) -> Result<Propagated> {
-    propagate_with(ctx, scene, params, progress, None)
+    propagate_with(ctx, scene, params, progress, Outputs::default())
 }
 
-/// `propagate`, with checkpoints saved (and resumed from) as `plan` says.
+/// Where a propagation leaves its files besides what it returns.
+#[derive(Clone, Copy, Default)]
+pub struct Outputs<'a> {
+    /// checkpoints saved (and resumed from) as the plan says
+    pub checkpoints: Option<&'a checkpoint::CheckpointPlan>,
+    /// the light field saved here (atomically, `lightfield::file::save`), written while the
+    /// power balance is probed; the report's `command_phases` gets the write's seconds
+    pub light_field: Option<&'a std::path::Path>,
+}
+
+/// `propagate`, leaving checkpoints and the light field's file as `outputs` says.
 pub fn propagate_with(
     ctx: std::sync::Arc<crate::gpu::GpuContext>,
     scene: &crate::scene::Scene,
     params: &PropagationParams,
     progress: &dyn Progress,
-    plan: Option<&checkpoint::CheckpointPlan>,
+    outputs: Outputs,
 ) -> Result<Propagated> {
-    propagate_with_regression(ctx, scene, params, progress, plan, Regression::default())
+    propagate_with_regression(ctx, scene, params, progress, outputs, Regression::default())
 }
 
 /// Tests only: fixed transport bugs turned back on, so that a test can show the power balance
@@ -365,9 +375,10 @@ pub fn propagate_with_regression(
     scene: &crate::scene::Scene,
     params: &PropagationParams,
     progress: &dyn Progress,
-    plan: Option<&checkpoint::CheckpointPlan>,
+    outputs: Outputs,
     regression: Regression,
 ) -> Result<Propagated> {
+    let plan = outputs.checkpoints;
     use std::time::Instant;
     params.validate()?;
     let t0 = Instant::now();
@@ -435,7 +446,7 @@ pub fn propagate_with_regression(
         power_balance: None,
         finish_phases: Vec::new(),
     };
-    job.finish(&ctx, prop, measured)
+    job.finish(&ctx, prop, measured, outputs.light_field)
 }
 
 /// What every stage of one propagation reads: the scene, its settings, the prepared scene and
@@ -724,18 +735,18 @@ impl<'a> Job<'a> {
         }))
     }
 
-    /// The light field and the report, from the propagator's final state.
+    /// The light field and the report, from the propagator's final state; the light field is
+    /// saved to `save` (where given) while the power balance is probed on the GPU.
     fn finish(
         &self,
         ctx: &crate::gpu::GpuContext,
         mut prop: transport::Propagator,
         mut measured: Measured,
+        save: Option<&std::path::Path>,
     ) -> Result<Propagated> {
         let mut laps = crate::stats::Laps::default();
         let total = prop.read_total()?;
         laps.lap("read back");
-        measured.power_balance = self.power_balance(&mut prop, &total, &mut measured.warnings)?;
-        laps.lap("power balance");
         let (faces, materials) = (prop.faces.clone(), prop.materials.clone());
         let mut detail = crate::lightfield::textures::SurfaceDetail::of(self.scene, &self.prepared);
         if let Some(d) = detail.as_mut().filter(|d| !d.face_normal_maps.is_empty()) {
@@ -762,12 +773,69 @@ impl<'a> Job<'a> {
         let render_vertices = crate::lightfield::render_vertices(&self.prepared);
         let mirror_chains =
             crate::lightfield::MirrorChains::of(&faces, &materials, &render_vertices);
+        let lf = self.light_field(
+            &measured,
+            &spent,
+            (faces, materials),
+            render_vertices,
+            total,
+        );
+        let lf = crate::lightfield::LightField {
+            tiles,
+            detail,
+            ..lf
+        };
+        laps.lap("render mesh");
+        // the balance's probes are GPU gathers: the file is written meanwhile (a 5M-triangle
+        // scene's .vlf took half a second)
+        let (balance, saved) = std::thread::scope(|scope| {
+            let saving = save.map(|path| {
+                let lf = &lf;
+                scope.spawn(move || {
+                    let t = std::time::Instant::now();
+                    crate::lightfield::file::save(lf, path).map(|()| t.elapsed().as_secs_f64())
+                })
+            });
+            let balance = self.power_balance(&mut prop, &lf.total, &mut measured.warnings);
+            let saved = saving.map(|h| h.join().expect("the light field's writer panicked"));
+            (balance, saved)
+        });
+        measured.power_balance = balance?;
+        laps.lap(match save {
+            Some(_) => "power balance and writing the file",
+            None => "power balance",
+        });
         let mut resident = prop.into_resident(mirror_chains.tiles_needed);
         resident
             .ledger
-            .record("render mesh", (render_vertices.len() * 16) as u64);
+            .record("render mesh", (lf.render_vertices.len() * 16) as u64);
+        resident.upload_detail(&lf);
+        laps.lap("render buffers");
+        measured.finish_phases = laps.steps;
+        let mut report = self.report(ctx, measured, spent, &resident, mirror_chains);
+        if let Some(seconds) = saved.transpose()? {
+            report.command_phases.push((
+                "write the light field (beside the power balance)".into(),
+                seconds,
+            ));
+        }
+        Ok((lf, resident, report))
+    }
+
+    /// The light field of the propagation's `total` radiance, without tiles or surface detail.
+    fn light_field(
+        &self,
+        measured: &Measured,
+        spent: &Spent,
+        (faces, materials): (
+            Vec<crate::gpu::types::GpuFace>,
+            Vec<crate::gpu::types::GpuMaterial>,
+        ),
+        render_vertices: Vec<crate::gpu::types::RenderVertex>,
+        total: Vec<[f32; 4]>,
+    ) -> crate::lightfield::LightField {
         let (scene, params, prepared) = (self.scene, self.params, &self.prepared);
-        let lf = crate::lightfield::LightField {
+        crate::lightfield::LightField {
             meta: crate::lightfield::LightFieldMeta {
                 vlf_version: env!("CARGO_PKG_VERSION").into(),
                 scene_name: scene.name.clone(),
@@ -786,14 +854,9 @@ impl<'a> Job<'a> {
             materials,
             render_vertices,
             total,
-            tiles,
-            detail,
-        };
-        resident.upload_detail(&lf);
-        laps.lap("render buffers");
-        measured.finish_phases = laps.steps;
-        let report = self.report(ctx, measured, spent, &resident, mirror_chains);
-        Ok((lf, resident, report))
+            tiles: None,
+            detail: None,
+        }
     }
 
     /// The summary of the propagation (after the paper's Table 1).

@@ -2,6 +2,7 @@
 //! would report without a line number (non-finite vertices, face indices out of range). After
 //! it, degenerate and duplicated triangles are dropped with a count in a warning.
 
+use super::obj_lines::{self, ObjGeometry};
 use super::texels::NormalSource;
 use super::weld::{self, Kept};
 use super::{check_color, Material, MaterialOverride, Texture, Triangle};
@@ -24,9 +25,19 @@ pub struct ImportedMesh {
 }
 
 pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Result<ImportedMesh> {
+    import_with(path, overrides, true)
+}
+
+/// `import`, its OBJ parsed on the CPU's threads where `threaded` and the file allows, else by
+/// tobj (the tests compare the two).
+fn import_with(
+    path: &Path,
+    overrides: &BTreeMap<String, MaterialOverride>,
+    threaded: bool,
+) -> Result<ImportedMesh> {
     let text = std::fs::read_to_string(path).map_err(|e| VlfError::io(path, e))?;
     prescan(&text).map_err(|m| mesh_error(path, m))?;
-    let (models, materials, mut source_files) = parse(path, &text)?;
+    let (geometry, materials, mut source_files) = parse_with(path, &text, threaded)?;
     let mtl_path = source_files
         .get(1)
         .cloned()
@@ -35,7 +46,7 @@ pub fn import(path: &Path, overrides: &BTreeMap<String, MaterialOverride>) -> Re
     let mut warnings = Vec::new();
     let (mut out_materials, requests) =
         convert_materials(&materials, overrides, &mtl_path, &mut warnings)?;
-    let geometry = weld_models(&models, &out_materials, path, &mut warnings);
+    let geometry = weld_models(&geometry, &out_materials, path, &mut warnings);
     if geometry.uses_default {
         warnings.push(format!(
             "{}: faces without `usemtl` get a grey diffuse default (Kd 0.5)",
@@ -78,47 +89,86 @@ fn mesh_error(path: &Path, message: String) -> VlfError {
     }
 }
 
-/// The OBJ's models and materials through tobj, and the files read (the OBJ, then each
-/// material library). A material library that cannot be read or parsed is an error naming it.
-fn parse(path: &Path, text: &str) -> Result<(Vec<tobj::Model>, Vec<tobj::Material>, Vec<PathBuf>)> {
-    let dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
-    let source_files = std::cell::RefCell::new(vec![path.to_path_buf()]);
-    let mtl_missing: std::cell::RefCell<Option<String>> = Default::default();
+/// The OBJ's geometry and materials, and the files read (the OBJ, then each material library):
+/// through `obj_lines` on the CPU's threads where `threaded` and the file allows, else through
+/// tobj. A material library that cannot be read or parsed is an error naming it.
+fn parse_with(
+    path: &Path,
+    text: &str,
+    threaded: bool,
+) -> Result<(ObjGeometry, Vec<tobj::Material>, Vec<PathBuf>)> {
+    let libraries = Libraries::new(path);
+    if threaded {
+        if let Some((geometry, materials)) = obj_lines::parse(text, |mtl| libraries.load(mtl)) {
+            return libraries.finish(path, geometry, materials);
+        }
+    }
+    let libraries = Libraries::new(path);
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: true,
         ..Default::default()
     };
     let mut reader = std::io::BufReader::new(text.as_bytes());
-    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| {
-        let full = dir.join(mtl);
+    let (models, materials) = tobj::load_obj_buf(&mut reader, &options, |mtl| libraries.load(mtl))
+        .map_err(|e| mesh_error(path, format!("cannot parse OBJ: {e}")))?;
+    libraries.finish(path, ObjGeometry::from_models(&models), materials)
+}
+
+/// The material libraries an OBJ names, read as the parser comes to them: the files read, and
+/// the first that could not be.
+struct Libraries {
+    dir: PathBuf,
+    source_files: std::cell::RefCell<Vec<PathBuf>>,
+    missing: std::cell::RefCell<Option<String>>,
+}
+
+impl Libraries {
+    fn new(obj: &Path) -> Libraries {
+        Libraries {
+            dir: obj.parent().unwrap_or(Path::new(".")).to_path_buf(),
+            source_files: std::cell::RefCell::new(vec![obj.to_path_buf()]),
+            missing: Default::default(),
+        }
+    }
+
+    fn load(&self, mtl: &Path) -> tobj::MTLLoadResult {
+        let full = self.dir.join(mtl);
         match std::fs::read_to_string(&full) {
             Ok(t) => {
                 // tobj panics on a colour line with fewer than three numbers: catch it first
                 if let Err(e) = prescan_mtl(&t) {
-                    *mtl_missing.borrow_mut() =
+                    *self.missing.borrow_mut() =
                         Some(format!("material library {}: {e}", full.display()));
                     return Err(tobj::LoadError::MaterialParseError);
                 }
-                source_files.borrow_mut().push(full);
+                self.source_files.borrow_mut().push(full);
                 tobj::load_mtl_buf(&mut std::io::BufReader::new(t.as_bytes()))
             }
             Err(e) => {
-                *mtl_missing.borrow_mut() = Some(format!(
+                *self.missing.borrow_mut() = Some(format!(
                     "material library {} (named by mtllib): {e}",
                     full.display()
                 ));
                 Err(tobj::LoadError::OpenFileFailed)
             }
         }
-    })
-    .map_err(|e| mesh_error(path, format!("cannot parse OBJ: {e}")))?;
-    if let Some(m) = mtl_missing.into_inner() {
-        return Err(mesh_error(path, format!("cannot use {m}")));
     }
-    let materials = materials
-        .map_err(|e| mesh_error(path, format!("cannot parse its material library: {e}")))?;
-    Ok((models, materials, source_files.into_inner()))
+
+    /// The parse's result, or the error of a library that could not be used.
+    fn finish(
+        self,
+        path: &Path,
+        geometry: ObjGeometry,
+        materials: obj_lines::Materials,
+    ) -> Result<(ObjGeometry, Vec<tobj::Material>, Vec<PathBuf>)> {
+        if let Some(m) = self.missing.into_inner() {
+            return Err(mesh_error(path, format!("cannot use {m}")));
+        }
+        let materials = materials
+            .map_err(|e| mesh_error(path, format!("cannot parse its material library: {e}")))?;
+        Ok((geometry, materials, self.source_files.into_inner()))
+    }
 }
 
 /// The cutoff of an MTL cut-out: `map_d` x `d` below it is a hole (MTL names none: glTF's
@@ -213,63 +263,53 @@ struct Geometry {
     uses_default: bool,
 }
 
-/// Weld equal positions across models so that connectivity is seen across groups, then keep
+/// Weld equal positions across objects so that connectivity is seen across groups, then keep
 /// the triangles with area that repeat none kept; faces without a material get the one after
 /// `materials` (the default, added by the caller).
 fn weld_models(
-    models: &[tobj::Model],
+    geometry: &ObjGeometry,
     materials: &[Material],
     path: &Path,
     warnings: &mut Vec<String>,
 ) -> Geometry {
     let default_material = materials.len() as u32;
-    let points: Vec<[f32; 3]> = (models.iter())
-        .flat_map(|m| m.mesh.positions.chunks(3).map(|p| [p[0], p[1], p[2]]))
-        .collect();
+    let points = &geometry.points;
     let extent = (points.iter().flatten()).fold(0.0f64, |m, &x| m.max(x.abs() as f64));
-    let welded = weld::weld(&points);
-    let (mut corners, mut made) = (Vec::new(), Vec::new());
+    let welded = weld::weld(points);
     let mut uses_default = false;
-    let mut first_point = 0;
-    for model in models {
-        let mesh = &model.mesh;
-        let material = match mesh.material_id {
+    let mut material_of = Vec::with_capacity(geometry.corners.len());
+    for object in &geometry.objects {
+        let material = match object.material {
             Some(id) => id as u32,
             None => {
                 uses_default = true;
                 default_material
             }
         };
-        let textured = mesh.material_id.is_some_and(|id| {
+        let textured = object.material.is_some_and(|id| {
             let m = &materials[id];
             m.diffuse_texture.is_some()
                 || m.emission_texture.is_some()
                 || m.cutout.is_some()
                 || m.normal_map.is_some()
         });
-        if textured && mesh.texcoords.is_empty() {
-            warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), model.name));
+        if object.partly_textured {
+            warnings.push(format!("{}: object {:?} gives texture coordinates (vt) to some face corners and not to others; its texture coordinates are ignored", path.display(), object.name));
+        } else if textured && !object.textured {
+            warnings.push(format!("{}: object {:?} has a textured material but no texture coordinates (vt); its textures are ignored", path.display(), object.name));
         }
-        let ids = &welded.ids[first_point..];
-        for tri in mesh.indices.chunks(3) {
-            corners.push([0, 1, 2].map(|k| ids[tri[k] as usize]));
-            let uv = (!mesh.texcoords.is_empty()).then(|| {
-                std::array::from_fn(|k| {
-                    let i = tri[k] as usize;
-                    [mesh.texcoords[2 * i], mesh.texcoords[2 * i + 1]]
-                })
-            });
-            made.push((material, uv));
-        }
-        first_point += mesh.positions.len() / 3;
+        material_of.extend(std::iter::repeat_n(material, object.triangles));
     }
+    let corners: Vec<[u32; 3]> = crate::parallel::map_indices(geometry.corners.len(), |t| {
+        geometry.corners[t].map(|p| welded.ids[p as usize])
+    });
     let kept = weld::keep_triangles(&corners, &welded.positions, extent);
-    let triangles = (corners.iter().zip(made).zip(&kept.keep))
-        .filter(|(_, &keep)| keep)
-        .map(|((&vertices, (material, uv)), _)| Triangle {
-            vertices,
-            material,
-            uv,
+    let triangles = (0..corners.len())
+        .filter(|&t| kept.keep[t])
+        .map(|t| Triangle {
+            vertices: corners[t],
+            material: material_of[t],
+            uv: geometry.uv[t],
         })
         .collect();
     Geometry {
@@ -421,8 +461,8 @@ fn prescan_mtl(text: &str) -> std::result::Result<(), String> {
 /// on the CPU's threads (each told the lines and vertices before it); the first mistake in the
 /// file is the one reported.
 fn prescan(text: &str) -> std::result::Result<(), String> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let pieces = line_pieces(text, threads * 4);
+    let threads = crate::parallel::threads();
+    let pieces = crate::parallel::line_pieces(text, threads * 4);
     let counts: Vec<(usize, i64)> = std::thread::scope(|scope| {
         let counting: Vec<_> = (pieces.iter())
             .map(|piece| {
@@ -457,25 +497,6 @@ fn prescan(text: &str) -> std::result::Result<(), String> {
             .into_iter()
             .try_for_each(|h| h.join().expect("prescan"))
     })
-}
-
-/// `text` cut into about `count` pieces of whole lines.
-fn line_pieces(text: &str, count: usize) -> Vec<&str> {
-    let mut pieces = Vec::new();
-    let mut rest = text;
-    let size = text.len().div_ceil(count.max(1)).max(1 << 16);
-    while !rest.is_empty() {
-        let end = match rest.len() > size {
-            // after a newline byte: a character boundary
-            true => (rest.as_bytes()[size..].iter())
-                .position(|&b| b == b'\n')
-                .map_or(rest.len(), |i| size + i + 1),
-            false => rest.len(),
-        };
-        pieces.push(&rest[..end]);
-        rest = &rest[end..];
-    }
-    pieces
 }
 
 /// [`prescan`] of one piece, after `lines_before` lines holding `vertices_before` vertices.
@@ -602,6 +623,141 @@ fn load_texture(
 
 #[cfg(test)]
 mod tests {
+    use std::collections::BTreeMap;
+
+    const LIBRARY: &str =
+        "newmtl a\nKd 0.5 0.5 0.5\nnewmtl b\nKd 0.2 0.3 0.4\nnewmtl t\nKd 1 1 1\nmap_Kd t.png\n";
+    const SECOND_LIBRARY: &str = "newmtl b\nKd 0.7 0.1 0.1\nnewmtl c\nKe 1 1 1\nKd 0 0 0\n";
+
+    /// The OBJ `text` imported through `obj_lines` and through tobj, in a folder with two
+    /// material libraries and a texture: the same positions, triangles, materials, warnings and
+    /// files, or the same error. Returns whether `obj_lines` read it (false: it left it to tobj)
+    /// and the warnings (or the error).
+    fn both_ways(text: &str) -> (bool, Vec<String>) {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("m.mtl"), LIBRARY).unwrap();
+        std::fs::write(dir.path().join("n.mtl"), SECOND_LIBRARY).unwrap();
+        image::RgbImage::from_pixel(2, 2, image::Rgb([200, 100, 50]))
+            .save(dir.path().join("t.png"))
+            .unwrap();
+        let path = dir.path().join("scene.obj");
+        std::fs::write(&path, text).unwrap();
+        let overrides = BTreeMap::new();
+        let threaded = super::import_with(&path, &overrides, true);
+        let tobj = super::import_with(&path, &overrides, false);
+        match (&threaded, &tobj) {
+            (Ok(a), Ok(b)) => {
+                assert_eq!(a.positions, b.positions);
+                assert_eq!(a.triangles, b.triangles);
+                let names = |m: &super::ImportedMesh| {
+                    (m.materials.iter())
+                        .map(|m| (m.name.clone(), m.diffuse))
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(names(a), names(b));
+                assert_eq!(a.warnings, b.warnings);
+                assert_eq!(a.source_files, b.source_files);
+                assert_eq!(a.textures.len(), b.textures.len());
+            }
+            (Err(a), Err(b)) => assert_eq!(a.to_string(), b.to_string()),
+            _ => panic!("one way failed: {:?} / {:?}", threaded.err(), tobj.err()),
+        }
+        let libraries = super::Libraries::new(&path);
+        let threaded = super::obj_lines::parse(text, |mtl| libraries.load(mtl)).is_some();
+        (
+            threaded,
+            tobj.map_or_else(|e| vec![e.to_string()], |m| m.warnings),
+        )
+    }
+
+    /// Corners of every form, relative indices, quads and polygons (fans), objects split by
+    /// `o`, `g` and changes of `usemtl` (an unknown name too), a second library that renames a
+    /// material, CRLF lines, comments, a trailing object without faces, duplicated and flat
+    /// triangles: read the same both ways, and by `obj_lines`.
+    #[test]
+    fn the_threaded_reader_reads_what_tobj_reads() {
+        let text = "# a comment\r\nmtllib m.mtl\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\n\
+            vt 0 0\nvt 1 0\nvt 1 1 0\nvt 0 1\nvn 0 0 1\ns off\n\
+            usemtl a\nf 1 2 3\nf -4 -2 -1\no second\nusemtl t\nf 1/1 2/2 3/3 4/4\n\
+            f 1/1/1 3/3/1 4/4/1\ng third\nusemtl a\nf 1//1 2//1 3//1\nusemtl nothing\n\
+            v 2 0 0\nv 2 1 0\nf 2 5 6 3\nusemtl a\nf 1 2 3 4 5\nf 1 2 3\nf 3 1 2\nf 1 1 2\n\
+            mtllib n.mtl\nusemtl b\nf 5 6 3\nusemtl c\no\nf 6 5 2\ng \nusemtl t\nf 1 2 3\no last\n";
+        assert!(both_ways_threaded(text));
+        // no material at all: the default grey
+        assert!(both_ways_threaded("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+        // a library after the first faces; faces before any object
+        assert!(both_ways_threaded(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nmtllib n.mtl\nusemtl c\nf 3 2 1\n"
+        ));
+        // a library that cannot be read: the same error
+        assert!(both_ways_threaded(
+            "mtllib gone.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+        ));
+    }
+
+    /// What `obj_lines` leaves to tobj (so that such files import, or fail, as before): an
+    /// object whose corners have texture coordinates only in part, `l` elements, a vertex with
+    /// a weight, a texture index to a later `vt`, a corner with a fourth part, a `usemtl`
+    /// without a name.
+    #[test]
+    fn what_the_threaded_reader_leaves_to_tobj_reads_as_before() {
+        let head = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\n";
+        for tail in [
+            "f 1/1 2/1 3/1\nf 1 2 3\n",
+            "l 1 2\nf 1 2 3\n",
+            "v 1 1 1 2\nf 1 2 4\n",
+            "f 1/2 2/1 3/1\nvt 1 1\n",
+            "f 1/1/1/ 2 3\n",
+            "usemtl\nf 1 2 3\n",
+        ] {
+            assert!(!both_ways(&format!("{head}{tail}")).0, "{tail}");
+        }
+        // tobj lists texture coordinates only for the corners that have them: such an object
+        // (which panicked the importer before) keeps none, and says so
+        let (_, warnings) = both_ways(&format!("{head}f 1/1 2/1 3/1\nf 3 2 1\n"));
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.contains("to some face corners and not to others")),
+            "{warnings:?}"
+        );
+    }
+
+    fn both_ways_threaded(text: &str) -> bool {
+        both_ways(text).0
+    }
+
+    /// A file of many pieces (one a thread), with objects, materials and relative indices
+    /// reaching back across the pieces' borders: the same both ways.
+    #[test]
+    fn a_file_read_in_many_pieces_is_read_as_one() {
+        let mut text = String::from("mtllib m.mtl\nmtllib n.mtl\n");
+        let mut seed = 7u64;
+        let mut next = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let mut vertices = 0;
+        for i in 0..30_000 {
+            if i % 997 == 0 {
+                text.push_str(&format!("o part{i}\n"));
+            }
+            if i % 389 == 0 {
+                text.push_str(["usemtl a\n", "usemtl b\n", "usemtl c\n"][next(3) as usize]);
+            }
+            text.push_str(&format!("v {} {} {}\n", next(100), next(100), next(7)));
+            vertices += 1;
+            if vertices >= 4 {
+                let back = 1 + next(3.min(vertices - 1));
+                text.push_str(&format!("f -1 -{} {}\n", back + 1, 1 + next(vertices)));
+            }
+        }
+        assert!(crate::parallel::line_pieces(&text, 8).len() >= 4);
+        assert!(both_ways_threaded(&text));
+    }
+
     /// A file checked in many pieces reports the first mistake with its own line number and
     /// the vertices defined before it, as one pass over the whole file does.
     #[test]
@@ -610,7 +766,7 @@ mod tests {
         for i in 0..20_000 {
             text.push_str(&format!("v {i} 0 0\nv {i} 1 0\nv {i} 0 1\nf -3 -2 -1\n"));
         }
-        assert!(super::line_pieces(&text, 8).len() >= 8);
+        assert!(crate::parallel::line_pieces(&text, 8).len() >= 8);
         assert_eq!(super::prescan(&text), Ok(()));
         // line 70,001: the 52,501st vertex line is not a number; a face after it points past
         let bad = text.replacen("v 17500 0 0", "v x 0 0", 1) + "f 1 2 60001\n";

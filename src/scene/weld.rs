@@ -7,6 +7,7 @@
 //! seeing its points in order, so the first use of every key, and with it the result, is the
 //! one a single table filled in order gives, on any number of threads.
 
+use crate::parallel::map_indices;
 use std::collections::HashMap;
 use std::hash::{BuildHasher, Hash};
 use std::path::Path;
@@ -56,7 +57,7 @@ pub(crate) fn keep_triangles(triangles: &[[u32; 3]], positions: &[[f32; 3]], ext
         let [a, b, c] = v.map(|i| glam::DVec3::from(positions[i as usize].map(|x| x as f64)));
         (b - a).cross(c - a).length() * 0.5 > min_area
     };
-    let area: Vec<bool> = on_threads(triangles.len(), |i| has_area(&triangles[i]));
+    let area: Vec<bool> = map_indices(triangles.len(), |i| has_area(&triangles[i]));
     // the same three corners in the same winding, whichever corner comes first; a triangle
     // without area never counts as the first of its corners
     let canonical = |i: usize| {
@@ -102,21 +103,49 @@ impl Kept {
     }
 }
 
+/// A quick hash of the keys here (positions' bits, triangles' corner ids): SipHash's defence
+/// against chosen keys buys nothing for a mesh, and it was most of the welding's time.
+#[derive(Default)]
+struct MixHasher(u64);
+
+impl std::hash::Hasher for MixHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.0 = (self.0.rotate_left(5) ^ u64::from_le_bytes(word))
+                .wrapping_mul(0x517c_c1b7_2722_0a95);
+        }
+    }
+
+    /// The MurmurHash3 finaliser: every bit of the state reaches the low bits (the shard).
+    fn finish(&self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 33;
+        x = x.wrapping_mul(0xff51_afd7_ed55_8ccd);
+        x ^= x >> 33;
+        x = x.wrapping_mul(0xc4ce_b9fe_1a85_ec53);
+        x ^ (x >> 33)
+    }
+}
+
+type MixState = std::hash::BuildHasherDefault<MixHasher>;
+
 /// For each of `count` items, the first item with the same `key`: shards by the key's hash,
 /// each filled in item order on a thread of its own.
 fn first_uses<K: Hash + Eq + Send>(
     count: usize,
     key: impl Fn(usize) -> K + Sync,
 ) -> Vec<AtomicU32> {
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get().min(255));
-    let hasher = std::hash::RandomState::new();
-    let shard: Vec<u8> = on_threads(count, |i| (hasher.hash_one(key(i)) % threads as u64) as u8);
+    let threads = crate::parallel::threads().min(255);
+    let hasher = MixState::default();
+    let shard: Vec<u8> = map_indices(count, |i| (hasher.hash_one(key(i)) % threads as u64) as u8);
     let first: Vec<AtomicU32> = (0..count).map(|i| AtomicU32::new(i as u32)).collect();
     std::thread::scope(|scope| {
         for s in 0..threads {
             let (shard, first, key) = (&shard, &first, &key);
             scope.spawn(move || {
-                let mut seen: HashMap<K, u32> = HashMap::new();
+                let mut seen: HashMap<K, u32, MixState> = HashMap::default();
                 for i in (0..count).filter(|&i| shard[i] as usize == s) {
                     let f = *seen.entry(key(i)).or_insert(i as u32);
                     first[i].store(f, Relaxed);
@@ -125,27 +154,6 @@ fn first_uses<K: Hash + Eq + Send>(
         }
     });
     first
-}
-
-/// `f` of 0..count, in order, computed in chunks on the CPU's threads.
-fn on_threads<T: Send + Default + Clone>(count: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
-    const CHUNK: usize = 1 << 16;
-    let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut out = vec![T::default(); count];
-    let chunks = std::sync::Mutex::new(out.chunks_mut(CHUNK).enumerate());
-    std::thread::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|| loop {
-                let Some((c, chunk)) = chunks.lock().expect("chunks").next() else {
-                    return;
-                };
-                for (k, slot) in chunk.iter_mut().enumerate() {
-                    *slot = f(c * CHUNK + k);
-                }
-            });
-        }
-    });
-    out
 }
 
 #[cfg(test)]
