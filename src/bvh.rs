@@ -601,7 +601,8 @@ mod tests {
             .collect();
         let (nodes, order) = build_bvh_on(&triangles, 1);
         let as_bytes = |n: &[super::GpuBvhNode]| bytemuck::cast_slice::<_, u8>(n).to_vec();
-        for threads in [2, 8] {
+        // 3 and 16 threads share unevenly between a node's children
+        for threads in [2, 3, 8, 16] {
             let (n, o) = build_bvh_on(&triangles, threads);
             assert_eq!(o, order, "leaf order on {threads} threads");
             assert!(

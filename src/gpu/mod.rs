@@ -612,6 +612,13 @@ impl Timestamps {
 
     /// Resolve every pair written so far into milliseconds and start over.
     pub fn read_ms(&mut self, ctx: &GpuContext) -> Result<Vec<f64>> {
+        let ticks = self.read_ticks(ctx)?;
+        Ok(pairs_ms(&ticks, ctx.timestamp_period_ns))
+    }
+
+    /// Resolve every pair written so far and start over: the GPU clock's raw counts, two a pair
+    /// (a frame's span runs from its first pass's start to its last pass's end).
+    pub fn read_ticks(&mut self, ctx: &GpuContext) -> Result<Vec<u64>> {
         if self.used == 0 {
             return Ok(Vec::new());
         }
@@ -620,11 +627,15 @@ impl Timestamps {
         ctx.queue.submit([encoder.finish()]);
         let ticks: Vec<u64> = ctx.read_buffer(&self.resolve, self.used as u64 * 8)?;
         self.used = 0;
-        Ok(ticks
-            .chunks(2)
-            .map(|p| p[1].wrapping_sub(p[0]) as f64 * ctx.timestamp_period_ns as f64 * 1e-6)
-            .collect())
+        Ok(ticks)
     }
+}
+
+/// Timestamp pairs' raw counts (two a pair) as each pair's milliseconds, at `period_ns` a count.
+pub fn pairs_ms(ticks: &[u64], period_ns: f32) -> Vec<f64> {
+    (ticks.chunks(2))
+        .map(|p| p[1].wrapping_sub(p[0]) as f64 * period_ns as f64 * 1e-6)
+        .collect()
 }
 
 /// Record a copy of a whole 2D texture into `buffer`, rows `padded_row` bytes apart (a multiple

@@ -199,7 +199,11 @@ fn edge_key(a: u32, b: u32) -> u64 {
 /// Flood-fill triangles across shared edges into planar charts of one material.
 fn group_charts(scene: &Scene, positions: &[DVec3]) -> Vec<PlanarFace> {
     let cos_tol = PLANAR_ANGLE_DEG.to_radians().cos();
-    let edges = EdgeRuns::of(scene);
+    let edges = EdgeRuns::of(
+        &scene.triangles,
+        scene.positions.len(),
+        crate::parallel::threads(),
+    );
     let mut chart_of = vec![u32::MAX; scene.triangles.len()];
     let mut charts: Vec<(u32, Vec<u32>)> = Vec::new();
     for seed in 0..scene.triangles.len() {
@@ -256,15 +260,16 @@ struct EdgeRuns {
 impl EdgeRuns {
     /// On the CPU's threads: the edges are bucketed by their lower vertex, one bucket a thread
     /// (it gathers, sorts and finds the runs of its own edges, which no other bucket shares), and
-    /// the buckets joined in order: the same runs as one sort of all edges gives.
-    fn of(scene: &Scene) -> EdgeRuns {
+    /// the buckets joined in order: the same runs as one sort of all edges gives, for any
+    /// number of `buckets`.
+    fn of(triangles: &[crate::scene::Triangle], vertices: usize, buckets: usize) -> EdgeRuns {
         let key_of = |slot: usize| {
-            let v = scene.triangles[slot / 3].vertices;
+            let v = triangles[slot / 3].vertices;
             edge_key(v[slot % 3], v[(slot % 3 + 1) % 3])
         };
-        let slots = scene.triangles.len() * 3;
-        let buckets = crate::parallel::threads().min(u16::MAX as usize) as u64;
-        let vertices = scene.positions.len().max(1) as u64;
+        let slots = triangles.len() * 3;
+        let buckets = buckets.clamp(1, u16::MAX as usize) as u64;
+        let vertices = vertices.max(1) as u64;
         let bucket: Vec<u16> = map_indices(slots, |slot| {
             ((key_of(slot) >> 32) * buckets / vertices).min(buckets - 1) as u16
         });
@@ -406,5 +411,63 @@ fn make_face(scene: &Scene, positions: &[DVec3], material: u32, triangles: Vec<u
         atlas: atlas::ChartRect::default(),
         twin: None,
         is_back: false,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{edge_key, EdgeRuns};
+    use crate::scene::Triangle;
+
+    /// The edge runs made in buckets on threads list, for every triangle edge, the triangles
+    /// that one sorted list of all edges gives (in triangle order, itself included), on 1, 3
+    /// and 8 buckets: a mesh of random triangles over few vertices, so that edges are shared
+    /// by two, three and more triangles.
+    #[test]
+    fn the_edge_runs_are_those_of_one_sort_on_any_number_of_buckets() {
+        let mut seed = 99u64;
+        let mut next = |n: u64| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 33) % n) as u32
+        };
+        let vertices = 400;
+        let triangles: Vec<Triangle> = (0..30_000)
+            .map(|_| Triangle {
+                vertices: [next(vertices), next(vertices), next(vertices)],
+                material: 0,
+                uv: None,
+            })
+            .collect();
+        let mut all: Vec<(u64, u32)> = (0..triangles.len() * 3)
+            .map(|slot| {
+                let v = triangles[slot / 3].vertices;
+                (edge_key(v[slot % 3], v[(slot % 3 + 1) % 3]), slot as u32)
+            })
+            .collect();
+        all.sort_unstable();
+        let shared = |key: u64| -> Vec<u32> {
+            (all.iter())
+                .filter(|e| e.0 == key)
+                .map(|e| e.1 / 3)
+                .collect()
+        };
+        for buckets in [1, 3, 8] {
+            let runs = EdgeRuns::of(&triangles, vertices as usize, buckets);
+            for slot in (0..triangles.len() * 3).step_by(97) {
+                let v = triangles[slot / 3].vertices;
+                let key = edge_key(v[slot % 3], v[(slot % 3 + 1) % 3]);
+                assert_eq!(
+                    runs.sharing(slot / 3, slot % 3),
+                    shared(key).as_slice(),
+                    "{buckets} buckets, edge slot {slot}"
+                );
+            }
+        }
+        assert!(
+            all.windows(3).any(|w| w[0].0 == w[2].0),
+            "no edge shared three times"
+        );
     }
 }

@@ -161,12 +161,16 @@ impl Accounting {
         pacer: Option<&mut Pacer>,
     ) -> Result<()> {
         if let (Clock::Serial(Some(ts)), true) = (&mut self.clock, self.stamped) {
-            let ms = ts.read_ms(ctx)?;
+            let ticks = ts.read_ticks(ctx)?;
+            let ms = crate::gpu::pairs_ms(&ticks, ctx.timestamp_period_ns);
             if let Some(p) = pacer {
                 pace(p, &ms, &self.passes);
             }
             if self.timed && !ms.is_empty() {
                 self.times.push_gpu(&ms, &self.passes);
+                // the passes run in order: the frame's span on the GPU, its idle time included
+                let tick_ms = ctx.timestamp_period_ns as f64 * 1e-6;
+                (self.times).push_span((ticks[0], ticks[ticks.len() - 1]), tick_ms);
             }
         }
         if self.timed {

@@ -260,6 +260,7 @@ impl FrameTimes {
             cpu_frame_ms: self.cpu.clone(),
             submit_ms: Vec::new(),
             objects_gpu_ms: self.objects_gpu.clone(),
+            gpu_span_ms: self.gpu_span.clone(),
         }
     }
 }
@@ -276,6 +277,10 @@ pub struct FrameSeries {
     /// of each frame's GPU time, the moving objects' pass before the views (empty without them)
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub objects_gpu_ms: Vec<f64>,
+    /// each frame's span on the GPU's clock, its first pass's start to its last pass's end:
+    /// more than its passes' time where the GPU idled between them (empty where not measured)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub gpu_span_ms: Vec<f64>,
 }
 
 /// The largest p99/p50 among the views.
