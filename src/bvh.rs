@@ -132,8 +132,8 @@ const MAX_LEAF_SIZE: usize = 16;
 /// halve every level: 32 + log2(triangles) stays within the GPU's 64-entry traversal stack.
 const SAH_DEPTH: u32 = 32;
 const SAH_BINS: usize = 16;
-/// A subtree of at least this many triangles is built on a thread of its own while its sibling
-/// is built (while threads remain).
+/// Where both children of a node have at least this many triangles (and threads remain), the
+/// right one is built on a thread of its own while the left one is, the threads shared by size.
 const PARALLEL_TRIANGLES: usize = 32 * 1024;
 /// A node of at least this many triangles counts its bounds and bins on several threads.
 const PARALLEL_PASS: usize = 256 * 1024;

@@ -1,6 +1,8 @@
-//! OBJ/MTL import through tobj. Before tobj parses the file, a line scan finds the faults tobj
-//! would report without a line number (non-finite vertices, face indices out of range). After
-//! it, degenerate and duplicated triangles are dropped with a count in a warning.
+//! OBJ/MTL import. A line scan first finds the faults a parser would report without a line
+//! number (non-finite vertices, face indices out of range); the lines are then read on the
+//! CPU's threads by `obj_lines` with tobj's rules, or by tobj itself where the file steps
+//! outside what `obj_lines` reads; the material libraries through tobj. After it, degenerate
+//! and duplicated triangles are dropped with a count in a warning.
 
 use super::obj_lines::{self, ObjGeometry};
 use super::texels::NormalSource;
