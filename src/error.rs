@@ -11,6 +11,12 @@ pub enum VlfError {
         source: std::io::Error,
     },
 
+    #[error("{path}: cannot write: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+
     #[error("{path}: {message}")]
     SceneToml { path: PathBuf, message: String },
 
@@ -77,6 +83,14 @@ pub type Result<T> = std::result::Result<T, VlfError>;
 impl VlfError {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         VlfError::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// A file that could not be written (or put in place).
+    pub fn write(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        VlfError::Write {
             path: path.into(),
             source,
         }

@@ -45,10 +45,7 @@ pub fn mitsuba(
     };
     let dir = tempfile::tempdir().map_err(|e| exporter_err(format!("temporary folder: {e}")))?;
     let script = dir.path().join("vlf_mitsuba_export.py");
-    std::fs::write(&script, MITSUBA_EXPORTER).map_err(|source| VlfError::Io {
-        path: script.clone(),
-        source,
-    })?;
+    std::fs::write(&script, MITSUBA_EXPORTER).map_err(|e| VlfError::write(&script, e))?;
     let mut command = Command::new(python);
     command
         .arg(&script)

@@ -132,6 +132,23 @@ fn bad_use_gives_a_clear_error_and_nonzero_exit() {
         "{err}"
     );
 
+    // a light field into a folder that does not exist: refused before the propagation
+    let nowhere = dir.path().join("no-such-folder").join("x.vlf");
+    let started = std::time::Instant::now();
+    let out = vlf()
+        .arg("propagate")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .arg("-o")
+        .arg(&nowhere)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("no-such-folder") && err.contains("does not exist"),
+        "{err}"
+    );
+    assert!(started.elapsed().as_secs_f64() < 5.0, "it propagated first");
+
     // VLF_GPU picks a hardware GPU by index: a wrong one is refused saying what there is
     for (value, says) in [("one", "give a GPU's index"), ("7", "GPU 7 was asked for")] {
         let out = vlf()

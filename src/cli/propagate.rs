@@ -32,6 +32,17 @@ pub struct PropagateArgs {
 
 /// `vlf propagate`: a scene into a .vlf file, with checkpoints and a JSON report.
 pub fn run(args: PropagateArgs) -> Result<()> {
+    // before minutes of work: a light field that could not be written would be lost
+    let folder = (args.output.parent())
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    if !folder.is_dir() {
+        anyhow::bail!(
+            "{}: the folder {} does not exist; create it, or give -o a path in a folder that does",
+            args.output.display(),
+            folder.display()
+        );
+    }
     // the GPU opens while the scene is read (a quarter to most of a second on a GPU host)
     let opening = std::thread::spawn(GpuContext::new);
     let read = std::time::Instant::now();

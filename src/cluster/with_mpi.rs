@@ -881,7 +881,7 @@ fn gather(
     let _ = std::io::stdout().flush();
     if let Some(path) = &run.json {
         let text = serde_json::to_string_pretty(&report).unwrap_or_default();
-        std::fs::write(path, text).map_err(|e| VlfError::io(path, e))?;
+        std::fs::write(path, text).map_err(|e| VlfError::write(path, e))?;
     }
     Ok(report)
 }

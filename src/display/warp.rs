@@ -421,7 +421,7 @@ pub fn write_pfm(
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| VlfError::io(path, e))
+    std::fs::write(path, bytes).map_err(|e| VlfError::write(path, e))
 }
 
 /// An MPCDI-style warp file: a 3-channel PFM whose pixels are the grid's vertices (x, y, unused).

@@ -83,7 +83,7 @@ impl Builder {
     fn write(&self, dir: &Path, extra: &str) -> Result<Scene> {
         std::fs::write(dir.join("s.obj"), self.mesh.text("s.mtl"))
             .map_err(|e| VlfError::io(dir, e))?;
-        std::fs::write(dir.join("s.mtl"), &self.mtl).map_err(|e| VlfError::io(dir, e))?;
+        std::fs::write(dir.join("s.mtl"), &self.mtl).map_err(|e| VlfError::write(dir, e))?;
         std::fs::write(
             dir.join("scene.toml"),
             format!("name = \"stress\"\nmesh = \"s.obj\"\n{extra}\n"),
@@ -638,7 +638,7 @@ fn damaged_scene(file: &str, text: &str) -> Outcome {
         .write(dir.path(), "")?;
     std::fs::write(dir.path().join("broken.png"), b"\x89PNG but not really")
         .map_err(|e| VlfError::io(dir.path(), e))?;
-    std::fs::write(dir.path().join(file), text).map_err(|e| VlfError::io(dir.path(), e))?;
+    std::fs::write(dir.path().join(file), text).map_err(|e| VlfError::write(dir.path(), e))?;
     Ok(match Scene::load(&dir.path().join("scene.toml")) {
         Err(e) => {
             let message = e.to_string();
@@ -653,7 +653,7 @@ fn damaged_scene(file: &str, text: &str) -> Outcome {
 fn damaged_display(text: &str) -> Outcome {
     let dir = temp()?;
     let path = dir.path().join("display.toml");
-    std::fs::write(&path, text).map_err(|e| VlfError::io(&path, e))?;
+    std::fs::write(&path, text).map_err(|e| VlfError::write(&path, e))?;
     Ok(match crate::display::DisplayConfig::load(&path) {
         Err(e) => {
             let message = e.to_string();

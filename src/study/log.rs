@@ -566,8 +566,8 @@ impl SessionLog {
         }
         meta.columns = columns(&meta.views, eyes, &meta.targets);
         let text = serde_json::to_string_pretty(&meta).expect("metadata serialises");
-        std::fs::write(&json, text).map_err(|e| VlfError::io(&json, e))?;
-        let file = std::fs::File::create(&csv).map_err(|e| VlfError::io(&csv, e))?;
+        std::fs::write(&json, text).map_err(|e| VlfError::write(&json, e))?;
+        let file = std::fs::File::create(&csv).map_err(|e| VlfError::write(&csv, e))?;
         let mut frames = std::io::BufWriter::new(file);
         let header: Vec<String> = meta.columns.iter().map(|(n, _)| n.clone()).collect();
         writeln!(frames, "{}", header.join(",")).map_err(|e| VlfError::io(&csv, e))?;

@@ -68,7 +68,7 @@ impl FramesParquet {
         }
         let name = format!("part-{:06}.parquet", self.parts);
         let (hidden, part) = (self.dir.join(format!(".{name}")), self.dir.join(&name));
-        let file = std::fs::File::create(&hidden).map_err(|e| VlfError::io(&hidden, e))?;
+        let file = std::fs::File::create(&hidden).map_err(|e| VlfError::write(&hidden, e))?;
         let written = |e: parquet::errors::ParquetError| {
             VlfError::io(&hidden, std::io::Error::other(e.to_string()))
         };
