@@ -119,54 +119,52 @@ fn bad_use_gives_a_clear_error_and_nonzero_exit() {
         "{err}"
     );
 
-    let out = vlf()
-        .arg("propagate")
-        .arg(repo_path("scenes/cornell/scene.toml"))
-        .args(["--grid", "30", "--tile", "8", "-o"])
-        .arg(dir.path().join("x.vlf"))
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = propagate_refused(
+        &["--grid", "30", "--tile", "8"],
+        &dir.path().join("x.vlf"),
+        &[],
+    );
     assert!(
-        !out.status.success() && err.contains("tile size 8 must divide the grid resolution 30"),
+        err.contains("tile size 8 must divide the grid resolution 30"),
         "{err}"
     );
 
     // a light field into a folder that does not exist: refused before the propagation
     let nowhere = dir.path().join("no-such-folder").join("x.vlf");
     let started = std::time::Instant::now();
-    let out = vlf()
-        .arg("propagate")
-        .arg(repo_path("scenes/cornell/scene.toml"))
-        .arg("-o")
-        .arg(&nowhere)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
+    let err = propagate_refused(&[], &nowhere, &[]);
     assert!(
-        !out.status.success() && err.contains("no-such-folder") && err.contains("does not exist"),
+        err.contains("no-such-folder") && err.contains("does not exist"),
         "{err}"
     );
     assert!(started.elapsed().as_secs_f64() < 5.0, "it propagated first");
 
     // VLF_GPU picks a hardware GPU by index: a wrong one is refused saying what there is
     for (value, says) in [("one", "give a GPU's index"), ("7", "GPU 7 was asked for")] {
-        let out = vlf()
-            .arg("propagate")
-            .arg(repo_path("scenes/cornell/scene.toml"))
-            .args(SMALL)
-            .arg("-o")
-            .arg(dir.path().join("x.vlf"))
-            .env("VLF_GPU", value)
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = propagate_refused(SMALL, &dir.path().join("x.vlf"), &[("VLF_GPU", value)]);
         assert!(
-            !out.status.success() && err.contains(says) && err.contains("VLF_GPU"),
+            err.contains(says) && err.contains("VLF_GPU"),
             "VLF_GPU={value}: {err}"
         );
         assert!(!dir.path().join("x.vlf").exists());
     }
+}
+
+/// `vlf propagate` of the Cornell box into `output` with `args` and `env`: it must fail; what
+/// it said.
+fn propagate_refused(args: &[&str], output: &std::path::Path, env: &[(&str, &str)]) -> String {
+    let out = vlf()
+        .arg("propagate")
+        .arg(repo_path("scenes/cornell/scene.toml"))
+        .args(args)
+        .arg("-o")
+        .arg(output)
+        .envs(env.iter().copied())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{err}");
+    err
 }
 
 #[test]
