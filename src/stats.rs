@@ -56,3 +56,15 @@ impl Laps {
         self.steps.push((step.to_string(), seconds));
     }
 }
+
+/// Tests' random numbers: below `n`, from a fixed seed (a linear congruential generator: the
+/// same sequence on every machine).
+#[cfg(test)]
+pub(crate) fn seeded(mut seed: u64) -> impl FnMut(u64) -> u64 {
+    move |n| {
+        seed = seed
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (seed >> 33) % n
+    }
+}

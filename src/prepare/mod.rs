@@ -425,13 +425,8 @@ mod tests {
     /// by two, three and more triangles.
     #[test]
     fn the_edge_runs_are_those_of_one_sort_on_any_number_of_buckets() {
-        let mut seed = 99u64;
-        let mut next = |n: u64| {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 33) % n) as u32
-        };
+        let mut random = crate::stats::seeded(99);
+        let mut next = |n: u64| random(n) as u32;
         let vertices = 400;
         let triangles: Vec<Triangle> = (0..30_000)
             .map(|_| Triangle {
