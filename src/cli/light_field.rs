@@ -25,17 +25,28 @@ pub fn light_field_for(
         return Ok((lf, resident));
     }
     let scene = Scene::load(input)?;
+    light_field_of_scene(ctx, &scene, lightfield, params)
+}
+
+/// The light field of a loaded `scene`: read from `lightfield` (a .vlf made for it), or
+/// propagated.
+pub fn light_field_of_scene(
+    ctx: &std::sync::Arc<GpuContext>,
+    scene: &Scene,
+    lightfield: Option<&Path>,
+    params: &ParamArgs,
+) -> Result<(LightField, ResidentLightField)> {
     print_warnings(&scene.warnings);
     if let Some(path) = lightfield {
         let lf = file::load(path)?;
-        lf.check_scene(&scene, path)?;
+        lf.check_scene(scene, path)?;
         let resident = lf.upload(ctx.clone())?;
         return Ok((lf, resident));
     }
     let params = params.for_adapter(ctx)?;
-    estimate_time(ctx, &scene, &params)?;
+    estimate_time(ctx, scene, &params)?;
     let (lf, resident, report) =
-        vlf::propagate::propagate(ctx.clone(), &scene, &params, &Bars::default())?;
+        vlf::propagate::propagate(ctx.clone(), scene, &params, &Bars::default())?;
     eprintln!(
         "propagated in {:.2} s: {} iterations, residual {:.2e}",
         report.propagation_seconds + report.visibility_seconds + report.setup_seconds,

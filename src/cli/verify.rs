@@ -1,6 +1,6 @@
 //! `vlf verify`.
 
-use super::light_field::light_field_for;
+use super::light_field::light_field_of_scene;
 use super::params::ParamArgs;
 use super::progress::Bars;
 use super::{parse_size, write_json};
@@ -43,7 +43,9 @@ pub struct VerifyArgs {
 pub fn run(a: VerifyArgs) -> Result<()> {
     let ctx = GpuContext::new()?;
     let scene = Scene::load(&a.scene)?;
-    let (lf, resident) = light_field_for(&ctx, &a.scene, a.lightfield.as_deref(), &a.params)?;
+    // the scene read once: the light field's and the path tracer's (seconds at millions of
+    // triangles)
+    let (lf, resident) = light_field_of_scene(&ctx, &scene, a.lightfield.as_deref(), &a.params)?;
     let options = vlf::verify::VerifyOptions {
         cameras: a.camera,
         size: a.size,
